@@ -1,0 +1,33 @@
+# gpmegen: two commands for a new user, `make demo` and `make test`.
+# Both create the virtual environment .venv when missing and install the package into it.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: venv demo test snapshots bench clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+demo: venv
+	$(BIN)/gpmegen demo
+
+test: venv
+	$(BIN)/python -m pytest -q
+
+snapshots: venv
+	$(BIN)/gpmegen build --nrfe 1 --force
+	$(BIN)/gpmegen build --nrfe 5 --force
+
+bench: venv
+	$(BIN)/python benchmarks/build_time.py
+
+clean:
+	rm -rf $(VENV) results figures build *.egg-info

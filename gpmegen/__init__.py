@@ -1,0 +1,8 @@
+"""gpmegen: reference dynamics models (Generalized Programmed Motion Equations) of open chains
+with flexible links, as generated NumPy and C code."""
+
+__version__ = "0.1.0"
+
+from .runtime.loader import load  # noqa: E402
+
+__all__ = ["load", "__version__"]

@@ -1,0 +1,105 @@
+"""The functions every generated module holds, and their lowering to printable code.
+
+Each function takes some of ``t`` (s), ``q``, ``qd`` (coordinates and velocities in the model's
+order) and ``p`` (parameter values in the model's order) and returns arrays. The same list feeds
+the NumPy and the C templates, so both backends expose the same functions with the same shapes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..model.chain import TIME
+from ..symbolic import Derivation
+from .cse import eliminate
+
+
+@dataclass(frozen=True)
+class Output:
+    name: str
+    shape: tuple
+    values: tuple  # flattened row-major expressions
+
+
+@dataclass(frozen=True)
+class Function:
+    name: str
+    doc: str
+    inputs: tuple  # subset of ("t", "q", "qd", "p"), in that order
+    outputs: tuple
+
+
+@dataclass(frozen=True)
+class Lowered:
+    """A function ready for a template: used inputs, straight-line body, output code."""
+
+    function: Function
+    time_used: bool
+    q_used: tuple   # (index, local name)
+    qd_used: tuple
+    p_used: tuple
+    body: tuple     # (local name, code)
+    outputs: tuple  # (Output, tuple of code strings)
+
+
+def _out(name, matrix):
+    m = sp.Matrix(matrix)
+    return Output(name, tuple(m.shape) if m.shape[1] != 1 else (m.shape[0],), tuple(m))
+
+
+def model_functions(d: Derivation) -> list[Function]:
+    """The generated functions of a derivation, in a fixed order."""
+    dyn, con, kin = d.dynamics, d.constraints, d.kinematics
+    points = sp.Matrix([[*kin.points[name].position] for name in kin.points]) if kin.points else sp.zeros(0, 3)
+    qd = sp.Matrix(kin.qd)
+    kinetic = (qd.T * dyn.mass_matrix * qd)[0, 0] / 2
+    constraint_outputs = (
+        _out("phi", con.value), _out("phi_rate", con.rate), _out("jacobian", con.jacobian), _out("gamma", con.gamma),
+    )
+    fns = [
+        Function("mass_matrix", "Mass matrix M(q), (n, n).", ("q", "p"), (_out("M", dyn.mass_matrix),)),
+        Function("forces", "f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,).", ("t", "q", "qd", "p"),
+                 (_out("f", dyn.forces),)),
+        Function("static_residual", "g(q) + C q: gravity and spring terms, (n,).", ("q", "p"),
+                 (_out("r", dyn.gravity_terms + dyn.spring_forces),)),
+        Function("stiffness_jacobian", "K = d(g + C q)/dq, from T_ij, (n, n).", ("q", "p"),
+                 (_out("K", dyn.stiffness_jacobian),)),
+        Function("drive_forces", "Drive forces Q(t), (n,).", ("t", "p"), (_out("Q", dyn.drive_forces),)),
+        Function("points", "Positions of the named points in {0} (m), (n_points, 3).", ("q", "p"),
+                 (Output("P", (points.shape[0], 3), tuple(points)),)),
+        Function("constraint_terms", "phi, phi_rate, D, gamma of the programmed constraints.",
+                 ("t", "q", "qd", "p"), constraint_outputs),
+        Function("baumgarte_gains", "alpha, beta per constraint.", ("p",),
+                 (_out("alpha", con.alpha), _out("beta", con.beta))),
+        Function("energies", "Kinetic, gravity potential and spring energy (J), (3,).", ("q", "qd", "p"),
+                 (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy)),)),
+        Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
+                 ("t", "q", "qd", "p"), (_out("M", dyn.mass_matrix), _out("f", dyn.forces)) + constraint_outputs),
+    ]
+    return fns
+
+
+def lower(fn: Function, d: Derivation, printer) -> Lowered:
+    """Straight-line code of ``fn``: the needed definitions, common subexpressions hoisted."""
+    values = [v for out in fn.outputs for v in out.values]
+    definitions = d.program.closure(values)
+    body, outputs = eliminate(definitions, values)
+    free = set()
+    for _, e in body:
+        free |= e.free_symbols
+    for e in outputs:
+        free |= sp.sympify(e).free_symbols
+    kin = d.kinematics
+    q_used = tuple((j, s.name) for j, s in enumerate(kin.q) if s in free)
+    qd_used = tuple((j, s.name) for j, s in enumerate(kin.qd) if s in free)
+    p_used = tuple((k, f"p_{name}") for k, name in enumerate(d.chain.model.parameter_names)
+                   if sp.Symbol(name, real=True) in free)
+    lines = tuple((printer.doprint(s), printer.doprint(e)) for s, e in body)
+    printed, k = [], 0
+    for out in fn.outputs:
+        size = len(out.values)
+        printed.append((out, tuple(printer.doprint(e) for e in outputs[k:k + size])))
+        k += size
+    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed))

@@ -1,0 +1,64 @@
+"""Printers of SymPy expressions as Python (``math``) and C99 code.
+
+Internal symbols keep their names (``x12``, ``q_theta1``, ``qd_x3``, ``t``); parameters print as
+``p_<name>``. Integer powers print as products, which is both exact and fast.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.pycode import PythonCodePrinter
+
+
+def _small_power(printer, expr):
+    base, exp = expr.as_base_exp()
+    if exp.is_Integer and 2 <= int(exp) <= 4 and base.is_Symbol:
+        b = printer.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"] + 1)
+        return "*".join([b] * int(exp))
+    return None
+
+
+class PythonPrinter(PythonCodePrinter):
+    """Scalar Python using the ``math`` module."""
+
+    def __init__(self, parameters):
+        super().__init__({"fully_qualified_modules": True, "standard": "python3"})
+        self._parameters = set(parameters)
+
+    def _print_Symbol(self, expr):
+        name = expr.name
+        return f"p_{name}" if name in self._parameters else name
+
+    def _print_Pow(self, expr, rational=False):
+        return _small_power(self, expr) or super()._print_Pow(expr, rational)
+
+    def _print_Min(self, expr):
+        return "min(" + ", ".join(self._print(a) for a in expr.args) + ")"
+
+    def _print_Max(self, expr):
+        return "max(" + ", ".join(self._print(a) for a in expr.args) + ")"
+
+
+class CPrinter(C99CodePrinter):
+    """C99 with ``math.h``; π as a literal so no feature macro is needed."""
+
+    def __init__(self, parameters):
+        super().__init__()
+        self._parameters = set(parameters)
+
+    def _print_Symbol(self, expr):
+        name = expr.name
+        return f"p_{name}" if name in self._parameters else name
+
+    def _print_Pow(self, expr, rational=False):
+        return _small_power(self, expr) or super()._print_Pow(expr)
+
+    def _print_Pi(self, expr):
+        return "3.14159265358979323846"
+
+    def _print_Rational(self, expr):
+        return f"{float(expr.p)!r}/{float(expr.q)!r}"
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0" if abs(int(expr)) < 2**53 else f"{float(expr)!r}"

@@ -1,0 +1,40 @@
+"""Exception types, one per failure family.
+
+Every message names the file, field or quantity at fault and what would fix it, so that the
+command line can print it as one line without a traceback.
+"""
+
+
+class GpmegenError(Exception):
+    """Base of all errors the package raises on purpose."""
+
+
+class ModelError(GpmegenError):
+    """The model description is invalid (a field, name, value or expression)."""
+
+
+class DerivationError(GpmegenError):
+    """The symbolic derivation cannot proceed (e.g. a constraint independent of every coordinate)."""
+
+
+class BuildError(GpmegenError):
+    """Generated code cannot be written, compiled or loaded."""
+
+
+class StaleModelError(BuildError):
+    """A generated module does not match the current model or package version."""
+
+
+class StaticsError(GpmegenError):
+    """Newton–Raphson statics did not converge."""
+
+
+class SimulationError(GpmegenError):
+    """The integration diverged or the constraints could not be held.
+
+    ``partial`` holds what was computed up to the failure (a dict of arrays) when available.
+    """
+
+    def __init__(self, message, partial=None):
+        super().__init__(message)
+        self.partial = partial

@@ -1,0 +1,11 @@
+"""Plain-data description of open kinematic chains with rigid and flexible links."""
+
+from .chain import (
+    Body, Chain, Constraint, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point,
+)
+from .reference import reference_model
+
+__all__ = [
+    "Body", "Chain", "Constraint", "Drive", "FlexibleLink", "Joint", "Model", "Offset",
+    "Parameter", "Point", "reference_model",
+]

@@ -1,0 +1,217 @@
+"""The elements of a model: parameters, joints, offsets, bodies, points, flexible links,
+drives and programmed constraints.
+
+A chain is a tuple of elements read from the base outwards. A ``Joint`` or ``Offset`` moves the
+current frame; a ``Body`` or ``Point`` is attached to the current frame; a ``FlexibleLink`` is
+expanded by :mod:`gpmegen.model.rfem` into rigid finite elements and spring-damping joints and
+leaves the current frame at its tip. Quantities are SymPy expressions of parameter symbols (or
+plain numbers); nothing here does algebra beyond naming symbols.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..errors import ModelError
+
+AXES = ("x", "y", "z")
+JOINT_KINDS = ("revolute", "prismatic")
+# Names reach generated Python and C: a strict pattern keeps them safe there.
+NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,47}$")
+RESERVED_NAMES = frozenset(
+    {"t", "q", "qd", "p", "pi", "out", "math", "np", "numpy",
+     "sin", "cos", "tan", "exp", "sqrt", "log", "abs", "min", "max", "fmin", "fmax", "double",
+     "int", "void", "return", "if", "else", "for", "while", "const", "def", "lambda", "None",
+     "True", "False", "and", "or", "not", "in", "is", "import", "from", "class", "pass"}
+)
+
+# Names that stand bare in expressions (parameters, coordinates) must not shadow SymPy's own.
+SYMPY_NAMES = frozenset({"E", "I", "N", "S", "O", "Q", "oo", "zoo", "nan", "beta", "gamma", "zeta"})
+
+TIME = sp.Symbol("t", real=True)
+
+
+def check_name(name: str, what: str, bare: bool = False) -> str:
+    """Return ``name`` if it is a safe identifier, else raise ModelError naming ``what``.
+    ``bare``: the name stands alone in expressions, so it must not shadow a SymPy name."""
+    if not isinstance(name, str) or not NAME_PATTERN.match(name):
+        raise ModelError(
+            f"{what} {name!r} is not a valid name: use a letter followed by letters, digits or "
+            f"underscores (at most 48 characters)"
+        )
+    if name in RESERVED_NAMES or name.startswith("_") or (bare and name in SYMPY_NAMES):
+        raise ModelError(f"{what} {name!r} is reserved in generated code: choose another name")
+    return name
+
+
+def symbol(name: str) -> sp.Symbol:
+    """The real SymPy symbol of a parameter or coordinate name."""
+    return sp.Symbol(name, real=True)
+
+
+def velocity_symbol(coordinate: str) -> sp.Symbol:
+    """Symbol of a coordinate's velocity in constraint expressions: ``<name>_dot``."""
+    return sp.Symbol(f"{coordinate}_dot", real=True)
+
+
+def point_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Symbols of a point's coordinates in {0}: ``x_P, y_P, z_P`` (m)."""
+    return tuple(sp.Symbol(f"{a}_{point}", real=True) for a in AXES)
+
+
+def point_velocity_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Symbols of a point's velocity in {0}: ``vx_P, vy_P, vz_P`` (m/s)."""
+    return tuple(sp.Symbol(f"v{a}_{point}", real=True) for a in AXES)
+
+
+def as_expr(value) -> sp.Expr:
+    """A number or SymPy expression as a SymPy expression."""
+    return sp.sympify(value)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named model constant with a default value; overridable at run time without rebuilding."""
+
+    name: str
+    default: float
+    unit: str = ""
+    doc: str = ""
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return symbol(self.name)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One coordinate: rotation about (revolute, rad) or translation along (prismatic, m) a
+    principal axis of the current frame. ``stiffness`` and ``damping`` add the generalized force
+    ``-stiffness*q - damping*qd`` (a spring to ``q = 0``)."""
+
+    name: str
+    kind: str
+    axis: str
+    stiffness: sp.Expr = sp.S.Zero
+    damping: sp.Expr = sp.S.Zero
+
+
+@dataclass(frozen=True)
+class Offset:
+    """A constant transform: translate by ``translation`` (m), then rotate about the principal
+    axes in ``rotations`` (sequence of ``(axis, angle in rad)``), all in the current frame."""
+
+    translation: tuple = (0, 0, 0)
+    rotations: tuple = ()
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid body attached to the current frame; ``pseudo_inertia`` is the 4x4 matrix
+    ``∫ [x y z 1]ᵀ[x y z 1] dm`` in that frame (SymPy Matrix of parameter expressions)."""
+
+    name: str
+    pseudo_inertia: sp.ImmutableMatrix
+
+
+@dataclass(frozen=True)
+class Point:
+    """A named point (end-effector, sensor) fixed in the current frame at ``position`` (m)."""
+
+    name: str
+    position: tuple = (0, 0, 0)
+
+
+@dataclass(frozen=True)
+class RectangularSection:
+    """Rectangular cross-section: ``width`` along the link's local z, ``thickness`` along y (m)."""
+
+    width: sp.Expr
+    thickness: sp.Expr
+
+
+@dataclass(frozen=True)
+class CircularSection:
+    """Solid circular cross-section of ``radius`` (m)."""
+
+    radius: sp.Expr
+
+
+@dataclass(frozen=True)
+class FlexibleLink:
+    """A slender link along the current frame's x axis, discretized by the modified rigid
+    finite element method into ``n_rfe`` rfes joined by ``n_rfe - 1`` sdes of three rotations
+    each (bending about z: ``psi``, bending about y: ``theta``, torsion about x: ``phi``).
+
+    ``label`` names the coordinates ``psi<label>_<r>``, ``theta<label>_<r>``, ``phi<label>_<r>``.
+    ``torsion_constant`` (m^4) defaults to the section's own formula when ``None``.
+    ``damping`` holds the three damping coefficients of each sde (N·m·s/rad).
+    """
+
+    label: str
+    length: sp.Expr
+    section: RectangularSection | CircularSection
+    density: sp.Expr
+    young_modulus: sp.Expr
+    shear_modulus: sp.Expr
+    n_rfe: int
+    torsion_constant: sp.Expr | None = None
+    damping: tuple = (0, 0, 0)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A generalized force (N·m or N) on ``coordinate``, an expression of ``t`` and parameters."""
+
+    coordinate: str
+    expression: sp.Expr
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A programmed constraint.
+
+    ``order=0``: position constraint ``Φ(points, q, t) = 0``, stabilized by
+    ``Φ̈ + 2 α Φ̇ + β² Φ = 0``. ``order=1``: first-order constraint, linear in velocities
+    (point velocities ``vx_P…`` and coordinate velocities ``<name>_dot``), stabilized by
+    ``Ψ̇ + α Ψ = 0``. ``alpha`` and ``beta`` are expressions of parameters.
+    """
+
+    name: str
+    expression: sp.Expr
+    order: int = 0
+    alpha: sp.Expr = sp.S.Zero
+    beta: sp.Expr = sp.S.Zero
+
+
+Chain = tuple
+
+
+@dataclass(frozen=True)
+class Model:
+    """A whole model: its parameters, chain, gravity, drives and programmed constraints.
+
+    ``gravity`` is the gravitational acceleration vector in {0} (m/s²) as expressions;
+    ``dependent`` names the dependent coordinates of the constraint partition (``None``: chosen
+    automatically at run time).
+    """
+
+    name: str
+    parameters: tuple
+    chain: Chain
+    gravity: tuple = (0, 0, 0)
+    drives: tuple = ()
+    constraints: tuple = ()
+    dependent: tuple | None = None
+    description: str = ""
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def defaults(self) -> dict[str, float]:
+        return {p.name: float(p.default) for p in self.parameters}

@@ -1,0 +1,1 @@
+"""Loading generated modules, the GPME, statics and integration."""

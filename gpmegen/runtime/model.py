@@ -1,0 +1,114 @@
+"""A loaded generated model with the public contract of gpmegen (see README)."""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+import numpy as np
+
+from ..errors import ModelError
+from . import gpme
+
+
+class LoadedModel:
+    """A generated model bound to parameter values.
+
+    Shapes: ``q``, ``qd`` (n_dof,); time ``t`` in s; SI units throughout.
+    """
+
+    def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "numpy", folder=None):
+        self.module = module
+        self.backend = backend
+        self.folder = folder
+        self.coordinates: tuple = tuple(module.COORDINATES)
+        self.n_dof: int = len(self.coordinates)
+        self.parameter_names: tuple = tuple(module.PARAMETERS)
+        self.points: tuple = tuple(module.POINTS)
+        self.constraint_names: tuple = tuple(module.CONSTRAINTS)
+        self.constraint_orders = np.array(module.CONSTRAINT_ORDERS, dtype=int)
+        values = dict(zip(self.parameter_names, module.DEFAULTS))
+        for name, value in (params or {}).items():
+            if name not in values:
+                raise ModelError(
+                    f"unknown parameter {name!r}; the model's parameters are {', '.join(self.parameter_names)}"
+                )
+            try:
+                values[name] = float(value)
+            except (TypeError, ValueError):
+                raise ModelError(f"parameter {name!r} must be a number, got {value!r}") from None
+        self.params: dict = values
+        self.p = np.array([values[k] for k in self.parameter_names], dtype=float)
+        self.dependent, self.independent = self._partition(module.DEPENDENT)
+        alpha, beta = module.baumgarte_gains(self.p)
+        self.alpha, self.beta = np.asarray(alpha, float), np.asarray(beta, float)
+
+    def _partition(self, dependent):
+        if not self.constraint_names:
+            return np.arange(0), np.arange(self.n_dof)
+        if dependent is None:
+            return None, None  # chosen from the constraint Jacobian at the start of a run
+        dep = [self.coordinates.index(name) for name in dependent]
+        ind = [k for k in range(self.n_dof) if k not in dep]
+        return np.array(dep, dtype=int), np.array(ind, dtype=int)
+
+    def with_params(self, **overrides) -> "LoadedModel":
+        """The same model with some parameter values changed (no rebuild)."""
+        return type(self)(self.module, {**self.params, **overrides}, self.backend, self.folder)
+
+    def index(self, coordinate: str) -> int:
+        """Position of a coordinate in ``q``."""
+        return self.coordinates.index(coordinate)
+
+    # --- the generated functions, bound to the parameter values -----------------------------
+    def mass_matrix(self, q):
+        """M(q), (n, n), kg·m² / kg."""
+        return self.module.mass_matrix(q, self.p)
+
+    def forces(self, t, q, qd):
+        """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
+        return self.module.forces(t, q, qd, self.p)
+
+    def static_residual(self, q):
+        """g(q) + C q, (n,): zero at an equilibrium with no drive."""
+        return self.module.static_residual(q, self.p)
+
+    def stiffness_jacobian(self, q):
+        """K = ∂(g + C q)/∂q, (n, n)."""
+        return self.module.stiffness_jacobian(q, self.p)
+
+    def drive_forces(self, t):
+        """Q(t), (n,)."""
+        return self.module.drive_forces(t, self.p)
+
+    def point_positions(self, q):
+        """Positions of the named points in {0}, (n_points, 3), m."""
+        return self.module.points(q, self.p)
+
+    def end_effector(self, q):
+        """Position of the end-effector (the first named point) in {0}, (3,), m."""
+        if not self.points:
+            raise ModelError("the model names no point, so it has no end-effector")
+        return self.point_positions(q)[0]
+
+    def constraint_terms(self, t, q, qd):
+        """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
+        return self.module.constraint_terms(t, q, qd, self.p)
+
+    def energies(self, q, qd):
+        """(kinetic, gravity potential, spring) energy in J."""
+        return self.module.energies(q, qd, self.p)
+
+    def accelerations(self, t, q, qd):
+        """q̈ (n,) from the GPME with Baumgarte terms (eq. 16)."""
+        M, f, phi, phid, D, gamma = self.module.gpme_terms(t, q, qd, self.p)
+        return gpme.accelerations(M, f, phi, phid, D, gamma, self.alpha, self.beta,
+                                  self.constraint_orders, self.dependent, self.independent)
+
+    def constraint_forces(self, t, q, qd, qdd=None):
+        """Generalized forces the constraints exert, ``M q̈ - f`` (n,)."""
+        if qdd is None:
+            qdd = self.accelerations(t, q, qd)
+        return self.mass_matrix(q) @ qdd - self.forces(t, q, qd)
+
+    def __repr__(self):
+        return f"<gpmegen model {self.module.MODEL} ({self.backend}), n_dof={self.n_dof}>"

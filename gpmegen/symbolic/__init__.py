@@ -1,0 +1,39 @@
+"""SymPy derivation of a model's kinematics, dynamics and programmed constraints.
+
+Pure functions of the model: nothing here touches files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..model.expand import FlatChain, expand
+from . import constraints as _constraints
+from . import dynamics as _dynamics
+from .kinematics import Kinematics, forward
+from .program import Program
+
+
+@dataclass
+class Derivation:
+    """Everything code generation needs: the chain, the program of intermediate symbols, and
+    the outputs as expressions of them."""
+
+    chain: FlatChain
+    program: Program
+    kinematics: Kinematics
+    dynamics: _dynamics.Dynamics
+    constraints: _constraints.ConstraintTerms
+
+
+def derive(model) -> Derivation:
+    """Validate and expand ``model``, then derive its equations of motion and constraints."""
+    chain = expand(model)
+    program = Program()
+    kin = forward(chain, program)
+    dyn = _dynamics.derive(kin, model.gravity, model.drives)
+    con = _constraints.derive(kin, model.constraints)
+    return Derivation(chain, program, kin, dyn, con)
+
+
+__all__ = ["Derivation", "derive"]

@@ -1,0 +1,112 @@
+"""Programmed constraints: values, Jacobian ``D`` and the velocity-product term ``γ``.
+
+For each constraint the generated code returns ``Φ`` (value), ``Φ̇`` (rate, position
+constraints only), the row ``D`` and ``γ`` such that the constraint's highest derivative is
+``D q̈ + γ`` (``Φ̈`` for a position constraint, ``Ψ̇`` for a first-order one). The GPME rows are
+then ``D q̈ = -γ - 2αΦ̇ - β²Φ`` or ``D q̈ = -γ - αΨ`` (paper eqs. 13 and 16).
+
+Expressions name point coordinates ``x_P, y_P, z_P``, point velocities ``vx_P, vy_P, vz_P``,
+coordinates by name, their velocities ``<name>_dot``, time ``t`` and parameters. Point
+velocities and accelerations come from the kinematics, so ``p̈ = J_P q̈ + a_P`` is never
+differentiated symbolically through the chain.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..errors import DerivationError
+from ..model.chain import TIME, point_symbols, point_velocity_symbols, symbol, velocity_symbol
+from .kinematics import Kinematics
+
+
+@dataclass
+class ConstraintTerms:
+    """Per constraint (m of them): ``value`` (m,), ``rate`` (m,), ``jacobian`` (m, n),
+    ``gamma`` (m,), and the Baumgarte gains ``alpha``, ``beta`` (m,) as expressions."""
+
+    names: tuple
+    orders: tuple
+    value: sp.Matrix
+    rate: sp.Matrix
+    jacobian: sp.Matrix
+    gamma: sp.Matrix
+    alpha: sp.Matrix
+    beta: sp.Matrix
+
+
+def _acceleration_symbols(point: str):
+    """Placeholders for the velocity-product part of a point's acceleration."""
+    return tuple(sp.Symbol(f"a{a}_{point}", real=True) for a in "xyz")
+
+
+def derive(kin: Kinematics, constraints) -> ConstraintTerms:
+    """Terms of the programmed constraints on the chain whose kinematics is ``kin``."""
+    define = kin.program.define
+    n = len(kin.q)
+    names = kin.chain.coordinates
+    internal = {}                     # user symbol -> internal expression
+    rate_of = {}                      # user symbol -> its time derivative (q̈ = 0), user symbols
+    coordinate_rate = {}              # q̇_j symbol -> j (enters D)
+    point_rate = {}                   # point velocity symbol -> Jacobian components (enter D)
+    for j, name in enumerate(names):
+        internal[symbol(name)] = kin.q[j]
+        internal[velocity_symbol(name)] = kin.qd[j]
+        rate_of[symbol(name)] = velocity_symbol(name)
+        coordinate_rate[velocity_symbol(name)] = j
+    for pname, pt in kin.points.items():
+        xs, vs, accs = point_symbols(pname), point_velocity_symbols(pname), _acceleration_symbols(pname)
+        for k in range(3):
+            internal[xs[k]] = pt.position[k]
+            internal[vs[k]] = pt.velocity[k]
+            internal[accs[k]] = pt.acceleration[k]
+            rate_of[xs[k]] = vs[k]
+            rate_of[vs[k]] = accs[k]
+            point_rate[vs[k]] = [pt.jacobian[j][k] for j in range(n)]
+
+    def rate(expr):
+        """Velocity-product part of d/dt expr (the q̈ part is D q̈), in user symbols."""
+        return sp.diff(expr, TIME) + sum(
+            (sp.diff(expr, s) * rate_of[s] for s in sorted(expr.free_symbols, key=str) if s in rate_of),
+            sp.S.Zero,
+        )
+
+    def jacobian_row(expr):
+        """Coefficients of q̈ in d/dt expr, for expr linear in velocities (internal symbols)."""
+        row = [sp.S.Zero] * n
+        for s in sorted(expr.free_symbols, key=str):
+            if s in coordinate_rate:
+                row[coordinate_rate[s]] += sp.diff(expr, s)
+            elif s in point_rate:
+                coeff = sp.diff(expr, s)
+                for j, component in enumerate(point_rate[s]):
+                    row[j] += coeff * component
+        return [v.xreplace(internal) for v in row]
+
+    values, rates, rows, gammas = [], [], [], []
+    for c in constraints:
+        expr = sp.sympify(c.expression)
+        first = rate(expr) if c.order == 0 else expr  # Φ̇, or Ψ itself
+        row = jacobian_row(first)
+        if all(v == 0 for v in row):
+            raise DerivationError(
+                f"constraint {c.name!r} does not depend on any coordinate, so no motion can hold "
+                f"it: check that it names a point or a coordinate"
+            )
+        values.append(define(expr.xreplace(internal)))
+        rates.append(define(first.xreplace(internal)) if c.order == 0 else sp.S.Zero)
+        rows.append([define(v) for v in row])
+        gammas.append(define(rate(first).xreplace(internal)))
+    m = len(values)
+    return ConstraintTerms(
+        names=tuple(c.name for c in constraints),
+        orders=tuple(c.order for c in constraints),
+        value=sp.Matrix(m, 1, values),
+        rate=sp.Matrix(m, 1, rates),
+        jacobian=sp.Matrix(m, n, [v for r in rows for v in r]) if m else sp.zeros(0, n),
+        gamma=sp.Matrix(m, 1, gammas),
+        alpha=sp.Matrix(m, 1, [sp.sympify(c.alpha) for c in constraints]),
+        beta=sp.Matrix(m, 1, [sp.sympify(c.beta) for c in constraints]),
+    )

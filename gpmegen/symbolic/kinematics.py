@@ -1,0 +1,145 @@
+"""Forward kinematics along the chain, as named intermediate symbols.
+
+For each level the homogeneous transform ``T = [R p; 0 1]`` from the current frame to {0}.
+For joint ``i`` the world twist ``Δ_i = T_i S_i T_i⁻¹ = [ω̂_i v_i; 0 0]`` (``S_i`` the generator
+of its axis), so that ``∂T_b/∂q_i = Δ_i T_b`` for every body ``b`` after it, and
+``∂²T_b/∂q_i∂q_j = Δ_i Δ_j T_b`` for ``i ≤ j``. The body twist ``Ω = Σ Δ_j q̇_j`` and the
+velocity-product part of ``Ω̇`` (``Σ_j [Ω_j-1, Δ_j] q̇_j``, i.e. ``Σ T_mn q̇_m q̇_n`` of the
+paper) are built along the chain the same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from ..model.chain import AXES, Body, Joint, Offset, Point
+from ..model.expand import FlatChain
+from .program import Program
+
+
+def rotation(axis: str, c, s) -> sp.Matrix:
+    """Elementary rotation about a principal axis, given its cosine and sine."""
+    if axis == "x":
+        return sp.Matrix([[1, 0, 0], [0, c, -s], [0, s, c]])
+    if axis == "y":
+        return sp.Matrix([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+@dataclass
+class JointTwist:
+    """Joint ``index`` of the chain: its world twist ``(ω, v)`` and spring/damper."""
+
+    index: int
+    name: str
+    kind: str
+    omega: sp.Matrix
+    v: sp.Matrix
+    stiffness: sp.Expr
+    damping: sp.Expr
+
+
+@dataclass
+class BodyState:
+    """A body after ``level`` joints: rotation ``R``, origin ``p``, pseudo-inertia ``H`` (body
+    frame), twist ``(w, u)`` and velocity-product spatial acceleration ``(alpha, a)``."""
+
+    name: str
+    level: int
+    R: sp.Matrix
+    p: sp.Matrix
+    H: sp.Matrix
+    w: sp.Matrix
+    u: sp.Matrix
+    alpha: sp.Matrix
+    a: sp.Matrix
+
+
+@dataclass
+class PointState:
+    """A point after ``level`` joints: position, velocity and velocity-product acceleration in
+    {0}, and the Jacobian columns ``∂position/∂q_j`` (zero for ``j ≥ level``)."""
+
+    name: str
+    level: int
+    position: sp.Matrix
+    velocity: sp.Matrix
+    acceleration: sp.Matrix
+    jacobian: list = field(default_factory=list)
+
+
+@dataclass
+class Kinematics:
+    chain: FlatChain
+    program: Program
+    q: list
+    qd: list
+    params: dict
+    joints: list
+    bodies: list
+    points: dict
+
+
+def coordinate_symbols(chain: FlatChain):
+    """Internal symbols of ``q`` and ``q̇``: ``q_<name>``, ``qd_<name>``."""
+    q = [sp.Symbol(f"q_{n}", real=True) for n in chain.coordinates]
+    qd = [sp.Symbol(f"qd_{n}", real=True) for n in chain.coordinates]
+    return q, qd
+
+
+def forward(chain: FlatChain, program: Program) -> Kinematics:
+    """Walk the chain from the base, defining transforms, joint twists, body twists and
+    velocity-product accelerations as intermediate symbols."""
+    define, define_all = program.define, program.define_all
+    q, qd = coordinate_symbols(chain)
+    zero = sp.zeros(3, 1)
+    R, p = sp.eye(3), sp.zeros(3, 1)
+    w, u = zero, zero          # body twist (ω, v at the origin of {0})
+    alpha, a = zero, zero      # velocity-product part of its rate
+    joints, bodies, points = [], [], {}
+    for element in chain.elements:
+        if isinstance(element, Offset):
+            t = sp.Matrix([sp.sympify(v) for v in element.translation])
+            if any(t):
+                p = define_all(p + R * t)
+            for axis, angle in element.rotations:
+                angle = sp.sympify(angle)
+                if angle != 0:
+                    R = define_all(R * rotation(axis, define(sp.cos(angle)), define(sp.sin(angle))))
+        elif isinstance(element, Joint):
+            j = len(joints)
+            k = AXES.index(element.axis)
+            if element.kind == "revolute":
+                c, s = define(sp.cos(q[j])), define(sp.sin(q[j]))
+                omega = R[:, k]  # the rotation leaves its own axis in place
+                R = define_all(R * rotation(element.axis, c, s))
+                v = define_all(p.cross(omega))
+                # [Ω, Δ_j] for Δ_j = (ω_j, v_j): motion cross product (w, u) × (ω, v)
+                d_alpha, d_a = w.cross(omega), w.cross(v) + u.cross(omega)
+            else:
+                omega = zero
+                v = R[:, k]
+                p = define_all(p + v * q[j])
+                d_alpha, d_a = zero, w.cross(v)
+            joints.append(JointTwist(j, element.name, element.kind, omega, v,
+                                     sp.sympify(element.stiffness), sp.sympify(element.damping)))
+            alpha = define_all(alpha + d_alpha * qd[j])
+            a = define_all(a + d_a * qd[j])
+            w = define_all(w + omega * qd[j])
+            u = define_all(u + v * qd[j])
+        elif isinstance(element, Body):
+            H = define_all(sp.Matrix(element.pseudo_inertia))
+            bodies.append(BodyState(element.name, len(joints), R, p, H, w, u, alpha, a))
+        elif isinstance(element, Point):
+            r = sp.Matrix([sp.sympify(v) for v in element.position])
+            position = define_all(p + R * r)
+            velocity = define_all(w.cross(position) + u)
+            # p̈ = Ω̇ p + Ω Ω p; its velocity-product part: α×p + a + ω×ṗ
+            acceleration = define_all(alpha.cross(position) + a + w.cross(velocity))
+            jac = [define_all(jt.omega.cross(position) + jt.v) for jt in joints]
+            jac += [zero] * (chain.n_dof - len(jac))
+            points[element.name] = PointState(element.name, len(joints), position, velocity, acceleration, jac)
+    params = {p.name: p.symbol for p in chain.model.parameters}
+    return Kinematics(chain, program, q, qd, params, joints, bodies, points)
