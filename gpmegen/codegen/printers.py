@@ -15,7 +15,8 @@ def _small_power(printer, expr):
     base, exp = expr.as_base_exp()
     if exp.is_Integer and 2 <= int(exp) <= 4 and base.is_Symbol:
         b = printer.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"] + 1)
-        return "*".join([b] * int(exp))
+        # parenthesized: the Mul printer treats a Pow as binding tighter than '/'
+        return "(" + "*".join([b] * int(exp)) + ")"
     return None
 
 

@@ -51,12 +51,20 @@ def _wrap(values, per_line=6, indent=8):
     return (",\n" + " " * indent).join(lines)
 
 
+GENERATOR_PACKAGES = ("model", "symbolic", "codegen")
+
+
 def input_hash(model: Model, backends) -> str:
     """Hash of everything the generated code depends on: the model, the package version, the
-    templates and the backends asked for."""
+    source of the generator itself, the templates and the backends asked for."""
     h = hashlib.sha256()
     h.update(repr(model).encode())
     h.update(__version__.encode())
+    package = resources.files("gpmegen")
+    for sub in GENERATOR_PACKAGES:
+        for name in sorted(p.name for p in package.joinpath(sub).iterdir() if p.name.endswith(".py")):
+            h.update(f"{sub}/{name}".encode())
+            h.update(package.joinpath(sub, name).read_bytes())
     root = resources.files("gpmegen.templates")
     for name in sorted(p.name for p in root.iterdir() if p.name.endswith(".j2")):
         h.update(name.encode())

@@ -1,0 +1,1 @@
+"""The reference study (statics, simulation), results files and figures."""

@@ -1,0 +1,112 @@
+"""The paper's study on the reference manipulator: the static start, the programmed
+constraints' constants taken from it, and the constrained motion.
+
+Start (reference-model.md, "Initial state"): joints at ``θ1 = 0, ψ2 = 45°, x3 = 0``, flexible
+coordinates from the locked statics; ``r_E,a = sqrt(x_E² + z_E²)`` and ``y_c = y_E(0) - A``, so
+the motion starts on the constraints and at rest. ``statics="constrained"`` then moves to the
+equilibrium of the constrained system itself (no jolt when the joints are freed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SimulationError
+from ..runtime import integrate, statics
+
+START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
+
+
+def joint_start(model) -> np.ndarray:
+    """q with the joints at the paper's start and the flexible coordinates zero."""
+    q = np.zeros(model.n_dof)
+    for name, value in START_JOINTS.items():
+        q[model.index(name)] = value
+    return q
+
+
+def constraint_constants(model, q) -> dict:
+    """``r_Ea`` and ``y_c`` that put E of configuration ``q`` on the programmed constraints."""
+    x, y, z = model.end_effector(q)
+    return {"r_Ea": float(np.hypot(x, z)), "y_c": float(y - model.params["A"])}
+
+
+def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50):
+    """Move the dependent coordinates so that Φ(q, t) = 0 (Newton on the m×m block)."""
+    q = np.array(q, dtype=float)
+    dep = model.dependent
+    qd = np.zeros_like(q)
+    for _ in range(max_iter):
+        phi, _, D, _ = model.constraint_terms(t, q, qd)
+        if np.max(np.abs(phi), initial=0.0) <= tol:
+            return q
+        try:
+            q[dep] -= np.linalg.solve(D[:, dep], phi)
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(q)):
+            break
+    raise SimulationError(
+        f"the programmed constraints cannot be met from the start configuration (|Φ| = "
+        f"{np.max(np.abs(phi)):.3e}): is the circle radius r_Ea or the height y_c beyond the arm's reach?"
+    )
+
+
+def initial_state(model, start="locked", overrides=None):
+    """The model with its constraint constants set, and the start configuration q0 (n,).
+
+    ``overrides``: parameter values given by the user; an explicit ``r_Ea`` or ``y_c`` is kept
+    and the start is moved onto the constraints it defines."""
+    overrides = dict(overrides or {})
+    q = statics.locked(model, joint_start(model))
+    constants = constraint_constants(model, q)
+    constants.update({k: v for k, v in overrides.items() if k in constants})
+    model = model.with_params(**constants)
+    if {"r_Ea", "y_c"} & overrides.keys():
+        q = project_onto_constraints(model, q)
+    if start == "constrained":
+        q = statics.constrained(model, q)
+    elif start != "locked":
+        raise ValueError(f"unknown start {start!r}: use 'locked' or 'constrained'")
+    return model, q
+
+
+def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2):
+    """The constrained motion from rest at ``q0``; returns a results dict (see
+    :mod:`gpmegen.analysis.results`)."""
+    qd0 = np.zeros(model.n_dof)
+    if method == "rk4":
+        t, y, status = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
+                                     max_violation=max_violation)
+    else:
+        t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method)
+    return collect(model, t, y, status, dict(method=method, dt=dt, save_every=save_every, t_end=t_end))
+
+
+def collect(model, t, y, status, settings) -> dict:
+    """Derived quantities at the saved samples: E, Φ, drive, constraint forces, energies."""
+    n = model.n_dof
+    q, qd = y[:, :n], y[:, n:2 * n]
+    samples = len(t)
+    E = np.zeros((samples, 3))
+    phi = np.zeros((samples, len(model.constraint_names)))
+    drive = np.zeros((samples, n))
+    reaction = np.zeros((samples, n))
+    energy = np.zeros((samples, 3))
+    for k in range(samples):
+        E[k] = model.end_effector(q[k])
+        phi[k] = model.constraint_terms(t[k], q[k], qd[k])[0]
+        drive[k] = model.drive_forces(t[k])
+        if np.all(np.isfinite(y[k])):
+            reaction[k] = model.constraint_forces(t[k], q[k], qd[k])
+        energy[k] = model.energies(q[k], qd[k])
+    return {
+        "t": t, "q": q, "qd": qd, "coordinates": np.array(model.coordinates),
+        "end_effector": E, "phi": phi, "constraint_names": np.array(model.constraint_names),
+        "tau_drive": drive[:, model.index("theta1")] if "theta1" in model.coordinates else drive.sum(axis=1),
+        "drive_forces": drive, "constraint_forces": reaction,
+        "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
+        "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1],
+        "status": np.array(status), "settings": np.array(repr(settings)),
+        "params": np.array(repr(model.params)), "model": np.array(model.module.MODEL),
+    }

@@ -1,0 +1,133 @@
+"""Integration of the GPME: fixed-step RK4 (as in the paper) and an adaptive stepper beside it.
+
+The state is ``y = [q, q̇, W_drive, W_constraint]``: the work of the drive and of the constraint
+forces is integrated with the motion, so the power balance is checked to the integrator's order.
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import time
+
+import numpy as np
+
+from ..errors import SimulationError
+
+
+class Progress:
+    """A one-line progress bar on stderr (quiet when not a terminal unless forced)."""
+
+    def __init__(self, total: float, label: str, enabled: bool | None = None):
+        self.total, self.label = total, label
+        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.start = time.perf_counter()
+        self.last = 0.0
+
+    def update(self, done: float):
+        now = time.perf_counter()
+        if not self.enabled or now - self.last < 0.25:
+            return
+        self.last = now
+        frac = min(done / self.total, 1.0) if self.total else 1.0
+        elapsed = now - self.start
+        eta = elapsed / frac - elapsed if frac > 0 else float("nan")
+        bar = "#" * int(30 * frac)
+        print(f"\r{self.label} [{bar:<30}] {100 * frac:5.1f}%  {elapsed:6.1f} s, {eta:6.1f} s left",
+              end="", file=sys.stderr, flush=True)
+
+    def close(self):
+        if self.enabled:
+            print(file=sys.stderr, flush=True)
+
+
+def state_derivative(model):
+    """``dy/dt`` of the augmented state for ``model``'s GPME."""
+    n = model.n_dof
+
+    def rhs(t, y):
+        q, qd = y[:n], y[n:2 * n]
+        qdd = model.accelerations(t, q, qd)
+        drive = model.drive_forces(t)
+        reaction = model.mass_matrix(q) @ qdd - model.forces(t, q, qd)
+        return np.concatenate([qd, qdd, [qd @ drive, qd @ reaction]])
+
+    return rhs
+
+
+class _Interrupt:
+    """Turns SIGTERM into KeyboardInterrupt for the duration of a run, so partial results
+    are kept on either signal."""
+
+    def __enter__(self):
+        self.previous = None
+        try:
+            self.previous = signal.signal(signal.SIGTERM, self._raise)
+        except ValueError:  # not the main thread
+            pass
+        return self
+
+    @staticmethod
+    def _raise(signum, frame):
+        raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGTERM, self.previous)
+        return False
+
+
+def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None):
+    """Classical RK4 with fixed step ``dt`` (s) from ``t0`` to ``t_end``; every
+    ``save_every``-th step is kept. Returns ``(t, y, status)`` with ``y`` rows of the augmented
+    state and ``status`` one of ``"complete"``, ``"interrupted"``, ``"diverged: …"``."""
+    n = model.n_dof
+    rhs = state_derivative(model)
+    n_steps = int(round((t_end - t0) / dt))
+    y = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    ts, ys = [t0], [y.copy()]
+    status = "complete"
+    bar = progress if progress is not None else Progress(t_end - t0, "RK4", enabled=False)
+    t = t0
+    with _Interrupt():
+        try:
+            for k in range(1, n_steps + 1):
+                k1 = rhs(t, y)
+                k2 = rhs(t + dt / 2, y + dt / 2 * k1)
+                k3 = rhs(t + dt / 2, y + dt / 2 * k2)
+                k4 = rhs(t + dt, y + dt * k3)
+                y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+                t = t0 + k * dt
+                if not np.all(np.isfinite(y)):
+                    status = f"diverged: non-finite state at t = {t:.6g} s"
+                    break
+                if max_violation is not None:
+                    phi = model.constraint_terms(t, y[:n], y[n:2 * n])[0]
+                    if phi.size and np.max(np.abs(phi)) > max_violation:
+                        status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
+                                  f"{max_violation:.1e} at t = {t:.6g} s")
+                        ts.append(t)
+                        ys.append(y.copy())
+                        break
+                if k % save_every == 0 or k == n_steps:
+                    ts.append(t)
+                    ys.append(y.copy())
+                bar.update(t - t0)
+        except KeyboardInterrupt:
+            status = "interrupted"
+        except SimulationError as exc:
+            status = f"diverged: {exc} (t = {t:.6g} s)"
+        finally:
+            bar.close()
+    return np.array(ts), np.array(ys), status
+
+
+def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
+    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, status)``."""
+    from scipy.integrate import solve_ivp
+
+    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    sol = solve_ivp(state_derivative(model), (t0, t_end), y0, method=method, rtol=rtol, atol=atol,
+                    t_eval=t_eval)
+    status = "complete" if sol.success else f"diverged: {sol.message}"
+    return sol.t, sol.y.T, status
