@@ -12,6 +12,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from .errors import BuildError, GpmegenError, ModelError
 
 
@@ -101,6 +103,113 @@ def cmd_build(args) -> int:
     return 0
 
 
+def _load(nrfe, backend, params):
+    import gpmegen
+
+    if backend == "c":
+        try:
+            return gpmegen.load(nrfe=nrfe, backend="c", params=params, progress=progress)
+        except BuildError as exc:
+            progress(f"C backend unavailable ({exc}); using the NumPy backend")
+    return gpmegen.load(nrfe=nrfe, backend="numpy", params=params, progress=progress)
+
+
+def _default_backend() -> str:
+    from .runtime.ccompile import find_compiler
+
+    return "c" if find_compiler() else "numpy"
+
+
+def run_study(nrfe, start, t_end, dt, save_every, method, backend, overrides, out):
+    """Statics, then the constrained motion; writes ``out`` (.npz and .csv). Returns results."""
+    from .analysis import results as results_io
+    from .analysis import study
+
+    if out.suffix != ".npz":
+        raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
+    _writable_folder(out.parent)
+    model = _load(nrfe, backend, {k: v for k, v in overrides.items() if k not in ("r_Ea", "y_c")})
+    progress(f"statics ({start} start) for n_rfe = {nrfe}")
+    model, q0 = study.initial_state(model, start, overrides)
+    joints = ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in ("theta1", "psi2", "x3"))
+    progress(f"start: {joints}; r_Ea = {model.params['r_Ea']:.6g} m, y_c = {model.params['y_c']:.6g} m")
+    t0 = time.perf_counter()
+    bar = None
+    if method == "rk4":
+        from .runtime.integrate import Progress
+        bar = Progress(t_end, f"n_rfe = {nrfe}", enabled=sys.stderr.isatty())
+    res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start)
+    wall = time.perf_counter() - t0
+    written = results_io.save(res, out)
+    status = str(res["status"])
+    phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
+    final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in ("theta1", "psi2", "x3"))
+    print(f"n_rfe = {nrfe} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.4g} s in {wall:.1f} s; "
+          f"{final}; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; wrote {', '.join(map(str, written))}")
+    if status != "complete":
+        kept = f"results up to t = {res['t'][-1]:.6g} s kept in {out} (marked partial)"
+        raise SimulationStopped(f"{status}; {kept}")
+    return res
+
+
+class SimulationStopped(GpmegenError):
+    """The run ended early (diverged or interrupted); partial results were written."""
+
+
+def cmd_simulate(args) -> int:
+    if args.t_end < 0:
+        raise UsageError(f"--t-end {args.t_end} is below zero; give the end time in seconds")
+    backend = args.backend or _default_backend()
+    overrides = dict(args.param or [])
+    run_study(args.nrfe, args.statics, args.t_end, args.dt, args.save_every, args.method, backend,
+              overrides, Path(args.out or f"results/run_nrfe{args.nrfe}.npz"))
+    return 0
+
+
+def cmd_statics(args) -> int:
+    import gpmegen
+    from .analysis import study
+
+    model = gpmegen.load(nrfe=args.nrfe, params=dict(args.param or []), progress=progress)
+    model, q = study.initial_state(model, args.statics, dict(args.param or []))
+    for name, value in zip(model.coordinates, q):
+        print(f"{name:>10s} = {value: .9f}")
+    x, y, z = model.end_effector(q)
+    print(f"E = ({x:.9f}, {y:.9f}, {z:.9f}) m; r_Ea = {model.params['r_Ea']:.9f} m, y_c = {model.params['y_c']:.9f} m")
+    return 0
+
+
+def cmd_plot(args) -> int:
+    from .analysis import plots
+    from .analysis import results as results_io
+
+    runs = [results_io.load(p) for p in args.results]
+    _writable_folder(Path(args.out))
+    for path in plots.plot_all(runs, Path(args.out), args.format):
+        print(path)
+    return 0
+
+
+def cmd_demo(args) -> int:
+    """The paper's study: rigid and flexible arms, 10 s, figures."""
+    backend = _default_backend()
+    dt = 1e-5 if backend == "c" else 1e-4
+    save_every = max(1, int(round(1e-3 / dt)))
+    if backend != "c":
+        progress("no C compiler found: the demo runs the NumPy backend with dt = 1e-4 s (the paper's 1e-5 s "
+                 "would take hours in Python)")
+    results = []
+    for nrfe in (1, 5):
+        res = run_study(nrfe, "locked", args.t_end, dt, save_every, "rk4", backend, {},
+                        Path(args.results) / f"run_nrfe{nrfe}.npz")
+        results.append(res)
+    from .analysis import plots
+
+    for path in plots.plot_all(results, Path(args.figures)):
+        print(path)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gpmegen",
@@ -117,6 +226,41 @@ def build_parser() -> argparse.ArgumentParser:
                    help="backends to generate (both are always written; the NumPy one is the C one's oracle)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.set_defaults(func=cmd_build)
+
+    def study_options(p):
+        p.add_argument("--nrfe", type=positive_int, default=5, help="rigid finite elements of the arm (1: rigid)")
+        p.add_argument("--statics", choices=("locked", "constrained"), default="locked",
+                       help="start: the paper's locked-joint statics, or the equilibrium of the constrained system")
+        p.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
+                       help="override a parameter (repeatable), e.g. --param tdr0=2")
+
+    s = sub.add_parser("simulate", help="statics, then the constrained motion (RK4 or adaptive)")
+    study_options(s)
+    s.add_argument("--t-end", type=float, default=10.0, help="end time in s (default 10)")
+    s.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
+    s.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
+    s.add_argument("--method", choices=("rk4", "DOP853", "RK45", "Radau", "LSODA"), default="rk4",
+                   help="integrator: fixed-step rk4 (paper) or an adaptive scipy method")
+    s.add_argument("--backend", choices=("numpy", "c"), default=None,
+                   help="generated code to run (default: c when a compiler is present)")
+    s.add_argument("--out", default=None, help="results file .npz (default results/run_nrfe<N>.npz)")
+    s.set_defaults(func=cmd_simulate)
+
+    st = sub.add_parser("statics", help="print the static start configuration")
+    study_options(st)
+    st.set_defaults(func=cmd_statics)
+
+    pl = sub.add_parser("plot", help="the paper's figures from results files")
+    pl.add_argument("results", nargs="+", help="results .npz files (e.g. results/*.npz)")
+    pl.add_argument("--out", default="figures", help="folder for the figures (default figures/)")
+    pl.add_argument("--format", choices=("png", "pdf", "svg"), default="png")
+    pl.set_defaults(func=cmd_plot)
+
+    d = sub.add_parser("demo", help="the paper's study: rigid and flexible arms, figures")
+    d.add_argument("--t-end", type=positive_float, default=10.0, help="simulated time in s (default 10)")
+    d.add_argument("--results", default="results", help="folder for results (default results/)")
+    d.add_argument("--figures", default="figures", help="folder for figures (default figures/)")
+    d.set_defaults(func=cmd_demo)
     return parser
 
 

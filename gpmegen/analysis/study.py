@@ -71,7 +71,8 @@ def initial_state(model, start="locked", overrides=None):
     return model, q
 
 
-def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2):
+def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
+             start="locked"):
     """The constrained motion from rest at ``q0``; returns a results dict (see
     :mod:`gpmegen.analysis.results`)."""
     qd0 = np.zeros(model.n_dof)
@@ -80,7 +81,8 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
                                      max_violation=max_violation)
     else:
         t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method)
-    return collect(model, t, y, status, dict(method=method, dt=dt, save_every=save_every, t_end=t_end))
+    settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend)
+    return collect(model, t, y, status, settings)
 
 
 def collect(model, t, y, status, settings) -> dict:

@@ -47,9 +47,9 @@ def state_derivative(model):
 
     def rhs(t, y):
         q, qd = y[:n], y[n:2 * n]
-        qdd = model.accelerations(t, q, qd)
+        qdd, M, f = model.motion(t, q, qd)
         drive = model.drive_forces(t)
-        reaction = model.mass_matrix(q) @ qdd - model.forces(t, q, qd)
+        reaction = M @ qdd - f
         return np.concatenate([qd, qdd, [qd @ drive, qd @ reaction]])
 
     return rhs

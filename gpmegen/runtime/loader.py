@@ -61,9 +61,11 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
 
     if backend not in ("numpy", "c"):
         raise ModelError(f"unknown backend {backend!r}; use 'numpy' or 'c'")
+    command = None
     if model is None:
         _check_nrfe(nrfe)
         model = reference_model(nrfe)
+        command = f"gpmegen build --nrfe {nrfe}"
     directory = Path(directory) if directory is not None else default_directory()
     folder = directory / model.name
     recover_folder(folder)
@@ -74,7 +76,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         if not build:
             why = "is missing" if manifest is None else "was generated from other inputs or another gpmegen version"
             raise StaleModelError(f"{folder} {why}; rebuild it with 'gpmegen build --nrfe {nrfe} --force'")
-        build_model(model, directory, backends, progress=progress)
+        build_model(model, directory, backends, progress=progress, command=command)
     module = import_numpy_module(folder)
     if getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with 'gpmegen build --force'")

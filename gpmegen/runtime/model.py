@@ -98,11 +98,20 @@ class LoadedModel:
         """(kinetic, gravity potential, spring) energy in J."""
         return self.module.energies(q, qd, self.p)
 
+    def gpme_terms(self, t, q, qd):
+        """(M, f, Φ, Φ̇, D, γ) in one pass over the kinematics."""
+        return self.module.gpme_terms(t, q, qd, self.p)
+
+    def motion(self, t, q, qd):
+        """(q̈, M, f): the GPME solution with the terms it was solved from."""
+        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd)
+        qdd = gpme.accelerations(M, f, phi, phid, D, gamma, self.alpha, self.beta,
+                                 self.constraint_orders, self.dependent, self.independent)
+        return qdd, M, f
+
     def accelerations(self, t, q, qd):
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16)."""
-        M, f, phi, phid, D, gamma = self.module.gpme_terms(t, q, qd, self.p)
-        return gpme.accelerations(M, f, phi, phid, D, gamma, self.alpha, self.beta,
-                                  self.constraint_orders, self.dependent, self.independent)
+        return self.motion(t, q, qd)[0]
 
     def constraint_forces(self, t, q, qd, qdd=None):
         """Generalized forces the constraints exert, ``M q̈ - f`` (n,)."""

@@ -1,0 +1,160 @@
+"""Analytic reference values of linear beam theory, for verifying the RFEM discretization.
+
+Every function is plain arithmetic on floats in SI units (m, N, N·m, Pa, kg/m³); each names
+its source. Signs: deflections and rotations are positive in the sense of the load that causes
+them (a load pushing the tip down deflects it down and turns it down).
+
+Sources:
+
+- Timoshenko S. P., Gere J. M., *Mechanics of Materials*, appendix "Deflections and slopes of
+  beams", table of cantilever beams (cases: uniform load, tip force, tip couple);
+  the same formulas are in Roark's *Formulas for Stress and Strain* (Young, Budynas,
+  7th ed.), Table 8.1, cases 1a, 2a and 3a (left end free, right end fixed).
+- Blevins R. D., *Formulas for Natural Frequency and Mode Shape* (1979), ch. 8 "Straight
+  beams": Euler–Bernoulli single-span beam, clamped–free, ``λ₁ = 1.87510407`` (``λᵢ = βᵢL``);
+  and the torsional vibration of a uniform shaft, fixed–free (also Timoshenko, Young, Weaver,
+  *Vibration Problems in Engineering*, torsional vibration of circular shafts, with the polar
+  moment replaced by the section's ``I_p`` and the stiffness by ``G·J``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+# Roots of cos(λ)·cosh(λ) = -1, the clamped–free Euler–Bernoulli beam (Blevins, ch. 8).
+CLAMPED_FREE_LAMBDA = (1.87510407, 4.69409113, 7.85475744, 10.99554073, 14.13716839)
+
+
+@dataclass(frozen=True)
+class Section:
+    """Properties of a cross-section: area ``A`` (m²), second moments ``Iy`` (about the local y
+    axis: bending in the x–z plane) and ``Iz`` (about z: bending in the x–y plane), polar
+    moment ``Ip = Iy + Iz`` (m⁴)."""
+
+    A: float
+    Iy: float
+    Iz: float
+
+    @property
+    def Ip(self) -> float:
+        return self.Iy + self.Iz
+
+
+def rectangular_section(width: float, thickness: float) -> Section:
+    """Solid rectangle, ``width`` b along the local z, ``thickness`` t along y (m):
+    ``A = b t``, ``Iz = b t³/12``, ``Iy = t b³/12`` (Timoshenko & Gere, appendix "Properties of
+    plane areas"); the convention of :mod:`gpmegen.model.rfem`."""
+    b, t = float(width), float(thickness)
+    return Section(A=b * t, Iy=t * b**3 / 12.0, Iz=b * t**3 / 12.0)
+
+
+# --- statics of the cantilever (clamped at x = 0, free at x = L) -------------------------------
+
+def cantilever_uniform_load(w: float, L: float, EI: float) -> tuple[float, float]:
+    """Tip deflection (m) and tip rotation (rad) of a cantilever of length ``L`` (m) and
+    flexural rigidity ``EI`` (N·m²) under a uniform load ``w`` (N/m):
+    ``δ = w L⁴ / (8 EI)``, ``θ = w L³ / (6 EI)``.
+    Timoshenko & Gere, cantilever table, uniform load; Roark Table 8.1 case 2a (w_a = w_l)."""
+    return w * L**4 / (8.0 * EI), w * L**3 / (6.0 * EI)
+
+
+def cantilever_tip_force(P: float, L: float, EI: float) -> tuple[float, float]:
+    """Tip deflection (m) and rotation (rad) under a transverse force ``P`` (N) at the free end:
+    ``δ = P L³ / (3 EI)``, ``θ = P L² / (2 EI)``.
+    Timoshenko & Gere, cantilever table, concentrated load at the free end; Roark Table 8.1
+    case 1a (a = 0)."""
+    return P * L**3 / (3.0 * EI), P * L**2 / (2.0 * EI)
+
+
+def cantilever_tip_moment(M0: float, L: float, EI: float) -> tuple[float, float]:
+    """Tip deflection (m) and rotation (rad) under a couple ``M0`` (N·m) at the free end, turning
+    the tip in the sense of the deflection: ``δ = M0 L² / (2 EI)``, ``θ = M0 L / EI``.
+    Timoshenko & Gere, cantilever table, couple at the free end; Roark Table 8.1 case 3a
+    (a = 0)."""
+    return M0 * L**2 / (2.0 * EI), M0 * L / EI
+
+
+def cantilever_tip(L: float, EI: float, w: float = 0.0, P: float = 0.0, M0: float = 0.0) -> tuple[float, float]:
+    """Tip deflection (m) and rotation (rad) under a uniform load ``w`` (N/m), a tip force ``P``
+    (N) and a tip couple ``M0`` (N·m) together: the superposition of
+    :func:`cantilever_uniform_load`, :func:`cantilever_tip_force` and
+    :func:`cantilever_tip_moment` (linear theory, Timoshenko & Gere)."""
+    parts = (cantilever_uniform_load(w, L, EI), cantilever_tip_force(P, L, EI),
+             cantilever_tip_moment(M0, L, EI))
+    return sum(p[0] for p in parts), sum(p[1] for p in parts)
+
+
+# --- free vibration ----------------------------------------------------------------------------
+
+def cantilever_bending_frequency(EI: float, mass_per_length: float, L: float, mode: int = 1) -> float:
+    """Natural frequency (Hz) of bending mode ``mode`` (1, 2, …, 5) of a clamped–free
+    Euler–Bernoulli beam: ``f = λ² / (2π L²) · sqrt(EI / (ρA))``, ``λ₁ = 1.87510407``.
+    ``EI`` in N·m², ``mass_per_length`` = ρA in kg/m, ``L`` in m. Blevins, *Formulas for Natural
+    Frequency and Mode Shape*, ch. 8, single-span beam, clamped–free (no rotary inertia or
+    shear deformation)."""
+    lam = CLAMPED_FREE_LAMBDA[mode - 1]
+    return lam**2 / (2.0 * math.pi * L**2) * math.sqrt(EI / mass_per_length)
+
+
+def shaft_torsion_frequency(GJ: float, polar_inertia_per_length: float, L: float, mode: int = 1) -> float:
+    """Natural frequency (Hz) of torsional mode ``mode`` of a uniform shaft fixed at one end and
+    free at the other: ``f = (2 mode - 1) π / (2L) · sqrt(GJ / (ρ I_p)) / (2π)``.
+    ``GJ`` torsional rigidity (N·m²), ``polar_inertia_per_length`` = ρ·I_p (kg·m), I_p = Iy + Iz
+    the polar second moment of the section (Saint-Venant torsion, no warping inertia).
+    Blevins, ch. 8, torsional vibration of a shaft, fixed–free; Timoshenko, Young & Weaver,
+    *Vibration Problems in Engineering*, torsional vibration of shafts."""
+    return (2 * mode - 1) * math.pi / (2.0 * L) * math.sqrt(GJ / polar_inertia_per_length) / (2.0 * math.pi)
+
+
+# --- the reference arm -------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ArmReference:
+    """Beam-theory values of a clamped–free arm (SI units): self-weight tip deflection under
+    gravity ``g`` perpendicular to the arm (m), first vertical (about z, ``Iz``) and horizontal
+    (about y, ``Iy``) bending frequencies and first torsional frequency (Hz)."""
+
+    tip_deflection: float
+    vertical_bending: float
+    horizontal_bending: float
+    torsion: float
+
+
+def arm_reference(params: dict) -> ArmReference:
+    """:class:`ArmReference` of the reference arm from a parameter dict with the reference
+    names ``L2, b2, t2, rho2, E2, G2, J2, g`` (``model.params`` of a loaded model)."""
+    s = rectangular_section(params["b2"], params["t2"])
+    L, rho, E, G, J = (float(params[k]) for k in ("L2", "rho2", "E2", "G2", "J2"))
+    w = rho * s.A * float(params["g"])
+    return ArmReference(
+        tip_deflection=cantilever_uniform_load(w, L, E * s.Iz)[0],
+        vertical_bending=cantilever_bending_frequency(E * s.Iz, rho * s.A, L),
+        horizontal_bending=cantilever_bending_frequency(E * s.Iy, rho * s.A, L),
+        torsion=shaft_torsion_frequency(G * J, rho * s.Ip, L),
+    )
+
+
+def manipulator_arm_tip(params: dict, inclination: float) -> tuple[float, float]:
+    """Euler–Bernoulli estimate of the reference manipulator's arm-tip deflection (m,
+    perpendicular to the arm in its vertical plane, downwards positive) and rotation (rad) with
+    the arm clamped at ``inclination`` (rad above the horizontal) and the slider at ``x3 = 0``:
+    the arm's own weight, the slider's weight at the tip and the couple of the slider's weight
+    about the tip (its centre lies ``L3/2`` beyond the tip along the arm), each projected
+    perpendicular to the arm (factor ``cos(inclination)``). Axial loads (beam-column effect) and
+    large-deflection geometry are left out: the estimate is for small loads."""
+    s = rectangular_section(params["b2"], params["t2"])
+    L, rho, E = (float(params[k]) for k in ("L2", "rho2", "E2"))
+    g, m3, L3 = (float(params[k]) for k in ("g", "m3", "L3"))
+    c = math.cos(inclination)
+    w = rho * s.A * g * c
+    P = m3 * g * c
+    return cantilever_tip(L, E * s.Iz, w=w, P=P, M0=P * L3 / 2.0)
+
+
+__all__ = [
+    "CLAMPED_FREE_LAMBDA", "Section", "rectangular_section", "cantilever_uniform_load",
+    "cantilever_tip_force", "cantilever_tip_moment", "cantilever_tip",
+    "cantilever_bending_frequency", "shaft_torsion_frequency", "ArmReference", "arm_reference",
+    "manipulator_arm_tip",
+]
