@@ -81,11 +81,16 @@ def model_functions(d: Derivation) -> list[Function]:
     return fns
 
 
-def lower(fn: Function, d: Derivation, printer) -> Lowered:
-    """Straight-line code of ``fn``: the needed definitions, common subexpressions hoisted."""
+def prepare(fn: Function, d: Derivation):
+    """The needed definitions of ``fn`` with common subexpressions hoisted, and its outputs;
+    computed once and printed for every backend."""
     values = [v for out in fn.outputs for v in out.values]
-    definitions = d.program.closure(values)
-    body, outputs = eliminate(definitions, values)
+    return eliminate(d.program.closure(values), values)
+
+
+def lower(fn: Function, d: Derivation, printer, prepared=None) -> Lowered:
+    """Straight-line code of ``fn`` printed by ``printer``."""
+    body, outputs = prepared if prepared is not None else prepare(fn, d)
     free = set()
     for _, e in body:
         free |= e.free_symbols

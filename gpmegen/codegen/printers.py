@@ -24,7 +24,9 @@ class PythonPrinter(PythonCodePrinter):
     """Scalar Python using the ``math`` module."""
 
     def __init__(self, parameters):
-        super().__init__({"fully_qualified_modules": True, "standard": "python3"})
+        # order="none": print terms in SymPy's canonical argument order instead of sorting them
+        # again for display, which costs most of the printing time and changes nothing
+        super().__init__({"fully_qualified_modules": True, "standard": "python3", "order": "none"})
         self._parameters = set(parameters)
 
     def _print_Symbol(self, expr):
@@ -45,7 +47,7 @@ class CPrinter(C99CodePrinter):
     """C99 with ``math.h``; π as a literal so no feature macro is needed."""
 
     def __init__(self, parameters):
-        super().__init__()
+        super().__init__({"order": "none"})
         self._parameters = set(parameters)
 
     def _print_Symbol(self, expr):

@@ -23,7 +23,7 @@ from .. import __version__
 from ..errors import BuildError
 from ..model.chain import Model
 from ..symbolic import derive
-from .functions import lower, model_functions
+from .functions import lower, model_functions, prepare
 from .printers import CPrinter, PythonPrinter
 
 BACKEND_FILES = {"numpy": "model_numpy.py", "c": "model.c"}
@@ -112,9 +112,11 @@ def render(model: Model, backends=("numpy",), progress=None, command=None) -> di
     env = template_environment()
     files = {}
     printers = {"numpy": PythonPrinter(names), "c": CPrinter(names)}
+    say(f"common subexpressions of {len(fns)} functions")
+    prepared = [prepare(fn, d) for fn in fns]
     for backend in backends:
-        say(f"lowering {len(fns)} functions for the {backend} backend")
-        lowered = [lower(fn, d, printers[backend]) for fn in fns]
+        say(f"printing the {backend} backend")
+        lowered = [lower(fn, d, printers[backend], p) for fn, p in zip(fns, prepared)]
         template = env.get_template(BACKEND_FILES[backend] + ".j2")
         files[BACKEND_FILES[backend]] = template.render(functions=lowered, **context)
     manifest = {
