@@ -2,8 +2,8 @@
 
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
-Regenerate with: gpmegen build (manipulator_nrfe1)
-Input hash: dedb7106c83a77da
+Regenerate with: gpmegen build --nrfe 1
+Input hash: 47ae0c4ff3ab1ae5
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -65,11 +65,12 @@ void constraint_terms(double t, const double *q, const double *qd, const double 
 void baumgarte_gains(const double *p, double *out_alpha, double *out_beta);
 void energies(const double *q, const double *qd, const double *p, double *out_e);
 void gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
+int gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, double *M, double *f);
 int gpme_accelerations(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd);
-int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, long *n_saved);
+int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "dedb7106c83a77da"; }
+const char *gpmegen_input_hash(void) { return "47ae0c4ff3ab1ae5"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -94,7 +95,7 @@ void mass_matrix(const double *q, const double *p, double *out_M)
     const double p_R3 = p[14];
     const double x0 = cos(q_theta1);
     const double x1 = sin(q_theta1);
-    const double x2 = (1.0/4.0)*(p_R1*p_R1)*p_m1;
+    const double x2 = (1.0/4.0)*p_m1*(p_R1*p_R1);
     const double x3 = cos(q_psi2);
     const double x4 = sin(q_psi2);
     const double x5 = x0*x3;
@@ -103,19 +104,19 @@ void mass_matrix(const double *q, const double *p, double *out_M)
     const double x8 = x1*x4;
     const double x9 = p_h1*x0;
     const double x10 = -p_h1*x1;
-    const double x11 = (1.0/3.0)*(p_L2*p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x11 = (1.0/3.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2*p_L2);
     const double x12 = (1.0/12.0)*p_L2*p_b2*p_rho2*(p_t2*p_t2*p_t2);
-    const double x13 = (1.0/12.0)*p_L2*(p_b2*p_b2*p_b2)*p_rho2*p_t2;
-    const double x14 = (1.0/2.0)*(p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x13 = (1.0/12.0)*p_L2*p_rho2*p_t2*(p_b2*p_b2*p_b2);
+    const double x14 = (1.0/2.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2);
     const double x15 = p_L2*p_b2*p_rho2*p_t2;
     const double x16 = p_L2*x5;
-    const double x17 = p_L2*x4 + p_h1;
+    const double x17 = p_h1 + p_L2*x4;
     const double x18 = p_L2*x7;
-    const double x19 = q_x3*x5 + x16;
-    const double x20 = q_x3*x4 + x17;
-    const double x21 = q_x3*x7 + x18;
-    const double x22 = (1.0/3.0)*(p_L3*p_L3)*p_m3;
-    const double x23 = (1.0/4.0)*(p_R3*p_R3)*p_m3;
+    const double x19 = x16 + q_x3*x5;
+    const double x20 = x17 + q_x3*x4;
+    const double x21 = x18 + q_x3*x7;
+    const double x22 = (1.0/3.0)*p_m3*(p_L3*p_L3);
+    const double x23 = (1.0/4.0)*p_m3*(p_R3*p_R3);
     const double x24 = (1.0/2.0)*p_L3*p_m3;
     const double x25 = (x0*x0);
     const double x26 = (x1*x1);
@@ -130,7 +131,7 @@ void mass_matrix(const double *q, const double *p, double *out_M)
     const double x35 = p_h1*x14*x5 + x11*x4*x5 + x12*x3*x6;
     const double x36 = (x4*x4);
     const double x37 = (x3*x3);
-    const double x38 = (p_h1*p_h1)*x15 + 2.0*p_h1*x14*x4 + x11*x36 + x12*x37;
+    const double x38 = x11*x36 + x12*x37 + x15*(p_h1*p_h1) + 2.0*p_h1*x14*x4;
     const double x39 = x0*x1*x13 + x11*x5*x7 + x12*x6*x8;
     const double x40 = p_h1*x14*x7 + x11*x4*x7 + x12*x3*x8;
     const double x41 = (x7*x7);
@@ -142,12 +143,12 @@ void mass_matrix(const double *q, const double *p, double *out_M)
     const double x47 = p_m3*x19 + x24*x5;
     const double x48 = p_m3*x20 + x24*x4;
     const double x49 = p_m3*x21 + x24*x7;
-    const double x50 = p_m3*(x19*x19) + 2.0*x19*x24*x5 + x22*x32 + x23*x26 + x23*x33;
+    const double x50 = p_m3*(x19*x19) + x22*x32 + x23*x26 + x23*x33 + 2.0*x19*x24*x5;
     const double x51 = p_m3*x19*x20 + x19*x24*x4 + x20*x24*x5 + x22*x4*x5 + x23*x3*x6;
-    const double x52 = p_m3*(x20*x20) + 2.0*x20*x24*x4 + x22*x36 + x23*x37;
+    const double x52 = p_m3*(x20*x20) + x22*x36 + x23*x37 + 2.0*x20*x24*x4;
     const double x53 = p_m3*x19*x21 + x0*x1*x23 + x19*x24*x7 + x21*x24*x5 + x22*x5*x7 + x23*x6*x8;
     const double x54 = p_m3*x20*x21 + x20*x24*x7 + x21*x24*x4 + x22*x4*x7 + x23*x3*x8;
-    const double x55 = p_m3*(x21*x21) + 2.0*x21*x24*x7 + x22*x41 + x23*x25 + x23*x42;
+    const double x55 = p_m3*(x21*x21) + x22*x41 + x23*x25 + x23*x42 + 2.0*x21*x24*x7;
     const double x56 = x52 + x55;
     const double x57 = x50 + x55;
     const double x58 = x50 + x52;
@@ -163,12 +164,12 @@ void mass_matrix(const double *q, const double *p, double *out_M)
     const double x68 = x46 + x58;
     const double x69 = x28 + x65;
     const double x70 = x0*x66 + x1*x63 + x10*x61;
-    const double x71 = x0*x67 + x1*x64 - x10*x60 + x62*x9;
+    const double x71 = x0*x67 + x1*x64 + x62*x9 - x10*x60;
     const double x72 = x0*x68 + x1*x66 - x61*x9;
-    const double x73 = -x0*x61 + x59*x9;
+    const double x73 = x59*x9 - x0*x61;
     const double x74 = x1*x61 + x10*x59;
-    const double x75 = -x4*x49 + x48*x7;
-    const double x76 = -x47*x7 + x49*x5;
+    const double x75 = x48*x7 - x4*x49;
+    const double x76 = x49*x5 - x47*x7;
     const double x77 = x4*x47 - x48*x5;
     const double x78 = p_m3*x5;
     const double x79 = p_m3*x4;
@@ -226,25 +227,25 @@ void forces(double t, const double *q, const double *qd, const double *p, double
     const double x15 = qd_psi2*x0;
     const double x16 = qd_psi2*x8;
     const double x17 = qd_psi2*x9;
-    const double x18 = (1.0/3.0)*(p_L2*p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x18 = (1.0/3.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2*p_L2);
     const double x19 = (1.0/12.0)*p_L2*p_b2*p_rho2*(p_t2*p_t2*p_t2);
-    const double x20 = (1.0/12.0)*p_L2*(p_b2*p_b2*p_b2)*p_rho2*p_t2;
-    const double x21 = (1.0/2.0)*(p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x20 = (1.0/12.0)*p_L2*p_rho2*p_t2*(p_b2*p_b2*p_b2);
+    const double x21 = (1.0/2.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2);
     const double x22 = p_L2*p_b2*p_rho2*p_t2;
     const double x23 = p_L2*x4;
-    const double x24 = p_L2*x3 + p_h1;
+    const double x24 = p_h1 + p_L2*x3;
     const double x25 = p_L2*x6;
-    const double x26 = q_x3*x4 + x23;
-    const double x27 = q_x3*x3 + x24;
-    const double x28 = q_x3*x6 + x25;
-    const double x29 = qd_x3*(qd_theta1*x6 - x15*x3) + x12;
-    const double x30 = qd_x3*(-x14*x6 + x15*x4);
-    const double x31 = qd_x3*(-qd_theta1*x4 + x14*x3) + x13;
-    const double x32 = qd_x3*x4 + x16;
+    const double x26 = x23 + q_x3*x4;
+    const double x27 = x24 + q_x3*x3;
+    const double x28 = x25 + q_x3*x6;
+    const double x29 = x12 + qd_x3*(qd_theta1*x6 - x15*x3);
+    const double x30 = qd_x3*(x15*x4 - x14*x6);
+    const double x31 = x13 + qd_x3*(x14*x3 - qd_theta1*x4);
+    const double x32 = x16 + qd_x3*x4;
     const double x33 = qd_x3*x3;
-    const double x34 = qd_x3*x6 + x17;
-    const double x35 = (1.0/3.0)*(p_L3*p_L3)*p_m3;
-    const double x36 = (1.0/4.0)*(p_R3*p_R3)*p_m3;
+    const double x34 = x17 + qd_x3*x6;
+    const double x35 = (1.0/3.0)*p_m3*(p_L3*p_L3);
+    const double x36 = (1.0/4.0)*p_m3*(p_R3*p_R3);
     const double x37 = (1.0/2.0)*p_L3*p_m3;
     const double x38 = x21*x4;
     const double x39 = p_h1*x22 + x21*x3;
@@ -256,7 +257,7 @@ void forces(double t, const double *q, const double *qd, const double *p, double
     const double x45 = p_h1*x21*x4 + x18*x3*x4 + x19*x2*x5;
     const double x46 = (x3*x3);
     const double x47 = (x2*x2);
-    const double x48 = (p_h1*p_h1)*x22 + 2.0*p_h1*x21*x3 + x18*x46 + x19*x47;
+    const double x48 = x18*x46 + x19*x47 + x22*(p_h1*p_h1) + 2.0*p_h1*x21*x3;
     const double x49 = x0*x1*x20 + x18*x4*x6 + x19*x5*x7;
     const double x50 = p_h1*x21*x6 + x18*x3*x6 + x19*x2*x7;
     const double x51 = (x6*x6);
@@ -266,41 +267,41 @@ void forces(double t, const double *q, const double *qd, const double *p, double
     const double x55 = x48 + x54;
     const double x56 = x44 + x54;
     const double x57 = x44 + x48;
-    const double x58 = -qd_theta1*x45 + x14*x55 - x15*x49 + x17*x39;
-    const double x59 = qd_theta1*x56 - x14*x45 - x15*x50 + x16*x40 - x17*x38;
-    const double x60 = -qd_theta1*x50 - x14*x49 + x15*x57 - x16*x39;
-    const double x61 = qd_theta1*x40 - x15*x39 + x16*x22;
-    const double x62 = -x14*x40 + x15*x38;
-    const double x63 = -qd_theta1*x38 + x14*x39 + x17*x22;
-    const double x64 = qd_theta1*x60 + x10*x55 - x11*x49 + x13*x39 - x15*x59 - x17*x62;
-    const double x65 = -x10*x45 - x11*x50 + x12*x40 - x13*x38 - x14*x60 + x15*x58 - x16*x63 + x17*x61;
-    const double x66 = -qd_theta1*x58 - x10*x49 + x11*x57 - x12*x39 + x14*x59 + x16*x62;
-    const double x67 = qd_theta1*x63 - x11*x39 + x12*x22 - x15*x62;
-    const double x68 = -qd_theta1*x61 + x10*x39 + x13*x22 + x14*x62;
+    const double x58 = x14*x55 + x17*x39 - qd_theta1*x45 - x15*x49;
+    const double x59 = qd_theta1*x56 + x16*x40 - x14*x45 - x15*x50 - x17*x38;
+    const double x60 = x15*x57 - qd_theta1*x50 - x14*x49 - x16*x39;
+    const double x61 = qd_theta1*x40 + x16*x22 - x15*x39;
+    const double x62 = x15*x38 - x14*x40;
+    const double x63 = x14*x39 + x17*x22 - qd_theta1*x38;
+    const double x64 = qd_theta1*x60 + x10*x55 + x13*x39 - x11*x49 - x15*x59 - x17*x62;
+    const double x65 = x12*x40 + x15*x58 + x17*x61 - x10*x45 - x11*x50 - x13*x38 - x14*x60 - x16*x63;
+    const double x66 = x11*x57 + x14*x59 + x16*x62 - qd_theta1*x58 - x10*x49 - x12*x39;
+    const double x67 = qd_theta1*x63 + x12*x22 - x11*x39 - x15*x62;
+    const double x68 = x10*x39 + x13*x22 + x14*x62 - qd_theta1*x61;
     const double x69 = p_m3*x26 + x37*x4;
     const double x70 = p_m3*x27 + x3*x37;
     const double x71 = p_m3*x28 + x37*x6;
-    const double x72 = p_m3*(x26*x26) + 2.0*x26*x37*x4 + x35*x41 + x36*x42 + x36*x43;
+    const double x72 = p_m3*(x26*x26) + x35*x41 + x36*x42 + x36*x43 + 2.0*x26*x37*x4;
     const double x73 = p_m3*x26*x27 + x2*x36*x5 + x26*x3*x37 + x27*x37*x4 + x3*x35*x4;
-    const double x74 = p_m3*(x27*x27) + 2.0*x27*x3*x37 + x35*x46 + x36*x47;
+    const double x74 = p_m3*(x27*x27) + x35*x46 + x36*x47 + 2.0*x27*x3*x37;
     const double x75 = p_m3*x26*x28 + x0*x1*x36 + x26*x37*x6 + x28*x37*x4 + x35*x4*x6 + x36*x5*x7;
     const double x76 = p_m3*x27*x28 + x2*x36*x7 + x27*x37*x6 + x28*x3*x37 + x3*x35*x6;
-    const double x77 = p_m3*(x28*x28) + 2.0*x28*x37*x6 + x35*x51 + x36*x52 + x36*x53;
+    const double x77 = p_m3*(x28*x28) + x35*x51 + x36*x52 + x36*x53 + 2.0*x28*x37*x6;
     const double x78 = x74 + x77;
     const double x79 = x72 + x77;
     const double x80 = x72 + x74;
-    const double x81 = -qd_theta1*x73 + x14*x78 - x15*x75 - x33*x71 + x34*x70;
-    const double x82 = qd_theta1*x79 - x14*x73 - x15*x76 + x32*x71 - x34*x69;
-    const double x83 = -qd_theta1*x76 - x14*x75 + x15*x80 - x32*x70 + x33*x69;
+    const double x81 = x14*x78 + x34*x70 - qd_theta1*x73 - x15*x75 - x33*x71;
+    const double x82 = qd_theta1*x79 + x32*x71 - x14*x73 - x15*x76 - x34*x69;
+    const double x83 = x15*x80 + x33*x69 - qd_theta1*x76 - x14*x75 - x32*x70;
     const double x84 = p_m3*x32 + qd_theta1*x71 - x15*x70;
-    const double x85 = p_m3*x33 - x14*x71 + x15*x69;
-    const double x86 = p_m3*x34 - qd_theta1*x69 + x14*x70;
-    const double x87 = qd_theta1*x83 + x10*x78 - x11*x75 - x15*x82 - x30*x71 + x31*x70 + x33*x86 - x34*x85;
-    const double x88 = -x10*x73 - x11*x76 - x14*x83 + x15*x81 + x29*x71 - x31*x69 - x32*x86 + x34*x84;
-    const double x89 = -qd_theta1*x81 - x10*x75 + x11*x80 + x14*x82 - x29*x70 + x30*x69 + x32*x85 - x33*x84;
+    const double x85 = p_m3*x33 + x15*x69 - x14*x71;
+    const double x86 = p_m3*x34 + x14*x70 - qd_theta1*x69;
+    const double x87 = qd_theta1*x83 + x10*x78 + x31*x70 + x33*x86 - x11*x75 - x15*x82 - x30*x71 - x34*x85;
+    const double x88 = x15*x81 + x29*x71 + x34*x84 - x10*x73 - x11*x76 - x14*x83 - x31*x69 - x32*x86;
+    const double x89 = x11*x80 + x14*x82 + x30*x69 + x32*x85 - qd_theta1*x81 - x10*x75 - x29*x70 - x33*x84;
     const double x90 = p_m3*x29 + qd_theta1*x86 - x11*x70 - x15*x85;
-    const double x91 = p_m3*x30 - x10*x71 + x11*x69 - x14*x86 + x15*x84;
-    const double x92 = p_m3*x31 - qd_theta1*x84 + x10*x70 + x14*x85;
+    const double x91 = p_m3*x30 + x11*x69 + x15*x84 - x10*x71 - x14*x86;
+    const double x92 = p_m3*x31 + x10*x70 + x14*x85 - qd_theta1*x84;
     const double x93 = x38 + x69;
     const double x94 = x40 + x71;
     const double x95 = x64 + x87;
@@ -315,7 +316,7 @@ void forces(double t, const double *q, const double *qd, const double *p, double
     const double x104 = -x3*x91 - x4*x90 - x6*x92;
     const double x105 = p_g*x103;
     const double x106 = fmin(1.0, t/p_t0);
-    out_f[0] = p_tdr0*(x106*x106*x106)*(6.0*(x106*x106) - 15.0*x106 + 10.0) - x96;
+    out_f[0] = -x96 + p_tdr0*(x106*x106*x106)*(10.0 - 15.0*x106 + 6.0*(x106*x106));
     out_f[1] = x101 - x102;
     out_f[2] = x104 - x105;
 }
@@ -340,11 +341,11 @@ void static_residual(const double *q, const double *p, double *out_r)
     const double x3 = sin(q_psi2);
     const double x4 = x0*x2;
     const double x5 = -x1*x2;
-    const double x6 = (1.0/2.0)*(p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x6 = (1.0/2.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2);
     const double x7 = p_L2*x4;
     const double x8 = p_L2*x5;
-    const double x9 = q_x3*x4 + x7;
-    const double x10 = q_x3*x5 + x8;
+    const double x9 = x7 + q_x3*x4;
+    const double x10 = x8 + q_x3*x5;
     const double x11 = (1.0/2.0)*p_L3*p_m3;
     const double x12 = x4*x6;
     const double x13 = x5*x6;
@@ -384,16 +385,16 @@ void stiffness_jacobian(const double *q, const double *p, double *out_K)
     const double x5 = -x1*x2;
     const double x6 = p_h1*x0;
     const double x7 = -p_h1*x1;
-    const double x8 = (1.0/2.0)*(p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x8 = (1.0/2.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2);
     const double x9 = p_L2*p_b2*p_rho2*p_t2;
-    const double x10 = p_L2*x3 + p_h1;
-    const double x11 = q_x3*x3 + x10;
+    const double x10 = p_h1 + p_L2*x3;
+    const double x11 = x10 + q_x3*x3;
     const double x12 = (1.0/2.0)*p_L3*p_m3;
     const double x13 = p_h1*x9 + x3*x8;
     const double x14 = p_m3*x11 + x12*x3;
     const double x15 = p_m3 + x9;
     const double x16 = x13 + x14;
-    const double x17 = -x0*x16 + x15*x6;
+    const double x17 = x15*x6 - x0*x16;
     const double x18 = x1*x16 + x15*x7;
     const double x19 = p_m3*x4;
     const double x20 = p_m3*x5;
@@ -417,7 +418,7 @@ void drive_forces(double t, const double *p, double *out_Q)
     const double p_tdr0 = p[15];
     const double p_t0 = p[16];
     const double x0 = fmin(1.0, t/p_t0);
-    out_Q[0] = p_tdr0*(x0*x0*x0)*(6.0*(x0*x0) - 15.0*x0 + 10.0);
+    out_Q[0] = p_tdr0*(x0*x0*x0)*(10.0 - 15.0*x0 + 6.0*(x0*x0));
     out_Q[1] = 0.0;
     out_Q[2] = 0.0;
 }
@@ -439,14 +440,14 @@ void points(const double *q, const double *p, double *out_P)
     const double x4 = x0*x2;
     const double x5 = -x1*x2;
     const double x6 = p_L2*x4;
-    const double x7 = p_L2*x3 + p_h1;
+    const double x7 = p_h1 + p_L2*x3;
     const double x8 = p_L2*x5;
-    const double x9 = q_x3*x4 + x6;
-    const double x10 = q_x3*x3 + x7;
-    const double x11 = q_x3*x5 + x8;
-    const double x12 = p_L3*x4 + x9;
-    const double x13 = p_L3*x3 + x10;
-    const double x14 = p_L3*x5 + x11;
+    const double x9 = x6 + q_x3*x4;
+    const double x10 = x7 + q_x3*x3;
+    const double x11 = x8 + q_x3*x5;
+    const double x12 = x9 + p_L3*x4;
+    const double x13 = x10 + p_L3*x3;
+    const double x14 = x11 + p_L3*x5;
     out_P[0] = x12;
     out_P[1] = x13;
     out_P[2] = x14;
@@ -486,40 +487,40 @@ void constraint_terms(double t, const double *q, const double *qd, const double 
     const double x14 = qd_psi2*x6;
     const double x15 = qd_psi2*x7;
     const double x16 = p_L2*x4;
-    const double x17 = p_L2*x3 + p_h1;
+    const double x17 = p_h1 + p_L2*x3;
     const double x18 = p_L2*x5;
-    const double x19 = q_x3*x4 + x16;
-    const double x20 = q_x3*x3 + x17;
-    const double x21 = q_x3*x5 + x18;
-    const double x22 = qd_x3*(qd_theta1*x5 - x13*x3) + x10;
-    const double x23 = qd_x3*(-x12*x5 + x13*x4);
-    const double x24 = qd_x3*(-qd_theta1*x4 + x12*x3) + x11;
-    const double x25 = qd_x3*x4 + x14;
+    const double x19 = x16 + q_x3*x4;
+    const double x20 = x17 + q_x3*x3;
+    const double x21 = x18 + q_x3*x5;
+    const double x22 = x10 + qd_x3*(qd_theta1*x5 - x13*x3);
+    const double x23 = qd_x3*(x13*x4 - x12*x5);
+    const double x24 = x11 + qd_x3*(x12*x3 - qd_theta1*x4);
+    const double x25 = x14 + qd_x3*x4;
     const double x26 = qd_x3*x3;
-    const double x27 = qd_x3*x5 + x15;
-    const double x28 = p_L3*x4 + x19;
-    const double x29 = p_L3*x3 + x20;
-    const double x30 = p_L3*x5 + x21;
-    const double x31 = qd_theta1*x30 - x13*x29 + x25;
-    const double x32 = -x12*x30 + x13*x28 + x26;
-    const double x33 = -qd_theta1*x28 + x12*x29 + x27;
-    const double x34 = qd_theta1*x33 - x13*x32 + x22 - x29*x9;
-    const double x35 = -x12*x33 + x13*x31 + x23 + x28*x9 - x30*x8;
-    const double x36 = -qd_theta1*x31 + x12*x32 + x24 + x29*x8;
-    const double x37 = -x0*x29 + x6;
+    const double x27 = x15 + qd_x3*x5;
+    const double x28 = x19 + p_L3*x4;
+    const double x29 = x20 + p_L3*x3;
+    const double x30 = x21 + p_L3*x5;
+    const double x31 = x25 + qd_theta1*x30 - x13*x29;
+    const double x32 = x26 + x13*x28 - x12*x30;
+    const double x33 = x27 + x12*x29 - qd_theta1*x28;
+    const double x34 = x22 + qd_theta1*x33 - x13*x32 - x29*x9;
+    const double x35 = x23 + x13*x31 + x28*x9 - x12*x33 - x30*x8;
+    const double x36 = x24 + x12*x32 + x29*x8 - qd_theta1*x31;
+    const double x37 = x6 - x0*x29;
     const double x38 = x0*x28 - x1*x30;
-    const double x39 = x1*x29 + x7;
-    const double x40 = -(p_r_Ea*p_r_Ea) + (x28*x28) + (x30*x30);
+    const double x39 = x7 + x1*x29;
+    const double x40 = (x28*x28) + (x30*x30) - (p_r_Ea*p_r_Ea);
     const double x41 = 2.0*x28*x31 + 2.0*x30*x33;
     const double x42 = 2.0*x28*x37 + 2.0*x30*x39;
     const double x43 = 2.0*x28*x4 + 2.0*x30*x5;
-    const double x44 = 2.0*x28*x34 + 2.0*x30*x36 + 2.0*(x31*x31) + 2.0*(x33*x33);
+    const double x44 = 2.0*(x31*x31) + 2.0*(x33*x33) + 2.0*x28*x34 + 2.0*x30*x36;
     const double x45 = 1.0/p_T;
     const double x46 = 2.0*3.14159265358979323846*t*x45;
     const double x47 = cos(x46);
-    const double x48 = -p_A*x47 + x29 - p_y_c;
-    const double x49 = 2.0*3.14159265358979323846*p_A*x45*sin(x46) + x32;
-    const double x50 = 4.0*pow(3.14159265358979323846, 2.0)*p_A*x47/(p_T*p_T) + x35;
+    const double x48 = x29 - p_y_c - p_A*x47;
+    const double x49 = x32 + 2.0*3.14159265358979323846*p_A*x45*sin(x46);
+    const double x50 = x35 + 4.0*p_A*x47*pow(3.14159265358979323846, 2.0)/(p_T*p_T);
     out_phi[0] = x40;
     out_phi[1] = x48;
     out_phi_rate[0] = x41;
@@ -571,7 +572,7 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
     const double p_R3 = p[14];
     const double x0 = cos(q_theta1);
     const double x1 = sin(q_theta1);
-    const double x2 = (1.0/4.0)*(p_R1*p_R1)*p_m1;
+    const double x2 = (1.0/4.0)*p_m1*(p_R1*p_R1);
     const double x3 = (1.0/2.0)*p_h1*p_m1;
     const double x4 = cos(q_psi2);
     const double x5 = sin(q_psi2);
@@ -581,19 +582,19 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
     const double x9 = x1*x5;
     const double x10 = p_h1*x0;
     const double x11 = -p_h1*x1;
-    const double x12 = (1.0/3.0)*(p_L2*p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x12 = (1.0/3.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2*p_L2);
     const double x13 = (1.0/12.0)*p_L2*p_b2*p_rho2*(p_t2*p_t2*p_t2);
-    const double x14 = (1.0/12.0)*p_L2*(p_b2*p_b2*p_b2)*p_rho2*p_t2;
-    const double x15 = (1.0/2.0)*(p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x14 = (1.0/12.0)*p_L2*p_rho2*p_t2*(p_b2*p_b2*p_b2);
+    const double x15 = (1.0/2.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2);
     const double x16 = p_L2*p_b2*p_rho2*p_t2;
     const double x17 = p_L2*x6;
-    const double x18 = p_L2*x5 + p_h1;
+    const double x18 = p_h1 + p_L2*x5;
     const double x19 = p_L2*x8;
-    const double x20 = q_x3*x6 + x17;
-    const double x21 = q_x3*x5 + x18;
-    const double x22 = q_x3*x8 + x19;
-    const double x23 = (1.0/3.0)*(p_L3*p_L3)*p_m3;
-    const double x24 = (1.0/4.0)*(p_R3*p_R3)*p_m3;
+    const double x20 = x17 + q_x3*x6;
+    const double x21 = x18 + q_x3*x5;
+    const double x22 = x19 + q_x3*x8;
+    const double x23 = (1.0/3.0)*p_m3*(p_L3*p_L3);
+    const double x24 = (1.0/4.0)*p_m3*(p_R3*p_R3);
     const double x25 = (1.0/2.0)*p_L3*p_m3;
     const double x26 = (x0*x0);
     const double x27 = (x1*x1);
@@ -608,7 +609,7 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
     const double x36 = p_h1*x15*x6 + x12*x5*x6 + x13*x4*x7;
     const double x37 = (x5*x5);
     const double x38 = (x4*x4);
-    const double x39 = (p_h1*p_h1)*x16 + 2.0*p_h1*x15*x5 + x12*x37 + x13*x38;
+    const double x39 = x12*x37 + x13*x38 + x16*(p_h1*p_h1) + 2.0*p_h1*x15*x5;
     const double x40 = x0*x1*x14 + x12*x6*x8 + x13*x7*x9;
     const double x41 = p_h1*x15*x8 + x12*x5*x8 + x13*x4*x9;
     const double x42 = (x8*x8);
@@ -620,12 +621,12 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
     const double x48 = p_m3*x20 + x25*x6;
     const double x49 = p_m3*x21 + x25*x5;
     const double x50 = p_m3*x22 + x25*x8;
-    const double x51 = p_m3*(x20*x20) + 2.0*x20*x25*x6 + x23*x33 + x24*x27 + x24*x34;
+    const double x51 = p_m3*(x20*x20) + x23*x33 + x24*x27 + x24*x34 + 2.0*x20*x25*x6;
     const double x52 = p_m3*x20*x21 + x20*x25*x5 + x21*x25*x6 + x23*x5*x6 + x24*x4*x7;
-    const double x53 = p_m3*(x21*x21) + 2.0*x21*x25*x5 + x23*x37 + x24*x38;
+    const double x53 = p_m3*(x21*x21) + x23*x37 + x24*x38 + 2.0*x21*x25*x5;
     const double x54 = p_m3*x20*x22 + x0*x1*x24 + x20*x25*x8 + x22*x25*x6 + x23*x6*x8 + x24*x7*x9;
     const double x55 = p_m3*x21*x22 + x21*x25*x8 + x22*x25*x5 + x23*x5*x8 + x24*x4*x9;
-    const double x56 = p_m3*(x22*x22) + 2.0*x22*x25*x8 + x23*x42 + x24*x26 + x24*x43;
+    const double x56 = p_m3*(x22*x22) + x23*x42 + x24*x26 + x24*x43 + 2.0*x22*x25*x8;
     const double x57 = x53 + x56;
     const double x58 = x51 + x56;
     const double x59 = x51 + x53;
@@ -643,10 +644,10 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
     const double x71 = x0*x67 + x1*x64 + x11*x62;
     const double x72 = x0*x68 + x1*x65 + x10*x63 - x11*x61;
     const double x73 = x0*x69 + x1*x67 - x10*x62;
-    const double x74 = -x0*x62 + x10*x60;
+    const double x74 = x10*x60 - x0*x62;
     const double x75 = x1*x62 + x11*x60;
     const double x76 = x49*x8 - x5*x50;
-    const double x77 = -x48*x8 + x50*x6;
+    const double x77 = x50*x6 - x48*x8;
     const double x78 = x48*x5 - x49*x6;
     const double x79 = p_m3*x6;
     const double x80 = p_m3*x5;
@@ -688,7 +689,7 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     const double p_y_c = p[20];
     const double x0 = cos(q_theta1);
     const double x1 = sin(q_theta1);
-    const double x2 = (1.0/4.0)*(p_R1*p_R1)*p_m1;
+    const double x2 = (1.0/4.0)*p_m1*(p_R1*p_R1);
     const double x3 = cos(q_psi2);
     const double x4 = sin(q_psi2);
     const double x5 = x0*x3;
@@ -705,38 +706,38 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     const double x16 = qd_psi2*x0;
     const double x17 = qd_psi2*x9;
     const double x18 = qd_psi2*x10;
-    const double x19 = (1.0/3.0)*(p_L2*p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x19 = (1.0/3.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2*p_L2);
     const double x20 = (1.0/12.0)*p_L2*p_b2*p_rho2*(p_t2*p_t2*p_t2);
-    const double x21 = (1.0/12.0)*p_L2*(p_b2*p_b2*p_b2)*p_rho2*p_t2;
-    const double x22 = (1.0/2.0)*(p_L2*p_L2)*p_b2*p_rho2*p_t2;
+    const double x21 = (1.0/12.0)*p_L2*p_rho2*p_t2*(p_b2*p_b2*p_b2);
+    const double x22 = (1.0/2.0)*p_b2*p_rho2*p_t2*(p_L2*p_L2);
     const double x23 = p_L2*p_b2*p_rho2*p_t2;
     const double x24 = p_L2*x5;
-    const double x25 = p_L2*x4 + p_h1;
+    const double x25 = p_h1 + p_L2*x4;
     const double x26 = p_L2*x7;
-    const double x27 = q_x3*x5 + x24;
-    const double x28 = q_x3*x4 + x25;
-    const double x29 = q_x3*x7 + x26;
-    const double x30 = qd_x3*(qd_theta1*x7 - x16*x4) + x13;
-    const double x31 = qd_x3*(-x15*x7 + x16*x5);
-    const double x32 = qd_x3*(-qd_theta1*x5 + x15*x4) + x14;
-    const double x33 = qd_x3*x5 + x17;
+    const double x27 = x24 + q_x3*x5;
+    const double x28 = x25 + q_x3*x4;
+    const double x29 = x26 + q_x3*x7;
+    const double x30 = x13 + qd_x3*(qd_theta1*x7 - x16*x4);
+    const double x31 = qd_x3*(x16*x5 - x15*x7);
+    const double x32 = x14 + qd_x3*(x15*x4 - qd_theta1*x5);
+    const double x33 = x17 + qd_x3*x5;
     const double x34 = qd_x3*x4;
-    const double x35 = qd_x3*x7 + x18;
-    const double x36 = (1.0/3.0)*(p_L3*p_L3)*p_m3;
-    const double x37 = (1.0/4.0)*(p_R3*p_R3)*p_m3;
+    const double x35 = x18 + qd_x3*x7;
+    const double x36 = (1.0/3.0)*p_m3*(p_L3*p_L3);
+    const double x37 = (1.0/4.0)*p_m3*(p_R3*p_R3);
     const double x38 = (1.0/2.0)*p_L3*p_m3;
-    const double x39 = p_L3*x5 + x27;
-    const double x40 = p_L3*x4 + x28;
-    const double x41 = p_L3*x7 + x29;
-    const double x42 = qd_theta1*x41 - x16*x40 + x33;
-    const double x43 = -x15*x41 + x16*x39 + x34;
-    const double x44 = -qd_theta1*x39 + x15*x40 + x35;
-    const double x45 = qd_theta1*x44 - x12*x40 - x16*x43 + x30;
-    const double x46 = -x11*x41 + x12*x39 - x15*x44 + x16*x42 + x31;
-    const double x47 = -qd_theta1*x42 + x11*x40 + x15*x43 + x32;
-    const double x48 = -x0*x40 + x9;
+    const double x39 = x27 + p_L3*x5;
+    const double x40 = x28 + p_L3*x4;
+    const double x41 = x29 + p_L3*x7;
+    const double x42 = x33 + qd_theta1*x41 - x16*x40;
+    const double x43 = x34 + x16*x39 - x15*x41;
+    const double x44 = x35 + x15*x40 - qd_theta1*x39;
+    const double x45 = x30 + qd_theta1*x44 - x12*x40 - x16*x43;
+    const double x46 = x31 + x12*x39 + x16*x42 - x11*x41 - x15*x44;
+    const double x47 = x32 + x11*x40 + x15*x43 - qd_theta1*x42;
+    const double x48 = x9 - x0*x40;
     const double x49 = x0*x39 - x1*x41;
-    const double x50 = x1*x40 + x10;
+    const double x50 = x10 + x1*x40;
     const double x51 = (x0*x0);
     const double x52 = (x1*x1);
     const double x53 = x2*x51 + x2*x52;
@@ -750,7 +751,7 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     const double x61 = p_h1*x22*x5 + x19*x4*x5 + x20*x3*x6;
     const double x62 = (x4*x4);
     const double x63 = (x3*x3);
-    const double x64 = (p_h1*p_h1)*x23 + 2.0*p_h1*x22*x4 + x19*x62 + x20*x63;
+    const double x64 = x19*x62 + x20*x63 + x23*(p_h1*p_h1) + 2.0*p_h1*x22*x4;
     const double x65 = x0*x1*x21 + x19*x5*x7 + x20*x6*x8;
     const double x66 = p_h1*x22*x7 + x19*x4*x7 + x20*x3*x8;
     const double x67 = (x7*x7);
@@ -759,41 +760,41 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     const double x70 = x64 + x69;
     const double x71 = x60 + x69;
     const double x72 = x60 + x64;
-    const double x73 = -qd_theta1*x61 + x15*x70 - x16*x65 + x18*x56;
-    const double x74 = qd_theta1*x71 - x15*x61 - x16*x66 + x17*x57 - x18*x55;
-    const double x75 = -qd_theta1*x66 - x15*x65 + x16*x72 - x17*x56;
-    const double x76 = qd_theta1*x57 - x16*x56 + x17*x23;
-    const double x77 = -x15*x57 + x16*x55;
-    const double x78 = -qd_theta1*x55 + x15*x56 + x18*x23;
-    const double x79 = qd_theta1*x75 + x11*x70 - x12*x65 + x14*x56 - x16*x74 - x18*x77;
-    const double x80 = -x11*x61 - x12*x66 + x13*x57 - x14*x55 - x15*x75 + x16*x73 - x17*x78 + x18*x76;
-    const double x81 = -qd_theta1*x73 - x11*x65 + x12*x72 - x13*x56 + x15*x74 + x17*x77;
-    const double x82 = qd_theta1*x78 - x12*x56 + x13*x23 - x16*x77;
-    const double x83 = -qd_theta1*x76 + x11*x56 + x14*x23 + x15*x77;
+    const double x73 = x15*x70 + x18*x56 - qd_theta1*x61 - x16*x65;
+    const double x74 = qd_theta1*x71 + x17*x57 - x15*x61 - x16*x66 - x18*x55;
+    const double x75 = x16*x72 - qd_theta1*x66 - x15*x65 - x17*x56;
+    const double x76 = qd_theta1*x57 + x17*x23 - x16*x56;
+    const double x77 = x16*x55 - x15*x57;
+    const double x78 = x15*x56 + x18*x23 - qd_theta1*x55;
+    const double x79 = qd_theta1*x75 + x11*x70 + x14*x56 - x12*x65 - x16*x74 - x18*x77;
+    const double x80 = x13*x57 + x16*x73 + x18*x76 - x11*x61 - x12*x66 - x14*x55 - x15*x75 - x17*x78;
+    const double x81 = x12*x72 + x15*x74 + x17*x77 - qd_theta1*x73 - x11*x65 - x13*x56;
+    const double x82 = qd_theta1*x78 + x13*x23 - x12*x56 - x16*x77;
+    const double x83 = x11*x56 + x14*x23 + x15*x77 - qd_theta1*x76;
     const double x84 = p_m3*x27 + x38*x5;
     const double x85 = p_m3*x28 + x38*x4;
     const double x86 = p_m3*x29 + x38*x7;
-    const double x87 = p_m3*(x27*x27) + 2.0*x27*x38*x5 + x36*x58 + x37*x52 + x37*x59;
+    const double x87 = p_m3*(x27*x27) + x36*x58 + x37*x52 + x37*x59 + 2.0*x27*x38*x5;
     const double x88 = p_m3*x27*x28 + x27*x38*x4 + x28*x38*x5 + x3*x37*x6 + x36*x4*x5;
-    const double x89 = p_m3*(x28*x28) + 2.0*x28*x38*x4 + x36*x62 + x37*x63;
+    const double x89 = p_m3*(x28*x28) + x36*x62 + x37*x63 + 2.0*x28*x38*x4;
     const double x90 = p_m3*x27*x29 + x0*x1*x37 + x27*x38*x7 + x29*x38*x5 + x36*x5*x7 + x37*x6*x8;
     const double x91 = p_m3*x28*x29 + x28*x38*x7 + x29*x38*x4 + x3*x37*x8 + x36*x4*x7;
-    const double x92 = p_m3*(x29*x29) + 2.0*x29*x38*x7 + x36*x67 + x37*x51 + x37*x68;
+    const double x92 = p_m3*(x29*x29) + x36*x67 + x37*x51 + x37*x68 + 2.0*x29*x38*x7;
     const double x93 = x89 + x92;
     const double x94 = x87 + x92;
     const double x95 = x87 + x89;
-    const double x96 = -qd_theta1*x88 + x15*x93 - x16*x90 - x34*x86 + x35*x85;
-    const double x97 = qd_theta1*x94 - x15*x88 - x16*x91 + x33*x86 - x35*x84;
-    const double x98 = -qd_theta1*x91 - x15*x90 + x16*x95 - x33*x85 + x34*x84;
+    const double x96 = x15*x93 + x35*x85 - qd_theta1*x88 - x16*x90 - x34*x86;
+    const double x97 = qd_theta1*x94 + x33*x86 - x15*x88 - x16*x91 - x35*x84;
+    const double x98 = x16*x95 + x34*x84 - qd_theta1*x91 - x15*x90 - x33*x85;
     const double x99 = p_m3*x33 + qd_theta1*x86 - x16*x85;
-    const double x100 = p_m3*x34 - x15*x86 + x16*x84;
-    const double x101 = p_m3*x35 - qd_theta1*x84 + x15*x85;
-    const double x102 = qd_theta1*x98 - x100*x35 + x101*x34 + x11*x93 - x12*x90 - x16*x97 - x31*x86 + x32*x85;
-    const double x103 = -x101*x33 - x11*x88 - x12*x91 - x15*x98 + x16*x96 + x30*x86 - x32*x84 + x35*x99;
-    const double x104 = -qd_theta1*x96 + x100*x33 - x11*x90 + x12*x95 + x15*x97 - x30*x85 + x31*x84 - x34*x99;
+    const double x100 = p_m3*x34 + x16*x84 - x15*x86;
+    const double x101 = p_m3*x35 + x15*x85 - qd_theta1*x84;
+    const double x102 = qd_theta1*x98 + x101*x34 + x11*x93 + x32*x85 - x100*x35 - x12*x90 - x16*x97 - x31*x86;
+    const double x103 = x16*x96 + x30*x86 + x35*x99 - x101*x33 - x11*x88 - x12*x91 - x15*x98 - x32*x84;
+    const double x104 = x100*x33 + x12*x95 + x15*x97 + x31*x84 - qd_theta1*x96 - x11*x90 - x30*x85 - x34*x99;
     const double x105 = p_m3*x30 + qd_theta1*x101 - x100*x16 - x12*x85;
-    const double x106 = p_m3*x31 - x101*x15 - x11*x86 + x12*x84 + x16*x99;
-    const double x107 = p_m3*x32 - qd_theta1*x99 + x100*x15 + x11*x85;
+    const double x106 = p_m3*x31 + x12*x84 + x16*x99 - x101*x15 - x11*x86;
+    const double x107 = p_m3*x32 + x100*x15 + x11*x85 - qd_theta1*x99;
     const double x108 = p_m3 + x23;
     const double x109 = x55 + x84;
     const double x110 = x56 + x85;
@@ -811,14 +812,14 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     const double x122 = x107 + x83;
     const double x123 = x114 + x54;
     const double x124 = x0*x115 + x1*x112 + x10*x110;
-    const double x125 = x0*x116 + x1*x113 - x10*x109 + x111*x9;
+    const double x125 = x0*x116 + x1*x113 + x111*x9 - x10*x109;
     const double x126 = x0*x117 + x1*x115 - x110*x9;
-    const double x127 = -x0*x110 + x108*x9;
+    const double x127 = x108*x9 - x0*x110;
     const double x128 = x0*x109 - x1*x111;
     const double x129 = x1*x110 + x10*x108;
     const double x130 = -x0*x120 - x1*x118 - x10*x122 - x121*x9;
     const double x131 = p_g*x128;
-    const double x132 = -x4*x86 + x7*x85;
+    const double x132 = x7*x85 - x4*x86;
     const double x133 = x5*x86 - x7*x84;
     const double x134 = x4*x84 - x5*x85;
     const double x135 = p_m3*x5;
@@ -829,17 +830,17 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     const double x140 = x0*x126 + x1*x124 + x10*x129 + x127*x9;
     const double x141 = x0*x134 + x1*x132 + x10*x137 + x135*x9;
     const double x142 = x135*x5 + x136*x4 + x137*x7;
-    const double x143 = -(p_r_Ea*p_r_Ea) + (x39*x39) + (x41*x41);
+    const double x143 = (x39*x39) + (x41*x41) - (p_r_Ea*p_r_Ea);
     const double x144 = 2.0*x39*x42 + 2.0*x41*x44;
     const double x145 = 2.0*x39*x48 + 2.0*x41*x50;
     const double x146 = 2.0*x39*x5 + 2.0*x41*x7;
-    const double x147 = 2.0*x39*x45 + 2.0*x41*x47 + 2.0*(x42*x42) + 2.0*(x44*x44);
+    const double x147 = 2.0*(x42*x42) + 2.0*(x44*x44) + 2.0*x39*x45 + 2.0*x41*x47;
     const double x148 = 1.0/p_T;
     const double x149 = 2.0*3.14159265358979323846*t*x148;
     const double x150 = cos(x149);
-    const double x151 = -p_A*x150 + x40 - p_y_c;
-    const double x152 = 2.0*3.14159265358979323846*p_A*x148*sin(x149) + x43;
-    const double x153 = 4.0*pow(3.14159265358979323846, 2.0)*p_A*x150/(p_T*p_T) + x46;
+    const double x151 = x40 - p_y_c - p_A*x150;
+    const double x152 = x43 + 2.0*3.14159265358979323846*p_A*x148*sin(x149);
+    const double x153 = x46 + 4.0*p_A*x150*pow(3.14159265358979323846, 2.0)/(p_T*p_T);
     const double x154 = fmin(1.0, t/p_t0);
     out_M[0] = x123;
     out_M[1] = x125;
@@ -850,7 +851,7 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
     out_M[6] = x133;
     out_M[7] = x141;
     out_M[8] = x142;
-    out_f[0] = p_tdr0*(x154*x154*x154)*(6.0*(x154*x154) - 15.0*x154 + 10.0) - x119;
+    out_f[0] = -x119 + p_tdr0*(x154*x154*x154)*(10.0 - 15.0*x154 + 6.0*(x154*x154));
     out_f[1] = x130 - x131;
     out_f[2] = x138 - x139;
     out_phi[0] = x143;
@@ -872,15 +873,15 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 
 /* Solve a x = b in place for an n x n row-major matrix a (overwritten by its LU factors) and
    n_rhs right-hand sides b (n x n_rhs, row-major; overwritten by x). Gaussian elimination with
-   partial pivoting. Returns 1 when a pivot is zero, not finite, or below n * DBL_EPSILON times
-   the largest entry of a (numerically singular), else 0. */
+   partial pivoting. Returns 2 when an entry of a is not finite, 1 when a pivot is zero or below
+   n * DBL_EPSILON times the largest entry of a (numerically singular), else 0. */
 static int lu_solve(int n, double *a, int n_rhs, double *b)
 {
     double scale = 0.0;
     for (int i = 0; i < n * n; ++i) {
         double v = fabs(a[i]);
         if (!(v <= DBL_MAX)) {
-            return 1;
+            return 2;
         }
         if (v > scale) {
             scale = v;
@@ -944,16 +945,15 @@ static int lu_solve(int n, double *a, int n_rhs, double *b)
 /* Order of each programmed constraint: 0 position (Baumgarte 2 alpha, beta^2), 1 first order. */
 static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
 
-/* qdd (N_DOF) from the GPME with Baumgarte terms. dependent (N_CONSTRAINTS) and independent
-   (N_INDEPENDENT) index q. With X = D_dc^-1 D_ic, B = [I; -X] by coordinate index, the rows are
+/* qdd (N_DOF) from the GPME with Baumgarte terms, and the M (N_DOF x N_DOF) and f (N_DOF) it
+   was solved from. dependent (N_CONSTRAINTS) and independent (N_INDEPENDENT) index q. With X = D_dc^-1 D_ic, B = [I; -X] by coordinate index, the rows are
        B^T (M qdd - f) = 0                            one per independent coordinate,
        D qdd = -gamma - 2 alpha phi_rate - beta^2 phi  position constraints,
        D qdd = -gamma - alpha phi                     first-order constraints.
-   Returns 0, or 1 when D_dc or the assembled system is singular. */
-int gpme_accelerations(double t, const double *q, const double *qd, const double *p,
-                       const int *dependent, const int *independent, double *qdd)
+   Returns 0; 1 when D_dc or the assembled system is singular; 2 when M, f or D is not finite. */
+int gpme_motion(double t, const double *q, const double *qd, const double *p,
+                const int *dependent, const int *independent, double *qdd, double *M, double *f)
 {
-    double M[N_DOF * N_DOF], f[N_DOF];
     double phi[N_CONSTRAINTS], phi_rate[N_CONSTRAINTS], D[N_CONSTRAINTS * N_DOF], gam[N_CONSTRAINTS];
     double alpha[N_CONSTRAINTS], beta[N_CONSTRAINTS];
     double D_dc[N_CONSTRAINTS * N_CONSTRAINTS], X[N_CONSTRAINTS * N_INDEPENDENT];
@@ -971,8 +971,9 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
             X[a * N_INDEPENDENT + j] = D[a * N_DOF + independent[j]];
         }
     }
-    if (lu_solve(N_CONSTRAINTS, D_dc, N_INDEPENDENT, X)) {
-        return 1;
+    const int status = lu_solve(N_CONSTRAINTS, D_dc, N_INDEPENDENT, X);
+    if (status) {
+        return status;
     }
 
     /* Rows of B^T M and B^T f: row ind[j] minus sum_a X[a][j] times row dep[a]. */
@@ -1008,6 +1009,14 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 }
 
 
+/* qdd (N_DOF) alone; see gpme_motion. */
+int gpme_accelerations(double t, const double *q, const double *qd, const double *p,
+                       const int *dependent, const int *independent, double *qdd)
+{
+    double M[N_DOF * N_DOF], f[N_DOF];
+    return gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+}
+
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */
 
 static int all_finite(const double *x, int n)
@@ -1020,30 +1029,59 @@ static int all_finite(const double *x, int n)
     return 1;
 }
 
-static void save_state(long k, double t, const double *q, const double *qd,
-                       double *t_out, double *q_out, double *qd_out)
+static void save_state(long k, double t, const double *q, const double *qd, const double *w,
+                       double *t_out, double *q_out, double *qd_out, double *w_out)
 {
     t_out[k] = t;
     for (int i = 0; i < N_DOF; ++i) {
         q_out[k * N_DOF + i] = q[i];
         qd_out[k * N_DOF + i] = qd[i];
     }
+    w_out[2 * k] = w[0];
+    w_out[2 * k + 1] = w[1];
 }
 
-/* Classical RK4 on the state (q, qd) with qdd from gpme_accelerations, n_steps steps of dt from
-   t0; step k ends at t0 + k dt (no accumulated round-off in t). Saves the initial state and the
-   state after every save_every-th step into t_out (n_save), q_out and qd_out (n_save x N_DOF),
-   with n_save = 1 + n_steps / save_every; *n_saved counts the saved states.
-   Returns 0 when done, 1 at the first singular solve, 2 at the first non-finite state (that
-   state is not saved), 3 for invalid arguments; what was saved before a failure is kept. */
+/* One RK4 stage: qdd from the GPME, and the power of the drive (qd . Q) and of the constraint
+   forces (qd . (M qdd - f)) whose integrals close the energy balance. */
+static int stage(double t, const double *q, const double *qd, const double *p,
+                 const int *dependent, const int *independent, double *qdd, double *power)
+{
+    double M[N_DOF * N_DOF], f[N_DOF], Q[N_DOF];
+    const int status = gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+    if (status != 0) {
+        return status;
+    }
+    drive_forces(t, p, Q);
+    power[0] = 0.0;
+    power[1] = 0.0;
+    for (int i = 0; i < N_DOF; ++i) {
+        double r = -f[i];
+        for (int k = 0; k < N_DOF; ++k) {
+            r += M[i * N_DOF + k] * qdd[k];
+        }
+        power[0] += qd[i] * Q[i];
+        power[1] += qd[i] * r;
+    }
+    return 0;
+}
+
+/* Classical RK4 on the state (q, qd, w) with qdd from the GPME and w the work of the drive and
+   of the constraint forces (J), n_steps steps of dt from t0; step k ends at t0 + k dt (no
+   accumulated round-off in t). w0 (2) is the work at t0. Saves the initial state and the state
+   after every save_every-th step into t_out (n_save), q_out and qd_out (n_save x N_DOF) and
+   w_out (n_save x 2), with n_save = 1 + n_steps / save_every; *n_saved counts the saved states.
+   Returns 0 when done, 1 at the first singular solve, 2 at the first non-finite state or
+   stage (not saved), 3 for invalid arguments; what was saved before a failure is kept. */
 int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0,
-        const double *p, const int *dependent, const int *independent,
-        double *t_out, double *q_out, double *qd_out, long *n_saved)
+        const double *w0, const double *p, const int *dependent, const int *independent,
+        double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
 {
     double q[N_DOF], qd[N_DOF], qs[N_DOF], qds[N_DOF];
     double k1[N_DOF], k2[N_DOF], k3[N_DOF], k4[N_DOF];
+    double w[2], p1[2], p2[2], p3[2], p4[2];
     const double half = 0.5 * dt, sixth = dt / 6.0;
     long saved = 0;
+    int status;
 
     *n_saved = 0;
     if (n_steps < 0 || save_every < 1 || !isfinite(t0) || !isfinite(dt)) {
@@ -1053,38 +1091,40 @@ int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, c
         q[i] = q0[i];
         qd[i] = qd0[i];
     }
-    if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF)) {
+    w[0] = w0[0];
+    w[1] = w0[1];
+    if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF) || !all_finite(w, 2)) {
         return 2;
     }
-    save_state(saved++, t0, q, qd, t_out, q_out, qd_out);
+    save_state(saved++, t0, q, qd, w, t_out, q_out, qd_out, w_out);
     *n_saved = saved;
 
     for (long step = 0; step < n_steps; ++step) {
         const double t = t0 + (double)step * dt;
         /* k1..k4 are the accelerations; the velocity slopes are the stage velocities. */
-        if (gpme_accelerations(t, q, qd, p, dependent, independent, k1)) {
-            return 1;
+        if ((status = stage(t, q, qd, p, dependent, independent, k1, p1)) != 0) {
+            return status;
         }
         for (int i = 0; i < N_DOF; ++i) {
             qs[i] = q[i] + half * qd[i];
             qds[i] = qd[i] + half * k1[i];
         }
-        if (gpme_accelerations(t + half, qs, qds, p, dependent, independent, k2)) {
-            return 1;
+        if ((status = stage(t + half, qs, qds, p, dependent, independent, k2, p2)) != 0) {
+            return status;
         }
         for (int i = 0; i < N_DOF; ++i) {
             qs[i] = q[i] + half * (qd[i] + half * k1[i]);
             qds[i] = qd[i] + half * k2[i];
         }
-        if (gpme_accelerations(t + half, qs, qds, p, dependent, independent, k3)) {
-            return 1;
+        if ((status = stage(t + half, qs, qds, p, dependent, independent, k3, p3)) != 0) {
+            return status;
         }
         for (int i = 0; i < N_DOF; ++i) {
             qs[i] = q[i] + dt * (qd[i] + half * k2[i]);
             qds[i] = qd[i] + dt * k3[i];
         }
-        if (gpme_accelerations(t + dt, qs, qds, p, dependent, independent, k4)) {
-            return 1;
+        if ((status = stage(t + dt, qs, qds, p, dependent, independent, k4, p4)) != 0) {
+            return status;
         }
         for (int i = 0; i < N_DOF; ++i) {
             /* velocity slopes: qd, qd + dt/2 k1, qd + dt/2 k2, qd + dt k3 */
@@ -1092,11 +1132,14 @@ int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, c
                              + (qd[i] + dt * k3[i]));
             qd[i] += sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
+        for (int j = 0; j < 2; ++j) {
+            w[j] += sixth * (p1[j] + 2.0 * p2[j] + 2.0 * p3[j] + p4[j]);
+        }
         if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF)) {
             return 2;
         }
         if ((step + 1) % save_every == 0) {
-            save_state(saved++, t0 + (double)(step + 1) * dt, q, qd, t_out, q_out, qd_out);
+            save_state(saved++, t0 + (double)(step + 1) * dt, q, qd, w, t_out, q_out, qd_out, w_out);
             *n_saved = saved;
         }
     }

@@ -90,13 +90,16 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5))
     for k, r in enumerate(runs):
         E = r["end_effector"]
-        a1.plot(E[:, 0], E[:, 2], styles[k % 4], lw=1, label=label(r))
-        a2.plot(E[:, 0], E[:, 1], styles[k % 4], lw=1, label=label(r))
-        tag = r"$E'_r$" if "rigid" in label(r) else r"$E'_f$"
+        colour = "C0" if "rigid" in label(r) else "C2"
+        a1.plot(E[:, 0], E[:, 2], styles[k % 4], lw=1, color=colour, label=label(r))
+        a2.plot(E[:, 0], E[:, 1], styles[k % 4], lw=1, color=colour, label=label(r))
+        rigid = "rigid" in label(r)
+        tag = r"$E'_r$" if rigid else r"$E'_f$"
         for ax, (i, j) in ((a1, (0, 2)), (a2, (0, 1))):
-            ax.plot(E[0, i], E[0, j], "o", ms=7)
-            ax.annotate(tag, (E[0, i], E[0, j]),
-                        textcoords="offset points", xytext=(6, 6 + 12 * k))
+            ax.plot(E[0, i], E[0, j], "o", ms=7, color="C0" if rigid else "C2")
+            # the two starting points lie close together: put the tags on opposite sides
+            ax.annotate(tag, (E[0, i], E[0, j]), textcoords="offset points",
+                        xytext=(-22, 8) if rigid else (8, -14), fontsize=12)
     a1.set_xlabel("x0 [m]"), a1.set_ylabel("z0 [m]"), a1.set_aspect("equal", "datalim")
     a2.set_xlabel("x0 [m]"), a2.set_ylabel("y0 [m]")
     for ax in (a1, a2):

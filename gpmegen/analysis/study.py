@@ -76,13 +76,59 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     """The constrained motion from rest at ``q0``; returns a results dict (see
     :mod:`gpmegen.analysis.results`)."""
     qd0 = np.zeros(model.n_dof)
-    if method == "rk4":
+    if method == "rk4" and hasattr(model, "rk4"):
+        t, y, status = compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress, max_violation)
+    elif method == "rk4":
         t, y, status = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
                                      max_violation=max_violation)
     else:
         t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method)
     settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend)
     return collect(model, t, y, status, settings)
+
+
+C_STATUS = {1: "singular GPME system (D_dc or the assembled matrix)", 2: "non-finite state", 3: "invalid arguments"}
+
+
+def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_violation=None):
+    """RK4 entirely in C, called in chunks of about 0.05 s of simulated time so that progress is
+    shown, the constraint violation is watched and Ctrl-C or SIGTERM keep what was computed.
+    Returns ``(t, y, status)`` like :func:`gpmegen.runtime.integrate.rk4`."""
+    n = model.n_dof
+    n_steps = int(round(t_end / dt))
+    chunk = max(save_every, int(round(0.05 / dt / save_every)) * save_every)
+    ts, ys = [np.array([0.0])], [np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]]
+    q, qd, w, done, status = np.array(q0, float), np.array(qd0, float), np.zeros(2), 0, "complete"
+    bar = progress if progress is not None else integrate.Progress(t_end, "RK4", enabled=False)
+    with integrate.interruptible():
+        try:
+            while done < n_steps:
+                steps = min(chunk, n_steps - done)
+                t, qs, qds, ws, code = model.rk4(done * dt, dt, steps, q, qd, save_every, w)
+                y = np.column_stack([qs, qds, ws])
+                if len(t) > 1:
+                    ts.append(t[1:])
+                    ys.append(y[1:])
+                if code != 0:
+                    status = f"diverged: {C_STATUS.get(code, code)} after t = {t[-1]:.6g} s"
+                    break
+                q, qd, w = qs[-1], qds[-1], ws[-1]
+                done += steps
+                if steps % save_every:  # keep the chunk's last state even off the save grid
+                    ts.append(np.array([done * dt]))
+                    ys.append(y[-1:])
+                if max_violation is not None and len(model.constraint_names):
+                    phi = model.constraint_terms(done * dt, q, qd)[0]
+                    if np.max(np.abs(phi)) > max_violation:
+                        status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
+                                  f"{max_violation:.1e} at t = {done * dt:.6g} s")
+                        break
+                bar.update(done * dt)
+        except KeyboardInterrupt:
+            status = "interrupted"
+        finally:
+            bar.close()
+    return np.concatenate(ts), np.concatenate(ys), status
 
 
 def collect(model, t, y, status, settings) -> dict:

@@ -55,7 +55,7 @@ def state_derivative(model):
     return rhs
 
 
-class _Interrupt:
+class interruptible:
     """Turns SIGTERM into KeyboardInterrupt for the duration of a run, so partial results
     are kept on either signal."""
 
@@ -89,7 +89,7 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
     status = "complete"
     bar = progress if progress is not None else Progress(t_end - t0, "RK4", enabled=False)
     t = t0
-    with _Interrupt():
+    with interruptible():
         try:
             for k in range(1, n_steps + 1):
                 k1 = rhs(t, y)

@@ -51,6 +51,16 @@ class LoadedModel:
         ind = [k for k in range(self.n_dof) if k not in dep]
         return np.array(dep, dtype=int), np.array(ind, dtype=int)
 
+    def set_partition(self, dependent) -> None:
+        """Use the coordinates at indices ``dependent`` as the dependent ones (one per constraint)."""
+        dep = sorted(int(k) for k in dependent)
+        if len(dep) != len(self.constraint_names) or len(set(dep)) != len(dep) or not all(0 <= k < self.n_dof for k in dep):
+            raise ModelError(
+                f"need {len(self.constraint_names)} distinct dependent coordinate indices below {self.n_dof}, got {dependent!r}"
+            )
+        self.dependent = np.array(dep, dtype=int)
+        self.independent = np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int)
+
     def with_params(self, **overrides) -> "LoadedModel":
         """The same model with some parameter values changed (no rebuild)."""
         return type(self)(self.module, {**self.params, **overrides}, self.backend, self.folder)

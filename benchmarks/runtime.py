@@ -1,0 +1,101 @@
+"""Runtime of the NumPy and C backends: q̈ per call, compile time, RK4 per step.
+
+Run: ``.venv/bin/python benchmarks/runtime.py [--nrfe 1 5 10] [--quick]``. Models are loaded
+the usual way (``GPMEGEN_GENERATED`` / ``GPMEGEN_CACHE`` choose the folders); the compile time
+is the one recorded when the library was built (a cache hit reports the original build).
+
+For the reference case (n_rfe = 5) it then times the paper's run, 10 s at dt = 1e-5 (a million
+RK4 steps), entirely in C: for real when the per-step time says it takes under a minute, else
+extrapolated. ``--quick`` always extrapolates. The state is the paper's start with the flexible
+coordinates zero (not the static sag): the time per step does not depend on it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import timeit
+
+import numpy as np
+
+import gpmegen
+
+PAPER_DT, PAPER_T_END = 1e-5, 10.0
+
+
+def start_state(model):
+    q = np.zeros(model.n_dof)
+    q[model.index("psi2")] = np.pi / 4
+    return q, np.zeros(model.n_dof)
+
+
+def per_call(fn, budget=0.5):
+    """Seconds per call: the best of 5 repeats of a batch sized to ``budget`` / 5."""
+    fn()
+    n, elapsed = 1, 0.0
+    while elapsed < 0.02:
+        n *= 4
+        elapsed = timeit.timeit(fn, number=n)
+    number = max(1, int(n * budget / 5 / elapsed))
+    return min(timeit.repeat(fn, number=number, repeat=5)) / number
+
+
+def numpy_rk4_step(model, q, qd, t=0.1, dt=PAPER_DT):
+    k1 = model.accelerations(t, q, qd)
+    k2 = model.accelerations(t + dt / 2, q + dt / 2 * qd, qd + dt / 2 * k1)
+    k3 = model.accelerations(t + dt / 2, q + dt / 2 * (qd + dt / 2 * k1), qd + dt / 2 * k2)
+    k4 = model.accelerations(t + dt, q + dt * (qd + dt / 2 * k2), qd + dt * k3)
+    return (q + dt / 6 * (qd + 2 * (qd + dt / 2 * k1) + 2 * (qd + dt / 2 * k2) + qd + dt * k3),
+            qd + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4))
+
+
+def c_rk4_per_step(model, q, qd, n_steps):
+    t0 = time.perf_counter()
+    _, _, _, _, status = model.rk4(0.0, PAPER_DT, n_steps, q, qd, save_every=max(1, n_steps))
+    return (time.perf_counter() - t0) / n_steps, status
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--nrfe", type=int, nargs="+", default=[1, 5, 10])
+    ap.add_argument("--quick", action="store_true", help="never run the million-step loop")
+    args = ap.parse_args()
+
+    print(f"{'n_rfe':>5} {'n_dof':>5} {'compile [s]':>11} {'cache':>5} {'numpy q̈ [µs]':>13} {'C q̈ [µs]':>9} "
+          f"{'numpy step [µs]':>15} {'C step [µs]':>11} {'C/numpy':>8}")
+    rows = {}
+    for n in args.nrfe:
+        numpy_model = gpmegen.load(nrfe=n, backend="numpy")
+        c_model = gpmegen.load(nrfe=n, backend="c")
+        q, qd = start_state(c_model)
+        acc_np = per_call(lambda: numpy_model.accelerations(0.1, q, qd))
+        acc_c = per_call(lambda: c_model.accelerations(0.1, q, qd))
+        step_np = per_call(lambda: numpy_rk4_step(numpy_model, q, qd), budget=1.0)
+        step_c, _ = c_rk4_per_step(c_model, q, qd, max(2000, int(0.5 / (4 * acc_c))))
+        rows[n] = (c_model, step_c)
+        print(f"{n:>5} {c_model.n_dof:>5} {c_model.compile_seconds:>11.2f} {'hit' if not c_model.compiled else 'miss':>5} "
+              f"{acc_np * 1e6:>13.1f} {acc_c * 1e6:>9.2f} {step_np * 1e6:>15.1f} {step_c * 1e6:>11.2f} "
+              f"{step_c / step_np:>8.4f}", flush=True)
+    print("q̈: one model.accelerations call from Python (the C figure includes the cffi call);")
+    print("step: one RK4 step, a Python loop over model.accelerations (numpy) or inside the C rk4 loop (C).")
+
+    if 5 in rows:
+        c_model, step_c = rows[5]
+    else:
+        c_model = gpmegen.load(nrfe=5, backend="c")
+        step_c, _ = c_rk4_per_step(c_model, *start_state(c_model), 20000)
+    n_steps = int(round(PAPER_T_END / PAPER_DT))
+    estimate = step_c * n_steps
+    print(f"\npaper run, n_rfe = 5: {PAPER_T_END:g} s at dt = {PAPER_DT:g} ({n_steps} RK4 steps), C: "
+          f"extrapolated {estimate:.1f} s", flush=True)
+    if not args.quick and estimate < 60:
+        q, qd = start_state(c_model)
+        t0 = time.perf_counter()
+        t, _, _, _, status = c_model.rk4(0.0, PAPER_DT, n_steps, q, qd, save_every=100)
+        wall = time.perf_counter() - t0
+        print(f"actual: {wall:.1f} s ({wall / n_steps * 1e6:.2f} µs/step), status {status}, "
+              f"{len(t)} states saved, reached t = {t[-1]:g} s")
+
+
+if __name__ == "__main__":
+    main()

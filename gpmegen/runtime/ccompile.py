@@ -1,0 +1,297 @@
+"""Compiling a generated ``model.c`` into a shared library and loading it with cffi (ABI mode).
+
+The library is cached in ``$GPMEGEN_CACHE`` (default ``~/.cache/gpmegen/c/``) under a key, the
+sha256 of the source, the compiler (path and ``--version``) and the flags, so that any change to
+one of them builds a new library and an unchanged one is reused. Beside each ``<key>.so`` a
+``<key>.json`` records the library's own sha256 and the compile time: a library whose bytes no
+longer match (truncated, overwritten) or that fails to load is rebuilt. Builds go to a temporary
+file in the cache folder and are renamed into place, so two processes building the same key at
+once both end with a complete library.
+
+The functions to bind are the prototypes the template writes between ``/* cffi-cdef-begin */``
+and ``/* cffi-cdef-end */``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import BuildError
+
+#: Flags of every library build (``-shared -fPIC`` are added for linking). No ``-ffast-math``
+#: and no contraction into fused multiply-adds: the C backend evaluates the generated expressions
+#: with the same roundings as the NumPy one (bit for bit in practice) and sees non-finite values.
+DEFAULT_FLAGS = ("-O2", "-std=c99", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra")
+#: ``-Bsymbolic``: calls between the library's own functions (rk4 → gpme_terms) bind inside the
+#: library, never to a same-named symbol of another loaded model or library.
+LINK_FLAGS = ("-shared", "-fPIC") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux") else ())
+CDEF_BEGIN = "/* cffi-cdef-begin */"
+CDEF_END = "/* cffi-cdef-end */"
+COMPILERS = ("cc", "gcc", "clang")
+
+_lock = threading.Lock()
+_loaded: dict = {}          # library path -> (ffi, lib), so repeated loads reuse one handle
+_identities: dict = {}      # (compiler path, mtime) -> identity text
+
+
+def cache_directory() -> Path:
+    """Where compiled libraries live: ``$GPMEGEN_CACHE``, else ``$XDG_CACHE_HOME/gpmegen/c``
+    (``~/.cache/gpmegen/c``)."""
+    env = os.environ.get("GPMEGEN_CACHE")
+    if env:
+        return Path(env).expanduser()
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "gpmegen" / "c"
+
+
+def find_compiler() -> list[str]:
+    """The C compiler command (program and its fixed arguments): ``$CC`` when set, else the
+    first of cc, gcc, clang on ``PATH``. Raises :class:`BuildError` when there is none."""
+    env = os.environ.get("CC", "").strip()
+    if env:
+        argv = shlex.split(env)
+        path = shutil.which(argv[0])
+        if path is None:
+            raise BuildError(
+                f"the C compiler named by $CC ({env!r}) was not found; install it, point CC at a C "
+                f"compiler, or use backend='numpy'"
+            )
+        return [path, *argv[1:]]
+    for name in COMPILERS:
+        path = shutil.which(name)
+        if path is not None:
+            return [path]
+    raise BuildError(
+        "no C compiler found (looked for $CC, then " + ", ".join(COMPILERS) + " on PATH); the C backend "
+        "needs one: install gcc or clang (e.g. 'apt-get install gcc'), set CC, or use backend='numpy'"
+    )
+
+
+def compiler_identity(compiler: list[str]) -> str:
+    """The compiler's path, fixed arguments and ``--version`` output (part of the cache key)."""
+    path = compiler[0]
+    try:
+        stamp = os.stat(path).st_mtime_ns
+    except OSError:
+        stamp = None
+    cached = _identities.get((tuple(compiler), stamp))
+    if cached is not None:
+        return cached
+    try:
+        run = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise BuildError(f"the C compiler {path} cannot be run ({exc}); set CC to a working compiler "
+                         f"or use backend='numpy'") from None
+    if run.returncode != 0:
+        raise BuildError(f"'{path} --version' failed (exit {run.returncode}): {run.stderr.strip()[:500]}; "
+                         f"set CC to a working C compiler or use backend='numpy'")
+    identity = " ".join(compiler) + "\n" + run.stdout
+    _identities[(tuple(compiler), stamp)] = identity
+    return identity
+
+
+def library_key(source: str, identity: str, flags) -> str:
+    """sha256 of what the library depends on: source, compiler identity, flags."""
+    h = hashlib.sha256()
+    for part in (source, identity, "\0".join(flags)):
+        h.update(part.encode())
+        h.update(b"\0\0")
+    return h.hexdigest()
+
+
+def extract_cdef(source: str, origin="model.c") -> str:
+    """The prototypes between the cdef markers of a generated C file."""
+    start = source.find(CDEF_BEGIN)
+    end = source.find(CDEF_END)
+    if start < 0 or end < start:
+        raise BuildError(f"{origin} has no cffi declarations block; it is not a gpmegen C model "
+                         f"(regenerate it with 'gpmegen build --force')")
+    return source[start + len(CDEF_BEGIN):end]
+
+
+@dataclass
+class CompiledLibrary:
+    """A compiled model library: where it is, its key, and how it was obtained."""
+
+    path: Path
+    key: str
+    compiler: str
+    flags: tuple
+    compiled: bool          # built in this call (False: reused from the cache)
+    compile_seconds: float  # wall time of the compiler run that produced the library
+    rebuilt_reason: str | None = None  # why a cached library was not reused
+
+
+def _sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _read_meta(path: Path) -> dict | None:
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return meta if isinstance(meta, dict) else None
+
+
+def _cached_ok(lib_path: Path, meta_path: Path) -> tuple[bool, str | None, dict | None]:
+    if not lib_path.exists():
+        return False, None, None
+    meta = _read_meta(meta_path)
+    if meta is None:
+        return False, f"{meta_path.name} is missing or unreadable", None
+    try:
+        digest = _sha256_file(lib_path)
+    except OSError as exc:
+        return False, f"{lib_path.name} cannot be read ({exc.strerror})", None
+    if digest != meta.get("sha256"):
+        return False, f"{lib_path.name} does not match its recorded sha256 (truncated or overwritten)", None
+    return True, None, meta
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        os.fchmod(fd, 0o644)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _remove_abandoned(cache: Path, older_than=24 * 3600.0) -> None:
+    """Temporary files of builds that were killed before their rename."""
+    limit = time.time() - older_than
+    for path in cache.glob(".*.tmp"):
+        try:
+            if path.stat().st_mtime < limit:
+                path.unlink()
+        except OSError:
+            pass
+
+
+def _compile(compiler, flags, source_path: Path, lib_path: Path, meta_path: Path, key: str) -> float:
+    cache = lib_path.parent
+    _remove_abandoned(cache)
+    fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".so.tmp", dir=cache)
+    os.close(fd)
+    tmp = Path(tmp)
+    argv = [*compiler, *flags, *LINK_FLAGS, "-o", str(tmp), str(source_path), "-lm"]
+    t0 = time.perf_counter()
+    try:
+        try:
+            run = subprocess.run(argv, capture_output=True, text=True)
+        except OSError as exc:
+            raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
+                             f"working C compiler or use backend='numpy'") from None
+        seconds = time.perf_counter() - t0
+        if run.returncode != 0:
+            raise BuildError(
+                f"compiling {source_path} failed (exit {run.returncode}):\n{run.stderr.strip()[:4000]}\n"
+                f"command: {' '.join(shlex.quote(a) for a in argv)}"
+            )
+        digest = _sha256_file(tmp)
+        meta = {
+            "sha256": digest, "compile_seconds": seconds, "compiler": " ".join(compiler),
+            "flags": list(flags) + list(LINK_FLAGS), "source": str(source_path),
+            "built": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "warnings": run.stderr.strip()[:4000],
+        }
+        # The metadata first: a reader that sees the new library also sees its digest. If two
+        # builders interleave, a mismatch only causes one more rebuild later.
+        _write_atomic(meta_path, (json.dumps(meta, indent=2, sort_keys=True) + "\n").encode())
+        os.chmod(tmp, 0o755)
+        os.replace(tmp, lib_path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return seconds
+
+
+def build_library(source_path, flags=DEFAULT_FLAGS, cache=None) -> CompiledLibrary:
+    """The shared library of the C file ``source_path``: reused from the cache when its key
+    matches and its bytes are intact, else compiled. Raises :class:`BuildError` when no
+    compiler is found, the cache folder is not writable, or compilation fails."""
+    source_path = Path(source_path)
+    try:
+        source = source_path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise BuildError(f"cannot read {source_path} ({exc.strerror}); rebuild the model with "
+                         f"'gpmegen build --force'") from None
+    flags = tuple(flags)
+    compiler = find_compiler()
+    identity = compiler_identity(compiler)
+    key = library_key(source, identity, flags + LINK_FLAGS)
+    cache = Path(cache) if cache is not None else cache_directory()
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BuildError(f"cannot create the C cache folder {cache} ({exc.strerror}); set GPMEGEN_CACHE "
+                         f"to a writable folder") from None
+    lib_path, meta_path = cache / f"{key}.so", cache / f"{key}.json"
+    ok, reason, meta = _cached_ok(lib_path, meta_path)
+    if ok:
+        return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
+    seconds = _compile(compiler, flags, source_path, lib_path, meta_path, key)
+    return CompiledLibrary(lib_path, key, compiler[0], flags, True, seconds, reason)
+
+
+def _dlopen(path: Path, cdef: str):
+    import cffi
+
+    with _lock:
+        hit = _loaded.get(str(path))
+        if hit is not None and hit[2] == cdef:
+            return hit[0], hit[1]
+        ffi = cffi.FFI()
+        ffi.cdef(cdef)
+        lib = ffi.dlopen(str(path))
+        _loaded[str(path)] = (ffi, lib, cdef)
+        return ffi, lib
+
+
+def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None):
+    """Build (or reuse) and load the library of ``source_path``.
+
+    Returns ``(ffi, lib, info)`` with ``info`` a :class:`CompiledLibrary`. A cached library that
+    fails to load, or reports another input hash than ``expect_hash``, is rebuilt once."""
+    source_path = Path(source_path)
+    try:
+        cdef = extract_cdef(source_path.read_text(encoding="utf-8"), source_path)
+    except OSError as exc:
+        raise BuildError(f"cannot read {source_path} ({exc.strerror})") from None
+    info = build_library(source_path, flags, cache)
+    for attempt in (0, 1):
+        try:
+            ffi, lib = _dlopen(info.path, cdef)
+            got = ffi.string(lib.gpmegen_input_hash()).decode()
+            if expect_hash is not None and got != expect_hash:
+                raise BuildError(f"{info.path} reports input hash {got}, expected {expect_hash}")
+            return ffi, lib, info
+        except (OSError, AttributeError, BuildError) as exc:
+            if attempt or info.compiled:
+                raise BuildError(f"the compiled model {info.path} (from {source_path}) cannot be loaded: "
+                                 f"{exc}; delete it or the cache folder {info.path.parent} and retry") from None
+            with _lock:
+                _loaded.pop(str(info.path), None)
+            info.path.unlink(missing_ok=True)
+            reason = f"{info.path.name} failed to load ({exc})"
+            info = build_library(source_path, flags, cache)
+            info.rebuilt_reason = reason
+    raise AssertionError("unreachable")
