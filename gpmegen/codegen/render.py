@@ -182,11 +182,44 @@ def recover_folder(folder: Path) -> None:
         os.replace(olds[-1], folder)
 
 
+class _FolderLock:
+    """An exclusive lock on ``<out>/.<name>.lock`` so that concurrent builds of one model into
+    one folder take turns (the second then finds the first's result up to date)."""
+
+    def __init__(self, folder: Path):
+        self.path = folder.parent / f".{folder.name}.lock"
+
+    def __enter__(self):
+        import fcntl
+
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.handle = open(self.path, "a")
+        except OSError as exc:
+            raise BuildError(f"cannot write into {self.path.parent}: {exc.strerror}; choose a writable --out folder") from None
+        fcntl.flock(self.handle, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        import fcntl
+
+        fcntl.flock(self.handle, fcntl.LOCK_UN)
+        self.handle.close()
+        return False
+
+
 def build(model: Model, out: Path, backends=("numpy",), force=False, progress=None, command=None) -> BuildResult:
     """Generate ``model`` into ``out/<model name>/`` unless an up-to-date build is there."""
-    out = Path(out)
-    folder = out / model.name
+    folder = Path(out) / model.name
+    with _FolderLock(folder):
+        return _build_locked(model, folder, backends, force, progress, command)
+
+
+def _build_locked(model, folder, backends, force, progress, command) -> BuildResult:
     recover_folder(folder)
+    # Holding the lock, no other build writes here: temporary folders left by a killed build go.
+    for stale in folder.parent.glob(f".{folder.name}.tmp-*"):
+        shutil.rmtree(stale, ignore_errors=True)
     digest = input_hash(model, backends)
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
