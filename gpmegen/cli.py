@@ -210,6 +210,45 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def cmd_modes(args) -> int:
+    """Natural frequencies and mode shapes about the static equilibrium."""
+    from .analysis import modes, study
+
+    model = _load(args.nrfe, "numpy", dict(args.param or []))
+    if args.lock == "joints":
+        q_eq, result = modes.locked_modes(model)
+        where = "joints locked at the paper's start"
+    else:
+        model, q_eq = study.initial_state(model, "constrained", dict(args.param or []))
+        result = modes.constrained_modes(model, q_eq)
+        where = "programmed constraints holding (constrained equilibrium, column rotation held)"
+    print(f"n_rfe = {args.nrfe}, {where}:")
+    print(result.format(args.count))
+    out = Path(args.out)
+    _writable_folder(out)
+    stem = f"modes_nrfe{args.nrfe}_{args.lock}"
+    print(modes.write_modes_csv(result, out / f"{stem}.csv"))
+    print(modes.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
+    return 0
+
+
+def cmd_convergence(args) -> int:
+    """Tip deflection and first frequencies of the clamped arm against n_rfe, beside beam theory."""
+    import tempfile
+
+    from .analysis import modes
+
+    out = Path(args.out)
+    _writable_folder(out)
+    with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
+        directory = Path(args.directory) if args.directory else Path(tmp)
+        table = modes.convergence_table(args.nrfe, directory=directory, static=args.static,
+                                        progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
+    print(table.format())
+    print(modes.plot_convergence(table, out / "convergence.png"))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gpmegen",
@@ -255,6 +294,24 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--out", default="figures", help="folder for the figures (default figures/)")
     pl.add_argument("--format", choices=("png", "pdf", "svg"), default="png")
     pl.set_defaults(func=cmd_plot)
+
+    m = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium")
+    m.add_argument("--nrfe", type=positive_int, default=5, help="rigid finite elements of the arm (≥ 2 to have modes)")
+    m.add_argument("--lock", choices=("joints", "constraints"), default="joints",
+                   help="linearize with the joints locked, or with the programmed constraints holding")
+    m.add_argument("--count", type=positive_int, default=10, help="modes to print (default 10)")
+    m.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE")
+    m.add_argument("--out", default="figures", help="folder for the CSV and the figure (default figures/)")
+    m.set_defaults(func=cmd_modes)
+
+    c = sub.add_parser("convergence", help="clamped arm against n_rfe, beside Euler–Bernoulli and Saint-Venant")
+    c.add_argument("--nrfe", type=positive_int, nargs="+", default=[2, 3, 5, 8, 10, 15, 20],
+                   help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
+    c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
+                   help="static deflection from the linear stiffness solve or full Newton–Raphson")
+    c.add_argument("--directory", default=None, help="keep the built clamped-arm models here (default: temporary)")
+    c.add_argument("--out", default="figures", help="folder for convergence.png (default figures/)")
+    c.set_defaults(func=cmd_convergence)
 
     d = sub.add_parser("demo", help="the paper's study: rigid and flexible arms, figures")
     d.add_argument("--t-end", type=positive_float, default=10.0, help="simulated time in s (default 10)")

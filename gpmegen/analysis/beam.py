@@ -25,6 +25,10 @@ from dataclasses import dataclass
 # Roots of cos(λ)·cosh(λ) = -1, the clamped–free Euler–Bernoulli beam (Blevins, ch. 8).
 CLAMPED_FREE_LAMBDA = (1.87510407, 4.69409113, 7.85475744, 10.99554073, 14.13716839)
 
+# L²·∫φ'² dx / ∫φ² dx of the first clamped–free mode φ(x) = cosh λx/L - cos λx/L
+# - σ (sinh λx/L - sin λx/L), σ = (cosh λ + cos λ)/(sinh λ + sin λ), by quadrature (30 digits).
+CLAMPED_FREE_SLOPE_RATIO = 4.64777831867864
+
 
 @dataclass(frozen=True)
 class Section:
@@ -97,6 +101,26 @@ def cantilever_bending_frequency(EI: float, mass_per_length: float, L: float, mo
     return lam**2 / (2.0 * math.pi * L**2) * math.sqrt(EI / mass_per_length)
 
 
+def cantilever_bending_frequency_rotary(EI: float, mass_per_length: float, rotary_inertia_per_length: float,
+                                        L: float) -> float:
+    """First bending frequency (Hz) of a clamped–free beam with the rotary inertia of its
+    sections (a Rayleigh beam): ``f = f_EB / sqrt(1 + (ρI/ρA)·κ/L²)`` with
+    ``κ = L² ∫φ'² / ∫φ² = 4.6478`` of the first Euler–Bernoulli mode φ. This is Rayleigh's
+    quotient ``ω² = ∫EI φ''² / (∫ρA φ² + ∫ρI φ'²)`` evaluated with the Euler–Bernoulli mode
+    (Rayleigh, *The Theory of Sound*, vol. 1, §186 "rotatory inertia"; Timoshenko, Young &
+    Weaver, *Vibration Problems in Engineering*, "effect of rotatory inertia and shearing
+    force"), exact to first order in ``ρI/(ρA L²)`` (the next term is of order
+    ``(κ ρI/(ρA L²))²``, 4e-7 for the reference arm's horizontal bending).
+    ``rotary_inertia_per_length`` = ρI (kg·m) about the bending axis.
+
+    The rigid finite elements carry their sections' rotary inertia (``∫y² dm``, ``∫z² dm`` in
+    their pseudo-inertias), so this, not :func:`cantilever_bending_frequency`, is the limit of
+    the RFEM frequencies as ``n_rfe`` grows."""
+    ratio = rotary_inertia_per_length / mass_per_length
+    euler_bernoulli = cantilever_bending_frequency(EI, mass_per_length, L)
+    return euler_bernoulli / math.sqrt(1.0 + ratio * CLAMPED_FREE_SLOPE_RATIO / L**2)
+
+
 def shaft_torsion_frequency(GJ: float, polar_inertia_per_length: float, L: float, mode: int = 1) -> float:
     """Natural frequency (Hz) of torsional mode ``mode`` of a uniform shaft fixed at one end and
     free at the other: ``f = (2 mode - 1) π / (2L) · sqrt(GJ / (ρ I_p)) / (2π)``.
@@ -113,12 +137,16 @@ def shaft_torsion_frequency(GJ: float, polar_inertia_per_length: float, L: float
 class ArmReference:
     """Beam-theory values of a clamped–free arm (SI units): self-weight tip deflection under
     gravity ``g`` perpendicular to the arm (m), first vertical (about z, ``Iz``) and horizontal
-    (about y, ``Iy``) bending frequencies and first torsional frequency (Hz)."""
+    (about y, ``Iy``) Euler–Bernoulli bending frequencies and first torsional frequency (Hz);
+    ``*_rotary``: the bending frequencies with the sections' rotary inertia
+    (:func:`cantilever_bending_frequency_rotary`)."""
 
     tip_deflection: float
     vertical_bending: float
     horizontal_bending: float
     torsion: float
+    vertical_bending_rotary: float
+    horizontal_bending_rotary: float
 
 
 def arm_reference(params: dict) -> ArmReference:
@@ -132,6 +160,8 @@ def arm_reference(params: dict) -> ArmReference:
         vertical_bending=cantilever_bending_frequency(E * s.Iz, rho * s.A, L),
         horizontal_bending=cantilever_bending_frequency(E * s.Iy, rho * s.A, L),
         torsion=shaft_torsion_frequency(G * J, rho * s.Ip, L),
+        vertical_bending_rotary=cantilever_bending_frequency_rotary(E * s.Iz, rho * s.A, rho * s.Iz, L),
+        horizontal_bending_rotary=cantilever_bending_frequency_rotary(E * s.Iy, rho * s.A, rho * s.Iy, L),
     )
 
 
@@ -155,6 +185,7 @@ def manipulator_arm_tip(params: dict, inclination: float) -> tuple[float, float]
 __all__ = [
     "CLAMPED_FREE_LAMBDA", "Section", "rectangular_section", "cantilever_uniform_load",
     "cantilever_tip_force", "cantilever_tip_moment", "cantilever_tip",
-    "cantilever_bending_frequency", "shaft_torsion_frequency", "ArmReference", "arm_reference",
+    "cantilever_bending_frequency", "CLAMPED_FREE_SLOPE_RATIO", "cantilever_bending_frequency_rotary",
+    "shaft_torsion_frequency", "ArmReference", "arm_reference",
     "manipulator_arm_tip",
 ]
