@@ -338,6 +338,16 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"gpmegen {args.command}: interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"gpmegen {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # a defect: say so in one line, the traceback on request
+        if os.environ.get("GPMEGEN_DEBUG"):
+            raise
+        print(f"gpmegen {args.command}: internal error: {type(exc).__name__}: {exc} (this is a bug; rerun with "
+              f"GPMEGEN_DEBUG=1 for the traceback and report it)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

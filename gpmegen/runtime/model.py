@@ -36,6 +36,8 @@ class LoadedModel:
                 values[name] = float(value)
             except (TypeError, ValueError):
                 raise ModelError(f"parameter {name!r} must be a number, got {value!r}") from None
+            if not np.isfinite(values[name]):
+                raise ModelError(f"parameter {name!r} must be finite, got {value!r}")
         self.params: dict = values
         self.p = np.array([values[k] for k in self.parameter_names], dtype=float)
         self.dependent, self.independent = self._partition(module.DEPENDENT)
