@@ -31,8 +31,10 @@ from ..errors import BuildError
 
 #: Flags of every library build (``-shared -fPIC`` are added for linking). No ``-ffast-math``
 #: and no contraction into fused multiply-adds: the C backend evaluates the generated expressions
-#: with the same roundings as the NumPy one (bit for bit in practice) and sees non-finite values.
-DEFAULT_FLAGS = ("-O2", "-std=c99", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra")
+#: with the same roundings as the NumPy one (bit for bit in practice) and sees non-finite values;
+#: this matters because q̈ is sensitive to M and f by a condition number near 1e4 for the flexible
+#: arm. ``-march=native``: built for this machine's processor, which the cache key names.
+DEFAULT_FLAGS = ("-O3", "-march=native", "-std=c99", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra")
 #: ``-Bsymbolic``: calls between the library's own functions (rk4 → gpme_terms) bind inside the
 #: library, never to a same-named symbol of another loaded model or library.
 LINK_FLAGS = ("-shared", "-fPIC") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux") else ())
@@ -77,6 +79,18 @@ def find_compiler() -> list[str]:
     )
 
 
+def _processor() -> str:
+    """The processor model and flags (a library built with -march=native runs only there)."""
+    import platform
+
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return platform.machine() + " " + platform.processor()
+    lines = [ln for ln in text.splitlines() if ln.startswith(("model name", "flags", "Features", "CPU part"))]
+    return platform.machine() + "\n" + "\n".join(dict.fromkeys(lines))
+
+
 def compiler_identity(compiler: list[str]) -> str:
     """The compiler's path, fixed arguments and ``--version`` output (part of the cache key)."""
     path = compiler[0]
@@ -95,7 +109,7 @@ def compiler_identity(compiler: list[str]) -> str:
     if run.returncode != 0:
         raise BuildError(f"'{path} --version' failed (exit {run.returncode}): {run.stderr.strip()[:500]}; "
                          f"set CC to a working C compiler or use backend='numpy'")
-    identity = " ".join(compiler) + "\n" + run.stdout
+    identity = " ".join(compiler) + "\n" + run.stdout + "\n" + _processor()
     _identities[(tuple(compiler), stamp)] = identity
     return identity
 
