@@ -83,35 +83,71 @@ def _writable_folder(path: Path) -> None:
         raise UsageError(f"output folder {path} is not writable ({exc.strerror}); choose another --out") from None
 
 
+def _file_models(path, nrfe_values):
+    """(Model, rebuild command) for each n_rfe of a model file (its own default when None)."""
+    from .model.toml_file import read_model_file
+
+    out = []
+    for nrfe in nrfe_values or [None]:
+        model = read_model_file(path, nrfe=nrfe).model
+        command = f"gpmegen build {path}" + (f" --nrfe {nrfe}" if nrfe is not None else "")
+        out.append((model, command))
+    return out
+
+
+def _located(path, nrfe, action):
+    """Run ``action()``; a derivation error of a model file gets the file and line it comes from."""
+    from .errors import DerivationError
+
+    try:
+        return action()
+    except DerivationError as exc:
+        if path is None:
+            raise
+        from .model.toml_file import locate
+
+        raise locate(path, exc, nrfe) from None
+
+
 def cmd_build(args) -> int:
     from .codegen import build
     from .model import reference_model
 
     out = Path(args.out)
+    if args.model_file:
+        pairs = _file_models(args.model_file, args.nrfe)
+    else:
+        pairs = [(reference_model(n), f"gpmegen build --nrfe {n}") for n in (args.nrfe or [5])]
     _writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
     total = time.perf_counter()
-    for nrfe in args.nrfe:
-        model = reference_model(nrfe)
-        result = build(model, out, backends, force=args.force, progress=progress,
-                       command=f"gpmegen build --nrfe {nrfe}")
+    for model, command in pairs:
+        result = _located(args.model_file, None, lambda: build(model, out, backends, force=args.force,
+                                                                  progress=progress, command=command))
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
         print(f"{result.model}: n_dof = {result.n_dof}, {state}; {result.folder}: {sizes}")
-    if len(args.nrfe) > 1:
+    if len(pairs) > 1:
         print(f"total {time.perf_counter() - total:.2f} s")
     return 0
 
 
-def _load(nrfe, backend, params):
+def _load(source, backend, params):
+    """Load the reference case (``source`` an n_rfe) or a model file (``source`` a path)."""
     import gpmegen
 
+    if isinstance(source, int):
+        kw = dict(nrfe=source)
+    else:
+        (model, command), = _file_models(source[0], [source[1]] if source[1] else None)
+        kw = dict(model=model, command=command)
+    path = None if isinstance(source, int) else source[0]
     if backend == "c":
         try:
-            return gpmegen.load(nrfe=nrfe, backend="c", params=params, progress=progress)
+            return _located(path, None, lambda: gpmegen.load(backend="c", params=params, progress=progress, **kw))
         except BuildError as exc:
             progress(f"C backend unavailable ({exc}); using the NumPy backend")
-    return gpmegen.load(nrfe=nrfe, backend="numpy", params=params, progress=progress)
+    return _located(path, None, lambda: gpmegen.load(backend="numpy", params=params, progress=progress, **kw))
 
 
 def _default_backend() -> str:
@@ -120,31 +156,52 @@ def _default_backend() -> str:
     return "c" if find_compiler() else "numpy"
 
 
-def run_study(nrfe, start, t_end, dt, save_every, method, backend, overrides, out):
-    """Statics, then the constrained motion; writes ``out`` (.npz and .csv). Returns results."""
+def _start(source, backend, start, overrides):
+    """The loaded model with its constants set, and q0: the reference study's statics, or a model
+    file's [initial] configuration (projected onto the constraints, optionally after statics)."""
+    from .analysis import study
+
+    if isinstance(source, int):
+        model = _load(source, backend, {k: v for k, v in overrides.items() if k not in ("r_Ea", "y_c")})
+        progress(f"statics ({start} start) for n_rfe = {source}")
+        return study.initial_state(model, start, overrides)
+    from .model.toml_file import read_model_file
+
+    model = _load(source, backend, overrides)
+    initial = read_model_file(source[0], nrfe=source[1]).initial_values(model.params)
+    progress(f"start of {source[0]} ({start})")
+    return study.file_start(model, initial, start)
+
+
+def run_study(source, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
+    """Start, then the constrained motion; writes ``out`` (.npz and .csv). ``source``: an n_rfe
+    of the reference case, or ``(model file, n_rfe or None)``. Returns the results."""
     from .analysis import results as results_io
     from .analysis import study
 
     if out.suffix != ".npz":
         raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
     _writable_folder(out.parent)
-    model = _load(nrfe, backend, {k: v for k, v in overrides.items() if k not in ("r_Ea", "y_c")})
-    progress(f"statics ({start} start) for n_rfe = {nrfe}")
-    model, q0 = study.initial_state(model, start, overrides)
-    joints = ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in ("theta1", "psi2", "x3"))
-    progress(f"start: {joints}; r_Ea = {model.params['r_Ea']:.6g} m, y_c = {model.params['y_c']:.6g} m")
+    model, q0 = _start(source, backend, start, overrides)
+    reference = ("theta1", "psi2", "x3")
+    shown = list(reference) if set(reference) <= set(model.coordinates) else list(model.coordinates[:3])
+    progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
+             + (f"; r_Ea = {model.params['r_Ea']:.6g} m, y_c = {model.params['y_c']:.6g} m"
+                if isinstance(source, int) else ""))
     t0 = time.perf_counter()
     bar = None
+    label = f"n_rfe = {source}" if isinstance(source, int) else Path(source[0]).stem
     if method == "rk4":
         from .runtime.integrate import Progress
-        bar = Progress(t_end, f"n_rfe = {nrfe}", enabled=sys.stderr.isatty())
-    res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start)
+        bar = Progress(t_end, label, enabled=sys.stderr.isatty())
+    res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
+                         repartition=repartition, notify=progress)
     wall = time.perf_counter() - t0
     written = results_io.save(res, out)
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
-    final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in ("theta1", "psi2", "x3"))
-    print(f"n_rfe = {nrfe} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.4g} s in {wall:.1f} s; "
+    final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in shown)
+    print(f"{label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.4g} s in {wall:.1f} s; "
           f"{final}; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; wrote {', '.join(map(str, written))}")
     if status != "complete":
         kept = f"results up to t = {res['t'][-1]:.6g} s kept in {out} (marked partial)"
@@ -156,26 +213,37 @@ class SimulationStopped(GpmegenError):
     """The run ended early (diverged or interrupted); partial results were written."""
 
 
+def _source(args):
+    if args.model_file:
+        return (args.model_file, args.nrfe)
+    return args.nrfe or 5
+
+
 def cmd_simulate(args) -> int:
     if args.t_end < 0:
         raise UsageError(f"--t-end {args.t_end} is below zero; give the end time in seconds")
     backend = args.backend or _default_backend()
     overrides = dict(args.param or [])
-    run_study(args.nrfe, args.statics, args.t_end, args.dt, args.save_every, args.method, backend,
-              overrides, Path(args.out or f"results/run_nrfe{args.nrfe}.npz"))
+    source = _source(args)
+    start = args.statics or ("locked" if isinstance(source, int) else "initial")
+    if isinstance(source, int) and start == "initial":
+        raise UsageError("--statics initial is for model files; the reference case starts from statics")
+    name = f"run_nrfe{source}" if isinstance(source, int) else Path(args.model_file).stem
+    run_study(source, start, args.t_end, args.dt, args.save_every, args.method, backend,
+              overrides, Path(args.out or f"results/{name}.npz"), repartition=args.repartition)
     return 0
 
 
 def cmd_statics(args) -> int:
-    import gpmegen
-    from .analysis import study
-
-    model = gpmegen.load(nrfe=args.nrfe, params=dict(args.param or []), progress=progress)
-    model, q = study.initial_state(model, args.statics, dict(args.param or []))
+    source = _source(args)
+    start = args.statics or ("locked" if isinstance(source, int) else "initial")
+    model, q = _start(source, "numpy", start, dict(args.param or []))
     for name, value in zip(model.coordinates, q):
         print(f"{name:>10s} = {value: .9f}")
-    x, y, z = model.end_effector(q)
-    print(f"E = ({x:.9f}, {y:.9f}, {z:.9f}) m; r_Ea = {model.params['r_Ea']:.9f} m, y_c = {model.params['y_c']:.9f} m")
+    for name, (x, y, z) in zip(model.points, model.point_positions(q)):
+        print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
+    if isinstance(source, int):
+        print(f"r_Ea = {model.params['r_Ea']:.9f} m, y_c = {model.params['y_c']:.9f} m")
     return 0
 
 
@@ -258,8 +326,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     b = sub.add_parser("build", help="generate the NumPy and C modules of the reference manipulator")
-    b.add_argument("--nrfe", type=positive_int, nargs="+", default=[5],
-                   help="number of rigid finite elements of the arm (1: rigid); several allowed")
+    b.add_argument("model_file", nargs="?", help="a model description (.toml); default: the reference manipulator")
+    b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+                   help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", default="generated", help="output folder (default: generated/)")
     b.add_argument("--backend", choices=("numpy", "c", "all"), default="all",
                    help="backends to generate (both are always written; the NumPy one is the C one's oracle)")
@@ -267,9 +336,13 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_build)
 
     def study_options(p):
-        p.add_argument("--nrfe", type=positive_int, default=5, help="rigid finite elements of the arm (1: rigid)")
-        p.add_argument("--statics", choices=("locked", "constrained"), default="locked",
-                       help="start: the paper's locked-joint statics, or the equilibrium of the constrained system")
+        p.add_argument("model_file", nargs="?", help="a model description (.toml); default: the reference manipulator")
+        p.add_argument("--nrfe", type=positive_int, default=None,
+                       help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
+        p.add_argument("--statics", choices=("locked", "constrained", "initial"), default=None,
+                       help="start: the paper's locked-joint statics (default for the reference case), the "
+                            "equilibrium of the constrained system, or a model file's [initial] configuration "
+                            "(its default)")
         p.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
                        help="override a parameter (repeatable), e.g. --param tdr0=2")
 
@@ -282,7 +355,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="integrator: fixed-step rk4 (paper) or an adaptive scipy method")
     s.add_argument("--backend", choices=("numpy", "c"), default=None,
                    help="generated code to run (default: c when a compiler is present)")
-    s.add_argument("--out", default=None, help="results file .npz (default results/run_nrfe<N>.npz)")
+    s.add_argument("--out", default=None, help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
+    s.add_argument("--repartition", action="store_true",
+                   help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.set_defaults(func=cmd_simulate)
 
     st = sub.add_parser("statics", help="print the static start configuration")

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 6bca5e7b0b05464c
+Input hash: eefc7a1e6a499dd0
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -70,7 +70,7 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "6bca5e7b0b05464c"; }
+const char *gpmegen_input_hash(void) { return "eefc7a1e6a499dd0"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -871,6 +871,7 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
+
 /* Solve a x = b in place for an n x n row-major matrix a (overwritten by its LU factors) and
    n_rhs right-hand sides b (n x n_rhs, row-major; overwritten by x). Gaussian elimination with
    partial pivoting. Returns 2 when an entry of a is not finite, 1 when a pivot is zero or below
@@ -942,72 +943,167 @@ static int lu_solve(int n, double *a, int n_rhs, double *b)
 }
 
 
+/* Cholesky factorization in place of the symmetric positive definite n x n row-major a (lower
+   triangle used and overwritten by L, a = L L^T); inv_diag (n) receives 1 / L_ii. Returns 2
+   when an entry is not finite, 1 when a is not numerically positive definite, else 0. */
+static int cholesky(int n, double *a, double *inv_diag)
+{
+    double scale = 0.0;
+    for (int i = 0; i < n; ++i) {
+        if (!(fabs(a[i * n + i]) <= DBL_MAX)) {
+            return 2;
+        }
+        if (a[i * n + i] > scale) {
+            scale = a[i * n + i];
+        }
+    }
+    const double tiny = (double)n * DBL_EPSILON * scale;
+    for (int j = 0; j < n; ++j) {
+        double d = a[j * n + j];
+        for (int k = 0; k < j; ++k) {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        if (!(d > tiny)) {
+            return isfinite(d) ? 1 : 2;
+        }
+        d = sqrt(d);
+        a[j * n + j] = d;
+        const double inv = 1.0 / d;
+        inv_diag[j] = inv;
+        for (int i = j + 1; i < n; ++i) {
+            double s = a[i * n + j];
+            for (int k = 0; k < j; ++k) {
+                s -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = s * inv;
+        }
+    }
+    return 0;
+}
+
+/* Solve L L^T x = b in place (b: n entries) with the factor and inv_diag from cholesky(). */
+static void cholesky_solve(int n, const double *L, const double *inv_diag, double *b)
+{
+    for (int i = 0; i < n; ++i) {
+        double s = b[i];
+        for (int k = 0; k < i; ++k) {
+            s -= L[i * n + k] * b[k];
+        }
+        b[i] = s * inv_diag[i];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double s = b[i];
+        for (int k = i + 1; k < n; ++k) {
+            s -= L[k * n + i] * b[k];
+        }
+        b[i] = s * inv_diag[i];
+    }
+}
+
+
 /* Order of each programmed constraint: 0 position (Baumgarte 2 alpha, beta^2), 1 first order. */
 static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
 
-/* qdd (N_DOF) from the GPME with Baumgarte terms, and the M (N_DOF x N_DOF) and f (N_DOF) it
-   was solved from. dependent (N_CONSTRAINTS) and independent (N_INDEPENDENT) index q. With X = D_dc^-1 D_ic, B = [I; -X] by coordinate index, the rows are
-       B^T (M qdd - f) = 0                            one per independent coordinate,
-       D qdd = -gamma - 2 alpha phi_rate - beta^2 phi  position constraints,
-       D qdd = -gamma - alpha phi                     first-order constraints.
-   Returns 0; 1 when D_dc or the assembled system is singular; 2 when M, f or D is not finite. */
-int gpme_motion(double t, const double *q, const double *qd, const double *p,
-                const int *dependent, const int *independent, double *qdd, double *M, double *f)
+/* The GPME with Baumgarte terms (paper eqs. 12-16):
+       B^T (M qdd - f) = 0                             one row per independent coordinate,
+       D qdd = c,  c = -gamma - 2 alpha phi_rate - beta^2 phi   (position constraints)
+                   c = -gamma - alpha phi                       (first-order constraints),
+   with X = D_dc^-1 D_ic and B = [I; -X] arranged by coordinate index (dependent and independent
+   index q). Solved in the independent accelerations z = qdd_ic: every qdd meeting the constraint
+   rows is qdd = B z + qdd_p with qdd_p,dc = D_dc^-1 c and qdd_p,ic = 0, so the first rows become
+   the reduced system (B^T M B) z = B^T (f - M qdd_p), symmetric positive definite (Cholesky).
+   reaction (N_DOF) receives the generalized constraint forces M qdd - f.
+   Returns 0; 1 when D_dc or B^T M B is singular; 2 when a term is not finite. */
+static int gpme_solve(double t, const double *q, const double *qd, const double *p,
+                      const int *dependent, const int *independent,
+                      double *qdd, double *M, double *f, double *reaction)
 {
-    double phi[N_CONSTRAINTS], phi_rate[N_CONSTRAINTS], D[N_CONSTRAINTS * N_DOF], gam[N_CONSTRAINTS];
-    double alpha[N_CONSTRAINTS], beta[N_CONSTRAINTS];
-    double D_dc[N_CONSTRAINTS * N_CONSTRAINTS], X[N_CONSTRAINTS * N_INDEPENDENT];
-    double A[N_DOF * N_DOF];
+    enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
+    double phi[NC], phi_rate[NC], D[NC * N_DOF], gam[NC], alpha[NC], beta[NC];
+    double D_dc[NC * NC], X[NC * NX];  /* [D_dc^-1 D_ic | D_dc^-1 c] */
+    double MB[N_DOF * NI], R[NI * NI], inv_diag[NI > 0 ? NI : 1], z[NI > 0 ? NI : 1], g[N_DOF];
+    int status;
 
     gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
     baumgarte_gains(p, alpha, beta);
-
-    /* X = D_dc^-1 D_ic: the dependent velocities are -X times the independent ones. */
-    for (int a = 0; a < N_CONSTRAINTS; ++a) {
-        for (int b = 0; b < N_CONSTRAINTS; ++b) {
-            D_dc[a * N_CONSTRAINTS + b] = D[a * N_DOF + dependent[b]];
+    for (int a = 0; a < NC; ++a) {
+        for (int b = 0; b < NC; ++b) {
+            D_dc[a * NC + b] = D[a * N_DOF + dependent[b]];
         }
-        for (int j = 0; j < N_INDEPENDENT; ++j) {
-            X[a * N_INDEPENDENT + j] = D[a * N_DOF + independent[j]];
+        for (int j = 0; j < NI; ++j) {
+            X[a * NX + j] = D[a * N_DOF + independent[j]];
         }
+        X[a * NX + NI] = CONSTRAINT_ORDERS[a] == 0
+            ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
+            : -gam[a] - alpha[a] * phi[a];
     }
-    const int status = lu_solve(N_CONSTRAINTS, D_dc, N_INDEPENDENT, X);
-    if (status) {
+    if ((status = lu_solve(NC, D_dc, NX, X)) != 0) {
         return status;
     }
-
-    /* Rows of B^T M and B^T f: row ind[j] minus sum_a X[a][j] times row dep[a]. */
-    for (int j = 0; j < N_INDEPENDENT; ++j) {
-        const int i = independent[j];
-        double *row = A + j * N_DOF;
-        double rhs = f[i];
-        for (int k = 0; k < N_DOF; ++k) {
-            row[k] = M[i * N_DOF + k];
+    /* g = f - M qdd_p;  MB = M B (columns: M[:, ind j] - sum_a X[a][j] M[:, dep a]) */
+    for (int i = 0; i < N_DOF; ++i) {
+        double s = f[i];
+        for (int a = 0; a < NC; ++a) {
+            s -= M[i * N_DOF + dependent[a]] * X[a * NX + NI];
         }
-        for (int a = 0; a < N_CONSTRAINTS; ++a) {
-            const double x = X[a * N_INDEPENDENT + j];
-            const int d = dependent[a];
-            for (int k = 0; k < N_DOF; ++k) {
-                row[k] -= x * M[d * N_DOF + k];
+        g[i] = s;
+        for (int j = 0; j < NI; ++j) {
+            double v = M[i * N_DOF + independent[j]];
+            for (int a = 0; a < NC; ++a) {
+                v -= X[a * NX + j] * M[i * N_DOF + dependent[a]];
             }
-            rhs -= x * f[d];
+            MB[i * NI + j] = v;
         }
-        qdd[j] = rhs;
     }
-    for (int a = 0; a < N_CONSTRAINTS; ++a) {
-        double *row = A + (N_INDEPENDENT + a) * N_DOF;
+    /* R = B^T M B (lower triangle), z = B^T g */
+    for (int i = 0; i < NI; ++i) {
+        const int ii = independent[i];
+        double s = g[ii];
+        for (int a = 0; a < NC; ++a) {
+            s -= X[a * NX + i] * g[dependent[a]];
+        }
+        z[i] = s;
+        for (int j = 0; j <= i; ++j) {
+            double v = MB[ii * NI + j];
+            for (int a = 0; a < NC; ++a) {
+                v -= X[a * NX + i] * MB[dependent[a] * NI + j];
+            }
+            R[i * NI + j] = v;
+        }
+    }
+    if ((status = cholesky(NI, R, inv_diag)) != 0) {
+        return status;
+    }
+    cholesky_solve(NI, R, inv_diag, z);
+    for (int j = 0; j < NI; ++j) {
+        qdd[independent[j]] = z[j];
+    }
+    for (int a = 0; a < NC; ++a) {
+        double s = X[a * NX + NI];
+        for (int j = 0; j < NI; ++j) {
+            s -= X[a * NX + j] * z[j];
+        }
+        qdd[dependent[a]] = s;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        double s = -f[i];
         for (int k = 0; k < N_DOF; ++k) {
-            row[k] = D[a * N_DOF + k];
+            s += M[i * N_DOF + k] * qdd[k];
         }
-        if (CONSTRAINT_ORDERS[a] == 0) {
-            qdd[N_INDEPENDENT + a] = -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a];
-        } else {
-            qdd[N_INDEPENDENT + a] = -gam[a] - alpha[a] * phi[a];
-        }
+        reaction[i] = s;
     }
-    return lu_solve(N_DOF, A, 1, qdd);
+    return 0;
 }
 
+
+/* qdd (N_DOF) from the GPME, and the M (N_DOF x N_DOF) and f (N_DOF) it was solved from (see
+   gpme_solve). */
+int gpme_motion(double t, const double *q, const double *qd, const double *p,
+                const int *dependent, const int *independent, double *qdd, double *M, double *f)
+{
+    double reaction[N_DOF];
+    return gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, reaction);
+}
 
 /* qdd (N_DOF) alone; see gpme_motion. */
 int gpme_accelerations(double t, const double *q, const double *qd, const double *p,
@@ -1046,8 +1142,8 @@ static void save_state(long k, double t, const double *q, const double *qd, cons
 static int stage(double t, const double *q, const double *qd, const double *p,
                  const int *dependent, const int *independent, double *qdd, double *power)
 {
-    double M[N_DOF * N_DOF], f[N_DOF], Q[N_DOF];
-    const int status = gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+    double M[N_DOF * N_DOF], f[N_DOF], Q[N_DOF], reaction[N_DOF];
+    const int status = gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, reaction);
     if (status != 0) {
         return status;
     }
@@ -1055,12 +1151,8 @@ static int stage(double t, const double *q, const double *qd, const double *p,
     power[0] = 0.0;
     power[1] = 0.0;
     for (int i = 0; i < N_DOF; ++i) {
-        double r = -f[i];
-        for (int k = 0; k < N_DOF; ++k) {
-            r += M[i * N_DOF + k] * qdd[k];
-        }
         power[0] += qd[i] * Q[i];
-        power[1] += qd[i] * r;
+        power[1] += qd[i] * reaction[i];
     }
     return 0;
 }

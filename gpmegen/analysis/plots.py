@@ -31,6 +31,18 @@ def label(results) -> str:
     return f"{text} ({start} start)" if start and start != "locked" else text
 
 
+def joint_names(results) -> list:
+    """The coordinates to draw as joints: the paper's three for the reference case, else those
+    that are not sde rotations of a flexible link (at most four)."""
+    import re
+
+    names = [str(c) for c in results["coordinates"]]
+    if {"theta1", "psi2", "x3"} <= set(names):
+        return ["theta1", "psi2", "x3"]
+    sde = re.compile(r"^(psi|theta|phi).+_\d+$")
+    return [c for c in names if not sde.match(c)][:4] or names[:3]
+
+
 def _coordinate(results, name):
     names = [str(c) for c in results["coordinates"]]
     return results["q"][:, names.index(name)] if name in names else None
@@ -53,17 +65,20 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
     styles = ["-", "--", "-.", ":"]
 
     # Fig. 2: joint coordinates
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    joints = joint_names(runs[0])
+    fig, axes = plt.subplots(len(joints), 1, figsize=(8, 2.6 * len(joints) + 0.5), sharex=True, squeeze=False)
+    axes = axes[:, 0]
+    pretty = {"theta1": "θ1 [rad]", "psi2": "ψ2 [rad]", "x3": "x3 [m]"}
     for k, r in enumerate(runs):
-        for ax, (name, unit, scale) in zip(axes, [("theta1", "θ1 [rad]", 1), ("psi2", "ψ2 [rad]", 1), ("x3", "x3 [m]", 1)]):
+        for ax, name in zip(axes, joints):
             v = _coordinate(r, name)
             if v is not None:
-                ax.plot(r["t"], v * scale, styles[k % 4], label=label(r))
-            ax.set_ylabel(unit)
+                ax.plot(r["t"], v, styles[k % 4], label=label(r))
+            ax.set_ylabel(pretty.get(name, name))
             ax.grid(True, alpha=0.3)
     axes[0].legend()
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle("Joint coordinates (paper Fig. 2)")
+    fig.suptitle("Joint coordinates (paper Fig. 2)" if joints == ["theta1", "psi2", "x3"] else "Joint coordinates")
     written.append(_save(fig, out, "joint_coordinates", fmt))
     plt.close(fig)
 
@@ -94,7 +109,8 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
         a1.plot(E[:, 0], E[:, 2], styles[k % 4], lw=1, color=colour, label=label(r))
         a2.plot(E[:, 0], E[:, 1], styles[k % 4], lw=1, color=colour, label=label(r))
         rigid = "rigid" in label(r)
-        tag = r"$E'_r$" if rigid else r"$E'_f$"
+        reference = str(r["model"]).startswith("manipulator_nrfe")
+        tag = (r"$E'_r$" if rigid else r"$E'_f$") if reference else "start"
         for ax, (i, j) in ((a1, (0, 2)), (a2, (0, 1))):
             ax.plot(E[0, i], E[0, j], "o", ms=7, color="C0" if rigid else "C2")
             # the two starting points lie close together: put the tags on opposite sides

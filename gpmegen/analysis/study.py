@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SimulationError
-from ..runtime import integrate, statics
+from ..runtime import integrate, partition, statics
 
 START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
 
@@ -71,26 +71,51 @@ def initial_state(model, start="locked", overrides=None):
     return model, q
 
 
+def file_start(model, initial: dict, start="initial"):
+    """Start of a model file's run: the ``[initial]`` configuration (``initial``: coordinate name
+    → value), dependent coordinates chosen when the file says "auto", optionally the locked
+    statics first, then moved onto the constraints; ``start="constrained"`` then solves the
+    constrained equilibrium. Returns the model and q0 (n,)."""
+    q = np.zeros(model.n_dof)
+    for name, value in initial.items():
+        q[model.index(name)] = value
+    if model.dependent is None:
+        partition.partition_at(model, q)
+    if start == "locked":
+        q = statics.locked(model, q)
+    q = project_onto_constraints(model, q)
+    if start == "constrained":
+        q = statics.constrained(model, q)
+    elif start not in ("initial", "locked"):
+        raise ValueError(f"unknown start {start!r}: use 'initial', 'locked' or 'constrained'")
+    return model, q
+
+
 def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
-             start="locked"):
+             start="locked", repartition=False, notify=None):
     """The constrained motion from rest at ``q0``; returns a results dict (see
-    :mod:`gpmegen.analysis.results`)."""
+    :mod:`gpmegen.analysis.results`). The conditioning of the dependent block of ``D`` is
+    watched: ``notify`` (a callable taking a message) is told when it degrades, and with
+    ``repartition`` the dependent coordinates are chosen anew."""
     qd0 = np.zeros(model.n_dof)
+    watch = partition.Watch(model, repartition, notify)
     if method == "rk4" and hasattr(model, "rk4"):
-        t, y, status = compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress, max_violation)
+        t, y, status = compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress, max_violation, watch)
     elif method == "rk4":
         t, y, status = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
-                                     max_violation=max_violation)
+                                     max_violation=max_violation, watch=watch)
     else:
         t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method)
-    settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend)
+    settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
+                    dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
+                    repartitions=watch.events)
     return collect(model, t, y, status, settings)
 
 
 C_STATUS = {1: "singular GPME system (D_dc or the assembled matrix)", 2: "non-finite state", 3: "invalid arguments"}
 
 
-def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_violation=None):
+def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_violation=None, watch=None):
     """RK4 entirely in C, called in chunks of about 0.05 s of simulated time so that progress is
     shown, the constraint violation is watched and Ctrl-C or SIGTERM keep what was computed.
     Returns ``(t, y, status)`` like :func:`gpmegen.runtime.integrate.rk4`."""
@@ -123,6 +148,8 @@ def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_viola
                         status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
                                   f"{max_violation:.1e} at t = {done * dt:.6g} s")
                         break
+                if watch is not None:
+                    watch.check(done * dt, q)
                 bar.update(done * dt)
         except KeyboardInterrupt:
             status = "interrupted"

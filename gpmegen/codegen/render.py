@@ -40,8 +40,14 @@ def template_environment() -> jinja2.Environment:
         autoescape=False,
     )
     env.filters["repr"] = repr
+    env.filters["docstring"] = _docstring_text
     env.filters["wrap"] = _wrap
     return env
+
+
+def _docstring_text(text) -> str:
+    """Free text made safe inside a triple-quoted Python docstring."""
+    return str(text).replace("\\", "\\\\").replace('"""', '\\"\\"\\"')
 
 
 def _wrap(values, per_line=6, indent=8):
@@ -52,6 +58,8 @@ def _wrap(values, per_line=6, indent=8):
 
 
 GENERATOR_PACKAGES = ("model", "symbolic", "codegen")
+# Readers of model descriptions produce the Model, which is hashed itself.
+NOT_GENERATOR = frozenset({"model/toml_file.py"})
 
 
 def input_hash(model: Model, backends) -> str:
@@ -63,6 +71,8 @@ def input_hash(model: Model, backends) -> str:
     package = resources.files("gpmegen")
     for sub in GENERATOR_PACKAGES:
         for name in sorted(p.name for p in package.joinpath(sub).iterdir() if p.name.endswith(".py")):
+            if f"{sub}/{name}" in NOT_GENERATOR:
+                continue
             h.update(f"{sub}/{name}".encode())
             h.update(package.joinpath(sub, name).read_bytes())
     root = resources.files("gpmegen.templates")

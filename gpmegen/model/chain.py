@@ -10,6 +10,7 @@ plain numbers); nothing here does algebra beyond naming symbols.
 
 from __future__ import annotations
 
+import keyword
 import re
 from dataclasses import dataclass
 
@@ -25,7 +26,11 @@ RESERVED_NAMES = frozenset(
     {"t", "q", "qd", "p", "pi", "out", "math", "np", "numpy",
      "sin", "cos", "tan", "exp", "sqrt", "log", "abs", "min", "max", "fmin", "fmax", "double",
      "int", "void", "return", "if", "else", "for", "while", "const", "def", "lambda", "None",
-     "True", "False", "and", "or", "not", "in", "is", "import", "from", "class", "pass"}
+     "Abs", "Min", "Max", "atan2", "Integer", "Float", "Symbol", "Rational"}
+    | set(keyword.kwlist)
+    | {"auto", "break", "case", "char", "continue", "default", "do", "enum", "extern", "float", "goto",
+       "inline", "long", "register", "restrict", "short", "signed", "sizeof", "static", "struct",
+       "switch", "typedef", "union", "unsigned", "volatile", "isfinite", "fabs", "pow"}
 )
 
 # Names that stand bare in expressions (parameters, coordinates) must not shadow SymPy's own.

@@ -114,6 +114,16 @@ def expand(model: Model) -> FlatChain:
         raise ModelError(f"model {model.name!r} has no joints: add at least one joint")
 
     points = [e.name for e in elements if isinstance(e, Point)]
+    # names the constraint expressions give to points and velocities must not shadow a parameter
+    derived = {f"{c}_dot": f"velocity of coordinate {c!r}" for c in coordinates}
+    for name in points:
+        for a in "xyz":
+            for prefix, what in (("", "coordinate"), ("v", "velocity"), ("a", "acceleration")):
+                derived[f"{prefix}{a}_{name}"] = f"{what} {a} of point {name!r}"
+    for p in model.parameters:
+        if p.name in derived:
+            raise ModelError(f"parameter {p.name!r} has the name of the {derived[p.name]} in constraint "
+                             f"expressions: rename the parameter")
     for v in model.gravity:
         _check_expression(v, constant, "gravity")
     for drive in model.drives:

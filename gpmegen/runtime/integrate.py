@@ -77,9 +77,11 @@ class interruptible:
         return False
 
 
-def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None):
+def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None,
+        watch_every=1000):
     """Classical RK4 with fixed step ``dt`` (s) from ``t0`` to ``t_end``; every
-    ``save_every``-th step is kept. Returns ``(t, y, status)`` with ``y`` rows of the augmented
+    ``save_every``-th step is kept; ``watch`` (a :class:`gpmegen.runtime.partition.Watch`) looks at
+    the partition every ``watch_every`` steps. Returns ``(t, y, status)`` with ``y`` rows of the augmented
     state and ``status`` one of ``"complete"``, ``"interrupted"``, ``"diverged: …"``."""
     n = model.n_dof
     rhs = state_derivative(model)
@@ -109,6 +111,8 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
                         ts.append(t)
                         ys.append(y.copy())
                         break
+                if watch is not None and k % watch_every == 0:
+                    watch.check(t, y[:n])
                 if k % save_every == 0 or k == n_steps:
                     ts.append(t)
                     ys.append(y.copy())

@@ -46,13 +46,13 @@ def _check_nrfe(nrfe):
 
 
 def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,
-         directory=None, build: bool = True, progress=None):
+         directory=None, build: bool = True, progress=None, command=None):
     """The generated model ready to evaluate.
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
     rfes). ``params`` overrides parameter values. The model is built into ``directory`` (default
     :func:`default_directory`) when missing or stale, unless ``build=False``, which raises
-    :class:`StaleModelError` with the command to rebuild.
+    :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
     """
     from ..codegen.render import build as build_model
     from ..codegen.render import input_hash, read_manifest, recover_folder
@@ -61,7 +61,6 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
 
     if backend not in ("numpy", "c"):
         raise ModelError(f"unknown backend {backend!r}; use 'numpy' or 'c'")
-    command = None
     if model is None:
         _check_nrfe(nrfe)
         model = reference_model(nrfe)
@@ -75,11 +74,12 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     if manifest is None or manifest.get("input_hash") != digest or not (folder / "model_numpy.py").exists():
         if not build:
             why = "is missing" if manifest is None else "was generated from other inputs or another gpmegen version"
-            raise StaleModelError(f"{folder} {why}; rebuild it with 'gpmegen build --nrfe {nrfe} --force'")
+            raise StaleModelError(f"{folder} {why}; rebuild it with '{command or 'gpmegen build'} --force'")
         build_model(model, directory, backends, progress=progress, command=command)
     module = import_numpy_module(folder)
     if getattr(module, "INPUT_HASH", None) != digest:
-        raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with 'gpmegen build --force'")
+        raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
+                              f"'{command or 'gpmegen build'} --force'")
     if backend == "c":
         from .cmodel import CModel
         return CModel(module, params, folder=folder)

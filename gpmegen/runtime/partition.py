@@ -41,3 +41,37 @@ def partition_at(model, q, t=0.0):
     _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
     model.set_partition(choose_dependent(D))
     return tuple(model.coordinates[k] for k in model.dependent)
+
+
+class Watch:
+    """Watches the condition number of ``D_dc`` during a run: tells ``notify`` once when it
+    passes :data:`ILL_CONDITIONED`, and with ``repartition`` chooses the dependent coordinates
+    anew (each change is recorded in ``events`` as ``(t, old names, new names)``)."""
+
+    def __init__(self, model, repartition=False, notify=None, limit=ILL_CONDITIONED):
+        self.model, self.repartition, self.limit = model, repartition, limit
+        self.notify = notify or (lambda message: None)
+        self.warned = False
+        self.events: list = []
+
+    def check(self, t, q):
+        model = self.model
+        if not len(model.constraint_names) or model.dependent is None:
+            return
+        _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
+        c = condition(D, model.dependent)
+        if c <= self.limit:
+            return
+        names = tuple(model.coordinates[k] for k in model.dependent)
+        if self.repartition:
+            model.set_partition(choose_dependent(D))
+            new = tuple(model.coordinates[k] for k in model.dependent)
+            if new != names:
+                self.events.append((float(t), names, new))
+                self.notify(f"t = {t:.6g} s: D_dc of {', '.join(names)} has condition number {c:.2e}; "
+                            f"dependent coordinates are now {', '.join(new)}")
+        elif not self.warned:
+            self.warned = True
+            self.notify(f"warning: t = {t:.6g} s: the dependent block D_dc ({', '.join(names)}) has condition "
+                        f"number {c:.2e}; the GPME lose accuracy near this configuration: rerun with "
+                        f"--repartition or choose other dependent coordinates")

@@ -1,0 +1,1024 @@
+"""Model description files: a chain, its parameters, drives and programmed constraints in TOML.
+
+:func:`load_model_file` reads a file of schema version 1 with the standard library's
+``tomllib`` and returns a :class:`~gpmegen.model.Model`; :func:`read_model_file` returns it
+with the file's ``[initial]`` configuration; :func:`read_initial` gives that configuration as
+numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; in short::
+
+    schema = 1                            # required: the schema version
+    name = "arm_nrfe{nrfe}"               # required: "{nrfe}" becomes the n_rfe in use
+    description = "..."                  # optional
+    nrfe = 3                              # default n_rfe of the flexible links (optional)
+    gravity = [0, "-g", 0]                # m/s² in {0}, default [0, 0, 0]
+    dependent = ["psi2", "x3"]            # one coordinate per constraint, or "auto" (default)
+
+    [parameters]                          # in file order; the only names chain quantities use
+    g = { value = 9.81, unit = "m/s^2", doc = "gravitational acceleration" }
+    L3 = 0.5                              # bare number: unit "" and doc ""
+
+    [[chain]]                             # chain elements from the base outwards, one kind each:
+    joint = "theta1"                      #   joint: name, type, axis (+ stiffness, damping)
+    type = "revolute"                     #     "revolute" (rad) | "prismatic" (m)
+    axis = "y"                            #     "x" | "y" | "z" of the current frame
+    [[chain]]
+    translation = [0, "h1", 0]            #   offset: translation (m), then
+    rotations = [["z", "pi/2"]]           #     rotations [[axis, angle (rad)], ...]
+    [[chain]]
+    body = "column"                       #   body: a shape, or mass/center/inertia
+    shape = { type = "cylinder", mass = "m1", radius = "R1", length = "h1", axis = "y" }
+    [[chain]]
+    flexible = "2"                        #   flexible link: label (coordinates psi2_1, ...)
+    length = "L2"
+    section = { type = "rectangular", width = "b2", thickness = "t2" }
+    density = "rho2"
+    young_modulus = "E2"
+    shear_modulus = "G2"                  #   + torsion_constant, nrfe, damping = [dψ, dθ, dφ]
+    [[chain]]
+    point = "E"                           #   point: name, position (m) in the current frame
+    position = ["L3", 0, 0]
+
+    [[drives]]                            # generalized force on a coordinate, of t and parameters
+    coordinate = "theta1"
+    expression = "tdr0*Min(t/t0, 1)^3*(10 - 15*Min(t/t0, 1) + 6*Min(t/t0, 1)^2)"
+
+    [[constraints]]                       # order 0: Φ(points, q, t) = 0; order 1: linear in
+    name = "circle"                       # velocities; Baumgarte gains alpha, beta
+    expression = "x_E^2 + z_E^2 - r_Ea^2"
+    order = 0
+    alpha = "alpha_circle"
+    beta = "beta_circle"
+
+    [initial]                             # start configuration; unnamed coordinates are 0
+    q = { theta1 = 0, psi2 = "pi/4" }
+
+Body shapes: ``cylinder`` (mass, radius, length, axis: along ``axis`` from 0 to ``length``),
+``bar`` (mass, length, width, thickness: along x, thickness along y, width along z), ``rod``
+(mass, length, radius: along x), ``point_mass`` (mass, position); or ``mass``, ``center`` and
+``inertia`` (3x3 about the centre of mass, kg·m²) in the body table itself. Sections:
+``rectangular`` (width along the link's z, thickness along its y) or ``circular`` (radius).
+
+Quantities are numbers or expression strings. Chain quantities, gravity, Baumgarte gains and
+initial values may use parameters; drives also ``t``; constraints also coordinates, points
+``x_P, y_P, z_P`` and, when ``order = 1``, velocities ``<coordinate>_dot`` and
+``vx_P, vy_P, vz_P``. Functions: sin cos tan exp log sqrt Abs Min Max atan2; constant pi;
+operators ``+ - * / ** ^ ( ) ,``. Expressions are checked lexically and by name before SymPy's
+parser sees them, with a namespace holding only those names: user text is never ``eval``-ed
+or ``sympify``-ed as such.
+
+Errors raise :class:`~gpmegen.errors.ModelError` as ``"<file>:<line>: <field>: <problem>;
+<fix>"``; field paths count array entries from 0 (``chain[3].shape.mass`` is the fourth
+``[[chain]]``). :func:`locate` puts the same context on an error raised later from a model
+read here (e.g. the derivation's ``DerivationError``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import keyword
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import sympy as sp
+from tokenize import TokenError
+
+from sympy.parsing.sympy_parser import auto_number, convert_xor, parse_expr
+
+from ..errors import GpmegenError, ModelError
+from . import shapes
+from .chain import (
+    AXES, JOINT_KINDS, TIME, Body, CircularSection, Constraint, Drive, FlexibleLink, Joint, Model,
+    Offset, Parameter, Point, RectangularSection, check_name, point_symbols,
+    point_velocity_symbols, symbol, velocity_symbol,
+)
+from .expand import expand
+from .rfem import discretize
+
+SCHEMA = 1
+
+FUNCTIONS = {
+    "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt,
+    "Abs": sp.Abs, "Min": sp.Min, "Max": sp.Max, "atan2": sp.atan2,
+}
+CONSTANTS = {"pi": sp.pi}
+# What sympy_parser's auto_number emits (Integer, Float) and may emit (Rational, Symbol).
+PARSER_NAMES = {"Integer": sp.Integer, "Float": sp.Float, "Rational": sp.Rational, "Symbol": sp.Symbol}
+# Names the parser's namespace or the derivation's internal symbols already use.
+TAKEN_NAMES = frozenset(FUNCTIONS) | frozenset(CONSTANTS) | frozenset(PARSER_NAMES)
+
+MAX_EXPRESSION_LENGTH = 2000
+MAX_EXPONENT = 100          # |exponent| of a power with a constant exponent
+MAX_CONSTANT_BASE = 1e50    # |base| of a constant power: bounds exact integer arithmetic
+
+_TOKEN = re.compile(
+    r"(?P<space>\s+)|(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
+    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op>\*\*|[-+*/^(),])"
+)
+_LABEL = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_]{0,31}$")
+_POINT_NAME = re.compile(r"^(vx|vy|vz|ax|ay|az|x|y|z)_(.+)$")
+_TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
+
+TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
+            "chain", "drives", "constraints", "initial")
+ELEMENT_KINDS = ("joint", "body", "flexible", "point")
+SHAPE_KEYS = {
+    "cylinder": ("type", "mass", "radius", "length", "axis"),
+    "bar": ("type", "mass", "length", "width", "thickness"),
+    "rod": ("type", "mass", "length", "radius"),
+    "point_mass": ("type", "mass", "position"),
+}
+SHAPE_OPTIONAL = {"point_mass": ("position",)}
+SECTION_KEYS = {"rectangular": ("type", "width", "thickness"), "circular": ("type", "radius")}
+
+
+def _unevaluated(function):
+    """``function`` that never evaluates (the parser may already pass ``evaluate=False``)."""
+    def call(*args, evaluate=False):
+        return function(*args, evaluate=False)
+    return call
+
+
+def _exponent(number: str) -> int:
+    m = re.search(r"[eE]([+-]?\d+)$", number)
+    return abs(int(m.group(1))) if m else 0
+
+
+# --- where things are in the file --------------------------------------------------------------
+
+def _key_parts(text: str) -> list[str]:
+    return [p[1:-1] if p[0] in "\"'" else p
+            for p in re.findall(r'"[^"]*"|\'[^\']*\'|[A-Za-z0-9_-]+', text)]
+
+
+class _Locator:
+    """Line numbers of the tables and keys of a TOML text, by field path.
+
+    ``tomllib`` reports no positions, so the text is scanned: table headers (the k-th
+    ``[[chain]]`` is ``("chain", k)``) and ``key =`` at the start of a line, with strings,
+    comments and brackets tracked so that continuation lines of arrays are not mistaken for
+    headers. Keys inside inline tables share the line of the table's key."""
+
+    _HEADER = re.compile(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
+    _PART = r'(?:"[^"]*"|\'[^\']*\'|[A-Za-z0-9_-]+)'
+    _KEY = re.compile(rf"^\s*({_PART}(?:\s*\.\s*{_PART})*)\s*=")
+
+    def __init__(self, text: str):
+        self.lines: dict[tuple, int] = {}
+        self.last = max(1, text.count("\n") + 1)
+        arrays: dict[tuple, int] = {}
+        table: tuple = ()
+        depth = 0
+        multiline = None
+        for number, line in enumerate(text.splitlines(), 1):
+            start = 0
+            if multiline is None and depth == 0:
+                header = self._HEADER.match(line)
+                if header:
+                    parts = _key_parts(header.group(2))
+                    names: tuple = ()
+                    path: list = []
+                    for k, part in enumerate(parts):
+                        names += (part,)
+                        path.append(part)
+                        last = k == len(parts) - 1
+                        if header.group(1) == "[[" and last:
+                            arrays[names] = arrays.get(names, 0) + 1
+                        if names in arrays:
+                            path.append(arrays[names] - 1)
+                    table = tuple(path)
+                    self.lines.setdefault(table, number)
+                    continue
+                key = self._KEY.match(line)
+                if key:
+                    parts = _key_parts(key.group(1))
+                    for k in range(1, len(parts) + 1):
+                        self.lines.setdefault(table + tuple(parts[:k]), number)
+                    start = key.end()
+            depth, multiline = self._scan(line, start, depth, multiline)
+
+    @staticmethod
+    def _scan(line, i, depth, multiline):
+        """Bracket depth and open multi-line string after ``line[i:]``."""
+        n = len(line)
+        while i < n:
+            if multiline:
+                end = line.find(multiline, i)
+                if end < 0:
+                    return depth, multiline
+                i, multiline = end + 3, None
+                continue
+            c = line[i]
+            if c == "#":
+                break
+            if line.startswith('"""', i) or line.startswith("'''", i):
+                multiline, i = line[i:i + 3], i + 3
+                continue
+            if c in "\"'":
+                j = i + 1
+                while j < n and line[j] != c:
+                    j += 2 if (c == '"' and line[j] == "\\") else 1
+                i = j + 1
+                continue
+            if c in "[{":
+                depth += 1
+            elif c in "]}":
+                depth = max(0, depth - 1)
+            i += 1
+        return depth, multiline
+
+    def line(self, path) -> int:
+        path = tuple(path)
+        for k in range(len(path), 0, -1):
+            if path[:k] in self.lines:
+                return self.lines[path[:k]]
+        return 1
+
+
+def _field(path) -> str:
+    text = ""
+    for part in path:
+        if isinstance(part, int):
+            text += f"[{part}]"
+        else:
+            text += ("." if text else "") + str(part)
+    return text
+
+
+def _kind_of(value) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return type(value).__name__
+
+
+def _number_text(value) -> str:
+    value = float(value)
+    return f"{value:g}"
+
+
+# --- the file --------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ModelFile:
+    """A model read from a file, with the file's start configuration.
+
+    ``initial``: coordinate name -> value (SymPy expression of parameters) from ``[initial] q``;
+    coordinates not named start at 0."""
+
+    path: str
+    model: Model
+    initial: dict = field(default_factory=dict)
+
+    def initial_values(self, params: dict | None = None) -> dict[str, float]:
+        """The start configuration as numbers (rad, m), with the parameter defaults overridden
+        by ``params``."""
+        values = {p.symbol: sp.Float(float(p.default)) for p in self.model.parameters}
+        for name, value in (params or {}).items():
+            values[symbol(name)] = sp.Float(float(value))
+        return {name: float(sp.sympify(expr).xreplace(values)) for name, expr in self.initial.items()}
+
+
+class _Reader:
+    """Reads one parsed file into a Model; every failure names the file, line and field."""
+
+    def __init__(self, path, text: str, nrfe):
+        self.file = str(path)
+        self.locator = _Locator(text)
+        self.nrfe_argument = nrfe
+        self.names: dict[str, tuple[str, tuple]] = {}   # name -> (what, path), expand's namespace
+        self.params: dict[str, sp.Symbol] = {}
+        self.defaults: dict[sp.Symbol, sp.Float] = {}
+        self.coordinates: list[str] = []
+        self.origin: dict[str, tuple] = {}              # coordinate/body name -> chain path
+        self.points: list[str] = []
+        self.moving_points: set[str] = set()
+        self.drive_paths: dict[str, tuple] = {}
+        self.labels: dict[str, tuple] = {}
+        self.constraint_paths: dict[str, tuple] = {}
+
+    # ---- errors ------------------------------------------------------------------------------
+    def where(self, path) -> str:
+        name = _field(path)
+        return f"{self.file}:{self.locator.line(path)}: " + (f"{name}: " if name else "")
+
+    def error(self, path, message: str) -> ModelError:
+        return ModelError(self.where(path) + message)
+
+    def fail(self, path, message: str):
+        raise self.error(path, message)
+
+    # ---- structure ---------------------------------------------------------------------------
+    def table(self, value, path, allowed, required=(), what="table"):
+        if not isinstance(value, dict):
+            self.fail(path, f"expected a {what} (key = value lines or {{ ... }}), got {_kind_of(value)}; "
+                            f"see docs/model-file.md")
+        for key in value:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, 1)
+                fix = f"did you mean {close[0]!r}?" if close else f"the keys of a {what} are {', '.join(allowed)}"
+                self.fail(path + (key,), f"unknown key {key!r}; {fix}")
+        for key in required:
+            if key not in value:
+                self.fail(path, f"missing required key {key!r}; add {key} = ... to this {what}")
+        return value
+
+    def array(self, value, path, length=None, what="list"):
+        if not isinstance(value, list):
+            self.fail(path, f"expected a {what}, got {_kind_of(value)}; write it as [ ... ]")
+        if length is not None and len(value) != length:
+            self.fail(path, f"expected {length} entries, got {len(value)}; write [{', '.join(['...'] * length)}]")
+        return value
+
+    def string(self, value, path, what="a string"):
+        if not isinstance(value, str):
+            self.fail(path, f"expected {what}, got {_kind_of(value)}; write it in quotes")
+        return value
+
+    def text(self, value, path, multiline=False):
+        """Free text that reaches comments and docstrings of the generated code."""
+        self.string(value, path)
+        if multiline:
+            value = value.replace("\r\n", "\n")
+        bad = _TEXT_FORBIDDEN.search(value.replace("\n", "") if multiline else value)
+        if bad or (not multiline and "\n" in value):
+            what = repr(bad.group(0)) if bad else "a line break"
+            self.fail(path, f"the text holds {what}, which generated "
+                            f"code cannot carry in a comment; remove double quotes, backslashes, '*/', "
+                            f"control characters" + ("" if multiline else " and line breaks"))
+        return value
+
+    def choice(self, value, path, options, what):
+        if value not in options:
+            close = difflib.get_close_matches(str(value), options, 1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            self.fail(path, f"unknown {what} {value!r}; {hint}use one of {', '.join(options)}")
+        return value
+
+    def whole(self, value, path, what, minimum=1):
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            self.fail(path, f"{what} must be a whole number ≥ {minimum}, got {value!r}; write e.g. "
+                            f"{what} = {max(minimum, 3)}")
+        return value
+
+    def name(self, value, path, what, bare=False):
+        self.string(value, path, f"a {what} name in quotes")
+        try:
+            check_name(value, what, bare=bare)
+        except ModelError as exc:
+            raise self.error(path, str(exc).replace(": ", "; ", 1) if "; " not in str(exc) else str(exc)) from None
+        if bare and keyword.iskeyword(value):
+            self.fail(path, f"{what} {value!r} is a Python keyword; choose another name")
+        if bare and value in TAKEN_NAMES:
+            self.fail(path, f"{what} {value!r} is the name of a function or constant in expressions; "
+                            f"choose another name")
+        return value
+
+    def claim(self, name, what, path):
+        """Reserve ``name`` in the namespace expand() checks (parameters, coordinates, bodies,
+        points, constraints), with the place of the first use in the message."""
+        if name in self.names:
+            other, other_path = self.names[name]
+            self.fail(path, f"{what} {name!r} duplicates the {other} of the same name at "
+                            f"line {self.locator.line(other_path)} ({_field(other_path)}); rename one")
+        self.names[name] = (what, path)
+
+    # ---- quantities and expressions ----------------------------------------------------------
+    def quantity(self, value, path, scope, sign=None, what="values"):
+        """A number or an expression string as a SymPy expression. ``sign``: "positive" or
+        "nonnegative" checks a value that is (or, with the parameter defaults, evaluates to) a
+        number."""
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            self.fail(path, f"expected a number or an expression string, got {_kind_of(value)}; "
+                            f"write e.g. 0.5 or \"L2/2\"")
+        if isinstance(value, int):
+            expr = sp.Integer(value)
+        elif isinstance(value, float):
+            if not math.isfinite(value):
+                self.fail(path, f"{value} is not a finite number; give a finite value")
+            expr = sp.Float(value)
+        else:
+            expr = self.expression(value, path, scope)
+        if sign:
+            self.check_sign(expr, path, sign, what)
+        return expr
+
+    def check_sign(self, expr, path, sign, what):
+        ok = (lambda v: v > 0) if sign == "positive" else (lambda v: v >= 0)
+        need = "positive" if sign == "positive" else "zero or positive"
+        plural = what  # callers name the quantity in the plural: "masses must be positive"
+        if expr.is_number:
+            v = float(expr)
+            if not ok(v):
+                adjective = "negative" if v < 0 else "zero"
+                self.fail(path, f"{adjective} value {_number_text(v)}; {plural} must be {need}")
+            return
+        value = expr.xreplace(self.defaults)
+        if value.is_number and value.is_real:
+            v = float(value)
+            if not ok(v):
+                self.fail(path, f"{expr} is {_number_text(v)} with the parameter defaults; {plural} must be "
+                                f"{need}: change the parameter values or the expression")
+
+    def expression(self, text, path, scope):
+        """Parse ``text`` safely; ``scope`` maps the names it may use to their symbols."""
+        if len(text) > MAX_EXPRESSION_LENGTH:
+            self.fail(path, f"expression longer than {MAX_EXPRESSION_LENGTH} characters; split it with parameters")
+        if not text.strip():
+            self.fail(path, "empty expression; give a number or an expression such as \"L2/2\"")
+        tokens = []
+        pos = 0
+        while pos < len(text):
+            m = _TOKEN.match(text, pos)
+            if not m:
+                self.fail(path, f"character {text[pos]!r} is not allowed in an expression; use numbers, "
+                                f"names, + - * / ** ^ ( ) and commas")
+            pos = m.end()
+            if m.lastgroup != "space":
+                tokens.append((m.lastgroup, m.group()))
+        for k, (kind, tok) in enumerate(tokens):
+            nxt = tokens[k + 1] if k + 1 < len(tokens) else (None, None)
+            if kind == "number" and not (math.isfinite(float(tok)) and _exponent(tok) <= 308):
+                self.fail(path, f"number {tok} is out of range; use numbers between 1e-308 and 1e308 in size")
+            if kind == "number" and nxt[0] in ("name", "number"):
+                self.fail(path, f"{tok}{nxt[1]!s} in {text!r}: write products with '*' (e.g. {tok}*{nxt[1]})")
+            if kind != "name":
+                continue
+            if "__" in tok:
+                self.fail(path, f"name {tok!r} is not allowed (double underscore); use parameter, coordinate "
+                                f"and point names")
+            calls = nxt[1] == "("
+            if tok in FUNCTIONS:
+                if not calls:
+                    self.fail(path, f"function {tok} must be called, as {tok}(...)")
+            elif tok in scope or tok in CONSTANTS:
+                if calls:
+                    self.fail(path, f"{tok!r} is not a function; write a '*' for a product, as {tok}*(...)")
+            else:
+                self.fail(path, self.unknown(tok, scope))
+        glob = {"__builtins__": {}, **PARSER_NAMES, **FUNCTIONS, **CONSTANTS}
+        local = dict(scope)
+        transformations = (auto_number, convert_xor)
+        try:
+            # first unevaluated, so that the size check runs before any arithmetic
+            lazy = {name: _unevaluated(fn) for name, fn in FUNCTIONS.items()}
+            raw = parse_expr(text, local_dict=dict(local), transformations=transformations, evaluate=False,
+                             global_dict={**glob, **lazy, "Add": sp.Add, "Mul": sp.Mul, "Pow": sp.Pow})
+            self.check_powers(raw, path)
+            expr = parse_expr(text, local_dict=local, global_dict=glob, transformations=transformations)
+        except ModelError:
+            raise
+        except Exception as exc:  # SyntaxError, TypeError from a wrong call, RecursionError, ...
+            if isinstance(exc, TypeError):
+                detail = "a function is given the wrong number of arguments"
+            elif isinstance(exc, TokenError):
+                detail = "unbalanced parentheses"
+            elif isinstance(exc, SyntaxError):
+                detail = exc.msg
+            else:
+                detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            failure = self.error(path, f"expression {text!r} does not parse ({detail}); check the "
+                                       f"parentheses, operators and function arguments")
+            raise failure from None
+        if not isinstance(expr, sp.Expr):
+            self.fail(path, f"expression {text!r} is not a single scalar; write one value")
+        if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I):
+            self.fail(path, f"expression {text!r} is not a finite real value ({expr}); check divisions "
+                            f"by zero and roots of negative numbers")
+        return expr
+
+    def check_powers(self, raw, path):
+        """Refuse powers whose exact evaluation would not end (``9^9^9^9``)."""
+        for node in sp.postorder_traversal(raw):
+            if not isinstance(node, sp.Pow):
+                continue
+            for part, limit, what in ((node.exp, MAX_EXPONENT, "exponent"), (node.base, MAX_CONSTANT_BASE, "base")):
+                if what == "base" and node.exp.free_symbols:
+                    continue
+                if part.free_symbols:
+                    continue
+                try:
+                    size = abs(complex(sp.N(part, 15)))
+                except (TypeError, ValueError, OverflowError):
+                    size = math.inf
+                if not size <= limit:
+                    self.fail(path, f"the {what} {part} of a constant power is too large (limit "
+                                    f"{limit:g}); write the value as a number")
+
+    def unknown(self, name, scope) -> str:
+        """Why ``name`` is not in ``scope``, and what would fix it."""
+        coordinate_list = ", ".join(self.coordinates[:12]) + (", ..." if len(self.coordinates) > 12 else "")
+        if name == "t":
+            return "time t may appear only in drives and constraints; use parameters here"
+        if name in self.params:
+            return (f"parameter values are numbers and cannot refer to parameter {name!r}; write the "
+                    f"number, or the expression where the value is used")
+        if name in self.coordinates:
+            return f"coordinate {name!r} may appear only in constraints; use parameters (and t in drives) here"
+        if name.endswith("_dot"):
+            base = name[:-4]
+            if base in self.coordinates:
+                return (f"the velocity {name} may appear only in first-order constraints; set order = 1 "
+                        f"or remove it")
+            return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
+        point = _POINT_NAME.match(name)
+        if point and point.group(1) in ("x", "y", "z", "vx", "vy", "vz"):
+            if point.group(2) in self.points:
+                if point.group(1).startswith("v") and any(symbol(f"x_{point.group(2)}") == s for s in scope.values()):
+                    return (f"the point velocity {name} may appear only in first-order constraints; set "
+                            f"order = 1 or remove it")
+                return f"point coordinate {name} may appear only in constraints; remove it"
+            known = ", ".join(self.points) or "none"
+            return (f"{name!r} names no declared point {point.group(2)!r} (points: {known}); declare the "
+                    f"point with a [[chain]] point = \"{point.group(2)}\" element or fix the name")
+        close = difflib.get_close_matches(name, [*scope, *FUNCTIONS, *CONSTANTS], 1)
+        hint = f"did you mean {close[0]!r}? or " if close else ""
+        return f"unknown name {name!r}; {hint}declare it under [parameters]"
+
+    # ---- sections ----------------------------------------------------------------------------
+    def read(self, data) -> ModelFile:
+        self.table(data, (), TOP_KEYS, what="model file")
+        if "schema" not in data:
+            self.fail(("schema",), "missing schema version; add schema = 1 at the top of the file")
+        schema = data["schema"]
+        if isinstance(schema, bool) or schema != SCHEMA:
+            self.fail(("schema",), f"unsupported schema {schema!r}; this gpmegen reads schema = {SCHEMA}")
+        if "name" not in data:
+            self.fail(("name",), "missing model name; add name = \"my_model_nrfe{nrfe}\"")
+        self.default_nrfe = None
+        if "nrfe" in data:
+            self.default_nrfe = self.whole(data["nrfe"], ("nrfe",), "nrfe")
+        if self.nrfe_argument is not None:
+            self.default_nrfe = self.nrfe_argument
+        raw_name = self.string(data["name"], ("name",))
+        if "{nrfe}" in raw_name and self.default_nrfe is None:
+            self.fail(("name",), "the name uses {nrfe} but no nrfe is set; add nrfe = 3 or pass nrfe")
+        name = raw_name.replace("{nrfe}", str(self.default_nrfe))
+        try:
+            check_name(name, "model name")
+        except ModelError as exc:
+            raise self.error(("name",), str(exc).replace(": ", "; ", 1)) from None
+        description = self.text(data.get("description", ""), ("description",), multiline=True)
+
+        parameters = self.read_parameters(data.get("parameters", {}))
+        if "chain" not in data:
+            self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
+        chain = self.read_chain(data["chain"])
+        gravity = self.read_vector(data.get("gravity", [0, 0, 0]), ("gravity",), self.params)
+        drives = self.read_drives(data.get("drives", []))
+        constraints = self.read_constraints(data.get("constraints", []))
+        dependent = self.read_dependent(data.get("dependent", "auto"), len(constraints))
+        initial = self.read_initial(data.get("initial", {}))
+        model = Model(
+            name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
+            constraints=constraints, dependent=dependent, description=description,
+        )
+        try:
+            expand(model)
+        except ModelError as exc:
+            raise ModelError(self.context(exc) + str(exc)) from None
+        return ModelFile(self.file, model, initial)
+
+    def read_parameters(self, table):
+        path = ("parameters",)
+        self.table(table, path, tuple(table), what="parameters table")
+        parameters = []
+        for pname, entry in table.items():
+            here = path + (pname,)
+            self.name(pname, here, "parameter", bare=True)
+            self.claim(pname, "parameter", here)
+            if isinstance(entry, dict):
+                self.table(entry, here, ("value", "unit", "doc"), ("value",), "parameter")
+                value, vpath = entry["value"], here + ("value",)
+                unit = self.text(entry.get("unit", ""), here + ("unit",))
+                doc = self.text(entry.get("doc", ""), here + ("doc",))
+            else:
+                value, vpath, unit, doc = entry, here, "", ""
+            number = self.quantity(value, vpath, {})
+            parameters.append(Parameter(pname, float(number), unit, doc))
+            self.params[pname] = symbol(pname)
+            self.defaults[symbol(pname)] = sp.Float(float(number))
+        return tuple(parameters)
+
+    def read_vector(self, value, path, scope, length=3, sign=None, what="values"):
+        self.array(value, path, length)
+        return tuple(self.quantity(v, path + (k,), scope, sign, what) for k, v in enumerate(value))
+
+    def read_chain(self, items):
+        self.array(items, ("chain",), what="list of [[chain]] tables")
+        if not items:
+            self.fail(("chain",), "the chain is empty; add [[chain]] elements")
+        elements = []
+        moving = False
+        for k, item in enumerate(items):
+            path = ("chain", k)
+            if not isinstance(item, dict):
+                self.fail(path, f"expected a table, got {_kind_of(item)}; write each element as a [[chain]] table")
+            kinds = [key for key in ELEMENT_KINDS if key in item]
+            if len(kinds) > 1:
+                self.fail(path, f"one element cannot be both a {kinds[0]} and a {kinds[1]}; split it into "
+                                f"two [[chain]] tables")
+            if not kinds:
+                if not ({"translation", "rotations"} & item.keys()):
+                    close = [c for key in item for c in difflib.get_close_matches(key, ELEMENT_KINDS, 1)]
+                    hint = f" (did you mean {close[0]!r}?)" if close else ""
+                    self.fail(path, f"element of unknown kind{hint}; give joint, body, flexible or point, or "
+                                    f"translation/rotations for a fixed offset")
+                element = self.read_offset(item, path)
+            else:
+                element = getattr(self, f"read_{kinds[0]}")(item, path)
+            if isinstance(element, FlexibleLink):
+                for part in self.expand_link(element, path):
+                    if isinstance(part, Joint):
+                        moving = True
+            elif isinstance(element, Joint):
+                moving = True
+            elif isinstance(element, Point) and moving:
+                self.moving_points.add(element.name)
+            elements.append(element)
+        return tuple(elements)
+
+    def read_joint(self, item, path):
+        self.table(item, path, ("joint", "type", "axis", "stiffness", "damping"), ("joint", "type", "axis"), "joint")
+        name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
+        kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
+        axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
+        extra = {}
+        for key in ("stiffness", "damping"):
+            if key in item:
+                what = "stiffnesses" if key == "stiffness" else "damping coefficients"
+                extra[key] = self.quantity(item[key], path + (key,), self.params, "nonnegative", what)
+        self.add_coordinate(name, path + ("joint",))
+        return Joint(name, kind, axis, **extra)
+
+    def add_coordinate(self, name, path):
+        self.claim(name, "coordinate", path)
+        self.coordinates.append(name)
+        self.origin[name] = path
+
+    def read_offset(self, item, path):
+        self.table(item, path, ("translation", "rotations"), what="offset")
+        extra = {}
+        if "translation" in item:
+            extra["translation"] = self.read_vector(item["translation"], path + ("translation",), self.params)
+        if "rotations" in item:
+            rotations = []
+            for k, rotation in enumerate(self.array(item["rotations"], path + ("rotations",))):
+                here = path + ("rotations", k)
+                self.array(rotation, here, 2, "[axis, angle] pair")
+                axis = self.choice(rotation[0], here + (0,), AXES, "axis")
+                rotations.append((axis, self.quantity(rotation[1], here + (1,), self.params)))
+            extra["rotations"] = tuple(rotations)
+        return Offset(**extra)
+
+    def read_body(self, item, path):
+        self.table(item, path, ("body", "shape", "mass", "center", "inertia"), ("body",), "body")
+        name = self.name(item["body"], path + ("body",), "body")
+        self.claim(name, "body", path + ("body",))
+        self.origin[name] = path + ("body",)
+        P = self.params
+        if "shape" in item:
+            if {"mass", "center", "inertia"} & item.keys():
+                self.fail(path, "give either a shape or mass/center/inertia, not both; remove one")
+            here = path + ("shape",)
+            shape = self.table(item["shape"], here, ("type", "mass", "radius", "length", "axis", "width",
+                                                     "thickness", "position"), ("type",), "shape")
+            kind = self.choice(shape["type"], here + ("type",), tuple(SHAPE_KEYS), "shape type")
+            optional = SHAPE_OPTIONAL.get(kind, ())
+            self.table(shape, here, SHAPE_KEYS[kind],
+                       tuple(k for k in SHAPE_KEYS[kind] if k not in optional), f"{kind} shape")
+
+            def q(key, what):
+                return self.quantity(shape[key], here + (key,), P, "positive", what)
+
+            if kind == "cylinder":
+                axis = self.choice(shape["axis"], here + ("axis",), AXES, "axis")
+                h = shapes.solid_cylinder(q("mass", "masses"), q("radius", "radii"), q("length", "lengths"), axis)
+            elif kind == "bar":
+                h = shapes.bar(q("mass", "masses"), q("length", "lengths"), q("width", "widths"),
+                               q("thickness", "thicknesses"))
+            elif kind == "rod":
+                h = shapes.rod(q("mass", "masses"), q("length", "lengths"), q("radius", "radii"))
+            else:
+                position = self.read_vector(shape.get("position", [0, 0, 0]), here + ("position",), P)
+                h = shapes.point_mass(q("mass", "masses"), position)
+        else:
+            if "mass" not in item:
+                self.fail(path, "a body needs a shape or a mass; add shape = { type = \"bar\", ... } or mass = ...")
+            mass = self.quantity(item["mass"], path + ("mass",), P, "positive", "masses")
+            center = self.read_vector(item.get("center", [0, 0, 0]), path + ("center",), P)
+            rows = self.array(item.get("inertia", [[0, 0, 0]] * 3), path + ("inertia",), 3, "3x3 list")
+            inertia = [self.read_vector(row, path + ("inertia", i), P) for i, row in enumerate(rows)]
+            for i in range(3):
+                self.check_sign(inertia[i][i], path + ("inertia", i, i), "nonnegative", "moments of inertia")
+                for j in range(i):
+                    if sp.simplify(inertia[i][j] - inertia[j][i]) != 0:
+                        self.fail(path + ("inertia", i, j), f"the inertia tensor is not symmetric "
+                                                            f"({inertia[i][j]} ≠ {inertia[j][i]}); make [{i}][{j}] "
+                                                            f"equal [{j}][{i}]")
+            trace = sum(inertia[i][i] for i in range(3))
+            for k, axis in enumerate(AXES):
+                # ∫(axis)² dm about the centre: ½ tr I - I_kk
+                second = (trace / 2 - inertia[k][k]).xreplace(self.defaults)
+                scale = abs(trace.xreplace(self.defaults))
+                if second.is_number and scale.is_number and float(second) < -1e-12 * float(scale):
+                    self.fail(path + ("inertia",), f"the inertia tensor gives a negative ∫{axis}² dm "
+                                                   f"({_number_text(second)} kg·m² about the centre); no "
+                                                   f"moment of inertia may exceed the sum of the other two")
+            h = shapes.from_inertia_tensor(mass, center, inertia)
+        return Body(name, h)
+
+    def read_flexible(self, item, path):
+        keys = ("flexible", "length", "section", "density", "young_modulus", "shear_modulus",
+                "torsion_constant", "nrfe", "damping")
+        self.table(item, path, keys, keys[:6], "flexible link")
+        label = self.string(item["flexible"], path + ("flexible",), "a label in quotes")
+        if not _LABEL.match(label):
+            self.fail(path + ("flexible",), f"label {label!r} is not valid: use letters, digits and underscores "
+                                            f"(it names the coordinates psi{label}_1, ...)")
+        if label in self.labels:
+            first = self.locator.line(self.labels[label])
+            self.fail(path + ("flexible",), f"label {label!r} is already used by the flexible link at line "
+                                            f"{first}; give each flexible link its own label")
+        self.labels[label] = path + ("flexible",)
+        P = self.params
+        length = self.quantity(item["length"], path + ("length",), P, "positive", "lengths")
+        here = path + ("section",)
+        section = self.table(item["section"], here, ("type", "width", "thickness", "radius"), ("type",), "section")
+        kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
+        self.table(section, here, SECTION_KEYS[kind], SECTION_KEYS[kind], f"{kind} section")
+        if kind == "rectangular":
+            section = RectangularSection(
+                self.quantity(section["width"], here + ("width",), P, "positive", "widths"),
+                self.quantity(section["thickness"], here + ("thickness",), P, "positive", "thicknesses"),
+            )
+        else:
+            section = CircularSection(self.quantity(section["radius"], here + ("radius",), P, "positive", "radii"))
+        extra = {}
+        if "torsion_constant" in item:
+            extra["torsion_constant"] = self.quantity(item["torsion_constant"], path + ("torsion_constant",), P,
+                                                      "positive", "torsion constants")
+        if "damping" in item:
+            extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3, "nonnegative",
+                                                "damping coefficients")
+        if "nrfe" in item:
+            n_rfe = self.whole(item["nrfe"], path + ("nrfe",), "nrfe")
+        elif self.default_nrfe is not None:
+            n_rfe = self.default_nrfe
+        else:
+            self.fail(path, "no n_rfe for this flexible link; add nrfe = 3 here or at the top of the file")
+        return FlexibleLink(
+            label=label,
+            length=length,
+            section=section,
+            density=self.quantity(item["density"], path + ("density",), P, "positive", "densities"),
+            young_modulus=self.quantity(item["young_modulus"], path + ("young_modulus",), P, "positive", "moduli"),
+            shear_modulus=self.quantity(item["shear_modulus"], path + ("shear_modulus",), P, "positive", "moduli"),
+            n_rfe=n_rfe,
+            **extra,
+        )
+
+    def expand_link(self, link, path):
+        """The rfem elements of ``link``, their coordinates and bodies claimed."""
+        try:
+            parts = discretize(link)
+        except ModelError as exc:
+            raise self.error(path, str(exc)) from None
+        for part in parts:
+            if isinstance(part, Joint):
+                try:
+                    check_name(part.name, "coordinate", bare=True)
+                except ModelError as exc:
+                    raise self.error(path + ("flexible",), str(exc)) from None
+                self.add_coordinate(part.name, path + ("flexible",))
+            elif isinstance(part, Body):
+                self.claim(part.name, "body", path + ("flexible",))
+                self.origin[part.name] = path + ("flexible",)
+        return parts
+
+    def read_point(self, item, path):
+        self.table(item, path, ("point", "position"), ("point",), "point")
+        name = self.name(item["point"], path + ("point",), "point")
+        self.claim(name, "point", path + ("point",))
+        position = self.read_vector(item.get("position", [0, 0, 0]), path + ("position",), self.params)
+        self.points.append(name)
+        self.origin[name] = path + ("point",)
+        return Point(name, position)
+
+    def read_drives(self, items):
+        self.array(items, ("drives",), what="list of [[drives]] tables")
+        scope = {**self.params, "t": TIME}
+        drives = []
+        for k, item in enumerate(items):
+            path = ("drives", k)
+            self.table(item, path, ("coordinate", "expression"), ("coordinate", "expression"), "drive")
+            coordinate = self.string(item["coordinate"], path + ("coordinate",), "a coordinate name in quotes")
+            if coordinate not in self.coordinates:
+                close = difflib.get_close_matches(coordinate, self.coordinates, 1)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                self.fail(path + ("coordinate",), f"unknown coordinate {coordinate!r}; {hint}the coordinates are "
+                                                  f"{', '.join(self.coordinates)}")
+            if coordinate in self.drive_paths:
+                self.fail(path + ("coordinate",), f"a second drive on {coordinate!r} (the first is at line "
+                                                  f"{self.locator.line(self.drive_paths[coordinate])}); add the "
+                                                  f"two expressions in one drive")
+            self.drive_paths[coordinate] = path
+            drives.append(Drive(coordinate, self.quantity(item["expression"], path + ("expression",), scope)))
+        return tuple(drives)
+
+    def constraint_scope(self, order):
+        scope = {**self.params, "t": TIME}
+        for name in self.coordinates:
+            scope[name] = symbol(name)
+        for point in self.points:
+            for s in point_symbols(point):
+                scope[s.name] = s
+        if order == 1:
+            for name in self.coordinates:
+                scope[velocity_symbol(name).name] = velocity_symbol(name)
+            for point in self.points:
+                for s in point_velocity_symbols(point):
+                    scope[s.name] = s
+        return scope
+
+    def check_derived_names(self):
+        """Point and velocity symbols (``x_P``, ``vx_P``, ``<q>_dot``; ``ax_P``… inside the
+        derivation) must not be names of parameters or coordinates."""
+        derived = [("coordinate", name, f"{name}_dot") for name in self.coordinates]
+        for point in self.points:
+            for prefix in ("x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az"):
+                derived.append(("point", point, f"{prefix}_{point}"))
+        made: dict[str, tuple[str, str]] = {}
+        for what, owner, name in derived:
+            if name in self.names and self.names[name][0] in ("parameter", "coordinate"):
+                other, other_path = self.names[name]
+                self.fail(self.origin[owner], f"{what} {owner!r} makes the name {name}, which is already the "
+                                              f"{other} at line {self.locator.line(other_path)}; rename one")
+            if name in made and made[name][1] != owner:
+                other, other_owner = made[name]
+                self.fail(self.origin[owner], f"{what} {owner!r} makes the name {name}, which the {other} "
+                                              f"{other_owner!r} makes too; rename one")
+            made[name] = (what, owner)
+
+    def read_constraints(self, items):
+        self.array(items, ("constraints",), what="list of [[constraints]] tables")
+        if items:
+            self.check_derived_names()
+        moving = {symbol(c) for c in self.coordinates} | {velocity_symbol(c) for c in self.coordinates}
+        for point in self.moving_points:
+            moving |= set(point_symbols(point)) | set(point_velocity_symbols(point))
+        constraints = []
+        for k, item in enumerate(items):
+            path = ("constraints", k)
+            self.table(item, path, ("name", "expression", "order", "alpha", "beta"), ("name", "expression"),
+                       "constraint")
+            name = self.name(item["name"], path + ("name",), "constraint")
+            self.claim(name, "constraint", path + ("name",))
+            self.constraint_paths[name] = path
+            order = item.get("order", 0)
+            if isinstance(order, bool) or order not in (0, 1):
+                self.fail(path + ("order",), f"order must be 0 (position) or 1 (first order, linear in "
+                                             f"velocities), got {order!r}")
+            expr = self.quantity(item["expression"], path + ("expression",), self.constraint_scope(order))
+            if not (expr.free_symbols & moving):
+                self.fail(path + ("expression",), f"the constraint {expr} = 0 does not depend on any coordinate "
+                                                  f"(it names no coordinate and no point that a joint moves), so "
+                                                  f"no motion can hold it; name a moving point or a coordinate")
+            extra = {}
+            for key in ("alpha", "beta"):
+                if key in item:
+                    if key == "beta" and order == 1:
+                        self.fail(path + ("beta",), "beta applies to position constraints only (a first-order "
+                                                    "constraint is stabilized by alpha); remove it")
+                    extra[key] = self.quantity(item[key], path + (key,), self.params, "nonnegative", "Baumgarte gains")
+            constraints.append(Constraint(name, expr, order, **extra))
+        return tuple(constraints)
+
+    def read_dependent(self, value, n_constraints):
+        path = ("dependent",)
+        if value == "auto":
+            return None
+        if not isinstance(value, list):
+            self.fail(path, f"expected a list of coordinate names or \"auto\", got {_kind_of(value)} {value!r}; "
+                            f"write dependent = [\"psi2\"] or dependent = \"auto\"")
+        for k, name in enumerate(value):
+            if name not in self.coordinates:
+                self.fail(path + (k,), f"{name!r} is not a coordinate; the coordinates are "
+                                       f"{', '.join(self.coordinates)}")
+            if name in value[:k]:
+                self.fail(path + (k,), f"{name!r} is listed twice; name each dependent coordinate once")
+        if len(value) != n_constraints:
+            self.fail(path, f"{n_constraints} constraint(s) need as many dependent coordinates, {len(value)} given; "
+                            f"list one per constraint or write \"auto\"")
+        return tuple(value)
+
+    def read_initial(self, table):
+        path = ("initial",)
+        self.table(table, path, ("q",), what="initial table")
+        q = self.table(table.get("q", {}), path + ("q",), tuple(table.get("q", {})), what="table of coordinates")
+        initial = {}
+        for name, value in q.items():
+            if name not in self.coordinates:
+                close = difflib.get_close_matches(name, self.coordinates, 1)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                self.fail(path + ("q", name), f"{name!r} is not a coordinate; {hint}the coordinates are "
+                                              f"{', '.join(self.coordinates)}")
+            initial[name] = self.quantity(value, path + ("q", name), self.params)
+        return initial
+
+    # ---- errors raised later -----------------------------------------------------------------
+    def context(self, error) -> str:
+        """``"<file>:<line>: <field>: "`` for an error message of expand() or the derivation,
+        found from the names it quotes."""
+        message = str(error)
+
+        def constraint(name):
+            return self.constraint_paths.get(name, ("constraints",))
+
+        rules = (
+            (r"^model name", lambda m: ("name",)),
+            (r"^chain element (\d+)", lambda m: ("chain", int(m.group(1)) - 1)),
+            (r"^drive on (?:unknown coordinate )?'([^']+)'", lambda m: self.drive_paths.get(m.group(1), ("drives",))),
+            (r"^(?:the )?constraint '([^']+)' (alpha|beta)", lambda m: constraint(m.group(1)) + (m.group(2),)),
+            (r"^(?:the )?constraint '([^']+)'", lambda m: constraint(m.group(1)) + ("expression",)),
+            (r"^(?:joint|coordinate|body|point) '([^']+)'", lambda m: self.origin.get(m.group(1), ("chain",))),
+            (r"^parameter '([^']+)'", lambda m: ("parameters", m.group(1))),
+            (r"^gravity", lambda m: ("gravity",)),
+            (r"dependent", lambda m: ("dependent",)),
+            (r"'([^']+)'", lambda m: (self.origin.get(m.group(1)) or self.constraint_paths.get(m.group(1))
+                                      or ("chain",))),
+        )
+        for pattern, path_of in rules:
+            m = re.search(pattern, message)
+            if m:
+                return self.where(path_of(m))
+        return self.where(("chain",))
+
+
+def _parse(path, nrfe):
+    if nrfe is not None and (isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < 1):
+        raise ModelError(f"nrfe must be a whole number ≥ 1 (1: rigid links), got {nrfe!r}")
+    file = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise ModelError(f"{file}: cannot read the model file ({exc.strerror or exc}); check the path") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise ModelError(f"{file}:{line}: the file is not UTF-8 text; save it as UTF-8") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
+        line = int(m.group(1)) if m else max(1, text.count("\n") + 1)
+        detail = re.sub(r"\s*\(at (?:line \d+, column \d+|end of document)\)", "", message)
+        where = f"column {m.group(2)}" if m else "end of file"
+        raise ModelError(f"{file}:{line}: TOML syntax error ({where}): {detail}; fix the syntax "
+                         f"(see docs/model-file.md)") from None
+    return _Reader(path, text, nrfe), data
+
+
+def read_model_file(path, nrfe: int | None = None) -> ModelFile:
+    """The model of a schema-1 TOML file with its ``[initial]`` configuration.
+
+    ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
+    and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
+    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing."""
+    reader, data = _parse(path, nrfe)
+    return reader.read(data)
+
+
+def load_model_file(path, nrfe: int | None = None) -> Model:
+    """The :class:`~gpmegen.model.Model` described by the TOML file at ``path`` (see
+    :func:`read_model_file`)."""
+    return read_model_file(path, nrfe).model
+
+
+def read_initial(path, nrfe: int | None = None, params: dict | None = None) -> dict[str, float]:
+    """The file's start configuration ``[initial] q`` as numbers (rad, m), coordinate name ->
+    value, evaluated with the parameter defaults overridden by ``params``; coordinates not named
+    start at 0."""
+    return read_model_file(path, nrfe).initial_values(params)
+
+
+def locate(path, error: GpmegenError, nrfe: int | None = None) -> GpmegenError:
+    """``error`` (e.g. a DerivationError from deriving a model read from ``path``) as an error of
+    the same type whose message starts with the file, line and field it is about."""
+    reader, data = _parse(path, nrfe)
+    reader.read(data)
+    located = type(error)(reader.context(error) + str(error))
+    return located
+
+
+__all__ = ["ModelFile", "SCHEMA", "load_model_file", "locate", "read_initial", "read_model_file"]
