@@ -84,3 +84,18 @@ def test_half_swapped_folder_is_recovered(tmp_path):
     folder.rename(tmp_path / ".manipulator_nrfe1.old-12345")  # killed between the two renames
     assert gpmegen.load(nrfe=1, directory=tmp_path, build=False).n_dof == 3
     assert folder.is_dir()
+
+
+def test_divergence_in_the_compiled_loop_stops_with_a_fix_and_keeps_results(tmp_path, capsys, generated_elsewhere):
+    from gpmegen.cli import main
+    from gpmegen.runtime.ccompile import find_compiler
+
+    if not find_compiler():
+        pytest.skip("no C compiler")
+    out = tmp_path / "run.npz"
+    code = main(["simulate", "--nrfe", "5", "--dt", "2e-3", "--t-end", "2", "--save-every", "1", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 1 and "diverged" in err and "smaller --dt" in err and "kept in" in err
+    res = results_io.load(out)
+    assert str(res["status"]).startswith("diverged") and 0 < res["t"][-1] < 2
+    assert np.all(np.isfinite(res["q"]))

@@ -112,7 +112,11 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     return collect(model, t, y, status, settings)
 
 
-C_STATUS = {1: "singular GPME system (D_dc or the assembled matrix)", 2: "non-finite state", 3: "invalid arguments"}
+C_STATUS = {
+    1: f"singular GPME system (D_dc or BᵀMB); {integrate.FIX_SINGULAR}",
+    2: f"non-finite state; {integrate.FIX_NONFINITE}",
+    3: "invalid arguments",
+}
 
 
 def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_violation=None, watch=None):
@@ -135,7 +139,7 @@ def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_viola
                     ts.append(t[1:])
                     ys.append(y[1:])
                 if code != 0:
-                    status = f"diverged: {C_STATUS.get(code, code)} after t = {t[-1]:.6g} s"
+                    status = f"diverged after t = {t[-1]:.6g} s: {C_STATUS.get(code, code)}"
                     break
                 q, qd, w = qs[-1], qds[-1], ws[-1]
                 done += steps
@@ -146,7 +150,7 @@ def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_viola
                     phi = model.constraint_terms(done * dt, q, qd)[0]
                     if np.max(np.abs(phi)) > max_violation:
                         status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
-                                  f"{max_violation:.1e} at t = {done * dt:.6g} s")
+                                  f"{max_violation:.1e} at t = {done * dt:.6g} s; {integrate.FIX_VIOLATION}")
                         break
                 if watch is not None:
                     watch.check(done * dt, q)

@@ -15,6 +15,13 @@ import numpy as np
 from ..errors import SimulationError
 
 
+FIX_NONFINITE = "try a smaller --dt (the flexible modes bound the RK4 step) or check the parameters"
+FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
+                 "within reach")
+FIX_SINGULAR = ("either the motion blew up (try a smaller --dt) or the dependent coordinates lose control of "
+                "the constraints there (use --repartition or choose others)")
+
+
 class Progress:
     """A one-line progress bar on stderr (quiet when not a terminal unless forced)."""
 
@@ -101,13 +108,13 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
                 y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
                 t = t0 + k * dt
                 if not np.all(np.isfinite(y)):
-                    status = f"diverged: non-finite state at t = {t:.6g} s"
+                    status = f"diverged: non-finite state at t = {t:.6g} s; {FIX_NONFINITE}"
                     break
                 if max_violation is not None:
                     phi = model.constraint_terms(t, y[:n], y[n:2 * n])[0]
                     if phi.size and np.max(np.abs(phi)) > max_violation:
                         status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
-                                  f"{max_violation:.1e} at t = {t:.6g} s")
+                                  f"{max_violation:.1e} at t = {t:.6g} s; {FIX_VIOLATION}")
                         ts.append(t)
                         ys.append(y.copy())
                         break
