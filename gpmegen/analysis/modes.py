@@ -19,8 +19,9 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import ModelError
-from ..model.chain import Body, FlexibleLink, Model, Point, RectangularSection
-from ..model.reference import PARAMETERS
+from ..model.chain import Body, Model, Point
+from ..fileio import atomic_write, atomic_write_bytes
+from ..model.reference import PARAMETERS, reference_arm
 from ..model.shapes import solid_cylinder
 from ..runtime import statics
 from . import beam
@@ -45,20 +46,7 @@ def clamped_arm_model(nrfe: int, with_slider: bool = False) -> Model:
     names = ARM_PARAMETERS + (SLIDER_PARAMETERS if with_slider else ())
     parameters = tuple(p for p in PARAMETERS if p.name in names)
     P = {p.name: p.symbol for p in parameters}
-    chain = [
-        FlexibleLink(
-            label="2",
-            length=P["L2"],
-            section=RectangularSection(P["b2"], P["t2"]),
-            density=P["rho2"],
-            young_modulus=P["E2"],
-            shear_modulus=P["G2"],
-            torsion_constant=P["J2"],
-            n_rfe=nrfe,
-            damping=(P["d2"], P["d2"], P["d2"]),
-        ),
-        Point("tip", (0, 0, 0)),
-    ]
+    chain = [reference_arm(P, nrfe), Point("tip", (0, 0, 0))]
     if with_slider:
         chain += [Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x")), Point("E", (P["L3"], 0, 0))]
     return Model(
@@ -353,16 +341,11 @@ def plot_convergence(table: ConvergenceTable, path) -> Path:
     ax.grid(True, which="major", alpha=0.3)
     ax.legend(fontsize=7.5, loc="lower left")
     fig.tight_layout()
-    fig.savefig(path, dpi=150)
+    atomic_write(path, lambda fh: fig.savefig(fh, format=Path(path).suffix[1:] or "png", dpi=150))
     plt.close(fig)
     return path
 
 
-__all__ = [
-    "clamped_arm_model", "load_clamped_arm", "Modes", "natural_frequencies", "locked_modes", "classify",
-    "ConvergenceTable", "convergence_table", "tip_deflection", "arm_quantities",
-    "observed_order", "plot_convergence", "QUANTITIES", "LIMIT_KEYS",
-]
 
 
 def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
@@ -412,10 +395,7 @@ def write_modes_csv(modes: Modes, path) -> Path:
     header = ",".join(["mode", "frequency_Hz", "kind", *modes.coordinates])
     rows = [",".join([str(k + 1), f"{f:.9g}", modes.kinds[k], *(f"{v:.9g}" for v in modes.shapes[:, k])])
             for k, f in enumerate(modes.frequencies)]
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text("\n".join([header, *rows]) + "\n")
-    tmp.replace(path)
-    return path
+    return atomic_write_bytes(path, ("\n".join([header, *rows]) + "\n").encode())
 
 
 def plot_mode_shapes(modes: Modes, path, count: int = 6) -> Path:
@@ -441,10 +421,14 @@ def plot_mode_shapes(modes: Modes, path, count: int = 6) -> Path:
     axes[0, 0].legend(fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("sde along the arm (1 = at the root)")
     fig.suptitle("Mode shapes: sde rotations (unit modal mass)")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp{path.suffix}")
-    fig.savefig(tmp, dpi=120, bbox_inches="tight")
+    path = atomic_write(path, lambda fh: fig.savefig(fh, format=Path(path).suffix[1:], dpi=120, bbox_inches="tight"))
     plt.close(fig)
-    tmp.replace(path)
     return path
+
+
+__all__ = [
+    "clamped_arm_model", "load_clamped_arm", "Modes", "natural_frequencies", "locked_modes", "classify",
+    "ConvergenceTable", "convergence_table", "tip_deflection", "arm_quantities",
+    "observed_order", "plot_convergence", "QUANTITIES", "LIMIT_KEYS", "constrained_modes",
+    "write_modes_csv", "plot_mode_shapes",
+]

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fileio import atomic_write
+
 
 def _pyplot():
     import matplotlib
@@ -49,11 +51,7 @@ def _coordinate(results, name):
 
 
 def _save(fig, out: Path, stem: str, fmt: str) -> Path:
-    path = out / f"{stem}.{fmt}"
-    tmp = out / f".{stem}.tmp.{fmt}"
-    fig.savefig(tmp, dpi=130, bbox_inches="tight")
-    tmp.replace(path)
-    return path
+    return atomic_write(out / f"{stem}.{fmt}", lambda fh: fig.savefig(fh, format=fmt, dpi=130, bbox_inches="tight"))
 
 
 def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:

@@ -6,13 +6,12 @@ with a clear message instead of a KeyError deep inside plotting.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import GpmegenError
+from ..fileio import atomic_write
 
 FORMAT = "gpmegen-results-1"
 REQUIRED = ("t", "q", "qd", "coordinates", "end_effector", "phi", "tau_drive")
@@ -22,25 +21,11 @@ class ResultsError(GpmegenError):
     """A results file is missing, unreadable or not written by gpmegen."""
 
 
-def _atomic(path: Path, write) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def save(results: dict, path, csv: bool = True) -> list[Path]:
     """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E and Φ beside it."""
     path = Path(path)
     data = dict(results, format=np.array(FORMAT))
-    _atomic(path, lambda fh: np.savez_compressed(fh, **data))
+    atomic_write(path, lambda fh: np.savez_compressed(fh, **data))
     written = [path]
     if csv:
         csv_path = path.with_suffix(".csv")
@@ -53,7 +38,7 @@ def save(results: dict, path, csv: bool = True) -> list[Path]:
         def write_csv(fh):
             np.savetxt(fh, table, delimiter=",", header=header, comments="", fmt="%.12g")
 
-        _atomic(csv_path, write_csv)
+        atomic_write(csv_path, write_csv)
         written.append(csv_path)
     return written
 

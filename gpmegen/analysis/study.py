@@ -123,7 +123,6 @@ def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_viola
     """RK4 entirely in C, called in chunks of about 0.05 s of simulated time so that progress is
     shown, the constraint violation is watched and Ctrl-C or SIGTERM keep what was computed.
     Returns ``(t, y, status)`` like :func:`gpmegen.runtime.integrate.rk4`."""
-    n = model.n_dof
     n_steps = int(round(t_end / dt))
     chunk = max(save_every, int(round(0.05 / dt / save_every)) * save_every)
     ts, ys = [np.array([0.0])], [np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]]

@@ -47,6 +47,21 @@ def drive_torque(t, tdr0, t0):
     return tdr0 * s**3 * (10 - 15 * s + 6 * s**2)
 
 
+def reference_arm(P: dict, nrfe: int) -> FlexibleLink:
+    """The flexible arm (body 2) with ``nrfe`` rfes; ``P`` maps parameter names to symbols."""
+    return FlexibleLink(
+        label="2",
+        length=P["L2"],
+        section=RectangularSection(P["b2"], P["t2"]),
+        density=P["rho2"],
+        young_modulus=P["E2"],
+        shear_modulus=P["G2"],
+        torsion_constant=P["J2"],
+        n_rfe=nrfe,
+        damping=(P["d2"], P["d2"], P["d2"]),
+    )
+
+
 def reference_model(nrfe: int = 5) -> Model:
     """The reference manipulator with its arm cut into ``nrfe`` rfes (1: rigid arm)."""
     P = {p.name: p.symbol for p in PARAMETERS}
@@ -55,17 +70,7 @@ def reference_model(nrfe: int = 5) -> Model:
         Body("column", solid_cylinder(P["m1"], P["R1"], P["h1"], "y")),
         Offset((0, P["h1"], 0)),
         Joint("psi2", "revolute", "z"),
-        FlexibleLink(
-            label="2",
-            length=P["L2"],
-            section=RectangularSection(P["b2"], P["t2"]),
-            density=P["rho2"],
-            young_modulus=P["E2"],
-            shear_modulus=P["G2"],
-            torsion_constant=P["J2"],
-            n_rfe=nrfe,
-            damping=(P["d2"], P["d2"], P["d2"]),
-        ),
+        reference_arm(P, nrfe),
         Joint("x3", "prismatic", "x"),
         Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x")),
         Point("E", (P["L3"], 0, 0)),

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import BuildError
+from ..fileio import atomic_write_bytes
 
 #: Flags of every library build (``-shared -fPIC`` are added for linking). No ``-ffast-math``
 #: and no contraction into fused multiply-adds: the C backend evaluates the generated expressions
@@ -177,20 +178,6 @@ def _cached_ok(lib_path: Path, meta_path: Path) -> tuple[bool, str | None, dict 
     return True, None, meta
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, 0o644)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _remove_abandoned(cache: Path, older_than=24 * 3600.0) -> None:
     """Temporary files of builds that were killed before their rename."""
     limit = time.time() - older_than
@@ -230,7 +217,7 @@ def _compile(compiler, flags, source_path: Path, lib_path: Path, meta_path: Path
         }
         # The metadata first: a reader that sees the new library also sees its digest. If two
         # builders interleave, a mismatch only causes one more rebuild later.
-        _write_atomic(meta_path, (json.dumps(meta, indent=2, sort_keys=True) + "\n").encode())
+        atomic_write_bytes(meta_path, (json.dumps(meta, indent=2, sort_keys=True) + "\n").encode())
         os.chmod(tmp, 0o755)
         os.replace(tmp, lib_path)
     finally:
