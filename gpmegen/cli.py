@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import BuildError, GpmegenError, ModelError
+from .errors import BuildError, DerivationError, GpmegenError, ModelError
 
 
 def positive_int(text: str) -> int:
@@ -151,9 +151,15 @@ def _load(source, backend, params):
 
 
 def _default_backend() -> str:
+    """"c" when a C compiler is found, else "numpy" (and says so)."""
     from .runtime.ccompile import find_compiler
 
-    return "c" if find_compiler() else "numpy"
+    try:
+        find_compiler()
+        return "c"
+    except BuildError as exc:
+        progress(f"{exc}; using the NumPy backend")
+        return "numpy"
 
 
 def _start(source, backend, start, overrides):
@@ -404,9 +410,9 @@ def main(argv=None) -> int:
     except UsageError as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except (ModelError, BuildError) as exc:
+    except (ModelError, DerivationError, BuildError) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
-        return 2 if isinstance(exc, ModelError) else 1
+        return 1 if isinstance(exc, BuildError) else 2
     except GpmegenError as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 1

@@ -77,6 +77,7 @@ import difflib
 import keyword
 import math
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -236,13 +237,29 @@ class _Locator:
         return 1
 
 
+MAX_DEPTH = 40
+
+
+def _depth(expr) -> int:
+    """Nesting depth of an expression tree (iterative: deep trees must not hit the recursion limit)."""
+    deepest, stack = 0, [(expr, 1)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        stack.extend((a, d + 1) for a in node.args)
+    return deepest
+
+
 def _field(path) -> str:
     text = ""
     for part in path:
         if isinstance(part, int):
             text += f"[{part}]"
         else:
-            text += ("." if text else "") + str(part)
+            part = str(part)
+            if not part.isprintable():  # keys are the user's: keep the message on one line
+                part = repr(part)
+            text += ("." if text else "") + part
     return text
 
 
@@ -400,6 +417,9 @@ class _Reader:
             self.fail(path, f"expected a number or an expression string, got {_kind_of(value)}; "
                             f"write e.g. 0.5 or \"L2/2\"")
         if isinstance(value, int):
+            if abs(value) > sys.float_info.max:
+                self.fail(path, f"integer of {len(str(abs(value)))} digits, beyond a double; give a value "
+                                f"below 1e308 in size")
             expr = sp.Integer(value)
         elif isinstance(value, float):
             if not math.isfinite(value):
@@ -490,10 +510,27 @@ class _Reader:
             raise failure from None
         if not isinstance(expr, sp.Expr):
             self.fail(path, f"expression {text!r} is not a single scalar; write one value")
+        self.check_size(expr, text, path)
         if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I):
             self.fail(path, f"expression {text!r} is not a finite real value ({expr}); check divisions "
                             f"by zero and roots of negative numbers")
         return expr
+
+    def check_size(self, expr, text, path):
+        """Refuse expressions that would overflow a double or nest deeper than generated code and
+        the derivation can follow."""
+        depth = _depth(expr)
+        if depth > MAX_DEPTH:
+            self.fail(path, f"expression {text[:60]!r}… nests {depth} levels deep (at most {MAX_DEPTH}); "
+                            f"split it with parameters")
+        for atom in expr.atoms(sp.Number):
+            if not math.isfinite(float(atom)):
+                self.fail(path, f"expression {text[:60]!r} holds the number {atom.evalf(3)}, beyond a double; "
+                                f"use numbers between 1e-308 and 1e308 in size")
+        for power in expr.atoms(sp.Pow):
+            if power.exp.is_Number and abs(float(power.exp)) > MAX_EXPONENT:
+                self.fail(path, f"expression {text[:60]!r} raises to the power {power.exp}; at most "
+                                f"{MAX_EXPONENT} in size")
 
     def check_powers(self, raw, path):
         """Refuse powers whose exact evaluation would not end (``9^9^9^9``)."""

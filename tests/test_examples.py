@@ -1,0 +1,201 @@
+"""The example model files end to end through the command line: ``build``, ``simulate`` (the C
+backend when a compiler is present) and ``plot``. Each run must hold its programmed constraints,
+finish, and move the end-effector the way the file prescribes; a copy with ``dependent = "auto"``
+names the dependent coordinates it chose, and ``--repartition`` runs."""
+
+from __future__ import annotations
+
+import ast
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.analysis import results as results_io
+from gpmegen.cli import main
+from gpmegen.model.toml_file import read_model_file
+from gpmegen.runtime import partition
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+T_END, DT, SAVE_EVERY = 0.5, 1e-4, 10
+FIGURES = {"joint_coordinates", "end_effector", "path", "constraint_violation", "energy_balance"}
+
+
+def _have_compiler() -> bool:
+    from gpmegen.errors import BuildError
+    from gpmegen.runtime.ccompile import find_compiler
+
+    try:
+        return bool(find_compiler())
+    except BuildError:
+        return False
+
+
+def _params(path) -> dict[str, float]:
+    """Parameter values of a model file, read from the file itself."""
+    table = tomllib.loads(Path(path).read_text())["parameters"]
+    return {k: float(v["value"] if isinstance(v, dict) else v) for k, v in table.items()}
+
+
+# The end-effector's prescribed motion, evaluated from the file's numbers (t: (k,), E: (k, 3)).
+def _planar_residual(p, t, E):
+    s = p["A"] * (1 - np.cos(2 * np.pi * t / p["T"])) / 2
+    return np.column_stack([E[:, 0] - (p["xa"] + s * np.cos(p["lam"])),
+                            E[:, 1] - (p["ya"] + s * np.sin(p["lam"]))])
+
+
+def _spatial_residual(p, t, E):
+    d = p["d0"] - p["A"] * np.sin(np.pi * t / p["T"]) ** 2
+    return E[:, 0] * np.sin(p["gam"]) + E[:, 1] * np.cos(p["gam"]) - d
+
+
+def _nonholonomic_residual(p, t, E):
+    return E[:, 2] - p["z0"]   # the height; the heading (first order) is checked through Φ
+
+
+def _planar_travel(p, t):
+    return p["A"] * (1 - np.cos(2 * np.pi * t / p["T"])) / 2
+
+
+def _spatial_travel(p, t):
+    return p["A"] * np.sin(np.pi * t / p["T"]) ** 2
+
+
+CASES = {
+    "planar_two_link.toml": (_planar_residual, _planar_travel),
+    "spatial_six_joint.toml": (_spatial_residual, _spatial_travel),
+    "nonholonomic.toml": (_nonholonomic_residual, None),
+}
+
+
+def _run(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err, err
+    assert code == 0, f"{argv}: exit {code}\n{err}"
+    return out, err
+
+
+def _settings(res) -> dict:
+    return ast.literal_eval(str(res["settings"]))
+
+
+def _check_run(res, model_file):
+    assert str(res["status"]) == "complete"
+    t = res["t"]
+    assert t[0] == 0.0 and t[-1] == pytest.approx(T_END)
+    assert len(t) == int(round(T_END / DT / SAVE_EVERY)) + 1
+    assert np.all(np.isfinite(res["q"])) and np.all(np.isfinite(res["qd"]))
+    phi = res["phi"]
+    assert phi.shape == (len(t), len(read_model_file(model_file).model.constraints))
+    assert np.max(np.abs(phi)) < 1e-6
+
+
+@pytest.fixture
+def generated(tmp_path, monkeypatch):
+    """`build --out` and `simulate` share one folder: simulate loads what build wrote."""
+    folder = tmp_path / "generated"
+    monkeypatch.setenv("GPMEGEN_GENERATED", str(folder))
+    return folder
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_example_builds_simulates_and_plots(name, tmp_path, generated, capsys):
+    path = EXAMPLES / name
+    model = read_model_file(path).model
+
+    out, _ = _run(["build", path, "--out", generated], capsys)
+    assert model.name in out and "built in" in out
+    folder = generated / model.name
+    assert {"manifest.json", "model.c", "model_numpy.py"} <= {p.name for p in folder.iterdir()}
+    # built once: a second build is skipped, and simulate reuses it
+    out, _ = _run(["build", path, "--out", generated], capsys)
+    assert "up to date, skipped" in out
+
+    run = tmp_path / "run.npz"
+    out, err = _run(["simulate", path, "--t-end", T_END, "--dt", DT, "--save-every", SAVE_EVERY, "--out", run],
+                    capsys)
+    assert run.exists() and run.with_suffix(".csv").exists()
+    assert "max|Φ|" in out
+    assert "deriving" not in err  # the model built above is used, not derived again
+
+    res = results_io.load(run)
+    _check_run(res, path)
+    settings = _settings(res)
+    assert settings["backend"] == ("c" if _have_compiler() else "numpy")
+    assert settings["dependent"] == list(model.dependent)
+    assert settings["start"] == "initial"
+
+    # the end-effector (the file's only point) follows what the file prescribes
+    residual, travel = CASES[name]
+    p = _params(path)
+    t, E = res["t"], res["end_effector"]
+    assert np.max(np.abs(residual(p, t, E))) < 1e-6
+    if travel is not None:    # and it does move: the prescribed travel is reached
+        moved = np.linalg.norm(E - E[0], axis=1)
+        assert np.max(moved) > 0.5 * np.max(travel(p, t)) > 1e-3
+    # the coordinates the file names start where it says
+    initial = read_model_file(path).initial_values()
+    coordinates = [str(c) for c in res["coordinates"]]
+    for coordinate, value in initial.items():
+        if coordinate not in model.dependent:
+            assert res["q"][0, coordinates.index(coordinate)] == pytest.approx(value, abs=1e-12)
+
+    figures = tmp_path / "figures"
+    out, _ = _run(["plot", run, "--out", figures], capsys)
+    pngs = {p.stem for p in figures.glob("*.png")}
+    assert pngs == FIGURES
+    assert all(p.stat().st_size > 1000 for p in figures.glob("*.png"))
+    assert len(out.split()) == len(FIGURES)
+
+
+def test_automatic_partition_is_recorded_and_repartition_runs(tmp_path, generated, capsys):
+    """The spatial arm's file names d4; with "auto" the column-pivoted QR of D at the start picks
+    its own dependent coordinate, the run records it, and the motion is the same."""
+    text = (EXAMPLES / "spatial_six_joint.toml").read_text()
+    assert 'dependent = ["d4"]' in text
+    path = tmp_path / "spatial_auto.toml"
+    path.write_text(text.replace('dependent = ["d4"]', 'dependent = "auto"'))
+    file = read_model_file(path)
+    assert file.model.dependent is None
+
+    _run(["build", path, "--out", generated], capsys)
+    run = tmp_path / "auto.npz"
+    common = ["--t-end", T_END, "--dt", DT, "--save-every", SAVE_EVERY]
+    _run(["simulate", path, *common, "--out", run], capsys)
+    res = results_io.load(run)
+    _check_run(res, path)
+    chosen = _settings(res)["dependent"]
+    assert len(chosen) == 1 and chosen[0] in [str(c) for c in res["coordinates"]]
+
+    # what was recorded is what the partition chooses at the start configuration
+    loaded = gpmegen.load(model=file.model, backend="numpy", directory=generated, build=False)
+    q0 = res["q"][0]
+    expected = partition.partition_at(loaded, q0)
+    assert chosen == list(expected)
+    _, _, D, _ = loaded.constraint_terms(0.0, q0, np.zeros(loaded.n_dof))
+    assert partition.condition(D, loaded.dependent) < 1e3
+
+    # the partition changes the coordinates solved for, not the motion
+    fixed = tmp_path / "fixed.npz"
+    _run(["simulate", EXAMPLES / "spatial_six_joint.toml", *common, "--out", fixed], capsys)
+    ref = results_io.load(fixed)
+    assert _settings(ref)["dependent"] == ["d4"]
+    np.testing.assert_allclose(res["q"], ref["q"], rtol=0, atol=1e-7)
+    np.testing.assert_allclose(res["end_effector"], ref["end_effector"], rtol=0, atol=1e-8)
+
+    # --repartition: the watch may choose anew; the run completes and records its events
+    again = tmp_path / "repartition.npz"
+    _run(["simulate", path, *common, "--repartition", "--out", again], capsys)
+    res2 = results_io.load(again)
+    _check_run(res2, path)
+    settings = _settings(res2)
+    assert isinstance(settings["repartitions"], list)
+    for t_event, old, new in settings["repartitions"]:
+        assert 0 <= t_event <= T_END and len(old) == len(new) == 1 and old != new
+    if not settings["repartitions"]:
+        assert settings["dependent"] == chosen
+        np.testing.assert_array_equal(res2["q"], res["q"])
