@@ -44,9 +44,10 @@ class Lowered:
     outputs: tuple  # (Output, tuple of code strings)
 
 
-def _out(name, matrix):
+def _out(name, matrix, vector=False):
+    """An output; ``vector``: a column (n,) rather than a matrix (r, c), even when 1 x 1."""
     m = sp.Matrix(matrix)
-    return Output(name, tuple(m.shape) if m.shape[1] != 1 else (m.shape[0],), tuple(m))
+    return Output(name, (m.shape[0],) if vector else tuple(m.shape), tuple(m))
 
 
 def model_functions(d: Derivation) -> list[Function]:
@@ -56,27 +57,28 @@ def model_functions(d: Derivation) -> list[Function]:
     qd = sp.Matrix(kin.qd)
     kinetic = (qd.T * dyn.mass_matrix * qd)[0, 0] / 2
     constraint_outputs = (
-        _out("phi", con.value), _out("phi_rate", con.rate), _out("jacobian", con.jacobian), _out("gamma", con.gamma),
+        _out("phi", con.value, vector=True), _out("phi_rate", con.rate, vector=True),
+        _out("jacobian", con.jacobian), _out("gamma", con.gamma, vector=True),
     )
     fns = [
         Function("mass_matrix", "Mass matrix M(q), (n, n).", ("q", "p"), (_out("M", dyn.mass_matrix),)),
         Function("forces", "f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,).", ("t", "q", "qd", "p"),
-                 (_out("f", dyn.forces),)),
+                 (_out("f", dyn.forces, vector=True),)),
         Function("static_residual", "g(q) + C q: gravity and spring terms, (n,).", ("q", "p"),
-                 (_out("r", dyn.gravity_terms + dyn.spring_forces),)),
+                 (_out("r", dyn.gravity_terms + dyn.spring_forces, vector=True),)),
         Function("stiffness_jacobian", "K = d(g + C q)/dq, from T_ij, (n, n).", ("q", "p"),
                  (_out("K", dyn.stiffness_jacobian),)),
-        Function("drive_forces", "Drive forces Q(t), (n,).", ("t", "p"), (_out("Q", dyn.drive_forces),)),
+        Function("drive_forces", "Drive forces Q(t), (n,).", ("t", "p"), (_out("Q", dyn.drive_forces, vector=True),)),
         Function("points", "Positions of the named points in {0} (m), (n_points, 3).", ("q", "p"),
                  (Output("P", (points.shape[0], 3), tuple(points)),)),
         Function("constraint_terms", "phi, phi_rate, D, gamma of the programmed constraints.",
                  ("t", "q", "qd", "p"), constraint_outputs),
         Function("baumgarte_gains", "alpha, beta per constraint.", ("p",),
-                 (_out("alpha", con.alpha), _out("beta", con.beta))),
+                 (_out("alpha", con.alpha, vector=True), _out("beta", con.beta, vector=True))),
         Function("energies", "Kinetic, gravity potential and spring energy (J), (3,).", ("q", "qd", "p"),
                  (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy)),)),
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
-                 ("t", "q", "qd", "p"), (_out("M", dyn.mass_matrix), _out("f", dyn.forces)) + constraint_outputs),
+                 ("t", "q", "qd", "p"), (_out("M", dyn.mass_matrix), _out("f", dyn.forces, vector=True)) + constraint_outputs),
     ]
     return fns
 

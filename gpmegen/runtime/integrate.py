@@ -133,12 +133,41 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
     return np.array(ts), np.array(ys), status
 
 
+IMPLICIT = ("Radau", "BDF", "LSODA")
+
+
+def _difference_jacobian(rhs, relative=1e-7):
+    """∂rhs/∂y by forward differences with step ``relative·max(1, |y_j|)``."""
+
+    def jac(t, y):
+        f0 = rhs(t, y)
+        J = np.empty((len(f0), len(y)))
+        for j in range(len(y)):
+            h = relative * max(1.0, abs(y[j]))
+            yj = y.copy()
+            yj[j] += h
+            J[:, j] = (rhs(t, yj) - f0) / h
+        return J
+
+    return jac
+
+
 def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
-    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, status)``."""
+    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, status)``.
+
+    The implicit methods (Radau, BDF, LSODA) integrate ``(q, q̇)`` only (the work columns of ``y``
+    are then NaN) and get a forward-difference Jacobian with a fixed relative step: scipy's own
+    adapts its step per column and lets it grow without bound on a coordinate nothing depends on
+    (the column's rotation θ1, or the work states), until the state overflows."""
     from scipy.integrate import solve_ivp
 
-    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
-    sol = solve_ivp(state_derivative(model), (t0, t_end), y0, method=method, rtol=rtol, atol=atol,
-                    t_eval=t_eval)
+    n = model.n_dof
+    with_work = method not in IMPLICIT
+    y0 = np.concatenate([q0, qd0] + ([[0.0, 0.0]] if with_work else [])).astype(float)
+    full = state_derivative(model)
+    rhs = full if with_work else (lambda t, y: full(t, np.concatenate([y, [0.0, 0.0]]))[:2 * n])
+    options = {} if with_work else {"jac": _difference_jacobian(rhs)}
+    sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
+    y = sol.y.T if with_work else np.column_stack([sol.y.T, np.full((len(sol.t), 2), np.nan)])
     status = "complete" if sol.success else f"diverged: {sol.message}"
-    return sol.t, sol.y.T, status
+    return sol.t, y, status
