@@ -182,3 +182,22 @@ def test_simulate_and_plot_end_to_end(tmp_path, capsys):
     names = sorted(p.name for p in (tmp_path / "figs").iterdir())
     assert names == ["constraint_violation.png", "end_effector.png", "energy_balance.png", "joint_coordinates.png",
                      "path.png"]
+
+
+def test_partition_watch_warns_and_repartitions(rigid):
+    """θ1 moves neither constraint (rotation about the circle's axis), so a partition that makes
+    it dependent has a singular D_dc: the watch says so, or picks a regular partition."""
+    from gpmegen.runtime import partition
+
+    model, q = study.initial_state(rigid)
+    model = model.with_params()
+    model.set_partition([model.index("theta1"), model.index("x3")])
+    messages = []
+    partition.Watch(model, repartition=False, notify=messages.append).check(0.0, q)
+    assert len(messages) == 1 and "condition number" in messages[0] and "--repartition" in messages[0]
+    watch = partition.Watch(model, repartition=True, notify=messages.append)
+    watch.check(0.0, q)
+    assert [model.coordinates[k] for k in model.dependent] == ["psi2", "x3"]
+    assert watch.events and watch.events[0][1] == ("theta1", "x3") and watch.events[0][2] == ("psi2", "x3")
+    _, _, D, _ = model.constraint_terms(0.0, q, 0 * q)
+    assert partition.condition(D, model.dependent) < 1e3
