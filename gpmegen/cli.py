@@ -1,4 +1,4 @@
-"""Command line: ``gpmegen build | statics | simulate | plot | demo``.
+"""Command line: ``gpmegen build | statics | simulate | plot | modes | convergence | demo``.
 
 Usage errors exit with status 2, runtime failures with 1; either prints one line naming the
 problem and the fix, never a traceback.
@@ -38,13 +38,14 @@ def positive_float(text: str) -> float:
     return value
 
 
-def nonnegative_float(text: str) -> float:
+def end_time(text: str) -> float:
+    """argparse type: a finite time ≥ 0 (s)."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not value >= 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} must be zero or a positive finite number")
+        raise argparse.ArgumentTypeError(f"{text} is below zero or not finite; give the end time in seconds")
     return value
 
 
@@ -226,8 +227,6 @@ def _source(args):
 
 
 def cmd_simulate(args) -> int:
-    if args.t_end < 0:
-        raise UsageError(f"--t-end {args.t_end} is below zero; give the end time in seconds")
     backend = args.backend or _default_backend()
     overrides = dict(args.param or [])
     source = _source(args)
@@ -354,7 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="statics, then the constrained motion (RK4 or adaptive)")
     study_options(s)
-    s.add_argument("--t-end", type=float, default=10.0, help="end time in s (default 10)")
+    s.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
     s.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
     s.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
     s.add_argument("--method", choices=("rk4", "DOP853", "RK45", "Radau", "LSODA"), default="rk4",

@@ -152,6 +152,7 @@ def test_results_round_trip_and_foreign_files(rigid, tmp_path):
     (["--dt", "0"], "positive"),
     (["--dt=-1e-5"], "positive"),
     (["--t-end", "-1"], "below zero"),
+    (["--t-end", "nan"], "not finite"),
     (["--nrfe", "0"], "below 1"),
     (["--param", "tdr0"], "NAME=VALUE"),
 ])
