@@ -4,6 +4,7 @@ paper's study for the rigid and the flexible arm.
 Run: ``.venv/bin/python benchmarks/integrator_agreement.py [t_end]``. RK4 runs in C; the
 adaptive integrator (scipy's solve_ivp) calls the C model's GPME from Python: DOP853 for the
 rigid arm, Radau for the flexible arm (its stiff sde modes make explicit adaptive steps tiny).
+Measured here over 10 s: 4.8e-13 (rigid, 4 s) and 3.5e-8 (flexible; Radau takes about 20 min).
 """
 
 from __future__ import annotations
