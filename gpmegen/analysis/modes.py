@@ -418,6 +418,8 @@ def plot_mode_shapes(modes: Modes, path, count: int = 6) -> Path:
         ax.set_ylabel(f"{modes.frequencies[k]:.4g} Hz\n{modes.kinds[k]}", fontsize=8)
         ax.axhline(0, color="k", lw=0.5)
         ax.grid(True, alpha=0.3)
+    n_sde = sum(1 for c in names if c.startswith("psi") and "_" in c)
+    axes[-1, 0].set_xticks(range(1, n_sde + 1))
     axes[0, 0].legend(fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("sde along the arm (1 = at the root)")
     fig.suptitle("Mode shapes: sde rotations (unit modal mass)")
