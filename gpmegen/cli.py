@@ -28,25 +28,23 @@ def positive_int(text: str) -> int:
     return value
 
 
-def positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} must be a positive finite number")
-    return value
+def _finite_number(accept, problem):
+    """argparse type: a finite number for which ``accept(value)`` holds, else ``problem``."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not (accept(value) and value != float("inf")):
+            raise argparse.ArgumentTypeError(f"{text} {problem}")
+        return value
+
+    return parse
 
 
-def end_time(text: str) -> float:
-    """argparse type: a finite time ≥ 0 (s)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not value >= 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"{text} is below zero or not finite; give the end time in seconds")
-    return value
+positive_float = _finite_number(lambda v: v > 0, "must be a positive finite number")
+end_time = _finite_number(lambda v: v >= 0, "is below zero or not finite; give the end time in seconds")
 
 
 def parameter_override(text: str):
@@ -96,10 +94,8 @@ def _file_models(path, nrfe_values):
     return out
 
 
-def _located(path, nrfe, action):
+def _located(path, action):
     """Run ``action()``; a derivation error of a model file gets the file and line it comes from."""
-    from .errors import DerivationError
-
     try:
         return action()
     except DerivationError as exc:
@@ -107,7 +103,7 @@ def _located(path, nrfe, action):
             raise
         from .model.toml_file import locate
 
-        raise locate(path, exc, nrfe) from None
+        raise locate(path, exc, None) from None
 
 
 def cmd_build(args) -> int:
@@ -123,7 +119,7 @@ def cmd_build(args) -> int:
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
     total = time.perf_counter()
     for model, command in pairs:
-        result = _located(args.model_file, None, lambda: build(model, out, backends, force=args.force,
+        result = _located(args.model_file, lambda: build(model, out, backends, force=args.force,
                                                                   progress=progress, command=command))
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
@@ -145,10 +141,10 @@ def _load(source, backend, params):
     path = None if isinstance(source, int) else source[0]
     if backend == "c":
         try:
-            return _located(path, None, lambda: gpmegen.load(backend="c", params=params, progress=progress, **kw))
+            return _located(path, lambda: gpmegen.load(backend="c", params=params, progress=progress, **kw))
         except BuildError as exc:
             progress(f"C backend unavailable ({exc}); using the NumPy backend")
-    return _located(path, None, lambda: gpmegen.load(backend="numpy", params=params, progress=progress, **kw))
+    return _located(path, lambda: gpmegen.load(backend="numpy", params=params, progress=progress, **kw))
 
 
 def _default_backend() -> str:

@@ -145,11 +145,9 @@ def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_viola
                 if steps % save_every:  # keep the chunk's last state even off the save grid
                     ts.append(np.array([done * dt]))
                     ys.append(y[-1:])
-                if max_violation is not None and len(model.constraint_names):
-                    phi = model.constraint_terms(done * dt, q, qd)[0]
-                    if np.max(np.abs(phi)) > max_violation:
-                        status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
-                                  f"{max_violation:.1e} at t = {done * dt:.6g} s; {integrate.FIX_VIOLATION}")
+                if max_violation is not None:
+                    status = integrate.violation(model, done * dt, q, qd, max_violation) or status
+                    if status != "complete":
                         break
                 if watch is not None:
                     watch.check(done * dt, q)

@@ -39,7 +39,6 @@ class CModel(LoadedModel):
         super().__init__(module, params, "c", folder)
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")
-        self._flags, self._cache = tuple(flags), cache
         source = Path(folder) / "model.c"
         if not source.exists():
             raise BuildError(f"{source} is missing; rebuild the model with 'gpmegen build --force'")
@@ -54,9 +53,10 @@ class CModel(LoadedModel):
         self._partition_c = None
 
     def with_params(self, **overrides) -> "CModel":
-        """The same model with some parameter values changed (no rebuild, no recompile)."""
-        return type(self)(self.module, {**self.params, **overrides}, self.backend, self.folder,
-                          flags=self._flags, cache=self._cache)
+        """The same model with some parameter values changed; shares the loaded library."""
+        other = super().with_params(**overrides)
+        other.compiled = False  # nothing was compiled for it
+        return other
 
     # --- marshalling ------------------------------------------------------------------------
     def _vec(self, x, what):

@@ -22,6 +22,16 @@ FIX_SINGULAR = ("either the motion blew up (try a smaller --dt) or the dependent
                 "the constraints there (use --repartition or choose others)")
 
 
+def violation(model, t, q, qd, limit):
+    """The status of a run whose constraint violation max|Φ| at ``(t, q, qd)`` exceeds
+    ``limit``, else None."""
+    phi = model.constraint_terms(t, q, qd)[0]
+    worst = float(np.max(np.abs(phi), initial=0.0))
+    if worst > limit:
+        return f"diverged: constraint violation {worst:.3e} above {limit:.1e} at t = {t:.6g} s; {FIX_VIOLATION}"
+    return None
+
+
 class Progress:
     """A one-line progress bar on stderr (quiet when not a terminal unless forced)."""
 
@@ -111,10 +121,8 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
                     status = f"diverged: non-finite state at t = {t:.6g} s; {FIX_NONFINITE}"
                     break
                 if max_violation is not None:
-                    phi = model.constraint_terms(t, y[:n], y[n:2 * n])[0]
-                    if phi.size and np.max(np.abs(phi)) > max_violation:
-                        status = (f"diverged: constraint violation {np.max(np.abs(phi)):.3e} above "
-                                  f"{max_violation:.1e} at t = {t:.6g} s; {FIX_VIOLATION}")
+                    status = violation(model, t, y[:n], y[n:2 * n], max_violation) or status
+                    if status != "complete":
                         ts.append(t)
                         ys.append(y.copy())
                         break

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from types import ModuleType
 
 import numpy as np
@@ -26,8 +27,13 @@ class LoadedModel:
         self.points: tuple = tuple(module.POINTS)
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
         self.constraint_orders = np.array(module.CONSTRAINT_ORDERS, dtype=int)
-        values = dict(zip(self.parameter_names, module.DEFAULTS))
-        for name, value in (params or {}).items():
+        self.dependent, self.independent = self._partition(module.DEPENDENT)
+        self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {})
+
+    def _bind(self, values: dict, overrides: dict) -> None:
+        """Set the parameter values (defaults ``values`` changed by ``overrides``), checked."""
+        values = dict(values)
+        for name, value in overrides.items():
             if name not in values:
                 raise ModelError(
                     f"unknown parameter {name!r}; the model's parameters are {', '.join(self.parameter_names)}"
@@ -40,8 +46,7 @@ class LoadedModel:
                 raise ModelError(f"parameter {name!r} must be finite, got {value!r}")
         self.params: dict = values
         self.p = np.array([values[k] for k in self.parameter_names], dtype=float)
-        self.dependent, self.independent = self._partition(module.DEPENDENT)
-        alpha, beta = module.baumgarte_gains(self.p)
+        alpha, beta = self.module.baumgarte_gains(self.p)
         self.alpha, self.beta = np.asarray(alpha, float), np.asarray(beta, float)
 
     def _partition(self, dependent):
@@ -64,8 +69,11 @@ class LoadedModel:
         self.independent = np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int)
 
     def with_params(self, **overrides) -> "LoadedModel":
-        """The same model with some parameter values changed (no rebuild)."""
-        return type(self)(self.module, {**self.params, **overrides}, self.backend, self.folder)
+        """The same model (same generated code, compiled library and partition) with some
+        parameter values changed; nothing is rebuilt or reloaded."""
+        other = copy.copy(self)
+        other._bind(self.params, overrides)
+        return other
 
     def index(self, coordinate: str) -> int:
         """Position of a coordinate in ``q``."""
@@ -125,11 +133,10 @@ class LoadedModel:
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16)."""
         return self.motion(t, q, qd)[0]
 
-    def constraint_forces(self, t, q, qd, qdd=None):
+    def constraint_forces(self, t, q, qd):
         """Generalized forces the constraints exert, ``M q̈ - f`` (n,)."""
-        if qdd is None:
-            qdd = self.accelerations(t, q, qd)
-        return self.mass_matrix(q) @ qdd - self.forces(t, q, qd)
+        qdd, M, f = self.motion(t, q, qd)
+        return M @ qdd - f
 
     def __repr__(self):
         return f"<gpmegen model {self.module.MODEL} ({self.backend}), n_dof={self.n_dof}>"
