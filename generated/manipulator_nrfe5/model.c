@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 139882bc9f522659
+Input hash: 3041e8ace5967172
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -82,7 +82,7 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "139882bc9f522659"; }
+const char *gpmegen_input_hash(void) { return "3041e8ace5967172"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -4833,6 +4833,17 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
+/* The factorization below runs on a matrix whose size is fixed at build time. Up to
+   32 x 32 its triangular loops are unrolled into straight code without per-iteration
+   branches and remainder loops (as loops they cost as much as evaluating the model); beyond
+   that the unrolled code would outgrow the instruction cache. GCC and Clang (both define
+   __GNUC__) take the pragma; other compilers keep the loops. */
+#if defined(__GNUC__)
+#define UNROLL _Pragma("GCC unroll 32")
+#else
+#define UNROLL
+#endif
+
 
 /* Solve a x = b in place for an n x n row-major matrix a (overwritten by its LU factors) and
    n_rhs right-hand sides b (n x n_rhs, row-major; overwritten by x). Gaussian elimination with
@@ -4905,10 +4916,15 @@ static int lu_solve(int n, double *a, int n_rhs, double *b)
 }
 
 
-/* Cholesky factorization in place of the symmetric positive definite n x n row-major a (lower
-   triangle used and overwritten by L, a = L L^T); inv_diag (n) receives 1 / L_ii. Returns 2
-   when an entry is not finite, 1 when a is not numerically positive definite, else 0. */
-static int cholesky(int n, double *a, double *inv_diag)
+/* LDL^T factorization in place of the symmetric positive definite n x n row-major a, read and
+   written in its upper triangle only (a[j * n + i], i >= j): on return a[j * n + i] = L_ij for
+   i > j (L unit lower triangular) and inv_d[j] = 1 / D_jj. No square roots, and one division per
+   column: the factorization is a chain of n dependent pivots, so what each pivot costs sets
+   its time (a Cholesky pivot waits for a square root and then a division). Right-looking
+   updates run along contiguous rows. Returns 2 when an entry is not finite, 1 when a is not
+   numerically positive definite (a pivot at or below n * DBL_EPSILON times the largest
+   diagonal entry), else 0. */
+static int ldlt(int n, double *a, double *inv_d)
 {
     double scale = 0.0;
     for (int i = 0; i < n; ++i) {
@@ -4920,45 +4936,45 @@ static int cholesky(int n, double *a, double *inv_diag)
         }
     }
     const double tiny = (double)n * DBL_EPSILON * scale;
-    for (int j = 0; j < n; ++j) {
-        double d = a[j * n + j];
-        for (int k = 0; k < j; ++k) {
-            d -= a[j * n + k] * a[j * n + k];
-        }
+    UNROLL for (int j = 0; j < n; ++j) {
+        double *row = a + j * n;
+        const double d = row[j];
         if (!(d > tiny)) {
             return isfinite(d) ? 1 : 2;
         }
-        d = sqrt(d);
-        a[j * n + j] = d;
         const double inv = 1.0 / d;
-        inv_diag[j] = inv;
-        for (int i = j + 1; i < n; ++i) {
-            double s = a[i * n + j];
-            for (int k = 0; k < j; ++k) {
-                s -= a[i * n + k] * a[j * n + k];
+        inv_d[j] = inv;
+        UNROLL for (int m = j + 1; m < n; ++m) {
+            const double l = row[m] * inv;  /* L_mj; row[m] is L_mj D_jj */
+            double *target = a + m * n;
+            UNROLL for (int i = m; i < n; ++i) {
+                target[i] -= l * row[i];
             }
-            a[i * n + j] = s * inv;
+        }
+        UNROLL for (int i = j + 1; i < n; ++i) {
+            row[i] *= inv;
         }
     }
     return 0;
 }
 
-/* Solve L L^T x = b in place (b: n entries) with the factor and inv_diag from cholesky(). */
-static void cholesky_solve(int n, const double *L, const double *inv_diag, double *b)
+/* Solve L D L^T x = b in place (b: n entries) with the factors from ldlt(). */
+static void ldlt_solve(int n, const double *a, const double *inv_d, double *b)
 {
-    for (int i = 0; i < n; ++i) {
-        double s = b[i];
-        for (int k = 0; k < i; ++k) {
-            s -= L[i * n + k] * b[k];
+    UNROLL for (int k = 0; k < n; ++k) {
+        const double y = b[k];
+        const double *row = a + k * n;
+        UNROLL for (int i = k + 1; i < n; ++i) {
+            b[i] -= row[i] * y;
         }
-        b[i] = s * inv_diag[i];
     }
-    for (int i = n - 1; i >= 0; --i) {
-        double s = b[i];
-        for (int k = i + 1; k < n; ++k) {
-            s -= L[k * n + i] * b[k];
+    UNROLL for (int i = n - 1; i >= 0; --i) {
+        const double *row = a + i * n;
+        double s = b[i] * inv_d[i];
+        UNROLL for (int k = i + 1; k < n; ++k) {
+            s -= row[k] * b[k];
         }
-        b[i] = s * inv_diag[i];
+        b[i] = s;
     }
 }
 
@@ -4972,8 +4988,11 @@ static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
                    c = -gamma - alpha phi                       (first-order constraints),
    with X = D_dc^-1 D_ic and B = [I; -X] arranged by coordinate index (dependent and independent
    index q). Solved in the independent accelerations z = qdd_ic: every qdd meeting the constraint
-   rows is qdd = B z + qdd_p with qdd_p,dc = D_dc^-1 c and qdd_p,ic = 0, so the first rows become
-   the reduced system (B^T M B) z = B^T (f - M qdd_p), symmetric positive definite (Cholesky).
+   rows is qdd = B z + qdd_p with qdd_p,dc = x_c = D_dc^-1 c and qdd_p,ic = 0, so the first rows
+   become the reduced system R z = r, R = B^T M B (symmetric positive definite, LDL^T) and
+   r = B^T (f - M qdd_p). Written out with W = M_dc,ic - M_dc,dc X and w = f_dc - M_dc,dc x_c:
+       R = M_ic,ic - M_ic,dc X - X^T W,    r = f_ic - M_ic,dc x_c - X^T w,
+   which takes each entry of M once and the upper triangle of R only.
    reaction (N_DOF) receives the generalized constraint forces M qdd - f.
    Returns 0; 1 when D_dc or B^T M B is singular; 2 when a term is not finite. */
 static int gpme_solve(double t, const double *q, const double *qd, const double *p,
@@ -4982,8 +5001,9 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
 {
     enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
     double phi[NC], phi_rate[NC], D[NC * N_DOF], gam[NC], alpha[NC], beta[NC];
-    double D_dc[NC * NC], X[NC * NX];  /* [D_dc^-1 D_ic | D_dc^-1 c] */
-    double MB[N_DOF * NI], R[NI * NI], inv_diag[NI > 0 ? NI : 1], z[NI > 0 ? NI : 1], g[N_DOF];
+    double D_dc[NC * NC], X[NC * NX];  /* [X | x_c] = D_dc^-1 [D_ic | c] */
+    double W[NC * NX];                 /* [W | w] */
+    double R[NI > 0 ? NI * NI : 1], inv_d[NI > 0 ? NI : 1], z[NI > 0 ? NI : 1];
     int status;
 
     gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
@@ -5002,41 +5022,50 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
     if ((status = lu_solve(NC, D_dc, NX, X)) != 0) {
         return status;
     }
-    /* g = f - M qdd_p;  MB = M B (columns: M[:, ind j] - sum_a X[a][j] M[:, dep a]) */
-    for (int i = 0; i < N_DOF; ++i) {
-        double s = f[i];
-        for (int a = 0; a < NC; ++a) {
-            s -= M[i * N_DOF + dependent[a]] * X[a * NX + NI];
-        }
-        g[i] = s;
+    for (int a = 0; a < NC; ++a) {
+        const double *row = M + dependent[a] * N_DOF;
         for (int j = 0; j < NI; ++j) {
-            double v = M[i * N_DOF + independent[j]];
-            for (int a = 0; a < NC; ++a) {
-                v -= X[a * NX + j] * M[i * N_DOF + dependent[a]];
+            double w = row[independent[j]];
+            for (int b = 0; b < NC; ++b) {
+                w -= row[dependent[b]] * X[b * NX + j];
             }
-            MB[i * NI + j] = v;
+            W[a * NX + j] = w;
         }
+        double w = f[dependent[a]];
+        for (int b = 0; b < NC; ++b) {
+            w -= row[dependent[b]] * X[b * NX + NI];
+        }
+        W[a * NX + NI] = w;
     }
-    /* R = B^T M B (lower triangle), z = B^T g */
     for (int i = 0; i < NI; ++i) {
-        const int ii = independent[i];
-        double s = g[ii];
+        const double *row = M + independent[i] * N_DOF;
+        double m_id[NC];
         for (int a = 0; a < NC; ++a) {
-            s -= X[a * NX + i] * g[dependent[a]];
+            m_id[a] = row[dependent[a]];
+        }
+        double s = f[independent[i]];
+        for (int a = 0; a < NC; ++a) {
+            s -= m_id[a] * X[a * NX + NI];
+        }
+        for (int a = 0; a < NC; ++a) {
+            s -= X[a * NX + i] * W[a * NX + NI];
         }
         z[i] = s;
-        for (int j = 0; j <= i; ++j) {
-            double v = MB[ii * NI + j];
+        for (int j = i; j < NI; ++j) {
+            double v = row[independent[j]];
             for (int a = 0; a < NC; ++a) {
-                v -= X[a * NX + i] * MB[dependent[a] * NI + j];
+                v -= m_id[a] * X[a * NX + j];
+            }
+            for (int a = 0; a < NC; ++a) {
+                v -= X[a * NX + i] * W[a * NX + j];
             }
             R[i * NI + j] = v;
         }
     }
-    if ((status = cholesky(NI, R, inv_diag)) != 0) {
+    if ((status = ldlt(NI, R, inv_d)) != 0) {
         return status;
     }
-    cholesky_solve(NI, R, inv_diag, z);
+    ldlt_solve(NI, R, inv_d, z);
     for (int j = 0; j < NI; ++j) {
         qdd[independent[j]] = z[j];
     }
@@ -5047,12 +5076,17 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
         }
         qdd[dependent[a]] = s;
     }
+    /* M qdd - f by columns of M (its rows: M is symmetric entry for entry), so that the inner
+       loop runs along contiguous memory. */
     for (int i = 0; i < N_DOF; ++i) {
-        double s = -f[i];
-        for (int k = 0; k < N_DOF; ++k) {
-            s += M[i * N_DOF + k] * qdd[k];
+        reaction[i] = -f[i];
+    }
+    for (int k = 0; k < N_DOF; ++k) {
+        const double a = qdd[k];
+        const double *column = M + k * N_DOF;
+        for (int i = 0; i < N_DOF; ++i) {
+            reaction[i] += column[i] * a;
         }
-        reaction[i] = s;
     }
     return 0;
 }
