@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 3041e8ace5967172
+Input hash: 301085e3d8bdc171
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -82,7 +82,7 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "3041e8ace5967172"; }
+const char *gpmegen_input_hash(void) { return "301085e3d8bdc171"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -4843,6 +4843,14 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 #else
 #define UNROLL
 #endif
+/* The factorization and its solve stay functions of their own: inlined into gpme_solve, the
+   unrolled code tripled it (10 -> 30 KiB) and an RK4 step at n_rfe = 5 took 18% longer, the
+   loop's code no longer fitting the instruction cache beside gpme_terms. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
 
 
 /* Solve a x = b in place for an n x n row-major matrix a (overwritten by its LU factors) and
@@ -4924,7 +4932,7 @@ static int lu_solve(int n, double *a, int n_rhs, double *b)
    updates run along contiguous rows. Returns 2 when an entry is not finite, 1 when a is not
    numerically positive definite (a pivot at or below n * DBL_EPSILON times the largest
    diagonal entry), else 0. */
-static int ldlt(int n, double *a, double *inv_d)
+NOINLINE static int ldlt(int n, double *a, double *inv_d)
 {
     double scale = 0.0;
     for (int i = 0; i < n; ++i) {
@@ -4958,8 +4966,10 @@ static int ldlt(int n, double *a, double *inv_d)
     return 0;
 }
 
-/* Solve L D L^T x = b in place (b: n entries) with the factors from ldlt(). */
-static void ldlt_solve(int n, const double *a, const double *inv_d, double *b)
+/* Solve L D L^T x = b in place (b: n entries) with the factors from ldlt(). Both substitutions
+   go column by column: once an unknown is final it is taken out of all the others at once, so
+   the chain of dependent operations is n multiply-subtracts long, not n^2 / 2. */
+NOINLINE static void ldlt_solve(int n, const double *a, const double *inv_d, double *b)
 {
     UNROLL for (int k = 0; k < n; ++k) {
         const double y = b[k];
@@ -4968,13 +4978,14 @@ static void ldlt_solve(int n, const double *a, const double *inv_d, double *b)
             b[i] -= row[i] * y;
         }
     }
-    UNROLL for (int i = n - 1; i >= 0; --i) {
-        const double *row = a + i * n;
-        double s = b[i] * inv_d[i];
-        UNROLL for (int k = i + 1; k < n; ++k) {
-            s -= row[k] * b[k];
+    UNROLL for (int i = 0; i < n; ++i) {
+        b[i] *= inv_d[i];
+    }
+    UNROLL for (int k = n - 1; k > 0; --k) {
+        const double x = b[k];
+        UNROLL for (int i = 0; i < k; ++i) {
+            b[i] -= a[i * n + k] * x;
         }
-        b[i] = s;
     }
 }
 
@@ -4993,21 +5004,35 @@ static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
    r = B^T (f - M qdd_p). Written out with W = M_dc,ic - M_dc,dc X and w = f_dc - M_dc,dc x_c:
        R = M_ic,ic - M_ic,dc X - X^T W,    r = f_ic - M_ic,dc x_c - X^T w,
    which takes each entry of M once and the upper triangle of R only.
-   reaction (N_DOF) receives the generalized constraint forces M qdd - f.
+   *power receives the power of the constraint forces, qd . (M qdd - f) = (M qd) . qdd - qd . f
+   (M symmetric): M qd does not wait for the solve, so it runs beside the factorization.
    Returns 0; 1 when D_dc or B^T M B is singular; 2 when a term is not finite. */
 static int gpme_solve(double t, const double *q, const double *qd, const double *p,
                       const int *dependent, const int *independent,
-                      double *qdd, double *M, double *f, double *reaction)
+                      double *qdd, double *M, double *f, double *power)
 {
     enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
     double phi[NC], phi_rate[NC], D[NC * N_DOF], gam[NC], alpha[NC], beta[NC];
     double D_dc[NC * NC], X[NC * NX];  /* [X | x_c] = D_dc^-1 [D_ic | c] */
     double W[NC * NX];                 /* [W | w] */
     double R[NI > 0 ? NI * NI : 1], inv_d[NI > 0 ? NI : 1], z[NI > 0 ? NI : 1];
+    double m_qd[N_DOF], qd_f = 0.0;
     int status;
 
     gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
     baumgarte_gains(p, alpha, beta);
+    /* M qd by columns of M (its rows: M is symmetric entry for entry), contiguous inner loop */
+    for (int i = 0; i < N_DOF; ++i) {
+        m_qd[i] = 0.0;
+        qd_f += qd[i] * f[i];
+    }
+    for (int k = 0; k < N_DOF; ++k) {
+        const double v = qd[k];
+        const double *column = M + k * N_DOF;
+        for (int i = 0; i < N_DOF; ++i) {
+            m_qd[i] += column[i] * v;
+        }
+    }
     for (int a = 0; a < NC; ++a) {
         for (int b = 0; b < NC; ++b) {
             D_dc[a * NC + b] = D[a * N_DOF + dependent[b]];
@@ -5076,18 +5101,11 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
         }
         qdd[dependent[a]] = s;
     }
-    /* M qdd - f by columns of M (its rows: M is symmetric entry for entry), so that the inner
-       loop runs along contiguous memory. */
+    double s = -qd_f;
     for (int i = 0; i < N_DOF; ++i) {
-        reaction[i] = -f[i];
+        s += m_qd[i] * qdd[i];
     }
-    for (int k = 0; k < N_DOF; ++k) {
-        const double a = qdd[k];
-        const double *column = M + k * N_DOF;
-        for (int i = 0; i < N_DOF; ++i) {
-            reaction[i] += column[i] * a;
-        }
-    }
+    *power = s;
     return 0;
 }
 
@@ -5097,8 +5115,8 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
 int gpme_motion(double t, const double *q, const double *qd, const double *p,
                 const int *dependent, const int *independent, double *qdd, double *M, double *f)
 {
-    double reaction[N_DOF];
-    return gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, reaction);
+    double power;
+    return gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power);
 }
 
 /* qdd (N_DOF) alone; see gpme_motion. */
@@ -5138,17 +5156,15 @@ static void save_state(long k, double t, const double *q, const double *qd, cons
 static int stage(double t, const double *q, const double *qd, const double *p,
                  const int *dependent, const int *independent, double *qdd, double *power)
 {
-    double M[N_DOF * N_DOF], f[N_DOF], Q[N_DOF], reaction[N_DOF];
-    const int status = gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, reaction);
+    double M[N_DOF * N_DOF], f[N_DOF], Q[N_DOF];
+    const int status = gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power[1]);
     if (status != 0) {
         return status;
     }
     drive_forces(t, p, Q);
     power[0] = 0.0;
-    power[1] = 0.0;
     for (int i = 0; i < N_DOF; ++i) {
         power[0] += qd[i] * Q[i];
-        power[1] += qd[i] * reaction[i];
     }
     return 0;
 }
