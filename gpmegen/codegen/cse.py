@@ -16,8 +16,9 @@ from ..symbolic.program import is_trivial
 
 def eliminate(definitions, outputs, prefix="x"):
     """Hoist every repeated non-trivial subexpression of ``definitions`` (``(symbol, expr)``
-    pairs in order) and ``outputs`` (expressions) into a new definition, and rename all
-    intermediate symbols ``<prefix>0, <prefix>1, …`` in order of definition.
+    pairs in order) and ``outputs`` (expressions) into a new definition, merge definitions
+    whose values come out equal (the inertia constants of identical rfes, for one), and rename
+    all intermediate symbols ``<prefix>0, <prefix>1, …`` in order of definition.
 
     Returns ``(definitions, outputs)`` with the new names."""
     counts: Counter = Counter()
@@ -56,12 +57,16 @@ def eliminate(definitions, outputs, prefix="x"):
             return sym
         return new
 
+    defined: dict = {}  # value -> its symbol: two definitions with one value become one
     for sym, expr in definitions:
         value = rewrite(expr)
         if is_trivial(value):
             names[sym] = value
             continue
+        if value in defined:
+            names[sym] = defined[value]
+            continue
         new = new_symbol()
         result.append((new, value))
-        names[sym] = new
+        names[sym] = defined[value] = new
     return result, [rewrite(sp.sympify(e)) for e in outputs]
