@@ -36,6 +36,11 @@ from ..fileio import atomic_write_bytes
 #: this matters because q̈ is sensitive to M and f by a condition number near 1e4 for the flexible
 #: arm. ``-march=native``: built for this machine's processor, which the cache key names.
 DEFAULT_FLAGS = ("-O3", "-march=native", "-std=c99", "-ffp-contract=off", "-fno-math-errno", "-Wall", "-Wextra")
+#: Added when the compiler is GCC: priority-based register allocation. A generated function is one
+#: long block of straight-line code with hundreds of values live at once, where GCC's default
+#: colouring spills more: with this flag gpme_terms has 5% fewer instructions and an RK4 step
+#: takes 5-8% less at n_rfe = 5 (3% at 10). Register allocation changes no rounding.
+GCC_FLAGS = ("-fira-algorithm=priority",)
 #: ``-Bsymbolic``: calls between the library's own functions (rk4 → gpme_terms) bind inside the
 #: library, never to a same-named symbol of another loaded model or library.
 LINK_FLAGS = ("-shared", "-fPIC") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux") else ())
@@ -113,6 +118,12 @@ def compiler_identity(compiler: list[str]) -> str:
     identity = " ".join(compiler) + "\n" + run.stdout + "\n" + _processor()
     _identities[(tuple(compiler), stamp)] = identity
     return identity
+
+
+def is_gcc(identity: str) -> bool:
+    """Whether ``identity`` (see :func:`compiler_identity`) is GCC's, under any name (cc, gcc)."""
+    version = identity.split("\n", 2)[1] if identity.count("\n") >= 2 else ""
+    return "Free Software Foundation" in identity and "clang" not in version.lower()
 
 
 def library_key(source: str, identity: str, flags) -> str:
@@ -235,9 +246,9 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None) -> CompiledLibra
     except OSError as exc:
         raise BuildError(f"cannot read {source_path} ({exc.strerror}); rebuild the model with "
                          f"'gpmegen build --force'") from None
-    flags = tuple(flags)
     compiler = find_compiler()
     identity = compiler_identity(compiler)
+    flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) else ())
     key = library_key(source, identity, flags + LINK_FLAGS)
     cache = Path(cache) if cache is not None else cache_directory()
     try:
