@@ -71,6 +71,13 @@ def numpy_loop_per_step(model, q, qd, budget=1.5, repeat=3):
     return best / n_steps
 
 
+def c_step(model, q, qd, n_steps):
+    """``c_rk4_per_step`` of a run that must reach its end (a failed run would look fast)."""
+    seconds, status = c_rk4_per_step(model, q, qd, n_steps)
+    assert status == 0, f"C rk4 stopped with status {status}"
+    return seconds
+
+
 def c_rk4_per_step(model, q, qd, n_steps, repeat=5):
     """Seconds per step of the C loop: the best of ``repeat`` runs of ``n_steps`` steps (the
     same best-of rule as ``per_call``, so that the ratio compares like with like)."""
@@ -105,7 +112,7 @@ def main():
                        per_call(lambda: c_model.accelerations(0.1, q, qd), 0.2),
                        per_call(lambda: numpy_rk4_step(numpy_model, q, qd), budget=0.4),
                        numpy_loop_per_step(numpy_model, q, qd, budget=0.6),
-                       c_rk4_per_step(c_model, q, qd, c_steps)[0])
+                       c_step(c_model, q, qd, c_steps))
             best = [min(a, b) for a, b in zip(best, figures)]
         acc_np, acc_c, step_np, loop_np, step_c = best
         rows[n] = (c_model, step_c)

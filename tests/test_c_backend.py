@@ -398,3 +398,16 @@ def test_unrolled_and_looped_solves_agree_bit_for_bit(pairs, key, env):
     runs = [m.rk4(0.0, 1e-4, 200, q, qd, save_every=50) for m in (c, looped)]
     for a, b in zip(*runs):
         assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("identity, gcc", [
+    ("/usr/bin/cc\ncc (Debian 12.2.0-14) 12.2.0\nCopyright (C) 2022 Free Software Foundation, Inc.\n\nAMD", True),
+    ("/usr/bin/gcc\ngcc (GCC) 13.2.1\nCopyright (C) 2023 Free Software Foundation, Inc.\n\nIntel", True),
+    ("/usr/bin/cc\nDebian clang version 14.0.6\nTarget: x86_64-pc-linux-gnu\n\nAMD", False),
+    ("/usr/bin/cc\nApple clang version 15.0.0 (clang-1500.1.0.2.5)\nTarget: arm64-apple-darwin\n\nM2", False),
+    ("/opt/Free Software Foundation/cc\n\n\nAMD", False),  # the words only in the path
+    ("/usr/bin/cc", False),
+])
+def test_gcc_is_told_from_other_compilers(identity, gcc):
+    """GCC-only flags (priority register allocation) go to GCC alone, whatever its name."""
+    assert ccompile.is_gcc(identity) is gcc

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 19718465b122a3fc
+Input hash: e2a4dff4e1e152cd
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -82,7 +82,7 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "19718465b122a3fc"; }
+const char *gpmegen_input_hash(void) { return "e2a4dff4e1e152cd"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -4751,8 +4751,10 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 
 /* The factorization below runs on a matrix whose size is fixed at build time. Up to
    32 x 32 its triangular loops are unrolled into straight code without per-iteration
-   branches and remainder loops (as loops they cost as much as evaluating the model); beyond
-   that the unrolled code would outgrow the instruction cache. GCC and Clang (both define
+   branches and remainder loops (as loops they cost as much as evaluating the model; the sizes
+   are constants the compiler propagates into these functions, each called with one size).
+   The unrolled code grows as n^3: at 28 it is about 49 KiB, still faster than loops, and
+   beyond 32 loops are kept to bound code size and compile time. GCC and Clang (both define
    __GNUC__) take the pragma; other compilers keep the loops, and so does -DGPMEGEN_NO_UNROLL
    (a shorter compile for a slower step; the arithmetic, and so every result, is the same). */
 #if defined(__GNUC__) && !defined(GPMEGEN_NO_UNROLL)
@@ -4846,9 +4848,10 @@ static int lu_solve(int n, double *a, int n_rhs, double *b)
    i > j (L unit lower triangular) and inv_d[j] = 1 / D_jj. No square roots, and one division per
    column: the factorization is a chain of n dependent pivots, so what each pivot costs sets
    its time (a Cholesky pivot waits for a square root and then a division). Right-looking
-   updates run along contiguous rows. Returns 2 when an entry is not finite, 1 when a is not
-   numerically positive definite (a pivot at or below n * DBL_EPSILON times the largest
-   diagonal entry), else 0. */
+   updates run along contiguous rows. Returns 2 when a diagonal entry or a pivot is not finite
+   (a non-finite off-diagonal entry reaches a later pivot), 1 when a is not numerically
+   positive definite (a pivot at or below n * DBL_EPSILON times the largest diagonal entry),
+   else 0. */
 NOINLINE static int ldlt(int n, double *a, double *inv_d)
 {
     double scale = 0.0;
@@ -4885,7 +4888,7 @@ NOINLINE static int ldlt(int n, double *a, double *inv_d)
 
 /* Solve L D L^T x = b in place (b: n entries) with the factors from ldlt(). Both substitutions
    go column by column: once an unknown is final it is taken out of all the others at once, so
-   the chain of dependent operations is n multiply-subtracts long, not n^2 / 2. */
+   each step waits for one multiply-subtract rather than for a sum run in sequence. */
 NOINLINE static void ldlt_solve(int n, const double *a, const double *inv_d, double *b)
 {
     UNROLL for (int k = 0; k < n; ++k) {
@@ -4920,9 +4923,9 @@ static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
    become the reduced system R z = r, R = B^T M B (symmetric positive definite, LDL^T) and
    r = B^T (f - M qdd_p). Written out with W = M_dc,ic - M_dc,dc X and w = f_dc - M_dc,dc x_c:
        R = M_ic,ic - M_ic,dc X - X^T W,    r = f_ic - M_ic,dc x_c - X^T w,
-   which takes each entry of M once and the upper triangle of R only.
-   *power receives the power of the constraint forces, qd . (M qdd - f) = (M qd) . qdd - qd . f
-   (M symmetric): M qd does not wait for the solve, so it runs beside the factorization.
+   which forms no M B and only the upper triangle of R.
+   *power receives the power of the constraint forces, qd . (M qdd - f) = (M^T qd) . qdd - qd . f:
+   M^T qd does not wait for the solve, so it runs beside the factorization.
    Returns 0; 1 when D_dc or B^T M B is singular; 2 when a term is not finite. */
 static int gpme_solve(double t, const double *q, const double *qd, const double *p,
                       const int *dependent, const int *independent,
@@ -4938,16 +4941,16 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
 
     gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
     baumgarte_gains(p, alpha, beta);
-    /* M qd by columns of M (its rows: M is symmetric entry for entry), contiguous inner loop */
+    /* M^T qd, row by row of M so that the inner loop runs along contiguous memory */
     for (int i = 0; i < N_DOF; ++i) {
         m_qd[i] = 0.0;
         qd_f += qd[i] * f[i];
     }
     for (int k = 0; k < N_DOF; ++k) {
         const double v = qd[k];
-        const double *column = M + k * N_DOF;
+        const double *row = M + k * N_DOF;
         for (int i = 0; i < N_DOF; ++i) {
-            m_qd[i] += column[i] * v;
+            m_qd[i] += row[i] * v;
         }
     }
     for (int a = 0; a < NC; ++a) {

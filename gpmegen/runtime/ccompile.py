@@ -108,7 +108,9 @@ def compiler_identity(compiler: list[str]) -> str:
     if cached is not None:
         return cached
     try:
-        run = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=60)
+        # C locale: the text (and with it the cache key and is_gcc) must not follow the user's language
+        run = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=60,
+                             env={**os.environ, "LC_ALL": "C"})
     except (OSError, subprocess.SubprocessError) as exc:
         raise BuildError(f"the C compiler {path} cannot be run ({exc}); set CC to a working compiler "
                          f"or use backend='numpy'") from None
@@ -121,9 +123,10 @@ def compiler_identity(compiler: list[str]) -> str:
 
 
 def is_gcc(identity: str) -> bool:
-    """Whether ``identity`` (see :func:`compiler_identity`) is GCC's, under any name (cc, gcc)."""
-    version = identity.split("\n", 2)[1] if identity.count("\n") >= 2 else ""
-    return "Free Software Foundation" in identity and "clang" not in version.lower()
+    """Whether ``identity`` (see :func:`compiler_identity`: the command line, then the output of
+    ``--version``, then the processor) is GCC's, under any name (cc, gcc, x86_64-linux-gnu-gcc)."""
+    version = identity.split("\n", 1)[1] if "\n" in identity else ""
+    return "Free Software Foundation" in version and "clang" not in version.lower()
 
 
 def library_key(source: str, identity: str, flags) -> str:
