@@ -71,22 +71,17 @@ def numpy_loop_per_step(model, q, qd, budget=1.5, repeat=3):
     return best / n_steps
 
 
-def c_step(model, q, qd, n_steps):
-    """``c_rk4_per_step`` of a run that must reach its end (a failed run would look fast)."""
-    seconds, status = c_rk4_per_step(model, q, qd, n_steps)
-    assert status == 0, f"C rk4 stopped with status {status}"
-    return seconds
-
-
 def c_rk4_per_step(model, q, qd, n_steps, repeat=5):
     """Seconds per step of the C loop: the best of ``repeat`` runs of ``n_steps`` steps (the
-    same best-of rule as ``per_call``, so that the ratio compares like with like)."""
+    same best-of rule as ``per_call``, so that the ratio compares like with like). Every run
+    must reach its end: one that stopped early would look fast."""
     best = float("inf")
     for _ in range(repeat):
         t0 = time.perf_counter()
         _, _, _, _, status = model.rk4(0.0, PAPER_DT, n_steps, q, qd, save_every=max(1, n_steps))
         best = min(best, time.perf_counter() - t0)
-    return best / n_steps, status
+        assert status == 0, f"C rk4 stopped with status {status}"
+    return best / n_steps
 
 
 def main():
@@ -112,7 +107,7 @@ def main():
                        per_call(lambda: c_model.accelerations(0.1, q, qd), 0.2),
                        per_call(lambda: numpy_rk4_step(numpy_model, q, qd), budget=0.4),
                        numpy_loop_per_step(numpy_model, q, qd, budget=0.6),
-                       c_step(c_model, q, qd, c_steps))
+                       c_rk4_per_step(c_model, q, qd, c_steps))
             best = [min(a, b) for a, b in zip(best, figures)]
         acc_np, acc_c, step_np, loop_np, step_c = best
         rows[n] = (c_model, step_c)
@@ -129,7 +124,7 @@ def main():
         c_model, step_c = rows[5]
     else:
         c_model = gpmegen.load(nrfe=5, backend="c")
-        step_c, _ = c_rk4_per_step(c_model, *start_state(c_model), 20000)
+        step_c = c_rk4_per_step(c_model, *start_state(c_model), 20000)
     n_steps = int(round(PAPER_T_END / PAPER_DT))
     estimate = step_c * n_steps
     print(f"\npaper run, n_rfe = 5: {PAPER_T_END:g} s at dt = {PAPER_DT:g} ({n_steps} RK4 steps), C: "
