@@ -41,3 +41,16 @@ def generated_elsewhere(tmp_path_factory):
         os.environ.pop("GPMEGEN_GENERATED", None)
     else:
         os.environ["GPMEGEN_GENERATED"] = previous
+
+
+def stacked_gpme(model, t, q, qd):
+    """The GPME of ``model`` (NumPy backend) at a state as one square system ``A q̈ = b``: the
+    rows ``Bᵀ M q̈ = Bᵀ f`` and the constraint rows (eq. 16); ``M q̈ = f`` without constraints."""
+    from gpmegen.runtime import gpme
+
+    M, f, phi, phid, D, gamma = model.module.gpme_terms(t, q, qd, model.p)
+    if not D.shape[0]:
+        return M, f
+    B = gpme.tangent_basis(D, model.dependent, model.independent)
+    rhs = gpme.constraint_rhs(phi, phid, gamma, model.alpha, model.beta, model.constraint_orders)
+    return np.vstack([B.T @ M, D]), np.concatenate([B.T @ f, rhs])

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 5a216bcb0d27106a
+Input hash: 773269e57047f9aa
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -70,7 +70,7 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "5a216bcb0d27106a"; }
+const char *gpmegen_input_hash(void) { return "773269e57047f9aa"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -884,6 +884,17 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 #else
 #define UNROLL
 #endif
+/* Every local array is declared 64-byte aligned. GCC 12.2 at -O3 with AVX-512 tuning
+   (-march=x86-64-v4, or -march=native -mprefer-vector-width=512) vectorizes stores into a local
+   array with aligned moves (vmovapd): its vectorizer "forces" the array's alignment, but the stack
+   slot it then gets is only 16-byte aligned, and the process dies with SIGSEGV (the 28-coordinate
+   beam of tests/test_c_crash.py did; tests/c/gcc_vectorizer_alignment.c is a reproducer with no
+   gpmegen code). Declared alignment makes the vectorizer's assumption true; no arithmetic changes (-DALIGNED= in the flags turns it off). */
+#if !defined(ALIGNED) && defined(__GNUC__)
+#define ALIGNED __attribute__((aligned(64)))
+#elif !defined(ALIGNED)
+#define ALIGNED
+#endif
 /* The factorization and its solve stay functions of their own: inlined into gpme_solve, the
    unrolled code tripled it (10 -> 30 KiB) and an RK4 step at n_rfe = 5 took 18% longer, the
    loop's code no longer fitting the instruction cache beside gpme_terms. */
@@ -1054,11 +1065,13 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
                       double *qdd, double *M, double *f, double *power)
 {
     enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
-    double phi[NC], phi_rate[NC], D[NC * N_DOF], gam[NC], alpha[NC], beta[NC];
-    double D_dc[NC * NC], X[NC * NX];  /* [X | x_c] = D_dc^-1 [D_ic | c] */
-    double W[NC * NX];                 /* [W | w] */
-    double R[NI > 0 ? NI * NI : 1], inv_d[NI > 0 ? NI : 1], z[NI > 0 ? NI : 1];
-    double m_qd[N_DOF], qd_f = 0.0;
+    double phi[NC] ALIGNED, phi_rate[NC] ALIGNED, D[NC * N_DOF] ALIGNED, gam[NC] ALIGNED;
+    double alpha[NC] ALIGNED, beta[NC] ALIGNED;
+    double D_dc[NC * NC] ALIGNED, X[NC * NX] ALIGNED;  /* [X | x_c] = D_dc^-1 [D_ic | c] */
+    double W[NC * NX] ALIGNED;                 /* [W | w] */
+    double R[NI > 0 ? NI * NI : 1] ALIGNED;
+    double inv_d[NI > 0 ? NI : 1] ALIGNED, z[NI > 0 ? NI : 1] ALIGNED;
+    double m_qd[N_DOF] ALIGNED, qd_f = 0.0;
     int status;
 
     gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
@@ -1106,7 +1119,7 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
     }
     for (int i = 0; i < NI; ++i) {
         const double *row = M + independent[i] * N_DOF;
-        double m_id[NC];
+        double m_id[NC] ALIGNED;
         for (int a = 0; a < NC; ++a) {
             m_id[a] = row[dependent[a]];
         }
@@ -1165,7 +1178,7 @@ int gpme_motion(double t, const double *q, const double *qd, const double *p,
 int gpme_accelerations(double t, const double *q, const double *qd, const double *p,
                        const int *dependent, const int *independent, double *qdd)
 {
-    double M[N_DOF * N_DOF], f[N_DOF];
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
     return gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
 }
 
@@ -1198,7 +1211,7 @@ static void save_state(long k, double t, const double *q, const double *qd, cons
 static int stage(double t, const double *q, const double *qd, const double *p,
                  const int *dependent, const int *independent, double *qdd, double *power)
 {
-    double M[N_DOF * N_DOF], f[N_DOF], Q[N_DOF];
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, Q[N_DOF] ALIGNED;
     const int status = gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power[1]);
     if (status != 0) {
         return status;
@@ -1222,9 +1235,9 @@ int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, c
         const double *w0, const double *p, const int *dependent, const int *independent,
         double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
 {
-    double q[N_DOF], qd[N_DOF], qs[N_DOF], qds[N_DOF];
-    double k1[N_DOF], k2[N_DOF], k3[N_DOF], k4[N_DOF];
-    double w[2], p1[2], p2[2], p3[2], p4[2];
+    double q[N_DOF] ALIGNED, qd[N_DOF] ALIGNED, qs[N_DOF] ALIGNED, qds[N_DOF] ALIGNED;
+    double k1[N_DOF] ALIGNED, k2[N_DOF] ALIGNED, k3[N_DOF] ALIGNED, k4[N_DOF] ALIGNED;
+    double w[2] ALIGNED, p1[2] ALIGNED, p2[2] ALIGNED, p3[2] ALIGNED, p4[2] ALIGNED;
     const double half = 0.5 * dt, sixth = dt / 6.0;
     long saved = 0;
     int status;

@@ -281,11 +281,33 @@ def _dlopen(path: Path, cdef: str):
         return ffi, lib
 
 
-def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None):
+def checked(info: CompiledLibrary, check, source_path: Path) -> None:
+    """Run ``check(library path)`` (None when the library is safe to load, else why not) once
+    per library: its verdict is recorded in the library's metadata and read back on later
+    loads. Raises :class:`BuildError` when the library is not safe."""
+    meta_path = info.path.with_suffix(".json")
+    meta = _read_meta(meta_path) or {}
+    verdict = meta.get("check")
+    if verdict is None:
+        verdict = check(info.path) or "ok"
+        try:
+            atomic_write_bytes(meta_path, (json.dumps({**meta, "check": verdict}, indent=2, sort_keys=True)
+                                           + "\n").encode())
+        except OSError:
+            pass  # a read-only cache: the check runs again next time
+    if verdict != "ok":
+        raise BuildError(f"the compiled library of {source_path} failed its test run ({verdict}); it is not "
+                         f"loaded (a compiler defect or a fault in the generated C: please report it with "
+                         f"{source_path})")
+
+
+def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None, check=None):
     """Build (or reuse) and load the library of ``source_path``.
 
-    Returns ``(ffi, lib, info)`` with ``info`` a :class:`CompiledLibrary`. A cached library that
-    fails to load, or reports another input hash than ``expect_hash``, is rebuilt once."""
+    ``check``: called with the library's path before this process first loads it (see
+    :func:`checked`); a library it rejects is never loaded. Returns ``(ffi, lib, info)`` with
+    ``info`` a :class:`CompiledLibrary`. A cached library that fails to load, or reports another
+    input hash than ``expect_hash``, is rebuilt once."""
     source_path = Path(source_path)
     try:
         cdef = extract_cdef(source_path.read_text(encoding="utf-8"), source_path)
@@ -293,6 +315,8 @@ def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None)
         raise BuildError(f"cannot read {source_path} ({exc.strerror})") from None
     info = build_library(source_path, flags, cache)
     for attempt in (0, 1):
+        if check is not None:
+            checked(info, check, source_path)
         try:
             ffi, lib = _dlopen(info.path, cdef)
             got = ffi.string(lib.gpmegen_input_hash()).decode()

@@ -13,7 +13,7 @@ from types import ModuleType
 import numpy as np
 
 from ..errors import BuildError, ModelError, SimulationError
-from . import ccompile
+from . import ccompile, cprobe
 from .model import LoadedModel
 
 #: Return codes of the C ``rk4``.
@@ -42,7 +42,10 @@ class CModel(LoadedModel):
         source = Path(folder) / "model.c"
         if not source.exists():
             raise BuildError(f"{source} is missing; rebuild the model with 'gpmegen build --force'")
-        self.ffi, self.lib, self.library = ccompile.load_library(source, flags, cache, expect_hash=module.INPUT_HASH)
+        module_path = Path(folder) / "model_numpy.py"
+        self.ffi, self.lib, self.library = ccompile.load_library(
+            source, flags, cache, expect_hash=module.INPUT_HASH,
+            check=lambda library: cprobe.check_in_child(library, source, module_path))
         if self.lib.gpmegen_n_dof() != self.n_dof or self.lib.gpmegen_n_parameters() != len(self.parameter_names):
             raise BuildError(f"{source} does not match {Path(folder) / 'model_numpy.py'}; rebuild with "
                              f"'gpmegen build --force'")

@@ -1,0 +1,164 @@
+"""Every function of a compiled model library called once, in a child process, before the
+main process loads the library.
+
+A defect in compiled code (a miscompilation, undefined behaviour in the generated C) does not
+raise: it kills the process that runs it. So a freshly compiled library is first exercised by
+``python -m gpmegen.runtime.cprobe LIBRARY MODEL_C MODEL_NUMPY_PY`` in a child process: each
+exported function is called with exactly sized buffers at two states (all zeros, and a seeded
+random one), the GPME with a regular partition and three RK4 steps. The parent learns from the
+child's exit status whether the library is safe to load, and from its last line which function
+it was calling when it died. The same exercise, run on a library compiled with
+``-fsanitize=address,undefined`` (``make check-c``), is the sanitizer sweep.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: Seconds the child may take: it calls each function a few times, so anything longer is a hang.
+TIMEOUT = 120.0
+
+_PROTOTYPE = re.compile(r"^\s*(\w[\w\s\*]*?)\b(\w+)\((.*)\);\s*$")
+_ARGUMENT = re.compile(r"(const\s+)?(double|int|long)\s*(\*?)\s*(\w+)$")
+
+
+def prototypes(cdef: str) -> list[tuple[str, list[tuple[str, bool, str]]]]:
+    """The functions of a cdef block: ``(name, [(type, is_pointer, argument name), ...])``."""
+    functions = []
+    for line in cdef.splitlines():
+        m = _PROTOTYPE.match(line)
+        if not m:
+            continue
+        arguments = []
+        for text in filter(None, (a.strip() for a in m.group(3).split(","))):
+            if text == "void":
+                continue
+            a = _ARGUMENT.match(text)
+            if a is None:
+                raise ValueError(f"cannot read the argument {text!r} of {m.group(2)}")
+            arguments.append((a.group(2), bool(a.group(3)), a.group(4)))
+        functions.append((m.group(2), arguments))
+    return functions
+
+
+def _greedy_partition(D: np.ndarray) -> list[int]:
+    """Dependent columns of D (m, n) by Gaussian elimination with complete pivoting: regular
+    whenever D has full row rank."""
+    D = np.array(D, dtype=float)
+    rows, columns = list(range(D.shape[0])), list(range(D.shape[1]))
+    dependent = []
+    while rows:
+        block = np.abs(D[np.ix_(rows, columns)])
+        i, j = np.unravel_index(np.argmax(block), block.shape)
+        r, c = rows[i], columns[j]
+        if D[r, c] != 0.0:
+            D -= np.outer(D[:, c] / D[r, c], D[r]) * (np.arange(D.shape[0]) != r)[:, None]
+        dependent.append(c)
+        rows.remove(r)
+        columns.remove(c)
+    return sorted(dependent)
+
+
+def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
+    """Call every function of ``library`` (compiled from ``source``) at two states, with
+    buffers sized from the outputs of the NumPy module at ``module_path``. ``say`` is told the
+    name of each function before it is called."""
+    import cffi
+
+    from .ccompile import extract_cdef
+    from .loader import import_numpy_module
+
+    module = import_numpy_module(Path(module_path).parent)
+    cdef = extract_cdef(Path(source).read_text(encoding="utf-8"), source)
+    ffi = cffi.FFI()
+    ffi.cdef(cdef)
+    lib = ffi.dlopen(str(library))
+    n = len(module.COORDINATES)
+    n_constraints = len(module.CONSTRAINTS)
+    p = np.array(module.DEFAULTS, dtype=float)
+    rng = np.random.default_rng(20)
+    states = [(0.0, np.zeros(n), np.zeros(n)), (0.37, 0.3 * rng.standard_normal(n), 0.3 * rng.standard_normal(n))]
+
+    def doubles(values):
+        values = np.atleast_1d(np.asarray(values, dtype=float)).ravel()
+        return ffi.new("double[]", values.tolist()) if values.size else ffi.new("double[]", 1)
+
+    for t, q, qd in states:
+        values = {"t": t, "q": q, "qd": qd, "p": p}
+        for name, arguments in prototypes(cdef):
+            say(name)
+            if name.startswith("gpmegen_"):
+                getattr(lib, name)()
+                continue
+            if not hasattr(module, name):
+                continue
+            inputs = [a for *_, a in arguments if not a.startswith("out_")]
+            expected = getattr(module, name)(*(values[a] for a in inputs))
+            expected = expected if isinstance(expected, tuple) else (expected,)
+            outputs = iter(expected)
+            call = []
+            for *_, a in arguments:
+                if a == "t":
+                    call.append(t)
+                elif a.startswith("out_"):
+                    call.append(doubles(np.zeros(np.size(next(outputs)))))
+                else:
+                    call.append(doubles(values[a]))
+            getattr(lib, name)(*call)
+        phi, _, D, _ = module.constraint_terms(t, q, qd, p)
+        dependent = _greedy_partition(np.reshape(D, (n_constraints, n))) if n_constraints else []
+        independent = [k for k in range(n) if k not in dependent]
+        dep = ffi.new("int[]", dependent or [0])
+        ind = ffi.new("int[]", independent or [0])
+        say("gpme_motion")
+        lib.gpme_motion(t, doubles(q), doubles(qd), doubles(p), dep, ind, doubles(np.zeros(n)),
+                        doubles(np.zeros(n * n)), doubles(np.zeros(n)))
+        say("gpme_accelerations")
+        lib.gpme_accelerations(t, doubles(q), doubles(qd), doubles(p), dep, ind, doubles(np.zeros(n)))
+        say("rk4")
+        steps = 3
+        n_saved = ffi.new("long *")
+        lib.rk4(t, 1e-6, steps, 1, doubles(q), doubles(qd), doubles([0.0, 0.0]), doubles(p), dep, ind,
+                doubles(np.zeros(steps + 1)), doubles(np.zeros((steps + 1) * n)),
+                doubles(np.zeros((steps + 1) * n)), doubles(np.zeros((steps + 1) * 2)), n_saved)
+
+
+def check_in_child(library: Path, source: Path, module_path: Path, env=None, timeout=TIMEOUT) -> str | None:
+    """Run :func:`exercise` in a child process. Returns None when every call returned, else one
+    line saying how the child ended and in which function."""
+    argv = [sys.executable, "-m", "gpmegen.runtime.cprobe", str(library), str(source), str(module_path)]
+    try:
+        run = subprocess.run(argv, capture_output=True, text=True, timeout=timeout,
+                             env={**os.environ, **(env or {})})
+    except subprocess.TimeoutExpired:
+        return f"it did not finish within {timeout:g} s"
+    if run.returncode == 0:
+        return None
+    calls = [line[len("calling "):] for line in run.stdout.splitlines() if line.startswith("calling ")]
+    where = f" in {calls[-1]}()" if calls else ""
+    if run.returncode < 0:
+        try:
+            name = signal.Signals(-run.returncode).name
+        except ValueError:
+            name = f"signal {-run.returncode}"
+        return f"the test process was killed by {name}{where}"
+    detail = " ".join(run.stderr.strip().splitlines()[-1:])[:300]
+    return f"the test process exited with status {run.returncode}{where}" + (f": {detail}" if detail else "")
+
+
+def main(argv=None) -> int:
+    library, source, module_path = (argv or sys.argv[1:])[:3]
+    exercise(Path(library), Path(source), Path(module_path),
+             say=lambda name: print(f"calling {name}", flush=True))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
