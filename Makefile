@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: venv demo test snapshots bench clean
+.PHONY: venv demo test check-c snapshots bench clean
 
 venv: $(STAMP)
 
@@ -20,7 +20,12 @@ demo: venv
 	$(BIN)/gpmegen demo
 
 test: venv
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -m "not sanitizers"
+
+# The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,
+# and as compiled for use (tests/test_c_sanitizers.py).
+check-c: venv
+	$(BIN)/python -m pytest -q -m sanitizers
 
 snapshots: venv
 	$(BIN)/gpmegen build --nrfe 1 --force
