@@ -23,7 +23,7 @@ DEFAULT_NRFE = (2, 3, 5, 8, 10, 15, 20, 30, 40)
 
 
 def main(argv=None) -> int:
-    from gpmegen.analysis import modes
+    from gpmegen.analysis import convergence, modes_output
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nrfe", type=int, nargs="+", default=list(DEFAULT_NRFE))
@@ -35,13 +35,13 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
-    table = modes.convergence_table(
+    table = convergence.convergence_table(
         args.nrfe, directory=args.directory, static=args.static,
         progress=lambda n, s: print(f"  built/loaded clamped arm n_rfe = {n:3d} in {s:7.1f} s", flush=True),
     )
     print()
     print(table.format())
-    path = modes.plot_convergence(table, args.figure)
+    path = modes_output.plot_convergence(table, args.figure)
     print(f"\nfigure: {path}")
     print(f"total {time.perf_counter() - start:.1f} s (builds {table.build_seconds.sum():.1f} s)")
     return 0

@@ -281,11 +281,11 @@ def cmd_demo(args) -> int:
 
 def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
-    from .analysis import modes, study
+    from .analysis import modes, modes_output, study
 
     model = _load(args.nrfe, "numpy", dict(args.param or []))
     if args.lock == "joints":
-        q_eq, result = modes.locked_modes(model)
+        q_eq, result = modes.locked_modes(model, study.joint_start(model))
         where = "joints locked at the paper's start"
     else:
         model, q_eq = study.initial_state(model, "constrained", dict(args.param or []))
@@ -296,8 +296,8 @@ def cmd_modes(args) -> int:
     out = Path(args.out)
     _writable_folder(out)
     stem = f"modes_nrfe{args.nrfe}_{args.lock}"
-    print(modes.write_modes_csv(result, out / f"{stem}.csv"))
-    print(modes.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
+    print(modes_output.write_modes_csv(result, out / f"{stem}.csv"))
+    print(modes_output.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
     return 0
 
 
@@ -305,16 +305,16 @@ def cmd_convergence(args) -> int:
     """Tip deflection and first frequencies of the clamped arm against n_rfe, beside beam theory."""
     import tempfile
 
-    from .analysis import modes
+    from .analysis import convergence, modes_output
 
     out = Path(args.out)
     _writable_folder(out)
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
-        table = modes.convergence_table(args.nrfe, directory=directory, static=args.static,
+        table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
                                         progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
     print(table.format())
-    print(modes.plot_convergence(table, out / "convergence.png"))
+    print(modes_output.plot_convergence(table, out / "convergence.png"))
     return 0
 
 

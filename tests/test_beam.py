@@ -5,7 +5,7 @@ The reference manipulator is built for nrfe = 5, 10, 20 once (about 40 s of the 
 takes on 2 cores; nrfe = 20 alone about 27 s). The clamped arm is the same model with the
 joints held, the arm horizontal (ψ2 = 0) and the slider massless (m3 = 0): its flexible
 coordinates then see exactly the arm clamped at the column top, which a cheap cross-check
-against :func:`gpmegen.analysis.modes.clamped_arm_model` confirms.
+against :func:`gpmegen.analysis.convergence.clamped_arm_model` confirms.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import beam, modes, study
+from gpmegen.analysis import beam, convergence, modes, study
 from gpmegen.runtime import statics
 
 NRFE = (5, 10, 20)
@@ -109,7 +109,7 @@ def test_clamped_arm_model_matches_the_manipulator(manipulators, build_dir):
     manipulator = manipulators[5]
     free = flexible(manipulator)
     for with_slider in (False, True):
-        arm = modes.load_clamped_arm(5, with_slider=with_slider, directory=build_dir)
+        arm = convergence.load_clamped_arm(5, with_slider=with_slider, directory=build_dir)
         assert arm.coordinates == tuple(manipulator.coordinates[k] for k in free)
         m = manipulator if with_slider else manipulator.with_params(m3=0.0)
         for q_arm in (np.zeros(arm.n_dof), np.linspace(-0.02, 0.03, arm.n_dof)):
@@ -147,7 +147,7 @@ def test_clamped_arm_frequencies(manipulators, kind, limit_key):
               f"(against the limit {errors_limit[-1]:+.3e})")
     assert abs(errors[-1]) < 0.01
     assert all(abs(a) > abs(b) for a, b in zip(errors, errors[1:]))
-    order = modes.observed_order(NRFE, errors_limit)
+    order = convergence.observed_order(NRFE, errors_limit)
     print(f"observed order {order:.2f}")
     assert order >= 1.8
 
@@ -167,13 +167,13 @@ def test_clamped_arm_self_weight_deflection(manipulators):
               f"error {errors[-1]:+.3e}")
         assert errors[-1] == pytest.approx(-1 / (2 * (n - 1) ** 2), abs=1e-4)
     assert all(abs(a) > abs(b) for a, b in zip(errors, errors[1:]))
-    assert modes.observed_order(NRFE, errors) >= 1.8
+    assert convergence.observed_order(NRFE, errors) >= 1.8
 
 
 def test_convergence_table_and_classification(build_dir):
-    table = modes.convergence_table((2, 3), directory=build_dir)
+    table = convergence.convergence_table((2, 3), directory=build_dir)
     assert list(table.nrfe) == [2, 3]
-    for key, _, _ in modes.QUANTITIES:
+    for key, _, _ in convergence.QUANTITIES:
         assert abs(table.errors[key][1]) < abs(table.errors[key][0])
     assert "torsional" in table.format()
     assert modes.classify(("psi2_1", "theta2_1", "phi2_1", "x3"),

@@ -1,0 +1,207 @@
+"""The convergence of the RFEM arm to beam theory: the reference arm alone, clamped at its root
+(:func:`clamped_arm_model`), its static tip deflection and first frequencies for several
+``n_rfe`` against Euler–Bernoulli / Saint-Venant values (:mod:`gpmegen.analysis.beam`), with the
+observed order of convergence (:func:`convergence_table`). Its figure:
+:func:`gpmegen.analysis.modes_output.plot_convergence`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ModelError
+from ..model.chain import Body, Model, Point
+from ..model.reference import PARAMETERS, reference_arm
+from ..model.shapes import solid_cylinder
+from ..runtime import statics
+from . import beam
+from .modes import natural_frequencies
+
+ARM_PARAMETERS = ("g", "L2", "b2", "t2", "rho2", "E2", "G2", "J2", "d2")
+SLIDER_PARAMETERS = ("m3", "L3", "R3")
+
+def clamped_arm_model(nrfe: int, with_slider: bool = False) -> Model:
+    """The reference arm alone, clamped at its root and horizontal along x0, gravity
+    ``(0, -g, 0)``; ``with_slider`` adds the slider as a rigid body fixed at the arm's tip (at
+    ``x3 = 0``). Coordinates ``psi2_r, theta2_r, phi2_r`` (r = 1..nrfe-1); points ``tip`` (the
+    arm's tip) and, with the slider, ``E``. Parameters and their names as in the reference."""
+    if isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < 2:
+        raise ModelError(f"the clamped arm needs nrfe ≥ 2 (nrfe = 1 has no coordinate), got {nrfe!r}")
+    names = ARM_PARAMETERS + (SLIDER_PARAMETERS if with_slider else ())
+    parameters = tuple(p for p in PARAMETERS if p.name in names)
+    P = {p.name: p.symbol for p in parameters}
+    chain = [reference_arm(P, nrfe), Point("tip", (0, 0, 0))]
+    if with_slider:
+        chain += [Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x")), Point("E", (P["L3"], 0, 0))]
+    return Model(
+        name=f"clamped_arm{'_slider' if with_slider else ''}_nrfe{nrfe}",
+        parameters=parameters,
+        chain=tuple(chain),
+        gravity=(0, -P["g"], 0),
+        description="the reference arm clamped at its root" + (", slider at its tip" if with_slider else ""),
+    )
+
+
+def load_clamped_arm(nrfe: int, with_slider: bool = False, directory=None, params: dict | None = None):
+    """The generated clamped arm (:func:`clamped_arm_model`), built into ``directory`` when
+    missing (default: gpmegen's generated folder)."""
+    from .. import load
+
+    return load(model=clamped_arm_model(nrfe, with_slider), directory=directory, params=params)
+
+
+QUANTITIES = (
+    ("tip_deflection", "static tip deflection, self weight", "m"),
+    ("vertical_bending", "1st vertical bending frequency", "Hz"),
+    ("horizontal_bending", "1st horizontal bending frequency", "Hz"),
+    ("torsion", "1st torsional frequency", "Hz"),
+)
+
+
+# The continuum limit of the RFEM arm for each quantity: the rfes carry their sections' rotary
+# inertia, so bending converges to the Rayleigh beam, not to Euler–Bernoulli (beam.py).
+LIMIT_KEYS = {"tip_deflection": "tip_deflection", "vertical_bending": "vertical_bending_rotary",
+              "horizontal_bending": "horizontal_bending_rotary", "torsion": "torsion"}
+
+
+@dataclass
+class ConvergenceTable:
+    """Clamped arm without slider against beam theory.
+
+    ``nrfe`` (k,); for each quantity ``q`` of :data:`QUANTITIES`: ``values[q]`` (k,) the RFEM
+    values; ``analytic[q]`` the Euler–Bernoulli / Saint-Venant value and ``errors[q]`` (k,)
+    the relative errors ``(value - analytic)/analytic``; ``orders[q]`` the observed order of
+    convergence, the least-squares slope of ``-log|error|`` against ``log nrfe`` over all rows,
+    and ``local_orders[q]`` (k-1,) the slopes between consecutive rows. ``limit[q]``,
+    ``errors_limit``, ``orders_limit``, ``local_orders_limit``: the same against the continuum
+    limit of the RFEM model (bending with the sections' rotary inertia, a Rayleigh beam; the
+    other two equal to ``analytic``). ``orders_sde``: the fitted order against the limit in
+    ``n_sde = nrfe - 1`` (the modified RFEM's error goes as ``n_sde⁻²``). ``build_seconds``
+    (k,) the time to build (or load) each model; ``static`` how the deflection was solved."""
+
+    nrfe: np.ndarray
+    values: dict
+    analytic: dict
+    errors: dict
+    orders: dict
+    local_orders: dict
+    limit: dict
+    errors_limit: dict
+    orders_limit: dict
+    local_orders_limit: dict
+    orders_sde: dict
+    build_seconds: np.ndarray
+    static: str = "linear"
+
+    def format(self) -> str:
+        """The table as text, one block per quantity."""
+        lines = [f"clamped arm (no slider) against beam theory; static deflection: {self.static}; "
+                 f"frequencies at zero gravity about the straight arm",
+                 "err EB: against Euler-Bernoulli / Saint-Venant; err limit: against the same with the "
+                 "sections' rotary inertia (Rayleigh beam), the RFEM's continuum limit"]
+        for key, label, unit in QUANTITIES:
+            lines.append("")
+            head = f"{label}: analytic {self.analytic[key]:.8g} {unit}"
+            if self.limit[key] != self.analytic[key]:
+                head += f", with rotary inertia {self.limit[key]:.8g} {unit}"
+            lines.append(head)
+            lines.append(f"{'nrfe':>5} {'value':>14} {'err EB':>11} {'order':>7} {'err limit':>11} {'order':>7}")
+            for k, n in enumerate(self.nrfe):
+                o1 = f"{self.local_orders[key][k - 1]:7.3f}" if k else " " * 7
+                o2 = f"{self.local_orders_limit[key][k - 1]:7.3f}" if k else " " * 7
+                lines.append(f"{n:5d} {self.values[key][k]:14.8g} {self.errors[key][k]:11.3e} {o1} "
+                             f"{self.errors_limit[key][k]:11.3e} {o2}")
+            lines.append(f"observed order, log-log fit over all nrfe: {self.orders[key]:.3f} (EB), "
+                         f"{self.orders_limit[key]:.3f} (limit); over n_sde = nrfe - 1: "
+                         f"{self.orders_sde[key]:.3f} (limit)")
+        return "\n".join(lines)
+
+
+def tip_deflection(model, static: str = "linear") -> float:
+    """Downward deflection (m) of the point ``tip`` of a horizontal clamped arm under its
+    weight: ``static='linear'`` solves ``K(0) q = -(g + C q)(0)`` and measures the tip
+    displacement to first order (exactly linear beam theory); ``'nonlinear'`` solves the full
+    equilibrium with :func:`gpmegen.runtime.statics.locked` (large-rotation kinematics and
+    gravity continuation)."""
+    q0 = np.zeros(model.n_dof)
+    tip = model.points.index("tip")
+    y0 = model.point_positions(q0)[tip, 1]
+    if static == "linear":
+        q_lin = np.linalg.solve(model.stiffness_jacobian(q0), -model.static_residual(q0))
+        eps = 1e-6  # the tip position is evaluated along the linear solution, scaled down
+        return -(model.point_positions(eps * q_lin)[tip, 1] - y0) / eps
+    if static == "nonlinear":
+        q = statics.locked(model, q0, free=np.arange(model.n_dof))
+        return -(model.point_positions(q)[tip, 1] - y0)
+    raise ValueError(f"unknown static {static!r}: use 'linear' or 'nonlinear'")
+
+
+def arm_quantities(model, static: str = "linear") -> dict:
+    """The four quantities of :data:`QUANTITIES` for a loaded clamped arm without slider;
+    frequencies at zero gravity about the straight arm (pure beam theory; under gravity they
+    move by a relative ~1e-5 through the geometric stiffness of the self weight)."""
+    modes = natural_frequencies(model.with_params(g=0.0), np.zeros(model.n_dof))
+    return {
+        "tip_deflection": tip_deflection(model, static),
+        "vertical_bending": modes.first("vertical"),
+        "horizontal_bending": modes.first("horizontal"),
+        "torsion": modes.first("torsion"),
+    }
+
+
+def observed_order(nrfe, errors) -> float:
+    """Least-squares slope of ``-log|error|`` against ``log nrfe`` (the order p of
+    ``|error| ≈ c·nrfe^-p``)."""
+    x = np.log(np.asarray(nrfe, dtype=float))
+    y = np.log(np.abs(np.asarray(errors, dtype=float)))
+    return float(-np.polyfit(x, y, 1)[0])
+
+
+def _relative(values, reference, nrfe):
+    errors = {k: (values[k] - reference[k]) / reference[k] for k in values}
+    x = np.log(np.asarray(nrfe, dtype=float))
+    local = {k: -np.diff(np.log(np.abs(e))) / np.diff(x) for k, e in errors.items()}
+    orders = {k: observed_order(nrfe, e) if len(nrfe) > 1 else float("nan") for k, e in errors.items()}
+    return errors, orders, local
+
+
+def convergence_table(nrfe_values, directory=None, params: dict | None = None, static: str = "linear",
+                      progress=None) -> ConvergenceTable:
+    """Build the clamped arm without slider for each ``nrfe`` (≥ 2) into ``directory`` (default:
+    gpmegen's generated folder) and compare it with beam theory (:func:`beam.arm_reference`).
+    ``params`` overrides the reference parameters; ``static`` as in :func:`tip_deflection`;
+    ``progress(nrfe, seconds)`` is called after each build. Returns a
+    :class:`ConvergenceTable`."""
+    nrfe_values = [int(n) for n in nrfe_values]
+    values = {key: [] for key, _, _ in QUANTITIES}
+    seconds = []
+    reference = None
+    for n in nrfe_values:
+        start = time.perf_counter()
+        model = load_clamped_arm(n, directory=directory, params=params)
+        seconds.append(time.perf_counter() - start)
+        if progress is not None:
+            progress(n, seconds[-1])
+        if reference is None:
+            reference = beam.arm_reference(model.params)
+        for key, value in arm_quantities(model, static).items():
+            values[key].append(value)
+    values = {k: np.array(v) for k, v in values.items()}
+    analytic = {k: getattr(reference, k) for k in values}
+    limit = {k: getattr(reference, LIMIT_KEYS[k]) for k in values}
+    errors, orders, local = _relative(values, analytic, nrfe_values)
+    errors_limit, orders_limit, local_limit = _relative(values, limit, nrfe_values)
+    orders_sde = {k: observed_order(np.array(nrfe_values) - 1, e) if len(nrfe_values) > 1 else float("nan")
+                  for k, e in errors_limit.items()}
+    return ConvergenceTable(np.array(nrfe_values), values, analytic, errors, orders, local,
+                            limit, errors_limit, orders_limit, local_limit, orders_sde,
+                            np.array(seconds), static)
+
+
+__all__ = [
+    "clamped_arm_model", "load_clamped_arm", "ConvergenceTable", "convergence_table", "tip_deflection",
+    "arm_quantities", "observed_order", "QUANTITIES", "LIMIT_KEYS",
+]

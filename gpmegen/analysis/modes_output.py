@@ -1,0 +1,91 @@
+"""Files of the modal analysis and of the convergence study: mode tables as CSV, mode shapes
+and convergence as figures. Every file is written atomically."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..fileio import atomic_write, atomic_write_bytes
+from .convergence import QUANTITIES, ConvergenceTable
+from .modes import Modes
+
+def write_modes_csv(modes: Modes, path) -> Path:
+    """Frequencies, kinds and shapes as CSV: one row per mode, one column per coordinate."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    header = ",".join(["mode", "frequency_Hz", "kind", *modes.coordinates])
+    rows = [",".join([str(k + 1), f"{f:.9g}", modes.kinds[k], *(f"{v:.9g}" for v in modes.shapes[:, k])])
+            for k, f in enumerate(modes.frequencies)]
+    return atomic_write_bytes(path, ("\n".join([header, *rows]) + "\n").encode())
+
+
+def plot_mode_shapes(modes: Modes, path, count: int = 6) -> Path:
+    """The first ``count`` mode shapes along the arm: the sde rotations ψ, θ, φ against the sde
+    index, one panel per mode."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    count = min(count, len(modes.frequencies))
+    fig, axes = plt.subplots(count, 1, figsize=(7, 1.9 * count + 0.6), sharex=True, squeeze=False)
+    names = modes.coordinates
+    for k in range(count):
+        ax = axes[k, 0]
+        for rot, style in (("psi", "o-"), ("theta", "s--"), ("phi", "^:")):
+            idx = [j for j, c in enumerate(names) if c.startswith(rot) and "_" in c]
+            if idx:
+                ax.plot(range(1, len(idx) + 1), modes.shapes[idx, k], style, label=f"{rot} (rad)")
+        ax.set_ylabel(f"{modes.frequencies[k]:.4g} Hz\n{modes.kinds[k]}", fontsize=8)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.grid(True, alpha=0.3)
+    n_sde = sum(1 for c in names if c.startswith("psi") and "_" in c)
+    axes[-1, 0].set_xticks(range(1, n_sde + 1))
+    axes[0, 0].legend(fontsize=7, ncol=3)
+    axes[-1, 0].set_xlabel("sde along the arm (1 = at the root)")
+    fig.suptitle("Mode shapes: sde rotations (unit modal mass)")
+    path = atomic_write(path, lambda fh: fig.savefig(fh, format=Path(path).suffix[1:], dpi=120, bbox_inches="tight"))
+    plt.close(fig)
+    return path
+
+
+def plot_convergence(table: ConvergenceTable, path) -> Path:
+    """Log–log plot of the relative error of each quantity against ``nrfe``; writes ``path``
+    (PNG) and returns it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(7.0, 5.2))
+    n = np.array(table.nrfe, dtype=float)
+    for (key, label, unit), marker, color in zip(QUANTITIES, "osd^", ("C0", "C1", "C2", "C3")):
+        ax.loglog(n, np.abs(table.errors[key]), marker=marker, color=color,
+                  label=f"{label} (fitted order {table.orders[key]:.2f})")
+        if table.limit[key] != table.analytic[key]:
+            ax.loglog(n, np.abs(table.errors_limit[key]), marker=marker, color=color, ls="--", mfc="none",
+                      label=f"  same, against the beam with rotary inertia ({table.orders_limit[key]:.2f})")
+    # the modified RFEM's error goes as n_sde^-2 = (n_rfe - 1)^-2: a guide through the last point
+    last = np.abs(table.errors["tip_deflection"][-1])
+    ax.loglog(n[n > 1], last * ((n[n > 1] - 1) / (n[-1] - 1)) ** -2.0, "k:", lw=1,
+              label="guide: (n_rfe - 1)^-2")
+    ax.set_xticks(n)
+    ax.set_xticklabels([str(int(v)) for v in n])
+    ax.minorticks_off()
+    ax.set_xlabel("number of rigid finite elements n_rfe (-)")
+    ax.set_ylabel("relative error |RFEM - beam theory| / beam theory (-)")
+    ax.set_title("Clamped arm: RFEM against beam theory\n(solid: Euler–Bernoulli / Saint-Venant; "
+                 "dashed: with the sections' rotary inertia)", fontsize=10)
+    ax.grid(True, which="major", alpha=0.3)
+    ax.legend(fontsize=7.5, loc="lower left")
+    fig.tight_layout()
+    atomic_write(path, lambda fh: fig.savefig(fh, format=Path(path).suffix[1:] or "png", dpi=150))
+    plt.close(fig)
+    return path
+
+
+__all__ = ["write_modes_csv", "plot_mode_shapes", "plot_convergence"]
