@@ -204,7 +204,7 @@ def run_study(source, start, t_end, dt, save_every, method, backend, overrides, 
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
     final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in shown)
-    print(f"{label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.4g} s in {wall:.1f} s; "
+    print(f"{label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.6g} s in {wall:.1f} s; "
           f"{final}; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; wrote {', '.join(map(str, written))}")
     if status != "complete":
         kept = f"results up to t = {res['t'][-1]:.6g} s kept in {out} (marked partial)"
