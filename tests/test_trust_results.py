@@ -1,18 +1,30 @@
 """Results that can be trusted: a run ends at t_end with its final state saved, on one grid for
-the C and NumPy backends."""
+the C and NumPy backends; results files are written as a pair and a complete result is never
+replaced by a partial one."""
 
 from __future__ import annotations
+
+import os
+import pty
+import re
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen import fileio
 from gpmegen.analysis import results as results_io
 from gpmegen.analysis import study
 from gpmegen.cli import main
-from gpmegen.errors import BuildError
 from gpmegen.runtime import integrate
 from gpmegen.runtime.ccompile import find_compiler
+from gpmegen.errors import BuildError
 
 
 def _has_compiler():
@@ -23,6 +35,19 @@ def _has_compiler():
 
 
 needs_c = pytest.mark.skipif(not _has_compiler(), reason="no C compiler")
+
+
+def _exit_code(argv):
+    """Exit status of ``gpmegen argv`` run in this process (argparse's own refusals included)."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+def _csv_first_line(path):
+    with open(path, encoding="utf-8") as fh:
+        return fh.readline().rstrip("\n")
 
 
 # ---- a run ends at t_end, with its final state ------------------------------------------------
@@ -121,3 +146,152 @@ def test_a_step_longer_than_the_run_is_cut_to_end_at_t_end(backend):
     res = study.simulate(model, q0, t_end=1.0, dt=2.0, save_every=1)
     np.testing.assert_array_equal(res["t"], [0.0, 1.0])
     assert not np.array_equal(res["q"][-1], q0)  # a step of 1 s was taken (and diverges, as it should)
+
+
+# ---- results files: never lost, never mismatched ----------------------------------------------
+
+@pytest.fixture(scope="module")
+def short_run():
+    """A small complete results dict (NumPy backend, 5 steps)."""
+    model, q0 = study.initial_state(gpmegen.load(nrfe=1, backend="numpy"))
+    return study.simulate(model, q0, t_end=0.005, dt=1e-3, save_every=1)
+
+
+def _run_id_of_csv(path):
+    match = re.match(rf"# {results_io.FORMAT} run ([0-9a-f]+): ", _csv_first_line(path))
+    assert match, _csv_first_line(path)
+    return match.group(1)
+
+
+def test_results_pair_share_a_run_id_and_the_csv_says_complete_or_partial(tmp_path, short_run):
+    out = tmp_path / "run.npz"
+    npz, csv = results_io.save(short_run, out)
+    assert (npz, csv) == (out, out.with_suffix(".csv"))
+    assert _csv_first_line(csv).endswith(": complete")
+    assert str(results_io.load(npz)["run_id"]) == _run_id_of_csv(csv)
+    why = f"diverged after t = 0.004 s: {study.C_STATUS[1]}"  # not ASCII: BᵀMB
+    npz, csv = results_io.save(dict(short_run, status=np.array(why)), out)
+    assert (npz.name, csv.name) == ("run.partial.npz", "run.partial.csv")
+    assert _csv_first_line(csv).endswith(f": partial ({why})")
+    assert str(results_io.load(npz)["run_id"]) == _run_id_of_csv(csv)
+    assert str(results_io.load(out)["status"]) == "complete"  # the complete result is still there
+
+
+def test_a_signal_between_the_two_renames_waits_until_both_files_are_in_place(tmp_path, short_run, monkeypatch):
+    """Ctrl-C between writing the .npz and the .csv used to leave a new .npz beside an old .csv."""
+    out = tmp_path / "run.npz"
+    results_io.save(short_run, out)
+    replace = os.replace
+
+    def replace_then_interrupt(src, dst):
+        replace(src, dst)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(fileio.os, "replace", replace_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        results_io.save(short_run, out)
+    monkeypatch.undo()
+    assert str(results_io.load(out)["run_id"]) == _run_id_of_csv(out.with_suffix(".csv"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv", "run.npz"]
+
+
+def test_an_interrupted_write_leaves_the_previous_pair_as_it_was(tmp_path, short_run, monkeypatch):
+    out = tmp_path / "run.npz"
+    results_io.save(short_run, out)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(results_io.np, "savetxt", interrupted)  # the .csv is written after the .npz
+    with pytest.raises(KeyboardInterrupt):
+        results_io.save(short_run, out)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # no temporary files left
+
+
+def _read_until(fd, pattern, timeout):
+    """Read the terminal ``fd`` until ``pattern`` (bytes regex) shows; all that was read."""
+    seen, end = b"", time.monotonic() + timeout
+    while not re.search(pattern, seen):
+        left = end - time.monotonic()
+        assert left > 0, f"{pattern!r} did not show within {timeout} s: {seen[-400:]!r}"
+        if select.select([fd], [], [], left)[0]:
+            try:
+                chunk = os.read(fd, 4096)
+            except OSError:  # the other end was closed
+                chunk = b""
+            assert chunk, f"the process ended before {pattern!r}: {seen[-400:]!r}"
+            seen += chunk
+    return seen
+
+
+def _read_to_end(fd):
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(fd, 4096)
+        except OSError:
+            return seen
+        if not chunk:
+            return seen
+        seen += chunk
+
+
+def test_ctrl_c_keeps_the_previous_complete_result_and_writes_the_partial_beside_it(tmp_path):
+    """Ctrl-C used to replace a complete run.npz (and run.csv) with the partial run."""
+    out = tmp_path / "run.npz"
+    common = ["simulate", "--nrfe", "1", "--backend", "numpy", "--dt", "1e-3", "--out", str(out)]
+    assert main([*common, "--t-end", "0.01"]) == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    # stderr on a terminal shows the progress bar, drawn from inside the integration loop: once it
+    # has been drawn twice (0.25 s apart), Ctrl-C lands in the integration, which would take minutes
+    master, terminal = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "gpmegen.cli", *common, "--t-end", "1000"],
+                            stdout=subprocess.PIPE, stderr=terminal, text=True)
+    os.close(terminal)
+    try:
+        seen = _read_until(master, rb"%[^%]*%", timeout=120)
+        proc.send_signal(signal.SIGINT)
+        stdout, _ = proc.communicate(timeout=60)
+        seen += _read_to_end(master)
+    finally:
+        proc.kill()
+        os.close(master)
+    err = seen.decode(errors="replace")
+    partial, partial_csv = results_io.targets(out, complete=False)
+    assert proc.returncode == 1 and "Traceback" not in err
+    assert re.search(rf"interrupted; .*kept in {re.escape(str(partial))} \(partial\); {re.escape(str(out))} is "
+                     rf"left as it was", err), err
+    assert {name: (tmp_path / name).read_bytes() for name in before} == before
+    res = results_io.load(partial)
+    assert str(res["status"]) == "interrupted" and 0 < res["t"][-1] < 1000
+    assert _csv_first_line(partial_csv).endswith(": partial (interrupted)")
+    assert str(res["run_id"]) == _run_id_of_csv(partial_csv)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv", "run.npz", "run.partial.csv", "run.partial.npz"]
+
+
+@pytest.mark.parametrize("argv, taken", [
+    (["simulate", "--nrfe", "1", "--out", ""], None),
+    (["simulate", "--nrfe", "1", "--out", "taken.npz"], "taken.npz"),
+    (["simulate", "--nrfe", "1", "--out", "run.npz"], "run.csv"),
+    (["simulate", "--nrfe", "1", "--out", "run.npz"], "run.partial.npz"),
+    (["simulate", "", "--nrfe", "1"], None),
+    (["build", ""], None),
+    (["build", "--nrfe", "1", "--out", ""], None),
+    (["demo", "--results", ""], None),
+    (["demo", "--t-end", "0.01"], "results/run_nrfe5.npz"),
+])
+def test_empty_or_folder_output_paths_are_refused_before_any_work(tmp_path, monkeypatch, capsys, argv, taken):
+    """``--out ''`` and ``build ''`` used to mean the default (and replaced its results); an
+    --out naming a folder was refused only after the whole run."""
+    monkeypatch.chdir(tmp_path)
+    if taken:
+        (tmp_path / taken).mkdir(parents=True)
+    before = sorted(tmp_path.rglob("*"))
+    assert _exit_code([*argv, "--backend", "numpy", "--t-end", "0.01", "--dt", "1e-3"]
+                      if argv[0] == "simulate" else argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "gpmegen: " not in err  # no progress: no work started
+    assert err.strip().splitlines()[-1].startswith(f"gpmegen {argv[0]}: error: ")
+    assert ("empty path" in err) if taken is None else (f"{Path(taken)} is a folder" in err)
+    assert sorted(tmp_path.rglob("*")) == before
