@@ -1,6 +1,6 @@
 """Results that can be trusted: a run ends at t_end with its final state saved, on one grid for
 the C and NumPy backends; results files are written as a pair and a complete result is never
-replaced by a partial one."""
+replaced by a partial one; Ctrl-C at start-up ends the command without a traceback."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import os
 import pty
 import re
 import select
+import shutil
 import signal
 import subprocess
 import sys
@@ -295,3 +296,37 @@ def test_empty_or_folder_output_paths_are_refused_before_any_work(tmp_path, monk
     assert err.strip().splitlines()[-1].startswith(f"gpmegen {argv[0]}: error: ")
     assert ("empty path" in err) if taken is None else (f"{Path(taken)} is a folder" in err)
     assert sorted(tmp_path.rglob("*")) == before
+
+
+# ---- Ctrl-C at start-up -----------------------------------------------------------------------
+
+PACKAGE = Path(gpmegen.__file__).resolve().parent
+
+
+def _gpmegen_frames(err):
+    """Traceback frames of ``err`` in the gpmegen package."""
+    return [f for f in re.findall(r'File "([^"]+)", line', err) if Path(f).resolve().is_relative_to(PACKAGE)]
+
+
+def test_ctrl_c_at_start_up_ends_without_a_traceback():
+    """Ctrl-C while the command line's modules were being imported (the first ~0.1 s) used to
+    show a traceback. Signals that land before gpmegen's first line (the interpreter's start-up,
+    site's .pth files, the launcher's own import statement) are out of the package's reach; every
+    one that lands in gpmegen must end in one line and status 130."""
+    script = shutil.which("gpmegen", path=str(Path(sys.executable).parent))
+    if script is None:
+        pytest.skip("the gpmegen console script is not installed beside this interpreter")
+    interrupted = 0
+    for _ in range(3):
+        for command in (["--help"], ["simulate", "--help"]):
+            for delay in (0.0, 0.01, 0.03, 0.06, 0.1):
+                proc = subprocess.Popen([script, *command], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                        text=True)
+                time.sleep(delay)
+                proc.send_signal(signal.SIGINT)
+                _, err = proc.communicate(timeout=60)
+                assert not _gpmegen_frames(err), err
+                if proc.returncode == 130:
+                    assert err == "gpmegen: interrupted\n", err
+                    interrupted += 1
+    assert interrupted > 0  # some signals did land inside gpmegen
