@@ -25,7 +25,7 @@ import timeit
 import numpy as np
 
 import gpmegen
-from gpmegen.runtime.integrate import rk4
+from gpmegen.runtime.integrate import grid, rk4
 
 PAPER_DT, PAPER_T_END = 1e-5, 10.0
 
@@ -78,7 +78,7 @@ def c_rk4_per_step(model, q, qd, n_steps, repeat=5):
     best = float("inf")
     for _ in range(repeat):
         t0 = time.perf_counter()
-        _, _, _, _, status = model.rk4(0.0, PAPER_DT, n_steps, q, qd, save_every=max(1, n_steps))
+        _, _, _, _, status = model.rk4(q, qd, n_steps * PAPER_DT, PAPER_DT, save_every=max(1, n_steps))
         best = min(best, time.perf_counter() - t0)
         assert status == 0, f"C rk4 stopped with status {status}"
     return best / n_steps
@@ -125,14 +125,14 @@ def main():
     else:
         c_model = gpmegen.load(nrfe=5, backend="c")
         step_c = c_rk4_per_step(c_model, *start_state(c_model), 20000)
-    n_steps = int(round(PAPER_T_END / PAPER_DT))
+    n_steps = grid(0.0, PAPER_T_END, PAPER_DT).n_steps
     estimate = step_c * n_steps
     print(f"\npaper run, n_rfe = 5: {PAPER_T_END:g} s at dt = {PAPER_DT:g} ({n_steps} RK4 steps), C: "
           f"extrapolated {estimate:.1f} s", flush=True)
     if not args.quick and estimate < 60:
         q, qd = start_state(c_model)
         t0 = time.perf_counter()
-        t, _, _, _, status = c_model.rk4(0.0, PAPER_DT, n_steps, q, qd, save_every=100)
+        t, _, _, _, status = c_model.rk4(q, qd, PAPER_T_END, PAPER_DT, save_every=100)
         wall = time.perf_counter() - t0
         print(f"actual: {wall:.1f} s ({wall / n_steps * 1e6:.2f} µs/step), status {status}, "
               f"{len(t)} states saved, reached t = {t[-1]:g} s")

@@ -47,6 +47,14 @@ positive_float = _finite_number(lambda v: v > 0, "must be a positive finite numb
 end_time = _finite_number(lambda v: v >= 0, "is below zero or not finite; give the end time in seconds")
 
 
+def path_argument(text: str) -> str:
+    """argparse type: a path, refused when empty (an empty path is not "the default")."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path names no file or folder; give one, or leave the argument "
+                                         "out for the default")
+    return text
+
+
 def parameter_override(text: str):
     name, sep, value = text.partition("=")
     if not sep:
@@ -80,6 +88,19 @@ def _writable_folder(path: Path) -> None:
             pass
     except OSError as exc:
         raise UsageError(f"output folder {path} is not writable ({exc.strerror}); choose another --out") from None
+
+
+def _check_results_path(out: Path) -> None:
+    """Refuse, before any work, a results path that cannot take a run's files (complete or
+    partial): not .npz, a folder, or in a folder that cannot be written."""
+    from .analysis import results as results_io
+
+    if out.suffix != ".npz":
+        raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
+    for path in (*results_io.targets(out), *results_io.targets(out, complete=False)):
+        if path.is_dir():
+            raise UsageError(f"results file {out}: {path} is a folder; choose another name ending in .npz")
+    _writable_folder(out.parent)
 
 
 def _file_models(path, nrfe_values):
@@ -177,15 +198,15 @@ def _start(source, backend, start, overrides):
 
 
 def run_study(source, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
-    """Start, then the constrained motion; writes ``out`` (.npz and .csv). ``source``: an n_rfe
-    of the reference case, or ``(model file, n_rfe or None)``. Returns the results."""
+    """Start, then the constrained motion; writes ``out`` (.npz and .csv), or beside it a
+    partial run (see :func:`gpmegen.analysis.results.save`). ``source``: an n_rfe of the reference
+    case, or ``(model file, n_rfe or None)``; ``backend`` None: C when a compiler is found.
+    Returns the results."""
     from .analysis import results as results_io
     from .analysis import study
 
-    if out.suffix != ".npz":
-        raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
-    _writable_folder(out.parent)
-    model, q0 = _start(source, backend, start, overrides)
+    _check_results_path(out)
+    model, q0 = _start(source, backend or _default_backend(), start, overrides)
     reference = ("theta1", "psi2", "x3")
     shown = list(reference) if set(reference) <= set(model.coordinates) else list(model.coordinates[:3])
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
@@ -204,10 +225,12 @@ def run_study(source, start, t_end, dt, save_every, method, backend, overrides, 
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
     final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in shown)
-    print(f"{label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.4g} s in {wall:.1f} s; "
+    print(f"{label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.6g} s in {wall:.1f} s; "
           f"{final}; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; wrote {', '.join(map(str, written))}")
     if status != "complete":
-        kept = f"results up to t = {res['t'][-1]:.6g} s kept in {out} (marked partial)"
+        kept = f"results up to t = {res['t'][-1]:.6g} s kept in {written[0]} (partial)"
+        if out.exists():
+            kept += f"; {out} is left as it was"
         raise SimulationStopped(f"{status}; {kept}")
     return res
 
@@ -223,15 +246,15 @@ def _source(args):
 
 
 def cmd_simulate(args) -> int:
-    backend = args.backend or _default_backend()
     overrides = dict(args.param or [])
     source = _source(args)
     start = args.statics or ("locked" if isinstance(source, int) else "initial")
     if isinstance(source, int) and start == "initial":
         raise UsageError("--statics initial is for model files; the reference case starts from statics")
     name = f"run_nrfe{source}" if isinstance(source, int) else Path(args.model_file).stem
-    run_study(source, start, args.t_end, args.dt, args.save_every, args.method, backend,
-              overrides, Path(args.out or f"results/{name}.npz"), repartition=args.repartition)
+    out = Path(args.out if args.out is not None else f"results/{name}.npz")
+    run_study(source, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
+              overrides, out, repartition=args.repartition)
     return 0
 
 
@@ -261,6 +284,10 @@ def cmd_plot(args) -> int:
 
 def cmd_demo(args) -> int:
     """The paper's study: rigid and flexible arms, 10 s, figures."""
+    outs = {nrfe: Path(args.results) / f"run_nrfe{nrfe}.npz" for nrfe in (1, 5)}
+    for out in outs.values():
+        _check_results_path(out)
+    _writable_folder(Path(args.figures))
     backend = _default_backend()
     dt = 1e-5 if backend == "c" else 1e-4
     save_every = max(1, int(round(1e-3 / dt)))
@@ -268,9 +295,8 @@ def cmd_demo(args) -> int:
         progress("no C compiler found: the demo runs the NumPy backend with dt = 1e-4 s (the paper's 1e-5 s "
                  "would take hours in Python)")
     results = []
-    for nrfe in (1, 5):
-        res = run_study(nrfe, "locked", args.t_end, dt, save_every, "rk4", backend, {},
-                        Path(args.results) / f"run_nrfe{nrfe}.npz")
+    for nrfe, out in outs.items():
+        res = run_study(nrfe, "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
         results.append(res)
     from .analysis import plots
 
@@ -283,6 +309,8 @@ def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
     from .analysis import modes, modes_output, study
 
+    out = Path(args.out)
+    _writable_folder(out)
     model = _load(args.nrfe, "numpy", dict(args.param or []))
     if args.lock == "joints":
         q_eq, result = modes.locked_modes(model, study.joint_start(model))
@@ -293,8 +321,6 @@ def cmd_modes(args) -> int:
         where = "programmed constraints holding (constrained equilibrium, column rotation held)"
     print(f"n_rfe = {args.nrfe}, {where}:")
     print(result.format(args.count))
-    out = Path(args.out)
-    _writable_folder(out)
     stem = f"modes_nrfe{args.nrfe}_{args.lock}"
     print(modes_output.write_modes_csv(result, out / f"{stem}.csv"))
     print(modes_output.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
@@ -327,17 +353,19 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     b = sub.add_parser("build", help="generate the NumPy and C modules of the reference manipulator")
-    b.add_argument("model_file", nargs="?", help="a model description (.toml); default: the reference manipulator")
+    b.add_argument("model_file", nargs="?", type=path_argument,
+                   help="a model description (.toml); default: the reference manipulator")
     b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
-    b.add_argument("--out", default="generated", help="output folder (default: generated/)")
+    b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
     b.add_argument("--backend", choices=("numpy", "c", "all"), default="all",
                    help="backends to generate (both are always written; the NumPy one is the C one's oracle)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.set_defaults(func=cmd_build)
 
     def study_options(p):
-        p.add_argument("model_file", nargs="?", help="a model description (.toml); default: the reference manipulator")
+        p.add_argument("model_file", nargs="?", type=path_argument,
+                       help="a model description (.toml); default: the reference manipulator")
         p.add_argument("--nrfe", type=positive_int, default=None,
                        help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
         p.add_argument("--statics", choices=("locked", "constrained", "initial"), default=None,
@@ -356,7 +384,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="integrator: fixed-step rk4 (paper) or an adaptive scipy method")
     s.add_argument("--backend", choices=("numpy", "c"), default=None,
                    help="generated code to run (default: c when a compiler is present)")
-    s.add_argument("--out", default=None, help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
+    s.add_argument("--out", type=path_argument, default=None,
+                   help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
     s.add_argument("--repartition", action="store_true",
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.set_defaults(func=cmd_simulate)
@@ -366,8 +395,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.set_defaults(func=cmd_statics)
 
     pl = sub.add_parser("plot", help="the paper's figures from results files")
-    pl.add_argument("results", nargs="+", help="results .npz files (e.g. results/*.npz)")
-    pl.add_argument("--out", default="figures", help="folder for the figures (default figures/)")
+    pl.add_argument("results", nargs="+", type=path_argument, help="results .npz files (e.g. results/*.npz)")
+    pl.add_argument("--out", type=path_argument, default="figures", help="folder for the figures (default figures/)")
     pl.add_argument("--format", choices=("png", "pdf", "svg"), default="png")
     pl.set_defaults(func=cmd_plot)
 
@@ -377,7 +406,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="linearize with the joints locked, or with the programmed constraints holding")
     m.add_argument("--count", type=positive_int, default=10, help="modes to print (default 10)")
     m.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE")
-    m.add_argument("--out", default="figures", help="folder for the CSV and the figure (default figures/)")
+    m.add_argument("--out", type=path_argument, default="figures",
+                   help="folder for the CSV and the figure (default figures/)")
     m.set_defaults(func=cmd_modes)
 
     c = sub.add_parser("convergence", help="clamped arm against n_rfe, beside Euler–Bernoulli and Saint-Venant")
@@ -385,14 +415,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
                    help="static deflection from the linear stiffness solve or full Newton–Raphson")
-    c.add_argument("--directory", default=None, help="keep the built clamped-arm models here (default: temporary)")
-    c.add_argument("--out", default="figures", help="folder for convergence.png (default figures/)")
+    c.add_argument("--directory", type=path_argument, default=None,
+                   help="keep the built clamped-arm models here (default: temporary)")
+    c.add_argument("--out", type=path_argument, default="figures", help="folder for convergence.png (default figures/)")
     c.set_defaults(func=cmd_convergence)
 
     d = sub.add_parser("demo", help="the paper's study: rigid and flexible arms, figures")
     d.add_argument("--t-end", type=positive_float, default=10.0, help="simulated time in s (default 10)")
-    d.add_argument("--results", default="results", help="folder for results (default results/)")
-    d.add_argument("--figures", default="figures", help="folder for figures (default figures/)")
+    d.add_argument("--results", type=path_argument, default="results", help="folder for results (default results/)")
+    d.add_argument("--figures", type=path_argument, default="figures", help="folder for figures (default figures/)")
     d.set_defaults(func=cmd_demo)
     return parser
 

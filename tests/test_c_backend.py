@@ -180,7 +180,7 @@ def test_rk4_matches_numpy_rk4(pairs):
     q0[c.index("psi2")] = np.pi / 4
     qd0 = 1e-2 * rng.standard_normal(c.n_dof)
     t0, dt, n_steps, every = 0.3, 1e-5, 400, 50
-    t, q, qd, _, status = c.rk4(t0, dt, n_steps, q0, qd0, save_every=every)
+    t, q, qd, _, status = c.rk4(q0, qd0, t0 + n_steps * dt, dt, save_every=every, t0=t0)
     assert status == 0
     tn, qn, qdn = _numpy_rk4(n, t0, dt, n_steps, q0, qd0)
     assert t.shape == (n_steps // every + 1,) and q.shape == qd.shape == (len(t), c.n_dof)
@@ -196,9 +196,9 @@ def test_rk4_stops_at_a_non_finite_state(pairs):
     q0[c.index("psi2")] = np.pi / 4
     broken = c.with_params()
     broken.p[broken.parameter_names.index("g")] = np.inf  # f is not finite, so is the first step
-    t, q, qd, _, status = broken.rk4(0.0, 1e-5, 100, q0, np.zeros(c.n_dof))
+    t, q, qd, _, status = broken.rk4(q0, np.zeros(c.n_dof), 1e-3, 1e-5)
     assert status == 2 and len(t) == 1 and np.array_equal(q[0], q0)
-    t, q, qd, _, status = c.rk4(0.0, 1e-5, 100, q0 + np.nan, np.zeros(c.n_dof))
+    t, q, qd, _, status = c.rk4(q0 + np.nan, np.zeros(c.n_dof), 1e-3, 1e-5)
     assert status == 2 and len(t) == 0
 
 
@@ -207,7 +207,7 @@ def test_rk4_stops_when_it_diverges(pairs):
     q0 = np.zeros(c.n_dof)
     q0[c.index("psi2")] = np.pi / 4
     q0[c.index("psi2_1")] = 0.1
-    t, q, qd, _, status = c.rk4(0.0, 0.01, 1000, q0, np.zeros(c.n_dof))  # far beyond the stable step
+    t, q, qd, _, status = c.rk4(q0, np.zeros(c.n_dof), 10.0, 0.01)  # far beyond the stable step
     assert status in (1, 2)  # numerically singular or non-finite, whichever comes first
     assert 1 <= len(t) < 1001
     assert np.all(np.isfinite(q)) and np.all(np.isfinite(qd))
@@ -220,7 +220,7 @@ def test_singular_constraint_block(pairs):
     q = np.array([0.0, np.pi / 2, 0.0])
     with pytest.raises(SimulationError, match="singular"):
         c.accelerations(0.0, q, np.zeros(3))
-    t, qs, _, _, status = c.rk4(0.0, 1e-5, 10, q, np.zeros(3))
+    t, qs, _, _, status = c.rk4(q, np.zeros(3), 1e-4, 1e-5)
     assert status == 1 and len(t) == 1 and np.array_equal(qs[0], q)
 
 
@@ -229,7 +229,7 @@ def test_shapes_are_checked(pairs):
     with pytest.raises(ValueError, match="shape"):
         c.mass_matrix(np.zeros(2))
     with pytest.raises(ValueError):
-        c.rk4(0.0, 1e-5, 10, np.zeros(3), np.zeros(3), save_every=0)
+        c.rk4(np.zeros(3), np.zeros(3), 1e-4, 1e-5, save_every=0)
 
 
 def test_with_params_reuses_the_library(pairs):
@@ -372,7 +372,7 @@ def test_rk4_work_integrals_match_the_numpy_integrator(pairs):
     model_n, q0 = study.initial_state(n)
     model_c = c.with_params(r_Ea=model_n.params["r_Ea"], y_c=model_n.params["y_c"], tdr0=50.0)
     model_n = model_n.with_params(tdr0=50.0)
-    t, q, qd, w, status = model_c.rk4(4.0, 1e-3, 300, q0, np.zeros(3), save_every=100)
+    t, q, qd, w, status = model_c.rk4(q0, np.zeros(3), 4.3, 1e-3, save_every=100, t0=4.0)
     tn, yn, status_n = integrate.rk4(model_n, q0, np.zeros(3), 4.3, 1e-3, save_every=100, t0=4.0)
     assert status == 0 and status_n == "complete"
     np.testing.assert_allclose(t, tn, atol=1e-12)
@@ -391,7 +391,7 @@ def test_unrolled_and_looped_solves_agree_bit_for_bit(pairs, key, env):
     for t, q, qd in _states(c, 10, seed=5):
         assert np.array_equal(looped.accelerations(t, q, qd), c.accelerations(t, q, qd))
     q, qd = next(_states(c, 1, seed=6))[1:]
-    runs = [m.rk4(0.0, 1e-4, 200, q, qd, save_every=50) for m in (c, looped)]
+    runs = [m.rk4(q, qd, 0.02, 1e-4, save_every=50) for m in (c, looped)]
     for a, b in zip(*runs):
         assert np.array_equal(a, b)
 

@@ -60,7 +60,7 @@ def test_interrupted_simulation_keeps_partial_results(tmp_path, sig, generated_e
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 1
     assert "interrupted" in err and "partial" in err and "Traceback" not in err
-    res = results_io.load(out)
+    res = results_io.load(results_io.targets(out, complete=False)[0])
     assert str(res["status"]) == "interrupted"
     assert 0 < res["t"][-1] < 100 and np.all(np.isfinite(res["q"]))
 
@@ -95,6 +95,6 @@ def test_divergence_in_the_compiled_loop_stops_with_a_fix_and_keeps_results(tmp_
     code = main(["simulate", "--nrfe", "5", "--dt", "2e-3", "--t-end", "2", "--save-every", "1", "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 1 and "diverged" in err and "smaller --dt" in err and "kept in" in err
-    res = results_io.load(out)
+    res = results_io.load(results_io.targets(out, complete=False)[0])
     assert str(res["status"]).startswith("diverged") and 0 < res["t"][-1] < 2
     assert np.all(np.isfinite(res["q"]))

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 773269e57047f9aa
+Input hash: 97e34dfc49d0a49f
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -67,10 +67,10 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
 void gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
 int gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, double *M, double *f);
 int gpme_accelerations(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd);
-int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
+int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "773269e57047f9aa"; }
+const char *gpmegen_input_hash(void) { return "97e34dfc49d0a49f"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -1224,26 +1224,81 @@ static int stage(double t, const double *q, const double *qd, const double *p,
     return 0;
 }
 
-/* Classical RK4 on the state (q, qd, w) with qdd from the GPME and w the work of the drive and
-   of the constraint forces (J), n_steps steps of dt from t0; step k ends at t0 + k dt (no
-   accumulated round-off in t). w0 (2) is the work at t0. Saves the initial state and the state
-   after every save_every-th step into t_out (n_save), q_out and qd_out (n_save x N_DOF) and
-   w_out (n_save x 2), with n_save = 1 + n_steps / save_every; *n_saved counts the saved states.
-   Returns 0 when done, 1 at the first singular solve, 2 at the first non-finite state or
-   stage (not saved), 3 for invalid arguments; what was saved before a failure is kept. */
-int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, const double *qd0,
-        const double *w0, const double *p, const int *dependent, const int *independent,
-        double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
+/* One classical RK4 step of length h from t, in place on the state (q, qd, w), with qdd from
+   the GPME and w the work of the drive and of the constraint forces (J). Returns 0, or the
+   status of the first failed stage (the state is then left as it was). */
+static int rk4_step(double t, double h, double *q, double *qd, double *w, const double *p,
+                    const int *dependent, const int *independent)
 {
-    double q[N_DOF] ALIGNED, qd[N_DOF] ALIGNED, qs[N_DOF] ALIGNED, qds[N_DOF] ALIGNED;
-    double k1[N_DOF] ALIGNED, k2[N_DOF] ALIGNED, k3[N_DOF] ALIGNED, k4[N_DOF] ALIGNED;
-    double w[2] ALIGNED, p1[2] ALIGNED, p2[2] ALIGNED, p3[2] ALIGNED, p4[2] ALIGNED;
-    const double half = 0.5 * dt, sixth = dt / 6.0;
+    double qs[N_DOF] ALIGNED, qds[N_DOF] ALIGNED, k1[N_DOF] ALIGNED, k2[N_DOF] ALIGNED;
+    double k3[N_DOF] ALIGNED, k4[N_DOF] ALIGNED, p1[2] ALIGNED, p2[2] ALIGNED, p3[2] ALIGNED, p4[2] ALIGNED;
+    const double half = 0.5 * h, sixth = h / 6.0;
+    int status;
+
+    /* k1..k4 are the accelerations; the velocity slopes are the stage velocities. */
+    if ((status = stage(t, q, qd, p, dependent, independent, k1, p1)) != 0) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        qs[i] = q[i] + half * qd[i];
+        qds[i] = qd[i] + half * k1[i];
+    }
+    if ((status = stage(t + half, qs, qds, p, dependent, independent, k2, p2)) != 0) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        qs[i] = q[i] + half * (qd[i] + half * k1[i]);
+        qds[i] = qd[i] + half * k2[i];
+    }
+    if ((status = stage(t + half, qs, qds, p, dependent, independent, k3, p3)) != 0) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        qs[i] = q[i] + h * (qd[i] + half * k2[i]);
+        qds[i] = qd[i] + h * k3[i];
+    }
+    if ((status = stage(t + h, qs, qds, p, dependent, independent, k4, p4)) != 0) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        /* velocity slopes: qd, qd + h/2 k1, qd + h/2 k2, qd + h k3 */
+        q[i] += sixth * (qd[i] + 2.0 * (qd[i] + half * k1[i]) + 2.0 * (qd[i] + half * k2[i])
+                         + (qd[i] + h * k3[i]));
+        qd[i] += sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    }
+    for (int j = 0; j < 2; ++j) {
+        w[j] += sixth * (p1[j] + 2.0 * p2[j] + 2.0 * p3[j] + p4[j]);
+    }
+    return 0;
+}
+
+/* Time at the end of step k of the grid, the one gpmegen.runtime.integrate.grid defines: step
+   k = 1 .. n_steps ends at t0 + k dt (no accumulated round-off in t), the last at t_end. */
+static double grid_time(double t0, double dt, long n_steps, double t_end, long k)
+{
+    return k == n_steps ? t_end : t0 + (double)k * dt;
+}
+
+/* Classical RK4 over steps k_from + 1 .. k_to of the grid above (n_steps steps of dt from t0,
+   the last one ending at t_end), from the state q0, qd0 (N_DOF) and work w0 (2, J) at the end
+   of step k_from. Step k is dt long, the last one grid_time(n_steps) - grid_time(n_steps - 1).
+   Saves the state at the start, after every step k that is a multiple of save_every and after
+   step k_to (the final state, also off that grid) into t_out (n_save), q_out and qd_out
+   (n_save x N_DOF) and w_out (n_save x 2), with n_save = k_to / save_every - k_from /
+   save_every + 2 at most; *n_saved counts the saved states. Returns 0 when done, 1 at the first
+   singular solve, 2 at the first non-finite state or stage (not saved), 3 for invalid
+   arguments; what was saved before a failure is kept. */
+int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every,
+        const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent,
+        const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
+{
+    double q[N_DOF] ALIGNED, qd[N_DOF] ALIGNED, w[2] ALIGNED;
     long saved = 0;
     int status;
 
     *n_saved = 0;
-    if (n_steps < 0 || save_every < 1 || !isfinite(t0) || !isfinite(dt)) {
+    if (k_from < 0 || k_to < k_from || n_steps < k_to || save_every < 1 || !isfinite(t0) || !isfinite(dt)
+        || !(dt > 0.0) || !isfinite(t_end) || t_end < grid_time(t0, dt, n_steps, t_end, n_steps - 1)) {
         return 3;
     }
     for (int i = 0; i < N_DOF; ++i) {
@@ -1255,50 +1310,20 @@ int rk4(double t0, double dt, long n_steps, long save_every, const double *q0, c
     if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF) || !all_finite(w, 2)) {
         return 2;
     }
-    save_state(saved++, t0, q, qd, w, t_out, q_out, qd_out, w_out);
+    save_state(saved++, grid_time(t0, dt, n_steps, t_end, k_from), q, qd, w, t_out, q_out, qd_out, w_out);
     *n_saved = saved;
 
-    for (long step = 0; step < n_steps; ++step) {
-        const double t = t0 + (double)step * dt;
-        /* k1..k4 are the accelerations; the velocity slopes are the stage velocities. */
-        if ((status = stage(t, q, qd, p, dependent, independent, k1, p1)) != 0) {
+    for (long k = k_from + 1; k <= k_to; ++k) {
+        const double t = grid_time(t0, dt, n_steps, t_end, k - 1);
+        const double h = k == n_steps ? t_end - t : dt;
+        if ((status = rk4_step(t, h, q, qd, w, p, dependent, independent)) != 0) {
             return status;
-        }
-        for (int i = 0; i < N_DOF; ++i) {
-            qs[i] = q[i] + half * qd[i];
-            qds[i] = qd[i] + half * k1[i];
-        }
-        if ((status = stage(t + half, qs, qds, p, dependent, independent, k2, p2)) != 0) {
-            return status;
-        }
-        for (int i = 0; i < N_DOF; ++i) {
-            qs[i] = q[i] + half * (qd[i] + half * k1[i]);
-            qds[i] = qd[i] + half * k2[i];
-        }
-        if ((status = stage(t + half, qs, qds, p, dependent, independent, k3, p3)) != 0) {
-            return status;
-        }
-        for (int i = 0; i < N_DOF; ++i) {
-            qs[i] = q[i] + dt * (qd[i] + half * k2[i]);
-            qds[i] = qd[i] + dt * k3[i];
-        }
-        if ((status = stage(t + dt, qs, qds, p, dependent, independent, k4, p4)) != 0) {
-            return status;
-        }
-        for (int i = 0; i < N_DOF; ++i) {
-            /* velocity slopes: qd, qd + dt/2 k1, qd + dt/2 k2, qd + dt k3 */
-            q[i] += sixth * (qd[i] + 2.0 * (qd[i] + half * k1[i]) + 2.0 * (qd[i] + half * k2[i])
-                             + (qd[i] + dt * k3[i]));
-            qd[i] += sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-        }
-        for (int j = 0; j < 2; ++j) {
-            w[j] += sixth * (p1[j] + 2.0 * p2[j] + 2.0 * p3[j] + p4[j]);
         }
         if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF)) {
             return 2;
         }
-        if ((step + 1) % save_every == 0) {
-            save_state(saved++, t0 + (double)(step + 1) * dt, q, qd, w, t_out, q_out, qd_out, w_out);
+        if (k % save_every == 0 || k == k_to) {
+            save_state(saved++, grid_time(t0, dt, n_steps, t_end, k), q, qd, w, t_out, q_out, qd_out, w_out);
             *n_saved = saved;
         }
     }

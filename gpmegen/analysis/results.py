@@ -1,17 +1,20 @@
-"""Results files: NPZ (all arrays) and a CSV beside it, written atomically.
+"""Results files: NPZ (all arrays) and a CSV beside it, written as a pair.
 
 An NPZ written here holds ``format = "gpmegen-results-1"`` so that foreign files are refused
-with a clear message instead of a KeyError deep inside plotting.
+with a clear message instead of a KeyError deep inside plotting, and a ``run_id`` that the
+first line of its CSV repeats (``# gpmegen-results-1 run <id>: complete``, or ``partial (why)``),
+so that a reader can tell the two files of one run from a mismatched pair.
 """
 
 from __future__ import annotations
 
+import uuid
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import GpmegenError
-from ..fileio import atomic_write
+from ..fileio import atomic_write_all
 
 FORMAT = "gpmegen-results-1"
 REQUIRED = ("t", "q", "qd", "coordinates", "end_effector", "phi", "tau_drive")
@@ -21,26 +24,37 @@ class ResultsError(GpmegenError):
     """A results file is missing, unreadable or not written by gpmegen."""
 
 
-def save(results: dict, path, csv: bool = True) -> list[Path]:
-    """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E and Φ beside it."""
+def targets(path, complete: bool = True) -> tuple[Path, Path]:
+    """The (.npz, .csv) pair that :func:`save` writes for results meant for ``path`` (.npz):
+    ``path`` itself for a complete run, ``<name>.partial.npz`` beside it for a partial one."""
     path = Path(path)
-    data = dict(results, format=np.array(FORMAT))
-    atomic_write(path, lambda fh: np.savez_compressed(fh, **data))
-    written = [path]
+    if not complete:
+        path = path.with_name(f"{path.stem}.partial{path.suffix}")
+    return path, path.with_suffix(".csv")
+
+
+def save(results: dict, path, csv: bool = True) -> list[Path]:
+    """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E and Φ beside it,
+    both files or neither. A partial run (``status`` other than "complete") goes to the
+    :func:`targets` beside ``path``, so a complete result there is never replaced by it.
+    Returns the paths written."""
+    status = str(results["status"])
+    npz_path, csv_path = targets(path, complete=status == "complete")
+    run_id = uuid.uuid4().hex
+    data = dict(results, format=np.array(FORMAT), run_id=np.array(run_id))
+    writes = {npz_path: lambda fh: np.savez_compressed(fh, **data)}
     if csv:
-        csv_path = path.with_suffix(".csv")
         names = [str(c) for c in results["coordinates"]]
         cons = [f"phi_{c}" for c in results.get("constraint_names", [])]
-        header = ",".join(["t"] + names + [f"{c}_dot" for c in names] + ["x_E", "y_E", "z_E"] + cons + ["tau_drive"])
+        state = "complete" if status == "complete" else f"partial ({' '.join(status.split())})"
+        header = (f"# {FORMAT} run {run_id}: {state}\n"
+                  + ",".join(["t"] + names + [f"{c}_dot" for c in names] + ["x_E", "y_E", "z_E"] + cons
+                             + ["tau_drive"]))
         table = np.column_stack([results["t"], results["q"], results["qd"], results["end_effector"],
                                  results["phi"], results["tau_drive"]])
-
-        def write_csv(fh):
-            np.savetxt(fh, table, delimiter=",", header=header, comments="", fmt="%.12g")
-
-        atomic_write(csv_path, write_csv)
-        written.append(csv_path)
-    return written
+        writes[csv_path] = lambda fh: np.savetxt(fh, table, delimiter=",", header=header, comments="", fmt="%.12g",
+                                                 encoding="utf-8")
+    return atomic_write_all(writes)
 
 
 def load(path) -> dict:

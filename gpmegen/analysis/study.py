@@ -122,36 +122,32 @@ C_STATUS = {
 def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_violation=None, watch=None):
     """RK4 entirely in C, called in chunks of about 0.05 s of simulated time so that progress is
     shown, the constraint violation is watched and Ctrl-C or SIGTERM keep what was computed.
-    Returns ``(t, y, status)`` like :func:`gpmegen.runtime.integrate.rk4`."""
-    n_steps = int(round(t_end / dt))
+    Returns ``(t, y, status)`` like :func:`gpmegen.runtime.integrate.rk4`, on the same grid and
+    with the same saved rows."""
+    grid = integrate.grid(0.0, t_end, dt)
+    # a whole number of save intervals, so that the chunks' ends (always saved) are saved rows anyway
     chunk = max(save_every, int(round(0.05 / dt / save_every)) * save_every)
     ts, ys = [np.array([0.0])], [np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]]
     q, qd, w, done, status = np.array(q0, float), np.array(qd0, float), np.zeros(2), 0, "complete"
     bar = progress if progress is not None else integrate.Progress(t_end, "RK4", enabled=False)
     with integrate.interruptible():
         try:
-            while done < n_steps:
-                steps = min(chunk, n_steps - done)
-                t, qs, qds, ws, code = model.rk4(done * dt, dt, steps, q, qd, save_every, w)
-                y = np.column_stack([qs, qds, ws])
-                if len(t) > 1:
-                    ts.append(t[1:])
-                    ys.append(y[1:])
+            while done < grid.n_steps:
+                end = min(done + chunk, grid.n_steps)
+                t, qs, qds, ws, code = model.rk4(q, qd, t_end, dt, save_every, w0=w, steps=(done, end))
+                ts.append(t[1:])
+                ys.append(np.column_stack([qs, qds, ws])[1:])
                 if code != 0:
                     status = f"diverged after t = {t[-1]:.6g} s: {C_STATUS.get(code, code)}"
                     break
-                q, qd, w = qs[-1], qds[-1], ws[-1]
-                done += steps
-                if steps % save_every:  # keep the chunk's last state even off the save grid
-                    ts.append(np.array([done * dt]))
-                    ys.append(y[-1:])
+                q, qd, w, done = qs[-1], qds[-1], ws[-1], end
                 if max_violation is not None:
-                    status = integrate.violation(model, done * dt, q, qd, max_violation) or status
+                    status = integrate.violation(model, t[-1], q, qd, max_violation) or status
                     if status != "complete":
                         break
                 if watch is not None:
-                    watch.check(done * dt, q)
-                bar.update(done * dt)
+                    watch.check(t[-1], q)
+                bar.update(t[-1])
         except KeyboardInterrupt:
             status = "interrupted"
         finally:

@@ -13,7 +13,7 @@ from types import ModuleType
 import numpy as np
 
 from ..errors import BuildError, ModelError, SimulationError
-from . import ccompile, cprobe
+from . import ccompile, cprobe, integrate
 from .model import LoadedModel
 
 #: Return codes of the C ``rk4``.
@@ -203,27 +203,33 @@ class CModel(LoadedModel):
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), solved in C."""
         return self._solve(t, q, qd)
 
-    def rk4(self, t0, dt, n_steps, q0, qd0, save_every=1, w0=(0.0, 0.0)):
-        """Fixed-step classical RK4 of the GPME, entirely in C.
+    def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
+        """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), entirely in
+        C, on the grid of :func:`gpmegen.runtime.integrate.grid` (the NumPy loop's).
 
-        Saves the initial state and the state after every ``save_every``-th step. Returns
-        ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w`` (k, 2) the work of
-        the drive and of the constraint forces since ``t0`` plus ``w0`` (J), ``status`` an int,
-        0 when all ``n_steps`` were done, else the C return code (1 singular solve, 2 non-finite
-        state, 3 invalid arguments; see ``RK4_STATUS``) with the states saved before the failure.
+        ``steps = (k_from, k_to)`` integrates only those steps of that grid, from ``q0``, ``qd0``
+        (n,) and ``w0`` at the end of step ``k_from`` (default: all of it, from ``t0``). Saves the
+        start, the state after every ``save_every``-th step of the grid and the final state.
+        Returns ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w`` (k, 2) the
+        work of the drive and of the constraint forces plus ``w0`` (J), ``status`` an int, 0 when
+        all steps were done, else the C return code (1 singular solve, 2 non-finite state, 3
+        invalid arguments; see ``RK4_STATUS``) with the states saved before the failure.
         """
-        n_steps, save_every = int(n_steps), int(save_every)
-        if n_steps < 0 or save_every < 1:
-            raise ValueError(f"need n_steps >= 0 and save_every >= 1, got {n_steps} and {save_every}")
+        g = integrate.grid(t0, t_end, dt)
+        k_from, k_to = (0, g.n_steps) if steps is None else (int(steps[0]), int(steps[1]))
+        save_every = int(save_every)
+        if not 0 <= k_from <= k_to <= g.n_steps or save_every < 1:
+            raise ValueError(f"need 0 <= k_from <= k_to <= {g.n_steps} steps and save_every >= 1, got steps = "
+                             f"{steps} and save_every = {save_every}")
         q0, qd0 = self._vec(q0, "q0"), self._vec(qd0, "qd0")
         dep, ind = self._partition_pointers()
-        n_save = n_steps // save_every + 1
+        n_save = k_to // save_every - k_from // save_every + 2
         t_out = np.empty(n_save)
         q_out, qd_out = np.empty((n_save, self.n_dof)), np.empty((n_save, self.n_dof))
         w_start, w_out = np.ascontiguousarray(w0, dtype=float), np.empty((n_save, 2))
         n_saved = self.ffi.new("long *")
-        status = self.lib.rk4(float(t0), float(dt), n_steps, save_every, self._ptr(q0), self._ptr(qd0),
-                              self._ptr(w_start), self._params(), dep, ind, self._ptr(t_out), self._ptr(q_out),
-                              self._ptr(qd_out), self._ptr(w_out), n_saved)
+        status = self.lib.rk4(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, self._ptr(q0),
+                              self._ptr(qd0), self._ptr(w_start), self._params(), dep, ind, self._ptr(t_out),
+                              self._ptr(q_out), self._ptr(qd_out), self._ptr(w_out), n_saved)
         k = int(n_saved[0])
         return t_out[:k].copy(), q_out[:k].copy(), qd_out[:k].copy(), w_out[:k].copy(), int(status)

@@ -123,11 +123,12 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         say("gpme_accelerations")
         lib.gpme_accelerations(t, doubles(q), doubles(qd), doubles(p), dep, ind, doubles(np.zeros(n)))
         say("rk4")
-        steps = 3
+        steps, dt = 3, 1e-6
+        n_save = steps + 2  # the start, every step, and the final state (see the C rk4)
         n_saved = ffi.new("long *")
-        lib.rk4(t, 1e-6, steps, 1, doubles(q), doubles(qd), doubles([0.0, 0.0]), doubles(p), dep, ind,
-                doubles(np.zeros(steps + 1)), doubles(np.zeros((steps + 1) * n)),
-                doubles(np.zeros((steps + 1) * n)), doubles(np.zeros((steps + 1) * 2)), n_saved)
+        lib.rk4(t, dt, steps, t + steps * dt, 0, steps, 1, doubles(q), doubles(qd), doubles([0.0, 0.0]),
+                doubles(p), dep, ind, doubles(np.zeros(n_save)), doubles(np.zeros(n_save * n)),
+                doubles(np.zeros(n_save * n)), doubles(np.zeros(n_save * 2)), n_saved)
 
 
 def check_in_child(library: Path, source: Path, module_path: Path, env=None, timeout=TIMEOUT) -> str | None:

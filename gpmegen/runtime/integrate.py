@@ -6,9 +6,11 @@ forces is integrated with the motion, so the power balance is checked to the int
 
 from __future__ import annotations
 
+import math
 import signal
 import sys
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -94,29 +96,68 @@ class interruptible:
         return False
 
 
+class Grid(NamedTuple):
+    """The fixed-step grid of both RK4 loops (NumPy here, C in the generated code), made by
+    :func:`grid`: step k = 1 … ``n_steps`` ends at ``t0 + k dt`` (so no round-off builds up in
+    t), except the last, which ends at ``t_end`` exactly."""
+
+    t0: float
+    dt: float
+    n_steps: int
+    t_end: float
+
+    def time(self, k: int) -> float:
+        """Time (s) at the end of step ``k`` (0: the start)."""
+        return self.t_end if k == self.n_steps else self.t0 + k * self.dt
+
+    def step(self, k: int) -> float:
+        """Length (s) of step ``k`` (1 … n_steps): ``dt``, the last one up to ``t_end``."""
+        return self.t_end - self.time(k - 1) if k == self.n_steps else self.dt
+
+
+#: A remainder of (t_end - t0) / dt below this many steps is round-off, not a step to take.
+STEP_ROUND_OFF = 1e-6
+
+
+def grid(t0: float, t_end: float, dt: float) -> Grid:
+    """The grid from ``t0`` to ``t_end`` (s) with step ``dt`` (s): whole steps of ``dt`` and, where
+    ``t_end - t0`` is not a whole number of them, one shorter last step that ends at ``t_end``."""
+    if not (math.isfinite(t0) and math.isfinite(t_end) and math.isfinite(dt) and dt > 0 and t_end >= t0):
+        raise ValueError(f"need finite t0 <= t_end and dt > 0, got t0 = {t0}, t_end = {t_end}, dt = {dt}")
+    steps = (t_end - t0) / dt
+    n_steps = round(steps)
+    if abs(steps - n_steps) > STEP_ROUND_OFF:
+        n_steps = math.ceil(steps)
+    if t_end > t0:
+        n_steps = max(n_steps, 1)
+    return Grid(float(t0), float(dt), int(n_steps), float(t_end))
+
+
 def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None,
         watch_every=1000):
-    """Classical RK4 with fixed step ``dt`` (s) from ``t0`` to ``t_end``; every
-    ``save_every``-th step is kept; ``watch`` (a :class:`gpmegen.runtime.partition.Watch`) looks at
-    the partition every ``watch_every`` steps. Returns ``(t, y, status)`` with ``y`` rows of the augmented
-    state and ``status`` one of ``"complete"``, ``"interrupted"``, ``"diverged: …"``."""
+    """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s). Keeps the
+    initial state, the state after every ``save_every``-th step and the final state; ``watch``
+    (a :class:`gpmegen.runtime.partition.Watch`) looks at the partition every ``watch_every``
+    steps. Returns ``(t, y, status)`` with ``y`` rows of the augmented state and ``status`` one of
+    ``"complete"``, ``"interrupted"``, ``"diverged: …"``."""
     n = model.n_dof
     rhs = state_derivative(model)
-    n_steps = int(round((t_end - t0) / dt))
+    g = grid(t0, t_end, dt)
     y = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
-    ts, ys = [t0], [y.copy()]
+    ts, ys = [g.time(0)], [y.copy()]
     status = "complete"
     bar = progress if progress is not None else Progress(t_end - t0, "RK4", enabled=False)
     t = t0
     with interruptible():
         try:
-            for k in range(1, n_steps + 1):
+            for k in range(1, g.n_steps + 1):
+                t, h = g.time(k - 1), g.step(k)
                 k1 = rhs(t, y)
-                k2 = rhs(t + dt / 2, y + dt / 2 * k1)
-                k3 = rhs(t + dt / 2, y + dt / 2 * k2)
-                k4 = rhs(t + dt, y + dt * k3)
-                y = y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-                t = t0 + k * dt
+                k2 = rhs(t + h / 2, y + h / 2 * k1)
+                k3 = rhs(t + h / 2, y + h / 2 * k2)
+                k4 = rhs(t + h, y + h * k3)
+                y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+                t = g.time(k)
                 if not np.all(np.isfinite(y)):
                     status = f"diverged: non-finite state at t = {t:.6g} s; {FIX_NONFINITE}"
                     break
@@ -128,7 +169,7 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
                         break
                 if watch is not None and k % watch_every == 0:
                     watch.check(t, y[:n])
-                if k % save_every == 0 or k == n_steps:
+                if k % save_every == 0 or k == g.n_steps:
                     ts.append(t)
                     ys.append(y.copy())
                 bar.update(t - t0)
