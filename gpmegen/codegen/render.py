@@ -23,6 +23,7 @@ from .. import __version__
 from ..errors import BuildError
 from ..model.chain import Model
 from ..symbolic import derive
+from .comments import comment_text
 from .functions import lower, model_functions, prepare
 from .printers import CPrinter, PythonPrinter
 
@@ -40,14 +41,9 @@ def template_environment() -> jinja2.Environment:
         autoescape=False,
     )
     env.filters["repr"] = repr
-    env.filters["docstring"] = _docstring_text
+    env.filters["comment"] = comment_text
     env.filters["wrap"] = _wrap
     return env
-
-
-def _docstring_text(text) -> str:
-    """Free text made safe inside a triple-quoted Python docstring."""
-    return str(text).replace("\\", "\\\\").replace('"""', '\\"\\"\\"')
 
 
 def _wrap(values, per_line=6, indent=8):

@@ -1,0 +1,142 @@
+"""Trust in what reaches generated code, and in the generated files that are used.
+
+1. Free text of a model (description, parameter units and docs, the rebuild command with the
+   model file's path) never leaves its comment (C) or docstring (Python), whatever it holds.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+
+import gpmegen
+from gpmegen.codegen import input_hash, render
+from gpmegen.codegen.comments import PAIRED, comment_text
+from gpmegen.errors import BuildError
+from gpmegen.model import shapes
+from gpmegen.model.chain import Body, Joint, Model, Parameter, Point, symbol
+from gpmegen.model.toml_file import load_model_file
+from gpmegen.runtime.ccompile import find_compiler
+
+try:
+    CC = find_compiler()
+except BuildError:
+    CC = None
+needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler")
+BACKENDS = ("numpy", "c")
+
+
+# --- 1. free text in comments and docstrings ---------------------------------------------------
+
+# Pieces that end or bend a C comment or a Python string, or that some reader takes for a line
+# break, mixed with arbitrary text.
+DANGEROUS = ("*/", "/*", "*", "/", "?", "??/", "??=", "??(", "??'", "\\", "\\\n", "*\\\n/", '"', '"""',
+             "'''", "'", "#", "\n", "\r", "\r\n", "\v", "\f", "\x00", "\x1b", "\x7f", "\x85", "\u2028",
+             "\u2029", "\ud800", "é", "\U0001F600")
+free_text = st.lists(st.one_of(st.sampled_from(DANGEROUS), st.text(max_size=4)), max_size=12).map("".join)
+
+
+def _tiny_model(description="", unit="", doc="") -> Model:
+    return Model(
+        "tiny", (Parameter("m", 1.0, unit, doc),),
+        (Joint("a", "revolute", "z"), Body("b", shapes.point_mass(symbol("m"), (1, 0, 0))), Point("E")),
+        description=description,
+    )
+
+
+@given(text=free_text, multiline=st.booleans())
+@settings(max_examples=500, deadline=None)
+def test_defect1_comment_text_keeps_to_the_safe_alphabet(text, multiline):
+    out = comment_text(text, multiline)
+    allowed = {chr(c) for c in range(0x20, 0x7F)} - {"\\", '"'} | ({"\n"} if multiline else set())
+    assert set(out) <= allowed
+    for k, char in enumerate(out):
+        if char in PAIRED:  # never first, last or next to another of * / ?
+            assert 0 < k < len(out) - 1 and out[k - 1] not in PAIRED and out[k + 1] not in PAIRED, out
+    if set(text) <= allowed and not any(c in PAIRED for c in text):
+        assert out == text  # ordinary text is left as it is
+
+
+def test_defect1_comment_text_is_readable():
+    assert comment_text("N m s/rad") == "N m s/rad"
+    assert comment_text("kg*m^2, 1/s") == "kg*m^2, 1/s"
+    assert comment_text("a */ b") == "a <U+002A><U+002F> b"
+    assert comment_text("x ??/") == "x <U+003F><U+003F><U+002F>"
+    assert comment_text("two\nlines\u2028", multiline=True) == "two\nlines<U+2028>"
+    assert comment_text("two\nlines") == "two<U+000A>lines"
+
+
+def _without_hash(files, model):
+    digest = input_hash(model, BACKENDS)
+    return {name: text.replace(digest, "INPUT_HASH") for name, text in files.items()}
+
+
+def _c_tokens(source: str) -> list[str]:
+    """The C file after translation phases 1-4 (trigraphs, line splicing, comments, macros), as
+    whitespace-separated tokens: what the compiler sees."""
+    run = subprocess.run([CC[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"], input=source,
+                         capture_output=True, text=True, check=True)
+    return run.stdout.split()
+
+
+def _python_code(source: str) -> str:
+    """The module's syntax tree without its docstring."""
+    tree = ast.parse(source)
+    assert ast.get_docstring(tree) is not None
+    return ast.dump(ast.Module(body=tree.body[1:], type_ignores=[]))
+
+
+@needs_cc
+@given(description=free_text, command=free_text, unit=free_text, doc=free_text)
+@example(description="a *??/\n/ int injected; /*", command="gpmegen build x *??/\n/int y;/*.toml", unit="", doc="")
+@example(description='"""\nimport os\n"""', command="\\", unit='\\"""', doc="*/")
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def test_defect1_free_text_stays_in_its_comment_and_docstring(description, command, unit, doc):
+    neutral = _tiny_model()
+    model = _tiny_model(description, unit, doc)
+    files = _without_hash(render(model, BACKENDS, command=command), model)
+    reference = _without_hash(render(neutral, BACKENDS, command=""), neutral)
+    assert _c_tokens(files["model.c"]) == _c_tokens(reference["model.c"])
+    assert _python_code(files["model_numpy.py"]) == _python_code(reference["model_numpy.py"])
+    assert all(text.isascii() for text in files.values())
+
+
+EXPLOIT_MODEL = """\
+schema = 1
+name = "exploit"
+description = '''a harmless line *??/
+/ __attribute__((constructor)) static void payload(void) {{ extern int mkdir(const char *, unsigned); static const char d[] = {{{marker}, 0}}; mkdir(d, 0700); }} /*'''
+
+[parameters]
+m = 1.0
+
+[[chain]]
+joint = "a"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "b"
+shape = {{ type = "point_mass", mass = "m", position = [1, 0, 0] }}
+
+[[chain]]
+point = "E"
+"""
+
+
+@needs_cc
+def test_defect1_trigraph_in_a_model_file_does_not_run_code_when_the_library_loads(tmp_path):
+    # "??/" is a backslash under -std=c99, so "*??/<newline>/" closed the header comment and
+    # the rest of the line was compiled: a constructor that ran when the library was loaded.
+    marker = tmp_path / "payload_ran"
+    path = tmp_path / "exploit.toml"
+    path.write_text(EXPLOIT_MODEL.format(marker=", ".join(f"'{c}'" for c in str(marker))))
+    model = gpmegen.load(model=load_model_file(path), backend="c", directory=tmp_path / "generated")
+    assert model.n_dof == 1 and model.backend == "c"
+    assert not marker.exists()
+    source = (tmp_path / "generated" / "exploit" / "model.c").read_text()
+    assert "*??/" not in source and "<U+003F><U+003F><U+002F>" in source
