@@ -2,6 +2,8 @@
 
 1. Free text of a model (description, parameter units and docs, the rebuild command with the
    model file's path) never leaves its comment (C) or docstring (Python), whatever it holds.
+2. A model's names never meet the generator's own symbols and locals: a model gives the same
+   results whatever its parameters, coordinates, bodies and points are called.
 """
 
 from __future__ import annotations
@@ -9,16 +11,23 @@ from __future__ import annotations
 import ast
 import subprocess
 
+import numpy as np
 import pytest
+import sympy as sp
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import gpmegen
 from gpmegen.codegen import input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
-from gpmegen.errors import BuildError
+from gpmegen.errors import BuildError, ModelError
 from gpmegen.model import shapes
-from gpmegen.model.chain import Body, Joint, Model, Parameter, Point, symbol
+from gpmegen.model.chain import (
+    TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection,
+    point_symbols, symbol,
+)
+from gpmegen.model.expand import expand
+from gpmegen.runtime import statics
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime.ccompile import find_compiler
 
@@ -140,3 +149,84 @@ def test_defect1_trigraph_in_a_model_file_does_not_run_code_when_the_library_loa
     assert not marker.exists()
     source = (tmp_path / "generated" / "exploit" / "model.c").read_text()
     assert "*??/" not in source and "<U+003F><U+003F><U+002F>" in source
+
+
+# --- 2. names of the model against the generator's own -----------------------------------------
+
+# Each the name of something the generator made: intermediates x<k>, coordinates q_<name> and
+# velocities qd_<name>, parameters printed p_<name>, C outputs out_<name>.
+COLLIDING = dict(g="g", shear="out_M", young="p_g", thickness="q_theta1", mass="q_x3", density="qd_theta1",
+                 offset="qd_x3", length="x0", stiffness="x12", width="x5", base="theta1", slider="x3",
+                 hub="out_f", tip="x7", point="x9", constraint="x2")
+# SymPy orders terms by the names of their symbols, so these names keep the order of the ones
+# above (among themselves, against time t, the flexible link's psi1_1, theta1_1, phi1_1 and the
+# generator's names): the two models are then the same code but for names, and their results
+# agree bit for bit.
+NEUTRAL = dict(g="g", shear="g_shear", young="h_young", thickness="i_thick", mass="j_mass", density="k_rho",
+               offset="l_offset", length="u_length", stiffness="v_spring", width="w_width", base="rot",
+               slider="w3", hub="hub", tip="tip", point="P", constraint="c")
+DEFAULTS = dict(g=9.81, length=0.8, width=0.03, thickness=0.01, density=2700.0, young=7e10, shear=2.6e10,
+                stiffness=50.0, mass=0.5, offset=0.2)
+
+
+def _named_model(names: dict, label: str) -> Model:
+    """An arm (spring-held revolute base, flexible link with 2 rfes, slider, tip mass, one
+    position constraint and a drive) whose names are ``names``; the same model for any names."""
+    P = {role: symbol(names[role]) for role in DEFAULTS}
+    x, y, _ = point_symbols(names["point"])
+    chain = (
+        Joint(names["base"], "revolute", "z", stiffness=P["stiffness"]),
+        Body(names["hub"], shapes.point_mass(P["mass"], (0.05, 0, 0))),
+        FlexibleLink("1", P["length"], RectangularSection(P["width"], P["thickness"]), P["density"],
+                     P["young"], P["shear"], n_rfe=2),
+        Joint(names["slider"], "prismatic", "x"),
+        Body(names["tip"], shapes.point_mass(P["mass"])),
+        Point(names["point"], (0.1, 0, 0)),
+    )
+    return Model(
+        f"names_{label}", tuple(Parameter(names[role], value) for role, value in DEFAULTS.items()), chain,
+        gravity=(0, -P["g"], 0),
+        drives=(Drive(names["base"], P["stiffness"] * sp.sin(TIME) / 100),),
+        constraints=(Constraint(names["constraint"], x - P["offset"] - symbol(names["slider"]) / 2, 0, 10, 10),),
+        dependent=(names["slider"],),
+    )
+
+
+def _results(model):
+    rng = np.random.default_rng(7)
+    q, qd = rng.uniform(-0.3, 0.3, model.n_dof), rng.uniform(-1, 1, model.n_dof)
+    return dict(
+        M=model.mass_matrix(q), f=model.forces(0.3, q, qd), points=model.point_positions(q),
+        constraints=np.concatenate([np.ravel(v) for v in model.constraint_terms(0.3, q, qd)]),
+        qdd=model.accelerations(0.3, q, qd), energies=model.energies(q, qd),
+        statics=statics.locked(model, np.zeros(model.n_dof)),
+    )
+
+
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=needs_cc)])
+def test_defect2_names_of_generator_symbols_give_the_same_model(tmp_path, backend):
+    # SymPy merged a parameter named x5 with the intermediate x5; the C build failed on a local
+    # defined twice and the run fell back to NumPy with the wrong model.
+    neutral = gpmegen.load(model=_named_model(NEUTRAL, "neutral"), backend=backend, directory=tmp_path)
+    colliding = gpmegen.load(model=_named_model(COLLIDING, "colliding"), backend=backend, directory=tmp_path)
+    assert colliding.backend == backend
+    expected, got = _results(neutral), _results(colliding)
+    for key in expected:
+        np.testing.assert_array_equal(got[key], expected[key], err_msg=key)
+
+
+def test_defect2_name_with_a_final_line_break_is_refused():
+    model = _named_model(dict(NEUTRAL, base="theta1\n"), "newline")
+    with pytest.raises(ModelError) as exc:
+        expand(model)
+    assert "'theta1\\n' is not a valid name" in str(exc.value) and "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("coordinate, taken", [("x_P", "coordinate x of point 'P'"),
+                                               ("a_dot", "velocity of coordinate 'a'")])
+def test_defect2_coordinate_named_like_a_constraint_symbol_is_refused(coordinate, taken):
+    # A constraint expression naming x_P meant the coordinate or the point's x, whichever the
+    # derivation happened to take last.
+    model = _named_model(dict(NEUTRAL, base="a", slider=coordinate), "ambiguous")
+    with pytest.raises(ModelError, match=f"coordinate '{coordinate}' has the name of the {taken}"):
+        expand(model)
