@@ -4,6 +4,8 @@
    model file's path) never leaves its comment (C) or docstring (Python), whatever it holds.
 2. A model's names never meet the generator's own symbols and locals: a model gives the same
    results whatever its parameters, coordinates, bodies and points are called.
+3. Generated files are used only as their manifest records them (sha256): a file edited or
+   truncated by hand is built again when building is allowed, else refused with the fix.
 """
 
 from __future__ import annotations
@@ -18,16 +20,19 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import gpmegen
+from gpmegen.cli import main
 from gpmegen.codegen import input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
-from gpmegen.errors import BuildError, ModelError
+from gpmegen.errors import BuildError, ModelError, StaleModelError
 from gpmegen.model import shapes
 from gpmegen.model.chain import (
     TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection,
     point_symbols, symbol,
 )
 from gpmegen.model.expand import expand
-from gpmegen.runtime import statics
+from gpmegen.runtime import ccompile, statics
+from gpmegen.runtime.cmodel import CModel
+from gpmegen.runtime.loader import import_numpy_module
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime.ccompile import find_compiler
 
@@ -230,3 +235,81 @@ def test_defect2_coordinate_named_like_a_constraint_symbol_is_refused(coordinate
     model = _named_model(dict(NEUTRAL, base="a", slider=coordinate), "ambiguous")
     with pytest.raises(ModelError, match=f"coordinate '{coordinate}' has the name of the {taken}"):
         expand(model)
+
+
+# --- 3. generated files checked against their manifest -----------------------------------------
+
+def _edit(path):
+    """A hand edit that leaves the file valid code."""
+    path.write_text(path.read_text() + ("\n/* edited */\n" if path.suffix == ".c" else "\n# edited\n"))
+
+
+def _truncate(path):
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+TAMPERING = [pytest.param(name, change, id=f"{change.__name__[1:]}-{name}")
+             for name in ("model.c", "model_numpy.py") for change in (_edit, _truncate)]
+
+
+def _built(tmp_path):
+    assert main(["build", "--nrfe", "1", "--out", str(tmp_path)]) == 0
+    folder = tmp_path / "manipulator_nrfe1"
+    return folder, {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+@pytest.mark.parametrize("name, change", TAMPERING)
+def test_defect3_build_does_not_report_a_tampered_folder_up_to_date(tmp_path, capsys, name, change):
+    folder, original = _built(tmp_path)
+    change(folder / name)
+    capsys.readouterr()
+    assert main(["build", "--nrfe", "1", "--out", str(tmp_path)]) == 0
+    out, err = capsys.readouterr()
+    assert "built in" in out and "up to date" not in out
+    assert f"{folder / name} differs from the sha256 recorded in manifest.json" in err
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == original
+
+
+@pytest.mark.parametrize("name, change", TAMPERING)
+def test_defect3_loading_a_tampered_file_builds_it_again(tmp_path, name, change):
+    if name == "model.c" and CC is None:
+        pytest.skip("no C compiler")
+    folder, original = _built(tmp_path)
+    change(folder / name)
+    backend = "c" if name == "model.c" else "numpy"
+    model = gpmegen.load(nrfe=1, backend=backend, directory=tmp_path)
+    assert model.backend == backend
+    assert (folder / name).read_bytes() == original[name]
+
+
+@pytest.mark.parametrize("name, change", TAMPERING)
+def test_defect3_loading_a_tampered_file_without_building_is_refused(tmp_path, name, change):
+    folder, _ = _built(tmp_path)
+    change(folder / name)
+    backend = "c" if name == "model.c" else "numpy"
+    with pytest.raises(StaleModelError) as exc:
+        gpmegen.load(nrfe=1, backend=backend, directory=tmp_path, build=False)
+    message = str(exc.value)
+    assert message == (f"{folder / name} differs from the sha256 recorded in manifest.json (edited or truncated); "
+                       f"rebuild it with 'gpmegen build --nrfe 1 --force'")
+
+
+def test_defect3_c_file_changed_after_loading_the_module_is_not_compiled(tmp_path):
+    # The C file is checked right before it is compiled, not only when the folder was found.
+    folder, _ = _built(tmp_path)
+    module = import_numpy_module(folder)
+    _edit(folder / "model.c")
+    with pytest.raises(StaleModelError, match="model.c differs from the sha256"):
+        CModel(module, folder=folder, cache=tmp_path / "cache")
+    assert not (tmp_path / "cache").exists()
+
+
+@needs_cc
+def test_defect3_the_compiler_gets_the_text_that_was_read_not_the_file(tmp_path):
+    source = ("/* cffi-cdef-begin */\nconst char *gpmegen_input_hash(void);\nint f(void);\n/* cffi-cdef-end */\n"
+              "const char *gpmegen_input_hash(void) { return \"\"; }\nint f(void) { return %d; }\n")
+    path = tmp_path / "model.c"
+    path.write_text(source % 1)  # the file changed after its text was read and checked
+    _, lib, _ = ccompile.load_library(path, cache=tmp_path / "cache", text=source % 2)
+    assert lib.f() == 2
