@@ -108,7 +108,7 @@ def _python_code(source: str) -> str:
 @given(description=free_text, command=free_text, unit=free_text, doc=free_text)
 @example(description="a *??/\n/ int injected; /*", command="gpmegen build x *??/\n/int y;/*.toml", unit="", doc="")
 @example(description='"""\nimport os\n"""', command="\\", unit='\\"""', doc="*/")
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_defect1_free_text_stays_in_its_comment_and_docstring(description, command, unit, doc):
     neutral = _tiny_model()
     model = _tiny_model(description, unit, doc)
@@ -313,3 +313,13 @@ def test_defect3_the_compiler_gets_the_text_that_was_read_not_the_file(tmp_path)
     path.write_text(source % 1)  # the file changed after its text was read and checked
     _, lib, _ = ccompile.load_library(path, cache=tmp_path / "cache", text=source % 2)
     assert lib.f() == 2
+
+
+def test_defect3_manifest_that_is_no_json_object_is_stale_not_a_crash(tmp_path):
+    folder, original = _built(tmp_path)
+    (folder / "manifest.json").write_text("[]\n")
+    with pytest.raises(StaleModelError, match="manifest.json is missing or unreadable; rebuild it with "
+                                              "'gpmegen build --nrfe 1 --force'"):
+        gpmegen.load(nrfe=1, directory=tmp_path, build=False)
+    assert gpmegen.load(nrfe=1, directory=tmp_path).n_dof == 3
+    assert (folder / "manifest.json").read_bytes() == original["manifest.json"]
