@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,24 +24,25 @@ import gpmegen
 from gpmegen.cli import main
 from gpmegen.codegen import input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
+from gpmegen.codegen.render import read_manifest, stale_reason
 from gpmegen.errors import BuildError, ModelError, StaleModelError
-from gpmegen.model import shapes
+from gpmegen.model import reference_model, shapes
 from gpmegen.model.chain import (
     TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection,
     point_symbols, symbol,
 )
 from gpmegen.model.expand import expand
+from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, statics
 from gpmegen.runtime.cmodel import CModel
 from gpmegen.runtime.loader import import_numpy_module
-from gpmegen.model.toml_file import load_model_file
-from gpmegen.runtime.ccompile import find_compiler
 
 try:
-    CC = find_compiler()
+    CC = ccompile.find_compiler()
 except BuildError:
     CC = None
 needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler")
+ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")
 
 
@@ -220,11 +222,19 @@ def test_defect2_names_of_generator_symbols_give_the_same_model(tmp_path, backen
         np.testing.assert_array_equal(got[key], expected[key], err_msg=key)
 
 
-def test_defect2_name_with_a_final_line_break_is_refused():
+def test_defect2_name_with_a_final_line_break_is_refused(tmp_path, capsys):
+    # '$' matches before a final line break, so the pattern let "theta1\n" through.
     model = _named_model(dict(NEUTRAL, base="theta1\n"), "newline")
     with pytest.raises(ModelError) as exc:
         expand(model)
     assert "'theta1\\n' is not a valid name" in str(exc.value) and "\n" not in str(exc.value)
+    path = tmp_path / "arm.toml"
+    path.write_text((ROOT / "examples" / "planar_two_link.toml").read_text()
+                    .replace('joint = "theta1"', 'joint = "theta1\\n"', 1))
+    assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "chain[0].joint: coordinate 'theta1\\n' is not a valid name" in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("coordinate, taken", [("x_P", "coordinate x of point 'P'"),
@@ -323,3 +333,10 @@ def test_defect3_manifest_that_is_no_json_object_is_stale_not_a_crash(tmp_path):
         gpmegen.load(nrfe=1, directory=tmp_path, build=False)
     assert gpmegen.load(nrfe=1, directory=tmp_path).n_dof == 3
     assert (folder / "manifest.json").read_bytes() == original["manifest.json"]
+
+
+@pytest.mark.parametrize("nrfe", [1, 5])
+def test_defect3_committed_snapshots_verify(nrfe):
+    folder = ROOT / "generated" / f"manipulator_nrfe{nrfe}"
+    digest = input_hash(reference_model(nrfe), BACKENDS)
+    assert stale_reason(folder, read_manifest(folder), digest, ("model_numpy.py", "model.c")) is None

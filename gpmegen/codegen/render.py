@@ -185,7 +185,7 @@ def stale_reason(folder: Path, manifest: dict | None, digest: str, names) -> str
     ``digest`` and the files ``names``: missing, generated from other inputs, or a file that
     differs from its recorded sha256; None when it can."""
     if manifest is None:
-        return f"{folder} is missing" if not Path(folder).exists() else f"{folder}/{MANIFEST} is missing or unreadable"
+        return f"{folder}/{MANIFEST} is missing or unreadable" if Path(folder).exists() else f"{folder} is missing"
     if manifest.get("input_hash") != digest:
         return f"{folder} was generated from other inputs or another gpmegen version"
     return next((problem for name in names if (problem := _checked(folder, name, manifest)[1])), None)
