@@ -11,14 +11,15 @@ from collections import Counter
 
 import sympy as sp
 
+from ..symbolic import names as internal
 from ..symbolic.program import is_trivial
 
 
-def eliminate(definitions, outputs, prefix="x"):
+def eliminate(definitions, outputs):
     """Hoist every repeated non-trivial subexpression of ``definitions`` (``(symbol, expr)``
     pairs in order) and ``outputs`` (expressions) into a new definition, merge definitions
     whose values come out equal (the inertia constants of identical rfes, for one), and rename
-    all intermediate symbols ``<prefix>0, <prefix>1, …`` in order of definition.
+    all intermediate symbols ``_x0, _x1, …`` in order of definition.
 
     Returns ``(definitions, outputs)`` with the new names."""
     counts: Counter = Counter()
@@ -41,7 +42,7 @@ def eliminate(definitions, outputs, prefix="x"):
     hoisted: dict = {}
 
     def new_symbol():
-        return sp.Symbol(f"{prefix}{len(result)}", real=True)
+        return internal.intermediate(len(result))
 
     def rewrite(expr):
         if is_trivial(expr):

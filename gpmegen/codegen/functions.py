@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model.chain import TIME
-from ..symbolic import Derivation
+from ..symbolic import Derivation, names
 from .cse import eliminate
 
 
@@ -101,7 +101,7 @@ def lower(fn: Function, d: Derivation, printer, prepared=None) -> Lowered:
     kin = d.kinematics
     q_used = tuple((j, s.name) for j, s in enumerate(kin.q) if s in free)
     qd_used = tuple((j, s.name) for j, s in enumerate(kin.qd) if s in free)
-    p_used = tuple((k, f"p_{name}") for k, name in enumerate(d.chain.model.parameter_names)
+    p_used = tuple((k, names.parameter_local(name)) for k, name in enumerate(d.chain.model.parameter_names)
                    if sp.Symbol(name, real=True) in free)
     lines = tuple((printer.doprint(s), printer.doprint(e)) for s, e in body)
     printed, k = [], 0

@@ -1,7 +1,8 @@
 """Printers of SymPy expressions as Python (``math``) and C99 code.
 
-Internal symbols keep their names (``x12``, ``q_theta1``, ``qd_x3``, ``t``); parameters print as
-``p_<name>``. Integer powers print as products, which is both exact and fast.
+The generator's own symbols keep their names (``_x12``, ``_q_theta1``, ``_qd_x3``; see
+:mod:`gpmegen.symbolic.names`) and so does time ``t``; parameters print as the locals that hold
+them, ``_p_<name>``. Integer powers print as products, which is both exact and fast.
 """
 
 from __future__ import annotations
@@ -9,6 +10,8 @@ from __future__ import annotations
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
+
+from ..symbolic import names
 
 
 def _small_power(printer, expr):
@@ -31,7 +34,7 @@ class PythonPrinter(PythonCodePrinter):
 
     def _print_Symbol(self, expr):
         name = expr.name
-        return f"p_{name}" if name in self._parameters else name
+        return names.parameter_local(name) if name in self._parameters else name
 
     def _print_Pow(self, expr, rational=False):
         return _small_power(self, expr) or super()._print_Pow(expr, rational)
@@ -52,7 +55,7 @@ class CPrinter(C99CodePrinter):
 
     def _print_Symbol(self, expr):
         name = expr.name
-        return f"p_{name}" if name in self._parameters else name
+        return names.parameter_local(name) if name in self._parameters else name
 
     def _print_Pow(self, expr, rational=False):
         return _small_power(self, expr) or super()._print_Pow(expr)

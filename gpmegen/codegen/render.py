@@ -20,9 +20,10 @@ from pathlib import Path
 import jinja2
 
 from .. import __version__
-from ..errors import BuildError
+from ..errors import BuildError, StaleModelError
 from ..model.chain import Model
 from ..symbolic import derive
+from .comments import comment_text
 from .functions import lower, model_functions, prepare
 from .printers import CPrinter, PythonPrinter
 
@@ -40,14 +41,9 @@ def template_environment() -> jinja2.Environment:
         autoescape=False,
     )
     env.filters["repr"] = repr
-    env.filters["docstring"] = _docstring_text
+    env.filters["comment"] = comment_text
     env.filters["wrap"] = _wrap
     return env
-
-
-def _docstring_text(text) -> str:
-    """Free text made safe inside a triple-quoted Python docstring."""
-    return str(text).replace("\\", "\\\\").replace('"""', '\\"\\"\\"')
 
 
 def _wrap(values, per_line=6, indent=8):
@@ -148,9 +144,51 @@ def render(model: Model, backends=("numpy",), progress=None, command=None) -> di
 def read_manifest(folder: Path) -> dict | None:
     """The manifest of a generated folder, or None when missing or unreadable."""
     try:
-        return json.loads((Path(folder) / MANIFEST).read_text())
+        manifest = json.loads((Path(folder) / MANIFEST).read_text())
     except (OSError, ValueError):
         return None
+    return manifest if isinstance(manifest, dict) else None
+
+
+def _checked(folder: Path, name: str, manifest: dict | None) -> tuple[str | None, str | None]:
+    """``(text, None)`` when the file ``folder/name``, read once, has the sha256 its manifest
+    records, else ``(None, what is wrong)``."""
+    path = Path(folder) / name
+    files = manifest.get("files") if manifest else None
+    recorded = files.get(name) if isinstance(files, dict) else None
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None, f"{path} is missing"
+    except OSError as exc:
+        return None, f"{path} cannot be read ({exc.strerror})"
+    if recorded is None:
+        return None, f"{path} is not recorded in the folder's {MANIFEST}"
+    if hashlib.sha256(data).hexdigest() != recorded:
+        return None, f"{path} differs from the sha256 recorded in {MANIFEST} (edited or truncated)"
+    return data.decode("utf-8"), None
+
+
+def read_verified(folder: Path, name: str, rebuild: str = "gpmegen build") -> str:
+    """The text of the generated file ``folder/name``, read once and checked against the sha256
+    recorded in the folder's manifest, so that what is used is exactly what was generated.
+    Raises StaleModelError naming the file and the fix (``<rebuild> --force``) when it differs,
+    is missing or is not recorded."""
+    text, problem = _checked(folder, name, read_manifest(folder))
+    if problem is not None:
+        raise StaleModelError(f"{problem}; rebuild it with '{rebuild} --force'")
+    return text
+
+
+def stale_reason(folder: Path, manifest: dict | None, digest: str, names) -> str | None:
+    """Why the generated ``folder`` (its manifest ``manifest``) cannot serve for the input hash
+    ``digest`` and the files ``names``: missing, generated from other inputs, or a file that
+    differs from its recorded sha256; None when it can."""
+    if manifest is None:
+        return f"{folder}/{MANIFEST} is missing or unreadable" if Path(folder).exists() else f"{folder} is missing"
+    if manifest.get("input_hash") != digest:
+        return f"{folder} was generated from other inputs or another gpmegen version"
+    return next((problem for name in names if (problem := _checked(folder, name, manifest)[1])), None)
 
 
 def write_folder(folder: Path, files: dict[str, str]) -> None:
@@ -219,7 +257,8 @@ class _FolderLock:
 
 
 def build(model: Model, out: Path, backends=("numpy",), force=False, progress=None, command=None) -> BuildResult:
-    """Generate ``model`` into ``out/<model name>/`` unless an up-to-date build is there."""
+    """Generate ``model`` into ``out/<model name>/`` unless an up-to-date build is there, its
+    files as its manifest records them."""
     folder = Path(out) / model.name
     with _FolderLock(folder):
         return _build_locked(model, folder, backends, force, progress, command)
@@ -233,11 +272,13 @@ def _build_locked(model, folder, backends, force, progress, command) -> BuildRes
     digest = input_hash(model, backends)
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
-    if not force and manifest and manifest.get("input_hash") == digest and all(
-        (folder / BACKEND_FILES[b]).exists() for b in backends
-    ):
-        files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
-        return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
+    if not force:
+        reason = stale_reason(folder, manifest, digest, [BACKEND_FILES[b] for b in backends])
+        if reason is None:
+            files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
+            return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
+        if manifest is not None and progress is not None:
+            progress(f"{reason}: building it again")
     texts = render(model, backends, progress, command)
     write_folder(folder, texts)
     return BuildResult(

@@ -20,8 +20,10 @@ from ..errors import ModelError
 
 AXES = ("x", "y", "z")
 JOINT_KINDS = ("revolute", "prismatic")
-# Names reach generated Python and C: a strict pattern keeps them safe there.
-NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,47}$")
+# Names reach generated Python and C: a strict pattern, matched in full, keeps them safe there.
+# A letter first also keeps them out of the generator's own names (gpmegen.symbolic.names),
+# which all begin with an underscore.
+NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,47}")
 RESERVED_NAMES = frozenset(
     {"t", "q", "qd", "p", "pi", "out", "math", "np", "numpy",
      "sin", "cos", "tan", "exp", "sqrt", "log", "abs", "min", "max", "fmin", "fmax", "double",
@@ -42,7 +44,7 @@ TIME = sp.Symbol("t", real=True)
 def check_name(name: str, what: str, bare: bool = False) -> str:
     """Return ``name`` if it is a safe identifier, else raise ModelError naming ``what``.
     ``bare``: the name stands alone in expressions, so it must not shadow a SymPy name."""
-    if not isinstance(name, str) or not NAME_PATTERN.match(name):
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
         raise ModelError(
             f"{what} {name!r} is not a valid name: use a letter followed by letters, digits or "
             f"underscores (at most 48 characters)"

@@ -115,15 +115,16 @@ def expand(model: Model) -> FlatChain:
 
     points = [e.name for e in elements if isinstance(e, Point)]
     # names the constraint expressions give to points and velocities must not shadow a parameter
+    # or a coordinate, else an expression would silently mean one of the two
     derived = {f"{c}_dot": f"velocity of coordinate {c!r}" for c in coordinates}
     for name in points:
         for a in "xyz":
             for prefix, what in (("", "coordinate"), ("v", "velocity"), ("a", "acceleration")):
                 derived[f"{prefix}{a}_{name}"] = f"{what} {a} of point {name!r}"
-    for p in model.parameters:
-        if p.name in derived:
-            raise ModelError(f"parameter {p.name!r} has the name of the {derived[p.name]} in constraint "
-                             f"expressions: rename the parameter")
+    for name, what in [(p.name, "parameter") for p in model.parameters] + [(c, "coordinate") for c in coordinates]:
+        if name in derived:
+            raise ModelError(f"{what} {name!r} has the name of the {derived[name]} in constraint "
+                             f"expressions: rename the {what}")
     for v in model.gravity:
         _check_expression(v, constant, "gravity")
     for drive in model.drives:

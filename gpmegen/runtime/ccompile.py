@@ -203,31 +203,34 @@ def _remove_abandoned(cache: Path, older_than=24 * 3600.0) -> None:
             pass
 
 
-def _compile(compiler, flags, source_path: Path, lib_path: Path, meta_path: Path, key: str) -> float:
+def _compile(compiler, flags, source: str, source_path: Path, lib_path: Path, meta_path: Path, key: str) -> float:
     cache = lib_path.parent
     _remove_abandoned(cache)
     fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".so.tmp", dir=cache)
     os.close(fd)
     tmp = Path(tmp)
-    argv = [*compiler, *flags, *LINK_FLAGS, "-o", str(tmp), str(source_path), "-lm"]
+    # The compiler reads the text the key was made of from its standard input, not the file,
+    # which may have changed since it was read.
+    argv = [*compiler, *flags, *LINK_FLAGS, "-o", str(tmp), "-x", "c", "-", "-lm"]
     t0 = time.perf_counter()
     try:
         try:
-            run = subprocess.run(argv, capture_output=True, text=True)
+            run = subprocess.run(argv, input=source.encode("utf-8"), capture_output=True)
         except OSError as exc:
             raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
                              f"working C compiler or use backend='numpy'") from None
         seconds = time.perf_counter() - t0
+        diagnostics = run.stderr.decode("utf-8", "replace").strip()
         if run.returncode != 0:
             raise BuildError(
-                f"compiling {source_path} failed (exit {run.returncode}):\n{run.stderr.strip()[:4000]}\n"
-                f"command: {' '.join(shlex.quote(a) for a in argv)}"
+                f"compiling {source_path} failed (exit {run.returncode}):\n{diagnostics[:4000]}\n"
+                f"command: {' '.join(shlex.quote(a) for a in argv)} < {shlex.quote(str(source_path))}"
             )
         digest = _sha256_file(tmp)
         meta = {
             "sha256": digest, "compile_seconds": seconds, "compiler": " ".join(compiler),
             "flags": list(flags) + list(LINK_FLAGS), "source": str(source_path),
-            "built": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "warnings": run.stderr.strip()[:4000],
+            "built": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "warnings": diagnostics[:4000],
         }
         # The metadata first: a reader that sees the new library also sees its digest. If two
         # builders interleave, a mismatch only causes one more rebuild later.
@@ -239,16 +242,21 @@ def _compile(compiler, flags, source_path: Path, lib_path: Path, meta_path: Path
     return seconds
 
 
-def build_library(source_path, flags=DEFAULT_FLAGS, cache=None) -> CompiledLibrary:
-    """The shared library of the C file ``source_path``: reused from the cache when its key
-    matches and its bytes are intact, else compiled. Raises :class:`BuildError` when no
-    compiler is found, the cache folder is not writable, or compilation fails."""
-    source_path = Path(source_path)
+def _read_source(source_path: Path) -> str:
     try:
-        source = source_path.read_text(encoding="utf-8")
+        return source_path.read_text(encoding="utf-8")
     except OSError as exc:
         raise BuildError(f"cannot read {source_path} ({exc.strerror}); rebuild the model with "
                          f"'gpmegen build --force'") from None
+
+
+def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None) -> CompiledLibrary:
+    """The shared library of the C file ``source_path`` (of its ``text`` when given, already
+    read): reused from the cache when its key matches and its bytes are intact, else compiled.
+    Raises :class:`BuildError` when no compiler is found, the cache folder is not writable, or
+    compilation fails."""
+    source_path = Path(source_path)
+    source = _read_source(source_path) if text is None else text
     compiler = find_compiler()
     identity = compiler_identity(compiler)
     flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) else ())
@@ -263,7 +271,7 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None) -> CompiledLibra
     ok, reason, meta = _cached_ok(lib_path, meta_path)
     if ok:
         return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
-    seconds = _compile(compiler, flags, source_path, lib_path, meta_path, key)
+    seconds = _compile(compiler, flags, source, source_path, lib_path, meta_path, key)
     return CompiledLibrary(lib_path, key, compiler[0], flags, True, seconds, reason)
 
 
@@ -301,19 +309,18 @@ def checked(info: CompiledLibrary, check, source_path: Path) -> None:
                          f"{source_path})")
 
 
-def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None, check=None):
-    """Build (or reuse) and load the library of ``source_path``.
+def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None, text=None, check=None):
+    """Build (or reuse) and load the library of ``source_path`` (of its ``text`` when given,
+    already read); the file is read once, declarations and library from the same text.
 
     ``check``: called with the library's path before this process first loads it (see
     :func:`checked`); a library it rejects is never loaded. Returns ``(ffi, lib, info)`` with
     ``info`` a :class:`CompiledLibrary`. A cached library that fails to load, or reports another
     input hash than ``expect_hash``, is rebuilt once."""
     source_path = Path(source_path)
-    try:
-        cdef = extract_cdef(source_path.read_text(encoding="utf-8"), source_path)
-    except OSError as exc:
-        raise BuildError(f"cannot read {source_path} ({exc.strerror})") from None
-    info = build_library(source_path, flags, cache)
+    text = _read_source(source_path) if text is None else text
+    cdef = extract_cdef(text, source_path)
+    info = build_library(source_path, flags, cache, text)
     for attempt in (0, 1):
         if check is not None:
             checked(info, check, source_path)
@@ -331,6 +338,6 @@ def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None,
                 _loaded.pop(str(info.path), None)
             info.path.unlink(missing_ok=True)
             reason = f"{info.path.name} failed to load ({exc})"
-            info = build_library(source_path, flags, cache)
+            info = build_library(source_path, flags, cache, text)
             info.rebuilt_reason = reason
     raise AssertionError("unreachable")

@@ -27,7 +27,9 @@ RK4_STATUS = {
 
 
 class CModel(LoadedModel):
-    """A generated model evaluated by its compiled C file (``<folder>/model.c``).
+    """A generated model evaluated by its compiled C file (``<folder>/model.c``, compiled only
+    when it has the sha256 the folder's manifest records; else StaleModelError gives
+    ``<rebuild> --force`` as the fix).
 
     ``compile_seconds`` is the compiler's wall time for the library in use (recorded when it
     was built, also when it was reused from the cache); ``compiled`` says whether this process
@@ -35,16 +37,18 @@ class CModel(LoadedModel):
     """
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "c", folder=None,
-                 *, flags=ccompile.DEFAULT_FLAGS, cache=None):
+                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build"):
+        from ..codegen.render import read_verified
+
         super().__init__(module, params, "c", folder)
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")
         source = Path(folder) / "model.c"
-        if not source.exists():
-            raise BuildError(f"{source} is missing; rebuild the model with 'gpmegen build --force'")
+        # compiled from the very text checked against the manifest, never read again
+        text = read_verified(folder, source.name, rebuild)
         module_path = Path(folder) / "model_numpy.py"
         self.ffi, self.lib, self.library = ccompile.load_library(
-            source, flags, cache, expect_hash=module.INPUT_HASH,
+            source, flags, cache, expect_hash=module.INPUT_HASH, text=text,
             check=lambda library: cprobe.check_in_child(library, source, module_path))
         if self.lib.gpmegen_n_dof() != self.n_dof or self.lib.gpmegen_n_parameters() != len(self.parameter_names):
             raise BuildError(f"{source} does not match {Path(folder) / 'model_numpy.py'}; rebuild with "

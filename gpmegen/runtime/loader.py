@@ -24,18 +24,21 @@ def default_directory() -> Path:
     return cache / "gpmegen" / "generated"
 
 
-def import_numpy_module(folder: Path):
-    """Import ``folder/model_numpy.py`` under a name unique to its folder."""
+def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
+    """Import ``folder/model_numpy.py`` under a name unique to its folder, running exactly the
+    text checked against the folder's manifest (no bytecode cache, which nothing checks).
+    ``rebuild``: the command the error messages give as the fix."""
+    from ..codegen.render import read_verified
+
     path = Path(folder) / "model_numpy.py"
+    source = read_verified(folder, path.name, rebuild)
     name = f"gpmegen_generated_{Path(folder).name}_{abs(hash(str(path.resolve())))}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:
-        raise BuildError(f"cannot import {path}")
-    module = importlib.util.module_from_spec(spec)
+    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(name, loader=None, origin=str(path)))
+    module.__file__ = str(path)
     try:
-        spec.loader.exec_module(module)
-    except (OSError, SyntaxError) as exc:
-        raise BuildError(f"{path} cannot be imported ({exc}); rebuild it with 'gpmegen build --force'") from None
+        exec(compile(source, str(path), "exec"), module.__dict__)
+    except SyntaxError as exc:
+        raise BuildError(f"{path} cannot be imported ({exc}); rebuild it with '{rebuild} --force'") from None
     sys.modules.setdefault(name, module)
     return module
 
@@ -51,11 +54,12 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
     rfes). ``params`` overrides parameter values. The model is built into ``directory`` (default
-    :func:`default_directory`) when missing or stale, unless ``build=False``, which raises
-    :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
+    :func:`default_directory`) when missing or stale, or when a file it uses differs from the
+    sha256 its manifest records, unless ``build=False``, which raises :class:`StaleModelError`
+    with the command to rebuild (``command``, for a model of your own).
     """
     from ..codegen.render import build as build_model
-    from ..codegen.render import input_hash, read_manifest, recover_folder
+    from ..codegen.render import input_hash, read_manifest, recover_folder, stale_reason
     from ..model import reference_model
     from .model import LoadedModel
 
@@ -69,18 +73,19 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     folder = directory / model.name
     recover_folder(folder)
     backends = ("numpy", "c")
-    manifest = read_manifest(folder)
+    rebuild = command or "gpmegen build"
     digest = input_hash(model, backends)
-    if manifest is None or manifest.get("input_hash") != digest or not (folder / "model_numpy.py").exists():
+    used = ("model_numpy.py", "model.c") if backend == "c" else ("model_numpy.py",)
+    reason = stale_reason(folder, read_manifest(folder), digest, used)
+    if reason is not None:
         if not build:
-            why = "is missing" if manifest is None else "was generated from other inputs or another gpmegen version"
-            raise StaleModelError(f"{folder} {why}; rebuild it with '{command or 'gpmegen build'} --force'")
+            raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
         build_model(model, directory, backends, progress=progress, command=command)
-    module = import_numpy_module(folder)
+    module = import_numpy_module(folder, rebuild)
     if getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
-                              f"'{command or 'gpmegen build'} --force'")
+                              f"'{rebuild} --force'")
     if backend == "c":
         from .cmodel import CModel
-        return CModel(module, params, folder=folder)
+        return CModel(module, params, folder=folder, rebuild=rebuild)
     return LoadedModel(module, params, "numpy", folder)

@@ -20,6 +20,7 @@ import sympy as sp
 from ..errors import DerivationError
 from ..model.chain import TIME, point_symbols, point_velocity_symbols, symbol, velocity_symbol
 from .kinematics import Kinematics
+from .names import point_acceleration
 
 
 @dataclass
@@ -37,11 +38,6 @@ class ConstraintTerms:
     beta: sp.Matrix
 
 
-def _acceleration_symbols(point: str):
-    """Placeholders for the velocity-product part of a point's acceleration."""
-    return tuple(sp.Symbol(f"a{a}_{point}", real=True) for a in "xyz")
-
-
 def derive(kin: Kinematics, constraints) -> ConstraintTerms:
     """Terms of the programmed constraints on the chain whose kinematics is ``kin``."""
     define = kin.program.define
@@ -57,7 +53,7 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
         rate_of[symbol(name)] = velocity_symbol(name)
         coordinate_rate[velocity_symbol(name)] = j
     for pname, pt in kin.points.items():
-        xs, vs, accs = point_symbols(pname), point_velocity_symbols(pname), _acceleration_symbols(pname)
+        xs, vs, accs = point_symbols(pname), point_velocity_symbols(pname), point_acceleration(pname)
         for k in range(3):
             internal[xs[k]] = pt.position[k]
             internal[vs[k]] = pt.velocity[k]

@@ -16,6 +16,7 @@ import sympy as sp
 
 from ..model.chain import AXES, Body, Joint, Offset, Point
 from ..model.expand import FlatChain
+from . import names
 from .program import Program
 
 
@@ -83,9 +84,9 @@ class Kinematics:
 
 
 def coordinate_symbols(chain: FlatChain):
-    """Internal symbols of ``q`` and ``q̇``: ``q_<name>``, ``qd_<name>``."""
-    q = [sp.Symbol(f"q_{n}", real=True) for n in chain.coordinates]
-    qd = [sp.Symbol(f"qd_{n}", real=True) for n in chain.coordinates]
+    """Internal symbols of ``q`` and ``q̇`` (see :mod:`.names`)."""
+    q = [names.coordinate(n) for n in chain.coordinates]
+    qd = [names.velocity(n) for n in chain.coordinates]
     return q, qd
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import sympy as sp
 
+from . import names
+
 
 def is_trivial(expr) -> bool:
     """Numbers, symbols and negated symbols are used as they are, never given a name."""
@@ -23,8 +25,7 @@ def is_trivial(expr) -> bool:
 class Program:
     """Ordered definitions ``symbol = expression`` of intermediate quantities."""
 
-    def __init__(self, prefix: str = "x"):
-        self.prefix = prefix
+    def __init__(self):
         self.definitions: dict[sp.Symbol, sp.Expr] = {}
 
     def define(self, expr) -> sp.Expr:
@@ -32,7 +33,7 @@ class Program:
         expr = sp.sympify(expr)
         if is_trivial(expr):
             return expr
-        name = sp.Symbol(f"{self.prefix}{len(self.definitions)}", real=True)
+        name = names.intermediate(len(self.definitions))
         self.definitions[name] = expr
         return name
 
