@@ -1,17 +1,27 @@
 """gpmegen: reference dynamics models (Generalized Programmed Motion Equations) of open chains
-with flexible links, as generated NumPy and C code."""
+with flexible links, as generated NumPy and C code.
 
-__version__ = "0.1.0"
+What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.load``,
+``gpmegen.load_model_file``, the model's elements and the errors.
+"""
 
-__all__ = ["load", "__version__"]
+from .version import __version__
+
+__all__ = [
+    "load", "load_model_file", "read_model_file", "reference_model",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
+    "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
+    "SimulationError", "__version__",
+]
 
 
 def __getattr__(name):
-    # gpmegen.load is imported when first used, so that importing the package (as the console
-    # command does before it can catch Ctrl-C) costs nothing.
-    if name == "load":
-        from .runtime.loader import load
+    # The public names come from gpmegen.api when first used, so that importing the package (as
+    # the console command does before it can catch Ctrl-C) costs nothing.
+    if name in __all__:
+        from . import api
 
-        globals()["load"] = load
-        return load
+        value = getattr(api, name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

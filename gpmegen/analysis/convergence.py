@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
 from ..model.chain import Body, Model, Point
 from ..model.reference import PARAMETERS, reference_arm
+from ..model.rfem import check_nrfe
 from ..model.shapes import solid_cylinder
 from ..runtime import statics
 from . import beam
@@ -28,8 +28,7 @@ def clamped_arm_model(nrfe: int, with_slider: bool = False) -> Model:
     ``(0, -g, 0)``; ``with_slider`` adds the slider as a rigid body fixed at the arm's tip (at
     ``x3 = 0``). Coordinates ``psi2_r, theta2_r, phi2_r`` (r = 1..nrfe-1); points ``tip`` (the
     arm's tip) and, with the slider, ``E``. Parameters and their names as in the reference."""
-    if isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < 2:
-        raise ModelError(f"the clamped arm needs nrfe ≥ 2 (nrfe = 1 has no coordinate), got {nrfe!r}")
+    check_nrfe(nrfe, "the clamped arm (nrfe = 1 has no coordinate)", minimum=2)
     names = ARM_PARAMETERS + (SLIDER_PARAMETERS if with_slider else ())
     parameters = tuple(p for p in PARAMETERS if p.name in names)
     P = {p.name: p.symbol for p in parameters}

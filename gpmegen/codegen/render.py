@@ -1,17 +1,12 @@
-"""Rendering of the Jinja templates and atomic writing of a generated model folder.
-
-A model is generated into ``<out>/<model name>/`` holding ``model_numpy.py``, ``model.c`` (C
-backend) and ``manifest.json``. The folder is written beside the target under a temporary name
-and swapped in by renames, so an interrupted build leaves the previous folder intact.
-"""
+"""Rendering of the Jinja templates into a generated model folder (:mod:`gpmegen.folder`), and
+the input hash that says whether a folder is up to date."""
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
-import os
 import shutil
-import tempfile
 import time
 from dataclasses import dataclass
 from importlib import resources
@@ -19,17 +14,13 @@ from pathlib import Path
 
 import jinja2
 
-from .. import __version__
-from ..errors import BuildError, StaleModelError
+from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
 from ..symbolic import derive
+from ..version import __version__
 from .comments import comment_text
 from .functions import lower, model_functions, prepare
 from .printers import CPrinter, PythonPrinter
-
-BACKEND_FILES = {"numpy": "model_numpy.py", "c": "model.c"}
-MANIFEST = "manifest.json"
-
 
 def template_environment() -> jinja2.Environment:
     """The Jinja environment over the installed ``templates/``."""
@@ -58,11 +49,11 @@ GENERATOR_PACKAGES = ("model", "symbolic", "codegen")
 NOT_GENERATOR = frozenset({"model/toml_file.py"})
 
 
-def input_hash(model: Model, backends) -> str:
-    """Hash of everything the generated code depends on: the model, the package version, the
-    source of the generator itself, the templates and the backends asked for."""
+@functools.cache
+def generator_digest() -> bytes:
+    """sha256 of the generator itself: the package version, the source of the generator's
+    modules and the templates. Read once per process (they do not change while it runs)."""
     h = hashlib.sha256()
-    h.update(repr(model).encode())
     h.update(__version__.encode())
     package = resources.files("gpmegen")
     for sub in GENERATOR_PACKAGES:
@@ -75,6 +66,15 @@ def input_hash(model: Model, backends) -> str:
     for name in sorted(p.name for p in root.iterdir() if p.name.endswith(".j2")):
         h.update(name.encode())
         h.update(root.joinpath(name).read_bytes())
+    return h.digest()
+
+
+def input_hash(model: Model, backends) -> str:
+    """Hash of everything the generated code depends on: the model, the generator
+    (:func:`generator_digest`) and the backends asked for."""
+    h = hashlib.sha256()
+    h.update(repr(model).encode())
+    h.update(generator_digest())
     h.update(",".join(sorted(backends)).encode())
     return h.hexdigest()[:16]
 
@@ -89,10 +89,11 @@ class BuildResult:
     files: dict  # file name -> size in bytes
 
 
-def render(model: Model, backends=("numpy",), progress=None, command=None) -> dict[str, str]:
-    """Derive ``model`` and render the requested backends; returns file name -> text."""
+def render(model: Model, backends=("numpy",), progress=None, command=None, digest=None) -> dict[str, str]:
+    """Derive ``model`` and render the requested backends; returns file name -> text.
+    ``digest``: its :func:`input_hash`, when the caller has it already."""
     say = progress or (lambda msg: None)
-    digest = input_hash(model, backends)
+    digest = digest or input_hash(model, backends)
     t0 = time.perf_counter()
     say("deriving the equations of motion")
     d = derive(model)
@@ -141,135 +142,22 @@ def render(model: Model, backends=("numpy",), progress=None, command=None) -> di
     return files
 
 
-def read_manifest(folder: Path) -> dict | None:
-    """The manifest of a generated folder, or None when missing or unreadable."""
-    try:
-        manifest = json.loads((Path(folder) / MANIFEST).read_text())
-    except (OSError, ValueError):
-        return None
-    return manifest if isinstance(manifest, dict) else None
-
-
-def _checked(folder: Path, name: str, manifest: dict | None) -> tuple[str | None, str | None]:
-    """``(text, None)`` when the file ``folder/name``, read once, has the sha256 its manifest
-    records, else ``(None, what is wrong)``."""
-    path = Path(folder) / name
-    files = manifest.get("files") if manifest else None
-    recorded = files.get(name) if isinstance(files, dict) else None
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        return None, f"{path} is missing"
-    except OSError as exc:
-        return None, f"{path} cannot be read ({exc.strerror})"
-    if recorded is None:
-        return None, f"{path} is not recorded in the folder's {MANIFEST}"
-    if hashlib.sha256(data).hexdigest() != recorded:
-        return None, f"{path} differs from the sha256 recorded in {MANIFEST} (edited or truncated)"
-    return data.decode("utf-8"), None
-
-
-def read_verified(folder: Path, name: str, rebuild: str = "gpmegen build") -> str:
-    """The text of the generated file ``folder/name``, read once and checked against the sha256
-    recorded in the folder's manifest, so that what is used is exactly what was generated.
-    Raises StaleModelError naming the file and the fix (``<rebuild> --force``) when it differs,
-    is missing or is not recorded."""
-    text, problem = _checked(folder, name, read_manifest(folder))
-    if problem is not None:
-        raise StaleModelError(f"{problem}; rebuild it with '{rebuild} --force'")
-    return text
-
-
-def stale_reason(folder: Path, manifest: dict | None, digest: str, names) -> str | None:
-    """Why the generated ``folder`` (its manifest ``manifest``) cannot serve for the input hash
-    ``digest`` and the files ``names``: missing, generated from other inputs, or a file that
-    differs from its recorded sha256; None when it can."""
-    if manifest is None:
-        return f"{folder}/{MANIFEST} is missing or unreadable" if Path(folder).exists() else f"{folder} is missing"
-    if manifest.get("input_hash") != digest:
-        return f"{folder} was generated from other inputs or another gpmegen version"
-    return next((problem for name in names if (problem := _checked(folder, name, manifest)[1])), None)
-
-
-def write_folder(folder: Path, files: dict[str, str]) -> None:
-    """Write ``files`` as the whole content of ``folder``, atomically: written under a
-    temporary name beside it, then swapped in by renames."""
-    folder = Path(folder)
-    parent = folder.parent
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=parent))
-    except OSError as exc:
-        raise BuildError(f"cannot write into {parent}: {exc.strerror}; choose a writable --out folder") from None
-    try:
-        for name, text in files.items():
-            with open(tmp / name, "w", encoding="utf-8", newline="\n") as fh:
-                fh.write(text)
-                fh.flush()
-                os.fsync(fh.fileno())
-        os.chmod(tmp, 0o755)
-        old = None
-        if folder.exists():
-            old = parent / f".{folder.name}.old-{os.getpid()}"
-            os.replace(folder, old)
-        os.replace(tmp, folder)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    except OSError as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise BuildError(f"cannot write {folder}: {exc.strerror}") from None
-
-
-def recover_folder(folder: Path) -> None:
-    """If a build was killed between its two renames, put the previous folder back."""
-    folder = Path(folder)
-    if folder.exists():
-        return
-    olds = sorted(folder.parent.glob(f".{folder.name}.old-*"))
-    if olds:
-        os.replace(olds[-1], folder)
-
-
-class _FolderLock:
-    """An exclusive lock on ``<out>/.<name>.lock`` so that concurrent builds of one model into
-    one folder take turns (the second then finds the first's result up to date)."""
-
-    def __init__(self, folder: Path):
-        self.path = folder.parent / f".{folder.name}.lock"
-
-    def __enter__(self):
-        import fcntl
-
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self.handle = open(self.path, "a")
-        except OSError as exc:
-            raise BuildError(f"cannot write into {self.path.parent}: {exc.strerror}; choose a writable --out folder") from None
-        fcntl.flock(self.handle, fcntl.LOCK_EX)
-        return self
-
-    def __exit__(self, *exc):
-        import fcntl
-
-        fcntl.flock(self.handle, fcntl.LOCK_UN)
-        self.handle.close()
-        return False
-
-
-def build(model: Model, out: Path, backends=("numpy",), force=False, progress=None, command=None) -> BuildResult:
+def build(model: Model, out: Path, backends=("numpy",), force=False, progress=None, command=None,
+          digest=None) -> BuildResult:
     """Generate ``model`` into ``out/<model name>/`` unless an up-to-date build is there, its
-    files as its manifest records them."""
+    files as its manifest records them. ``digest``: the model's :func:`input_hash`, when the
+    caller has it already."""
     folder = Path(out) / model.name
-    with _FolderLock(folder):
-        return _build_locked(model, folder, backends, force, progress, command)
+    with FolderLock(folder):
+        return _build_locked(model, folder, backends, force, progress, command,
+                             digest or input_hash(model, backends))
 
 
-def _build_locked(model, folder, backends, force, progress, command) -> BuildResult:
+def _build_locked(model, folder, backends, force, progress, command, digest) -> BuildResult:
     recover_folder(folder)
     # Holding the lock, no other build writes here: temporary folders left by a killed build go.
     for stale in folder.parent.glob(f".{folder.name}.tmp-*"):
         shutil.rmtree(stale, ignore_errors=True)
-    digest = input_hash(model, backends)
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
     if not force:
@@ -279,7 +167,7 @@ def _build_locked(model, folder, backends, force, progress, command) -> BuildRes
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
         if manifest is not None and progress is not None:
             progress(f"{reason}: building it again")
-    texts = render(model, backends, progress, command)
+    texts = render(model, backends, progress, command, digest)
     write_folder(folder, texts)
     return BuildResult(
         model.name, folder, json.loads(texts[MANIFEST])["n_dof"], False, time.perf_counter() - t0,

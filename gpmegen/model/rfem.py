@@ -47,11 +47,19 @@ def rfe_lengths(link: FlexibleLink):
     return [delta / 2] + [delta] * (n - 2) + [delta / 2]
 
 
+def check_nrfe(nrfe, what: str, minimum: int = 1) -> int:
+    """``nrfe`` when it is a whole number of rfes ≥ ``minimum`` (1: a rigid link), else a
+    ModelError naming ``what`` it is for. The one place this rule is kept."""
+    if isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < minimum:
+        rigid = " (1: a rigid link)" if minimum == 1 else ""
+        raise ModelError(f"{what}: nrfe must be a whole number ≥ {minimum}{rigid}, got {nrfe!r}")
+    return nrfe
+
+
 def discretize(link: FlexibleLink):
     """Expand ``link`` into chain elements: rfe bodies, offsets and sde joints with springs,
     ending with an offset to the link's tip."""
-    if not isinstance(link.n_rfe, int) or isinstance(link.n_rfe, bool) or link.n_rfe < 1:
-        raise ModelError(f"flexible link {link.label!r}: n_rfe must be a whole number ≥ 1, got {link.n_rfe!r}")
+    check_nrfe(link.n_rfe, f"flexible link {link.label!r}")
     area, iy, iz, default_torsion = section_properties(link.section)
     torsion = default_torsion if link.torsion_constant is None else link.torsion_constant
     lengths = rfe_lengths(link)

@@ -95,7 +95,7 @@ from .chain import (
     point_velocity_symbols, symbol, velocity_symbol,
 )
 from .expand import expand
-from .rfem import discretize
+from .rfem import check_nrfe, discretize
 
 SCHEMA = 1
 
@@ -1001,8 +1001,8 @@ class _Reader:
 
 
 def _parse(path, nrfe):
-    if nrfe is not None and (isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < 1):
-        raise ModelError(f"nrfe must be a whole number ≥ 1 (1: rigid links), got {nrfe!r}")
+    if nrfe is not None:
+        check_nrfe(nrfe, f"{path}")
     file = str(path)
     try:
         raw = Path(path).read_bytes()

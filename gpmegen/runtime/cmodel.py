@@ -13,6 +13,7 @@ from types import ModuleType
 import numpy as np
 
 from ..errors import BuildError, ModelError, SimulationError
+from ..folder import read_verified
 from . import ccompile, cprobe, integrate
 from .model import LoadedModel
 
@@ -38,8 +39,6 @@ class CModel(LoadedModel):
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "c", folder=None,
                  *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build"):
-        from ..codegen.render import read_verified
-
         super().__init__(module, params, "c", folder)
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")

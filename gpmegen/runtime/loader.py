@@ -1,4 +1,6 @@
-"""Finding, building when needed, and importing generated models."""
+"""Where generated models live, and how a generated folder is opened: its NumPy module
+imported from the text its manifest records, bound to parameter values, on the NumPy or the C
+backend. Building a folder that is missing or stale is :func:`gpmegen.api.load`'s part."""
 
 from __future__ import annotations
 
@@ -8,8 +10,10 @@ import sys
 from pathlib import Path
 
 from ..errors import BuildError, ModelError, StaleModelError
+from ..folder import read_verified
 
 REPO_GENERATED = Path(__file__).resolve().parents[2] / "generated"
+BACKENDS = ("numpy", "c")
 
 
 def default_directory() -> Path:
@@ -24,12 +28,17 @@ def default_directory() -> Path:
     return cache / "gpmegen" / "generated"
 
 
+def check_backend(backend: str) -> str:
+    """``backend`` when it is one gpmegen has, else ModelError."""
+    if backend not in BACKENDS:
+        raise ModelError(f"unknown backend {backend!r}; use 'numpy' or 'c'")
+    return backend
+
+
 def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
     """Import ``folder/model_numpy.py`` under a name unique to its folder, running exactly the
     text checked against the folder's manifest (no bytecode cache, which nothing checks).
     ``rebuild``: the command the error messages give as the fix."""
-    from ..codegen.render import read_verified
-
     path = Path(folder) / "model_numpy.py"
     source = read_verified(folder, path.name, rebuild)
     name = f"gpmegen_generated_{Path(folder).name}_{abs(hash(str(path.resolve())))}"
@@ -43,46 +52,16 @@ def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
     return module
 
 
-def _check_nrfe(nrfe):
-    if isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < 1:
-        raise ModelError(f"nrfe must be a whole number ≥ 1 (1 is the rigid arm), got {nrfe!r}")
-
-
-def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,
-         directory=None, build: bool = True, progress=None, command=None):
-    """The generated model ready to evaluate.
-
-    ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
-    rfes). ``params`` overrides parameter values. The model is built into ``directory`` (default
-    :func:`default_directory`) when missing or stale, or when a file it uses differs from the
-    sha256 its manifest records, unless ``build=False``, which raises :class:`StaleModelError`
-    with the command to rebuild (``command``, for a model of your own).
-    """
-    from ..codegen.render import build as build_model
-    from ..codegen.render import input_hash, read_manifest, recover_folder, stale_reason
-    from ..model import reference_model
+def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None, *, digest: str | None = None,
+                rebuild: str = "gpmegen build"):
+    """The generated model of ``folder`` ready to evaluate on ``backend``, its parameters
+    overridden by ``params``. ``digest``: the input hash the folder must have been generated
+    from (StaleModelError naming ``<rebuild> --force`` otherwise)."""
     from .model import LoadedModel
 
-    if backend not in ("numpy", "c"):
-        raise ModelError(f"unknown backend {backend!r}; use 'numpy' or 'c'")
-    if model is None:
-        _check_nrfe(nrfe)
-        model = reference_model(nrfe)
-        command = f"gpmegen build --nrfe {nrfe}"
-    directory = Path(directory) if directory is not None else default_directory()
-    folder = directory / model.name
-    recover_folder(folder)
-    backends = ("numpy", "c")
-    rebuild = command or "gpmegen build"
-    digest = input_hash(model, backends)
-    used = ("model_numpy.py", "model.c") if backend == "c" else ("model_numpy.py",)
-    reason = stale_reason(folder, read_manifest(folder), digest, used)
-    if reason is not None:
-        if not build:
-            raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
-        build_model(model, directory, backends, progress=progress, command=command)
+    check_backend(backend)
     module = import_numpy_module(folder, rebuild)
-    if getattr(module, "INPUT_HASH", None) != digest:
+    if digest is not None and getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
                               f"'{rebuild} --force'")
     if backend == "c":

@@ -1,0 +1,137 @@
+"""A generated model's folder: its files, its manifest, and how it is read and written.
+
+``<out>/<model name>/`` holds ``model_numpy.py``, ``model.c`` and ``manifest.json``; the
+manifest records the model, the input hash and each file's sha256. Code generation writes the
+folder (:func:`write_folder`: under a temporary name beside it, then swapped in by renames, so
+an interrupted build leaves the previous folder intact); the runtime reads it
+(:func:`read_verified`: a file is used only as its manifest records it).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from .errors import BuildError, StaleModelError
+
+BACKEND_FILES = {"numpy": "model_numpy.py", "c": "model.c"}
+MANIFEST = "manifest.json"
+
+
+def read_manifest(folder: Path) -> dict | None:
+    """The manifest of a generated folder, or None when missing or unreadable."""
+    try:
+        manifest = json.loads((Path(folder) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return None
+    return manifest if isinstance(manifest, dict) else None
+
+
+def _checked(folder: Path, name: str, manifest: dict | None) -> tuple[str | None, str | None]:
+    """``(text, None)`` when the file ``folder/name``, read once, has the sha256 its manifest
+    records, else ``(None, what is wrong)``."""
+    path = Path(folder) / name
+    files = manifest.get("files") if manifest else None
+    recorded = files.get(name) if isinstance(files, dict) else None
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        return None, f"{path} is missing"
+    except OSError as exc:
+        return None, f"{path} cannot be read ({exc.strerror})"
+    if recorded is None:
+        return None, f"{path} is not recorded in the folder's {MANIFEST}"
+    if hashlib.sha256(data).hexdigest() != recorded:
+        return None, f"{path} differs from the sha256 recorded in {MANIFEST} (edited or truncated)"
+    return data.decode("utf-8"), None
+
+
+def read_verified(folder: Path, name: str, rebuild: str = "gpmegen build") -> str:
+    """The text of the generated file ``folder/name``, read once and checked against the sha256
+    recorded in the folder's manifest, so that what is used is exactly what was generated.
+    Raises StaleModelError naming the file and the fix (``<rebuild> --force``) when it differs,
+    is missing or is not recorded."""
+    text, problem = _checked(folder, name, read_manifest(folder))
+    if problem is not None:
+        raise StaleModelError(f"{problem}; rebuild it with '{rebuild} --force'")
+    return text
+
+
+def stale_reason(folder: Path, manifest: dict | None, digest: str, names) -> str | None:
+    """Why the generated ``folder`` (its manifest ``manifest``) cannot serve for the input hash
+    ``digest`` and the files ``names``: missing, generated from other inputs, or a file that
+    differs from its recorded sha256; None when it can."""
+    if manifest is None:
+        return f"{folder}/{MANIFEST} is missing or unreadable" if Path(folder).exists() else f"{folder} is missing"
+    if manifest.get("input_hash") != digest:
+        return f"{folder} was generated from other inputs or another gpmegen version"
+    return next((problem for name in names if (problem := _checked(folder, name, manifest)[1])), None)
+
+
+def write_folder(folder: Path, files: dict[str, str]) -> None:
+    """Write ``files`` as the whole content of ``folder``, atomically: written under a
+    temporary name beside it, then swapped in by renames."""
+    folder = Path(folder)
+    parent = folder.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=parent))
+    except OSError as exc:
+        raise BuildError(f"cannot write into {parent}: {exc.strerror}; choose a writable --out folder") from None
+    try:
+        for name, text in files.items():
+            with open(tmp / name, "w", encoding="utf-8", newline="\n") as fh:
+                fh.write(text)
+                fh.flush()
+                os.fsync(fh.fileno())
+        os.chmod(tmp, 0o755)
+        old = None
+        if folder.exists():
+            old = parent / f".{folder.name}.old-{os.getpid()}"
+            os.replace(folder, old)
+        os.replace(tmp, folder)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except OSError as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise BuildError(f"cannot write {folder}: {exc.strerror}") from None
+
+
+def recover_folder(folder: Path) -> None:
+    """If a build was killed between its two renames, put the previous folder back."""
+    folder = Path(folder)
+    if folder.exists():
+        return
+    olds = sorted(folder.parent.glob(f".{folder.name}.old-*"))
+    if olds:
+        os.replace(olds[-1], folder)
+
+
+class FolderLock:
+    """An exclusive lock on ``<out>/.<name>.lock`` so that concurrent builds of one model into
+    one folder take turns (the second then finds the first's result up to date)."""
+
+    def __init__(self, folder: Path):
+        self.path = folder.parent / f".{folder.name}.lock"
+
+    def __enter__(self):
+        import fcntl
+
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self.handle = open(self.path, "a")
+        except OSError as exc:
+            raise BuildError(f"cannot write into {self.path.parent}: {exc.strerror}; choose a writable --out folder") from None
+        fcntl.flock(self.handle, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        import fcntl
+
+        fcntl.flock(self.handle, fcntl.LOCK_UN)
+        self.handle.close()
+        return False
