@@ -5,6 +5,23 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.errors import BuildError
+from gpmegen.runtime import ccompile
+
+
+def skip_without_cc():
+    """Skip the running test, saying why, on a machine without a C compiler (everything else
+    runs on the NumPy backend there, as the README promises)."""
+    try:
+        ccompile.find_compiler()
+    except BuildError as exc:
+        pytest.skip(str(exc))
+
+
+def pytest_runtest_setup(item):
+    """Tests marked ``requires_cc`` need a C compiler."""
+    if item.get_closest_marker("requires_cc"):
+        skip_without_cc()
 
 
 @pytest.fixture(scope="session")

@@ -27,6 +27,7 @@ from gpmegen.runtime.cmodel import CModel
 
 from conftest import stacked_gpme
 
+pytestmark = pytest.mark.requires_cc
 EPS = np.finfo(float).eps
 
 

@@ -29,6 +29,7 @@ from conftest import stacked_gpme
 
 SPINNING_BEAM = Path(__file__).parent / "models" / "spinning_beam.toml"
 
+pytestmark = pytest.mark.requires_cc
 AVX512 = "avx512f" in (Path("/proc/cpuinfo").read_text() if Path("/proc/cpuinfo").exists() else "")
 #: The tuning under which GCC 12 miscompiled the beam: AVX-512 for a generic x86-64-v4 processor.
 AVX512_FLAGS = tuple(f if f != "-march=native" else "-march=x86-64-v4" for f in ccompile.DEFAULT_FLAGS)
@@ -45,20 +46,12 @@ def env(tmp_path_factory):
         yield generated, cache
 
 
-def _requires_cc():
-    try:
-        ccompile.find_compiler()
-    except BuildError as exc:
-        pytest.skip(str(exc))
-
-
 @pytest.fixture(scope="module")
 def beam(env):
     return gpmegen.load(model=load_model_file(SPINNING_BEAM), backend="numpy")
 
 
 def test_spinning_beam_runs_compiled_for_avx512_and_agrees_with_numpy(env, beam):
-    _requires_cc()
     if not AVX512:
         pytest.skip("this processor has no AVX-512, where the fault was")
     from gpmegen.runtime.cmodel import CModel
@@ -116,7 +109,6 @@ def _crashing_library(tmp_path, folder) -> Path:
 
 
 def test_a_crash_in_the_test_run_is_reported_with_the_function(tmp_path, env):
-    _requires_cc()
     rigid = gpmegen.load(nrfe=1, backend="numpy")
     folder = Path(rigid.folder)
     verdict = cprobe.check_in_child(_crashing_library(tmp_path, folder), folder / "model.c",
@@ -127,7 +119,6 @@ def test_a_crash_in_the_test_run_is_reported_with_the_function(tmp_path, env):
 
 
 def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env):
-    _requires_cc()
     rigid = gpmegen.load(nrfe=1, backend="numpy")
     source = Path(rigid.folder) / "model.c"
     cache = tmp_path / "cache"
@@ -147,7 +138,6 @@ def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env):
 
 
 def test_the_command_line_falls_back_to_numpy_in_one_line(tmp_path, env):
-    _requires_cc()
     cache = tmp_path / "cache"
     gpmegen.load(nrfe=1, backend="c")  # compile once, checked
     shutil.copytree(env[1], cache)

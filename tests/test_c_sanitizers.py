@@ -20,7 +20,6 @@ import pytest
 import sympy as sp
 
 import gpmegen
-from gpmegen.errors import BuildError
 from gpmegen.model import reference_model
 from gpmegen.model.chain import (
     TIME, Constraint, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection, CircularSection,
@@ -29,7 +28,7 @@ from gpmegen.model.chain import (
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, cprobe
 
-pytestmark = pytest.mark.sanitizers
+pytestmark = [pytest.mark.sanitizers, pytest.mark.requires_cc]
 
 ROOT = Path(__file__).resolve().parents[1]
 SANITIZER_FLAGS = ("-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
@@ -81,10 +80,6 @@ MODELS = _models()
 
 @pytest.fixture(scope="module")
 def env(tmp_path_factory):
-    try:
-        ccompile.find_compiler()
-    except BuildError as exc:
-        pytest.skip(str(exc))
     generated = tmp_path_factory.mktemp("generated")
     cache = tmp_path_factory.mktemp("c-cache")
     with pytest.MonkeyPatch.context() as mp:

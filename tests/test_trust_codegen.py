@@ -25,7 +25,7 @@ from gpmegen.cli import main
 from gpmegen.codegen import input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
 from gpmegen.codegen.render import read_manifest, stale_reason
-from gpmegen.errors import BuildError, ModelError, StaleModelError
+from gpmegen.errors import ModelError, StaleModelError
 from gpmegen.model import reference_model, shapes
 from gpmegen.model.chain import (
     TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection,
@@ -37,11 +37,8 @@ from gpmegen.runtime import ccompile, statics
 from gpmegen.runtime.cmodel import CModel
 from gpmegen.runtime.loader import import_numpy_module
 
-try:
-    CC = ccompile.find_compiler()
-except BuildError:
-    CC = None
-needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler")
+from conftest import skip_without_cc
+
 ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")
 
@@ -94,7 +91,7 @@ def _without_hash(files, model):
 def _c_tokens(source: str) -> list[str]:
     """The C file after translation phases 1-4 (trigraphs, line splicing, comments, macros), as
     whitespace-separated tokens: what the compiler sees."""
-    run = subprocess.run([CC[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"], input=source,
+    run = subprocess.run([ccompile.find_compiler()[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"], input=source,
                          capture_output=True, text=True, check=True)
     return run.stdout.split()
 
@@ -106,7 +103,7 @@ def _python_code(source: str) -> str:
     return ast.dump(ast.Module(body=tree.body[1:], type_ignores=[]))
 
 
-@needs_cc
+@pytest.mark.requires_cc
 @given(description=free_text, command=free_text, unit=free_text, doc=free_text)
 @example(description="a *??/\n/ int injected; /*", command="gpmegen build x *??/\n/int y;/*.toml", unit="", doc="")
 @example(description='"""\nimport os\n"""', command="\\", unit='\\"""', doc="*/")
@@ -144,7 +141,7 @@ point = "E"
 """
 
 
-@needs_cc
+@pytest.mark.requires_cc
 def test_defect1_trigraph_in_a_model_file_does_not_run_code_when_the_library_loads(tmp_path):
     # "??/" is a backslash under -std=c99, so "*??/<newline>/" closed the header comment and
     # the rest of the line was compiled: a constructor that ran when the library was loaded.
@@ -210,7 +207,7 @@ def _results(model):
     )
 
 
-@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=needs_cc)])
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)])
 def test_defect2_names_of_generator_symbols_give_the_same_model(tmp_path, backend):
     # SymPy merged a parameter named x5 with the intermediate x5; the C build failed on a local
     # defined twice and the run fell back to NumPy with the wrong model.
@@ -283,8 +280,8 @@ def test_defect3_build_does_not_report_a_tampered_folder_up_to_date(tmp_path, ca
 
 @pytest.mark.parametrize("name, change", TAMPERING)
 def test_defect3_loading_a_tampered_file_builds_it_again(tmp_path, name, change):
-    if name == "model.c" and CC is None:
-        pytest.skip("no C compiler")
+    if name == "model.c":
+        skip_without_cc()
     folder, original = _built(tmp_path)
     change(folder / name)
     backend = "c" if name == "model.c" else "numpy"
@@ -315,7 +312,7 @@ def test_defect3_c_file_changed_after_loading_the_module_is_not_compiled(tmp_pat
     assert not (tmp_path / "cache").exists()
 
 
-@needs_cc
+@pytest.mark.requires_cc
 def test_defect3_the_compiler_gets_the_text_that_was_read_not_the_file(tmp_path):
     source = ("/* cffi-cdef-begin */\nconst char *gpmegen_input_hash(void);\nint f(void);\n/* cffi-cdef-end */\n"
               "const char *gpmegen_input_hash(void) { return \"\"; }\nint f(void) { return %d; }\n")

@@ -24,18 +24,8 @@ from gpmegen.analysis import results as results_io
 from gpmegen.analysis import study
 from gpmegen.cli import main
 from gpmegen.runtime import integrate
-from gpmegen.runtime.ccompile import find_compiler
-from gpmegen.errors import BuildError
 
 
-def _has_compiler():
-    try:
-        return bool(find_compiler())
-    except BuildError:
-        return False
-
-
-needs_c = pytest.mark.skipif(not _has_compiler(), reason="no C compiler")
 
 
 def _exit_code(argv):
@@ -106,7 +96,7 @@ def test_grid_ends_at_t_end_with_a_shorter_last_step_where_needed(t0, t_end, dt,
             assert g.time(k) == t0 + k * dt and g.step(k) == dt
 
 
-@needs_c
+@pytest.mark.requires_cc
 @pytest.mark.parametrize("key", ["save-every-300", "t-end-0.10005", "last-step-shorter"])
 def test_last_row_off_the_save_grid_is_the_final_state_not_the_last_saved_one(cli_runs, key):
     """``--t-end 0.2 --save-every 300``: the last row used to repeat the state saved at step
@@ -127,7 +117,7 @@ def test_last_row_off_the_save_grid_is_the_final_state_not_the_last_saved_one(cl
     np.testing.assert_array_equal(res["qd"][-1], qd[-1])
 
 
-@needs_c
+@pytest.mark.requires_cc
 @pytest.mark.parametrize("key", ["dt-3e-5", "short-save-every-300", "last-step-shorter"])
 def test_c_and_numpy_save_the_same_rows_and_end_at_t_end(cli_runs, key):
     """``--dt 3e-5 --t-end 0.1`` used to end at 0.09999 s, and the C backend's last row was not
@@ -140,7 +130,7 @@ def test_c_and_numpy_save_the_same_rows_and_end_at_t_end(cli_runs, key):
         np.testing.assert_allclose(c[name], n[name], rtol=1e-9, atol=1e-9 * scale)
 
 
-@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=needs_c)])
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)])
 def test_a_step_longer_than_the_run_is_cut_to_end_at_t_end(backend):
     """``--dt 2 --t-end 1`` used to take no step at all and report success."""
     model, q0 = study.initial_state(gpmegen.load(nrfe=1, backend=backend))
