@@ -34,6 +34,18 @@ def flexible(generated_elsewhere):
     return gpmegen.load(nrfe=5, backend="numpy")
 
 
+@pytest.fixture(scope="module")
+def env(tmp_path_factory):
+    """A private generated folder and C cache for the whole module: ``(generated, cache)``."""
+    generated = tmp_path_factory.mktemp("generated")
+    cache = tmp_path_factory.mktemp("c-cache")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("GPMEGEN_GENERATED", str(generated))
+        mp.setenv("GPMEGEN_CACHE", str(cache))
+        mp.delenv("CC", raising=False)
+        yield generated, cache
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261122)

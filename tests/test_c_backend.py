@@ -31,18 +31,6 @@ pytestmark = pytest.mark.requires_cc
 EPS = np.finfo(float).eps
 
 
-@pytest.fixture(scope="module")
-def env(tmp_path_factory):
-    """A private generated folder and C cache for the whole module."""
-    generated = tmp_path_factory.mktemp("generated")
-    cache = tmp_path_factory.mktemp("c-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("GPMEGEN_GENERATED", str(generated))
-        mp.setenv("GPMEGEN_CACHE", str(cache))
-        mp.delenv("CC", raising=False)
-        yield generated, cache
-
-
 def _variant(name, **changes):
     return dataclasses.replace(reference_model(1), name=name, **changes)
 

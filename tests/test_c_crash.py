@@ -36,17 +36,6 @@ AVX512_FLAGS = tuple(f if f != "-march=native" else "-march=x86-64-v4" for f in 
 
 
 @pytest.fixture(scope="module")
-def env(tmp_path_factory):
-    generated = tmp_path_factory.mktemp("generated")
-    cache = tmp_path_factory.mktemp("c-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("GPMEGEN_GENERATED", str(generated))
-        mp.setenv("GPMEGEN_CACHE", str(cache))
-        mp.delenv("CC", raising=False)
-        yield generated, cache
-
-
-@pytest.fixture(scope="module")
 def beam(env):
     return gpmegen.load(model=load_model_file(SPINNING_BEAM), backend="numpy")
 

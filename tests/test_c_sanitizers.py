@@ -79,17 +79,6 @@ MODELS = _models()
 
 
 @pytest.fixture(scope="module")
-def env(tmp_path_factory):
-    generated = tmp_path_factory.mktemp("generated")
-    cache = tmp_path_factory.mktemp("c-cache")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("GPMEGEN_GENERATED", str(generated))
-        mp.setenv("GPMEGEN_CACHE", str(cache))
-        mp.delenv("CC", raising=False)
-        yield generated, cache
-
-
-@pytest.fixture(scope="module")
 def folders(env):
     built = {}
 
