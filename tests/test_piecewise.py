@@ -1,0 +1,209 @@
+"""Programmed laws that switch (Min, Max, Abs, Heaviside, Piecewise) in constraints and drives.
+
+A hub turning about z carries a flexible link (n_rfe 2) in the vertical plane; its angle is
+prescribed by a law that switches at t = T. The piecewise model must move as the two models of
+its branches switched at T (the first run to T, the second continuing from its state), NumPy and
+C must agree on both sides of the switch, and a law whose rate jumps at the switch is built with
+a warning naming the constraint and the instant (the impulse there is not applied).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import gpmegen
+from gpmegen.errors import DerivationError, ModelError
+from gpmegen.model import Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point
+from gpmegen.model.chain import TIME, CircularSection, symbol
+from gpmegen.model.shapes import solid_cylinder
+from gpmegen.runtime import integrate
+from gpmegen.symbolic import derive
+
+PARAMETERS = (
+    Parameter("g", 9.81, "m/s^2"), Parameter("W", 3.0, "rad/s", "hub speed after the switch"),
+    Parameter("T", 0.25, "s", "switching instant"), Parameter("L", 0.4, "m"), Parameter("r", 0.005, "m"),
+    Parameter("d", 0.002, "N m s/rad"), Parameter("ab", 20.0, "1/s", "Baumgarte gains"),
+)
+P = {p.name: p.symbol for p in PARAMETERS}
+t, W, T = TIME, P["W"], P["T"]
+THETA = symbol("theta1")
+T_SWITCH, SPEED = 0.25, 3.0
+
+
+def spin_up(s):
+    """Hub angle while it spins up to W in the time T (C1 at T, where it is W·T/2)."""
+    return W / T * (s**2 / 2 + (T / (2 * sp.pi)) ** 2 * (sp.cos(2 * sp.pi * s / T) - 1))
+
+
+# law written with Min, its branch before T, its branch after T, θ̇(0)
+LAWS = {
+    "spin_up": (spin_up(sp.Min(t, T)) + W * (t - sp.Min(t, T)), spin_up(t), W * (t - T / 2), 0.0),
+    "ramp": (W * sp.Min(t, T), W * t, W * T, SPEED),
+}
+
+
+def hub_model(name, law, drives=()):
+    chain = (
+        Joint("theta1", "revolute", "z"),
+        Body("hub", solid_cylinder(0.5, 0.03, 0.02, "z")),
+        FlexibleLink("1", P["L"], CircularSection(P["r"]), 2700, 7e10, 2.6e10, n_rfe=2,
+                     damping=(P["d"], P["d"], P["d"])),
+        Point("E"),
+    )
+    return Model(name, PARAMETERS, chain, (0, -P["g"], 0), drives,
+                 (Constraint("spin", THETA - law, 0, P["ab"], P["ab"]),), ("theta1",))
+
+
+@pytest.fixture(scope="module")
+def env(tmp_path_factory):
+    """A private generated folder and C cache for the whole module."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("GPMEGEN_GENERATED", str(tmp_path_factory.mktemp("generated")))
+        mp.setenv("GPMEGEN_CACHE", str(tmp_path_factory.mktemp("c-cache")))
+        yield
+
+
+@pytest.fixture(scope="module")
+def hubs(env):
+    """``hubs(law, part)``: (C model, NumPy model, build messages) of the law's piecewise model
+    (part 0) or of one of its branches (1: before T, 2: after T)."""
+    built = {}
+
+    def get(law, part=0):
+        if (law, part) not in built:
+            model = hub_model(f"hub_{law}_{part}", LAWS[law][part])
+            messages = []
+            c = gpmegen.load(model=model, backend="c", progress=messages.append)
+            built[law, part] = (c, gpmegen.load(model=model, backend="numpy", build=False), messages)
+        return built[law, part]
+
+    return get
+
+
+def start(law, n):
+    q, qd = np.zeros(n), np.zeros(n)
+    qd[0] = LAWS[law][3]
+    return q, qd
+
+
+def _close(a, b, tol):
+    return np.max(np.abs(np.asarray(a) - np.asarray(b))) <= tol * max(1.0, np.max(np.abs(np.asarray(b))))
+
+
+@pytest.mark.parametrize("law", list(LAWS))
+def test_terms_on_each_side_are_the_branch_models_on_both_backends(law, hubs, rng):
+    """Φ, Φ̇, D, γ of the piecewise model are those of the branch model of the side the time is
+    on (derivatives taken branch by branch, no impulse), and the C module computes what the
+    NumPy one does."""
+    model, numpy_model, _ = hubs(law)
+    for side, times in ((1, (0.0, 0.1, 0.249)), (2, (0.251, 0.4, 1.3))):
+        branch, numpy_branch, _ = hubs(law, side)
+        for time in times:
+            q, qd = rng.normal(size=model.n_dof), rng.normal(size=model.n_dof)
+            terms = model.constraint_terms(time, q, qd)
+            for a, b in zip(terms, numpy_model.constraint_terms(time, q, qd)):
+                assert _close(a, b, 1e-12)
+            for a, b in zip(terms, branch.constraint_terms(time, q, qd)):
+                assert _close(a, b, 1e-12)
+            assert _close(model.mass_matrix(q), numpy_model.mass_matrix(q), 1e-12)
+            assert _close(model.forces(time, q, qd), numpy_model.forces(time, q, qd), 1e-12)
+            assert _close(model.accelerations(time, q, qd), numpy_branch.accelerations(time, q, qd), 1e-10)
+
+
+def test_spin_up_runs_like_its_two_branches_switched_at_T(hubs):
+    """A law that is C1 at the switch (its Φ̈ even continuous): RK4 on the piecewise model
+    against the first branch to T and the second from its state on, in C and NumPy."""
+    model, numpy_model, _ = hubs("spin_up")
+    first, numpy_first, _ = hubs("spin_up", 1)
+    second, numpy_second, _ = hubs("spin_up", 2)
+    q0, qd0 = start("spin_up", model.n_dof)
+    dt, n_half = 1e-4, int(round(T_SWITCH / 1e-4))
+    _, q, qd, _, status = model.rk4(0.0, dt, 2 * n_half, q0, qd0, 2 * n_half)
+    assert status == 0
+    _, q1, qd1, w1, _ = first.rk4(0.0, dt, n_half, q0, qd0, n_half)
+    _, q2, qd2, _, _ = second.rk4(T_SWITCH, dt, n_half, q1[-1], qd1[-1], n_half, w1[-1])
+    assert abs(q[-1][0] - SPEED * 1.5 * T_SWITCH) < 1e-6   # θ(2T) = W(2T - T/2): on the law
+    assert _close(np.r_[q[-1], qd[-1]], np.r_[q2[-1], qd2[-1]], 1e-9)
+    _, y, _ = integrate.rk4(numpy_model, q0, qd0, 2 * T_SWITCH, dt)
+    _, y1, _ = integrate.rk4(numpy_first, q0, qd0, T_SWITCH, dt)
+    n = model.n_dof
+    _, y2, _ = integrate.rk4(numpy_second, y1[-1, :n], y1[-1, n:2 * n], 2 * T_SWITCH, dt, t0=T_SWITCH)
+    assert _close(y[-1, :2 * n], y2[-1, :2 * n], 1e-9)
+    assert _close(y[-1, :2 * n], np.r_[q[-1], qd[-1]], 1e-9)
+
+
+@pytest.mark.parametrize("backend", [0, 1], ids=["c", "numpy"])
+def test_ramp_runs_like_its_two_branches_switched_at_T(hubs, backend):
+    """``W·Min(t, T)``: Φ̇ jumps at T. With the impulse not applied, the piecewise model is the
+    ramp model up to T and the hold model from the same state on; an adaptive integrator that
+    finds the switch by itself agrees with the two runs switched exactly at T. (RK4 with a step
+    ending at T differs by O(dt) there: one of its stages at T sees the other side.)"""
+    model, first, second = (hubs("ramp", part)[backend] for part in (0, 1, 2))
+    q0, qd0 = start("ramp", model.n_dof)
+    tight = dict(rtol=1e-12, atol=1e-12)
+    _, y, status = integrate.adaptive(model, q0, qd0, 2 * T_SWITCH, **tight)
+    assert status == "complete"
+    _, y1, _ = integrate.adaptive(first, q0, qd0, T_SWITCH, **tight)
+    n = model.n_dof
+    _, y2, _ = integrate.adaptive(second, y1[-1, :n], y1[-1, n:2 * n], 2 * T_SWITCH, t0=T_SWITCH, **tight)
+    assert abs(y1[-1, n] - SPEED) < 1e-6          # still turning at W when the hold starts
+    assert abs(y[-1, n]) < 0.2 * SPEED            # then pulled back to rest by the Baumgarte terms
+    assert _close(y[-1, :2 * n], y2[-1, :2 * n], 1e-9)
+
+
+def test_a_jump_in_the_rate_is_built_with_one_warning_naming_constraint_and_instant(hubs):
+    *_, ramp = hubs("ramp")
+    warnings = [m for m in ramp if m.startswith("warning:")]
+    assert len(warnings) == 1, ramp
+    assert warnings[0].startswith("warning: constraint 'spin': Φ̇ jumps at t = T (0.25 s with the "
+                                  "parameter defaults); the impulse there is not applied"), warnings[0]
+    assert "\n" not in warnings[0]
+    for law, part in (("spin_up", 0), ("spin_up", 1), ("ramp", 1)):
+        assert not [m for m in hubs(law, part)[2] if "warning" in m]
+
+
+X_E = symbol("x_E")
+
+
+@pytest.mark.parametrize("law, expected", [
+    (sp.Heaviside(t - T), ["Φ jumps at t = T (0.25 s with the parameter defaults)"]),
+    (sp.Piecewise((t**2, t < T), (2 * T * t - T**2, t < 2 * T), (3 * T**2, True)), ["Φ̇ jumps at t = 2*T (0.5 s"]),
+    (sp.Abs(t - T), ["Φ̇ jumps at t = T"]),
+    (sp.Abs(t - T) ** 3, []),
+    (sp.Max(t - T, 0) ** 2, []),
+    (sp.Min(X_E, 0.3), ["Φ̇ jumps at x_E = 0.3;"]),
+    # a clamp: the outer switch's condition holds the inner switch, and is not located
+    (sp.Max(0, sp.Min(1, t / T)),
+     ["Φ̇ jumps at t = T", "its law switches where Min(1, t/T) = 0, and gpmegen cannot"]),
+    (sp.Abs(X_E**2 - 0.1), ["its law switches where x_E**2 - 0.1 = 0, and gpmegen cannot tell whether Φ or Φ̇"]),
+    # kinks at x_E = k/10; at t = T a jump too large to work out (seven switches in it) may be one
+    (sp.Min(t, T) * sp.Mul(*[sp.Abs(X_E - k / 10) - 1 for k in range(7)]),
+     [f"Φ̇ jumps at x_E = {k / 10:g};" for k in range(7)]
+     + ["its law switches at t = T (0.25 s with the parameter defaults), and gpmegen cannot tell"]),
+])
+def test_warnings_follow_where_the_law_is_not_continuously_differentiable(law, expected):
+    warnings = derive(hub_model("probe", law)).constraints.warnings
+    assert len(warnings) == len(expected), warnings
+    for warning, beginning in zip(warnings, expected):
+        assert warning.startswith(f"constraint 'spin': {beginning}"), warning
+
+
+def test_first_order_law_warns_where_psi_jumps():
+    model = hub_model("probe", 0)
+    rate = Constraint("turn", symbol("theta1_dot") - W * sp.Heaviside(T - t), 1, P["ab"])
+    model = Model(model.name, model.parameters, model.chain, constraints=(rate,), dependent=("theta1",))
+    (warning,) = derive(model).constraints.warnings
+    assert warning.startswith("constraint 'turn': Ψ jumps at t = T") and "make the law continuous" in warning
+
+
+@pytest.mark.parametrize("law, error, message", [
+    (sp.Piecewise((t, t < T)), ModelError, "a Piecewise has no last pair (value, True)"),
+    (sp.DiracDelta(t - T), ModelError, "DiracDelta is an impulse"),
+    (sp.floor(t / T), DerivationError, "its law uses floor, whose derivative generated code cannot evaluate"),
+])
+def test_laws_that_cannot_become_code_are_refused_in_one_line(law, error, message):
+    with pytest.raises(error) as info:
+        derive(hub_model("probe", law))
+    assert message in str(info.value) and "\n" not in str(info.value)
