@@ -9,6 +9,10 @@ a warning naming the constraint and the instant (the impulse there is not applie
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -18,8 +22,10 @@ from gpmegen.errors import DerivationError, ModelError
 from gpmegen.model import Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point
 from gpmegen.model.chain import TIME, CircularSection, symbol
 from gpmegen.model.shapes import solid_cylinder
+from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import integrate
 from gpmegen.symbolic import derive
+from test_model_file import BASE
 
 PARAMETERS = (
     Parameter("g", 9.81, "m/s^2"), Parameter("W", 3.0, "rad/s", "hub speed after the switch"),
@@ -198,6 +204,72 @@ def test_first_order_law_warns_where_psi_jumps():
     assert warning.startswith("constraint 'turn': Ψ jumps at t = T") and "make the law continuous" in warning
 
 
+# the hub of test_model_file's file (a joint about z and a flexible link, n_rfe 2), spun up by a
+# law written with Piecewise
+SPIN_UP = "Piecewise((W/T*(t^2/2 + (T/(2*pi))^2*(cos(2*pi*t/T) - 1)), t <= T), (W*(t - T/2), True))"
+FILE = (BASE.replace('name = "arm"', 'name = "hub_file"').replace("g = 9.81\n", "g = 9.81\nW = 3.0\nT = 0.25\n")
+        .replace('"y_E - 0.1"', f'"theta1 - {SPIN_UP}"'))
+
+DRIVES = '''
+[[drives]]
+coordinate = "theta1"
+expression = "Max(t - T, 0) + 2*Abs(t - 2*T)"
+
+[[drives]]
+coordinate = "psi1_1"
+expression = "Heaviside(t - T) + Heaviside(t - 2*T, 1)"
+
+[[drives]]
+coordinate = "theta1_1"
+expression = "Piecewise((t^2, t < T), (-t, t >= 2*T), (W, True))"
+
+[[drives]]
+coordinate = "phi1_1"
+expression = "Piecewise((Min(t, 3*T) - T, t > T), (0, True))"
+'''
+
+
+def expected_drives(time, w=SPEED, s=T_SWITCH):
+    """The drives of DRIVES evaluated by NumPy (Heaviside(0) = 1/2 unless given)."""
+    return np.array([
+        max(time - s, 0) + 2 * abs(time - 2 * s),
+        np.heaviside(time - s, 0.5) + np.heaviside(time - 2 * s, 1.0),
+        time**2 if time < s else (-time if time >= 2 * s else w),
+        min(time, 3 * s) - s if time > s else 0.0,
+    ])
+
+
+def test_file_drives_print_and_evaluate_right_on_both_backends(env, tmp_path):
+    path = tmp_path / "drives.toml"
+    path.write_text(FILE.replace('"hub_file"', '"hub_drives"') + DRIVES)
+    model = load_model_file(path)
+    c = gpmegen.load(model=model, backend="c")
+    numpy_model = gpmegen.load(model=model, backend="numpy", build=False)
+    source = (c.folder / "model.c").read_text()
+    ternaries = [line for line in source.splitlines() if " ? " in line and "const double" in line]
+    assert ternaries and all(line.endswith(";") for line in ternaries)   # each on one line
+    assert "Heaviside" not in source and "Piecewise" not in source
+    order = [c.index(name) for name in ("theta1", "psi1_1", "theta1_1", "phi1_1")]
+    for time in (0.0, 0.1, T_SWITCH, 0.3, 2 * T_SWITCH, 0.6, 3 * T_SWITCH, 1.0):
+        expected = expected_drives(time)
+        assert np.array_equal(c.drive_forces(time)[order], numpy_model.drive_forces(time)[order]), time
+        assert _close(c.drive_forces(time)[order], expected, 1e-14), (time, c.drive_forces(time)[order], expected)
+
+
+def test_file_piecewise_law_is_the_min_law(hubs, tmp_path, rng):
+    """The spin-up written in the file with Piecewise derives without a warning and gives the
+    constraint terms of the Python model written with Min, on both sides of the switch."""
+    path = tmp_path / "hub.toml"
+    path.write_text(FILE)
+    assert derive(load_model_file(path)).constraints.warnings == ()
+    from_file = gpmegen.load(model=load_model_file(path), backend="numpy")
+    _, with_min, _ = hubs("spin_up")
+    for time in (0.1, 0.3, 0.9):
+        q, qd = rng.normal(size=with_min.n_dof), rng.normal(size=with_min.n_dof)
+        for a, b in zip(from_file.constraint_terms(time, q, qd), with_min.constraint_terms(time, q, qd)):
+            assert _close(a, b, 1e-12)
+
+
 @pytest.mark.parametrize("law, error, message", [
     (sp.Piecewise((t, t < T)), ModelError, "a Piecewise has no last pair (value, True)"),
     (sp.DiracDelta(t - T), ModelError, "DiracDelta is an impulse"),
@@ -207,3 +279,14 @@ def test_laws_that_cannot_become_code_are_refused_in_one_line(law, error, messag
     with pytest.raises(error) as info:
         derive(hub_model("probe", law))
     assert message in str(info.value) and "\n" not in str(info.value)
+
+
+def test_piecewise_generation_is_deterministic_whatever_the_hash_seed(tmp_path):
+    path = tmp_path / "hub.toml"
+    path.write_text(FILE.replace('"theta1 - Piecewise', '"theta1 - Abs(t - T) - Max(t, 2*T) - Piecewise') + DRIVES)
+    code = ("import hashlib, sys; from gpmegen.codegen import render; from gpmegen.model.toml_file import "
+            "load_model_file; f = render(load_model_file(sys.argv[1]), ('numpy', 'c'));"
+            "print(hashlib.sha256(''.join(f[k] for k in sorted(f)).encode()).hexdigest())")
+    digests = {subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True,
+                              env=dict(os.environ, PYTHONHASHSEED=seed)).stdout for seed in ("0", "1")}
+    assert len(digests) == 1

@@ -1,7 +1,9 @@
 """Printers of SymPy expressions as Python (``math``) and C99 code.
 
 Internal symbols keep their names (``x12``, ``q_theta1``, ``qd_x3``, ``t``); parameters print as
-``p_<name>``. Integer powers print as products, which is both exact and fast.
+``p_<name>``. Integer powers print as products, which is both exact and fast. Piecewise prints as
+conditional expressions (Python) and ternaries (C); Heaviside(0) is 1/2 in both, or its second
+argument.
 """
 
 from __future__ import annotations
@@ -59,6 +61,17 @@ class CPrinter(C99CodePrinter):
 
     def _print_Pi(self, expr):
         return "3.14159265358979323846"
+
+    def _print_Piecewise(self, expr):
+        """Nested ternaries on one line (SymPy's own spread over lines); the last condition is
+        True, as the model checks (Heaviside and ITE print through here too)."""
+        *pairs, (code, otherwise) = expr.args
+        if otherwise != sp.true:
+            raise ValueError(f"Piecewise without a last (value, True) pair: {expr}")
+        code = f"({self._print(code)})"
+        for value, condition in reversed(pairs):
+            code = f"(({self._print(condition)}) ? ({self._print(value)}) : {code})"
+        return code
 
     def _print_Rational(self, expr):
         return f"{float(expr.p)!r}/{float(expr.q)!r}"
