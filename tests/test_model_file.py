@@ -206,6 +206,28 @@ BAD = [
      "description", "description", "cannot carry in a comment"),
     ("huge-power", [('"y_E - 0.1"', '"y_E - 9^9^9^9"')], "9^9^9^9", "constraints[0].expression", "too large"),
     ("nrfe-missing", [("nrfe = 2\n", "")], '[[chain]]\nflexible', "chain[2]", "no n_rfe for this flexible link"),
+    # comparisons only as Piecewise conditions, one each; (value, True) last
+    ("comparison-outside-piecewise", [('"y_E - 0.1"', '"y_E - (t < 1)"')], "t < 1", "constraints[0].expression",
+     "the comparison '<' may only be the condition of a Piecewise pair"),
+    ("comparison-in-a-function", [('"y_E - 0.1"', '"y_E - sin(t >= 1)"')], "t >= 1", "constraints[0].expression",
+     "the comparison '>=' may only be the condition of a Piecewise pair"),
+    ("chained-comparison", [('"y_E - 0.1"', '"y_E - Piecewise((t, 0 < t < 1), (1, True))"')], "0 < t < 1",
+     "constraints[0].expression", "one per pair"),
+    ("equality-condition", [('"y_E - 0.1"', '"y_E - Piecewise((t, t == 1), (1, True))"')], "t == 1",
+     "constraints[0].expression", "character '=' is not allowed"),
+    ("piecewise-without-default", [('"y_E - 0.1"', '"y_E - Piecewise((t, t < 1))"')], "Piecewise((t, t < 1))",
+     "constraints[0].expression", "Piecewise must end with the pair (value, True)"),
+    ("piecewise-default-first", [('"y_E - 0.1"', '"y_E - Piecewise((t, True), (1, t < 2))"')], "(t, True)",
+     "constraints[0].expression", "a pair after (value, True) is never used"),
+    ("piecewise-not-a-pair", [('"y_E - 0.1"', '"y_E - Piecewise(t, (1, True))"')], "Piecewise(t,",
+     "constraints[0].expression", "each argument of Piecewise is a pair (value, condition)"),
+    ("piecewise-no-condition", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = '
+                                              '"Piecewise((t, t), (0, True))"\n\n[initial]')],
+     "Piecewise((t, t)", "drives[0].expression", "a Piecewise pair is (value, condition) with one comparison"),
+    ("true-outside-piecewise", [('"y_E - 0.1"', '"y_E - True"')], "y_E - True", "constraints[0].expression",
+     "True may only be the whole condition of the last Piecewise pair"),
+    ("condition-not-real", [('"y_E - 0.1"', '"y_E - Piecewise((t, t < sqrt(-1)), (1, True))"')], "sqrt(-1)",
+     "constraints[0].expression", "a condition compares values that are not real"),
 ]
 
 

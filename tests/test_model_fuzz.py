@@ -146,6 +146,10 @@ INJECTIONS = [
     "revolute", "prismatic", "cylinder", "bar", "rod", "point_mass", "rectangular", "circular", "x", "y", "z",
     "auto", "Abs(-1)", "Max(0, -1)", "t0 - 5", "h1 - 0.6",
     "t" + "**t" * 300, "h1" + "**h1" * 300, "x_E" + "**x_E" * 300,   # deep power towers
+    "t < 1", "1 < 2 < 3", "Piecewise((t, t < t0), (1, True))", "Piecewise((x_E, x_E > 0.1), (0.1, True))",   # switches
+    "Piecewise((t, t < 1))", "Piecewise((1, True), (t, t < 1))", "Piecewise((t, (t < 1)), (0, True))",
+    "Piecewise((t, t <= sqrt(-1)), (0, True))", "Heaviside(t - t0)", "Heaviside(x_E, 1)", "Abs(x_E - 0.1)",
+    "Min(t, t0)*x_E", "Max(Abs(Abs(x_E) - 0.1), Min(t, 1))",
 ]
 NUMBERS = [0, -1, 1, 2, 3, 100, -(2 ** 63), 2 ** 63, 10 ** 30, -(10 ** 400), 0.0, -0.0, -1.0, 0.5, 1e-320, 1e-300,
            1e300, 1.7976931348623157e308, -1e308, float("nan"), float("inf"), float("-inf")]
@@ -246,6 +250,9 @@ def _mutated(path, value) -> tuple[str, str]:
 @example(mutation=_mutated(("chain", 7, "position", 0), "L3 + 1e308*1e308"))      # constant overflow
 @example(mutation=_mutated(("drives", 0, "expression"), "t" + "**t" * 300))        # deep power tower
 @example(mutation=_mutated(("chain", 2, "translation", 1), "h1" + "**h1" * 300))
+@example(mutation=_mutated(("constraints", 1, "expression"),                       # a switch: builds, warns
+                           "y_E - y_c - A*Piecewise((cos(2*pi*t/T), t < T), (1, True))"))
+@example(mutation=_mutated(("drives", 0, "expression"), "tdr0*Heaviside(t - t0) + Piecewise((t, t <= t0), (t0, True))"))
 @settings(max_examples=300, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
                                  HealthCheck.data_too_large])

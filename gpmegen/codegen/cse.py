@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections import Counter
 
 import sympy as sp
+from sympy.functions.elementary.piecewise import ExprCondPair
 
 from ..symbolic import names as internal
 from ..symbolic.program import is_trivial
@@ -27,6 +28,9 @@ def eliminate(definitions, outputs):
     def count(expr):
         for arg in expr.args:
             if is_trivial(arg):
+                continue
+            if isinstance(arg, ExprCondPair):  # a branch of a Piecewise, not a value: its parts may be hoisted
+                count(arg)
                 continue
             counts[arg] += 1
             if counts[arg] == 1:

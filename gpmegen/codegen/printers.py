@@ -2,7 +2,9 @@
 
 The generator's own symbols keep their names (``_x12``, ``_q_theta1``, ``_qd_x3``; see
 :mod:`gpmegen.symbolic.names`) and so does time ``t``; parameters print as the locals that hold
-them, ``_p_<name>``. Integer powers print as products, which is both exact and fast.
+them, ``_p_<name>``. Integer powers print as products, which is both exact and fast. Piecewise
+prints as conditional expressions (Python) and ternaries (C); Heaviside(0) is 1/2 in both, or its
+second argument.
 """
 
 from __future__ import annotations
@@ -62,6 +64,17 @@ class CPrinter(C99CodePrinter):
 
     def _print_Pi(self, expr):
         return "3.14159265358979323846"
+
+    def _print_Piecewise(self, expr):
+        """Nested ternaries on one line (SymPy's own spread over lines); the last condition is
+        True, as the model checks (Heaviside and ITE print through here too)."""
+        *pairs, (code, otherwise) = expr.args
+        if otherwise != sp.true:
+            raise ValueError(f"Piecewise without a last (value, True) pair: {expr}")
+        code = f"({self._print(code)})"
+        for value, condition in reversed(pairs):
+            code = f"(({self._print(condition)}) ? ({self._print(value)}) : {code})"
+        return code
 
     def _print_Rational(self, expr):
         return f"{float(expr.p)!r}/{float(expr.q)!r}"

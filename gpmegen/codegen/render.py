@@ -99,6 +99,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     d = derive(model)
     say(f"derived {len(d.program.definitions)} intermediate quantities for {d.chain.n_dof} coordinates "
         f"in {time.perf_counter() - t0:.1f} s")
+    for warning in d.constraints.warnings:
+        say(f"warning: {warning}")
     fns = model_functions(d)
     names = d.chain.model.parameter_names
     context = dict(

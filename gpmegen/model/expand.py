@@ -44,6 +44,12 @@ def _check_expression(expr, allowed: set, where: str):
         expr = sp.sympify(expr)
     except (sp.SympifyError, TypeError) as exc:
         raise ModelError(f"{where}: not a valid expression ({exc})") from None
+    if expr.has(sp.DiracDelta):
+        raise ModelError(f"{where}: DiracDelta is an impulse, which generated code cannot evaluate; prescribe the "
+                         f"motion it causes instead (a jump with Heaviside or Piecewise)")
+    if any(pw.args[-1].cond != sp.true for pw in expr.atoms(sp.Piecewise)):
+        raise ModelError(f"{where}: a Piecewise has no last pair (value, True), so its value is undefined where "
+                         f"no condition holds; end it with (value, True)")
     unknown = sorted(str(s) for s in expr.free_symbols if s not in allowed)
     if unknown:
         raise ModelError(

@@ -60,10 +60,12 @@ Body shapes: ``cylinder`` (mass, radius, length, axis: along ``axis`` from 0 to 
 Quantities are numbers or expression strings. Chain quantities, gravity, Baumgarte gains and
 initial values may use parameters; drives also ``t``; constraints also coordinates, points
 ``x_P, y_P, z_P`` and, when ``order = 1``, velocities ``<coordinate>_dot`` and
-``vx_P, vy_P, vz_P``. Functions: sin cos tan exp log sqrt Abs Min Max atan2; constant pi;
-operators ``+ - * / ** ^ ( ) ,``. Expressions are checked lexically and by name before SymPy's
-parser sees them, with a namespace holding only those names: user text is never ``eval``-ed
-or ``sympify``-ed as such.
+``vx_P, vy_P, vz_P``. Functions: sin cos tan exp log sqrt Abs Min Max atan2 Heaviside
+Piecewise; constant pi; operators ``+ - * / ** ^ ( ) ,``; comparisons ``< <= > >=`` and ``True``
+only as the conditions of ``Piecewise((value, t < T), ..., (value, True))`` pairs. Expressions
+are checked lexically, by name and for where comparisons stand before SymPy's parser sees them,
+with a namespace holding only those names: user text is never ``eval``-ed or ``sympify``-ed as
+such.
 
 Errors raise :class:`~gpmegen.errors.ModelError` as ``"<file>:<line>: <field>: <problem>;
 <fix>"``; field paths count array entries from 0 (``chain[3].shape.mass`` is the fourth
@@ -101,9 +103,14 @@ SCHEMA = 1
 
 FUNCTIONS = {
     "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt,
-    "Abs": sp.Abs, "Min": sp.Min, "Max": sp.Max, "atan2": sp.atan2,
+    "Abs": sp.Abs, "Min": sp.Min, "Max": sp.Max, "atan2": sp.atan2, "Heaviside": sp.Heaviside,
+    "Piecewise": sp.Piecewise,
 }
 CONSTANTS = {"pi": sp.pi}
+# What the parser makes of comparisons when it does not evaluate.
+COMPARISON_NAMES = {"Lt": sp.Lt, "Le": sp.Le, "Gt": sp.Gt, "Ge": sp.Ge}
+COMPARISONS = ("<", "<=", ">", ">=")
+PIECEWISE_EXAMPLE = "Piecewise((t, t < T), (T, True))"
 # What sympy_parser's auto_number emits (Integer, Float) and may emit (Rational, Symbol).
 PARSER_NAMES = {"Integer": sp.Integer, "Float": sp.Float, "Rational": sp.Rational, "Symbol": sp.Symbol}
 # Names the parser's namespace or the derivation's internal symbols already use.
@@ -115,7 +122,7 @@ MAX_CONSTANT_BASE = 1e50    # |base| of a constant power: bounds exact integer a
 
 _TOKEN = re.compile(
     r"(?P<space>\s+)|(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
-    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op>\*\*|[-+*/^(),])"
+    r"|(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op>\*\*|<=|>=|[-+*/^(),<>])"
 )
 _LABEL = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_]{0,31}$")
 _POINT_NAME = re.compile(r"^(vx|vy|vz|ax|ay|az|x|y|z)_(.+)$")
@@ -139,6 +146,58 @@ def _unevaluated(function):
     def call(*args, evaluate=False):
         return function(*args, evaluate=False)
     return call
+
+
+@dataclass
+class _Parenthesis:
+    """An open parenthesis while conditions are checked: a ``Piecewise(`` call, one of its
+    ``(value, condition)`` pairs, or any other."""
+
+    kind: str
+    commas: int = 0
+    comparisons: int = 0
+    default: bool = False   # pair: its condition is True; Piecewise: its last pair's is
+
+
+def _condition_problem(tokens) -> str | None:
+    """Why the comparisons or ``True`` among ``tokens`` ((kind, text) pairs) are out of place,
+    or None. They may only be a Piecewise pair's condition: one comparison, or ``True`` alone in
+    the last pair, which every Piecewise has."""
+    example = f"as in {PIECEWISE_EXAMPLE}"
+    frames: list[_Parenthesis] = []
+    for k, (_, tok) in enumerate(tokens):
+        before = tokens[k - 1][1] if k else None
+        after = tokens[k + 1][1] if k + 1 < len(tokens) else None
+        top = frames[-1] if frames else _Parenthesis("top")
+        if top.kind == "Piecewise" and tok not in ("(", ",", ")") or (
+                tok == "(" and top.kind == "Piecewise" and before not in ("(", ",")):
+            return f"each argument of Piecewise is a pair (value, condition), {example}"
+        if tok == "(":
+            if top.kind == "Piecewise" and top.default:
+                return f"a pair after (value, True) is never used; make (value, True) the last pair, {example}"
+            frames.append(_Parenthesis("Piecewise" if before == "Piecewise" else
+                                       "pair" if top.kind == "Piecewise" else "other"))
+        elif tok == ",":
+            top.commas += 1
+        elif tok in COMPARISONS:
+            if top.kind != "pair" or top.commas != 1 or top.comparisons:
+                return (f"the comparison {tok!r} may only be the condition of a Piecewise pair, one per pair and "
+                        f"not in parentheses, {example}")
+            top.comparisons += 1
+        elif tok == "True":
+            if top.kind != "pair" or top.commas != 1 or before != "," or after != ")":
+                return f"True may only be the whole condition of the last Piecewise pair, {example}"
+            top.default = True
+        elif tok == ")" and frames:
+            frames.pop()
+            if top.kind == "pair":
+                if top.commas != 1 or not (top.comparisons or top.default):
+                    return (f"a Piecewise pair is (value, condition) with one comparison (< <= > >=) as the "
+                            f"condition, or True in the last pair, {example}")
+                frames[-1].default = top.default
+            elif top.kind == "Piecewise" and not top.default:
+                return f"Piecewise must end with the pair (value, True), the value where no condition holds, {example}"
+    return None
 
 
 def _exponent(number: str) -> int:
@@ -460,7 +519,7 @@ class _Reader:
             m = _TOKEN.match(text, pos)
             if not m:
                 self.fail(path, f"character {text[pos]!r} is not allowed in an expression; use numbers, "
-                                f"names, + - * / ** ^ ( ) and commas")
+                                f"names, + - * / ** ^ ( ), commas and (in Piecewise conditions) < <= > >=")
             pos = m.end()
             if m.lastgroup != "space":
                 tokens.append((m.lastgroup, m.group()))
@@ -472,6 +531,8 @@ class _Reader:
                 self.fail(path, f"{tok}{nxt[1]!s} in {text!r}: write products with '*' (e.g. {tok}*{nxt[1]})")
             if kind != "name":
                 continue
+            if tok == "True":
+                continue  # placed by _condition_problem
             if "__" in tok:
                 self.fail(path, f"name {tok!r} is not allowed (double underscore); use parameter, coordinate "
                                 f"and point names")
@@ -484,6 +545,9 @@ class _Reader:
                     self.fail(path, f"{tok!r} is not a function; write a '*' for a product, as {tok}*(...)")
             else:
                 self.fail(path, self.unknown(tok, scope))
+        problem = _condition_problem(tokens)
+        if problem:
+            self.fail(path, problem)
         glob = {"__builtins__": {}, **PARSER_NAMES, **FUNCTIONS, **CONSTANTS}
         local = dict(scope)
         transformations = (auto_number, convert_xor)
@@ -491,13 +555,16 @@ class _Reader:
             # first unevaluated, so that the size check runs before any arithmetic
             lazy = {name: _unevaluated(fn) for name, fn in FUNCTIONS.items()}
             raw = parse_expr(text, local_dict=dict(local), transformations=transformations, evaluate=False,
-                             global_dict={**glob, **lazy, "Add": sp.Add, "Mul": sp.Mul, "Pow": sp.Pow})
+                             global_dict={**glob, **lazy, **COMPARISON_NAMES, "Add": sp.Add, "Mul": sp.Mul,
+                                          "Pow": sp.Pow})
             self.check_powers(raw, path)
             expr = parse_expr(text, local_dict=local, global_dict=glob, transformations=transformations)
         except ModelError:
             raise
         except Exception as exc:  # SyntaxError, TypeError from a wrong call, RecursionError, ...
-            if isinstance(exc, TypeError):
+            if isinstance(exc, TypeError) and "comparison" in str(exc):
+                detail = "a condition compares values that are not real"
+            elif isinstance(exc, TypeError):
                 detail = "a function is given the wrong number of arguments"
             elif isinstance(exc, TokenError):
                 detail = "unbalanced parentheses"

@@ -9,6 +9,12 @@ Expressions name point coordinates ``x_P, y_P, z_P``, point velocities ``vx_P, v
 coordinates by name, their velocities ``<name>_dot``, time ``t`` and parameters. Point
 velocities and accelerations come from the kinematics, so ``p̈ = J_P q̈ + a_P`` is never
 differentiated symbolically through the chain.
+
+Laws that switch (``Min``, ``Max``, ``Abs``, ``Heaviside``, ``Piecewise``) are differentiated
+branch by branch (:mod:`gpmegen.symbolic.piecewise`): the Dirac delta at a switch is dropped,
+i.e. the impulse there is not applied. Where that matters (``Φ`` or ``Φ̇`` of a position
+constraint, ``Ψ`` of a first-order one jumps at a switch) the derivation says so in
+``warnings``: after the switch the Baumgarte terms pull the motion back onto the constraint.
 """
 
 from __future__ import annotations
@@ -21,12 +27,14 @@ from ..errors import DerivationError
 from ..model.chain import TIME, point_symbols, point_velocity_symbols, symbol, velocity_symbol
 from .kinematics import Kinematics
 from .names import point_acceleration
+from .piecewise import as_piecewise, exact, jumps
 
 
 @dataclass
 class ConstraintTerms:
     """Per constraint (m of them): ``value`` (m,), ``rate`` (m,), ``jacobian`` (m, n),
-    ``gamma`` (m,), and the Baumgarte gains ``alpha``, ``beta`` (m,) as expressions."""
+    ``gamma`` (m,), and the Baumgarte gains ``alpha``, ``beta`` (m,) as expressions;
+    ``warnings``: messages about the switches where a law jumps (see the module's doc)."""
 
     names: tuple
     orders: tuple
@@ -36,6 +44,7 @@ class ConstraintTerms:
     gamma: sp.Matrix
     alpha: sp.Matrix
     beta: sp.Matrix
+    warnings: tuple = ()   # one line each: switches where an impulse is not applied
 
 
 def derive(kin: Kinematics, constraints) -> ConstraintTerms:
@@ -81,9 +90,10 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
                     row[j] += coeff * component
         return [v.xreplace(internal) for v in row]
 
-    values, rates, rows, gammas = [], [], [], []
+    defaults = {p.symbol: sp.Float(p.default) for p in kin.chain.model.parameters}
+    values, rates, rows, gammas, warnings = [], [], [], [], []
     for c in constraints:
-        expr = sp.sympify(c.expression)
+        expr = as_piecewise(c.expression)
         first = rate(expr) if c.order == 0 else expr  # Φ̇, or Ψ itself
         row = jacobian_row(first)
         if all(v == 0 for v in row):
@@ -91,10 +101,16 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
                 f"constraint {c.name!r} does not depend on any coordinate, so no motion can hold "
                 f"it: check that it names a point or a coordinate"
             )
+        second = rate(first)
+        _check_printable(c.name, (first, second))
+        law = as_piecewise(exact(c.expression))
+        checked = (("Φ", law), ("Φ̇", rate(law))) if c.order == 0 else (("Ψ", law),)
+        warnings += _jump_warnings(c.name, checked, defaults, "continuously differentiable" if c.order == 0 else
+                                   "continuous")
         values.append(define(expr.xreplace(internal)))
         rates.append(define(first.xreplace(internal)) if c.order == 0 else sp.S.Zero)
         rows.append([define(v) for v in row])
-        gammas.append(define(rate(first).xreplace(internal)))
+        gammas.append(define(second.xreplace(internal)))
     m = len(values)
     return ConstraintTerms(
         names=tuple(c.name for c in constraints),
@@ -105,4 +121,44 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
         gamma=sp.Matrix(m, 1, gammas),
         alpha=sp.Matrix(m, 1, [sp.sympify(c.alpha) for c in constraints]),
         beta=sp.Matrix(m, 1, [sp.sympify(c.beta) for c in constraints]),
+        warnings=tuple(warnings),
     )
+
+
+def _check_printable(name, derivatives):
+    """Refuse a law whose derivatives SymPy leaves unevaluated or impulsive (floor, Mod,
+    DiracDelta, undefined functions): generated code could not evaluate them."""
+    for d in derivatives:
+        stuck = sorted(d.atoms(sp.Derivative, sp.DiracDelta), key=sp.default_sort_key)
+        if stuck:
+            function = stuck[0].expr.func if isinstance(stuck[0], sp.Derivative) else stuck[0].func
+            raise DerivationError(
+                f"constraint {name!r}: its law uses {function}, whose derivative generated code cannot "
+                f"evaluate; write the law with smooth functions, Min, Max, Abs, Heaviside or Piecewise"
+            )
+
+
+def _jump_warnings(name, checked, defaults, smooth) -> list[str]:
+    """Messages about the switches where a quantity of constraint ``name`` jumps: one per
+    located switch (naming the first of ``checked``, ``(label, expression)`` pairs, that jumps
+    there), and one for all the switches that could not be located or decided; ``smooth``
+    says what the law should be instead."""
+    variables = list(dict.fromkeys([TIME] + sorted((s for _, e in checked for s in e.free_symbols
+                                                    if s != TIME and s not in defaults), key=str)))
+    consequence = ("the impulse there is not applied and the Baumgarte terms pull the motion back onto the "
+                   f"constraint: make the law {smooth} there (see docs/model-file.md)")
+    messages, seen, undecided = [], set(), {}
+    for label, expr in checked:
+        for switch in jumps(expr, variables, defaults):
+            if not switch.certain:
+                undecided.setdefault(switch.describe(defaults), None)
+            elif switch.where not in seen:
+                seen.add(switch.where)
+                messages.append(f"constraint {name!r}: {label} jumps {switch.describe(defaults)}; {consequence}")
+    if undecided:
+        places = list(undecided)
+        where = ", ".join(places[:3]) + (f" and {len(places) - 3} more places" if len(places) > 3 else "")
+        labels = " or ".join(label for label, _ in checked)
+        messages.append(f"constraint {name!r}: its law switches {where}, and gpmegen cannot tell whether {labels} "
+                        f"jumps there; if it does, {consequence}")
+    return messages
