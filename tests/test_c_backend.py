@@ -126,7 +126,8 @@ def test_accelerations_agree_with_numpy(pairs, key):
 
 
 def test_partition_set_after_loading_is_followed(env):
-    """The partition may be chosen at run time (model 'dependent' = None); C reads it per call."""
+    """The partition may be chosen at run time (model 'dependent' = None); C needs one set, as
+    NumPy does, though its solve picks its own dependent coordinates (tests/test_c_solve_accuracy.py)."""
     c = gpmegen.load(nrfe=2, backend="c")
     n = gpmegen.load(nrfe=2, backend="numpy")
     t, q, qd = next(_states(c, 1, seed=5, scale=0.1))

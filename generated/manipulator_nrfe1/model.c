@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 151d715c49bb8f0f
+Input hash: f73681d760a686dc
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -70,7 +70,7 @@ int gpme_accelerations(double t, const double *q, const double *qd, const double
 int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 /* cffi-cdef-end */
 
-const char *gpmegen_input_hash(void) { return "151d715c49bb8f0f"; }
+const char *gpmegen_input_hash(void) { return "f73681d760a686dc"; }
 int gpmegen_n_dof(void) { return N_DOF; }
 int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
 int gpmegen_n_parameters(void) { return N_PARAMETERS; }
@@ -905,71 +905,110 @@ void gpme_terms(double t, const double *q, const double *qd, const double *p, do
 #endif
 
 
-/* Solve a x = b in place for an n x n row-major matrix a (overwritten by its LU factors) and
-   n_rhs right-hand sides b (n x n_rhs, row-major; overwritten by x). Gaussian elimination with
-   partial pivoting. Returns 2 when an entry of a is not finite, 1 when a pivot is zero or below
-   n * DBL_EPSILON times the largest entry of a (numerically singular), else 0. */
-static int lu_solve(int n, double *a, int n_rhs, double *b)
+/* |x| as the integer of its bits with the sign cleared (IEEE 754 doubles): these integers order
+   like the magnitudes, with infinity and NaN above every finite value. */
+static long long magnitude_bits(double x)
 {
-    double scale = 0.0;
-    for (int i = 0; i < n * n; ++i) {
-        double v = fabs(a[i]);
-        if (!(v <= DBL_MAX)) {
+    const union { double d; long long i; } v = { x };
+    return v.i & 0x7fffffffffffffffLL;
+}
+
+/* Index of the entry of largest magnitude in x[0..n-1] (the first of equal ones), or -1 when an
+   entry is not finite. The maximum is taken over magnitude_bits(), which the compiler vectorizes:
+   a running floating-point maximum is a chain of dependent comparisons, and made the step 3-5%
+   slower at n_rfe = 5. */
+static int largest_entry(const double *x, int n)
+{
+    long long largest = 0;
+    for (int i = 0; i < n; ++i) {
+        const long long m = magnitude_bits(x[i]);
+        largest = m > largest ? m : largest;
+    }
+    if (largest >= 0x7ff0000000000000LL) {  /* the bits of infinity */
+        return -1;
+    }
+    int i = 0;
+    while (magnitude_bits(x[i]) != largest) {
+        ++i;
+    }
+    return i;
+}
+
+/* The constraint rows D qdd = c (D: N_CONSTRAINTS x N_DOF row-major, c: N_CONSTRAINTS) solved
+   for the dependent accelerations, qdd_dc = x_c - X qdd_ic, by Gaussian elimination with
+   complete pivoting: dependent[a] is the coordinate of the a-th pivot, independent the others in
+   increasing order, X[a * NX + j] (NX = N_INDEPENDENT + 1) = (D_dc^-1 D_ic)_aj and
+   X[a * NX + N_INDEPENDENT] = (D_dc^-1 c)_a. Each pivot is the largest entry of the rows not
+   pivoted yet (the elimination leaves exact zeros in the columns already chosen), so
+   |X_aj| <= 2^(N_CONSTRAINTS - 1 - a): the basis B = [I; -X] of the allowed motions stays well
+   conditioned. D and c are overwritten. Returns 2 when an entry of D is not finite, 1 when D has
+   lost rank (a pivot at or below N_DOF * DBL_EPSILON times its largest entry), else 0. */
+static int constraint_basis(double *D, double *c, int *dependent, int *independent, double *X)
+{
+    enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
+    double tiny = 0.0;
+    for (int k = 0; k < NC; ++k) {
+        const int at = largest_entry(D + k * N_DOF, (NC - k) * N_DOF);
+        if (at < 0) {
             return 2;
         }
-        if (v > scale) {
-            scale = v;
-        }
-    }
-    const double tiny = (double)n * DBL_EPSILON * scale;
-    for (int k = 0; k < n; ++k) {
-        int pivot = k;
-        double largest = fabs(a[k * n + k]);
-        for (int i = k + 1; i < n; ++i) {
-            double v = fabs(a[i * n + k]);
-            if (v > largest) {
-                largest = v;
-                pivot = i;
-            }
+        const int pivot_row = k + at / N_DOF, pivot = at % N_DOF;
+        const double largest = fabs(D[k * N_DOF + at]);
+        if (k == 0) {
+            tiny = (double)N_DOF * DBL_EPSILON * largest;
         }
         if (!(largest > tiny)) {
             return 1;
         }
-        if (pivot != k) {
-            for (int j = 0; j < n; ++j) {
-                double s = a[k * n + j];
-                a[k * n + j] = a[pivot * n + j];
-                a[pivot * n + j] = s;
+        dependent[k] = pivot;
+        if (pivot_row != k) {
+            for (int j = 0; j < N_DOF; ++j) {
+                const double s = D[k * N_DOF + j];
+                D[k * N_DOF + j] = D[pivot_row * N_DOF + j];
+                D[pivot_row * N_DOF + j] = s;
             }
-            for (int j = 0; j < n_rhs; ++j) {
-                double s = b[k * n_rhs + j];
-                b[k * n_rhs + j] = b[pivot * n_rhs + j];
-                b[pivot * n_rhs + j] = s;
-            }
+            const double s = c[k];
+            c[k] = c[pivot_row];
+            c[pivot_row] = s;
         }
-        const double inv = 1.0 / a[k * n + k];
-        for (int i = k + 1; i < n; ++i) {
-            const double factor = a[i * n + k] * inv;
-            if (factor == 0.0) {
-                continue;
+        const double *row = D + k * N_DOF;
+        const double inv = 1.0 / row[pivot];
+        for (int a = k + 1; a < NC; ++a) {
+            const double factor = D[a * N_DOF + pivot] * inv;
+            for (int j = 0; j < N_DOF; ++j) {
+                D[a * N_DOF + j] -= factor * row[j];
             }
-            a[i * n + k] = factor;
-            for (int j = k + 1; j < n; ++j) {
-                a[i * n + j] -= factor * a[k * n + j];
-            }
-            for (int j = 0; j < n_rhs; ++j) {
-                b[i * n_rhs + j] -= factor * b[k * n_rhs + j];
-            }
+            D[a * N_DOF + pivot] = 0.0;
+            c[a] -= factor * c[k];
         }
     }
-    for (int i = n - 1; i >= 0; --i) {
-        const double inv = 1.0 / a[i * n + i];
-        for (int j = 0; j < n_rhs; ++j) {
-            double s = b[i * n_rhs + j];
-            for (int k = i + 1; k < n; ++k) {
-                s -= a[i * n + k] * b[k * n_rhs + j];
+    int is_dependent[N_DOF] ALIGNED = {0};
+    for (int a = 0; a < NC; ++a) {
+        is_dependent[dependent[a]] = 1;
+    }
+    for (int j = 0, i = 0; j < N_DOF; ++j) {
+        if (!is_dependent[j]) {
+            independent[i++] = j;
+        }
+    }
+    /* back substitution through the triangle the pivots left in the dependent columns */
+    for (int a = 0; a < NC; ++a) {
+        for (int j = 0; j < NI; ++j) {
+            X[a * NX + j] = D[a * N_DOF + independent[j]];
+        }
+        X[a * NX + NI] = c[a];
+    }
+    for (int a = NC - 1; a >= 0; --a) {
+        const double *row = D + a * N_DOF;
+        for (int b = a + 1; b < NC; ++b) {
+            const double u = row[dependent[b]];
+            for (int j = 0; j < NX; ++j) {
+                X[a * NX + j] -= u * X[b * NX + j];
             }
-            b[i * n_rhs + j] = s * inv;
+        }
+        const double inv = 1.0 / row[dependent[a]];
+        for (int j = 0; j < NX; ++j) {
+            X[a * NX + j] *= inv;
         }
     }
     return 0;
@@ -1050,30 +1089,40 @@ static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
        B^T (M qdd - f) = 0                             one row per independent coordinate,
        D qdd = c,  c = -gamma - 2 alpha phi_rate - beta^2 phi   (position constraints)
                    c = -gamma - alpha phi                       (first-order constraints),
-   with X = D_dc^-1 D_ic and B = [I; -X] arranged by coordinate index (dependent and independent
-   index q). Solved in the independent accelerations z = qdd_ic: every qdd meeting the constraint
-   rows is qdd = B z + qdd_p with qdd_p,dc = x_c = D_dc^-1 c and qdd_p,ic = 0, so the first rows
-   become the reduced system R z = r, R = B^T M B (symmetric positive definite, LDL^T) and
+   with X = D_dc^-1 D_ic and B = [I; -X] arranged by coordinate index. Every basis B of the
+   motions the constraints allow gives the same qdd, so the dependent coordinates are chosen here,
+   at each call, as the pivots of constraint_basis() (|X| <= 2^(m-1) for m constraints), not taken
+   from the model's partition (model_dependent and model_independent do not enter the solve):
+   where the partition's D_dc is nearly singular (elastic angles near 1 rad at n_rfe = 5 and 10)
+   its X is large and cond(B^T M B) grows as |X|^2 cond(M); the factorization below then lost
+   1e-6 of qdd's relative accuracy at cond(B^T M B) ~ 1e11, more beyond, and failed as singular
+   while D was regular.
+   Solved in the independent accelerations z = qdd_ic: every qdd meeting the constraint rows is
+   qdd = B z + qdd_p with qdd_p,dc = x_c = D_dc^-1 c and qdd_p,ic = 0, so the first rows become
+   the reduced system R z = r, R = B^T M B (symmetric positive definite, LDL^T) and
    r = B^T (f - M qdd_p). Written out with W = M_dc,ic - M_dc,dc X and w = f_dc - M_dc,dc x_c:
        R = M_ic,ic - M_ic,dc X - X^T W,    r = f_ic - M_ic,dc x_c - X^T w,
    which forms no M B and only the upper triangle of R.
    *power receives the power of the constraint forces, qd . (M qdd - f) = (M^T qd) . qdd - qd . f:
    M^T qd does not wait for the solve, so it runs beside the factorization.
-   Returns 0; 1 when D_dc or B^T M B is singular; 2 when a term is not finite. */
+   Returns 0; 1 when D has lost rank or B^T M B is singular; 2 when a term is not finite. */
 static int gpme_solve(double t, const double *q, const double *qd, const double *p,
-                      const int *dependent, const int *independent,
+                      const int *model_dependent, const int *model_independent,
                       double *qdd, double *M, double *f, double *power)
 {
     enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
     double phi[NC] ALIGNED, phi_rate[NC] ALIGNED, D[NC * N_DOF] ALIGNED, gam[NC] ALIGNED;
-    double alpha[NC] ALIGNED, beta[NC] ALIGNED;
-    double D_dc[NC * NC] ALIGNED, X[NC * NX] ALIGNED;  /* [X | x_c] = D_dc^-1 [D_ic | c] */
-    double W[NC * NX] ALIGNED;                 /* [W | w] */
+    double alpha[NC] ALIGNED, beta[NC] ALIGNED, c[NC] ALIGNED;
+    int dependent[NC] ALIGNED, independent[NI > 0 ? NI : 1] ALIGNED;
+    double X[NC * NX] ALIGNED;  /* [X | x_c] = D_dc^-1 [D_ic | c] */
+    double W[NC * NX] ALIGNED;  /* [W | w] */
     double R[NI > 0 ? NI * NI : 1] ALIGNED;
     double inv_d[NI > 0 ? NI : 1] ALIGNED, z[NI > 0 ? NI : 1] ALIGNED;
     double m_qd[N_DOF] ALIGNED, qd_f = 0.0;
     int status;
 
+    (void)model_dependent;
+    (void)model_independent;
     gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
     baumgarte_gains(p, alpha, beta);
     /* M^T qd, row by row of M so that the inner loop runs along contiguous memory */
@@ -1089,17 +1138,11 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
         }
     }
     for (int a = 0; a < NC; ++a) {
-        for (int b = 0; b < NC; ++b) {
-            D_dc[a * NC + b] = D[a * N_DOF + dependent[b]];
-        }
-        for (int j = 0; j < NI; ++j) {
-            X[a * NX + j] = D[a * N_DOF + independent[j]];
-        }
-        X[a * NX + NI] = CONSTRAINT_ORDERS[a] == 0
+        c[a] = CONSTRAINT_ORDERS[a] == 0
             ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
             : -gam[a] - alpha[a] * phi[a];
     }
-    if ((status = lu_solve(NC, D_dc, NX, X)) != 0) {
+    if ((status = constraint_basis(D, c, dependent, independent, X)) != 0) {
         return status;
     }
     for (int a = 0; a < NC; ++a) {

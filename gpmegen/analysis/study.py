@@ -113,7 +113,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
 
 
 C_STATUS = {
-    1: f"singular GPME system (D_dc or BᵀMB); {integrate.FIX_SINGULAR}",
+    1: f"singular GPME system (D or BᵀMB); {integrate.FIX_SINGULAR}",
     2: f"non-finite state; {integrate.FIX_NONFINITE}",
     3: "invalid arguments",
 }

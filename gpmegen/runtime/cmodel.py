@@ -21,7 +21,7 @@ from .model import LoadedModel
 RK4_OK, RK4_SINGULAR, RK4_NONFINITE, RK4_BAD_ARGUMENTS = 0, 1, 2, 3
 RK4_STATUS = {
     RK4_OK: "ok",
-    RK4_SINGULAR: "singular GPME system (D_dc or the assembled matrix)",
+    RK4_SINGULAR: "singular GPME system (the constraint Jacobian D lost rank, or BᵀMB)",
     RK4_NONFINITE: "non-finite state or GPME terms",
     RK4_BAD_ARGUMENTS: "invalid arguments",
 }
@@ -191,9 +191,9 @@ class CModel(LoadedModel):
             )
         if status:
             raise SimulationError(
-                f"the GPME system is singular at t = {float(t):g} s (D_dc of the constraint Jacobian or the "
-                f"assembled matrix): choose other dependent coordinates (model 'dependent') or start from "
-                f"a regular configuration"
+                f"the GPME system is singular at t = {float(t):g} s: the constraints are not independent in "
+                f"this configuration (their Jacobian D lost rank) or M is singular on the motions they allow; "
+                f"start from a configuration where the constraints are independent"
             )
         return qdd
 

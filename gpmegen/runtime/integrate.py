@@ -20,8 +20,8 @@ from ..errors import SimulationError
 FIX_NONFINITE = "try a smaller --dt (the flexible modes bound the RK4 step) or check the parameters"
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
                  "within reach")
-FIX_SINGULAR = ("either the motion blew up (try a smaller --dt) or the dependent coordinates lose control of "
-                "the constraints there (use --repartition or choose others)")
+FIX_SINGULAR = ("either the motion blew up (try a smaller --dt) or the constraints are not independent there "
+                "(their Jacobian D lost rank: keep the prescribed motion away from such configurations)")
 
 
 def violation(model, t, q, qd, limit):
