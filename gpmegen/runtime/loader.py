@@ -34,8 +34,9 @@ def import_numpy_module(folder: Path):
     module = importlib.util.module_from_spec(spec)
     try:
         spec.loader.exec_module(module)
-    except (OSError, SyntaxError) as exc:
-        raise BuildError(f"{path} cannot be imported ({exc}); rebuild it with 'gpmegen build --force'") from None
+    except Exception as exc:  # a damaged or hand-edited module: whatever it raises, rebuilding is the fix
+        raise BuildError(f"{path} cannot be imported ({type(exc).__name__}: {exc}); rebuild it with "
+                         f"'gpmegen build --force'") from None
     sys.modules.setdefault(name, module)
     return module
 
@@ -57,6 +58,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     from ..codegen.render import build as build_model
     from ..codegen.render import input_hash, read_manifest, recover_folder
     from ..model import reference_model
+    from ..model.requirements import requirements
     from .model import LoadedModel
 
     if backend not in ("numpy", "c"):
@@ -80,7 +82,8 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     if getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
                               f"'{command or 'gpmegen build'} --force'")
+    needs = requirements(model)
     if backend == "c":
         from .cmodel import CModel
-        return CModel(module, params, folder=folder)
-    return LoadedModel(module, params, "numpy", folder)
+        return CModel(module, params, folder=folder, requirements=needs)
+    return LoadedModel(module, params, "numpy", folder, needs)

@@ -1,0 +1,168 @@
+"""Work that cannot finish is refused before it starts, values that make no physical sense are
+refused wherever they are bound, odd values end in one clear line, and messages speak of the
+user's own model. Each test is named after the defect it provokes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.cli import main
+from gpmegen.errors import BuildError, EvaluationError, ModelError
+from gpmegen.model import Body, Joint, Model, Parameter, Point, shapes
+from gpmegen.model.toml_file import load_model_file
+from gpmegen.runtime.loader import import_numpy_module
+
+# A planar two-link arm (links of length L) whose tip E is held at the height h.
+ARM = """
+schema = 1
+name = "reach_arm"
+gravity = [0, "-g", 0]
+
+[parameters]
+g = 9.81
+m = 1.0
+L = 0.5
+h = 0.3
+c = 1.0
+
+[[chain]]
+joint = "theta"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "upper"
+shape = { type = "rod", mass = "m", length = "L", radius = 0.01 }
+
+[[chain]]
+translation = ["L", 0, 0]
+
+[[chain]]
+joint = "phi"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "lower"
+shape = { type = "rod", mass = "m", length = "L", radius = 0.01 }
+
+[[chain]]
+translation = ["L", 0, 0]
+
+[[chain]]
+point = "E"
+
+[[constraints]]
+name = "height"
+expression = "y_E - h"
+alpha = 10
+beta = 10
+
+[initial]
+q = { theta = 0.5 }
+"""
+
+
+def _file(tmp_path, text, name="arm.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _one_line_error(capsys):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err and "Traceback" not in "\n".join(err) and "internal error" not in "\n".join(err), err
+    return err[-1]
+
+
+def _no_files(folder):
+    return not folder.exists() or not any(folder.iterdir())
+
+
+# --- 7. values that slip through ---------------------------------------------------------------
+
+@pytest.mark.parametrize("value", ["exp(1000)", "exp(exp(exp(1000)))"])
+def test_parameter_value_beyond_a_double_became_inf_or_an_internal_error(tmp_path, value):
+    path = _file(tmp_path, ARM.replace("m = 1.0", f'm = "{value}"'))
+    with pytest.raises(ModelError, match=r"arm\.toml:8: parameters\.m: .*exp\(1000\) = 1\.97e\+434, beyond a double"):
+        load_model_file(path)
+
+
+def test_constant_beyond_a_double_in_a_quantity_became_an_overflow_at_run_time(tmp_path):
+    path = _file(tmp_path, ARM.replace('point = "E"', 'point = "F"\n\n[[chain]]\npoint = "E"\nposition = ["exp(710)*L", 0, 0]'))
+    with pytest.raises(ModelError, match=r"chain\[7\]\.position\[0\]: .*exp\(710\) = .*beyond a double"):
+        load_model_file(path)
+
+
+def test_default_whose_quantity_overflows_is_named(tmp_path):
+    path = _file(tmp_path, ARM.replace("c = 1.0", "c = 1000.0").replace('mass = "m", length = "L"',
+                                                                         'mass = "exp(c)", length = "L"', 1))
+    with pytest.raises(ModelError, match=r"chain\[1\]\.shape\.mass: the mass of body 'upper' = exp\(c\) is not a finite "
+                                         r"real number with the parameter defaults \(c = 1000\)"):
+        load_model_file(path)
+
+
+def test_model_with_an_infinite_default_wrote_a_module_that_cannot_be_imported(tmp_path):
+    model = Model("inf_default", (Parameter("m", math.inf),),
+                  (Joint("q", "revolute", "z"), Body("b", shapes.point_mass(1.0, (1, 0, 0))), Point("P")))
+    with pytest.raises(ModelError, match="parameter 'm' has the default inf, not a finite number"):
+        gpmegen.load(model=model, directory=tmp_path)
+    folder = tmp_path / "old"
+    folder.mkdir()
+    (folder / "model_numpy.py").write_text("DEFAULTS = (1.0, inf)\n")  # written by an older gpmegen
+    with pytest.raises(BuildError, match="cannot be imported \\(NameError.*gpmegen build --force"):
+        import_numpy_module(folder)
+
+
+def test_zero_arm_length_divided_by_zero_in_generated_code(capsys):
+    assert main(["statics", "--nrfe", "1", "--param", "L2=0"]) == 2
+    line = _one_line_error(capsys)
+    assert "the length of flexible link '2' is 0 with L2 = 0; lengths must be positive: change L2" in line
+
+
+def test_negative_mass_by_param_skipped_the_checks_of_model_files(tmp_path, capsys):
+    assert main(["statics", "--nrfe", "1", "--param", "m3=-3"]) == 2
+    assert "the mass of body 'slider' is -3 with m3 = -3; masses must be zero or positive" in _one_line_error(capsys)
+    # a file's default and a value bound at run time get the same words
+    bad = _file(tmp_path, ARM.replace("m = 1.0", "m = -3.0"), "bad.toml")
+    with pytest.raises(ModelError, match=r"bad\.toml:\d+: chain\[1\]\.shape\.mass: the mass of body 'upper' is -3 with "
+                                         r"the parameter defaults \(m = -3\); masses must be zero or positive"):
+        load_model_file(bad)
+    good = load_model_file(_file(tmp_path, ARM))
+    with pytest.raises(ModelError, match=r"model reach_arm: the mass of body 'upper' is -3 with m = -3; masses must "
+                                         r"be zero or positive: change m"):
+        gpmegen.load(model=good, params={"m": -3.0})
+
+
+def test_with_params_bound_unphysical_values(flexible):
+    for change, words in [({"E2": -7e10}, "Young's modulus of flexible link '2'"),
+                          ({"b2": 0.0}, "width of flexible link '2' is 0"),
+                          ({"d2": -0.1}, "damping coefficients must be zero or positive"),
+                          ({"alpha_circle": -1.0}, "Baumgarte gains must be zero or positive"),
+                          ({"R1": -0.05}, "radius of body 'column'")]:
+        with pytest.raises(ModelError, match=words):
+            flexible.with_params(**change)
+    massless = flexible.with_params(m3=0.0, L3=0.0)  # a massless slider of no length is still a model
+    assert massless.params["m3"] == 0.0
+
+
+def test_division_by_zero_in_generated_code_was_an_internal_error(tmp_path, capsys):
+    text = ARM.replace('[[chain]]\npoint = "E"', '[[chain]]\npoint = "E"\nposition = ["1/c", 0, 0]')
+    path = _file(tmp_path, text.split("[[constraints]]")[0])
+    assert main(["statics", str(path), "--param", "c=0"]) == 1
+    line = _one_line_error(capsys)
+    assert "model reach_arm: points divides by zero" in line and "--param" in line
+    model = gpmegen.load(model=load_model_file(path), directory=tmp_path / "gen", params={"c": 0.0})
+    with pytest.raises(EvaluationError, match="points divides by zero"):
+        model.point_positions(np.zeros(model.n_dof))
+
+
+def test_overflow_in_generated_code_was_an_internal_error(tmp_path, capsys):
+    path = _file(tmp_path, ARM.replace('gravity = [0, "-g", 0]', 'gravity = [0, "-g*exp(c)", 0]'))
+    assert main(["statics", str(path), "--statics", "locked", "--param", "c=1000"]) == 1
+    line = _one_line_error(capsys)
+    assert "model reach_arm: " in line and "overflows a double (math range error)" in line
