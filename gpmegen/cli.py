@@ -164,6 +164,9 @@ def _start(source, backend, start, overrides):
     file's [initial] configuration (projected onto the constraints, optionally after statics)."""
     from .analysis import study
 
+    if isinstance(source, int) and start == "initial":
+        raise UsageError("--statics initial is for model files; the reference case starts from statics "
+                         "(--statics locked or constrained)")
     if isinstance(source, int):
         model = _load(source, backend, {k: v for k, v in overrides.items() if k not in ("r_Ea", "y_c")})
         progress(f"statics ({start} start) for n_rfe = {source}")
@@ -227,8 +230,6 @@ def cmd_simulate(args) -> int:
     overrides = dict(args.param or [])
     source = _source(args)
     start = args.statics or ("locked" if isinstance(source, int) else "initial")
-    if isinstance(source, int) and start == "initial":
-        raise UsageError("--statics initial is for model files; the reference case starts from statics")
     name = f"run_nrfe{source}" if isinstance(source, int) else Path(args.model_file).stem
     run_study(source, start, args.t_end, args.dt, args.save_every, args.method, backend,
               overrides, Path(args.out or f"results/{name}.npz"), repartition=args.repartition)

@@ -5,6 +5,8 @@ user's own model. Each test is named after the defect it provokes."""
 from __future__ import annotations
 
 import math
+import re
+import types
 
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from gpmegen.cli import main
 from gpmegen.errors import BuildError, EvaluationError, ModelError
 from gpmegen.model import Body, Joint, Model, Parameter, Point, shapes
 from gpmegen.model.toml_file import load_model_file
+from gpmegen.runtime import ccompile
 from gpmegen.runtime.loader import import_numpy_module
 
 # A planar two-link arm (links of length L) whose tip E is held at the height h.
@@ -118,6 +121,11 @@ def test_model_with_an_infinite_default_wrote_a_module_that_cannot_be_imported(t
         import_numpy_module(folder)
 
 
+def test_statics_initial_on_the_reference_case_was_an_internal_error(capsys):
+    assert main(["statics", "--nrfe", "1", "--statics", "initial"]) == 2
+    assert "--statics initial is for model files" in _one_line_error(capsys)
+
+
 def test_zero_arm_length_divided_by_zero_in_generated_code(capsys):
     assert main(["statics", "--nrfe", "1", "--param", "L2=0"]) == 2
     line = _one_line_error(capsys)
@@ -166,3 +174,49 @@ def test_overflow_in_generated_code_was_an_internal_error(tmp_path, capsys):
     assert main(["statics", str(path), "--statics", "locked", "--param", "c=1000"]) == 1
     line = _one_line_error(capsys)
     assert "model reach_arm: " in line and "overflows a double (math range error)" in line
+
+
+@pytest.mark.parametrize("damage", ["empty", "truncated", "bad_crc", "no_samples"])
+def test_plot_of_a_damaged_results_file_was_an_internal_error(tmp_path, capsys, damage):
+    good = tmp_path / "good.npz"
+    assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.01", "--dt", "1e-3",
+                 "--out", str(good)]) == 0
+    data = bytearray(good.read_bytes())
+    bad = tmp_path / f"{damage}.npz"
+    if damage == "empty":
+        bad.write_bytes(b"")
+    elif damage == "truncated":
+        bad.write_bytes(data[: len(data) // 2])
+    elif damage == "bad_crc":
+        middle = len(data) // 3
+        data[middle:middle + 40] = bytes(b ^ 0x55 for b in data[middle:middle + 40])
+        bad.write_bytes(data)
+    else:
+        arrays = dict(np.load(good))
+        np.savez(bad, **{**arrays, "t": arrays["t"][:0], "q": arrays["q"][:0]})
+    capsys.readouterr()
+    assert main(["plot", str(bad), "--out", str(tmp_path / "figures")]) == 1
+    line = _one_line_error(capsys)
+    assert line.startswith(f"gpmegen plot: error: {bad}: ") and "gpmegen simulate" in line
+
+
+def test_read_only_cache_failed_on_a_temporary_file_name(tmp_path, capsys, monkeypatch):
+    try:
+        ccompile.find_compiler()
+    except BuildError:
+        pytest.skip("no C compiler")
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    monkeypatch.setenv("GPMEGEN_CACHE", str(cache))
+
+    def refused(prefix="", suffix="", dir=None):  # what the OS answers in a read-only folder
+        raise PermissionError(13, "Permission denied", f"{dir}/{prefix}x{suffix}")
+
+    monkeypatch.setattr(ccompile, "tempfile", types.SimpleNamespace(mkstemp=refused))
+    with pytest.raises(BuildError, match=re.escape(f"C cache folder {cache} (Permission denied); set GPMEGEN_CACHE")):
+        gpmegen.load(nrfe=1, backend="c")
+    out = tmp_path / "run.npz"
+    assert main(["simulate", "--nrfe", "1", "--t-end", "0.002", "--dt", "1e-3", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"C backend unavailable (cannot write the compiled library into the C cache folder {cache}" in err
+    assert "using the NumPy backend" in err and out.exists()
