@@ -12,8 +12,11 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen import limits
+from gpmegen.analysis import study
 from gpmegen.cli import main
 from gpmegen.errors import BuildError, EvaluationError, ModelError
+from gpmegen.limits import LimitError
 from gpmegen.model import Body, Joint, Model, Parameter, Point, shapes
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile
@@ -84,6 +87,96 @@ def _one_line_error(capsys):
 
 def _no_files(folder):
     return not folder.exists() or not any(folder.iterdir())
+
+
+# --- 6. bounds on resources --------------------------------------------------------------------
+
+def test_build_of_500_rfes_ran_until_killed(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["build", "--nrfe", "500", "--out", str(out)]) == 2
+    line = _one_line_error(capsys)
+    assert "manipulator_nrfe500 (n_dof = 1500) would take about " in line and " GB of memory" in line
+    assert "limit of 3600 s" in line and "--no-limits" in line
+    assert _no_files(out / "manipulator_nrfe500")
+
+
+def test_build_of_500_rfes_ran_until_killed_from_python(tmp_path):
+    with pytest.raises(LimitError, match=r"n_dof = 1500"):
+        gpmegen.load(nrfe=500, directory=tmp_path)
+    assert not (tmp_path / "manipulator_nrfe500").exists()
+
+
+def test_model_file_of_10000_chain_elements_ran_until_killed(tmp_path, capsys):
+    elements = "".join(f'[[chain]]\njoint = "q{k}"\ntype = "revolute"\naxis = "z"\n\n'
+                       f'[[chain]]\nbody = "b{k}"\nshape = {{ type = "point_mass", mass = 1 }}\n\n'
+                       for k in range(5000))
+    # a fault in the last element: a reader that went through the chain would report it instead
+    path = _file(tmp_path, 'schema = 1\nname = "long_chain"\n\n' + elements + '[[chain]]\nnosuch = 1\n')
+    assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 2
+    line = _one_line_error(capsys)
+    assert f"{path} (10001 chain elements, n_dof = 5000)" in line and "GB of memory" in line
+    assert "available" in line and "--no-limits" in line
+
+
+def test_simulation_of_1e14_saved_steps_filled_the_memory(tmp_path, capsys, monkeypatch):
+    empty = tmp_path / "generated"
+    empty.mkdir()
+    monkeypatch.setenv("GPMEGEN_GENERATED", str(empty))  # nothing to load: refused before loading
+    out = tmp_path / "run.npz"
+    assert main(["simulate", "--t-end", "1e9", "--save-every", "1", "--backend", "numpy", "--out", str(out)]) == 2
+    line = _one_line_error(capsys)
+    assert "1e+14 RK4 steps of n_dof = 15 in NumPy, saving 1e+14 samples" in line
+    assert "years" in line and "GB of memory" in line and "of memory available" in line
+    assert _no_files(empty) and not out.exists()
+
+
+def test_simulation_at_a_step_of_1e_300_ran_forever_even_without_limits(tmp_path, capsys):
+    out = tmp_path / "run.npz"
+    for extra in ([], ["--no-limits"]):
+        assert main(["simulate", "--nrfe", "1", "--dt", "1e-300", "--out", str(out), *extra]) == 2
+        line = _one_line_error(capsys)
+        assert "1e+301 steps, more than any run can count" in line and "--dt" in line
+    assert not out.exists()
+
+
+def test_simulation_from_python_is_refused_too(rigid):
+    model, q0 = study.initial_state(rigid)
+    with pytest.raises(LimitError, match="saving 1e\\+14 samples"):
+        study.simulate(model, q0, 1e9, dt=1e-5, save_every=1)
+
+
+def test_no_limits_lifts_the_refusal(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(limits, "MAX_SECONDS", 0.0)  # everything is over the limit now
+    argv = ["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.002", "--dt", "1e-3",
+            "--out", str(tmp_path / "run.npz")]
+    assert main(argv) == 2
+    assert "--no-limits" in _one_line_error(capsys)
+    assert main(argv + ["--no-limits"]) == 0
+    with pytest.raises(LimitError):
+        limits.check_build(3, "tiny")
+    with limits.lifted():
+        limits.check_build(3, "tiny")
+
+
+def test_compile_of_a_huge_c_file_is_refused():
+    with pytest.raises(LimitError, match=r"compiling model\.c \(50 MB of C\).*--backend numpy"):
+        limits.check_compile(50_000_000, "model.c")
+
+
+def test_estimates_follow_the_measurements_and_grow_beyond_them():
+    for points in (limits.BUILD_SECONDS, limits.BUILD_BYTES, limits.COMPILE_SECONDS):
+        for x, y in points:
+            assert limits.interpolate(points, x) == pytest.approx(y)
+        assert limits.interpolate(points, 10 * points[-1][0]) > 10 * points[-1][1]  # faster than linear
+
+
+def test_nrfe_of_24_digits_was_an_internal_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["build", "--nrfe", "1" + "0" * 23, "--out", str(tmp_path)])
+    assert exit_.value.code == 2
+    assert "is more than any count can hold" in capsys.readouterr().err
+    with pytest.raises(LimitError, match="n_dof = 300000000000000000000000"):
+        gpmegen.load(nrfe=10**23, directory=tmp_path)
 
 
 # --- 7. values that slip through ---------------------------------------------------------------

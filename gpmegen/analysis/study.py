@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import limits
 from ..errors import SimulationError
 from ..runtime import integrate, partition, statics
 
@@ -96,7 +97,9 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     """The constrained motion from rest at ``q0``; returns a results dict (see
     :mod:`gpmegen.analysis.results`). The conditioning of the dependent block of ``D`` is
     watched: ``notify`` (a callable taking a message) is told when it degrades, and with
-    ``repartition`` the dependent coordinates are chosen anew."""
+    ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that cannot finish
+    is refused before it starts (:func:`gpmegen.limits.check_run`)."""
+    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
     qd0 = np.zeros(model.n_dof)
     watch = partition.Watch(model, repartition, notify)
     if method == "rk4" and hasattr(model, "rk4"):

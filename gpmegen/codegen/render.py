@@ -19,7 +19,7 @@ from pathlib import Path
 
 import jinja2
 
-from .. import __version__
+from .. import __version__, limits
 from ..errors import BuildError
 from ..model.chain import Model
 from ..symbolic import derive
@@ -238,6 +238,7 @@ def _build_locked(model, folder, backends, force, progress, command) -> BuildRes
     ):
         files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
         return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
+    limits.check_build(limits.model_coordinates(model), model.name)
     texts = render(model, backends, progress, command)
     write_folder(folder, texts)
     return BuildResult(

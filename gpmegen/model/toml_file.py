@@ -74,6 +74,7 @@ read here (e.g. the derivation's ``DerivationError``).
 from __future__ import annotations
 
 import difflib
+import functools
 import keyword
 import math
 import re
@@ -87,6 +88,7 @@ from tokenize import TokenError
 
 from sympy.parsing.sympy_parser import auto_number, convert_xor, parse_expr
 
+from .. import limits
 from ..errors import GpmegenError, ModelError
 from . import shapes
 from .chain import (
@@ -96,7 +98,7 @@ from .chain import (
 )
 from .expand import expand
 from .requirements import evaluate, requirements, violation
-from .rfem import discretize
+from .rfem import discretize, link_coordinates
 
 SCHEMA = 1
 
@@ -323,7 +325,7 @@ class _Reader:
 
     def __init__(self, path, text: str, nrfe):
         self.file = str(path)
-        self.locator = _Locator(text)
+        self.source = text
         self.nrfe_argument = nrfe
         self.names: dict[str, tuple[str, tuple]] = {}   # name -> (what, path), expand's namespace
         self.params: dict[str, sp.Symbol] = {}
@@ -335,6 +337,11 @@ class _Reader:
         self.drive_paths: dict[str, tuple] = {}
         self.labels: dict[str, tuple] = {}
         self.constraint_paths: dict[str, tuple] = {}
+
+    @functools.cached_property
+    def locator(self) -> _Locator:
+        """Line numbers, found when a message first needs one (a scan of the whole text)."""
+        return _Locator(self.source)
 
     # ---- errors ------------------------------------------------------------------------------
     def where(self, path) -> str:
@@ -618,6 +625,7 @@ class _Reader:
         parameters = self.read_parameters(data.get("parameters", {}))
         if "chain" not in data:
             self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
+        self.check_chain_size(data["chain"])
         chain = self.read_chain(data["chain"])
         gravity = self.read_vector(data.get("gravity", [0, 0, 0]), ("gravity",), self.params)
         drives = self.read_drives(data.get("drives", []))
@@ -634,6 +642,21 @@ class _Reader:
         except ModelError as exc:
             raise ModelError(self.context(exc) + str(exc)) from None
         return ModelFile(self.file, model, initial)
+
+    def check_chain_size(self, items):
+        """Refuse, before reading it element by element, a chain whose build cannot finish
+        (:func:`gpmegen.limits.check_build`): its coordinates are counted from the raw tables."""
+        if not isinstance(items, list):
+            return
+        n_dof = 0
+        for item in items:
+            if isinstance(item, dict) and "joint" in item:
+                n_dof += 1
+            elif isinstance(item, dict) and "flexible" in item:
+                n_rfe = item.get("nrfe", self.default_nrfe)
+                if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
+                    n_dof += link_coordinates(n_rfe)
+        limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
 
     def read_parameters(self, table):
         path = ("parameters",)
