@@ -170,6 +170,21 @@ def test_estimates_follow_the_measurements_and_grow_beyond_them():
         assert limits.interpolate(points, 10 * points[-1][0]) > 10 * points[-1][1]  # faster than linear
 
 
+def test_symmetry_check_simplified_an_inertia_entry_for_ever(tmp_path):
+    text = ARM.replace('c = 1.0\n', 'c = 1.0\na = 1.0\nb = 1.0\nd = 1.0\n').replace(
+        'shape = { type = "rod", mass = "m", length = "L", radius = 0.01 }\n\n[[chain]]\ntranslation',
+        'mass = "m"\ninertia = [[1, "(a+b+c+d)**100", 0], [0, 1, 0], [0, 0, 1]]\n\n[[chain]]\ntranslation', 1)
+    with pytest.raises(ModelError, match=r"chain\[1\]\.inertia\[1\]\[0\]: the inertia tensor is not symmetric"):
+        load_model_file(_file(tmp_path, text))
+    # the same product written two ways is one quantity; two parameters equal only at their
+    # defaults are not
+    same = text.replace('[[1, "(a+b+c+d)**100", 0], [0, 1, 0]', '[[1, "m*a/2", 0], ["0.5*a*m", 1, 0]')
+    assert load_model_file(_file(tmp_path, same, "same.toml")).name == "reach_arm"
+    other = text.replace('[[1, "(a+b+c+d)**100", 0], [0, 1, 0]', '[[1, "a", 0], ["b", 1, 0]')
+    with pytest.raises(ModelError, match="not symmetric"):
+        load_model_file(_file(tmp_path, other, "other.toml"))
+
+
 def test_nrfe_of_24_digits_was_an_internal_error(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["build", "--nrfe", "1" + "0" * 23, "--out", str(tmp_path)])
