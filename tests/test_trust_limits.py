@@ -328,3 +328,24 @@ def test_read_only_cache_failed_on_a_temporary_file_name(tmp_path, capsys, monke
     err = capsys.readouterr().err
     assert f"C backend unavailable (cannot write the compiled library into the C cache folder {cache}" in err
     assert "using the NumPy backend" in err and out.exists()
+
+
+# --- 8. messages that name the wrong model -----------------------------------------------------
+
+def test_unreachable_height_was_blamed_on_the_circle_radius(tmp_path, capsys):
+    path = _file(tmp_path, ARM)
+    assert main(["statics", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["statics", str(path), "--param", "h=5"]) == 1
+    line = _one_line_error(capsys)
+    assert "model reach_arm: the programmed constraints cannot be met" in line and "moving theta" in line
+    assert "height = -4.0" in line and "reach" in line
+    assert "r_Ea" not in line and "y_c" not in line and "circle" not in line
+
+
+def test_reference_case_keeps_its_own_hint(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.01", "--dt", "1e-3",
+                 "--param", "r_Ea=1e6"]) == 1
+    line = _one_line_error(capsys)
+    assert "circle = " in line and "r_Ea" in line and "y_c" in line
