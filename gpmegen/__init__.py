@@ -11,13 +11,17 @@ __all__ = [
     "load", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
-    "SimulationError", "__version__",
+    "SimulationError", "limits", "__version__",
 ]
 
 
 def __getattr__(name):
     # The public names come from gpmegen.api when first used, so that importing the package (as
     # the console command does before it can catch Ctrl-C) costs nothing.
+    if name == "limits":  # a submodule: imported as one, never through gpmegen.api
+        import importlib
+
+        return importlib.import_module(f"{__name__}.limits")
     if name in __all__:
         from . import api
 

@@ -21,10 +21,12 @@ from .folder import read_manifest, recover_folder, stale_reason
 from .model import (
     Body, Constraint, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point, reference_model,
 )
+from .model.requirements import requirements
 from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
 from .version import __version__
+from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 
 
 def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,
@@ -52,12 +54,12 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest)
-    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild)
+    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model))
 
 
 __all__ = [
     "load", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
-    "SimulationError", "__version__",
+    "SimulationError", "limits", "__version__",
 ]

@@ -7,6 +7,7 @@ problem and the fix, never a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
@@ -14,17 +15,20 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
 from .errors import BuildError, DerivationError, GpmegenError, ModelError
 
 
 def positive_int(text: str) -> int:
-    """argparse type: a whole number ≥ 1."""
+    """argparse type: a whole number ≥ 1 that fits a machine integer."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number (use 1 for the rigid arm)") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"{value} is below 1 (use 1 for the rigid arm, 2 or more for a flexible arm)")
+    if value > sys.maxsize:
+        raise argparse.ArgumentTypeError(f"{text} is more than any count can hold (at most {sys.maxsize})")
     return value
 
 
@@ -185,6 +189,9 @@ def _start(source, backend, start, overrides):
     file's [initial] configuration (projected onto the constraints, optionally after statics)."""
     from .analysis import study
 
+    if isinstance(source, int) and start == "initial":
+        raise UsageError("--statics initial is for model files; the reference case starts from statics "
+                         "(--statics locked or constrained)")
     if isinstance(source, int):
         model = _load(source, backend, {k: v for k, v in overrides.items() if k not in ("r_Ea", "y_c")})
         progress(f"statics ({start} start) for n_rfe = {source}")
@@ -206,7 +213,9 @@ def run_study(source, start, t_end, dt, save_every, method, backend, overrides, 
     from .analysis import study
 
     _check_results_path(out)
-    model, q0 = _start(source, backend or _default_backend(), start, overrides)
+    backend = backend or _default_backend()
+    _check_run(source, t_end, dt, save_every, method, backend)
+    model, q0 = _start(source, backend, start, overrides)
     reference = ("theta1", "psi2", "x3")
     shown = list(reference) if set(reference) <= set(model.coordinates) else list(model.coordinates[:3])
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
@@ -235,6 +244,17 @@ def run_study(source, start, t_end, dt, save_every, method, backend, overrides, 
     return res
 
 
+def _check_run(source, t_end, dt, save_every, method, backend):
+    """Refuse, before anything is loaded or solved, a run that cannot finish (gpmegen.limits)."""
+    from .model import reference_model
+
+    if isinstance(source, int):
+        model = reference_model(source)
+    else:
+        (model, _), = _file_models(source[0], [source[1]] if source[1] else None)
+    limits.check_run(limits.model_coordinates(model), len(model.constraints), t_end, dt, save_every, method, backend)
+
+
 class SimulationStopped(GpmegenError):
     """The run ended early (diverged or interrupted); partial results were written."""
 
@@ -249,8 +269,6 @@ def cmd_simulate(args) -> int:
     overrides = dict(args.param or [])
     source = _source(args)
     start = args.statics or ("locked" if isinstance(source, int) else "initial")
-    if isinstance(source, int) and start == "initial":
-        raise UsageError("--statics initial is for model files; the reference case starts from statics")
     name = f"run_nrfe{source}" if isinstance(source, int) else Path(args.model_file).stem
     out = Path(args.out if args.out is not None else f"results/{name}.npz")
     run_study(source, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
@@ -425,6 +443,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--results", type=path_argument, default="results", help="folder for results (default results/)")
     d.add_argument("--figures", type=path_argument, default="figures", help="folder for figures (default figures/)")
     d.set_defaults(func=cmd_demo)
+    for p in (b, s, st, m, c, d):
+        p.add_argument("--no-limits", action="store_true",
+                       help="start even work estimated to take more than an hour or more memory than is available")
     return parser
 
 
@@ -432,8 +453,9 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
-    except UsageError as exc:
+        with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext():
+            return args.func(args)
+    except (UsageError, limits.LimitError) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:
@@ -445,6 +467,11 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print(f"gpmegen {args.command}: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        print(f"gpmegen {args.command}: error: out of memory; ask for a smaller model or run (without "
+              f"--no-limits, work that needs more memory than is available is refused before it starts)",
+              file=sys.stderr)
+        return 1
     except OSError as exc:
         where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
         print(f"gpmegen {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)

@@ -38,3 +38,8 @@ class SimulationError(GpmegenError):
     def __init__(self, message, partial=None):
         super().__init__(message)
         self.partial = partial
+
+
+class EvaluationError(SimulationError):
+    """A generated function failed arithmetically (division by zero, overflow, a root or log of
+    a negative number) at the parameter values and state it was given."""

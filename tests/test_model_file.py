@@ -145,7 +145,7 @@ BAD = [
      "unknown joint type 'rotary'"),
     ("joint-axis", [('axis = "z"', 'axis = "w"')], 'axis = "w"', "chain[0].axis", "unknown axis 'w'"),
     ("negative-mass", [('mass = "m"', "mass = -2")], "mass = -2", "chain[1].shape.mass",
-     "negative value -2; masses must be positive"),
+     "negative value -2; masses must be zero or positive"),
     ("negative-mass-default", [("m = { value = 1.0", "m = { value = -1.0")], 'mass = "m"', "chain[1].shape.mass",
      "-1 with the parameter defaults"),
     ("zero-length", [('length = "L"\nsection', "length = 0\nsection")], "length = 0", "chain[2].length",

@@ -15,7 +15,7 @@ import numpy as np
 from ..model.chain import Body, Model, Point
 from ..model.reference import PARAMETERS, reference_arm
 from ..model.rfem import check_nrfe
-from ..model.shapes import solid_cylinder
+from ..model.shapes import shape_quantities, solid_cylinder
 from ..runtime import statics
 from . import beam
 from .modes import natural_frequencies
@@ -34,7 +34,9 @@ def clamped_arm_model(nrfe: int, with_slider: bool = False) -> Model:
     P = {p.name: p.symbol for p in parameters}
     chain = [reference_arm(P, nrfe), Point("tip", (0, 0, 0))]
     if with_slider:
-        chain += [Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x")), Point("E", (P["L3"], 0, 0))]
+        slider = Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x"),
+                      shape_quantities(mass=P["m3"], radius=P["R3"], length=P["L3"]))
+        chain += [slider, Point("E", (P["L3"], 0, 0))]
     return Model(
         name=f"clamped_arm{'_slider' if with_slider else ''}_nrfe{nrfe}",
         parameters=parameters,

@@ -9,6 +9,8 @@ so that a reader can tell the two files of one run from a mismatched pair.
 from __future__ import annotations
 
 import uuid
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -65,11 +67,17 @@ def load(path) -> dict:
             data = {k: f[k] for k in f.files}
     except FileNotFoundError:
         raise ResultsError(f"{path}: no such file; run 'gpmegen simulate' first") from None
-    except (OSError, ValueError) as exc:
-        raise ResultsError(f"{path}: not a gpmegen results file (cannot read it as NPZ: {exc})") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:  # empty, truncated, foreign
+        raise ResultsError(f"{path}: not a gpmegen results file, or an incomplete one (cannot read it as NPZ: "
+                           f"{exc or type(exc).__name__}); make it again with 'gpmegen simulate'") from None
     if str(data.get("format", "")) != FORMAT:
         raise ResultsError(f"{path}: not a gpmegen results file (no '{FORMAT}' marker); make it with 'gpmegen simulate'")
     missing = [k for k in REQUIRED if k not in data]
     if missing:
         raise ResultsError(f"{path}: results file lacks {', '.join(missing)}; make it again with 'gpmegen simulate'")
+    samples = {k: data[k].shape[0] if data[k].ndim else None for k in REQUIRED if k != "coordinates"}
+    if not samples["t"] or len(set(samples.values())) != 1:
+        counts = ", ".join(f"{k} {v}" for k, v in samples.items())
+        raise ResultsError(f"{path}: the results hold no samples or disagree on their number ({counts}); make "
+                           f"them again with 'gpmegen simulate'")
     return data

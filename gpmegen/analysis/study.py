@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import limits
 from ..errors import SimulationError
 from ..runtime import integrate, partition, statics
 
@@ -31,25 +32,38 @@ def constraint_constants(model, q) -> dict:
     return {"r_Ea": float(np.hypot(x, z)), "y_c": float(y - model.params["A"])}
 
 
-def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50):
-    """Move the dependent coordinates so that Φ(q, t) = 0 (Newton on the m×m block)."""
+REACH_HINT = "is the circle radius r_Ea or the height y_c beyond the arm's reach?"
+
+
+def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None):
+    """Move the dependent coordinates so that Φ(q, t) = 0 (Newton on the m×m block). When it
+    fails, the message names the model's constraints left violated, with their values at the
+    closest configuration found, and ends with ``hint`` (default: a generic one)."""
     q = np.array(q, dtype=float)
     dep = model.dependent
     qd = np.zeros_like(q)
+    closest = None
     for _ in range(max_iter):
         phi, _, D, _ = model.constraint_terms(t, q, qd)
-        if np.max(np.abs(phi), initial=0.0) <= tol:
+        worst = np.max(np.abs(phi), initial=0.0)
+        if worst <= tol:
             return q
+        if closest is None or worst < np.max(np.abs(closest)):
+            closest = phi
         try:
             q[dep] -= np.linalg.solve(D[:, dep], phi)
         except np.linalg.LinAlgError:
             break
         if not np.all(np.isfinite(q)):
             break
+    violated = ", ".join(f"{name} = {value:.3e}" for name, value in zip(model.constraint_names, closest)
+                         if abs(value) > tol)
+    moved = ", ".join(model.coordinates[k] for k in dep)
     raise SimulationError(
-        f"the programmed constraints cannot be met from the start configuration (|Φ| = "
-        f"{np.max(np.abs(phi)):.3e}): is the circle radius r_Ea or the height y_c beyond the arm's reach?"
-    )
+        f"model {model.module.MODEL}: the programmed constraints cannot be met from the start configuration by "
+        f"moving {moved}: at best {violated}; "
+        + (hint or "is the prescribed position within the chain's reach with these parameter values and this "
+                   "start ([initial] q)?"))
 
 
 def initial_state(model, start="locked", overrides=None):
@@ -63,7 +77,7 @@ def initial_state(model, start="locked", overrides=None):
     constants.update({k: v for k, v in overrides.items() if k in constants})
     model = model.with_params(**constants)
     if {"r_Ea", "y_c"} & overrides.keys():
-        q = project_onto_constraints(model, q)
+        q = project_onto_constraints(model, q, hint=REACH_HINT)
     if start == "constrained":
         q = statics.constrained(model, q)
     elif start != "locked":
@@ -96,7 +110,9 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     """The constrained motion from rest at ``q0``; returns a results dict (see
     :mod:`gpmegen.analysis.results`). The conditioning of the dependent block of ``D`` is
     watched: ``notify`` (a callable taking a message) is told when it degrades, and with
-    ``repartition`` the dependent coordinates are chosen anew."""
+    ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that cannot finish
+    is refused before it starts (:func:`gpmegen.limits.check_run`)."""
+    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
     qd0 = np.zeros(model.n_dof)
     watch = partition.Watch(model, repartition, notify)
     if method == "rk4" and hasattr(model, "rk4"):

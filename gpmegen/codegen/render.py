@@ -14,6 +14,7 @@ from pathlib import Path
 
 import jinja2
 
+from .. import limits
 from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
 from ..symbolic import derive
@@ -169,6 +170,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest) -> 
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
         if manifest is not None and progress is not None:
             progress(f"{reason}: building it again")
+    limits.check_build(limits.model_coordinates(model), model.name)
     texts = render(model, backends, progress, command, digest)
     write_folder(folder, texts)
     return BuildResult(

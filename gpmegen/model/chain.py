@@ -118,10 +118,16 @@ class Offset:
 @dataclass(frozen=True)
 class Body:
     """A rigid body attached to the current frame; ``pseudo_inertia`` is the 4x4 matrix
-    ``∫ [x y z 1]ᵀ[x y z 1] dm`` in that frame (SymPy Matrix of parameter expressions)."""
+    ``∫ [x y z 1]ᵀ[x y z 1] dm`` in that frame (SymPy Matrix of parameter expressions).
+
+    ``quantities``: the mass, sizes and moments the body was described with, as ``(key,
+    expression)`` pairs keyed as a model file writes them (``("shape", "radius")``), so that any
+    parameter values can be checked against them (:mod:`gpmegen.model.requirements`); empty:
+    the mass ``pseudo_inertia[3, 3]`` alone is checked."""
 
     name: str
     pseudo_inertia: sp.ImmutableMatrix
+    quantities: tuple = ()
 
 
 @dataclass(frozen=True)

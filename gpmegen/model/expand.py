@@ -3,6 +3,7 @@ points (flexible links discretized by RFEM)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import sympy as sp
@@ -72,6 +73,9 @@ def expand(model: Model) -> FlatChain:
 
     for p in model.parameters:
         claim(p.name, "parameter")
+        if not math.isfinite(float(p.default)):
+            raise ModelError(f"parameter {p.name!r} has the default {p.default}, not a finite number; give a "
+                             f"value below 1e308 in size")
     params = {p.symbol for p in model.parameters}
     constant = params  # expressions of the chain may use parameters only
 

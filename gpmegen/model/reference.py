@@ -9,7 +9,7 @@ from .chain import (
     TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point,
     RectangularSection, point_symbols, symbol,
 )
-from .shapes import solid_cylinder
+from .shapes import shape_quantities, solid_cylinder
 
 PARAMETERS = (
     Parameter("g", 9.81, "m/s^2", "gravitational acceleration, along -y0"),
@@ -67,12 +67,14 @@ def reference_model(nrfe: int = 5) -> Model:
     P = {p.name: p.symbol for p in PARAMETERS}
     chain = (
         Joint("theta1", "revolute", "y"),
-        Body("column", solid_cylinder(P["m1"], P["R1"], P["h1"], "y")),
+        Body("column", solid_cylinder(P["m1"], P["R1"], P["h1"], "y"),
+             shape_quantities(mass=P["m1"], radius=P["R1"], length=P["h1"])),
         Offset((0, P["h1"], 0)),
         Joint("psi2", "revolute", "z"),
         reference_arm(P, nrfe),
         Joint("x3", "prismatic", "x"),
-        Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x")),
+        Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x"),
+             shape_quantities(mass=P["m3"], radius=P["R3"], length=P["L3"])),
         Point("E", (P["L3"], 0, 0)),
     )
     x, y, z = point_symbols("E")

@@ -18,6 +18,11 @@ from .shapes import bar, rod
 SDE_ROTATIONS = (("psi", "z"), ("theta", "y"), ("phi", "x"))
 
 
+def link_coordinates(n_rfe: int) -> int:
+    """Coordinates of a flexible link of ``n_rfe`` rfes: the three rotations of each sde."""
+    return len(SDE_ROTATIONS) * (n_rfe - 1)
+
+
 def section_properties(section):
     """Area (m²), second moments ``Iy, Iz`` about the local y and z axes (m⁴), and the default
     torsion constant (m⁴) of a cross-section."""

@@ -35,6 +35,12 @@ def from_inertia_tensor(mass, center, inertia):
     )
 
 
+def shape_quantities(**quantities) -> tuple:
+    """``Body.quantities`` of a body made from a shape: ``(("shape", name), value)`` pairs in the
+    order given (the order of the shape's keys in a model file)."""
+    return tuple((("shape", name), value) for name, value in quantities.items())
+
+
 def solid_cylinder(mass, radius, length, axis):
     """Solid cylinder of ``radius`` whose axis runs along ``axis`` from 0 to ``length``."""
     k = AXES.index(axis)

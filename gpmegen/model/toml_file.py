@@ -76,6 +76,7 @@ read here (e.g. the derivation's ``DerivationError``).
 from __future__ import annotations
 
 import difflib
+import functools
 import keyword
 import math
 import re
@@ -89,6 +90,7 @@ from tokenize import TokenError
 
 from sympy.parsing.sympy_parser import auto_number, convert_xor, parse_expr
 
+from .. import limits
 from ..errors import GpmegenError, ModelError
 from . import shapes
 from .chain import (
@@ -97,7 +99,8 @@ from .chain import (
     point_velocity_symbols, symbol, velocity_symbol,
 )
 from .expand import expand
-from .rfem import check_nrfe, discretize
+from .requirements import evaluate, requirements, violation
+from .rfem import check_nrfe, discretize, link_coordinates
 
 SCHEMA = 1
 
@@ -336,6 +339,14 @@ def _kind_of(value) -> str:
     return type(value).__name__
 
 
+def _size_text(expr) -> str:
+    """The value of a constant expression to three digits, as far as it can be computed."""
+    try:
+        return str(sp.N(expr, 3))
+    except (ArithmeticError, ValueError, TypeError):
+        return "too large to compute"
+
+
 def _number_text(value) -> str:
     value = float(value)
     return f"{value:g}"
@@ -357,10 +368,15 @@ class ModelFile:
     def initial_values(self, params: dict | None = None) -> dict[str, float]:
         """The start configuration as numbers (rad, m), with the parameter defaults overridden
         by ``params``."""
-        values = {p.symbol: sp.Float(float(p.default)) for p in self.model.parameters}
-        for name, value in (params or {}).items():
-            values[symbol(name)] = sp.Float(float(value))
-        return {name: float(sp.sympify(expr).xreplace(values)) for name, expr in self.initial.items()}
+        values = {p.symbol: p.default for p in self.model.parameters}
+        values.update({symbol(name): float(value) for name, value in (params or {}).items()})
+        numbers = {}
+        for name, expr in self.initial.items():
+            numbers[name] = evaluate(expr, values)
+            if numbers[name] is None:
+                raise ModelError(f"{self.path}: initial.q.{name} = {expr} is not a finite real number with the "
+                                 f"parameter values in use; change those parameters or the expression")
+        return numbers
 
 
 class _Reader:
@@ -368,7 +384,7 @@ class _Reader:
 
     def __init__(self, path, text: str, nrfe):
         self.file = str(path)
-        self.locator = _Locator(text)
+        self.source = text
         self.nrfe_argument = nrfe
         self.names: dict[str, tuple[str, tuple]] = {}   # name -> (what, path), expand's namespace
         self.params: dict[str, sp.Symbol] = {}
@@ -380,6 +396,11 @@ class _Reader:
         self.drive_paths: dict[str, tuple] = {}
         self.labels: dict[str, tuple] = {}
         self.constraint_paths: dict[str, tuple] = {}
+
+    @functools.cached_property
+    def locator(self) -> _Locator:
+        """Line numbers, found when a message first needs one (a scan of the whole text)."""
+        return _Locator(self.source)
 
     # ---- errors ------------------------------------------------------------------------------
     def where(self, path) -> str:
@@ -468,10 +489,9 @@ class _Reader:
         self.names[name] = (what, path)
 
     # ---- quantities and expressions ----------------------------------------------------------
-    def quantity(self, value, path, scope, sign=None, what="values"):
-        """A number or an expression string as a SymPy expression. ``sign``: "positive" or
-        "nonnegative" checks a value that is (or, with the parameter defaults, evaluates to) a
-        number."""
+    def quantity(self, value, path, scope):
+        """A number or an expression string as a SymPy expression. Signs are checked on the
+        whole model (:meth:`check_requirements`)."""
         if isinstance(value, bool) or not isinstance(value, (int, float, str)):
             self.fail(path, f"expected a number or an expression string, got {_kind_of(value)}; "
                             f"write e.g. 0.5 or \"L2/2\"")
@@ -486,26 +506,22 @@ class _Reader:
             expr = sp.Float(value)
         else:
             expr = self.expression(value, path, scope)
-        if sign:
-            self.check_sign(expr, path, sign, what)
         return expr
 
-    def check_sign(self, expr, path, sign, what):
-        ok = (lambda v: v > 0) if sign == "positive" else (lambda v: v >= 0)
-        need = "positive" if sign == "positive" else "zero or positive"
-        plural = what  # callers name the quantity in the plural: "masses must be positive"
-        if expr.is_number:
-            v = float(expr)
-            if not ok(v):
-                adjective = "negative" if v < 0 else "zero"
-                self.fail(path, f"{adjective} value {_number_text(v)}; {plural} must be {need}")
-            return
-        value = expr.xreplace(self.defaults)
-        if value.is_number and value.is_real:
-            v = float(value)
-            if not ok(v):
-                self.fail(path, f"{expr} is {_number_text(v)} with the parameter defaults; {plural} must be "
-                                f"{need}: change the parameter values or the expression")
+    def check_requirements(self, model):
+        """The physical bounds of ``model`` (masses, sizes, moduli, gains, ...) with the parameter
+        defaults, each reported at the line of its quantity."""
+        values = {p.name: p.default for p in model.parameters}
+        for need in requirements(model):
+            problem = violation(need, values, "the parameter defaults")
+            if problem:
+                if need.kind == "constraint":
+                    element = self.constraint_paths[need.name]
+                elif need.kind == "flexible link":
+                    element = self.labels[need.name][:-1]
+                else:
+                    element = self.origin[need.name][:-1]
+                self.fail(element + need.key, problem)
 
     def expression(self, text, path, scope):
         """Parse ``text`` safely; ``scope`` maps the names it may use to their symbols."""
@@ -577,10 +593,10 @@ class _Reader:
             raise failure from None
         if not isinstance(expr, sp.Expr):
             self.fail(path, f"expression {text!r} is not a single scalar; write one value")
-        self.check_size(expr, text, path)
         if expr.has(sp.zoo, sp.oo, -sp.oo, sp.nan, sp.I):
             self.fail(path, f"expression {text!r} is not a finite real value ({expr}); check divisions "
                             f"by zero and roots of negative numbers")
+        self.check_size(expr, text, path)
         return expr
 
     def check_size(self, expr, text, path):
@@ -590,9 +606,10 @@ class _Reader:
         if depth > MAX_DEPTH:
             self.fail(path, f"expression {text[:60]!r}… nests {depth} levels deep (at most {MAX_DEPTH}); "
                             f"split it with parameters")
-        for atom in expr.atoms(sp.Number):
-            if not math.isfinite(float(atom)):
-                self.fail(path, f"expression {text[:60]!r} holds the number {atom.evalf(3)}, beyond a double; "
+        for node in sp.postorder_traversal(expr):
+            # every constant the generated code computes must be a double: exp(1000) is not
+            if isinstance(node, sp.Expr) and not node.free_symbols and evaluate(node, {}) is None:
+                self.fail(path, f"expression {text[:60]!r} holds {node} = {_size_text(node)}, beyond a double; "
                                 f"use numbers between 1e-308 and 1e308 in size")
         for power in expr.atoms(sp.Pow):
             if power.exp.is_Number and abs(float(power.exp)) > MAX_EXPONENT:
@@ -675,6 +692,7 @@ class _Reader:
         parameters = self.read_parameters(data.get("parameters", {}))
         if "chain" not in data:
             self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
+        self.check_chain_size(data["chain"])
         chain = self.read_chain(data["chain"])
         gravity = self.read_vector(data.get("gravity", [0, 0, 0]), ("gravity",), self.params)
         drives = self.read_drives(data.get("drives", []))
@@ -685,11 +703,27 @@ class _Reader:
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description,
         )
+        self.check_requirements(model)
         try:
             expand(model)
         except ModelError as exc:
             raise ModelError(self.context(exc) + str(exc)) from None
         return ModelFile(self.file, model, initial)
+
+    def check_chain_size(self, items):
+        """Refuse, before reading it element by element, a chain whose build cannot finish
+        (:func:`gpmegen.limits.check_build`): its coordinates are counted from the raw tables."""
+        if not isinstance(items, list):
+            return
+        n_dof = 0
+        for item in items:
+            if isinstance(item, dict) and "joint" in item:
+                n_dof += 1
+            elif isinstance(item, dict) and "flexible" in item:
+                n_rfe = item.get("nrfe", self.default_nrfe)
+                if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
+                    n_dof += link_coordinates(n_rfe)
+        limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
 
     def read_parameters(self, table):
         path = ("parameters",)
@@ -706,15 +740,17 @@ class _Reader:
                 doc = self.text(entry.get("doc", ""), here + ("doc",))
             else:
                 value, vpath, unit, doc = entry, here, "", ""
-            number = self.quantity(value, vpath, {})
-            parameters.append(Parameter(pname, float(number), unit, doc))
+            default = evaluate(self.quantity(value, vpath, {}), {})
+            if default is None:
+                self.fail(vpath, f"{value!r} is not a finite real number; give a value below 1e308 in size")
+            parameters.append(Parameter(pname, default, unit, doc))
             self.params[pname] = symbol(pname)
-            self.defaults[symbol(pname)] = sp.Float(float(number))
+            self.defaults[symbol(pname)] = sp.Float(default)
         return tuple(parameters)
 
-    def read_vector(self, value, path, scope, length=3, sign=None, what="values"):
+    def read_vector(self, value, path, scope, length=3):
         self.array(value, path, length)
-        return tuple(self.quantity(v, path + (k,), scope, sign, what) for k, v in enumerate(value))
+        return tuple(self.quantity(v, path + (k,), scope) for k, v in enumerate(value))
 
     def read_chain(self, items):
         self.array(items, ("chain",), what="list of [[chain]] tables")
@@ -758,8 +794,7 @@ class _Reader:
         extra = {}
         for key in ("stiffness", "damping"):
             if key in item:
-                what = "stiffnesses" if key == "stiffness" else "damping coefficients"
-                extra[key] = self.quantity(item[key], path + (key,), self.params, "nonnegative", what)
+                extra[key] = self.quantity(item[key], path + (key,), self.params)
         self.add_coordinate(name, path + ("joint",))
         return Joint(name, kind, axis, **extra)
 
@@ -800,45 +835,58 @@ class _Reader:
             self.table(shape, here, SHAPE_KEYS[kind],
                        tuple(k for k in SHAPE_KEYS[kind] if k not in optional), f"{kind} shape")
 
-            def q(key, what):
-                return self.quantity(shape[key], here + (key,), P, "positive", what)
-
+            size = {key: self.quantity(shape[key], here + (key,), P) for key in SHAPE_KEYS[kind]
+                    if key not in ("type", "axis", "position")}
+            quantities = shapes.shape_quantities(**size)
             if kind == "cylinder":
                 axis = self.choice(shape["axis"], here + ("axis",), AXES, "axis")
-                h = shapes.solid_cylinder(q("mass", "masses"), q("radius", "radii"), q("length", "lengths"), axis)
+                h = shapes.solid_cylinder(size["mass"], size["radius"], size["length"], axis)
             elif kind == "bar":
-                h = shapes.bar(q("mass", "masses"), q("length", "lengths"), q("width", "widths"),
-                               q("thickness", "thicknesses"))
+                h = shapes.bar(size["mass"], size["length"], size["width"], size["thickness"])
             elif kind == "rod":
-                h = shapes.rod(q("mass", "masses"), q("length", "lengths"), q("radius", "radii"))
+                h = shapes.rod(size["mass"], size["length"], size["radius"])
             else:
                 position = self.read_vector(shape.get("position", [0, 0, 0]), here + ("position",), P)
-                h = shapes.point_mass(q("mass", "masses"), position)
+                h = shapes.point_mass(size["mass"], position)
         else:
             if "mass" not in item:
                 self.fail(path, "a body needs a shape or a mass; add shape = { type = \"bar\", ... } or mass = ...")
-            mass = self.quantity(item["mass"], path + ("mass",), P, "positive", "masses")
+            mass = self.quantity(item["mass"], path + ("mass",), P)
             center = self.read_vector(item.get("center", [0, 0, 0]), path + ("center",), P)
             rows = self.array(item.get("inertia", [[0, 0, 0]] * 3), path + ("inertia",), 3, "3x3 list")
             inertia = [self.read_vector(row, path + ("inertia", i), P) for i, row in enumerate(rows)]
             for i in range(3):
-                self.check_sign(inertia[i][i], path + ("inertia", i, i), "nonnegative", "moments of inertia")
                 for j in range(i):
-                    if sp.simplify(inertia[i][j] - inertia[j][i]) != 0:
+                    if not self.same_quantity(inertia[i][j], inertia[j][i]):
                         self.fail(path + ("inertia", i, j), f"the inertia tensor is not symmetric "
                                                             f"({inertia[i][j]} ≠ {inertia[j][i]}); make [{i}][{j}] "
                                                             f"equal [{j}][{i}]")
             trace = sum(inertia[i][i] for i in range(3))
+            scale = evaluate(abs(trace), self.defaults)
             for k, axis in enumerate(AXES):
                 # ∫(axis)² dm about the centre: ½ tr I - I_kk
-                second = (trace / 2 - inertia[k][k]).xreplace(self.defaults)
-                scale = abs(trace.xreplace(self.defaults))
-                if second.is_number and scale.is_number and float(second) < -1e-12 * float(scale):
+                second = evaluate(trace / 2 - inertia[k][k], self.defaults)
+                if second is not None and scale is not None and second < -1e-12 * scale:
                     self.fail(path + ("inertia",), f"the inertia tensor gives a negative ∫{axis}² dm "
                                                    f"({_number_text(second)} kg·m² about the centre); no "
                                                    f"moment of inertia may exceed the sum of the other two")
             h = shapes.from_inertia_tensor(mass, center, inertia)
-        return Body(name, h)
+            quantities = ((("mass",), mass),) + tuple((("inertia", i, i), inertia[i][i]) for i in range(3))
+        return Body(name, h, quantities)
+
+    def same_quantity(self, a, b) -> bool:
+        """Whether ``a`` and ``b`` are one quantity: equal as written, or equal in value at the
+        parameter defaults and at a second, unrelated set of values. Bounded: user expressions
+        are never simplified (``simplify((a+b+c+d)**100)`` does not end)."""
+        if a == b:
+            return True
+        others = {s: v * (sp.Float("1.1") + sp.Float("0.013") * k) + sp.Float("0.01") * (k + 1)
+                  for k, (s, v) in enumerate(self.defaults.items())}
+        for values in (self.defaults, others):
+            va, vb = evaluate(a, values), evaluate(b, values)
+            if va is None or vb is None or not math.isclose(va, vb, rel_tol=1e-12):
+                return False
+        return True
 
     def read_flexible(self, item, path):
         keys = ("flexible", "length", "section", "density", "young_modulus", "shear_modulus",
@@ -854,25 +902,23 @@ class _Reader:
                                             f"{first}; give each flexible link its own label")
         self.labels[label] = path + ("flexible",)
         P = self.params
-        length = self.quantity(item["length"], path + ("length",), P, "positive", "lengths")
+        length = self.quantity(item["length"], path + ("length",), P)
         here = path + ("section",)
         section = self.table(item["section"], here, ("type", "width", "thickness", "radius"), ("type",), "section")
         kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
         self.table(section, here, SECTION_KEYS[kind], SECTION_KEYS[kind], f"{kind} section")
         if kind == "rectangular":
             section = RectangularSection(
-                self.quantity(section["width"], here + ("width",), P, "positive", "widths"),
-                self.quantity(section["thickness"], here + ("thickness",), P, "positive", "thicknesses"),
+                self.quantity(section["width"], here + ("width",), P),
+                self.quantity(section["thickness"], here + ("thickness",), P),
             )
         else:
-            section = CircularSection(self.quantity(section["radius"], here + ("radius",), P, "positive", "radii"))
+            section = CircularSection(self.quantity(section["radius"], here + ("radius",), P))
         extra = {}
         if "torsion_constant" in item:
-            extra["torsion_constant"] = self.quantity(item["torsion_constant"], path + ("torsion_constant",), P,
-                                                      "positive", "torsion constants")
+            extra["torsion_constant"] = self.quantity(item["torsion_constant"], path + ("torsion_constant",), P)
         if "damping" in item:
-            extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3, "nonnegative",
-                                                "damping coefficients")
+            extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3)
         if "nrfe" in item:
             n_rfe = self.whole(item["nrfe"], path + ("nrfe",), "nrfe")
         elif self.default_nrfe is not None:
@@ -883,9 +929,9 @@ class _Reader:
             label=label,
             length=length,
             section=section,
-            density=self.quantity(item["density"], path + ("density",), P, "positive", "densities"),
-            young_modulus=self.quantity(item["young_modulus"], path + ("young_modulus",), P, "positive", "moduli"),
-            shear_modulus=self.quantity(item["shear_modulus"], path + ("shear_modulus",), P, "positive", "moduli"),
+            density=self.quantity(item["density"], path + ("density",), P),
+            young_modulus=self.quantity(item["young_modulus"], path + ("young_modulus",), P),
+            shear_modulus=self.quantity(item["shear_modulus"], path + ("shear_modulus",), P),
             n_rfe=n_rfe,
             **extra,
         )
@@ -1002,7 +1048,7 @@ class _Reader:
                     if key == "beta" and order == 1:
                         self.fail(path + ("beta",), "beta applies to position constraints only (a first-order "
                                                     "constraint is stabilized by alpha); remove it")
-                    extra[key] = self.quantity(item[key], path + (key,), self.params, "nonnegative", "Baumgarte gains")
+                    extra[key] = self.quantity(item[key], path + (key,), self.params)
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
 

@@ -27,6 +27,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from .. import limits
 from ..errors import BuildError
 from ..fileio import atomic_write_bytes
 
@@ -271,7 +272,12 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None) -> Co
     ok, reason, meta = _cached_ok(lib_path, meta_path)
     if ok:
         return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
-    seconds = _compile(compiler, flags, source, source_path, lib_path, meta_path, key)
+    limits.check_compile(len(source.encode()), source_path)
+    try:
+        seconds = _compile(compiler, flags, source, source_path, lib_path, meta_path, key)
+    except OSError as exc:  # e.g. a read-only cache folder: the library cannot be written there
+        raise BuildError(f"cannot write the compiled library into the C cache folder {cache} ({exc.strerror}); "
+                         f"set GPMEGEN_CACHE to a writable folder") from None
     return CompiledLibrary(lib_path, key, compiler[0], flags, True, seconds, reason)
 
 

@@ -38,8 +38,8 @@ class CModel(LoadedModel):
     """
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "c", folder=None,
-                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build"):
-        super().__init__(module, params, "c", folder)
+                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build", requirements=()):
+        super().__init__(module, params, "c", folder, requirements)
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")
         source = Path(folder) / "model.c"

@@ -46,17 +46,19 @@ def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
     module.__file__ = str(path)
     try:
         exec(compile(source, str(path), "exec"), module.__dict__)
-    except SyntaxError as exc:
-        raise BuildError(f"{path} cannot be imported ({exc}); rebuild it with '{rebuild} --force'") from None
+    except Exception as exc:  # a damaged or hand-edited module: whatever it raises, rebuilding is the fix
+        raise BuildError(f"{path} cannot be imported ({type(exc).__name__}: {exc}); rebuild it with "
+                         f"'{rebuild} --force'") from None
     sys.modules.setdefault(name, module)
     return module
 
 
 def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None, *, digest: str | None = None,
-                rebuild: str = "gpmegen build"):
+                rebuild: str = "gpmegen build", requirements=()):
     """The generated model of ``folder`` ready to evaluate on ``backend``, its parameters
-    overridden by ``params``. ``digest``: the input hash the folder must have been generated
-    from (StaleModelError naming ``<rebuild> --force`` otherwise)."""
+    overridden by ``params`` and checked against ``requirements`` (the model's physical bounds,
+    :func:`gpmegen.model.requirements.requirements`). ``digest``: the input hash the folder must
+    have been generated from (StaleModelError naming ``<rebuild> --force`` otherwise)."""
     from .model import LoadedModel
 
     check_backend(backend)
@@ -66,5 +68,5 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
                               f"'{rebuild} --force'")
     if backend == "c":
         from .cmodel import CModel
-        return CModel(module, params, folder=folder, rebuild=rebuild)
-    return LoadedModel(module, params, "numpy", folder)
+        return CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements)
+    return LoadedModel(module, params, "numpy", folder, requirements)

@@ -7,18 +7,27 @@ from types import ModuleType
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import EvaluationError, ModelError
+from ..model.requirements import first_violation
 from . import gpme
+
+# What a failing generated function did, by the exception Python's math raised.
+ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a double",
+              ValueError: "takes a root or logarithm of a negative number"}
 
 
 class LoadedModel:
     """A generated model bound to parameter values.
 
-    Shapes: ``q``, ``qd`` (n_dof,); time ``t`` in s; SI units throughout.
+    Shapes: ``q``, ``qd`` (n_dof,); time ``t`` in s; SI units throughout. ``requirements``: the
+    model's physical bounds (:func:`gpmegen.model.requirements.requirements`), checked whenever
+    parameter values are bound.
     """
 
-    def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "numpy", folder=None):
+    def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "numpy", folder=None,
+                 requirements=()):
         self.module = module
+        self.requirements = tuple(requirements)
         self.backend = backend
         self.folder = folder
         self.coordinates: tuple = tuple(module.COORDINATES)
@@ -28,10 +37,11 @@ class LoadedModel:
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
         self.constraint_orders = np.array(module.CONSTRAINT_ORDERS, dtype=int)
         self.dependent, self.independent = self._partition(module.DEPENDENT)
-        self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {})
+        self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
-    def _bind(self, values: dict, overrides: dict) -> None:
-        """Set the parameter values (defaults ``values`` changed by ``overrides``), checked."""
+    def _bind(self, values: dict, overrides: dict, check_all: bool = False) -> None:
+        """Set the parameter values (defaults ``values`` changed by ``overrides``), checked: the
+        requirements that involve an overridden parameter, or all with ``check_all``."""
         values = dict(values)
         for name, value in overrides.items():
             if name not in values:
@@ -44,9 +54,12 @@ class LoadedModel:
                 raise ModelError(f"parameter {name!r} must be a number, got {value!r}") from None
             if not np.isfinite(values[name]):
                 raise ModelError(f"parameter {name!r} must be finite, got {value!r}")
+        problem = first_violation(self.requirements, values, None if check_all else overrides)
+        if problem:
+            raise ModelError(f"model {self.module.MODEL}: {problem}")
         self.params: dict = values
         self.p = np.array([values[k] for k in self.parameter_names], dtype=float)
-        alpha, beta = self.module.baumgarte_gains(self.p)
+        alpha, beta = self._call("baumgarte_gains", self.p)
         self.alpha, self.beta = np.asarray(alpha, float), np.asarray(beta, float)
 
     def _partition(self, dependent):
@@ -75,6 +88,20 @@ class LoadedModel:
         other._bind(self.params, overrides)
         return other
 
+    def _call(self, function: str, *args):
+        """The generated ``function`` of the NumPy module at ``args``; an arithmetic failure in
+        it (Python's math raises where C gives inf or nan) becomes one EvaluationError."""
+        try:
+            return getattr(self.module, function)(*args)
+        except (ArithmeticError, ValueError) as exc:
+            if isinstance(exc, ValueError) and "math domain error" not in str(exc):
+                raise
+            what = next((text for kind, text in ARITHMETIC.items() if isinstance(exc, kind)), "fails")
+            raise EvaluationError(
+                f"model {self.module.MODEL}: {function} {what} ({exc}) at these parameter values and this state; "
+                f"check the parameters its expressions divide by or raise (--param), and the start "
+                f"configuration") from None
+
     def index(self, coordinate: str) -> int:
         """Position of a coordinate in ``q``."""
         return self.coordinates.index(coordinate)
@@ -82,27 +109,27 @@ class LoadedModel:
     # --- the generated functions, bound to the parameter values -----------------------------
     def mass_matrix(self, q):
         """M(q), (n, n), kg·m² / kg."""
-        return self.module.mass_matrix(q, self.p)
+        return self._call("mass_matrix", q, self.p)
 
     def forces(self, t, q, qd):
         """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
-        return self.module.forces(t, q, qd, self.p)
+        return self._call("forces", t, q, qd, self.p)
 
     def static_residual(self, q):
         """g(q) + C q, (n,): zero at an equilibrium with no drive."""
-        return self.module.static_residual(q, self.p)
+        return self._call("static_residual", q, self.p)
 
     def stiffness_jacobian(self, q):
         """K = ∂(g + C q)/∂q, (n, n)."""
-        return self.module.stiffness_jacobian(q, self.p)
+        return self._call("stiffness_jacobian", q, self.p)
 
     def drive_forces(self, t):
         """Q(t), (n,)."""
-        return self.module.drive_forces(t, self.p)
+        return self._call("drive_forces", t, self.p)
 
     def point_positions(self, q):
         """Positions of the named points in {0}, (n_points, 3), m."""
-        return self.module.points(q, self.p)
+        return self._call("points", q, self.p)
 
     def end_effector(self, q):
         """Position of the end-effector (the first named point) in {0}, (3,), m."""
@@ -112,15 +139,15 @@ class LoadedModel:
 
     def constraint_terms(self, t, q, qd):
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
-        return self.module.constraint_terms(t, q, qd, self.p)
+        return self._call("constraint_terms", t, q, qd, self.p)
 
     def energies(self, q, qd):
         """(kinetic, gravity potential, spring) energy in J."""
-        return self.module.energies(q, qd, self.p)
+        return self._call("energies", q, qd, self.p)
 
     def gpme_terms(self, t, q, qd):
         """(M, f, Φ, Φ̇, D, γ) in one pass over the kinematics."""
-        return self.module.gpme_terms(t, q, qd, self.p)
+        return self._call("gpme_terms", t, q, qd, self.p)
 
     def motion(self, t, q, qd):
         """(q̈, M, f): the GPME solution with the terms it was solved from."""

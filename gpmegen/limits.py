@@ -1,0 +1,186 @@
+"""Bounds on resources: the time and memory that building a model, compiling it or running it
+will take, estimated before it starts from sizes already known, and the refusal of what this
+machine cannot finish.
+
+The estimates interpolate measurements on the 2-core development machine linearly in log-log
+and extrapolate beyond them with the slope of the last two. Builds, compiles and saved samples
+are calibrated by their CPU time, the RK4 steps by README "Performance": times of a quiet
+machine, so a busy one only takes longer than estimated and nothing that could finish within
+the limit is refused. Work whose estimate exceeds :data:`MAX_SECONDS`, or the memory the
+system reports available (``MemAvailable``), raises :class:`LimitError`: one line with the
+estimate, the limit and what to change. ``--no-limits`` on the command line, or in Python::
+
+    with gpmegen.limits.lifted():
+        model = gpmegen.load(nrfe=60)
+
+runs it anyway. Counts that do not fit a machine integer (a run of more than 2**62 steps) are
+refused always: no override would make them finish.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import math
+import os
+
+from .errors import GpmegenError
+
+#: Estimated wall time above which work is refused (s).
+MAX_SECONDS = 3600.0
+#: Steps, samples and sizes beyond this cannot be counted (C ``long``, NumPy indices).
+MAX_COUNT = 2**62
+OVERRIDE = "pass --no-limits (in Python: with gpmegen.limits.lifted(): ...) to start it anyway"
+
+# --- calibration (2-core machine; seconds and bytes) -------------------------------------------
+#: Derivation and rendering of both backends against n_dof (the reference manipulator, CPU time).
+BUILD_SECONDS = ((3, 0.4), (15, 1.67), (30, 4.3), (60, 12.9), (150, 62.3), (240, 148.0))
+#: Peak resident memory of the build process against n_dof.
+BUILD_BYTES = ((3, 64e6), (15, 71e6), (30, 86e6), (60, 130e6), (90, 192e6), (150, 372e6), (240, 777e6))
+#: C compile (gcc -O3, CPU time) against the size of model.c in bytes (n_rfe = 5, 10, 20).
+COMPILE_SECONDS = ((249e3, 2.9), (610e3, 17.5), (1.74e6, 214.0))
+#: Peak resident memory of the compiler against the size of model.c.
+COMPILE_BYTES = ((249e3, 123e6), (610e3, 476e6), (1.74e6, 1.34e9))
+#: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``.
+STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
+                "numpy": ((3, 207e-6), (15, 549e-6), (30, 1123e-6))}
+#: One saved sample against n_dof: the derived quantities (E, Φ, drive, constraint forces,
+#: energies) evaluated after the run, and its share of the .npz and .csv writing.
+SAMPLE_SECONDS = {"c": ((3, 34e-6), (15, 54e-6)), "numpy": ((3, 80e-6), (15, 226e-6))}
+#: Memory of the process before a run (interpreter, NumPy, SymPy, the loaded model).
+BASE_BYTES = 110e6
+
+_lifted = contextvars.ContextVar("gpmegen_limits_lifted", default=False)
+
+
+class LimitError(GpmegenError):
+    """Work refused before it starts: its estimated time or memory is beyond the limits."""
+
+
+@contextlib.contextmanager
+def lifted():
+    """Within this block, nothing is refused for its estimated time or memory."""
+    token = _lifted.set(True)
+    try:
+        yield
+    finally:
+        _lifted.reset(token)
+
+
+def available_memory() -> float | None:
+    """Memory the system can give to a new task without swapping (bytes; ``MemAvailable``), or
+    None when the system does not say."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def interpolate(points, x: float) -> float:
+    """y at ``x`` from measured ``(x, y)`` points (x increasing): linear in log-log between the two
+    nearest, extrapolated with their slope outside; inf when it overflows."""
+    k = 0
+    while k < len(points) - 2 and x > points[k + 1][0]:
+        k += 1
+    (x0, y0), (x1, y1) = points[k], points[k + 1]
+    slope = math.log(y1 / y0) / math.log(x1 / x0)
+    try:
+        return y0 * (max(x, 1e-300) / x0) ** slope
+    except OverflowError:
+        return math.inf
+
+
+def duration(seconds: float) -> str:
+    """``seconds`` as a number and in the unit a reader thinks in: "5.4e+08 s (17 years)"."""
+    if not math.isfinite(seconds):
+        return "forever"
+    for unit, size in (("years", 365.25 * 86400), ("days", 86400), ("h", 3600), ("min", 60)):
+        if seconds >= 2 * size:
+            return f"{seconds:.2g} s ({seconds / size:.3g} {unit})"
+    return f"{seconds:.2g} s"
+
+
+def _gigabytes(n_bytes: float) -> str:
+    return f"{n_bytes / 1e9:.3g} GB"
+
+
+def check(work: str, seconds: float, n_bytes: float, fix: str) -> None:
+    """Raise LimitError when ``work`` (what would run, e.g. "building n_dof = 1500") is estimated
+    to take more than :data:`MAX_SECONDS` or more memory than is available; ``fix`` says what
+    to change. Nothing is refused inside :func:`lifted`."""
+    if _lifted.get():
+        return
+    available = available_memory()
+    beyond = []
+    if seconds > MAX_SECONDS:
+        beyond.append(f"the limit of {MAX_SECONDS:.0f} s")
+    if available is not None and n_bytes > available:
+        beyond.append(f"the {_gigabytes(available)} of memory available")
+    if beyond:
+        raise LimitError(f"{work} would take about {duration(seconds)} and need about {_gigabytes(n_bytes)} of "
+                         f"memory, beyond {' and '.join(beyond)}; {fix}, or {OVERRIDE}")
+
+
+def check_build(n_dof: int, model: str, detail: str = "") -> None:
+    """Refuse deriving and generating ``model`` (a name) of ``n_dof`` coordinates when it cannot
+    finish; ``detail`` is said beside n_dof (e.g. the number of chain elements)."""
+    check(f"building {model} ({detail}n_dof = {n_dof})", interpolate(BUILD_SECONDS, n_dof),
+          interpolate(BUILD_BYTES, n_dof), "use fewer rfes (nrfe) or fewer joints")
+
+
+def check_compile(source_bytes: int, source) -> None:
+    """Refuse compiling a generated C file of ``source_bytes`` that cannot finish."""
+    check(f"compiling {source} ({source_bytes / 1e6:.3g} MB of C)", interpolate(COMPILE_SECONDS, source_bytes),
+          interpolate(COMPILE_BYTES, source_bytes), "use fewer rfes (nrfe) or the NumPy backend (--backend numpy)")
+
+
+def steps(t_end: float, dt: float) -> int:
+    """The number of fixed steps of ``dt`` in ``t_end`` (s); LimitError, always, when it cannot be
+    counted."""
+    n = t_end / dt if dt > 0 else math.inf
+    if not n <= MAX_COUNT:
+        raise LimitError(f"t_end = {t_end:g} s with dt = {dt:g} s is {n:.3g} steps, more than any run can count "
+                         f"({MAX_COUNT:.3g}); use a larger --dt or a shorter --t-end")
+    return int(round(n))
+
+
+def sample_bytes(n_dof: int, n_constraints: int, backend: str) -> float:
+    """Memory held per saved sample at the end of a run: the states collected by the integrator
+    and their concatenation, the derived quantities, and the table of the .csv (bytes)."""
+    doubles = 6 * n_dof + 2 * n_constraints + 20
+    python_lists = 150 + 16 * n_dof if backend == "numpy" else 0  # a float and an array per sample
+    return 8.0 * doubles + python_lists
+
+
+def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
+              backend: str) -> None:
+    """Refuse a fixed-step run (``method`` "rk4") that cannot finish: ``t_end/dt`` steps of
+    ``backend`` ("c" or "numpy") keeping every ``save_every``-th state. Adaptive methods choose
+    their own steps, which cannot be known before."""
+    if method != "rk4":
+        return
+    n_steps = steps(t_end, dt)
+    samples = n_steps // max(1, int(save_every)) + 2
+    backend = "c" if backend == "c" else "numpy"
+    seconds = n_steps * interpolate(STEP_SECONDS[backend], n_dof) + samples * interpolate(SAMPLE_SECONDS[backend], n_dof)
+    n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
+    where = "in C" if backend == "c" else "in NumPy"
+    check(f"running {n_steps:.3g} RK4 steps of n_dof = {n_dof} {where}, saving {samples:.3g} samples,", seconds,
+          n_bytes, "use a shorter --t-end, a larger --dt or a larger --save-every")
+
+
+def model_coordinates(model) -> int:
+    """n_dof of ``model`` (a :class:`gpmegen.model.Model`) counted without expanding it: one per
+    joint, three per sde of each flexible link."""
+    from .model.chain import FlexibleLink, Joint
+    from .model.rfem import link_coordinates
+
+    return sum(1 if isinstance(e, Joint) else link_coordinates(e.n_rfe) if isinstance(e, FlexibleLink) else 0
+               for e in model.chain)

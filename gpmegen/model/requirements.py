@@ -1,0 +1,150 @@
+"""Physical bounds on a model's quantities, for any parameter values bound to it.
+
+Rigid bodies: masses, sizes and principal moments of inertia zero or positive (zero is a
+massless body or one of no extent; the beam checks use a massless slider). Flexible links:
+length, section sizes, density, moduli and torsion constant positive (the RFEM divides by the
+length and needs mass and stiffness in every element). Stiffness, damping and Baumgarte gains
+zero or positive.
+
+:func:`requirements` lists them once from the model's elements; :func:`violation` evaluates one
+at parameter values. The model-file reader reports them at their lines with the parameter
+defaults, the runtime whenever parameter values are bound (``gpmegen.load(params=...)``,
+``--param``, ``with_params``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import sympy as sp
+
+from .chain import Body, CircularSection, Constraint, FlexibleLink, Joint, Model, symbol
+
+POSITIVE, NONNEGATIVE = "positive", "nonnegative"
+
+# key in an element's description -> (the quantity, the rule's plural)
+NAMES = {
+    "mass": ("mass", "masses"), "radius": ("radius", "radii"), "length": ("length", "lengths"),
+    "width": ("width", "widths"), "thickness": ("thickness", "thicknesses"),
+    "inertia": ("moment of inertia", "moments of inertia"), "density": ("density", "densities"),
+    "young_modulus": ("Young's modulus", "moduli"), "shear_modulus": ("shear modulus", "moduli"),
+    "torsion_constant": ("torsion constant", "torsion constants"),
+    "stiffness": ("stiffness", "stiffnesses"), "damping": ("damping coefficient", "damping coefficients"),
+    "alpha": ("Baumgarte gain alpha", "Baumgarte gains"), "beta": ("Baumgarte gain beta", "Baumgarte gains"),
+}
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """``expression`` (of parameters) must be positive, or zero or positive (``sign``).
+
+    ``kind`` and ``name`` say whose quantity it is ("body", "slider"); ``key`` where it sits in
+    that element's description, as a model file writes it (``("shape", "mass")``)."""
+
+    expression: sp.Expr
+    sign: str
+    kind: str
+    name: str
+    key: tuple
+
+    @property
+    def quantity(self) -> str:
+        return NAMES[_word(self.key)][0]
+
+    @property
+    def plural(self) -> str:
+        return NAMES[_word(self.key)][1]
+
+    @property
+    def owner(self) -> str:
+        return f"{self.kind} {self.name!r}"
+
+
+def _word(key) -> str:
+    return next(part for part in reversed(key) if isinstance(part, str))
+
+
+def _link(link: FlexibleLink) -> list:
+    items = [(("length",), link.length)]
+    if isinstance(link.section, CircularSection):
+        items.append((("section", "radius"), link.section.radius))
+    else:
+        items += [(("section", "width"), link.section.width), (("section", "thickness"), link.section.thickness)]
+    items += [(("density",), link.density), (("young_modulus",), link.young_modulus),
+              (("shear_modulus",), link.shear_modulus)]
+    if link.torsion_constant is not None:
+        items.append((("torsion_constant",), link.torsion_constant))
+    need = [Requirement(sp.sympify(e), POSITIVE, "flexible link", link.label, key) for key, e in items]
+    return need + [Requirement(sp.sympify(d), NONNEGATIVE, "flexible link", link.label, ("damping", k))
+                   for k, d in enumerate(link.damping)]
+
+
+def requirements(model: Model) -> tuple[Requirement, ...]:
+    """The bounds on ``model``'s quantities that involve parameters or are numbers, in chain
+    order, then the constraints' gains."""
+    out = []
+    for element in model.chain:
+        if isinstance(element, Joint):
+            out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "joint", element.name, (key,))
+                    for key in ("stiffness", "damping")]
+        elif isinstance(element, Body):
+            quantities = element.quantities or ((("mass",), element.pseudo_inertia[3, 3]),)
+            out += [Requirement(sp.sympify(e), NONNEGATIVE, "body", element.name, key) for key, e in quantities]
+        elif isinstance(element, FlexibleLink):
+            out += _link(element)
+    for c in model.constraints:
+        if isinstance(c, Constraint):
+            out += [Requirement(sp.sympify(getattr(c, key)), NONNEGATIVE, "constraint", c.name, (key,))
+                    for key in ("alpha", "beta")]
+    return tuple(out)
+
+
+def evaluate(expression, values: dict) -> float | None:
+    """``expression`` with the parameters at ``values`` (symbol -> number) as a finite double, or
+    None when it is not one (not a real number, infinite, or beyond a double)."""
+    try:
+        value = sp.sympify(expression).xreplace({s: sp.Float(v) for s, v in values.items()})
+        if not value.is_number:
+            return None
+        number = sp.N(value, 17)
+        if number.is_real is False or not number.is_finite:
+            return None
+        result = float(number)
+    except (TypeError, ValueError, OverflowError, ArithmeticError):
+        return None
+    return result if math.isfinite(result) else None
+
+
+def violation(requirement: Requirement, values: dict, bound: str = "") -> str | None:
+    """Why ``requirement`` fails at the parameter ``values`` (name -> number), or None when it
+    holds. ``bound`` says where the values come from (e.g. "the parameter defaults"); by
+    default the values of the parameters involved are named."""
+    expr = requirement.expression
+    value = evaluate(expr, {symbol(k): v for k, v in values.items()})
+    positive = requirement.sign == POSITIVE
+    if value is not None and (value > 0 if positive else value >= 0):
+        return None
+    need = f"{requirement.plural} must be {'positive' if positive else 'zero or positive'}"
+    shown = "not a finite real number" if value is None else f"{value:g}"
+    if expr.is_number:
+        state = ("negative" if value < 0 else "zero") + f" value {shown}" if value is not None else shown
+        return f"{state}; {need}"
+    names = sorted(s.name for s in expr.free_symbols)
+    given = ", ".join(f"{n} = {values[n]:g}" for n in names if n in values)
+    source = f"{bound} ({given})" if bound else given
+    formula = "" if isinstance(expr, sp.Symbol) else f" = {expr}"
+    return (f"the {requirement.quantity} of {requirement.owner}{formula} is {shown} with {source}; {need}: "
+            f"change {', '.join(names)}")
+
+
+def first_violation(needs, values: dict, changed=None, bound: str = "") -> str | None:
+    """The first failure among ``needs`` at ``values`` (name -> number), considering only those
+    that involve a name in ``changed`` when given; None when all hold."""
+    for requirement in needs:
+        if changed is not None and not {s.name for s in requirement.expression.free_symbols} & set(changed):
+            continue
+        problem = violation(requirement, values, bound)
+        if problem:
+            return problem
+    return None
