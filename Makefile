@@ -20,6 +20,7 @@ demo: venv
 	$(BIN)/gpmegen demo
 
 test: venv
+	$(BIN)/ruff check gpmegen tests benchmarks
 	$(BIN)/python -m pytest -q -m "not sanitizers"
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,

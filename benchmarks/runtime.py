@@ -111,7 +111,8 @@ def main():
             best = [min(a, b) for a, b in zip(best, figures)]
         acc_np, acc_c, step_np, loop_np, step_c = best
         rows[n] = (c_model, step_c)
-        print(f"{n:>5} {c_model.n_dof:>5} {c_model.compile_seconds:>11.2f} {'hit' if not c_model.compiled else 'miss':>5} "
+        cache = "hit" if not c_model.compiled else "miss"
+        print(f"{n:>5} {c_model.n_dof:>5} {c_model.compile_seconds:>11.2f} {cache:>5} "
               f"{acc_np * 1e6:>13.1f} {acc_c * 1e6:>9.2f} {step_np * 1e6:>15.1f} {loop_np * 1e6:>15.1f} "
               f"{step_c * 1e6:>11.2f} {step_np / step_c:>6.0f}× {loop_np / step_c:>6.0f}×", flush=True)
     print("q̈: one model.accelerations call from Python (the C figure includes the cffi call); steps in µs.")

@@ -12,21 +12,36 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .codegen.render import build as build_model
 from .codegen.render import input_hash
 from .errors import (
-    BuildError, DerivationError, GpmegenError, ModelError, SimulationError, StaleModelError, StaticsError,
+    BuildError,
+    DerivationError,
+    GpmegenError,
+    ModelError,
+    SimulationError,
+    StaleModelError,
+    StaticsError,
 )
 from .folder import read_manifest, recover_folder, stale_reason
 from .model import (
-    Body, Constraint, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point, reference_model,
+    Body,
+    Constraint,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
+    reference_model,
 )
 from .model.requirements import requirements
 from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
 from .version import __version__
-from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 
 
 def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,

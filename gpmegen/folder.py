@@ -125,7 +125,8 @@ class FolderLock:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self.handle = open(self.path, "a")
         except OSError as exc:
-            raise BuildError(f"cannot write into {self.path.parent}: {exc.strerror}; choose a writable --out folder") from None
+            raise BuildError(f"cannot write into {self.path.parent}: {exc.strerror}; choose a writable --out "
+                             f"folder") from None
         fcntl.flock(self.handle, fcntl.LOCK_EX)
         return self
 

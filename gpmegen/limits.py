@@ -169,7 +169,8 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
     n_steps = steps(t_end, dt)
     samples = n_steps // max(1, int(save_every)) + 2
     backend = "c" if backend == "c" else "numpy"
-    seconds = n_steps * interpolate(STEP_SECONDS[backend], n_dof) + samples * interpolate(SAMPLE_SECONDS[backend], n_dof)
+    seconds = (n_steps * interpolate(STEP_SECONDS[backend], n_dof)
+               + samples * interpolate(SAMPLE_SECONDS[backend], n_dof))
     n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
     where = "in C" if backend == "c" else "in NumPy"
     check(f"running {n_steps:.3g} RK4 steps of n_dof = {n_dof} {where}, saving {samples:.3g} samples,", seconds,

@@ -31,9 +31,9 @@ This is slow (O(n_dof^2) matrix products per body) and meant only as a test refe
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import reduce
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -201,11 +201,11 @@ class Chain:
         for k, i in joints:
             Ti[i] += self._product(factors, q, {k: 1})
         for k, m in joints:
-            for l, nn in joints:
-                if k == l:
+            for k2, nn in joints:
+                if k == k2:
                     Tmn[m, nn] += self._product(factors, q, {k: 2})
                 else:
-                    Tmn[m, nn] += self._product(factors, q, {k: 1, l: 1})
+                    Tmn[m, nn] += self._product(factors, q, {k: 1, k2: 1})
         return T, Ti, Tmn
 
     def bodies(self, q):

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import stacked_gpme
 
 import gpmegen
 from gpmegen.errors import BuildError, ModelError, SimulationError
@@ -24,8 +25,6 @@ from gpmegen.model.chain import TIME, Constraint, point_velocity_symbols
 from gpmegen.model.reference import PARAMETERS
 from gpmegen.runtime import ccompile
 from gpmegen.runtime.cmodel import CModel
-
-from conftest import stacked_gpme
 
 pytestmark = pytest.mark.requires_cc
 EPS = np.finfo(float).eps
@@ -259,7 +258,8 @@ def test_cache_hit_and_compile_time(source, tmp_path):
     second = ccompile.build_library(source, cache=cache)
     assert not second.compiled and second.path == first.path
     assert second.compile_seconds == pytest.approx(first.compile_seconds)
-    assert json.loads((cache / f"{first.key}.json").read_text())["compile_seconds"] == pytest.approx(first.compile_seconds)
+    recorded = json.loads((cache / f"{first.key}.json").read_text())["compile_seconds"]
+    assert recorded == pytest.approx(first.compile_seconds)
     assert sorted(p.name for p in cache.iterdir()) == sorted([first.path.name, f"{first.key}.json"])
 
 

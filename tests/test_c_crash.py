@@ -19,13 +19,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import stacked_gpme
 
 import gpmegen
 from gpmegen.errors import BuildError
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, cprobe, integrate
-
-from conftest import stacked_gpme
 
 SPINNING_BEAM = Path(__file__).parent / "models" / "spinning_beam.toml"
 

@@ -22,8 +22,17 @@ import sympy as sp
 import gpmegen
 from gpmegen.model import reference_model
 from gpmegen.model.chain import (
-    TIME, Constraint, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection, CircularSection,
-    point_symbols, point_velocity_symbols,
+    TIME,
+    CircularSection,
+    Constraint,
+    FlexibleLink,
+    Joint,
+    Model,
+    Parameter,
+    Point,
+    RectangularSection,
+    point_symbols,
+    point_velocity_symbols,
 )
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, cprobe

@@ -184,7 +184,7 @@ BAD = [
                           '{ type = "circular", radius = 0.01 }\ndensity = 2700\nyoung_modulus = 7e10\n'
                           'shear_modulus = 2.6e10\n\n[[chain]]\npoint = "E"')],
      'flexible = "1"\nlength = "L"\nsection = { type = "circular", radius = 0.01 }\ndensity = 2700\n'
-     'young_modulus = 7e10\nshear_modulus = 2.6e10\n\n[[chain]]\npoint', "chain[3].flexible", "label '1' is already used"),
+     'young_modulus = 7e10\nshear_modulus = 2.6e10\n\n[[chain]]\npoint', "chain[3].flexible", "label '1' is already used"),  # noqa: E501
     ("point-name-clash", [("g = 9.81", "g = 9.81\nx_E = 1.0")], 'point = "E"', "chain[3].point",
      "makes the name x_E"),
     ("first-order-nonlinear", [('"y_E - 0.1"', '"vy_E^2 - 0.1"\norder = 1'), ("beta = 10\n", "")],

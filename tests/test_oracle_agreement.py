@@ -218,7 +218,7 @@ def test_oracle_transform_derivatives_finite_differences():
     orc = ref.oracle(3)
     chain = orc.chain
     q, _ = random_state(3, np.random.default_rng(2))
-    for name, H, T, Ti, Tmn in chain.bodies(q):
+    for name, _, _, Ti, Tmn in chain.bodies(q):
         fd_T = finite_difference(lambda x: chain.body_transform(name, x), q, 1e-6)
         np.testing.assert_allclose(Ti, fd_T, atol=1e-8)
         fd_Ti = finite_difference(
@@ -264,7 +264,9 @@ def test_oracle_pseudo_inertias_by_quadrature():
 def test_oracle_spring_constants():
     """c_ψ = E b t³/(12Δ), c_θ = E t b³/(12Δ), c_φ = G J/Δ, by hand for Δ = 0.5 m."""
     C = ref.oracle(3).chain.stiffness()
-    c_psi, c_theta, c_phi = 7.0e10 * 0.04 * 0.01**3 / 12 / 0.5, 7.0e10 * 0.01 * 0.04**3 / 12 / 0.5, 2.6e10 * 1.124e-8 / 0.5
+    c_psi = 7.0e10 * 0.04 * 0.01**3 / 12 / 0.5
+    c_theta = 7.0e10 * 0.01 * 0.04**3 / 12 / 0.5
+    c_phi = 2.6e10 * 1.124e-8 / 0.5
     assert c_psi == pytest.approx(466.6666666666667)
     assert c_theta == pytest.approx(7466.666666666667)
     assert c_phi == pytest.approx(584.48)

@@ -16,6 +16,7 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
+from test_model_file import BASE
 
 import gpmegen
 from gpmegen.errors import DerivationError, ModelError
@@ -25,7 +26,6 @@ from gpmegen.model.shapes import solid_cylinder
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import integrate
 from gpmegen.symbolic import derive
-from test_model_file import BASE
 
 PARAMETERS = (
     Parameter("g", 9.81, "m/s^2"), Parameter("W", 3.0, "rad/s", "hub speed after the switch"),

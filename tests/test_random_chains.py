@@ -39,12 +39,21 @@ from hypothesis import HealthCheck, Phase, assume, event, example, given, note, 
 from hypothesis import strategies as st
 
 import gpmegen
+from gpmegen.model import shapes
 from gpmegen.model.chain import (
-    TIME, Body, CircularSection, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point,
+    TIME,
+    Body,
+    CircularSection,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
     RectangularSection,
 )
 from gpmegen.model.expand import expand
-from gpmegen.model import shapes
 
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from conftest import skip_without_cc
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
@@ -28,16 +29,24 @@ from gpmegen.codegen.render import read_manifest, stale_reason
 from gpmegen.errors import ModelError, StaleModelError
 from gpmegen.model import reference_model, shapes
 from gpmegen.model.chain import (
-    TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Parameter, Point, RectangularSection,
-    point_symbols, symbol,
+    TIME,
+    Body,
+    Constraint,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Parameter,
+    Point,
+    RectangularSection,
+    point_symbols,
+    symbol,
 )
 from gpmegen.model.expand import expand
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, statics
 from gpmegen.runtime.cmodel import CModel
 from gpmegen.runtime.loader import import_numpy_module
-
-from conftest import skip_without_cc
 
 ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")
@@ -91,7 +100,8 @@ def _without_hash(files, model):
 def _c_tokens(source: str) -> list[str]:
     """The C file after translation phases 1-4 (trigraphs, line splicing, comments, macros), as
     whitespace-separated tokens: what the compiler sees."""
-    run = subprocess.run([ccompile.find_compiler()[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"], input=source,
+    preprocess = [ccompile.find_compiler()[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"]
+    run = subprocess.run(preprocess, input=source,
                          capture_output=True, text=True, check=True)
     return run.stdout.split()
 
@@ -122,7 +132,8 @@ EXPLOIT_MODEL = """\
 schema = 1
 name = "exploit"
 description = '''a harmless line *??/
-/ __attribute__((constructor)) static void payload(void) {{ extern int mkdir(const char *, unsigned); static const char d[] = {{{marker}, 0}}; mkdir(d, 0700); }} /*'''
+/ __attribute__((constructor)) static void payload(void) {{
+extern int mkdir(const char *, unsigned); static const char d[] = {{{marker}, 0}}; mkdir(d, 0700); }} /*'''
 
 [parameters]
 m = 1.0

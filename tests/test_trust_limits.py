@@ -206,7 +206,8 @@ def test_parameter_value_beyond_a_double_became_inf_or_an_internal_error(tmp_pat
 
 
 def test_constant_beyond_a_double_in_a_quantity_became_an_overflow_at_run_time(tmp_path):
-    path = _file(tmp_path, ARM.replace('point = "E"', 'point = "F"\n\n[[chain]]\npoint = "E"\nposition = ["exp(710)*L", 0, 0]'))
+    far = 'point = "F"\n\n[[chain]]\npoint = "E"\nposition = ["exp(710)*L", 0, 0]'
+    path = _file(tmp_path, ARM.replace('point = "E"', far))
     with pytest.raises(ModelError, match=r"chain\[7\]\.position\[0\]: .*exp\(710\) = .*beyond a double"):
         load_model_file(path)
 
@@ -214,8 +215,8 @@ def test_constant_beyond_a_double_in_a_quantity_became_an_overflow_at_run_time(t
 def test_default_whose_quantity_overflows_is_named(tmp_path):
     path = _file(tmp_path, ARM.replace("c = 1.0", "c = 1000.0").replace('mass = "m", length = "L"',
                                                                          'mass = "exp(c)", length = "L"', 1))
-    with pytest.raises(ModelError, match=r"chain\[1\]\.shape\.mass: the mass of body 'upper' = exp\(c\) is not a finite "
-                                         r"real number with the parameter defaults \(c = 1000\)"):
+    with pytest.raises(ModelError, match=r"chain\[1\]\.shape\.mass: the mass of body 'upper' = exp\(c\) is not a "
+                                         r"finite real number with the parameter defaults \(c = 1000\)"):
         load_model_file(path)
 
 

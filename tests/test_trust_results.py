@@ -26,8 +26,6 @@ from gpmegen.cli import main
 from gpmegen.runtime import integrate
 
 
-
-
 def _exit_code(argv):
     """Exit status of ``gpmegen argv`` run in this process (argparse's own refusals included)."""
     try:

@@ -11,6 +11,7 @@ from ..fileio import atomic_write, atomic_write_bytes
 from .convergence import QUANTITIES, ConvergenceTable
 from .modes import Modes
 
+
 def write_modes_csv(modes: Modes, path) -> Path:
     """Frequencies, kinds and shapes as CSV: one row per mode, one column per coordinate."""
     path = Path(path)
@@ -63,7 +64,7 @@ def plot_convergence(table: ConvergenceTable, path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(7.0, 5.2))
     n = np.array(table.nrfe, dtype=float)
-    for (key, label, unit), marker, color in zip(QUANTITIES, "osd^", ("C0", "C1", "C2", "C3")):
+    for (key, label, _), marker, color in zip(QUANTITIES, "osd^", ("C0", "C1", "C2", "C3")):
         ax.loglog(n, np.abs(table.errors[key]), marker=marker, color=color,
                   label=f"{label} (fitted order {table.orders[key]:.2f})")
         if table.limit[key] != table.analytic[key]:

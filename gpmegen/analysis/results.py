@@ -71,7 +71,8 @@ def load(path) -> dict:
         raise ResultsError(f"{path}: not a gpmegen results file, or an incomplete one (cannot read it as NPZ: "
                            f"{exc or type(exc).__name__}); make it again with 'gpmegen simulate'") from None
     if str(data.get("format", "")) != FORMAT:
-        raise ResultsError(f"{path}: not a gpmegen results file (no '{FORMAT}' marker); make it with 'gpmegen simulate'")
+        raise ResultsError(f"{path}: not a gpmegen results file (no '{FORMAT}' marker); make it with "
+                           f"'gpmegen simulate'")
     missing = [k for k in REQUIRED if k not in data]
     if missing:
         raise ResultsError(f"{path}: results file lacks {', '.join(missing)}; make it again with 'gpmegen simulate'")

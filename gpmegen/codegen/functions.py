@@ -78,7 +78,8 @@ def model_functions(d: Derivation) -> list[Function]:
         Function("energies", "Kinetic, gravity potential and spring energy (J), (3,).", ("q", "qd", "p"),
                  (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy)),)),
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
-                 ("t", "q", "qd", "p"), (_out("M", dyn.mass_matrix), _out("f", dyn.forces, vector=True)) + constraint_outputs),
+                 ("t", "q", "qd", "p"),
+                 (_out("M", dyn.mass_matrix), _out("f", dyn.forces, vector=True)) + constraint_outputs),
     ]
     return fns
 

@@ -23,6 +23,7 @@ from .comments import comment_text
 from .functions import lower, model_functions, prepare
 from .printers import CPrinter, PythonPrinter
 
+
 def template_environment() -> jinja2.Environment:
     """The Jinja environment over the installed ``templates/``."""
     root = resources.files("gpmegen.templates")

@@ -1,7 +1,16 @@
 """Plain-data description of open kinematic chains with rigid and flexible links."""
 
 from .chain import (
-    Body, Chain, Constraint, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point,
+    Body,
+    Chain,
+    Constraint,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
 )
 from .reference import reference_model
 

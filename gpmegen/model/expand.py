@@ -10,8 +10,20 @@ import sympy as sp
 
 from ..errors import ModelError
 from .chain import (
-    AXES, JOINT_KINDS, TIME, Body, FlexibleLink, Joint, Model, Offset, Point, check_name,
-    point_symbols, point_velocity_symbols, symbol, velocity_symbol,
+    AXES,
+    JOINT_KINDS,
+    TIME,
+    Body,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Point,
+    check_name,
+    point_symbols,
+    point_velocity_symbols,
+    symbol,
+    velocity_symbol,
 )
 from .rfem import discretize
 
@@ -96,7 +108,8 @@ def expand(model: Model) -> FlatChain:
         if isinstance(element, Joint):
             claim(element.name, "coordinate")
             if element.kind not in JOINT_KINDS:
-                raise ModelError(f"joint {element.name!r}: unknown kind {element.kind!r}; use one of {', '.join(JOINT_KINDS)}")
+                raise ModelError(f"joint {element.name!r}: unknown kind {element.kind!r}; use one of "
+                                 f"{', '.join(JOINT_KINDS)}")
             if element.axis not in AXES:
                 raise ModelError(f"joint {element.name!r}: unknown axis {element.axis!r}; use x, y or z")
             _check_expression(element.stiffness, constant, f"joint {element.name!r} stiffness")
@@ -139,7 +152,8 @@ def expand(model: Model) -> FlatChain:
         _check_expression(v, constant, "gravity")
     for drive in model.drives:
         if drive.coordinate not in coordinates:
-            raise ModelError(f"drive on unknown coordinate {drive.coordinate!r}; coordinates are {', '.join(coordinates)}")
+            raise ModelError(f"drive on unknown coordinate {drive.coordinate!r}; coordinates are "
+                             f"{', '.join(coordinates)}")
         _check_expression(drive.expression, constant | {TIME}, f"drive on {drive.coordinate!r}")
 
     kinematic = set(params) | {TIME} | {symbol(c) for c in coordinates}
@@ -163,7 +177,8 @@ def expand(model: Model) -> FlatChain:
     if model.dependent is not None:
         for name in model.dependent:
             if name not in coordinates:
-                raise ModelError(f"dependent coordinate {name!r} is not a coordinate; coordinates are {', '.join(coordinates)}")
+                raise ModelError(f"dependent coordinate {name!r} is not a coordinate; coordinates are "
+                                 f"{', '.join(coordinates)}")
         if len(set(model.dependent)) != len(model.constraints):
             raise ModelError(
                 f"{len(model.constraints)} constraint(s) need as many distinct dependent coordinates, "

@@ -6,8 +6,19 @@ from __future__ import annotations
 import sympy as sp
 
 from .chain import (
-    TIME, Body, Constraint, Drive, FlexibleLink, Joint, Model, Offset, Parameter, Point,
-    RectangularSection, point_symbols, symbol,
+    TIME,
+    Body,
+    Constraint,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
+    RectangularSection,
+    point_symbols,
+    symbol,
 )
 from .shapes import shape_quantities, solid_cylinder
 

@@ -66,4 +66,5 @@ def rod(mass, length, radius):
 def point_mass(mass, position=(0, 0, 0)):
     """A point mass at ``position``."""
     x, y, z = (sp.sympify(v) for v in position)
-    return pseudo_inertia(mass, position, (mass * x**2, mass * y**2, mass * z**2), (mass * x * y, mass * x * z, mass * y * z))
+    return pseudo_inertia(mass, position, (mass * x**2, mass * y**2, mass * z**2),
+                          (mass * x * y, mass * x * z, mass * y * z))

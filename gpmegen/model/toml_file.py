@@ -84,19 +84,34 @@ import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-
-import sympy as sp
 from tokenize import TokenError
 
+import sympy as sp
 from sympy.parsing.sympy_parser import auto_number, convert_xor, parse_expr
 
 from .. import limits
 from ..errors import GpmegenError, ModelError
 from . import shapes
 from .chain import (
-    AXES, JOINT_KINDS, TIME, Body, CircularSection, Constraint, Drive, FlexibleLink, Joint, Model,
-    Offset, Parameter, Point, RectangularSection, check_name, point_symbols,
-    point_velocity_symbols, symbol, velocity_symbol,
+    AXES,
+    JOINT_KINDS,
+    TIME,
+    Body,
+    CircularSection,
+    Constraint,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
+    RectangularSection,
+    check_name,
+    point_symbols,
+    point_velocity_symbols,
+    symbol,
+    velocity_symbol,
 )
 from .expand import expand
 from .requirements import evaluate, requirements, violation

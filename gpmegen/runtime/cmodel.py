@@ -58,7 +58,7 @@ class CModel(LoadedModel):
         self._n_points = len(self.points)
         self._partition_c = None
 
-    def with_params(self, **overrides) -> "CModel":
+    def with_params(self, **overrides) -> CModel:
         """The same model with some parameter values changed; shares the loaded library."""
         other = super().with_params(**overrides)
         other.compiled = False  # nothing was compiled for it

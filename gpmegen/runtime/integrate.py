@@ -16,7 +16,6 @@ import numpy as np
 
 from ..errors import SimulationError
 
-
 FIX_NONFINITE = "try a smaller --dt (the flexible modes bound the RK4 step) or check the parameters"
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
                  "within reach")

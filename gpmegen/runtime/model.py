@@ -74,14 +74,16 @@ class LoadedModel:
     def set_partition(self, dependent) -> None:
         """Use the coordinates at indices ``dependent`` as the dependent ones (one per constraint)."""
         dep = sorted(int(k) for k in dependent)
-        if len(dep) != len(self.constraint_names) or len(set(dep)) != len(dep) or not all(0 <= k < self.n_dof for k in dep):
+        distinct = len(set(dep)) == len(dep) and all(0 <= k < self.n_dof for k in dep)
+        if len(dep) != len(self.constraint_names) or not distinct:
             raise ModelError(
-                f"need {len(self.constraint_names)} distinct dependent coordinate indices below {self.n_dof}, got {dependent!r}"
+                f"need {len(self.constraint_names)} distinct dependent coordinate indices below {self.n_dof}, "
+                f"got {dependent!r}"
             )
         self.dependent = np.array(dep, dtype=int)
         self.independent = np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int)
 
-    def with_params(self, **overrides) -> "LoadedModel":
+    def with_params(self, **overrides) -> LoadedModel:
         """The same model (same generated code, compiled library and partition) with some
         parameter values changed; nothing is rebuilt or reloaded."""
         other = copy.copy(self)

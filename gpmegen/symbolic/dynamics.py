@@ -113,7 +113,7 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         columns.append((define_all(n_j), define_all(l_j)))
         h[j] = define(-(jt.omega.dot(n_c) + jt.v.dot(f_c)))
         grav[j] = define(-gvec.dot(columns[j][1]))
-    for j, jt in enumerate(kin.joints):
+    for j in range(n):
         n_j, l_j = columns[j]
         for i in range(j + 1):
             ji = kin.joints[i]
