@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: cfbcc7256c221b1f
+Input hash: 847096980780b4c6
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: e3512992bcd0f724
+Input hash: dc7b6f7908782856
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,8 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-
-const char *manipulator_nrfe5_input_hash(void) { return "e3512992bcd0f724"; }
+const char *manipulator_nrfe5_input_hash(void) { return "dc7b6f7908782856"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -5081,17 +5080,17 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
 
 
 /* qdd (N_DOF) from the GPME, and the M (N_DOF x N_DOF) and f (N_DOF) it was solved from (see
-   gpme_solve). */
-int manipulator_nrfe5_gpme_motion(double t, const double *q, const double *qd, const double *p,
-                const int *dependent, const int *independent, double *qdd, double *M, double *f)
+   gpme_solve and model.h). */
+int manipulator_nrfe5_gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent,
+    const int *independent, double *qdd, double *M, double *f)
 {
     double power;
     return gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power);
 }
 
-/* qdd (N_DOF) alone; see gpme_motion. */
+/* qdd (N_DOF) alone; see manipulator_nrfe5_gpme_motion. */
 int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double *qd, const double *p,
-                       const int *dependent, const int *independent, double *qdd)
+    const int *dependent, const int *independent, double *qdd)
 {
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
     return manipulator_nrfe5_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
@@ -5205,8 +5204,8 @@ static double grid_time(double t0, double dt, long n_steps, double t_end, long k
    or stage (not saved), GPMEGEN_BAD_ARGUMENTS for invalid arguments; what was saved before a
    failure is kept. */
 int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every,
-        const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent,
-        const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
+    const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent,
+    const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
 {
     double q[N_DOF] ALIGNED, qd[N_DOF] ALIGNED, w[2] ALIGNED;
     long saved = 0;

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: e3512992bcd0f724
+Input hash: dc7b6f7908782856
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
