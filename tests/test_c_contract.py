@@ -112,3 +112,12 @@ def test_two_models_link_into_one_program(built, tmp_path):
     for line, (n, m_last) in zip(printed, expected, strict=True):
         got_n, got_m = line.split()
         assert int(got_n) == n and float(got_m) == pytest.approx(m_last, rel=1e-12)
+
+
+@pytest.mark.requires_cc
+def test_a_compiler_named_relative_to_the_callers_folder_still_compiles(built, tmp_path, monkeypatch):
+    """The compiler runs in a private folder holding the header: a relative $CC still names it."""
+    (tmp_path / "mycc").symlink_to(ccompile.find_compiler()[0])
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CC", "./mycc")
+    assert ccompile.build_library(built[1] / "model.c", cache=tmp_path / "cache").compiled

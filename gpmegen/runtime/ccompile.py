@@ -234,7 +234,8 @@ def _compile(compiler, flags, source: str, header: str, source_path: Path, lib_p
     # The compiler reads the texts the key was made of, not the files, which may have changed
     # since they were read: the source from its standard input, the header from a private folder
     # it runs in (where #include "model.h" of a source read from standard input is looked up).
-    argv = [*compiler, *flags, *LINK_FLAGS, "-o", str(tmp), "-x", "c", "-", "-lm"]
+    # (the compiler by its absolute path: a relative $CC names it from the caller's folder)
+    argv = [os.path.abspath(compiler[0]), *compiler[1:], *flags, *LINK_FLAGS, "-o", str(tmp), "-x", "c", "-", "-lm"]
     t0 = time.perf_counter()
     try:
         with tempfile.TemporaryDirectory(prefix=f".{key[:16]}.", suffix=".h.tmp", dir=cache) as include:
