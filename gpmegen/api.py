@@ -24,7 +24,7 @@ from .errors import (
     StaleModelError,
     StaticsError,
 )
-from .folder import read_manifest, recover_folder, stale_reason
+from .folder import BACKEND_FILES, read_manifest, recover_folder, stale_reason
 from .model import (
     Body,
     Constraint,
@@ -63,7 +63,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     recover_folder(folder)
     rebuild = command or "gpmegen build"
     digest = input_hash(model, BACKENDS)
-    used = ("model_numpy.py", "model.c") if backend == "c" else ("model_numpy.py",)
+    used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
     reason = stale_reason(folder, read_manifest(folder), digest, used)
     if reason is not None:
         if not build:

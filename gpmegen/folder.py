@@ -1,7 +1,7 @@
 """A generated model's folder: its files, its manifest, and how it is read and written.
 
-``<out>/<model name>/`` holds ``model_numpy.py``, ``model.c`` and ``manifest.json``; the
-manifest records the model, the input hash and each file's sha256. Code generation writes the
+``<out>/<model name>/`` holds ``model_numpy.py``, ``model.h``, ``model.c`` and ``manifest.json``;
+the manifest records the model, the input hash and each file's sha256. Code generation writes the
 folder (:func:`write_folder`: under a temporary name beside it, then swapped in by renames, so
 an interrupted build leaves the previous folder intact); the runtime reads it
 (:func:`read_verified`: a file is used only as its manifest records it).
@@ -18,7 +18,8 @@ from pathlib import Path
 
 from .errors import BuildError, StaleModelError
 
-BACKEND_FILES = {"numpy": "model_numpy.py", "c": "model.c"}
+#: The files each backend is generated into (the C library's header beside its source).
+BACKEND_FILES = {"numpy": ("model_numpy.py",), "c": ("model.h", "model.c")}
 MANIFEST = "manifest.json"
 
 

@@ -236,7 +236,8 @@ def test_with_params_reuses_the_library(pairs):
 def source(pairs, tmp_path):
     c, _ = pairs("nrfe1")
     path = tmp_path / "model.c"
-    path.write_text((Path(c.folder) / "model.c").read_text())
+    for name in ("model.h", "model.c"):
+        (tmp_path / name).write_text((Path(c.folder) / name).read_text())
     return path
 
 
@@ -286,7 +287,7 @@ def test_truncated_library_is_rebuilt(source, tmp_path):
     again = ccompile.build_library(source, cache=cache)
     assert again.compiled and "sha256" in again.rebuilt_reason and again.path == first.path
     ffi, lib, _ = ccompile.load_library(source, cache=cache)
-    assert lib.gpmegen_n_dof() == 3
+    assert lib.n_dof() == 3
 
 
 def test_unloadable_library_is_rebuilt(source, tmp_path):
@@ -300,7 +301,7 @@ def test_unloadable_library_is_rebuilt(source, tmp_path):
     meta_path.write_text(json.dumps(meta))
     ffi, lib, info = ccompile.load_library(source, cache=cache)
     assert info.compiled and "failed to load" in info.rebuilt_reason
-    assert lib.gpmegen_n_dof() == 3
+    assert lib.n_dof() == 3
 
 
 def test_concurrent_builds_are_safe(source, tmp_path):
@@ -316,7 +317,7 @@ def test_concurrent_builds_are_safe(source, tmp_path):
     info = ccompile.build_library(source, cache=cache)
     assert not info.compiled
     _, lib, _ = ccompile.load_library(source, cache=cache)
-    assert lib.gpmegen_n_dof() == 3
+    assert lib.n_dof() == 3
 
 
 def test_missing_compiler_named_by_cc(source, tmp_path, monkeypatch):
@@ -336,7 +337,8 @@ def test_no_compiler_on_path(pairs, tmp_path, monkeypatch):
 
 def test_compile_error_is_a_build_error(tmp_path):
     bad = tmp_path / "model.c"
-    bad.write_text("/* cffi-cdef-begin */\nint f(void);\n/* cffi-cdef-end */\nint f(void) { return }\n")
+    (tmp_path / "model.h").write_text("int m_f(void);\n")
+    bad.write_text("#include \"model.h\"\nint m_f(void) { return }\n")
     with pytest.raises(BuildError, match="compiling .*model.c failed"):
         ccompile.build_library(bad, cache=tmp_path / "cache")
     assert not [p for p in (tmp_path / "cache").iterdir()]

@@ -87,10 +87,11 @@ def _crashing_library(tmp_path, folder) -> Path:
     """The library of ``folder/model.c`` whose ``points`` dies with SIGSEGV."""
     compiler = ccompile.find_compiler()
     crash = tmp_path / "crash.c"
-    crash.write_text("#include <signal.h>\nvoid points(const double *q, const double *p, double *out_P)\n"
+    points = f"{folder.name}_points"  # the exported name: the model's name is its prefix
+    crash.write_text(f"#include <signal.h>\nvoid {points}(const double *q, const double *p, double *out_P)\n"
                      "{ (void)q; (void)p; (void)out_P; raise(SIGSEGV); }\n")
     model = tmp_path / "model.o"
-    subprocess.run([*compiler, "-O1", "-fPIC", "-Dpoints=points_replaced", "-c", "-o", model, folder / "model.c"],
+    subprocess.run([*compiler, "-O1", "-fPIC", f"-D{points}=points_replaced", "-c", "-o", model, folder / "model.c"],
                    check=True, capture_output=True)
     library = tmp_path / "crashing.so"
     subprocess.run([*compiler, "-shared", "-fPIC", "-o", library, model, crash, "-lm"], check=True,

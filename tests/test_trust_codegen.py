@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import subprocess
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,7 @@ from gpmegen.codegen import input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
 from gpmegen.codegen.render import read_manifest, stale_reason
 from gpmegen.errors import ModelError, StaleModelError
+from gpmegen.folder import BACKEND_FILES
 from gpmegen.model import reference_model, shapes
 from gpmegen.model.chain import (
     TIME,
@@ -50,6 +52,7 @@ from gpmegen.runtime.loader import import_numpy_module
 
 ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")
+C_FILES = BACKEND_FILES["c"]
 
 
 # --- 1. free text in comments and docstrings ---------------------------------------------------
@@ -97,12 +100,14 @@ def _without_hash(files, model):
     return {name: text.replace(digest, "INPUT_HASH") for name, text in files.items()}
 
 
-def _c_tokens(source: str) -> list[str]:
-    """The C file after translation phases 1-4 (trigraphs, line splicing, comments, macros), as
-    whitespace-separated tokens: what the compiler sees."""
+def _c_tokens(files: dict) -> list[str]:
+    """The C file, with the header it includes, after translation phases 1-4 (trigraphs, line
+    splicing, comments, macros), as whitespace-separated tokens: what the compiler sees."""
     preprocess = [ccompile.find_compiler()[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"]
-    run = subprocess.run(preprocess, input=source,
-                         capture_output=True, text=True, check=True)
+    with tempfile.TemporaryDirectory() as include:
+        Path(include, "model.h").write_text(files["model.h"])
+        run = subprocess.run(preprocess, input=files["model.c"], cwd=include,
+                             capture_output=True, text=True, check=True)
     return run.stdout.split()
 
 
@@ -123,7 +128,7 @@ def test_defect1_free_text_stays_in_its_comment_and_docstring(description, comma
     model = _tiny_model(description, unit, doc)
     files = _without_hash(render(model, BACKENDS, command=command), model)
     reference = _without_hash(render(neutral, BACKENDS, command=""), neutral)
-    assert _c_tokens(files["model.c"]) == _c_tokens(reference["model.c"])
+    assert _c_tokens(files) == _c_tokens(reference)
     assert _python_code(files["model_numpy.py"]) == _python_code(reference["model_numpy.py"])
     assert all(text.isascii() for text in files.values())
 
@@ -259,7 +264,7 @@ def test_defect2_coordinate_named_like_a_constraint_symbol_is_refused(coordinate
 
 def _edit(path):
     """A hand edit that leaves the file valid code."""
-    path.write_text(path.read_text() + ("\n/* edited */\n" if path.suffix == ".c" else "\n# edited\n"))
+    path.write_text(path.read_text() + ("\n/* edited */\n" if path.suffix in (".c", ".h") else "\n# edited\n"))
 
 
 def _truncate(path):
@@ -268,7 +273,7 @@ def _truncate(path):
 
 
 TAMPERING = [pytest.param(name, change, id=f"{change.__name__[1:]}-{name}")
-             for name in ("model.c", "model_numpy.py") for change in (_edit, _truncate)]
+             for name in (*C_FILES, "model_numpy.py") for change in (_edit, _truncate)]
 
 
 def _built(tmp_path):
@@ -291,11 +296,11 @@ def test_defect3_build_does_not_report_a_tampered_folder_up_to_date(tmp_path, ca
 
 @pytest.mark.parametrize("name, change", TAMPERING)
 def test_defect3_loading_a_tampered_file_builds_it_again(tmp_path, name, change):
-    if name == "model.c":
+    if name in C_FILES:
         skip_without_cc()
     folder, original = _built(tmp_path)
     change(folder / name)
-    backend = "c" if name == "model.c" else "numpy"
+    backend = "c" if name in C_FILES else "numpy"
     model = gpmegen.load(nrfe=1, backend=backend, directory=tmp_path)
     assert model.backend == backend
     assert (folder / name).read_bytes() == original[name]
@@ -305,7 +310,7 @@ def test_defect3_loading_a_tampered_file_builds_it_again(tmp_path, name, change)
 def test_defect3_loading_a_tampered_file_without_building_is_refused(tmp_path, name, change):
     folder, _ = _built(tmp_path)
     change(folder / name)
-    backend = "c" if name == "model.c" else "numpy"
+    backend = "c" if name in C_FILES else "numpy"
     with pytest.raises(StaleModelError) as exc:
         gpmegen.load(nrfe=1, backend=backend, directory=tmp_path, build=False)
     message = str(exc.value)
@@ -325,11 +330,12 @@ def test_defect3_c_file_changed_after_loading_the_module_is_not_compiled(tmp_pat
 
 @pytest.mark.requires_cc
 def test_defect3_the_compiler_gets_the_text_that_was_read_not_the_file(tmp_path):
-    source = ("/* cffi-cdef-begin */\nconst char *gpmegen_input_hash(void);\nint f(void);\n/* cffi-cdef-end */\n"
-              "const char *gpmegen_input_hash(void) { return \"\"; }\nint f(void) { return %d; }\n")
+    header = "const char *m_input_hash(void);\nint m_f(void);\n"
+    source = "#include \"model.h\"\nconst char *m_input_hash(void) { return \"\"; }\nint m_f(void) { return %d; }\n"
     path = tmp_path / "model.c"
     path.write_text(source % 1)  # the file changed after its text was read and checked
-    _, lib, _ = ccompile.load_library(path, cache=tmp_path / "cache", text=source % 2)
+    (tmp_path / "model.h").write_text("#error the header's file, not its text\n")
+    _, lib, _ = ccompile.load_library(path, cache=tmp_path / "cache", text=source % 2, header=header)
     assert lib.f() == 2
 
 
@@ -347,4 +353,4 @@ def test_defect3_manifest_that_is_no_json_object_is_stale_not_a_crash(tmp_path):
 def test_defect3_committed_snapshots_verify(nrfe):
     folder = ROOT / "generated" / f"manipulator_nrfe{nrfe}"
     digest = input_hash(reference_model(nrfe), BACKENDS)
-    assert stale_reason(folder, read_manifest(folder), digest, ("model_numpy.py", "model.c")) is None
+    assert stale_reason(folder, read_manifest(folder), digest, ("model_numpy.py", *C_FILES)) is None

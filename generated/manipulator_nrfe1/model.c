@@ -3,45 +3,14 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 64f4ac5fd30bf8bf
-n_dof = 3; coordinates (order of q and qd):
-    0: theta1
-    1: psi2
-    2: x3
-
-Parameters (order of p; default value, unit):
-    0: g = 9.81 m/s^2
-    1: m1 = 10.0 kg
-    2: h1 = 0.6 m
-    3: R1 = 0.05 m
-    4: L2 = 1.0 m
-    5: b2 = 0.04 m
-    6: t2 = 0.01 m
-    7: rho2 = 2700.0 kg/m^3
-    8: E2 = 70000000000.0 Pa
-    9: G2 = 26000000000.0 Pa
-    10: J2 = 1.124e-08 m^4
-    11: d2 = 0.0 N m s/rad
-    12: m3 = 2.0 kg
-    13: L3 = 0.5 m
-    14: R3 = 0.02 m
-    15: tdr0 = 1.0 N m
-    16: t0 = 5.0 s
-    17: A = 0.5 m
-    18: T = 2.5 s
-    19: r_Ea = 1.06066017177982 m
-    20: y_c = 1.16066017177982 m
-    21: alpha_circle = 100.0 1/s
-    22: beta_circle = 50.0 1/s
-    23: alpha_height = 100.0 1/s
-    24: beta_height = 50.0 1/s
-
-Conventions: every array is row-major and owned by the caller; a function of shape (r, c)
-writes out[i*c + j]. q, qd have N_DOF entries, p has N_PARAMETERS.
+Input hash: 847096980780b4c6
+The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
 #include <float.h>
 #include <math.h>
+
+#include "model.h"
 
 #define N_DOF 3
 #define N_CONSTRAINTS 2
@@ -49,36 +18,19 @@ writes out[i*c + j]. q, qd have N_DOF entries, p has N_PARAMETERS.
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-/* cffi-cdef-begin */
-const char *gpmegen_input_hash(void);
-int gpmegen_n_dof(void);
-int gpmegen_n_constraints(void);
-int gpmegen_n_parameters(void);
-int gpmegen_n_points(void);
-void mass_matrix(const double *q, const double *p, double *out_M);
-void forces(double t, const double *q, const double *qd, const double *p, double *out_f);
-void static_residual(const double *q, const double *p, double *out_r);
-void stiffness_jacobian(const double *q, const double *p, double *out_K);
-void drive_forces(double t, const double *p, double *out_Q);
-void points(const double *q, const double *p, double *out_P);
-void constraint_terms(double t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
-void baumgarte_gains(const double *p, double *out_alpha, double *out_beta);
-void energies(const double *q, const double *qd, const double *p, double *out_e);
-void gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
-int gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, double *M, double *f);
-int gpme_accelerations(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd);
-int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
-/* cffi-cdef-end */
-
-const char *gpmegen_input_hash(void) { return "64f4ac5fd30bf8bf"; }
-int gpmegen_n_dof(void) { return N_DOF; }
-int gpmegen_n_constraints(void) { return N_CONSTRAINTS; }
-int gpmegen_n_parameters(void) { return N_PARAMETERS; }
-int gpmegen_n_points(void) { return N_POINTS; }
+const char *manipulator_nrfe1_input_hash(void) { return "847096980780b4c6"; }
+int manipulator_nrfe1_n_dof(void) { return N_DOF; }
+int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
+int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
+int manipulator_nrfe1_n_points(void) { return N_POINTS; }
 
 
-/* Mass matrix M(q), (n, n). */
-void mass_matrix(const double *q, const double *p, double *out_M)
+/* Mass matrix M(q).
+   q: (3,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_M: (3, 3) mass matrix M(q), symmetric, row-major
+*/
+void manipulator_nrfe1_mass_matrix(const double *q, const double *p, double *out_M)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -189,8 +141,14 @@ void mass_matrix(const double *q, const double *p, double *out_M)
 }
 
 
-/* f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,). */
-void forces(double t, const double *q, const double *qd, const double *p, double *out_f)
+/* Generalized forces: drive, velocity, gravity, spring and damping terms.
+   t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+*/
+void manipulator_nrfe1_forces(double t, const double *q, const double *qd, const double *p, double *out_f)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -322,8 +280,12 @@ void forces(double t, const double *q, const double *qd, const double *p, double
 }
 
 
-/* g(q) + C q: gravity and spring terms, (n,). */
-void static_residual(const double *q, const double *p, double *out_r)
+/* Gravity and spring terms g(q) + C q.
+   q: (3,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_r: (3,) g(q) + C q
+*/
+void manipulator_nrfe1_static_residual(const double *q, const double *p, double *out_r)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -363,8 +325,12 @@ void static_residual(const double *q, const double *p, double *out_r)
 }
 
 
-/* K = d(g + C q)/dq, from T_ij, (n, n). */
-void stiffness_jacobian(const double *q, const double *p, double *out_K)
+/* Tangent stiffness K = d(g + C q)/dq, from T_ij.
+   q: (3,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_K: (3, 3) K[i, j] = d(g + C q)_i / dq_j, row-major
+*/
+void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, double *out_K)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -412,8 +378,12 @@ void stiffness_jacobian(const double *q, const double *p, double *out_K)
 }
 
 
-/* Drive forces Q(t), (n,). */
-void drive_forces(double t, const double *p, double *out_Q)
+/* Drive forces Q(t).
+   t: time (s)
+   p: (25,) parameter values in PARAMETERS order
+   out_Q: (3,) drive forces Q(t)
+*/
+void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q)
 {
     const double _p_tdr0 = p[15];
     const double _p_t0 = p[16];
@@ -424,8 +394,12 @@ void drive_forces(double t, const double *p, double *out_Q)
 }
 
 
-/* Positions of the named points in {0} (m), (n_points, 3). */
-void points(const double *q, const double *p, double *out_P)
+/* Positions of the named points in {0}.
+   q: (3,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_P: (1, 3) positions (m), one row per point in POINTS order: x, y, z in {0}, row-major
+*/
+void manipulator_nrfe1_points(const double *q, const double *p, double *out_P)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -454,8 +428,17 @@ void points(const double *q, const double *p, double *out_P)
 }
 
 
-/* phi, phi_rate, D, gamma of the programmed constraints. */
-void constraint_terms(double t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+/* phi, phi_rate, D, gamma of the programmed constraints.
+   t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_phi: (2,) constraint values phi in CONSTRAINTS order
+   out_phi_rate: (2,) their rates d(phi)/dt
+   out_jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
+   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+*/
+void manipulator_nrfe1_constraint_terms(double t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -536,8 +519,12 @@ void constraint_terms(double t, const double *q, const double *qd, const double 
 }
 
 
-/* alpha, beta per constraint. */
-void baumgarte_gains(const double *p, double *out_alpha, double *out_beta)
+/* Baumgarte gains alpha, beta of each constraint.
+   p: (25,) parameter values in PARAMETERS order
+   out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
+   out_beta: (2,) beta per constraint, in CONSTRAINTS order
+*/
+void manipulator_nrfe1_baumgarte_gains(const double *p, double *out_alpha, double *out_beta)
 {
     const double _p_alpha_circle = p[21];
     const double _p_beta_circle = p[22];
@@ -550,8 +537,13 @@ void baumgarte_gains(const double *p, double *out_alpha, double *out_beta)
 }
 
 
-/* Kinetic, gravity potential and spring energy (J), (3,). */
-void energies(const double *q, const double *qd, const double *p, double *out_e)
+/* Kinetic, gravity potential and spring energy.
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_e: (3,) kinetic, gravity potential and spring energy (J)
+*/
+void manipulator_nrfe1_energies(const double *q, const double *qd, const double *p, double *out_e)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -661,8 +653,19 @@ void energies(const double *q, const double *qd, const double *p, double *out_e)
 }
 
 
-/* M, f and the constraint terms in one pass (shared kinematics). */
-void gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+/* M, f and the constraint terms in one pass (shared kinematics).
+   t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_M: (3, 3) mass matrix M(q), symmetric, row-major
+   out_f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+   out_phi: (2,) constraint values phi in CONSTRAINTS order
+   out_phi_rate: (2,) their rates d(phi)/dt
+   out_jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
+   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+*/
+void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
 {
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
@@ -941,8 +944,9 @@ static int largest_entry(const double *x, int n)
    X[a * NX + N_INDEPENDENT] = (D_dc^-1 c)_a. Each pivot is the largest entry of the rows not
    pivoted yet (the elimination leaves exact zeros in the columns already chosen), so
    |X_aj| <= 2^(N_CONSTRAINTS - 1 - a): the basis B = [I; -X] of the allowed motions stays well
-   conditioned. D and c are overwritten. Returns 2 when an entry of D is not finite, 1 when D has
-   lost rank (a pivot at or below N_DOF * DBL_EPSILON times its largest entry), else 0. */
+   conditioned. D and c are overwritten. Returns GPMEGEN_NONFINITE when an entry of D is not
+   finite, GPMEGEN_SINGULAR when D has lost rank (a pivot at or below N_DOF * DBL_EPSILON times
+   its largest entry), else GPMEGEN_OK. */
 static int constraint_basis(double *D, double *c, int *dependent, int *independent, double *X)
 {
     enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
@@ -950,7 +954,7 @@ static int constraint_basis(double *D, double *c, int *dependent, int *independe
     for (int k = 0; k < NC; ++k) {
         const int at = largest_entry(D + k * N_DOF, (NC - k) * N_DOF);
         if (at < 0) {
-            return 2;
+            return GPMEGEN_NONFINITE;
         }
         const int pivot_row = k + at / N_DOF, pivot = at % N_DOF;
         const double largest = fabs(D[k * N_DOF + at]);
@@ -958,7 +962,7 @@ static int constraint_basis(double *D, double *c, int *dependent, int *independe
             tiny = (double)N_DOF * DBL_EPSILON * largest;
         }
         if (!(largest > tiny)) {
-            return 1;
+            return GPMEGEN_SINGULAR;
         }
         dependent[k] = pivot;
         if (pivot_row != k) {
@@ -1011,7 +1015,7 @@ static int constraint_basis(double *D, double *c, int *dependent, int *independe
             X[a * NX + j] *= inv;
         }
     }
-    return 0;
+    return GPMEGEN_OK;
 }
 
 
@@ -1020,16 +1024,16 @@ static int constraint_basis(double *D, double *c, int *dependent, int *independe
    i > j (L unit lower triangular) and inv_d[j] = 1 / D_jj. No square roots, and one division per
    column: the factorization is a chain of n dependent pivots, so what each pivot costs sets
    its time (a Cholesky pivot waits for a square root and then a division). Right-looking
-   updates run along contiguous rows. Returns 2 when a diagonal entry or a pivot is not finite
-   (a non-finite off-diagonal entry reaches a later pivot), 1 when a is not numerically
-   positive definite (a pivot at or below n * DBL_EPSILON times the largest diagonal entry),
-   else 0. */
+   updates run along contiguous rows. Returns GPMEGEN_NONFINITE when a diagonal entry or a
+   pivot is not finite (a non-finite off-diagonal entry reaches a later pivot), GPMEGEN_SINGULAR
+   when a is not numerically positive definite (a pivot at or below n * DBL_EPSILON times the
+   largest diagonal entry), else GPMEGEN_OK. */
 NOINLINE static int ldlt(int n, double *a, double *inv_d)
 {
     double scale = 0.0;
     for (int i = 0; i < n; ++i) {
         if (!(fabs(a[i * n + i]) <= DBL_MAX)) {
-            return 2;
+            return GPMEGEN_NONFINITE;
         }
         if (a[i * n + i] > scale) {
             scale = a[i * n + i];
@@ -1040,7 +1044,7 @@ NOINLINE static int ldlt(int n, double *a, double *inv_d)
         double *row = a + j * n;
         const double d = row[j];
         if (!(d > tiny)) {
-            return isfinite(d) ? 1 : 2;
+            return isfinite(d) ? GPMEGEN_SINGULAR : GPMEGEN_NONFINITE;
         }
         const double inv = 1.0 / d;
         inv_d[j] = inv;
@@ -1055,7 +1059,7 @@ NOINLINE static int ldlt(int n, double *a, double *inv_d)
             row[i] *= inv;
         }
     }
-    return 0;
+    return GPMEGEN_OK;
 }
 
 /* Solve L D L^T x = b in place (b: n entries) with the factors from ldlt(). Both substitutions
@@ -1105,7 +1109,8 @@ static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
    which forms no M B and only the upper triangle of R.
    *power receives the power of the constraint forces, qd . (M qdd - f) = (M^T qd) . qdd - qd . f:
    M^T qd does not wait for the solve, so it runs beside the factorization.
-   Returns 0; 1 when D has lost rank or B^T M B is singular; 2 when a term is not finite. */
+   Returns GPMEGEN_OK; GPMEGEN_SINGULAR when D has lost rank or B^T M B is singular;
+   GPMEGEN_NONFINITE when a term is not finite. */
 static int gpme_solve(double t, const double *q, const double *qd, const double *p,
                       const int *model_dependent, const int *model_independent,
                       double *qdd, double *M, double *f, double *power)
@@ -1123,8 +1128,8 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
 
     (void)model_dependent;
     (void)model_independent;
-    gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
-    baumgarte_gains(p, alpha, beta);
+    manipulator_nrfe1_gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
+    manipulator_nrfe1_baumgarte_gains(p, alpha, beta);
     /* M^T qd, row by row of M so that the inner loop runs along contiguous memory */
     for (int i = 0; i < N_DOF; ++i) {
         m_qd[i] = 0.0;
@@ -1142,7 +1147,7 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
             ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
             : -gam[a] - alpha[a] * phi[a];
     }
-    if ((status = constraint_basis(D, c, dependent, independent, X)) != 0) {
+    if ((status = constraint_basis(D, c, dependent, independent, X)) != GPMEGEN_OK) {
         return status;
     }
     for (int a = 0; a < NC; ++a) {
@@ -1185,7 +1190,7 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
             R[i * NI + j] = v;
         }
     }
-    if ((status = ldlt(NI, R, inv_d)) != 0) {
+    if ((status = ldlt(NI, R, inv_d)) != GPMEGEN_OK) {
         return status;
     }
     ldlt_solve(NI, R, inv_d, z);
@@ -1204,25 +1209,25 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
         s += m_qd[i] * qdd[i];
     }
     *power = s;
-    return 0;
+    return GPMEGEN_OK;
 }
 
 
 /* qdd (N_DOF) from the GPME, and the M (N_DOF x N_DOF) and f (N_DOF) it was solved from (see
-   gpme_solve). */
-int gpme_motion(double t, const double *q, const double *qd, const double *p,
-                const int *dependent, const int *independent, double *qdd, double *M, double *f)
+   gpme_solve and model.h). */
+int manipulator_nrfe1_gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent,
+    const int *independent, double *qdd, double *M, double *f)
 {
     double power;
     return gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power);
 }
 
-/* qdd (N_DOF) alone; see gpme_motion. */
-int gpme_accelerations(double t, const double *q, const double *qd, const double *p,
-                       const int *dependent, const int *independent, double *qdd)
+/* qdd (N_DOF) alone; see manipulator_nrfe1_gpme_motion. */
+int manipulator_nrfe1_gpme_accelerations(double t, const double *q, const double *qd, const double *p,
+    const int *dependent, const int *independent, double *qdd)
 {
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
-    return gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+    return manipulator_nrfe1_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
 }
 
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */
@@ -1256,19 +1261,19 @@ static int stage(double t, const double *q, const double *qd, const double *p,
 {
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, Q[N_DOF] ALIGNED;
     const int status = gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power[1]);
-    if (status != 0) {
+    if (status != GPMEGEN_OK) {
         return status;
     }
-    drive_forces(t, p, Q);
+    manipulator_nrfe1_drive_forces(t, p, Q);
     power[0] = 0.0;
     for (int i = 0; i < N_DOF; ++i) {
         power[0] += qd[i] * Q[i];
     }
-    return 0;
+    return GPMEGEN_OK;
 }
 
 /* One classical RK4 step of length h from t, in place on the state (q, qd, w), with qdd from
-   the GPME and w the work of the drive and of the constraint forces (J). Returns 0, or the
+   the GPME and w the work of the drive and of the constraint forces (J). Returns GPMEGEN_OK, or the
    status of the first failed stage (the state is then left as it was). */
 static int rk4_step(double t, double h, double *q, double *qd, double *w, const double *p,
                     const int *dependent, const int *independent)
@@ -1279,28 +1284,28 @@ static int rk4_step(double t, double h, double *q, double *qd, double *w, const 
     int status;
 
     /* k1..k4 are the accelerations; the velocity slopes are the stage velocities. */
-    if ((status = stage(t, q, qd, p, dependent, independent, k1, p1)) != 0) {
+    if ((status = stage(t, q, qd, p, dependent, independent, k1, p1)) != GPMEGEN_OK) {
         return status;
     }
     for (int i = 0; i < N_DOF; ++i) {
         qs[i] = q[i] + half * qd[i];
         qds[i] = qd[i] + half * k1[i];
     }
-    if ((status = stage(t + half, qs, qds, p, dependent, independent, k2, p2)) != 0) {
+    if ((status = stage(t + half, qs, qds, p, dependent, independent, k2, p2)) != GPMEGEN_OK) {
         return status;
     }
     for (int i = 0; i < N_DOF; ++i) {
         qs[i] = q[i] + half * (qd[i] + half * k1[i]);
         qds[i] = qd[i] + half * k2[i];
     }
-    if ((status = stage(t + half, qs, qds, p, dependent, independent, k3, p3)) != 0) {
+    if ((status = stage(t + half, qs, qds, p, dependent, independent, k3, p3)) != GPMEGEN_OK) {
         return status;
     }
     for (int i = 0; i < N_DOF; ++i) {
         qs[i] = q[i] + h * (qd[i] + half * k2[i]);
         qds[i] = qd[i] + h * k3[i];
     }
-    if ((status = stage(t + h, qs, qds, p, dependent, independent, k4, p4)) != 0) {
+    if ((status = stage(t + h, qs, qds, p, dependent, independent, k4, p4)) != GPMEGEN_OK) {
         return status;
     }
     for (int i = 0; i < N_DOF; ++i) {
@@ -1312,7 +1317,7 @@ static int rk4_step(double t, double h, double *q, double *qd, double *w, const 
     for (int j = 0; j < 2; ++j) {
         w[j] += sixth * (p1[j] + 2.0 * p2[j] + 2.0 * p3[j] + p4[j]);
     }
-    return 0;
+    return GPMEGEN_OK;
 }
 
 /* Time at the end of step k of the grid, the one gpmegen.runtime.integrate.grid defines: step
@@ -1328,12 +1333,13 @@ static double grid_time(double t0, double dt, long n_steps, double t_end, long k
    Saves the state at the start, after every step k that is a multiple of save_every and after
    step k_to (the final state, also off that grid) into t_out (n_save), q_out and qd_out
    (n_save x N_DOF) and w_out (n_save x 2), with n_save = k_to / save_every - k_from /
-   save_every + 2 at most; *n_saved counts the saved states. Returns 0 when done, 1 at the first
-   singular solve, 2 at the first non-finite state or stage (not saved), 3 for invalid
-   arguments; what was saved before a failure is kept. */
-int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every,
-        const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent,
-        const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
+   save_every + 2 at most; *n_saved counts the saved states. Returns GPMEGEN_OK when done,
+   GPMEGEN_SINGULAR at the first singular solve, GPMEGEN_NONFINITE at the first non-finite state
+   or stage (not saved), GPMEGEN_BAD_ARGUMENTS for invalid arguments; what was saved before a
+   failure is kept. */
+int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every,
+    const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent,
+    const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved)
 {
     double q[N_DOF] ALIGNED, qd[N_DOF] ALIGNED, w[2] ALIGNED;
     long saved = 0;
@@ -1342,7 +1348,7 @@ int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to
     *n_saved = 0;
     if (k_from < 0 || k_to < k_from || n_steps < k_to || save_every < 1 || !isfinite(t0) || !isfinite(dt)
         || !(dt > 0.0) || !isfinite(t_end) || t_end < grid_time(t0, dt, n_steps, t_end, n_steps - 1)) {
-        return 3;
+        return GPMEGEN_BAD_ARGUMENTS;
     }
     for (int i = 0; i < N_DOF; ++i) {
         q[i] = q0[i];
@@ -1351,7 +1357,7 @@ int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to
     w[0] = w0[0];
     w[1] = w0[1];
     if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF) || !all_finite(w, 2)) {
-        return 2;
+        return GPMEGEN_NONFINITE;
     }
     save_state(saved++, grid_time(t0, dt, n_steps, t_end, k_from), q, qd, w, t_out, q_out, qd_out, w_out);
     *n_saved = saved;
@@ -1359,16 +1365,16 @@ int rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to
     for (long k = k_from + 1; k <= k_to; ++k) {
         const double t = grid_time(t0, dt, n_steps, t_end, k - 1);
         const double h = k == n_steps ? t_end - t : dt;
-        if ((status = rk4_step(t, h, q, qd, w, p, dependent, independent)) != 0) {
+        if ((status = rk4_step(t, h, q, qd, w, p, dependent, independent)) != GPMEGEN_OK) {
             return status;
         }
         if (!all_finite(q, N_DOF) || !all_finite(qd, N_DOF)) {
-            return 2;
+            return GPMEGEN_NONFINITE;
         }
         if (k % save_every == 0 || k == k_to) {
             save_state(saved++, grid_time(t0, dt, n_steps, t_end, k), q, qd, w, t_out, q_out, qd_out, w_out);
             *n_saved = saved;
         }
     }
-    return 0;
+    return GPMEGEN_OK;
 }

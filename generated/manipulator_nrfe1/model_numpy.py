@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 64f4ac5fd30bf8bf
+Input hash: 847096980780b4c6
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -43,7 +43,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe1'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '64f4ac5fd30bf8bf'
+INPUT_HASH = '847096980780b4c6'
 N_DOF = 3
 COORDINATES = ('theta1', 'psi2', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -56,7 +56,14 @@ DEPENDENT = ('psi2', 'x3')
 
 
 def mass_matrix(q, p):
-    """Mass matrix M(q), (n, n)."""
+    """Mass matrix M(q).
+
+    Arguments:
+        q: (3,) coordinates in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        M: (3, 3) mass matrix M(q), symmetric, row-major
+    """
     q = np.asarray(q, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
     _q_theta1 = q[0]
@@ -163,7 +170,16 @@ def mass_matrix(q, p):
 
 
 def forces(t, q, qd, p):
-    """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
+    """Generalized forces: drive, velocity, gravity, spring and damping terms.
+
+    Arguments:
+        t: time (s)
+        q: (3,) coordinates in COORDINATES order
+        qd: (3,) velocities in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+    """
     q = np.asarray(q, dtype=float).tolist()
     qd = np.asarray(qd, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
@@ -297,7 +313,14 @@ def forces(t, q, qd, p):
 
 
 def static_residual(q, p):
-    """g(q) + C q: gravity and spring terms, (n,)."""
+    """Gravity and spring terms g(q) + C q.
+
+    Arguments:
+        q: (3,) coordinates in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        r: (3,) g(q) + C q
+    """
     q = np.asarray(q, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
     _q_theta1 = q[0]
@@ -338,7 +361,14 @@ def static_residual(q, p):
 
 
 def stiffness_jacobian(q, p):
-    """K = d(g + C q)/dq, from T_ij, (n, n)."""
+    """Tangent stiffness K = d(g + C q)/dq, from T_ij.
+
+    Arguments:
+        q: (3,) coordinates in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        K: (3, 3) K[i, j] = d(g + C q)_i / dq_j, row-major
+    """
     q = np.asarray(q, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
     _q_theta1 = q[0]
@@ -382,7 +412,14 @@ def stiffness_jacobian(q, p):
 
 
 def drive_forces(t, p):
-    """Drive forces Q(t), (n,)."""
+    """Drive forces Q(t).
+
+    Arguments:
+        t: time (s)
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        Q: (3,) drive forces Q(t)
+    """
     p = np.asarray(p, dtype=float).tolist()
     _p_tdr0 = p[15]
     _p_t0 = p[16]
@@ -393,7 +430,14 @@ def drive_forces(t, p):
 
 
 def points(q, p):
-    """Positions of the named points in {0} (m), (n_points, 3)."""
+    """Positions of the named points in {0}.
+
+    Arguments:
+        q: (3,) coordinates in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        P: (1, 3) positions (m), one row per point in POINTS order: x, y, z in {0}, row-major
+    """
     q = np.asarray(q, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
     _q_theta1 = q[0]
@@ -423,7 +467,19 @@ def points(q, p):
 
 
 def constraint_terms(t, q, qd, p):
-    """phi, phi_rate, D, gamma of the programmed constraints."""
+    """phi, phi_rate, D, gamma of the programmed constraints.
+
+    Arguments:
+        t: time (s)
+        q: (3,) coordinates in COORDINATES order
+        qd: (3,) velocities in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        phi: (2,) constraint values phi in CONSTRAINTS order
+        phi_rate: (2,) their rates d(phi)/dt
+        jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
+        gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+    """
     q = np.asarray(q, dtype=float).tolist()
     qd = np.asarray(qd, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
@@ -500,7 +556,14 @@ def constraint_terms(t, q, qd, p):
 
 
 def baumgarte_gains(p):
-    """alpha, beta per constraint."""
+    """Baumgarte gains alpha, beta of each constraint.
+
+    Arguments:
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        alpha: (2,) alpha per constraint, in CONSTRAINTS order
+        beta: (2,) beta per constraint, in CONSTRAINTS order
+    """
     p = np.asarray(p, dtype=float).tolist()
     _p_alpha_circle = p[21]
     _p_beta_circle = p[22]
@@ -513,7 +576,15 @@ def baumgarte_gains(p):
 
 
 def energies(q, qd, p):
-    """Kinetic, gravity potential and spring energy (J), (3,)."""
+    """Kinetic, gravity potential and spring energy.
+
+    Arguments:
+        q: (3,) coordinates in COORDINATES order
+        qd: (3,) velocities in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        e: (3,) kinetic, gravity potential and spring energy (J)
+    """
     q = np.asarray(q, dtype=float).tolist()
     qd = np.asarray(qd, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()
@@ -625,7 +696,21 @@ def energies(q, qd, p):
 
 
 def gpme_terms(t, q, qd, p):
-    """M, f and the constraint terms in one pass (shared kinematics)."""
+    """M, f and the constraint terms in one pass (shared kinematics).
+
+    Arguments:
+        t: time (s)
+        q: (3,) coordinates in COORDINATES order
+        qd: (3,) velocities in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        M: (3, 3) mass matrix M(q), symmetric, row-major
+        f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+        phi: (2,) constraint values phi in CONSTRAINTS order
+        phi_rate: (2,) their rates d(phi)/dt
+        jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
+        gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+    """
     q = np.asarray(q, dtype=float).tolist()
     qd = np.asarray(qd, dtype=float).tolist()
     p = np.asarray(p, dtype=float).tolist()

@@ -21,6 +21,7 @@ class Output:
     name: str
     shape: tuple
     values: tuple  # flattened row-major expressions
+    doc: str = ""  # what it holds, in which order and unit
 
 
 @dataclass(frozen=True)
@@ -29,6 +30,25 @@ class Function:
     doc: str
     inputs: tuple  # subset of ("t", "q", "qd", "p"), in that order
     outputs: tuple
+
+
+#: What each input is; ``{n}`` is the number of its entries.
+INPUT_DOCS = {
+    "t": "time (s)",
+    "q": "({n},) coordinates in COORDINATES order",
+    "qd": "({n},) velocities in COORDINATES order",
+    "p": "({n},) parameter values in PARAMETERS order",
+}
+
+
+def arguments(fn: Function, n_dof: int, n_parameters: int) -> tuple:
+    """``(name, description)`` of each input and then each output of ``fn``, the one text both
+    backends print: the NumPy docstring and the C comment."""
+    sizes = {"t": 0, "q": n_dof, "qd": n_dof, "p": n_parameters}
+    inputs = tuple((name, INPUT_DOCS[name].format(n=sizes[name])) for name in fn.inputs)
+    outputs = tuple((out.name, f"{out.shape} {out.doc}" + (", row-major" if len(out.shape) == 2 else ""))
+                    for out in fn.outputs)
+    return inputs + outputs
 
 
 @dataclass(frozen=True)
@@ -44,10 +64,10 @@ class Lowered:
     outputs: tuple  # (Output, tuple of code strings)
 
 
-def _out(name, matrix, vector=False):
+def _out(name, matrix, doc, vector=False):
     """An output; ``vector``: a column (n,) rather than a matrix (r, c), even when 1 x 1."""
     m = sp.Matrix(matrix)
-    return Output(name, (m.shape[0],) if vector else tuple(m.shape), tuple(m))
+    return Output(name, (m.shape[0],) if vector else tuple(m.shape), tuple(m), doc)
 
 
 def model_functions(d: Derivation) -> list[Function]:
@@ -56,30 +76,38 @@ def model_functions(d: Derivation) -> list[Function]:
     points = sp.Matrix([[*kin.points[name].position] for name in kin.points]) if kin.points else sp.zeros(0, 3)
     qd = sp.Matrix(kin.qd)
     kinetic = (qd.T * dyn.mass_matrix * qd)[0, 0] / 2
+    mass = _out("M", dyn.mass_matrix, "mass matrix M(q), symmetric")
+    forces = _out("f", dyn.forces, "generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping", vector=True)
     constraint_outputs = (
-        _out("phi", con.value, vector=True), _out("phi_rate", con.rate, vector=True),
-        _out("jacobian", con.jacobian), _out("gamma", con.gamma, vector=True),
+        _out("phi", con.value, "constraint values phi in CONSTRAINTS order", vector=True),
+        _out("phi_rate", con.rate, "their rates d(phi)/dt", vector=True),
+        _out("jacobian", con.jacobian, "constraint matrix D, one row per constraint, one column per coordinate"),
+        _out("gamma", con.gamma, "the rows' terms free of qdd: D qdd + gamma = 0 on the constraints",
+             vector=True),
     )
     fns = [
-        Function("mass_matrix", "Mass matrix M(q), (n, n).", ("q", "p"), (_out("M", dyn.mass_matrix),)),
-        Function("forces", "f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,).", ("t", "q", "qd", "p"),
-                 (_out("f", dyn.forces, vector=True),)),
-        Function("static_residual", "g(q) + C q: gravity and spring terms, (n,).", ("q", "p"),
-                 (_out("r", dyn.gravity_terms + dyn.spring_forces, vector=True),)),
-        Function("stiffness_jacobian", "K = d(g + C q)/dq, from T_ij, (n, n).", ("q", "p"),
-                 (_out("K", dyn.stiffness_jacobian),)),
-        Function("drive_forces", "Drive forces Q(t), (n,).", ("t", "p"), (_out("Q", dyn.drive_forces, vector=True),)),
-        Function("points", "Positions of the named points in {0} (m), (n_points, 3).", ("q", "p"),
-                 (Output("P", (points.shape[0], 3), tuple(points)),)),
+        Function("mass_matrix", "Mass matrix M(q).", ("q", "p"), (mass,)),
+        Function("forces", "Generalized forces: drive, velocity, gravity, spring and damping terms.",
+                 ("t", "q", "qd", "p"), (forces,)),
+        Function("static_residual", "Gravity and spring terms g(q) + C q.", ("q", "p"),
+                 (_out("r", dyn.gravity_terms + dyn.spring_forces, "g(q) + C q", vector=True),)),
+        Function("stiffness_jacobian", "Tangent stiffness K = d(g + C q)/dq, from T_ij.", ("q", "p"),
+                 (_out("K", dyn.stiffness_jacobian, "K[i, j] = d(g + C q)_i / dq_j"),)),
+        Function("drive_forces", "Drive forces Q(t).", ("t", "p"),
+                 (_out("Q", dyn.drive_forces, "drive forces Q(t)", vector=True),)),
+        Function("points", "Positions of the named points in {0}.", ("q", "p"),
+                 (Output("P", (points.shape[0], 3), tuple(points),
+                         "positions (m), one row per point in POINTS order: x, y, z in {0}"),)),
         Function("constraint_terms", "phi, phi_rate, D, gamma of the programmed constraints.",
                  ("t", "q", "qd", "p"), constraint_outputs),
-        Function("baumgarte_gains", "alpha, beta per constraint.", ("p",),
-                 (_out("alpha", con.alpha, vector=True), _out("beta", con.beta, vector=True))),
-        Function("energies", "Kinetic, gravity potential and spring energy (J), (3,).", ("q", "qd", "p"),
-                 (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy)),)),
+        Function("baumgarte_gains", "Baumgarte gains alpha, beta of each constraint.", ("p",),
+                 (_out("alpha", con.alpha, "alpha per constraint, in CONSTRAINTS order", vector=True),
+                  _out("beta", con.beta, "beta per constraint, in CONSTRAINTS order", vector=True))),
+        Function("energies", "Kinetic, gravity potential and spring energy.", ("q", "qd", "p"),
+                 (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy),
+                         "kinetic, gravity potential and spring energy (J)"),)),
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
-                 ("t", "q", "qd", "p"),
-                 (_out("M", dyn.mass_matrix), _out("f", dyn.forces, vector=True)) + constraint_outputs),
+                 ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs),
     ]
     return fns
 

@@ -17,10 +17,11 @@ import jinja2
 from .. import limits
 from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
+from ..status import SolveStatus
 from ..symbolic import derive
 from ..version import __version__
 from .comments import comment_text
-from .functions import lower, model_functions, prepare
+from .functions import arguments, lower, model_functions, prepare
 from .printers import CPrinter, PythonPrinter
 
 
@@ -119,6 +120,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         dependent=tuple(model.dependent) if model.dependent is not None else None,
+        statuses=tuple(SolveStatus),
+        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names)),
     )
     env = template_environment()
     files = {}
@@ -128,8 +131,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     for backend in backends:
         say(f"printing the {backend} backend")
         lowered = [lower(fn, d, printers[backend], p) for fn, p in zip(fns, prepared)]
-        template = env.get_template(BACKEND_FILES[backend] + ".j2")
-        files[BACKEND_FILES[backend]] = template.render(functions=lowered, **context)
+        for name in BACKEND_FILES[backend]:
+            files[name] = env.get_template(name + ".j2").render(functions=lowered, **context)
     manifest = {
         "model": model.name,
         "gpmegen_version": __version__,
@@ -165,7 +168,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest) -> 
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
     if not force:
-        reason = stale_reason(folder, manifest, digest, [BACKEND_FILES[b] for b in backends])
+        reason = stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]])
         if reason is None:
             files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)

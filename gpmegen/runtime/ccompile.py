@@ -1,15 +1,17 @@
-"""Compiling a generated ``model.c`` into a shared library and loading it with cffi (ABI mode).
+"""Compiling a generated ``model.c`` (with its header ``model.h``) into a shared library and
+loading it with cffi (ABI mode).
 
 The library is cached in ``$GPMEGEN_CACHE`` (default ``~/.cache/gpmegen/c/``) under a key, the
-sha256 of the source, the compiler (path and ``--version``) and the flags, so that any change to
-one of them builds a new library and an unchanged one is reused. Beside each ``<key>.so`` a
+sha256 of the source and header, the compiler (path and ``--version``) and the flags, so that any
+change to one of them builds a new library and an unchanged one is reused. Beside each ``<key>.so`` a
 ``<key>.json`` records the library's own sha256 and the compile time: a library whose bytes no
 longer match (truncated, overwritten) or that fails to load is rebuilt. Builds go to a temporary
 file in the cache folder and are renamed into place, so two processes building the same key at
 once both end with a complete library.
 
-The functions to bind are the prototypes the template writes between ``/* cffi-cdef-begin */``
-and ``/* cffi-cdef-end */``.
+The functions to bind are those the header declares (:func:`declarations`). Their C names carry
+the model's name as prefix (``manipulator_nrfe5_mass_matrix``), so that several models link into
+one program; the binding :func:`load_library` returns names them without it (:func:`short_names`).
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
 from .. import limits
 from ..errors import BuildError
@@ -45,8 +48,10 @@ GCC_FLAGS = ("-fira-algorithm=priority",)
 #: ``-Bsymbolic``: calls between the library's own functions (rk4 → gpme_terms) bind inside the
 #: library, never to a same-named symbol of another loaded model or library.
 LINK_FLAGS = ("-shared", "-fPIC") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux") else ())
-CDEF_BEGIN = "/* cffi-cdef-begin */"
-CDEF_END = "/* cffi-cdef-end */"
+#: The header of a generated C file, beside it; model.c includes it.
+HEADER = "model.h"
+#: The function every generated header declares as ``<prefix>input_hash``: it names the prefix.
+PREFIX_ANCHOR = "input_hash"
 COMPILERS = ("cc", "gcc", "clang")
 
 _lock = threading.Lock()
@@ -130,23 +135,38 @@ def is_gcc(identity: str) -> bool:
     return "Free Software Foundation" in version and "clang" not in version.lower()
 
 
-def library_key(source: str, identity: str, flags) -> str:
-    """sha256 of what the library depends on: source, compiler identity, flags."""
+def library_key(source: str, identity: str, flags, header: str = "") -> str:
+    """sha256 of what the library depends on: source, header, compiler identity, flags."""
     h = hashlib.sha256()
-    for part in (source, identity, "\0".join(flags)):
+    for part in (source, identity, "\0".join(flags), header):
         h.update(part.encode())
         h.update(b"\0\0")
     return h.hexdigest()
 
 
-def extract_cdef(source: str, origin="model.c") -> str:
-    """The prototypes between the cdef markers of a generated C file."""
-    start = source.find(CDEF_BEGIN)
-    end = source.find(CDEF_END)
-    if start < 0 or end < start:
-        raise BuildError(f"{origin} has no cffi declarations block; it is not a gpmegen C model "
-                         f"(regenerate it with 'gpmegen build --force')")
-    return source[start + len(CDEF_BEGIN):end]
+def declarations(header: str) -> str:
+    """The cffi declarations of a generated header: its text without the preprocessor lines (the
+    include guards), which cffi's cdef does not take. The header has no multi-line macros."""
+    return "".join(line for line in header.splitlines(keepends=True) if not line.lstrip().startswith("#"))
+
+
+def short_names(names) -> dict:
+    """``{short name: C name}`` of the exported functions among ``names``: the one place where
+    the per-model prefix is resolved. The prefix is what precedes ``input_hash`` in the one name
+    ending so; names without it (the status constants) are left out."""
+    names = list(names)
+    anchors = [name for name in names if name.endswith("_" + PREFIX_ANCHOR)]
+    if len(anchors) != 1:
+        raise BuildError("the C header declares no single <model>_input_hash; it is not a gpmegen model "
+                         "header (regenerate it with 'gpmegen build --force')")
+    prefix = anchors[0][:-len(PREFIX_ANCHOR)]
+    return {name[len(prefix):]: name for name in names if name.startswith(prefix)}
+
+
+def bind(lib) -> SimpleNamespace:
+    """The functions of a loaded model library ``lib`` (cffi) under their short names
+    (``mass_matrix``, ``rk4``, ``input_hash``), looked up once."""
+    return SimpleNamespace(_library=lib, **{short: getattr(lib, name) for short, name in short_names(dir(lib)).items()})
 
 
 @dataclass
@@ -194,32 +214,37 @@ def _cached_ok(lib_path: Path, meta_path: Path) -> tuple[bool, str | None, dict 
 
 
 def _remove_abandoned(cache: Path, older_than=24 * 3600.0) -> None:
-    """Temporary files of builds that were killed before their rename."""
+    """Temporary files (and header folders) of builds that were killed before their rename."""
     limit = time.time() - older_than
     for path in cache.glob(".*.tmp"):
         try:
             if path.stat().st_mtime < limit:
-                path.unlink()
+                shutil.rmtree(path) if path.is_dir() else path.unlink()
         except OSError:
             pass
 
 
-def _compile(compiler, flags, source: str, source_path: Path, lib_path: Path, meta_path: Path, key: str) -> float:
+def _compile(compiler, flags, source: str, header: str, source_path: Path, lib_path: Path, meta_path: Path,
+             key: str) -> float:
     cache = lib_path.parent
     _remove_abandoned(cache)
     fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".so.tmp", dir=cache)
     os.close(fd)
     tmp = Path(tmp)
-    # The compiler reads the text the key was made of from its standard input, not the file,
-    # which may have changed since it was read.
-    argv = [*compiler, *flags, *LINK_FLAGS, "-o", str(tmp), "-x", "c", "-", "-lm"]
+    # The compiler reads the texts the key was made of, not the files, which may have changed
+    # since they were read: the source from its standard input, the header from a private folder
+    # it runs in (where #include "model.h" of a source read from standard input is looked up).
+    # (the compiler by its absolute path: a relative $CC names it from the caller's folder)
+    argv = [os.path.abspath(compiler[0]), *compiler[1:], *flags, *LINK_FLAGS, "-o", str(tmp), "-x", "c", "-", "-lm"]
     t0 = time.perf_counter()
     try:
-        try:
-            run = subprocess.run(argv, input=source.encode("utf-8"), capture_output=True)
-        except OSError as exc:
-            raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
-                             f"working C compiler or use backend='numpy'") from None
+        with tempfile.TemporaryDirectory(prefix=f".{key[:16]}.", suffix=".h.tmp", dir=cache) as include:
+            Path(include, HEADER).write_text(header, encoding="utf-8")
+            try:
+                run = subprocess.run(argv, input=source.encode("utf-8"), capture_output=True, cwd=include)
+            except OSError as exc:
+                raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
+                                 f"working C compiler or use backend='numpy'") from None
         seconds = time.perf_counter() - t0
         diagnostics = run.stderr.decode("utf-8", "replace").strip()
         if run.returncode != 0:
@@ -251,17 +276,19 @@ def _read_source(source_path: Path) -> str:
                          f"'gpmegen build --force'") from None
 
 
-def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None) -> CompiledLibrary:
+def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None, header=None) -> CompiledLibrary:
     """The shared library of the C file ``source_path`` (of its ``text`` when given, already
-    read): reused from the cache when its key matches and its bytes are intact, else compiled.
-    Raises :class:`BuildError` when no compiler is found, the cache folder is not writable, or
+    read) and of its ``header`` (by default the text of ``model.h`` beside it): reused from the
+    cache when its key matches and its bytes are intact, else compiled. Raises
+    :class:`BuildError` when no compiler is found, the cache folder is not writable, or
     compilation fails."""
     source_path = Path(source_path)
     source = _read_source(source_path) if text is None else text
+    header = _read_source(source_path.with_name(HEADER)) if header is None else header
     compiler = find_compiler()
     identity = compiler_identity(compiler)
     flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) else ())
-    key = library_key(source, identity, flags + LINK_FLAGS)
+    key = library_key(source, identity, flags + LINK_FLAGS, header)
     cache = Path(cache) if cache is not None else cache_directory()
     try:
         cache.mkdir(parents=True, exist_ok=True)
@@ -274,23 +301,26 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None) -> Co
         return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
     limits.check_compile(len(source.encode()), source_path)
     try:
-        seconds = _compile(compiler, flags, source, source_path, lib_path, meta_path, key)
+        seconds = _compile(compiler, flags, source, header, source_path, lib_path, meta_path, key)
     except OSError as exc:  # e.g. a read-only cache folder: the library cannot be written there
         raise BuildError(f"cannot write the compiled library into the C cache folder {cache} ({exc.strerror}); "
                          f"set GPMEGEN_CACHE to a writable folder") from None
     return CompiledLibrary(lib_path, key, compiler[0], flags, True, seconds, reason)
 
 
-def _dlopen(path: Path, cdef: str):
+def open_library(path: Path, header: str):
+    """``(ffi, functions)`` of the library at ``path`` declared by ``header``: the functions
+    under their short names (:func:`bind`). Opened once per process and declarations."""
     import cffi
 
+    cdef = declarations(header)
     with _lock:
         hit = _loaded.get(str(path))
         if hit is not None and hit[2] == cdef:
             return hit[0], hit[1]
         ffi = cffi.FFI()
         ffi.cdef(cdef)
-        lib = ffi.dlopen(str(path))
+        lib = bind(ffi.dlopen(str(path)))
         _loaded[str(path)] = (ffi, lib, cdef)
         return ffi, lib
 
@@ -315,24 +345,27 @@ def checked(info: CompiledLibrary, check, source_path: Path) -> None:
                          f"{source_path})")
 
 
-def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None, text=None, check=None):
+def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None, text=None, check=None,
+                 header=None):
     """Build (or reuse) and load the library of ``source_path`` (of its ``text`` when given,
-    already read); the file is read once, declarations and library from the same text.
+    already read) and its ``header`` (by default ``model.h`` beside it); each file is read once,
+    declarations and library from the same texts.
 
     ``check``: called with the library's path before this process first loads it (see
     :func:`checked`); a library it rejects is never loaded. Returns ``(ffi, lib, info)`` with
     ``info`` a :class:`CompiledLibrary`. A cached library that fails to load, or reports another
-    input hash than ``expect_hash``, is rebuilt once."""
+    input hash than ``expect_hash``, is rebuilt once. The returned ``lib`` holds the functions
+    under their short names (``lib.mass_matrix``)."""
     source_path = Path(source_path)
     text = _read_source(source_path) if text is None else text
-    cdef = extract_cdef(text, source_path)
-    info = build_library(source_path, flags, cache, text)
+    header = _read_source(source_path.with_name(HEADER)) if header is None else header
+    info = build_library(source_path, flags, cache, text, header)
     for attempt in (0, 1):
         if check is not None:
             checked(info, check, source_path)
         try:
-            ffi, lib = _dlopen(info.path, cdef)
-            got = ffi.string(lib.gpmegen_input_hash()).decode()
+            ffi, lib = open_library(info.path, header)
+            got = ffi.string(lib.input_hash()).decode()
             if expect_hash is not None and got != expect_hash:
                 raise BuildError(f"{info.path} reports input hash {got}, expected {expect_hash}")
             return ffi, lib, info
@@ -344,6 +377,6 @@ def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None,
                 _loaded.pop(str(info.path), None)
             info.path.unlink(missing_ok=True)
             reason = f"{info.path.name} failed to load ({exc})"
-            info = build_library(source_path, flags, cache, text)
+            info = build_library(source_path, flags, cache, text, header)
             info.rebuilt_reason = reason
     raise AssertionError("unreachable")

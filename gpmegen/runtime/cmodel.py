@@ -48,8 +48,9 @@ class CModel(LoadedModel):
         module_path = Path(folder) / "model_numpy.py"
         self.ffi, self.lib, self.library = ccompile.load_library(
             source, flags, cache, expect_hash=module.INPUT_HASH, text=text,
+            header=read_verified(folder, ccompile.HEADER, rebuild),
             check=lambda library: cprobe.check_in_child(library, source, module_path))
-        if self.lib.gpmegen_n_dof() != self.n_dof or self.lib.gpmegen_n_parameters() != len(self.parameter_names):
+        if self.lib.n_dof() != self.n_dof or self.lib.n_parameters() != len(self.parameter_names):
             raise BuildError(f"{source} does not match {Path(folder) / 'model_numpy.py'}; rebuild with "
                              f"'gpmegen build --force'")
         self.compiled = self.library.compiled

@@ -4,8 +4,9 @@ main process loads the library.
 A defect in compiled code (a miscompilation, undefined behaviour in the generated C) does not
 raise: it kills the process that runs it. So a freshly compiled library is first exercised by
 ``python -m gpmegen.runtime.cprobe LIBRARY MODEL_C MODEL_NUMPY_PY`` in a child process: each
-exported function is called with exactly sized buffers at two states (all zeros, and a seeded
-random one), the GPME with a regular partition and three RK4 steps. The parent learns from the
+function its header (``model.h`` beside ``MODEL_C``) declares is called with exactly sized
+buffers at two states (all zeros, and a seeded random one), the GPME with a regular partition
+and three RK4 steps. The parent learns from the
 child's exit status whether the library is safe to load, and from its last line which function
 it was calling when it died. The same exercise, run on a library compiled with
 ``-fsanitize=address,undefined`` (``make check-c``), is the sanitizer sweep.
@@ -32,7 +33,7 @@ _ARGUMENT = re.compile(r"(const\s+)?(double|int|long)\s*(\*?)\s*(\w+)$")
 def prototypes(cdef: str) -> list[tuple[str, list[tuple[str, bool, str]]]]:
     """The functions of a cdef block: ``(name, [(type, is_pointer, argument name), ...])``."""
     functions = []
-    for line in cdef.splitlines():
+    for line in re.sub(r"/\*.*?\*/", "", cdef, flags=re.S).splitlines():
         m = _PROTOTYPE.match(line)
         if not m:
             continue
@@ -70,16 +71,14 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
     """Call every function of ``library`` (compiled from ``source``) at two states, with
     buffers sized from the outputs of the NumPy module at ``module_path``. ``say`` is told the
     name of each function before it is called."""
-    import cffi
-
-    from .ccompile import extract_cdef
+    from .ccompile import HEADER, declarations, open_library, short_names
     from .loader import import_numpy_module
 
     module = import_numpy_module(Path(module_path).parent)
-    cdef = extract_cdef(Path(source).read_text(encoding="utf-8"), source)
-    ffi = cffi.FFI()
-    ffi.cdef(cdef)
-    lib = ffi.dlopen(str(library))
+    header = Path(source).with_name(HEADER).read_text(encoding="utf-8")
+    ffi, lib = open_library(library, header)
+    functions = prototypes(declarations(header))
+    short = {c_name: name for name, c_name in short_names(c_name for c_name, _ in functions).items()}
     n = len(module.COORDINATES)
     n_constraints = len(module.CONSTRAINTS)
     p = np.array(module.DEFAULTS, dtype=float)
@@ -92,9 +91,10 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
 
     for t, q, qd in states:
         values = {"t": t, "q": q, "qd": qd, "p": p}
-        for name, arguments in prototypes(cdef):
+        for c_name, arguments in functions:
+            name = short[c_name]
             say(name)
-            if name.startswith("gpmegen_"):
+            if not arguments:
                 getattr(lib, name)()
                 continue
             if not hasattr(module, name):
