@@ -198,6 +198,11 @@ BAD = [
     ("dependent-unknown", [('["theta1"]', '["theta9"]')], "dependent", "dependent[0]", "'theta9' is not a coordinate"),
     ("initial-unknown", [("q = { theta1 = 0.5 }", "q = { theta9 = 0.5 }")], "theta9", "initial.q.theta9",
      "not a coordinate"),
+    ("parameters-not-a-table", [("[parameters]\ng = 9.81\nm = { value = 1.0, unit = \"kg\", doc = \"hub mass\" }\n"
+                                 "L = { value = 0.5, unit = \"m\" }\n", "parameters = 0\n")], "parameters = 0",
+     "parameters", "expected a parameters table"),
+    ("initial-q-not-a-table", [("q = { theta1 = 0.5 }", "q = 0")], "q = 0", "initial.q",
+     "expected a table of coordinates"),
     ("drive-unknown", [("[initial]", '[[drives]]\ncoordinate = "theta9"\nexpression = "1"\n\n[initial]')],
      "theta9", "drives[0].coordinate", "unknown coordinate 'theta9'"),
     ("drive-coordinate", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "-theta1"\n\n[initial]')],

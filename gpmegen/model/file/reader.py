@@ -147,11 +147,13 @@ class _Reader:
         raise self.error(path, message)
 
     # ---- structure ---------------------------------------------------------------------------
-    def table(self, value, path, allowed, required=(), what="table"):
+    def table(self, value, path, allowed=None, required=(), what="table"):
+        """``value`` when it is a table of keys among ``allowed`` (any key when None) holding
+        the ``required`` ones."""
         if not isinstance(value, dict):
             self.fail(path, f"expected a {what} (key = value lines or {{ ... }}), got {_kind_of(value)}; "
                             f"see docs/model-file.md")
-        for key in value:
+        for key in value if allowed is not None else ():
             if key not in allowed:
                 close = difflib.get_close_matches(key, allowed, 1)
                 fix = f"did you mean {close[0]!r}?" if close else f"the keys of a {what} are {', '.join(allowed)}"
@@ -355,7 +357,7 @@ class _Reader:
 
     def read_parameters(self, table):
         path = ("parameters",)
-        self.table(table, path, tuple(table), what="parameters table")
+        self.table(table, path, what="parameters table")
         parameters = []
         for pname, entry in table.items():
             here = path + (pname,)
@@ -701,7 +703,7 @@ class _Reader:
     def read_initial(self, table):
         path = ("initial",)
         self.table(table, path, ("q",), what="initial table")
-        q = self.table(table.get("q", {}), path + ("q",), tuple(table.get("q", {})), what="table of coordinates")
+        q = self.table(table.get("q", {}), path + ("q",), what="table of coordinates")
         initial = {}
         for name, value in q.items():
             if name not in self.coordinates:
