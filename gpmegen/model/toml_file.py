@@ -69,8 +69,10 @@ such.
 
 Errors raise :class:`~gpmegen.errors.ModelError` as ``"<file>:<line>: <field>: <problem>;
 <fix>"``; field paths count array entries from 0 (``chain[3].shape.mass`` is the fourth
-``[[chain]]``). :func:`locate` puts the same context on an error raised later from a model
-read here (e.g. the derivation's ``DerivationError``).
+``[[chain]]``). The model layer's errors say which field is at fault by its path
+(``error.subject``, see :mod:`gpmegen.errors`); :meth:`ModelFile.locate` puts the same context
+on an error raised later from a model read here (e.g. the derivation's ``DerivationError``)
+from the text read once, :func:`locate` reads the file again to do so.
 
 The reader lives in :mod:`gpmegen.model.file` by concern: ``locator`` (lines by field path),
 ``expressions`` (the safe parse and its checks), ``reader`` (schema -> Model).

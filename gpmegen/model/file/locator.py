@@ -108,3 +108,16 @@ def field_text(path) -> str:
             text += ("." if text else "") + part
     return text
 
+
+
+def located(error, file: str, locator: Locator):
+    """``error`` of the model layer or the derivation as an error of the same type whose message
+    starts with ``"<file>:<line>: <field>: "`` for the field it is about (``error.subject``),
+    and names the line of a second field it is about (``error.other``)."""
+    subject, other = getattr(error, "subject", ()), getattr(error, "other", ())
+    message = str(error)
+    if other:
+        message += f" (the other is {field_text(other)}, line {locator.line(other)})"
+    if not subject:
+        return type(error)(f"{file}: {message}")
+    return type(error)(f"{file}:{locator.line(subject)}: {field_text(subject)}: {message}", subject, other)

@@ -45,7 +45,7 @@ from ..expand import expand
 from ..requirements import evaluate, requirements, violation
 from ..rfem import check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
-from .locator import Locator, field_text
+from .locator import Locator, field_text, located
 
 SCHEMA = 1
 
@@ -97,6 +97,17 @@ class ModelFile:
     path: str
     model: Model
     initial: dict = field(default_factory=dict)
+    source: str = field(default="", repr=False, compare=False)   # the file's text, for locate()
+
+    @functools.cached_property
+    def _locator(self) -> Locator:
+        return Locator(self.source)
+
+    def locate(self, error: GpmegenError) -> GpmegenError:
+        """``error`` about this model (a ModelError or DerivationError whose ``subject`` is a
+        field) as an error of the same type whose message starts with ``"<file>:<line>:
+        <field>: "``, from the text read once."""
+        return located(error, self.path, self._locator)
 
     def initial_values(self, params: dict | None = None) -> dict[str, float]:
         """The start configuration as numbers (rad, m), with the parameter defaults overridden
@@ -119,14 +130,12 @@ class _Reader:
         self.file = str(path)
         self.source = text
         self.nrfe_argument = nrfe
-        self.names: dict[str, tuple[str, tuple]] = {}   # name -> (what, path), expand's namespace
         self.params: dict[str, sp.Symbol] = {}
         self.defaults: dict[sp.Symbol, sp.Float] = {}
         self.coordinates: list[str] = []
-        self.origin: dict[str, tuple] = {}              # coordinate/body name -> chain path
+        self.origin: dict[str, tuple] = {}              # coordinate/body/point name -> its field
         self.points: list[str] = []
         self.moving_points: set[str] = set()
-        self.drive_paths: dict[str, tuple] = {}
         self.labels: dict[str, tuple] = {}
         self.constraint_paths: dict[str, tuple] = {}
 
@@ -213,15 +222,6 @@ class _Reader:
             self.fail(path, f"{what} {value!r} is the name of a function or constant in expressions; "
                             f"choose another name")
         return value
-
-    def claim(self, name, what, path):
-        """Reserve ``name`` in the namespace expand() checks (parameters, coordinates, bodies,
-        points, constraints), with the place of the first use in the message."""
-        if name in self.names:
-            other, other_path = self.names[name]
-            self.fail(path, f"{what} {name!r} duplicates the {other} of the same name at "
-                            f"line {self.locator.line(other_path)} ({field_text(other_path)}); rename one")
-        self.names[name] = (what, path)
 
     # ---- quantities and expressions ----------------------------------------------------------
     def quantity(self, value, path, scope):
@@ -327,7 +327,7 @@ class _Reader:
         gravity = self.read_vector(data.get("gravity", [0, 0, 0]), ("gravity",), self.params)
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
-        dependent = self.read_dependent(data.get("dependent", "auto"), len(constraints))
+        dependent = self.read_dependent(data.get("dependent", "auto"))
         initial = self.read_initial(data.get("initial", {}))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
@@ -337,8 +337,8 @@ class _Reader:
         try:
             expand(model)
         except ModelError as exc:
-            raise ModelError(self.context(exc) + str(exc)) from None
-        return ModelFile(self.file, model, initial)
+            raise located(exc, self.file, self.locator) from None
+        return ModelFile(self.file, model, initial, self.source)
 
     def check_chain_size(self, items):
         """Refuse, before reading it element by element, a chain whose build cannot finish
@@ -362,7 +362,6 @@ class _Reader:
         for pname, entry in table.items():
             here = path + (pname,)
             self.name(pname, here, "parameter", bare=True)
-            self.claim(pname, "parameter", here)
             if isinstance(entry, dict):
                 self.table(entry, here, ("value", "unit", "doc"), ("value",), "parameter")
                 value, vpath = entry["value"], here + ("value",)
@@ -429,7 +428,6 @@ class _Reader:
         return Joint(name, kind, axis, **extra)
 
     def add_coordinate(self, name, path):
-        self.claim(name, "coordinate", path)
         self.coordinates.append(name)
         self.origin[name] = path
 
@@ -451,7 +449,6 @@ class _Reader:
     def read_body(self, item, path):
         self.table(item, path, ("body", "shape", "mass", "center", "inertia"), ("body",), "body")
         name = self.name(item["body"], path + ("body",), "body")
-        self.claim(name, "body", path + ("body",))
         self.origin[name] = path + ("body",)
         P = self.params
         if "shape" in item:
@@ -567,27 +564,18 @@ class _Reader:
         )
 
     def expand_link(self, link, path):
-        """The rfem elements of ``link``, their coordinates and bodies claimed."""
-        try:
-            parts = discretize(link)
-        except ModelError as exc:
-            raise self.error(path, str(exc)) from None
+        """The rfem elements of ``link``, their coordinates and bodies recorded."""
+        parts = discretize(link)
         for part in parts:
             if isinstance(part, Joint):
-                try:
-                    check_name(part.name, "coordinate", bare=True)
-                except ModelError as exc:
-                    raise self.error(path + ("flexible",), str(exc)) from None
                 self.add_coordinate(part.name, path + ("flexible",))
             elif isinstance(part, Body):
-                self.claim(part.name, "body", path + ("flexible",))
                 self.origin[part.name] = path + ("flexible",)
         return parts
 
     def read_point(self, item, path):
         self.table(item, path, ("point", "position"), ("point",), "point")
         name = self.name(item["point"], path + ("point",), "point")
-        self.claim(name, "point", path + ("point",))
         position = self.read_vector(item.get("position", [0, 0, 0]), path + ("position",), self.params)
         self.points.append(name)
         self.origin[name] = path + ("point",)
@@ -601,16 +589,6 @@ class _Reader:
             path = ("drives", k)
             self.table(item, path, ("coordinate", "expression"), ("coordinate", "expression"), "drive")
             coordinate = self.string(item["coordinate"], path + ("coordinate",), "a coordinate name in quotes")
-            if coordinate not in self.coordinates:
-                close = difflib.get_close_matches(coordinate, self.coordinates, 1)
-                hint = f"did you mean {close[0]!r}? " if close else ""
-                self.fail(path + ("coordinate",), f"unknown coordinate {coordinate!r}; {hint}the coordinates are "
-                                                  f"{', '.join(self.coordinates)}")
-            if coordinate in self.drive_paths:
-                self.fail(path + ("coordinate",), f"a second drive on {coordinate!r} (the first is at line "
-                                                  f"{self.locator.line(self.drive_paths[coordinate])}); add the "
-                                                  f"two expressions in one drive")
-            self.drive_paths[coordinate] = path
             drives.append(Drive(coordinate, self.quantity(item["expression"], path + ("expression",), scope)))
         return tuple(drives)
 
@@ -629,29 +607,8 @@ class _Reader:
                     scope[s.name] = s
         return scope
 
-    def check_derived_names(self):
-        """Point and velocity symbols (``x_P``, ``vx_P``, ``<q>_dot``; ``ax_P``… inside the
-        derivation) must not be names of parameters or coordinates."""
-        derived = [("coordinate", name, f"{name}_dot") for name in self.coordinates]
-        for point in self.points:
-            for prefix in ("x", "y", "z", "vx", "vy", "vz", "ax", "ay", "az"):
-                derived.append(("point", point, f"{prefix}_{point}"))
-        made: dict[str, tuple[str, str]] = {}
-        for what, owner, name in derived:
-            if name in self.names and self.names[name][0] in ("parameter", "coordinate"):
-                other, other_path = self.names[name]
-                self.fail(self.origin[owner], f"{what} {owner!r} makes the name {name}, which is already the "
-                                              f"{other} at line {self.locator.line(other_path)}; rename one")
-            if name in made and made[name][1] != owner:
-                other, other_owner = made[name]
-                self.fail(self.origin[owner], f"{what} {owner!r} makes the name {name}, which the {other} "
-                                              f"{other_owner!r} makes too; rename one")
-            made[name] = (what, owner)
-
     def read_constraints(self, items):
         self.array(items, ("constraints",), what="list of [[constraints]] tables")
-        if items:
-            self.check_derived_names()
         moving = {symbol(c) for c in self.coordinates} | {velocity_symbol(c) for c in self.coordinates}
         for point in self.moving_points:
             moving |= set(point_symbols(point)) | set(point_velocity_symbols(point))
@@ -661,12 +618,8 @@ class _Reader:
             self.table(item, path, ("name", "expression", "order", "alpha", "beta"), ("name", "expression"),
                        "constraint")
             name = self.name(item["name"], path + ("name",), "constraint")
-            self.claim(name, "constraint", path + ("name",))
             self.constraint_paths[name] = path
-            order = item.get("order", 0)
-            if isinstance(order, bool) or order not in (0, 1):
-                self.fail(path + ("order",), f"order must be 0 (position) or 1 (first order, linear in "
-                                             f"velocities), got {order!r}")
+            order = item.get("order", 0)   # its values: expand()
             expr = self.quantity(item["expression"], path + ("expression",), self.constraint_scope(order))
             if not (expr.free_symbols & moving):
                 self.fail(path + ("expression",), f"the constraint {expr} = 0 does not depend on any coordinate "
@@ -682,22 +635,13 @@ class _Reader:
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
 
-    def read_dependent(self, value, n_constraints):
-        path = ("dependent",)
+    def read_dependent(self, value):
+        """None for "auto", else the list as a tuple (its entries: expand())."""
         if value == "auto":
             return None
         if not isinstance(value, list):
-            self.fail(path, f"expected a list of coordinate names or \"auto\", got {_kind_of(value)} {value!r}; "
-                            f"write dependent = [\"psi2\"] or dependent = \"auto\"")
-        for k, name in enumerate(value):
-            if name not in self.coordinates:
-                self.fail(path + (k,), f"{name!r} is not a coordinate; the coordinates are "
-                                       f"{', '.join(self.coordinates)}")
-            if name in value[:k]:
-                self.fail(path + (k,), f"{name!r} is listed twice; name each dependent coordinate once")
-        if len(value) != n_constraints:
-            self.fail(path, f"{n_constraints} constraint(s) need as many dependent coordinates, {len(value)} given; "
-                            f"list one per constraint or write \"auto\"")
+            self.fail(("dependent",), f"expected a list of coordinate names or \"auto\", got {_kind_of(value)} "
+                                      f"{value!r}; write dependent = [\"psi2\"] or dependent = \"auto\"")
         return tuple(value)
 
     def read_initial(self, table):
@@ -713,34 +657,6 @@ class _Reader:
                                               f"{', '.join(self.coordinates)}")
             initial[name] = self.quantity(value, path + ("q", name), self.params)
         return initial
-
-    # ---- errors raised later -----------------------------------------------------------------
-    def context(self, error) -> str:
-        """``"<file>:<line>: <field>: "`` for an error message of expand() or the derivation,
-        found from the names it quotes."""
-        message = str(error)
-
-        def constraint(name):
-            return self.constraint_paths.get(name, ("constraints",))
-
-        rules = (
-            (r"^model name", lambda m: ("name",)),
-            (r"^chain element (\d+)", lambda m: ("chain", int(m.group(1)) - 1)),
-            (r"^drive on (?:unknown coordinate )?'([^']+)'", lambda m: self.drive_paths.get(m.group(1), ("drives",))),
-            (r"^(?:the )?constraint '([^']+)' (alpha|beta)", lambda m: constraint(m.group(1)) + (m.group(2),)),
-            (r"^(?:the )?constraint '([^']+)'", lambda m: constraint(m.group(1)) + ("expression",)),
-            (r"^(?:joint|coordinate|body|point) '([^']+)'", lambda m: self.origin.get(m.group(1), ("chain",))),
-            (r"^parameter '([^']+)'", lambda m: ("parameters", m.group(1))),
-            (r"^gravity", lambda m: ("gravity",)),
-            (r"dependent", lambda m: ("dependent",)),
-            (r"'([^']+)'", lambda m: (self.origin.get(m.group(1)) or self.constraint_paths.get(m.group(1))
-                                      or ("chain",))),
-        )
-        for pattern, path_of in rules:
-            m = re.search(pattern, message)
-            if m:
-                return self.where(path_of(m))
-        return self.where(("chain",))
 
 
 def _parse(path, nrfe):
@@ -794,11 +710,9 @@ def read_initial(path, nrfe: int | None = None, params: dict | None = None) -> d
 
 def locate(path, error: GpmegenError, nrfe: int | None = None) -> GpmegenError:
     """``error`` (e.g. a DerivationError from deriving a model read from ``path``) as an error of
-    the same type whose message starts with the file, line and field it is about."""
-    reader, data = _parse(path, nrfe)
-    reader.read(data)
-    located = type(error)(reader.context(error) + str(error))
-    return located
+    the same type whose message starts with the file, line and field it is about. Reads the
+    file again: :meth:`ModelFile.locate` on the file already read does not."""
+    return read_model_file(path, nrfe).locate(error)
 
 
 __all__ = ["ModelFile", "SCHEMA", "load_model_file", "locate", "read_initial", "read_model_file"]
