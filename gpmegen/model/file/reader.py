@@ -133,11 +133,9 @@ class _Reader:
         self.params: dict[str, sp.Symbol] = {}
         self.defaults: dict[sp.Symbol, sp.Float] = {}
         self.coordinates: list[str] = []
-        self.origin: dict[str, tuple] = {}              # coordinate/body/point name -> its field
         self.points: list[str] = []
         self.moving_points: set[str] = set()
         self.labels: dict[str, tuple] = {}
-        self.constraint_paths: dict[str, tuple] = {}
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -250,13 +248,8 @@ class _Reader:
         for need in requirements(model):
             problem = violation(need, values, "the parameter defaults")
             if problem:
-                if need.kind == "constraint":
-                    element = self.constraint_paths[need.name]
-                elif need.kind == "flexible link":
-                    element = self.labels[need.name][:-1]
-                else:
-                    element = self.origin[need.name][:-1]
-                self.fail(element + need.key, problem)
+                self.fail(need.subject, problem)
+
     def expression(self, text, path, scope):
         """Parse ``text`` safely; ``scope`` maps the names it may use to their symbols."""
         try:
@@ -405,7 +398,7 @@ class _Reader:
             else:
                 element = getattr(self, f"read_{kinds[0]}")(item, path)
             if isinstance(element, FlexibleLink):
-                for part in self.expand_link(element, path):
+                for part in self.expand_link(element):
                     if isinstance(part, Joint):
                         moving = True
             elif isinstance(element, Joint):
@@ -424,12 +417,8 @@ class _Reader:
         for key in ("stiffness", "damping"):
             if key in item:
                 extra[key] = self.quantity(item[key], path + (key,), self.params)
-        self.add_coordinate(name, path + ("joint",))
-        return Joint(name, kind, axis, **extra)
-
-    def add_coordinate(self, name, path):
         self.coordinates.append(name)
-        self.origin[name] = path
+        return Joint(name, kind, axis, **extra)
 
     def read_offset(self, item, path):
         self.table(item, path, ("translation", "rotations"), what="offset")
@@ -449,7 +438,6 @@ class _Reader:
     def read_body(self, item, path):
         self.table(item, path, ("body", "shape", "mass", "center", "inertia"), ("body",), "body")
         name = self.name(item["body"], path + ("body",), "body")
-        self.origin[name] = path + ("body",)
         P = self.params
         if "shape" in item:
             if {"mass", "center", "inertia"} & item.keys():
@@ -563,14 +551,10 @@ class _Reader:
             **extra,
         )
 
-    def expand_link(self, link, path):
-        """The rfem elements of ``link``, their coordinates and bodies recorded."""
+    def expand_link(self, link):
+        """The rfem elements of ``link``, their coordinates recorded."""
         parts = discretize(link)
-        for part in parts:
-            if isinstance(part, Joint):
-                self.add_coordinate(part.name, path + ("flexible",))
-            elif isinstance(part, Body):
-                self.origin[part.name] = path + ("flexible",)
+        self.coordinates += [part.name for part in parts if isinstance(part, Joint)]
         return parts
 
     def read_point(self, item, path):
@@ -578,7 +562,6 @@ class _Reader:
         name = self.name(item["point"], path + ("point",), "point")
         position = self.read_vector(item.get("position", [0, 0, 0]), path + ("position",), self.params)
         self.points.append(name)
-        self.origin[name] = path + ("point",)
         return Point(name, position)
 
     def read_drives(self, items):
@@ -618,7 +601,6 @@ class _Reader:
             self.table(item, path, ("name", "expression", "order", "alpha", "beta"), ("name", "expression"),
                        "constraint")
             name = self.name(item["name"], path + ("name",), "constraint")
-            self.constraint_paths[name] = path
             order = item.get("order", 0)   # its values: expand()
             expr = self.quantity(item["expression"], path + ("expression",), self.constraint_scope(order))
             if not (expr.free_symbols & moving):
