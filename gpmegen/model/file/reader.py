@@ -202,11 +202,12 @@ class _Reader:
             self.fail(path, f"unknown {what} {value!r}; {hint}use one of {', '.join(options)}")
         return value
 
-    def whole(self, value, path, what, minimum=1):
-        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-            self.fail(path, f"{what} must be a whole number ≥ {minimum}, got {value!r}; write e.g. "
-                            f"{what} = {max(minimum, 3)}")
-        return value
+    def nrfe(self, value, path):
+        """``value`` as a number of rfes (the rule: :func:`gpmegen.model.rfem.check_nrfe`)."""
+        try:
+            return check_nrfe(value, "", subject=path)
+        except ModelError as exc:
+            raise located(exc, self.file, self.locator) from None
 
     def name(self, value, path, what, bare=False):
         self.string(value, path, f"a {what} name in quotes")
@@ -299,7 +300,7 @@ class _Reader:
             self.fail(("name",), "missing model name; add name = \"my_model_nrfe{nrfe}\"")
         self.default_nrfe = None
         if "nrfe" in data:
-            self.default_nrfe = self.whole(data["nrfe"], ("nrfe",), "nrfe")
+            self.default_nrfe = self.nrfe(data["nrfe"], ("nrfe",))
         if self.nrfe_argument is not None:
             self.default_nrfe = self.nrfe_argument
         raw_name = self.string(data["name"], ("name",))
@@ -535,7 +536,7 @@ class _Reader:
         if "damping" in item:
             extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3)
         if "nrfe" in item:
-            n_rfe = self.whole(item["nrfe"], path + ("nrfe",), "nrfe")
+            n_rfe = self.nrfe(item["nrfe"], path + ("nrfe",))
         elif self.default_nrfe is not None:
             n_rfe = self.default_nrfe
         else:
