@@ -234,6 +234,10 @@ BAD = [
     ("text-injection", [('description = "one joint and a flexible link"', "description = 'x \"\"\" y'")],
      "description", "description", "cannot carry in a comment"),
     ("huge-power", [('"y_E - 0.1"', '"y_E - 9^9^9^9"')], "9^9^9^9", "constraints[0].expression", "too large"),
+    ("nrfe-zero", [("nrfe = 2", "nrfe = 0")], "nrfe = 0", "nrfe",
+     "nrfe must be a whole number ≥ 1 (1: a rigid link), got 0; write e.g. nrfe = 3"),
+    ("link-nrfe-fraction", [("shear_modulus = 2.6e10", "shear_modulus = 2.6e10\nnrfe = 2.5")], "nrfe = 2.5",
+     "chain[2].nrfe", "nrfe must be a whole number ≥ 1 (1: a rigid link), got 2.5"),
     ("nrfe-missing", [("nrfe = 2\n", "")], '[[chain]]\nflexible', "chain[2]", "no n_rfe for this flexible link"),
     # comparisons only as Piecewise conditions, one each; (value, True) last
     ("comparison-outside-piecewise", [('"y_E - 0.1"', '"y_E - (t < 1)"')], "t < 1", "constraints[0].expression",
