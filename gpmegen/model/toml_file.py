@@ -74,10 +74,77 @@ Errors raise :class:`~gpmegen.errors.ModelError` as ``"<file>:<line>: <field>: <
 on an error raised later from a model read here (e.g. the derivation's ``DerivationError``)
 from the text read once, :func:`locate` reads the file again to do so.
 
-The reader lives in :mod:`gpmegen.model.file` by concern: ``locator`` (lines by field path),
-``expressions`` (the safe parse and its checks), ``reader`` (schema -> Model).
+Here: the public functions, reading the file's bytes as TOML. The reader lives in
+:mod:`gpmegen.model.file` by concern: ``locator`` (lines by field path), ``expressions`` (the
+safe parse and its checks), ``reader`` (schema -> Model), ``model_file`` (the result).
 """
 
-from .file.reader import SCHEMA, ModelFile, load_model_file, locate, read_initial, read_model_file
+import re
+import tomllib
+from pathlib import Path
+
+from ..errors import GpmegenError, ModelError
+from .chain import Model
+from .file.model_file import ModelFile
+from .file.reader import SCHEMA, Reader
+from .rfem import check_nrfe
 
 __all__ = ["ModelFile", "SCHEMA", "load_model_file", "locate", "read_initial", "read_model_file"]
+
+
+def _parse(path, nrfe):
+    """A reader for the file at ``path`` and the file's TOML data; a ModelError at the line of a
+    file that cannot be read, decoded or parsed."""
+    if nrfe is not None:
+        check_nrfe(nrfe, f"{path}")
+    file = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise ModelError(f"{file}: cannot read the model file ({exc.strerror or exc}); check the path") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[:exc.start].count(b"\n") + 1
+        raise ModelError(f"{file}:{line}: the file is not UTF-8 text; save it as UTF-8") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
+        line = int(m.group(1)) if m else max(1, text.count("\n") + 1)
+        detail = re.sub(r"\s*\(at (?:line \d+, column \d+|end of document)\)", "", message)
+        where = f"column {m.group(2)}" if m else "end of file"
+        raise ModelError(f"{file}:{line}: TOML syntax error ({where}): {detail}; fix the syntax "
+                         f"(see docs/model-file.md)") from None
+    return Reader(path, text, nrfe), data
+
+
+def read_model_file(path, nrfe: int | None = None) -> ModelFile:
+    """The model of a schema-1 TOML file with its ``[initial]`` configuration.
+
+    ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
+    and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
+    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing."""
+    reader, data = _parse(path, nrfe)
+    return reader.read(data)
+
+
+def load_model_file(path, nrfe: int | None = None) -> Model:
+    """The :class:`~gpmegen.model.Model` described by the TOML file at ``path`` (see
+    :func:`read_model_file`)."""
+    return read_model_file(path, nrfe).model
+
+
+def read_initial(path, nrfe: int | None = None, params: dict | None = None) -> dict[str, float]:
+    """The file's start configuration ``[initial] q`` as numbers (rad, m), coordinate name ->
+    value, evaluated with the parameter defaults overridden by ``params``; coordinates not named
+    start at 0."""
+    return read_model_file(path, nrfe).initial_values(params)
+
+
+def locate(path, error: GpmegenError, nrfe: int | None = None) -> GpmegenError:
+    """``error`` (e.g. a DerivationError from deriving a model read from ``path``) as an error of
+    the same type whose message starts with the file, line and field it is about. Reads the
+    file again: :meth:`ModelFile.locate` on the file already read does not."""
+    return read_model_file(path, nrfe).locate(error)

@@ -11,14 +11,11 @@ import keyword
 import math
 import re
 import sys
-import tomllib
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import sympy as sp
 
 from ... import limits
-from ...errors import GpmegenError, ModelError
+from ...errors import ModelError
 from .. import shapes
 from ..chain import (
     AXES,
@@ -46,6 +43,7 @@ from ..requirements import evaluate, requirements, violation
 from ..rfem import check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
 from .locator import Locator, field_text, located
+from .model_file import ModelFile
 
 SCHEMA = 1
 
@@ -80,50 +78,12 @@ def _kind_of(value) -> str:
     return type(value).__name__
 
 
-
 def _number_text(value) -> str:
     value = float(value)
     return f"{value:g}"
 
 
-
-@dataclass(frozen=True)
-class ModelFile:
-    """A model read from a file, with the file's start configuration.
-
-    ``initial``: coordinate name -> value (SymPy expression of parameters) from ``[initial] q``;
-    coordinates not named start at 0."""
-
-    path: str
-    model: Model
-    initial: dict = field(default_factory=dict)
-    source: str = field(default="", repr=False, compare=False)   # the file's text, for locate()
-
-    @functools.cached_property
-    def _locator(self) -> Locator:
-        return Locator(self.source)
-
-    def locate(self, error: GpmegenError) -> GpmegenError:
-        """``error`` about this model (a ModelError or DerivationError whose ``subject`` is a
-        field) as an error of the same type whose message starts with ``"<file>:<line>:
-        <field>: "``, from the text read once."""
-        return located(error, self.path, self._locator)
-
-    def initial_values(self, params: dict | None = None) -> dict[str, float]:
-        """The start configuration as numbers (rad, m), with the parameter defaults overridden
-        by ``params``."""
-        values = {p.symbol: p.default for p in self.model.parameters}
-        values.update({symbol(name): float(value) for name, value in (params or {}).items()})
-        numbers = {}
-        for name, expr in self.initial.items():
-            numbers[name] = evaluate(expr, values)
-            if numbers[name] is None:
-                raise ModelError(f"{self.path}: initial.q.{name} = {expr} is not a finite real number with the "
-                                 f"parameter values in use; change those parameters or the expression")
-        return numbers
-
-
-class _Reader:
+class Reader:
     """Reads one parsed file into a Model; every failure names the file, line and field."""
 
     def __init__(self, path, text: str, nrfe):
@@ -640,62 +600,3 @@ class _Reader:
                                               f"{', '.join(self.coordinates)}")
             initial[name] = self.quantity(value, path + ("q", name), self.params)
         return initial
-
-
-def _parse(path, nrfe):
-    if nrfe is not None:
-        check_nrfe(nrfe, f"{path}")
-    file = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except OSError as exc:
-        raise ModelError(f"{file}: cannot read the model file ({exc.strerror or exc}); check the path") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[:exc.start].count(b"\n") + 1
-        raise ModelError(f"{file}:{line}: the file is not UTF-8 text; save it as UTF-8") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        message = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", message)
-        line = int(m.group(1)) if m else max(1, text.count("\n") + 1)
-        detail = re.sub(r"\s*\(at (?:line \d+, column \d+|end of document)\)", "", message)
-        where = f"column {m.group(2)}" if m else "end of file"
-        raise ModelError(f"{file}:{line}: TOML syntax error ({where}): {detail}; fix the syntax "
-                         f"(see docs/model-file.md)") from None
-    return _Reader(path, text, nrfe), data
-
-
-def read_model_file(path, nrfe: int | None = None) -> ModelFile:
-    """The model of a schema-1 TOML file with its ``[initial]`` configuration.
-
-    ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
-    and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
-    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing."""
-    reader, data = _parse(path, nrfe)
-    return reader.read(data)
-
-
-def load_model_file(path, nrfe: int | None = None) -> Model:
-    """The :class:`~gpmegen.model.Model` described by the TOML file at ``path`` (see
-    :func:`read_model_file`)."""
-    return read_model_file(path, nrfe).model
-
-
-def read_initial(path, nrfe: int | None = None, params: dict | None = None) -> dict[str, float]:
-    """The file's start configuration ``[initial] q`` as numbers (rad, m), coordinate name ->
-    value, evaluated with the parameter defaults overridden by ``params``; coordinates not named
-    start at 0."""
-    return read_model_file(path, nrfe).initial_values(params)
-
-
-def locate(path, error: GpmegenError, nrfe: int | None = None) -> GpmegenError:
-    """``error`` (e.g. a DerivationError from deriving a model read from ``path``) as an error of
-    the same type whose message starts with the file, line and field it is about. Reads the
-    file again: :meth:`ModelFile.locate` on the file already read does not."""
-    return read_model_file(path, nrfe).locate(error)
-
-
-__all__ = ["ModelFile", "SCHEMA", "load_model_file", "locate", "read_initial", "read_model_file"]
