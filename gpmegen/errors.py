@@ -9,11 +9,24 @@ class GpmegenError(Exception):
     """Base of all errors the package raises on purpose."""
 
 
-class ModelError(GpmegenError):
+class _AboutAField:
+    """An error about one field of a model: ``subject`` is its path as a model file writes it
+    (``("constraints", 0, "expression")``, ``("chain", 3, "point")``, ``("parameters", "g")``;
+    array entries count from 0), or empty when no field is at fault; ``other`` the path of a
+    second field the message is about (the first of two names that clash). A model file maps
+    both to lines (:meth:`gpmegen.model.toml_file.ModelFile.locate`)."""
+
+    def __init__(self, message, subject=(), other=()):
+        super().__init__(message)
+        self.subject = tuple(subject)
+        self.other = tuple(other)
+
+
+class ModelError(_AboutAField, GpmegenError):
     """The model description is invalid (a field, name, value or expression)."""
 
 
-class DerivationError(GpmegenError):
+class DerivationError(_AboutAField, GpmegenError):
     """The symbolic derivation cannot proceed (e.g. a constraint independent of every coordinate)."""
 
 

@@ -1,6 +1,7 @@
 """Model description files: the reference manipulator as a file, the examples, and one test per
 kind of bad file (message names the file, line and field; nothing is written)."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -9,7 +10,8 @@ import pytest
 import gpmegen
 from gpmegen.codegen import render
 from gpmegen.errors import DerivationError, ModelError
-from gpmegen.model import reference_model
+from gpmegen.model import Body, reference_model
+from gpmegen.model.expand import expand
 from gpmegen.model.toml_file import load_model_file, locate, read_initial, read_model_file
 from gpmegen.symbolic import derive
 
@@ -187,6 +189,22 @@ BAD = [
      'young_modulus = 7e10\nshear_modulus = 2.6e10\n\n[[chain]]\npoint', "chain[3].flexible", "label '1' is already used"),  # noqa: E501
     ("point-name-clash", [("g = 9.81", "g = 9.81\nx_E = 1.0")], 'point = "E"', "chain[3].point",
      "makes the name x_E"),
+    ("velocity-name-clash", [("g = 9.81", "g = 9.81\ntheta1_dot = 1.0")], 'joint = "theta1"', "chain[0].joint",
+     "coordinate 'theta1' makes the name theta1_dot, and parameter 'theta1_dot' has the name of the velocity of "
+     "coordinate 'theta1' in constraint expressions; rename one (the other is parameters.theta1_dot, line 10)"),
+    ("derived-name-made-twice", [('joint = "theta1"', 'joint = "y_F"'), ('["theta1"]', '["y_F"]'),
+                                 ("theta1 = 0.5", "y_F = 0.5"),
+                                 ('[[chain]]\npoint = "E"', '[[chain]]\npoint = "E"\n\n[[chain]]\npoint = "F_dot"')],
+     'point = "F_dot"', "chain[4].point", "point 'F_dot' makes the name y_F_dot, the coordinate y of point 'F_dot' in "
+     "constraint expressions, which is also the velocity of coordinate 'y_F'; rename one (the other is "
+     "chain[0].joint, line 14)"),
+    ("duplicate-body", [('[[chain]]\npoint = "E"', '[[chain]]\nbody = "hub"\nmass = 1\n\n[[chain]]\npoint = "E"')],
+     'body = "hub"\nmass', "chain[3].body", "duplicates the body of the same name; rename one (the other is "
+     "chain[1].body, line 19)"),
+    ("constraint-order", [("beta = 10\n", "beta = 10\norder = 2\n")], "order = 2", "constraints[0].order",
+     "order must be 0 (position) or 1"),
+    ("constraint-order-boolean", [("beta = 10\n", "order = true\n")], "order = true", "constraints[0].order",
+     "got True"),
     ("first-order-nonlinear", [('"y_E - 0.1"', '"vy_E^2 - 0.1"\norder = 1'), ("beta = 10\n", "")],
      '"vy_E^2', "constraints[0].expression", "linear in the velocities"),
     ("first-order-beta", [('"y_E - 0.1"', '"vy_E"\norder = 1')], "beta = 10", "constraints[0].beta",
@@ -196,15 +214,30 @@ BAD = [
     ("dependent-count", [('["theta1"]', '["theta1", "psi1_1"]')], "dependent", "dependent",
      "1 constraint(s) need as many"),
     ("dependent-unknown", [('["theta1"]', '["theta9"]')], "dependent", "dependent[0]", "'theta9' is not a coordinate"),
+    ("dependent-twice", [('["theta1"]', '["theta1", "theta1"]')], "dependent", "dependent[1]",
+     "'theta1' is listed twice"),
     ("initial-unknown", [("q = { theta1 = 0.5 }", "q = { theta9 = 0.5 }")], "theta9", "initial.q.theta9",
      "not a coordinate"),
+    ("parameters-not-a-table", [("[parameters]\ng = 9.81\nm = { value = 1.0, unit = \"kg\", doc = \"hub mass\" }\n"
+                                 "L = { value = 0.5, unit = \"m\" }\n", "parameters = 0\n")], "parameters = 0",
+     "parameters", "expected a parameters table"),
+    ("initial-q-not-a-table", [("q = { theta1 = 0.5 }", "q = 0")], "q = 0", "initial.q",
+     "expected a table of coordinates"),
     ("drive-unknown", [("[initial]", '[[drives]]\ncoordinate = "theta9"\nexpression = "1"\n\n[initial]')],
      "theta9", "drives[0].coordinate", "unknown coordinate 'theta9'"),
+    ("drive-twice", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "1"\n\n[[drives]]\n'
+                                   'coordinate = "theta1"\nexpression = "2"\n\n[initial]')],
+     'coordinate = "theta1"\nexpression = "2"', "drives[1].coordinate",
+     "a second drive on 'theta1'; add the two expressions in one drive (the other is drives[0].coordinate, line 40)"),
     ("drive-coordinate", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "-theta1"\n\n[initial]')],
      '"-theta1"', "drives[0].expression", "may appear only in constraints"),
     ("text-injection", [('description = "one joint and a flexible link"', "description = 'x \"\"\" y'")],
      "description", "description", "cannot carry in a comment"),
     ("huge-power", [('"y_E - 0.1"', '"y_E - 9^9^9^9"')], "9^9^9^9", "constraints[0].expression", "too large"),
+    ("nrfe-zero", [("nrfe = 2", "nrfe = 0")], "nrfe = 0", "nrfe",
+     "nrfe must be a whole number ≥ 1 (1: a rigid link), got 0; write e.g. nrfe = 3"),
+    ("link-nrfe-fraction", [("shear_modulus = 2.6e10", "shear_modulus = 2.6e10\nnrfe = 2.5")], "nrfe = 2.5",
+     "chain[2].nrfe", "nrfe must be a whole number ≥ 1 (1: a rigid link), got 2.5"),
     ("nrfe-missing", [("nrfe = 2\n", "")], '[[chain]]\nflexible', "chain[2]", "no n_rfe for this flexible link"),
     # comparisons only as Piecewise conditions, one each; (value, True) last
     ("comparison-outside-piecewise", [('"y_E - 0.1"', '"y_E - (t < 1)"')], "t < 1", "constraints[0].expression",
@@ -276,6 +309,36 @@ def test_derivation_error_is_located_in_the_file(tmp_path):
     assert isinstance(located, DerivationError)
     assert str(located).startswith(f"{path}:{_line_of(text, 'x_C - 0.1')}: constraints[0].expression: "), str(located)
     assert "does not depend on any coordinate" in str(located)
+
+
+def test_a_file_read_locates_later_errors_without_reading_it_again(tmp_path):
+    """ModelFile.locate maps the error's subject to the line from the text read once: the file
+    may be gone by the time the derivation fails."""
+    text = BASE.replace('"y_E - 0.1"', '"x_C - 0.1"').replace(
+        '[[chain]]\nbody = "hub"', '[[chain]]\npoint = "C"\n\n[[chain]]\nbody = "hub"')
+    path = tmp_path / "axis.toml"
+    path.write_text(text)
+    file = read_model_file(path)
+    path.unlink()
+    with pytest.raises(DerivationError) as info:
+        derive(file.model)
+    assert info.value.subject == ("constraints", 0, "expression")
+    located = file.locate(info.value)
+    assert type(located) is DerivationError and located.subject == info.value.subject
+    assert str(located) == f"{path}:{_line_of(text, 'x_C - 0.1')}: constraints[0].expression: {info.value}"
+
+
+def test_model_errors_name_their_field_without_a_file():
+    """expand() says which field of a Model built in Python is at fault, as a path."""
+    model = reference_model(1)
+    clash = Body("theta1", model.chain[1].pseudo_inertia)
+    with pytest.raises(ModelError) as info:
+        expand(replace(model, chain=model.chain[:1] + (clash,) + model.chain[2:]))
+    assert (info.value.subject, info.value.other) == (("chain", 1, "body"), ("chain", 0, "joint"))
+    constraint = replace(model.constraints[0], order=True)
+    with pytest.raises(ModelError, match="order must be 0") as info:
+        expand(replace(model, constraints=(constraint,) + model.constraints[1:]))
+    assert info.value.subject == ("constraints", 0, "order")
 
 
 def test_lines_are_found_through_subtables_multiline_arrays_and_strings(tmp_path):

@@ -41,16 +41,17 @@ SYMPY_NAMES = frozenset({"E", "I", "N", "S", "O", "Q", "oo", "zoo", "nan", "beta
 TIME = sp.Symbol("t", real=True)
 
 
-def check_name(name: str, what: str, bare: bool = False) -> str:
-    """Return ``name`` if it is a safe identifier, else raise ModelError naming ``what``.
-    ``bare``: the name stands alone in expressions, so it must not shadow a SymPy name."""
+def check_name(name: str, what: str, bare: bool = False, subject: tuple = ()) -> str:
+    """Return ``name`` if it is a safe identifier, else raise ModelError naming ``what`` (about
+    the field ``subject``). ``bare``: the name stands alone in expressions, so it must not
+    shadow a SymPy name."""
     if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
         raise ModelError(
             f"{what} {name!r} is not a valid name: use a letter followed by letters, digits or "
-            f"underscores (at most 48 characters)"
+            f"underscores (at most 48 characters)", subject
         )
     if name in RESERVED_NAMES or name.startswith("_") or (bare and name in SYMPY_NAMES):
-        raise ModelError(f"{what} {name!r} is reserved in generated code: choose another name")
+        raise ModelError(f"{what} {name!r} is reserved in generated code: choose another name", subject)
     return name
 
 

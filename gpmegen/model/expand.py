@@ -3,6 +3,7 @@ points (flexible links discretized by RFEM)."""
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass
 
@@ -25,7 +26,7 @@ from .chain import (
     symbol,
     velocity_symbol,
 )
-from .rfem import discretize
+from .rfem import check_nrfe, discretize
 
 
 @dataclass(frozen=True)
@@ -52,136 +53,203 @@ class FlatChain:
         return tuple(e.name for e in self.elements if isinstance(e, Body))
 
 
-def _check_expression(expr, allowed: set, where: str):
+def _check_expression(expr, allowed: set, where: str, subject: tuple):
     try:
         expr = sp.sympify(expr)
     except (sp.SympifyError, TypeError) as exc:
-        raise ModelError(f"{where}: not a valid expression ({exc})") from None
+        raise ModelError(f"{where}: not a valid expression ({exc})", subject) from None
     if expr.has(sp.DiracDelta):
         raise ModelError(f"{where}: DiracDelta is an impulse, which generated code cannot evaluate; prescribe the "
-                         f"motion it causes instead (a jump with Heaviside or Piecewise)")
+                         f"motion it causes instead (a jump with Heaviside or Piecewise)", subject)
     if any(pw.args[-1].cond != sp.true for pw in expr.atoms(sp.Piecewise)):
         raise ModelError(f"{where}: a Piecewise has no last pair (value, True), so its value is undefined where "
-                         f"no condition holds; end it with (value, True)")
+                         f"no condition holds; end it with (value, True)", subject)
     unknown = sorted(str(s) for s in expr.free_symbols if s not in allowed)
     if unknown:
-        raise ModelError(
-            f"{where}: unknown name(s) {', '.join(unknown)}; declare them as parameters or use "
-            f"names defined in the model"
-        )
+        raise ModelError(f"{where}: unknown name(s) {', '.join(unknown)}; declare them as parameters or use "
+                         f"names defined in the model", subject)
     return expr
 
 
-def expand(model: Model) -> FlatChain:
-    """Validate ``model`` and expand its flexible links; raise ModelError naming the fault."""
-    check_name(model.name, "model name")
-    seen: dict[str, str] = {}
+class _Names:
+    """The one namespace of parameters, coordinates, bodies, points and constraints, with the
+    path of each name's field (see :class:`gpmegen.errors.ModelError`)."""
 
-    def claim(name, what):
-        check_name(name, what, bare=what in ("parameter", "coordinate"))
-        if name in seen:
-            raise ModelError(f"{what} {name!r} duplicates the {seen[name]} of the same name: rename one")
-        seen[name] = what
+    def __init__(self):
+        self.seen: dict[str, tuple[str, tuple]] = {}
 
-    for p in model.parameters:
-        claim(p.name, "parameter")
-        if not math.isfinite(float(p.default)):
-            raise ModelError(f"parameter {p.name!r} has the default {p.default}, not a finite number; give a "
-                             f"value below 1e308 in size")
-    params = {p.symbol for p in model.parameters}
-    constant = params  # expressions of the chain may use parameters only
+    def claim(self, name, what, path):
+        check_name(name, what, bare=what in ("parameter", "coordinate"), subject=path)
+        if name in self.seen:
+            other, other_path = self.seen[name]
+            raise ModelError(f"{what} {name!r} duplicates the {other} of the same name; rename one", path,
+                             other_path)
+        self.seen[name] = (what, path)
 
-    elements = []
+
+def _flatten(model: Model):
+    """The chain's elements with flexible links expanded, each with the path of the field that
+    names it (``("chain", k, "joint")``; offsets: the element's path)."""
+    constant = {p.symbol for p in model.parameters}   # chain quantities may use parameters only
+    out = []
     for k, element in enumerate(model.chain):
-        where = f"chain element {k + 1}"
+        path = ("chain", k)
         if isinstance(element, FlexibleLink):
             for attr in ("length", "density", "young_modulus", "shear_modulus"):
-                _check_expression(getattr(element, attr), constant, f"{where} (flexible link {element.label!r}) {attr}")
-            elements.extend(discretize(element))
-        elif isinstance(element, (Joint, Offset, Body, Point)):
-            elements.append(element)
+                _check_expression(getattr(element, attr), constant, f"flexible link {element.label!r} {attr}",
+                                  path + (attr,))
+            check_nrfe(element.n_rfe, f"flexible link {element.label!r}", subject=path + ("nrfe",))
+            out += [(path + ("flexible",), part) for part in discretize(element)]
+        elif isinstance(element, (Joint, Body, Point)):
+            out.append((path + (_NAME_KEY[type(element)],), element))
+        elif isinstance(element, Offset):
+            out.append((path, element))
         else:
-            raise ModelError(f"{where}: unknown element {type(element).__name__}")
+            raise ModelError(f"chain element {k + 1}: unknown element {type(element).__name__}", path)
+    return out
 
-    coordinates = []
-    for element in elements:
+
+_NAME_KEY = {Joint: "joint", Body: "body", Point: "point"}
+
+
+def _check_element(element, path, names: _Names, constant: set):
+    """Names, kinds, axes and expressions of one expanded chain element at ``path``."""
+    table = path[:-1] if isinstance(element, (Joint, Body, Point)) else path
+    if isinstance(element, Joint):
+        names.claim(element.name, "coordinate", path)
+        if element.kind not in JOINT_KINDS:
+            raise ModelError(f"joint {element.name!r}: unknown kind {element.kind!r}; use one of "
+                             f"{', '.join(JOINT_KINDS)}", table + ("type",))
+        if element.axis not in AXES:
+            raise ModelError(f"joint {element.name!r}: unknown axis {element.axis!r}; use x, y or z", table + ("axis",))
+        for key in ("stiffness", "damping"):
+            _check_expression(getattr(element, key), constant, f"joint {element.name!r} {key}", table + (key,))
+    elif isinstance(element, Body):
+        names.claim(element.name, "body", path)
+        h = sp.ImmutableMatrix(element.pseudo_inertia)
+        if h.shape != (4, 4) or h != h.T:
+            raise ModelError(f"body {element.name!r}: the pseudo-inertia must be a symmetric 4x4 matrix", table)
+        for v in h:
+            _check_expression(v, constant, f"body {element.name!r} pseudo-inertia", table)
+    elif isinstance(element, Point):
+        names.claim(element.name, "point", path)
+        for i, v in enumerate(element.position):
+            _check_expression(v, constant, f"point {element.name!r} position", table + ("position", i))
+    else:
+        for i, v in enumerate(element.translation):
+            _check_expression(v, constant, "offset translation", table + ("translation", i))
+        for i, (axis, angle) in enumerate(element.rotations):
+            if axis not in AXES:
+                raise ModelError(f"offset rotation about unknown axis {axis!r}; use x, y or z",
+                                 table + ("rotations", i, 0))
+            _check_expression(angle, constant, "offset rotation angle", table + ("rotations", i, 1))
+
+
+def _check_derived_names(flat, names: _Names):
+    """The names constraint expressions give to velocities (``<coordinate>_dot``) and points
+    (``x_P``, ``vx_P``; ``ax_P`` inside the derivation) must not be a parameter's or a
+    coordinate's, nor made twice, else an expression would silently mean one of the two."""
+    made: dict[str, tuple[str, str, tuple]] = {}   # name -> (owner, meaning, owner's path)
+    for path, element in flat:
         if isinstance(element, Joint):
-            claim(element.name, "coordinate")
-            if element.kind not in JOINT_KINDS:
-                raise ModelError(f"joint {element.name!r}: unknown kind {element.kind!r}; use one of "
-                                 f"{', '.join(JOINT_KINDS)}")
-            if element.axis not in AXES:
-                raise ModelError(f"joint {element.name!r}: unknown axis {element.axis!r}; use x, y or z")
-            _check_expression(element.stiffness, constant, f"joint {element.name!r} stiffness")
-            _check_expression(element.damping, constant, f"joint {element.name!r} damping")
-            coordinates.append(element.name)
-        elif isinstance(element, Body):
-            claim(element.name, "body")
-            h = sp.ImmutableMatrix(element.pseudo_inertia)
-            if h.shape != (4, 4) or h != h.T:
-                raise ModelError(f"body {element.name!r}: the pseudo-inertia must be a symmetric 4x4 matrix")
-            for v in h:
-                _check_expression(v, constant, f"body {element.name!r} pseudo-inertia")
+            owner = f"coordinate {element.name!r}"
+            derived = [(f"{element.name}_dot", f"velocity of {owner}")]
         elif isinstance(element, Point):
-            claim(element.name, "point")
-            for v in element.position:
-                _check_expression(v, constant, f"point {element.name!r} position")
+            owner = f"point {element.name!r}"
+            derived = [(f"{prefix}{a}_{element.name}", f"{quantity} {a} of {owner}")
+                       for prefix, quantity in (("", "coordinate"), ("v", "velocity"), ("a", "acceleration"))
+                       for a in AXES]
         else:
-            for v in element.translation:
-                _check_expression(v, constant, "offset translation")
-            for axis, angle in element.rotations:
-                if axis not in AXES:
-                    raise ModelError(f"offset rotation about unknown axis {axis!r}; use x, y or z")
-                _check_expression(angle, constant, "offset rotation angle")
-    if not coordinates:
-        raise ModelError(f"model {model.name!r} has no joints: add at least one joint")
+            continue
+        for name, meaning in derived:
+            if name in names.seen and names.seen[name][0] in ("parameter", "coordinate"):
+                other, other_path = names.seen[name]
+                raise ModelError(f"{owner} makes the name {name}, and {other} {name!r} has the name of the {meaning} "
+                                 f"in constraint expressions; rename one", path, other_path)
+            if name in made and made[name][0] != owner:
+                raise ModelError(f"{owner} makes the name {name}, the {meaning} in constraint expressions, which "
+                                 f"is also the {made[name][1]}; rename one", path, made[name][2])
+            made[name] = (owner, meaning, path)
 
-    points = [e.name for e in elements if isinstance(e, Point)]
-    # names the constraint expressions give to points and velocities must not shadow a parameter
-    # or a coordinate, else an expression would silently mean one of the two
-    derived = {f"{c}_dot": f"velocity of coordinate {c!r}" for c in coordinates}
-    for name in points:
-        for a in "xyz":
-            for prefix, what in (("", "coordinate"), ("v", "velocity"), ("a", "acceleration")):
-                derived[f"{prefix}{a}_{name}"] = f"{what} {a} of point {name!r}"
-    for name, what in [(p.name, "parameter") for p in model.parameters] + [(c, "coordinate") for c in coordinates]:
-        if name in derived:
-            raise ModelError(f"{what} {name!r} has the name of the {derived[name]} in constraint "
-                             f"expressions: rename the {what}")
-    for v in model.gravity:
-        _check_expression(v, constant, "gravity")
-    for drive in model.drives:
+
+def _check_drives(model: Model, coordinates: list, constant: set):
+    first: dict[str, tuple] = {}
+    for k, drive in enumerate(model.drives):
+        path = ("drives", k)
         if drive.coordinate not in coordinates:
-            raise ModelError(f"drive on unknown coordinate {drive.coordinate!r}; coordinates are "
-                             f"{', '.join(coordinates)}")
-        _check_expression(drive.expression, constant | {TIME}, f"drive on {drive.coordinate!r}")
+            close = difflib.get_close_matches(str(drive.coordinate), coordinates, 1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise ModelError(f"drive on unknown coordinate {drive.coordinate!r}; {hint}the coordinates are "
+                             f"{', '.join(coordinates)}", path + ("coordinate",))
+        if drive.coordinate in first:
+            raise ModelError(f"a second drive on {drive.coordinate!r}; add the two expressions in one drive",
+                             path + ("coordinate",), first[drive.coordinate])
+        first[drive.coordinate] = path + ("coordinate",)
+        _check_expression(drive.expression, constant | {TIME}, f"drive on {drive.coordinate!r}", path + ("expression",))
 
-    kinematic = set(params) | {TIME} | {symbol(c) for c in coordinates}
-    for name in points:
-        kinematic |= set(point_symbols(name))
+
+def _check_constraints(model: Model, flat, coordinates: list, names: _Names):
+    constant = {p.symbol for p in model.parameters}
+    points = [e.name for _, e in flat if isinstance(e, Point)]
+    kinematic = constant | {TIME} | {symbol(c) for c in coordinates}
     rates = {velocity_symbol(c) for c in coordinates}
     for name in points:
+        kinematic |= set(point_symbols(name))
         rates |= set(point_velocity_symbols(name))
-    for c in model.constraints:
-        claim(c.name, "constraint")
-        if c.order not in (0, 1):
-            raise ModelError(f"constraint {c.name!r}: order must be 0 (position) or 1 (first order), got {c.order!r}")
+    for k, c in enumerate(model.constraints):
+        path = ("constraints", k)
+        names.claim(c.name, "constraint", path + ("name",))
+        if isinstance(c.order, bool) or c.order not in (0, 1):
+            raise ModelError(f"constraint {c.name!r}: order must be 0 (position) or 1 (first order, linear in "
+                             f"velocities), got {c.order!r}", path + ("order",))
         allowed = kinematic | (rates if c.order == 1 else set())
-        expr = _check_expression(c.expression, allowed, f"constraint {c.name!r}")
+        where = path + ("expression",)
+        expr = _check_expression(c.expression, allowed, f"constraint {c.name!r}", where)
         if c.order == 1 and not (expr.free_symbols & rates):
-            raise ModelError(f"constraint {c.name!r}: a first-order constraint must involve velocities")
+            raise ModelError(f"constraint {c.name!r}: a first-order constraint must involve velocities", where)
         if c.order == 1 and any(sp.diff(expr, r, 2) != 0 for r in expr.free_symbols & rates):
-            raise ModelError(f"constraint {c.name!r}: a first-order constraint must be linear in the velocities")
-        _check_expression(c.alpha, constant, f"constraint {c.name!r} alpha")
-        _check_expression(c.beta, constant, f"constraint {c.name!r} beta")
-    if model.dependent is not None:
-        for name in model.dependent:
-            if name not in coordinates:
-                raise ModelError(f"dependent coordinate {name!r} is not a coordinate; coordinates are "
-                                 f"{', '.join(coordinates)}")
-        if len(set(model.dependent)) != len(model.constraints):
-            raise ModelError(
-                f"{len(model.constraints)} constraint(s) need as many distinct dependent coordinates, "
-                f"{len(model.dependent)} given"
-            )
-    return FlatChain(model, tuple(elements), tuple(coordinates))
+            raise ModelError(f"constraint {c.name!r}: a first-order constraint must be linear in the velocities",
+                             where)
+        for key in ("alpha", "beta"):
+            _check_expression(getattr(c, key), constant, f"constraint {c.name!r} {key}", path + (key,))
+
+
+def _check_dependent(model: Model, coordinates: list):
+    if model.dependent is None:
+        return
+    for k, name in enumerate(model.dependent):
+        if name not in coordinates:
+            raise ModelError(f"dependent coordinate {name!r} is not a coordinate; the coordinates are "
+                             f"{', '.join(coordinates)}", ("dependent", k))
+        if name in model.dependent[:k]:
+            raise ModelError(f"dependent coordinate {name!r} is listed twice; name each dependent coordinate once",
+                             ("dependent", k))
+    if len(model.dependent) != len(model.constraints):
+        raise ModelError(f"{len(model.constraints)} constraint(s) need as many dependent coordinates, "
+                         f"{len(model.dependent)} given; list one per constraint or write \"auto\"", ("dependent",))
+
+
+def expand(model: Model) -> FlatChain:
+    """Validate ``model`` and expand its flexible links; raise ModelError naming the fault, with
+    the path of its field as ``subject``."""
+    check_name(model.name, "model name", subject=("name",))
+    names = _Names()
+    for p in model.parameters:
+        names.claim(p.name, "parameter", ("parameters", p.name))
+        if not math.isfinite(float(p.default)):
+            raise ModelError(f"parameter {p.name!r} has the default {p.default}, not a finite number; give a "
+                             f"value below 1e308 in size", ("parameters", p.name))
+    constant = {p.symbol for p in model.parameters}   # expressions of the chain may use parameters only
+    flat = _flatten(model)
+    for path, element in flat:
+        _check_element(element, path, names, constant)
+    coordinates = [e.name for _, e in flat if isinstance(e, Joint)]
+    if not coordinates:
+        raise ModelError(f"model {model.name!r} has no joints: add at least one joint", ("chain",))
+    _check_derived_names(flat, names)
+    for i, v in enumerate(model.gravity):
+        _check_expression(v, constant, "gravity", ("gravity", i))
+    _check_drives(model, coordinates, constant)
+    _check_constraints(model, flat, coordinates, names)
+    _check_dependent(model, coordinates)
+    return FlatChain(model, tuple(e for _, e in flat), tuple(coordinates))

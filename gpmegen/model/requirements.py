@@ -40,13 +40,20 @@ class Requirement:
     """``expression`` (of parameters) must be positive, or zero or positive (``sign``).
 
     ``kind`` and ``name`` say whose quantity it is ("body", "slider"); ``key`` where it sits in
-    that element's description, as a model file writes it (``("shape", "mass")``)."""
+    that element's description, as a model file writes it (``("shape", "mass")``); ``element``
+    the path of that element in the model (``("chain", 1)``)."""
 
     expression: sp.Expr
     sign: str
     kind: str
     name: str
     key: tuple
+    element: tuple = ()
+
+    @property
+    def subject(self) -> tuple:
+        """The path of the quantity's field (see :class:`gpmegen.errors.ModelError`)."""
+        return self.element + self.key
 
     @property
     def quantity(self) -> str:
@@ -65,7 +72,7 @@ def _word(key) -> str:
     return next(part for part in reversed(key) if isinstance(part, str))
 
 
-def _link(link: FlexibleLink) -> list:
+def _link(link: FlexibleLink, element: tuple) -> list:
     items = [(("length",), link.length)]
     if isinstance(link.section, CircularSection):
         items.append((("section", "radius"), link.section.radius))
@@ -75,8 +82,8 @@ def _link(link: FlexibleLink) -> list:
               (("shear_modulus",), link.shear_modulus)]
     if link.torsion_constant is not None:
         items.append((("torsion_constant",), link.torsion_constant))
-    need = [Requirement(sp.sympify(e), POSITIVE, "flexible link", link.label, key) for key, e in items]
-    return need + [Requirement(sp.sympify(d), NONNEGATIVE, "flexible link", link.label, ("damping", k))
+    need = [Requirement(sp.sympify(e), POSITIVE, "flexible link", link.label, key, element) for key, e in items]
+    return need + [Requirement(sp.sympify(d), NONNEGATIVE, "flexible link", link.label, ("damping", k), element)
                    for k, d in enumerate(link.damping)]
 
 
@@ -84,19 +91,20 @@ def requirements(model: Model) -> tuple[Requirement, ...]:
     """The bounds on ``model``'s quantities that involve parameters or are numbers, in chain
     order, then the constraints' gains."""
     out = []
-    for element in model.chain:
+    for k, element in enumerate(model.chain):
+        path = ("chain", k)
         if isinstance(element, Joint):
-            out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "joint", element.name, (key,))
+            out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "joint", element.name, (key,), path)
                     for key in ("stiffness", "damping")]
         elif isinstance(element, Body):
             quantities = element.quantities or ((("mass",), element.pseudo_inertia[3, 3]),)
-            out += [Requirement(sp.sympify(e), NONNEGATIVE, "body", element.name, key) for key, e in quantities]
+            out += [Requirement(sp.sympify(e), NONNEGATIVE, "body", element.name, key, path) for key, e in quantities]
         elif isinstance(element, FlexibleLink):
-            out += _link(element)
-    for c in model.constraints:
+            out += _link(element, path)
+    for k, c in enumerate(model.constraints):
         if isinstance(c, Constraint):
-            out += [Requirement(sp.sympify(getattr(c, key)), NONNEGATIVE, "constraint", c.name, (key,))
-                    for key in ("alpha", "beta")]
+            out += [Requirement(sp.sympify(getattr(c, key)), NONNEGATIVE, "constraint", c.name, (key,),
+                                ("constraints", k)) for key in ("alpha", "beta")]
     return tuple(out)
 
 

@@ -52,12 +52,14 @@ def rfe_lengths(link: FlexibleLink):
     return [delta / 2] + [delta] * (n - 2) + [delta / 2]
 
 
-def check_nrfe(nrfe, what: str, minimum: int = 1) -> int:
+def check_nrfe(nrfe, what: str, minimum: int = 1, subject: tuple = ()) -> int:
     """``nrfe`` when it is a whole number of rfes ≥ ``minimum`` (1: a rigid link), else a
-    ModelError naming ``what`` it is for. The one place this rule is kept."""
+    ModelError naming ``what`` it is for, when given (about the field ``subject``). The one place
+    this rule is kept."""
     if isinstance(nrfe, bool) or not isinstance(nrfe, int) or nrfe < minimum:
         rigid = " (1: a rigid link)" if minimum == 1 else ""
-        raise ModelError(f"{what}: nrfe must be a whole number ≥ {minimum}{rigid}, got {nrfe!r}")
+        raise ModelError(f"{what}: " * bool(what) + f"nrfe must be a whole number ≥ {minimum}{rigid}, got {nrfe!r}; "
+                         f"write e.g. nrfe = {max(minimum, 3)}", subject)
     return nrfe
 
 

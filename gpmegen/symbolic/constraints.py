@@ -92,17 +92,16 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
 
     defaults = {p.symbol: sp.Float(p.default) for p in kin.chain.model.parameters}
     values, rates, rows, gammas, warnings = [], [], [], [], []
-    for c in constraints:
+    for k, c in enumerate(constraints):
         expr = as_piecewise(c.expression)
         first = rate(expr) if c.order == 0 else expr  # Φ̇, or Ψ itself
         row = jacobian_row(first)
         if all(v == 0 for v in row):
             raise DerivationError(
                 f"constraint {c.name!r} does not depend on any coordinate, so no motion can hold "
-                f"it: check that it names a point or a coordinate"
-            )
+                f"it: check that it names a point or a coordinate", ("constraints", k, "expression"))
         second = rate(first)
-        _check_printable(c.name, (first, second))
+        _check_printable(c.name, (first, second), ("constraints", k, "expression"))
         law = as_piecewise(exact(c.expression))
         checked = (("Φ", law), ("Φ̇", rate(law))) if c.order == 0 else (("Ψ", law),)
         warnings += _jump_warnings(c.name, checked, defaults, "continuously differentiable" if c.order == 0 else
@@ -125,17 +124,17 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
     )
 
 
-def _check_printable(name, derivatives):
+def _check_printable(name, derivatives, subject):
     """Refuse a law whose derivatives SymPy leaves unevaluated or impulsive (floor, Mod,
-    DiracDelta, undefined functions): generated code could not evaluate them."""
+    DiracDelta, undefined functions): generated code could not evaluate them. ``subject``: the
+    path of the law's field."""
     for d in derivatives:
         stuck = sorted(d.atoms(sp.Derivative, sp.DiracDelta), key=sp.default_sort_key)
         if stuck:
             function = stuck[0].expr.func if isinstance(stuck[0], sp.Derivative) else stuck[0].func
             raise DerivationError(
                 f"constraint {name!r}: its law uses {function}, whose derivative generated code cannot "
-                f"evaluate; write the law with smooth functions, Min, Max, Abs, Heaviside or Piecewise"
-            )
+                f"evaluate; write the law with smooth functions, Min, Max, Abs, Heaviside or Piecewise", subject)
 
 
 def _jump_warnings(name, checked, defaults, smooth) -> list[str]:

@@ -1,0 +1,602 @@
+"""Model files to Models: the schema of a model file read table by table into a
+:class:`~gpmegen.model.Model`, every failure at the file, line and field it is about.
+
+The user's guide is ``docs/model-file.md``; :mod:`gpmegen.model.toml_file` is the public face."""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import keyword
+import math
+import re
+import sys
+
+import sympy as sp
+
+from ... import limits
+from ...errors import ModelError
+from .. import shapes
+from ..chain import (
+    AXES,
+    JOINT_KINDS,
+    TIME,
+    Body,
+    CircularSection,
+    Constraint,
+    Drive,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
+    RectangularSection,
+    check_name,
+    point_symbols,
+    point_velocity_symbols,
+    symbol,
+    velocity_symbol,
+)
+from ..expand import expand
+from ..requirements import evaluate, requirements, violation
+from ..rfem import check_nrfe, discretize, link_coordinates
+from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
+from .locator import Locator, field_text, located
+from .model_file import ModelFile
+
+SCHEMA = 1
+
+_LABEL = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_]{0,31}$")
+_POINT_NAME = re.compile(r"^(vx|vy|vz|ax|ay|az|x|y|z)_(.+)$")
+_TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
+
+TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
+            "chain", "drives", "constraints", "initial")
+ELEMENT_KINDS = ("joint", "body", "flexible", "point")
+SHAPE_KEYS = {
+    "cylinder": ("type", "mass", "radius", "length", "axis"),
+    "bar": ("type", "mass", "length", "width", "thickness"),
+    "rod": ("type", "mass", "length", "radius"),
+    "point_mass": ("type", "mass", "position"),
+}
+SHAPE_OPTIONAL = {"point_mass": ("position",)}
+SECTION_KEYS = {"rectangular": ("type", "width", "thickness"), "circular": ("type", "radius")}
+
+
+def _kind_of(value) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return type(value).__name__
+
+
+def _number_text(value) -> str:
+    value = float(value)
+    return f"{value:g}"
+
+
+class Reader:
+    """Reads one parsed file into a Model; every failure names the file, line and field."""
+
+    def __init__(self, path, text: str, nrfe):
+        self.file = str(path)
+        self.source = text
+        self.nrfe_argument = nrfe
+        self.params: dict[str, sp.Symbol] = {}
+        self.defaults: dict[sp.Symbol, sp.Float] = {}
+        self.coordinates: list[str] = []
+        self.points: list[str] = []
+        self.moving_points: set[str] = set()
+        self.labels: dict[str, tuple] = {}
+
+    @functools.cached_property
+    def locator(self) -> Locator:
+        """Line numbers, found when a message first needs one (a scan of the whole text)."""
+        return Locator(self.source)
+
+    # ---- errors ------------------------------------------------------------------------------
+    def where(self, path) -> str:
+        name = field_text(path)
+        return f"{self.file}:{self.locator.line(path)}: " + (f"{name}: " if name else "")
+
+    def error(self, path, message: str) -> ModelError:
+        return ModelError(self.where(path) + message)
+
+    def fail(self, path, message: str):
+        raise self.error(path, message)
+
+    # ---- structure ---------------------------------------------------------------------------
+    def table(self, value, path, allowed=None, required=(), what="table"):
+        """``value`` when it is a table of keys among ``allowed`` (any key when None) holding
+        the ``required`` ones."""
+        if not isinstance(value, dict):
+            self.fail(path, f"expected a {what} (key = value lines or {{ ... }}), got {_kind_of(value)}; "
+                            f"see docs/model-file.md")
+        for key in value if allowed is not None else ():
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, 1)
+                fix = f"did you mean {close[0]!r}?" if close else f"the keys of a {what} are {', '.join(allowed)}"
+                self.fail(path + (key,), f"unknown key {key!r}; {fix}")
+        for key in required:
+            if key not in value:
+                self.fail(path, f"missing required key {key!r}; add {key} = ... to this {what}")
+        return value
+
+    def array(self, value, path, length=None, what="list"):
+        if not isinstance(value, list):
+            self.fail(path, f"expected a {what}, got {_kind_of(value)}; write it as [ ... ]")
+        if length is not None and len(value) != length:
+            self.fail(path, f"expected {length} entries, got {len(value)}; write [{', '.join(['...'] * length)}]")
+        return value
+
+    def string(self, value, path, what="a string"):
+        if not isinstance(value, str):
+            self.fail(path, f"expected {what}, got {_kind_of(value)}; write it in quotes")
+        return value
+
+    def text(self, value, path, multiline=False):
+        """Free text that reaches comments and docstrings of the generated code."""
+        self.string(value, path)
+        if multiline:
+            value = value.replace("\r\n", "\n")
+        bad = _TEXT_FORBIDDEN.search(value.replace("\n", "") if multiline else value)
+        if bad or (not multiline and "\n" in value):
+            what = repr(bad.group(0)) if bad else "a line break"
+            self.fail(path, f"the text holds {what}, which generated "
+                            f"code cannot carry in a comment; remove double quotes, backslashes, '*/', "
+                            f"control characters" + ("" if multiline else " and line breaks"))
+        return value
+
+    def choice(self, value, path, options, what):
+        if value not in options:
+            close = difflib.get_close_matches(str(value), options, 1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            self.fail(path, f"unknown {what} {value!r}; {hint}use one of {', '.join(options)}")
+        return value
+
+    def nrfe(self, value, path):
+        """``value`` as a number of rfes (the rule: :func:`gpmegen.model.rfem.check_nrfe`)."""
+        try:
+            return check_nrfe(value, "", subject=path)
+        except ModelError as exc:
+            raise located(exc, self.file, self.locator) from None
+
+    def name(self, value, path, what, bare=False):
+        self.string(value, path, f"a {what} name in quotes")
+        try:
+            check_name(value, what, bare=bare)
+        except ModelError as exc:
+            raise self.error(path, str(exc).replace(": ", "; ", 1) if "; " not in str(exc) else str(exc)) from None
+        if bare and keyword.iskeyword(value):
+            self.fail(path, f"{what} {value!r} is a Python keyword; choose another name")
+        if bare and value in TAKEN_NAMES:
+            self.fail(path, f"{what} {value!r} is the name of a function or constant in expressions; "
+                            f"choose another name")
+        return value
+
+    # ---- quantities and expressions ----------------------------------------------------------
+    def quantity(self, value, path, scope):
+        """A number or an expression string as a SymPy expression. Signs are checked on the
+        whole model (:meth:`check_requirements`)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            self.fail(path, f"expected a number or an expression string, got {_kind_of(value)}; "
+                            f"write e.g. 0.5 or \"L2/2\"")
+        if isinstance(value, int):
+            if abs(value) > sys.float_info.max:
+                self.fail(path, f"integer of {len(str(abs(value)))} digits, beyond a double; give a value "
+                                f"below 1e308 in size")
+            expr = sp.Integer(value)
+        elif isinstance(value, float):
+            if not math.isfinite(value):
+                self.fail(path, f"{value} is not a finite number; give a finite value")
+            expr = sp.Float(value)
+        else:
+            expr = self.expression(value, path, scope)
+        return expr
+
+    def check_requirements(self, model):
+        """The physical bounds of ``model`` (masses, sizes, moduli, gains, ...) with the parameter
+        defaults, each reported at the line of its quantity."""
+        values = {p.name: p.default for p in model.parameters}
+        for need in requirements(model):
+            problem = violation(need, values, "the parameter defaults")
+            if problem:
+                self.fail(need.subject, problem)
+
+    def expression(self, text, path, scope):
+        """Parse ``text`` safely; ``scope`` maps the names it may use to their symbols."""
+        try:
+            return parse(text, scope, self.unknown)
+        except ModelError as exc:
+            raise self.error(path, str(exc)) from None
+
+    def unknown(self, name, scope) -> str:
+        """Why ``name`` is not in ``scope``, and what would fix it."""
+        coordinate_list = ", ".join(self.coordinates[:12]) + (", ..." if len(self.coordinates) > 12 else "")
+        if name == "t":
+            return "time t may appear only in drives and constraints; use parameters here"
+        if name in self.params:
+            return (f"parameter values are numbers and cannot refer to parameter {name!r}; write the "
+                    f"number, or the expression where the value is used")
+        if name in self.coordinates:
+            return f"coordinate {name!r} may appear only in constraints; use parameters (and t in drives) here"
+        if name.endswith("_dot"):
+            base = name[:-4]
+            if base in self.coordinates:
+                return (f"the velocity {name} may appear only in first-order constraints; set order = 1 "
+                        f"or remove it")
+            return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
+        point = _POINT_NAME.match(name)
+        if point and point.group(1) in ("x", "y", "z", "vx", "vy", "vz"):
+            if point.group(2) in self.points:
+                if point.group(1).startswith("v") and any(symbol(f"x_{point.group(2)}") == s for s in scope.values()):
+                    return (f"the point velocity {name} may appear only in first-order constraints; set "
+                            f"order = 1 or remove it")
+                return f"point coordinate {name} may appear only in constraints; remove it"
+            known = ", ".join(self.points) or "none"
+            return (f"{name!r} names no declared point {point.group(2)!r} (points: {known}); declare the "
+                    f"point with a [[chain]] point = \"{point.group(2)}\" element or fix the name")
+        close = difflib.get_close_matches(name, [*scope, *FUNCTIONS, *CONSTANTS], 1)
+        hint = f"did you mean {close[0]!r}? or " if close else ""
+        return f"unknown name {name!r}; {hint}declare it under [parameters]"
+
+    # ---- sections ----------------------------------------------------------------------------
+    def read(self, data) -> ModelFile:
+        self.table(data, (), TOP_KEYS, what="model file")
+        if "schema" not in data:
+            self.fail(("schema",), "missing schema version; add schema = 1 at the top of the file")
+        schema = data["schema"]
+        if isinstance(schema, bool) or schema != SCHEMA:
+            self.fail(("schema",), f"unsupported schema {schema!r}; this gpmegen reads schema = {SCHEMA}")
+        if "name" not in data:
+            self.fail(("name",), "missing model name; add name = \"my_model_nrfe{nrfe}\"")
+        self.default_nrfe = None
+        if "nrfe" in data:
+            self.default_nrfe = self.nrfe(data["nrfe"], ("nrfe",))
+        if self.nrfe_argument is not None:
+            self.default_nrfe = self.nrfe_argument
+        raw_name = self.string(data["name"], ("name",))
+        if "{nrfe}" in raw_name and self.default_nrfe is None:
+            self.fail(("name",), "the name uses {nrfe} but no nrfe is set; add nrfe = 3 or pass nrfe")
+        name = raw_name.replace("{nrfe}", str(self.default_nrfe))
+        try:
+            check_name(name, "model name")
+        except ModelError as exc:
+            raise self.error(("name",), str(exc).replace(": ", "; ", 1)) from None
+        description = self.text(data.get("description", ""), ("description",), multiline=True)
+
+        parameters = self.read_parameters(data.get("parameters", {}))
+        if "chain" not in data:
+            self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
+        self.check_chain_size(data["chain"])
+        chain = self.read_chain(data["chain"])
+        gravity = self.read_vector(data.get("gravity", [0, 0, 0]), ("gravity",), self.params)
+        drives = self.read_drives(data.get("drives", []))
+        constraints = self.read_constraints(data.get("constraints", []))
+        dependent = self.read_dependent(data.get("dependent", "auto"))
+        initial = self.read_initial(data.get("initial", {}))
+        model = Model(
+            name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
+            constraints=constraints, dependent=dependent, description=description,
+        )
+        self.check_requirements(model)
+        try:
+            expand(model)
+        except ModelError as exc:
+            raise located(exc, self.file, self.locator) from None
+        return ModelFile(self.file, model, initial, self.source)
+
+    def check_chain_size(self, items):
+        """Refuse, before reading it element by element, a chain whose build cannot finish
+        (:func:`gpmegen.limits.check_build`): its coordinates are counted from the raw tables."""
+        if not isinstance(items, list):
+            return
+        n_dof = 0
+        for item in items:
+            if isinstance(item, dict) and "joint" in item:
+                n_dof += 1
+            elif isinstance(item, dict) and "flexible" in item:
+                n_rfe = item.get("nrfe", self.default_nrfe)
+                if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
+                    n_dof += link_coordinates(n_rfe)
+        limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
+
+    def read_parameters(self, table):
+        path = ("parameters",)
+        self.table(table, path, what="parameters table")
+        parameters = []
+        for pname, entry in table.items():
+            here = path + (pname,)
+            self.name(pname, here, "parameter", bare=True)
+            if isinstance(entry, dict):
+                self.table(entry, here, ("value", "unit", "doc"), ("value",), "parameter")
+                value, vpath = entry["value"], here + ("value",)
+                unit = self.text(entry.get("unit", ""), here + ("unit",))
+                doc = self.text(entry.get("doc", ""), here + ("doc",))
+            else:
+                value, vpath, unit, doc = entry, here, "", ""
+            default = evaluate(self.quantity(value, vpath, {}), {})
+            if default is None:
+                self.fail(vpath, f"{value!r} is not a finite real number; give a value below 1e308 in size")
+            parameters.append(Parameter(pname, default, unit, doc))
+            self.params[pname] = symbol(pname)
+            self.defaults[symbol(pname)] = sp.Float(default)
+        return tuple(parameters)
+
+    def read_vector(self, value, path, scope, length=3):
+        self.array(value, path, length)
+        return tuple(self.quantity(v, path + (k,), scope) for k, v in enumerate(value))
+
+    def read_chain(self, items):
+        self.array(items, ("chain",), what="list of [[chain]] tables")
+        if not items:
+            self.fail(("chain",), "the chain is empty; add [[chain]] elements")
+        elements = []
+        moving = False
+        for k, item in enumerate(items):
+            path = ("chain", k)
+            if not isinstance(item, dict):
+                self.fail(path, f"expected a table, got {_kind_of(item)}; write each element as a [[chain]] table")
+            kinds = [key for key in ELEMENT_KINDS if key in item]
+            if len(kinds) > 1:
+                self.fail(path, f"one element cannot be both a {kinds[0]} and a {kinds[1]}; split it into "
+                                f"two [[chain]] tables")
+            if not kinds:
+                if not ({"translation", "rotations"} & item.keys()):
+                    close = [c for key in item for c in difflib.get_close_matches(key, ELEMENT_KINDS, 1)]
+                    hint = f" (did you mean {close[0]!r}?)" if close else ""
+                    self.fail(path, f"element of unknown kind{hint}; give joint, body, flexible or point, or "
+                                    f"translation/rotations for a fixed offset")
+                element = self.read_offset(item, path)
+            else:
+                element = getattr(self, f"read_{kinds[0]}")(item, path)
+            if isinstance(element, FlexibleLink):
+                for part in self.expand_link(element):
+                    if isinstance(part, Joint):
+                        moving = True
+            elif isinstance(element, Joint):
+                moving = True
+            elif isinstance(element, Point) and moving:
+                self.moving_points.add(element.name)
+            elements.append(element)
+        return tuple(elements)
+
+    def read_joint(self, item, path):
+        self.table(item, path, ("joint", "type", "axis", "stiffness", "damping"), ("joint", "type", "axis"), "joint")
+        name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
+        kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
+        axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
+        extra = {}
+        for key in ("stiffness", "damping"):
+            if key in item:
+                extra[key] = self.quantity(item[key], path + (key,), self.params)
+        self.coordinates.append(name)
+        return Joint(name, kind, axis, **extra)
+
+    def read_offset(self, item, path):
+        self.table(item, path, ("translation", "rotations"), what="offset")
+        extra = {}
+        if "translation" in item:
+            extra["translation"] = self.read_vector(item["translation"], path + ("translation",), self.params)
+        if "rotations" in item:
+            rotations = []
+            for k, rotation in enumerate(self.array(item["rotations"], path + ("rotations",))):
+                here = path + ("rotations", k)
+                self.array(rotation, here, 2, "[axis, angle] pair")
+                axis = self.choice(rotation[0], here + (0,), AXES, "axis")
+                rotations.append((axis, self.quantity(rotation[1], here + (1,), self.params)))
+            extra["rotations"] = tuple(rotations)
+        return Offset(**extra)
+
+    def read_body(self, item, path):
+        self.table(item, path, ("body", "shape", "mass", "center", "inertia"), ("body",), "body")
+        name = self.name(item["body"], path + ("body",), "body")
+        P = self.params
+        if "shape" in item:
+            if {"mass", "center", "inertia"} & item.keys():
+                self.fail(path, "give either a shape or mass/center/inertia, not both; remove one")
+            here = path + ("shape",)
+            shape = self.table(item["shape"], here, ("type", "mass", "radius", "length", "axis", "width",
+                                                     "thickness", "position"), ("type",), "shape")
+            kind = self.choice(shape["type"], here + ("type",), tuple(SHAPE_KEYS), "shape type")
+            optional = SHAPE_OPTIONAL.get(kind, ())
+            self.table(shape, here, SHAPE_KEYS[kind],
+                       tuple(k for k in SHAPE_KEYS[kind] if k not in optional), f"{kind} shape")
+
+            size = {key: self.quantity(shape[key], here + (key,), P) for key in SHAPE_KEYS[kind]
+                    if key not in ("type", "axis", "position")}
+            quantities = shapes.shape_quantities(**size)
+            if kind == "cylinder":
+                axis = self.choice(shape["axis"], here + ("axis",), AXES, "axis")
+                h = shapes.solid_cylinder(size["mass"], size["radius"], size["length"], axis)
+            elif kind == "bar":
+                h = shapes.bar(size["mass"], size["length"], size["width"], size["thickness"])
+            elif kind == "rod":
+                h = shapes.rod(size["mass"], size["length"], size["radius"])
+            else:
+                position = self.read_vector(shape.get("position", [0, 0, 0]), here + ("position",), P)
+                h = shapes.point_mass(size["mass"], position)
+        else:
+            if "mass" not in item:
+                self.fail(path, "a body needs a shape or a mass; add shape = { type = \"bar\", ... } or mass = ...")
+            mass = self.quantity(item["mass"], path + ("mass",), P)
+            center = self.read_vector(item.get("center", [0, 0, 0]), path + ("center",), P)
+            rows = self.array(item.get("inertia", [[0, 0, 0]] * 3), path + ("inertia",), 3, "3x3 list")
+            inertia = [self.read_vector(row, path + ("inertia", i), P) for i, row in enumerate(rows)]
+            for i in range(3):
+                for j in range(i):
+                    if not self.same_quantity(inertia[i][j], inertia[j][i]):
+                        self.fail(path + ("inertia", i, j), f"the inertia tensor is not symmetric "
+                                                            f"({inertia[i][j]} ≠ {inertia[j][i]}); make [{i}][{j}] "
+                                                            f"equal [{j}][{i}]")
+            trace = sum(inertia[i][i] for i in range(3))
+            scale = evaluate(abs(trace), self.defaults)
+            for k, axis in enumerate(AXES):
+                # ∫(axis)² dm about the centre: ½ tr I - I_kk
+                second = evaluate(trace / 2 - inertia[k][k], self.defaults)
+                if second is not None and scale is not None and second < -1e-12 * scale:
+                    self.fail(path + ("inertia",), f"the inertia tensor gives a negative ∫{axis}² dm "
+                                                   f"({_number_text(second)} kg·m² about the centre); no "
+                                                   f"moment of inertia may exceed the sum of the other two")
+            h = shapes.from_inertia_tensor(mass, center, inertia)
+            quantities = ((("mass",), mass),) + tuple((("inertia", i, i), inertia[i][i]) for i in range(3))
+        return Body(name, h, quantities)
+
+    def same_quantity(self, a, b) -> bool:
+        """Whether ``a`` and ``b`` are one quantity: equal as written, or equal in value at the
+        parameter defaults and at a second, unrelated set of values. Bounded: user expressions
+        are never simplified (``simplify((a+b+c+d)**100)`` does not end)."""
+        if a == b:
+            return True
+        others = {s: v * (sp.Float("1.1") + sp.Float("0.013") * k) + sp.Float("0.01") * (k + 1)
+                  for k, (s, v) in enumerate(self.defaults.items())}
+        for values in (self.defaults, others):
+            va, vb = evaluate(a, values), evaluate(b, values)
+            if va is None or vb is None or not math.isclose(va, vb, rel_tol=1e-12):
+                return False
+        return True
+
+    def read_flexible(self, item, path):
+        keys = ("flexible", "length", "section", "density", "young_modulus", "shear_modulus",
+                "torsion_constant", "nrfe", "damping")
+        self.table(item, path, keys, keys[:6], "flexible link")
+        label = self.string(item["flexible"], path + ("flexible",), "a label in quotes")
+        if not _LABEL.match(label):
+            self.fail(path + ("flexible",), f"label {label!r} is not valid: use letters, digits and underscores "
+                                            f"(it names the coordinates psi{label}_1, ...)")
+        if label in self.labels:
+            first = self.locator.line(self.labels[label])
+            self.fail(path + ("flexible",), f"label {label!r} is already used by the flexible link at line "
+                                            f"{first}; give each flexible link its own label")
+        self.labels[label] = path + ("flexible",)
+        P = self.params
+        length = self.quantity(item["length"], path + ("length",), P)
+        here = path + ("section",)
+        section = self.table(item["section"], here, ("type", "width", "thickness", "radius"), ("type",), "section")
+        kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
+        self.table(section, here, SECTION_KEYS[kind], SECTION_KEYS[kind], f"{kind} section")
+        if kind == "rectangular":
+            section = RectangularSection(
+                self.quantity(section["width"], here + ("width",), P),
+                self.quantity(section["thickness"], here + ("thickness",), P),
+            )
+        else:
+            section = CircularSection(self.quantity(section["radius"], here + ("radius",), P))
+        extra = {}
+        if "torsion_constant" in item:
+            extra["torsion_constant"] = self.quantity(item["torsion_constant"], path + ("torsion_constant",), P)
+        if "damping" in item:
+            extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3)
+        if "nrfe" in item:
+            n_rfe = self.nrfe(item["nrfe"], path + ("nrfe",))
+        elif self.default_nrfe is not None:
+            n_rfe = self.default_nrfe
+        else:
+            self.fail(path, "no n_rfe for this flexible link; add nrfe = 3 here or at the top of the file")
+        return FlexibleLink(
+            label=label,
+            length=length,
+            section=section,
+            density=self.quantity(item["density"], path + ("density",), P),
+            young_modulus=self.quantity(item["young_modulus"], path + ("young_modulus",), P),
+            shear_modulus=self.quantity(item["shear_modulus"], path + ("shear_modulus",), P),
+            n_rfe=n_rfe,
+            **extra,
+        )
+
+    def expand_link(self, link):
+        """The rfem elements of ``link``, their coordinates recorded."""
+        parts = discretize(link)
+        self.coordinates += [part.name for part in parts if isinstance(part, Joint)]
+        return parts
+
+    def read_point(self, item, path):
+        self.table(item, path, ("point", "position"), ("point",), "point")
+        name = self.name(item["point"], path + ("point",), "point")
+        position = self.read_vector(item.get("position", [0, 0, 0]), path + ("position",), self.params)
+        self.points.append(name)
+        return Point(name, position)
+
+    def read_drives(self, items):
+        self.array(items, ("drives",), what="list of [[drives]] tables")
+        scope = {**self.params, "t": TIME}
+        drives = []
+        for k, item in enumerate(items):
+            path = ("drives", k)
+            self.table(item, path, ("coordinate", "expression"), ("coordinate", "expression"), "drive")
+            coordinate = self.string(item["coordinate"], path + ("coordinate",), "a coordinate name in quotes")
+            drives.append(Drive(coordinate, self.quantity(item["expression"], path + ("expression",), scope)))
+        return tuple(drives)
+
+    def constraint_scope(self, order):
+        scope = {**self.params, "t": TIME}
+        for name in self.coordinates:
+            scope[name] = symbol(name)
+        for point in self.points:
+            for s in point_symbols(point):
+                scope[s.name] = s
+        if order == 1:
+            for name in self.coordinates:
+                scope[velocity_symbol(name).name] = velocity_symbol(name)
+            for point in self.points:
+                for s in point_velocity_symbols(point):
+                    scope[s.name] = s
+        return scope
+
+    def read_constraints(self, items):
+        self.array(items, ("constraints",), what="list of [[constraints]] tables")
+        moving = {symbol(c) for c in self.coordinates} | {velocity_symbol(c) for c in self.coordinates}
+        for point in self.moving_points:
+            moving |= set(point_symbols(point)) | set(point_velocity_symbols(point))
+        constraints = []
+        for k, item in enumerate(items):
+            path = ("constraints", k)
+            self.table(item, path, ("name", "expression", "order", "alpha", "beta"), ("name", "expression"),
+                       "constraint")
+            name = self.name(item["name"], path + ("name",), "constraint")
+            order = item.get("order", 0)   # its values: expand()
+            expr = self.quantity(item["expression"], path + ("expression",), self.constraint_scope(order))
+            if not (expr.free_symbols & moving):
+                self.fail(path + ("expression",), f"the constraint {expr} = 0 does not depend on any coordinate "
+                                                  f"(it names no coordinate and no point that a joint moves), so "
+                                                  f"no motion can hold it; name a moving point or a coordinate")
+            extra = {}
+            for key in ("alpha", "beta"):
+                if key in item:
+                    if key == "beta" and order == 1:
+                        self.fail(path + ("beta",), "beta applies to position constraints only (a first-order "
+                                                    "constraint is stabilized by alpha); remove it")
+                    extra[key] = self.quantity(item[key], path + (key,), self.params)
+            constraints.append(Constraint(name, expr, order, **extra))
+        return tuple(constraints)
+
+    def read_dependent(self, value):
+        """None for "auto", else the list as a tuple (its entries: expand())."""
+        if value == "auto":
+            return None
+        if not isinstance(value, list):
+            self.fail(("dependent",), f"expected a list of coordinate names or \"auto\", got {_kind_of(value)} "
+                                      f"{value!r}; write dependent = [\"psi2\"] or dependent = \"auto\"")
+        return tuple(value)
+
+    def read_initial(self, table):
+        path = ("initial",)
+        self.table(table, path, ("q",), what="initial table")
+        q = self.table(table.get("q", {}), path + ("q",), what="table of coordinates")
+        initial = {}
+        for name, value in q.items():
+            if name not in self.coordinates:
+                close = difflib.get_close_matches(name, self.coordinates, 1)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                self.fail(path + ("q", name), f"{name!r} is not a coordinate; {hint}the coordinates are "
+                                              f"{', '.join(self.coordinates)}")
+            initial[name] = self.quantity(value, path + ("q", name), self.params)
+        return initial
