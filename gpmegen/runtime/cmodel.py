@@ -14,17 +14,9 @@ import numpy as np
 
 from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
+from ..status import SolveStatus
 from . import ccompile, cprobe, integrate
-from .model import LoadedModel
-
-#: Return codes of the C ``rk4``.
-RK4_OK, RK4_SINGULAR, RK4_NONFINITE, RK4_BAD_ARGUMENTS = 0, 1, 2, 3
-RK4_STATUS = {
-    RK4_OK: "ok",
-    RK4_SINGULAR: "singular GPME system (the constraint Jacobian D lost rank, or BᵀMB)",
-    RK4_NONFINITE: "non-finite state or GPME terms",
-    RK4_BAD_ARGUMENTS: "invalid arguments",
-}
+from .model import LoadedModel, vector
 
 
 class CModel(LoadedModel):
@@ -66,10 +58,7 @@ class CModel(LoadedModel):
 
     # --- marshalling ------------------------------------------------------------------------
     def _vec(self, x, what):
-        a = np.ascontiguousarray(x, dtype=float)
-        if a.shape != (self.n_dof,):
-            raise ValueError(f"{what} must have shape ({self.n_dof},) (one entry per coordinate), got {a.shape}")
-        return a
+        return vector(x, self.n_dof, what)
 
     def _ptr(self, a):
         # from_buffer is the cheapest way to hand cffi a contiguous float64 array (no copy).
@@ -184,7 +173,7 @@ class CModel(LoadedModel):
         else:
             status = self.lib.gpme_motion(float(t), self._ptr(q), self._ptr(qd), self._params(), dep, ind,
                                           self._ptr(qdd), self._ptr(M), self._ptr(f))
-        if status == RK4_NONFINITE:
+        if status == SolveStatus.NONFINITE:
             raise SimulationError(
                 f"the GPME terms (M, f or D) are not finite at t = {float(t):g} s: check the state and the "
                 f"parameter values"
@@ -214,16 +203,13 @@ class CModel(LoadedModel):
         (n,) and ``w0`` at the end of step ``k_from`` (default: all of it, from ``t0``). Saves the
         start, the state after every ``save_every``-th step of the grid and the final state.
         Returns ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w`` (k, 2) the
-        work of the drive and of the constraint forces plus ``w0`` (J), ``status`` an int, 0 when
-        all steps were done, else the C return code (1 singular solve, 2 non-finite state, 3
-        invalid arguments; see ``RK4_STATUS``) with the states saved before the failure.
+        work of the drive and of the constraint forces plus ``w0`` (J), ``status`` a
+        :class:`gpmegen.status.SolveStatus`, OK when all steps were done, else with the states
+        saved before the failure.
         """
         g = integrate.grid(t0, t_end, dt)
-        k_from, k_to = (0, g.n_steps) if steps is None else (int(steps[0]), int(steps[1]))
+        k_from, k_to = g.span(steps, save_every)
         save_every = int(save_every)
-        if not 0 <= k_from <= k_to <= g.n_steps or save_every < 1:
-            raise ValueError(f"need 0 <= k_from <= k_to <= {g.n_steps} steps and save_every >= 1, got steps = "
-                             f"{steps} and save_every = {save_every}")
         q0, qd0 = self._vec(q0, "q0"), self._vec(qd0, "qd0")
         dep, ind = self._partition_pointers()
         n_save = k_to // save_every - k_from // save_every + 2
@@ -235,4 +221,4 @@ class CModel(LoadedModel):
                               self._ptr(qd0), self._ptr(w_start), self._params(), dep, ind, self._ptr(t_out),
                               self._ptr(q_out), self._ptr(qd_out), self._ptr(w_out), n_saved)
         k = int(n_saved[0])
-        return t_out[:k].copy(), q_out[:k].copy(), qd_out[:k].copy(), w_out[:k].copy(), int(status)
+        return t_out[:k].copy(), q_out[:k].copy(), qd_out[:k].copy(), w_out[:k].copy(), SolveStatus(status)

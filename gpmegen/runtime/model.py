@@ -9,11 +9,19 @@ import numpy as np
 
 from ..errors import EvaluationError, ModelError
 from ..model.requirements import first_violation
-from . import gpme
+from . import gpme, integrate
 
 # What a failing generated function did, by the exception Python's math raised.
 ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a double",
               ValueError: "takes a root or logarithm of a negative number"}
+
+
+def vector(x, n: int, what: str) -> np.ndarray:
+    """``x`` as a contiguous float array of shape (n,), else ValueError naming ``what``."""
+    a = np.ascontiguousarray(x, dtype=float)
+    if a.shape != (n,):
+        raise ValueError(f"{what} must have shape ({n},), got {a.shape}")
+    return a
 
 
 class LoadedModel:
@@ -161,6 +169,18 @@ class LoadedModel:
     def accelerations(self, t, q, qd):
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16)."""
         return self.motion(t, q, qd)[0]
+
+    def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
+        """Classical RK4 of the GPME in Python, with the contract of the C loop
+        (:meth:`gpmegen.runtime.cmodel.CModel.rk4`): steps ``steps = (k_from, k_to)`` (default:
+        all) of :func:`gpmegen.runtime.integrate.grid` from ``q0``, ``qd0`` (n,) and the work
+        ``w0`` (2,) J at the end of step ``k_from``. Returns ``(t, q, qd, w, status)``."""
+        g = integrate.grid(t0, t_end, dt)
+        k_from, k_to = g.span(steps, save_every)
+        y = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"), vector(w0, 2, "w0")])
+        t, y, status = integrate.rk4_steps(integrate.state_derivative(self), y, g, k_from, k_to, int(save_every))
+        n = self.n_dof
+        return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 
     def constraint_forces(self, t, q, qd):
         """Generalized forces the constraints exert, ``M q̈ - f`` (n,)."""
