@@ -193,13 +193,14 @@ def test_partition_watch_warns_and_repartitions(rigid):
     from gpmegen.runtime import partition
 
     model, q = study.initial_state(rigid)
-    model = model.with_params()
-    model.set_partition([model.index("theta1"), model.index("x3")])
+    model = model.with_partition([model.index("theta1"), model.index("x3")])
     messages = []
     partition.Watch(model, repartition=False, notify=messages.append).check(0.0, q)
     assert len(messages) == 1 and "condition number" in messages[0] and "--repartition" in messages[0]
     watch = partition.Watch(model, repartition=True, notify=messages.append)
-    watch.check(0.0, q)
+    assert watch.check(0.0, q) is watch.model
+    assert [model.coordinates[k] for k in model.dependent] == ["theta1", "x3"]  # the model is left as it was
+    model = watch.model
     assert [model.coordinates[k] for k in model.dependent] == ["psi2", "x3"]
     assert watch.events and watch.events[0][1] == ("theta1", "x3") and watch.events[0][2] == ("psi2", "x3")
     _, _, D, _ = model.constraint_terms(0.0, q, 0 * q)

@@ -9,7 +9,7 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis import study
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrate, partition
 from gpmegen.runtime.ccompile import find_compiler
 from gpmegen.status import MESSAGES, Ending, Outcome, SolveStatus
 
@@ -50,8 +50,7 @@ def test_both_backends_return_the_same_status_codes(both):
         assert status is SolveStatus.NONFINITE and len(t) == 0
     # θ1 moves neither constraint: with it dependent, the NumPy solve's D_dc is singular (the C
     # solve does not go through D_dc, and steps on)
-    singular = n.with_params()
-    singular.set_partition([n.index("theta1"), n.index("x3")])
+    singular = n.with_partition([n.index("theta1"), n.index("x3")])
     t, q, _, _, status = singular.rk4(q0, np.zeros(3), 1e-4, 1e-5)
     assert status is SolveStatus.SINGULAR and len(t) == 1 and np.array_equal(q[0], q0)
 
@@ -70,18 +69,18 @@ def test_the_driver_looks_at_both_backends_at_the_same_instants(both):
     assert str(outcome).startswith("diverged: constraint violation") and str(outcome) == str(outcome_n)
 
 
-class Interrupted:
-    """``model`` whose ``rk4`` is interrupted (Ctrl-C) at its ``calls``-th call."""
+class Counted:
+    """``model`` counting the calls of its ``rk4``, interrupted (Ctrl-C) at the ``interrupt``-th."""
 
-    def __init__(self, model, calls):
-        self.model, self.calls = model, calls
+    def __init__(self, model, interrupt=None):
+        self.model, self.interrupt, self.calls = model, interrupt, 0
 
     def __getattr__(self, name):
         return getattr(self.model, name)
 
     def rk4(self, *args, **kwargs):
-        self.calls -= 1
-        if self.calls == 0:
+        self.calls += 1
+        if self.calls == self.interrupt:
             raise KeyboardInterrupt
         return self.model.rk4(*args, **kwargs)
 
@@ -89,10 +88,21 @@ class Interrupted:
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_an_interrupted_run_keeps_the_chunks_computed(both, backend):
     model, q0 = both[0] if backend == "c" else both[1], both[2]
-    t, y, outcome = integrate.rk4(Interrupted(model, 3), q0, np.zeros(3), 1.0, 1e-3, save_every=10)
+    t, y, outcome = integrate.rk4(Counted(model, interrupt=3), q0, np.zeros(3), 1.0, 1e-3, save_every=10)
     assert outcome.ending is Ending.INTERRUPTED and str(outcome) == "interrupted"
     assert outcome.t == t[-1] == pytest.approx(2 * integrate.CHUNK_SECONDS) and len(t) == len(y) == 11
     assert np.all(np.isfinite(y))
+
+
+def test_the_run_goes_on_with_the_model_the_partition_watch_chose(both):
+    _, n, q0 = both
+    start = Counted(n)
+    # any condition number is too large: after the first chunk the watch chooses anew (the same
+    # coordinates) and the run goes on with the model it returns, a copy of the one it started with
+    watch = partition.Watch(start, repartition=True, limit=0.0)
+    t, _, outcome = integrate.rk4(start, q0, np.zeros(3), 0.2, 1e-3, save_every=10, watch=watch)
+    assert outcome.complete and t[-1] == 0.2
+    assert start.calls == 1 and watch.model is not start and watch.model.dependent.tolist() == n.dependent.tolist()
 
 
 def test_a_failed_step_says_when_and_the_fix():

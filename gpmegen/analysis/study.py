@@ -94,7 +94,7 @@ def file_start(model, initial: dict, start="initial"):
     for name, value in initial.items():
         q[model.index(name)] = value
     if model.dependent is None:
-        partition.partition_at(model, q)
+        model = partition.partition_at(model, q)
     if start == "locked":
         q = statics.locked(model, q)
     q = project_onto_constraints(model, q)
@@ -120,6 +120,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
                                       max_violation=max_violation, watch=watch)
     else:
         t, y, outcome = integrate.adaptive(model, q0, qd0, t_end, method=method)
+    model = watch.model  # with the dependent coordinates the run ended with
     settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
                     repartitions=watch.events)

@@ -210,7 +210,7 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
                 if max_violation is not None:
                     outcome = violation(model, t[-1], q[-1], qd[-1], max_violation)
                 if watch is not None and outcome is None:
-                    watch.check(t[-1], q[-1])
+                    model = watch.check(t[-1], q[-1])  # with other dependent coordinates, maybe
                 bar.update(t[-1] - t0)
         except KeyboardInterrupt:
             outcome = Outcome(Ending.INTERRUPTED, g.time(done))
