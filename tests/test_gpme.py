@@ -187,6 +187,16 @@ def test_simulate_and_plot_end_to_end(tmp_path, capsys):
                      "path.png"]
 
 
+def test_a_loaded_model_is_immutable(rigid):
+    """Its copies share its arrays: none can be written to, and the with_ methods leave it as it was."""
+    before = (rigid.p.copy(), rigid.dependent.copy())
+    for name in ("p", "alpha", "beta", "constraint_orders", "dependent", "independent"):
+        with pytest.raises(ValueError, match="read-only"):
+            getattr(rigid, name)[0] = 1.0
+    rigid.with_params(m1=2 * rigid.params["m1"]).with_partition([rigid.index("theta1"), rigid.index("x3")])
+    assert np.array_equal(rigid.p, before[0]) and np.array_equal(rigid.dependent, before[1])
+
+
 def test_partition_watch_warns_and_repartitions(rigid):
     """θ1 moves neither constraint (rotation about the circle's axis), so a partition that makes
     it dependent has a singular D_dc: the watch says so, or picks a regular partition."""

@@ -32,6 +32,13 @@ def vector(x, n: int, what: str) -> np.ndarray:
     return a
 
 
+def frozen(a) -> np.ndarray:
+    """``a`` as an array that cannot be written to (a model's arrays are shared by its copies)."""
+    a = np.array(a)
+    a.flags.writeable = False
+    return a
+
+
 def call(module: ModuleType, function: str, *args):
     """The generated ``function`` of the NumPy ``module`` at ``args``; an arithmetic failure in
     it (Python's math raises where C gives inf or nan) becomes one EvaluationError."""
@@ -140,7 +147,7 @@ class LoadedModel:
         self.parameter_names: tuple = tuple(module.PARAMETERS)
         self.points: tuple = tuple(module.POINTS)
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
-        self.constraint_orders = np.array(module.CONSTRAINT_ORDERS, dtype=int)
+        self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
@@ -163,18 +170,18 @@ class LoadedModel:
         if problem:
             raise ModelError(f"model {self.module.MODEL}: {problem}")
         self.params: dict = values
-        self.p = np.array([values[k] for k in self.parameter_names], dtype=float)
+        self.p = frozen(np.array([values[k] for k in self.parameter_names], dtype=float))
         alpha, beta = call(self.module, "baumgarte_gains", self.p)
-        self.alpha, self.beta = np.asarray(alpha, float), np.asarray(beta, float)
+        self.alpha, self.beta = frozen(np.asarray(alpha, float)), frozen(np.asarray(beta, float))
 
     def _partition(self, dependent):
         if not self.constraint_names:
-            return np.arange(0), np.arange(self.n_dof)
+            return frozen(np.arange(0)), frozen(np.arange(self.n_dof))
         if dependent is None:
             return None, None  # chosen from the constraint Jacobian at the start of a run
         dep = [self.coordinates.index(name) for name in dependent]
         ind = [k for k in range(self.n_dof) if k not in dep]
-        return np.array(dep, dtype=int), np.array(ind, dtype=int)
+        return frozen(np.array(dep, dtype=int)), frozen(np.array(ind, dtype=int))
 
     def with_partition(self, dependent) -> LoadedModel:
         """The same model with the coordinates at indices ``dependent`` (one per constraint) as
@@ -187,8 +194,8 @@ class LoadedModel:
                 f"got {dependent!r}"
             )
         other = copy.copy(self)
-        other.dependent = np.array(dep, dtype=int)
-        other.independent = np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int)
+        other.dependent = frozen(np.array(dep, dtype=int))
+        other.independent = frozen(np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int))
         return other
 
     def with_params(self, **overrides) -> LoadedModel:
