@@ -65,9 +65,9 @@ def numpy_loop_per_step(model, q, qd, budget=1.5, repeat=3):
     best = float("inf")
     for _ in range(repeat):
         t0 = time.perf_counter()
-        _, _, status = rk4(model, q, qd, n_steps * PAPER_DT, PAPER_DT, save_every=n_steps)
+        _, _, outcome = rk4(model, q, qd, n_steps * PAPER_DT, PAPER_DT, save_every=n_steps)
         best = min(best, time.perf_counter() - t0)
-        assert status == "complete", status
+        assert outcome.complete, outcome
     return best / n_steps
 
 

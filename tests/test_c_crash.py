@@ -64,7 +64,7 @@ def test_spinning_beam_runs_compiled_for_avx512_and_agrees_with_numpy(env, beam)
     t, q, qd, _, status = compiled.rk4(zero, zero, 2e-3, 1e-5, save_every=50)
     assert status == 0
     t_np, y_np, outcome = integrate.rk4(beam, zero, zero, 2e-3, 1e-5, 50)
-    assert outcome == "complete"
+    assert outcome.complete
     np.testing.assert_allclose(t, t_np, rtol=0, atol=1e-15)
     np.testing.assert_allclose(q, y_np[:, :beam.n_dof], rtol=1e-10, atol=1e-13)
 

@@ -24,6 +24,7 @@ from gpmegen.analysis import results as results_io
 from gpmegen.analysis import study
 from gpmegen.cli import main
 from gpmegen.runtime import integrate
+from gpmegen.status import Outcome, SolveStatus
 
 
 def _exit_code(argv):
@@ -158,7 +159,7 @@ def test_results_pair_share_a_run_id_and_the_csv_says_complete_or_partial(tmp_pa
     assert (npz, csv) == (out, out.with_suffix(".csv"))
     assert _csv_first_line(csv).endswith(": complete")
     assert str(results_io.load(npz)["run_id"]) == _run_id_of_csv(csv)
-    why = f"diverged after t = 0.004 s: {study.C_STATUS[1]}"  # not ASCII: BᵀMB
+    why = str(Outcome.failed(0.004, SolveStatus.SINGULAR))  # not ASCII: BᵀMB
     npz, csv = results_io.save(dict(short_run, status=np.array(why)), out)
     assert (npz.name, csv.name) == ("run.partial.npz", "run.partial.csv")
     assert _csv_first_line(csv).endswith(f": partial ({why})")

@@ -94,7 +94,7 @@ def file_start(model, initial: dict, start="initial"):
     for name, value in initial.items():
         q[model.index(name)] = value
     if model.dependent is None:
-        partition.partition_at(model, q)
+        model = partition.partition_at(model, q)
     if start == "locked":
         q = statics.locked(model, q)
     q = project_onto_constraints(model, q)
@@ -115,60 +115,16 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
     qd0 = np.zeros(model.n_dof)
     watch = partition.Watch(model, repartition, notify)
-    if method == "rk4" and hasattr(model, "rk4"):
-        t, y, status = compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress, max_violation, watch)
-    elif method == "rk4":
-        t, y, status = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
-                                     max_violation=max_violation, watch=watch)
+    if method == "rk4":
+        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
+                                      max_violation=max_violation, watch=watch)
     else:
-        t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method)
+        t, y, outcome = integrate.adaptive(model, q0, qd0, t_end, method=method)
+    model = watch.model  # with the dependent coordinates the run ended with
     settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
                     repartitions=watch.events)
-    return collect(model, t, y, status, settings)
-
-
-C_STATUS = {
-    1: f"singular GPME system (D or BᵀMB); {integrate.FIX_SINGULAR}",
-    2: f"non-finite state; {integrate.FIX_NONFINITE}",
-    3: "invalid arguments",
-}
-
-
-def compiled_rk4(model, q0, qd0, t_end, dt, save_every, progress=None, max_violation=None, watch=None):
-    """RK4 entirely in C, called in chunks of about 0.05 s of simulated time so that progress is
-    shown, the constraint violation is watched and Ctrl-C or SIGTERM keep what was computed.
-    Returns ``(t, y, status)`` like :func:`gpmegen.runtime.integrate.rk4`, on the same grid and
-    with the same saved rows."""
-    grid = integrate.grid(0.0, t_end, dt)
-    # a whole number of save intervals, so that the chunks' ends (always saved) are saved rows anyway
-    chunk = max(save_every, int(round(0.05 / dt / save_every)) * save_every)
-    ts, ys = [np.array([0.0])], [np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]]
-    q, qd, w, done, status = np.array(q0, float), np.array(qd0, float), np.zeros(2), 0, "complete"
-    bar = progress if progress is not None else integrate.Progress(t_end, "RK4", enabled=False)
-    with integrate.interruptible():
-        try:
-            while done < grid.n_steps:
-                end = min(done + chunk, grid.n_steps)
-                t, qs, qds, ws, code = model.rk4(q, qd, t_end, dt, save_every, w0=w, steps=(done, end))
-                ts.append(t[1:])
-                ys.append(np.column_stack([qs, qds, ws])[1:])
-                if code != 0:
-                    status = f"diverged after t = {t[-1]:.6g} s: {C_STATUS.get(code, code)}"
-                    break
-                q, qd, w, done = qs[-1], qds[-1], ws[-1], end
-                if max_violation is not None:
-                    status = integrate.violation(model, t[-1], q, qd, max_violation) or status
-                    if status != "complete":
-                        break
-                if watch is not None:
-                    watch.check(t[-1], q)
-                bar.update(t[-1])
-        except KeyboardInterrupt:
-            status = "interrupted"
-        finally:
-            bar.close()
-    return np.concatenate(ts), np.concatenate(ys), status
+    return collect(model, t, y, str(outcome), settings)
 
 
 def collect(model, t, y, status, settings) -> dict:

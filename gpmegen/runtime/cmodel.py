@@ -1,8 +1,9 @@
 """The C backend: a generated model whose functions, GPME solve and RK4 loop run compiled.
 
-:class:`CModel` keeps the public contract of :class:`LoadedModel` (same methods, shapes and
-units) and adds :meth:`CModel.rk4`, the whole fixed-step integration in C. The NumPy module of
-the same folder still supplies the model's constants (coordinates, parameters, points, …).
+:class:`CEvaluator` is the :class:`gpmegen.runtime.model.Evaluator` over the compiled library;
+:class:`CModel` is a :class:`LoadedModel` that evaluates through it (same methods, shapes and
+units). The NumPy module of the same folder still supplies the model's constants (coordinates,
+parameters, points, …).
 """
 
 from __future__ import annotations
@@ -14,17 +15,9 @@ import numpy as np
 
 from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
-from . import ccompile, cprobe, integrate
-from .model import LoadedModel
-
-#: Return codes of the C ``rk4``.
-RK4_OK, RK4_SINGULAR, RK4_NONFINITE, RK4_BAD_ARGUMENTS = 0, 1, 2, 3
-RK4_STATUS = {
-    RK4_OK: "ok",
-    RK4_SINGULAR: "singular GPME system (the constraint Jacobian D lost rank, or BᵀMB)",
-    RK4_NONFINITE: "non-finite state or GPME terms",
-    RK4_BAD_ARGUMENTS: "invalid arguments",
-}
+from ..status import SolveStatus
+from . import ccompile, cprobe
+from .model import LoadedModel, vector
 
 
 class CModel(LoadedModel):
@@ -39,9 +32,26 @@ class CModel(LoadedModel):
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "c", folder=None,
                  *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build", requirements=()):
-        super().__init__(module, params, "c", folder, requirements)
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")
+        evaluator = CEvaluator(module, folder, flags, cache, rebuild)
+        super().__init__(module, params, "c", folder, requirements, evaluator)
+        self.ffi, self.lib, self.library = evaluator.ffi, evaluator.lib, evaluator.library
+        self.compiled = self.library.compiled
+        self.compile_seconds = self.library.compile_seconds
+
+    def with_params(self, **overrides) -> CModel:
+        """The same model with some parameter values changed; shares the loaded library."""
+        other = super().with_params(**overrides)
+        other.compiled = False  # nothing was compiled for it
+        return other
+
+
+class CEvaluator:
+    """The generated functions, GPME solve and RK4 loop of ``<folder>/model.c``, compiled and
+    loaded (an :class:`gpmegen.runtime.model.Evaluator`)."""
+
+    def __init__(self, module: ModuleType, folder, flags, cache, rebuild):
         source = Path(folder) / "model.c"
         # compiled from the very text checked against the manifest, never read again
         text = read_verified(folder, source.name, rebuild)
@@ -50,54 +60,41 @@ class CModel(LoadedModel):
             source, flags, cache, expect_hash=module.INPUT_HASH, text=text,
             header=read_verified(folder, ccompile.HEADER, rebuild),
             check=lambda library: cprobe.check_in_child(library, source, module_path))
-        if self.lib.n_dof() != self.n_dof or self.lib.n_parameters() != len(self.parameter_names):
-            raise BuildError(f"{source} does not match {Path(folder) / 'model_numpy.py'}; rebuild with "
-                             f"'gpmegen build --force'")
-        self.compiled = self.library.compiled
-        self.compile_seconds = self.library.compile_seconds
-        self._n_constraints = len(self.constraint_names)
-        self._n_points = len(self.points)
+        self.model_name = module.MODEL
+        self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
+        self.n_parameters = len(module.PARAMETERS)
+        if self.lib.n_dof() != self.n or self.lib.n_parameters() != self.n_parameters:
+            raise BuildError(f"{source} does not match {module_path}; rebuild with 'gpmegen build --force'")
         self._partition_c = None
-
-    def with_params(self, **overrides) -> CModel:
-        """The same model with some parameter values changed; shares the loaded library."""
-        other = super().with_params(**overrides)
-        other.compiled = False  # nothing was compiled for it
-        return other
 
     # --- marshalling ------------------------------------------------------------------------
     def _vec(self, x, what):
-        a = np.ascontiguousarray(x, dtype=float)
-        if a.shape != (self.n_dof,):
-            raise ValueError(f"{what} must have shape ({self.n_dof},) (one entry per coordinate), got {a.shape}")
-        return a
+        return vector(x, self.n, what)
 
     def _ptr(self, a):
         # from_buffer is the cheapest way to hand cffi a contiguous float64 array (no copy).
         return self.ffi.from_buffer("double[]", a)
 
-    def _params(self):
-        # Read at each call, as the NumPy backend does, so the two always see the same values.
-        p = np.ascontiguousarray(self.p, dtype=float)
-        if p.shape != (len(self.parameter_names),):
-            raise ValueError(f"p must have shape ({len(self.parameter_names)},), got {p.shape}")
+    def _params(self, p):
+        p = np.ascontiguousarray(p, dtype=float)
+        if p.shape != (self.n_parameters,):
+            raise ValueError(f"p must have shape ({self.n_parameters},), got {p.shape}")
         return self.ffi.from_buffer("double[]", p) if p.size else self.ffi.new("double[]", 1)
 
-    def _partition_pointers(self):
-        # The partition may be set after loading (chosen at the start of a run), so the C copies
-        # follow self.dependent / self.independent.
-        if self.dependent is None or self.independent is None:
+    def _partition_pointers(self, model):
+        # C copies of the model's partition, kept for the last one asked (a run uses one at a time)
+        if model.dependent is None or model.independent is None:
             raise ModelError(
-                f"model {self.module.MODEL} has no dependent coordinates chosen yet, so the GPME cannot "
+                f"model {self.model_name} has no dependent coordinates chosen yet, so the GPME cannot "
                 f"split q; set the model's 'dependent' coordinates"
             )
-        key = (tuple(np.asarray(self.dependent).tolist()), tuple(np.asarray(self.independent).tolist()))
+        key = (tuple(np.asarray(model.dependent).tolist()), tuple(np.asarray(model.independent).tolist()))
         if self._partition_c is None or self._partition_c[0] != key:
             dep, ind = key
-            if sorted(dep + ind) != list(range(self.n_dof)) or len(dep) != self._n_constraints:
+            if sorted(dep + ind) != list(range(self.n)) or len(dep) != self.m:
                 raise ModelError(
-                    f"dependent {dep} and independent {ind} must split the {self.n_dof} coordinates, with one "
-                    f"dependent coordinate per constraint ({self._n_constraints})"
+                    f"dependent {dep} and independent {ind} must split the {self.n} coordinates, with one "
+                    f"dependent coordinate per constraint ({self.m})"
                 )
             dep_c = self.ffi.new("int[]", max(1, len(dep)))
             ind_c = self.ffi.new("int[]", max(1, len(ind)))
@@ -107,85 +104,77 @@ class CModel(LoadedModel):
         return self._partition_c[1], self._partition_c[2]
 
     # --- the generated functions -------------------------------------------------------------
-    def mass_matrix(self, q):
-        """M(q), (n, n), kg·m² / kg."""
+    def mass_matrix(self, q, p):
         q = self._vec(q, "q")
-        M = np.empty((self.n_dof, self.n_dof))
-        self.lib.mass_matrix(self._ptr(q), self._params(), self._ptr(M))
+        M = np.empty((self.n, self.n))
+        self.lib.mass_matrix(self._ptr(q), self._params(p), self._ptr(M))
         return M
 
-    def forces(self, t, q, qd):
-        """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
+    def forces(self, t, q, qd, p):
         q, qd = self._vec(q, "q"), self._vec(qd, "qd")
-        f = np.empty(self.n_dof)
-        self.lib.forces(float(t), self._ptr(q), self._ptr(qd), self._params(), self._ptr(f))
+        f = np.empty(self.n)
+        self.lib.forces(float(t), self._ptr(q), self._ptr(qd), self._params(p), self._ptr(f))
         return f
 
-    def static_residual(self, q):
-        """g(q) + C q, (n,): zero at an equilibrium with no drive."""
+    def static_residual(self, q, p):
         q = self._vec(q, "q")
-        r = np.empty(self.n_dof)
-        self.lib.static_residual(self._ptr(q), self._params(), self._ptr(r))
+        r = np.empty(self.n)
+        self.lib.static_residual(self._ptr(q), self._params(p), self._ptr(r))
         return r
 
-    def stiffness_jacobian(self, q):
-        """K = ∂(g + C q)/∂q, (n, n)."""
+    def stiffness_jacobian(self, q, p):
         q = self._vec(q, "q")
-        K = np.empty((self.n_dof, self.n_dof))
-        self.lib.stiffness_jacobian(self._ptr(q), self._params(), self._ptr(K))
+        K = np.empty((self.n, self.n))
+        self.lib.stiffness_jacobian(self._ptr(q), self._params(p), self._ptr(K))
         return K
 
-    def drive_forces(self, t):
-        """Q(t), (n,)."""
-        Q = np.empty(self.n_dof)
-        self.lib.drive_forces(float(t), self._params(), self._ptr(Q))
+    def drive_forces(self, t, p):
+        Q = np.empty(self.n)
+        self.lib.drive_forces(float(t), self._params(p), self._ptr(Q))
         return Q
 
-    def point_positions(self, q):
-        """Positions of the named points in {0}, (n_points, 3), m."""
+    def points(self, q, p):
         q = self._vec(q, "q")
-        P = np.empty((max(1, self._n_points), 3))
-        self.lib.points(self._ptr(q), self._params(), self._ptr(P))
-        return P[:self._n_points]
+        P = np.empty((max(1, self.n_points), 3))
+        self.lib.points(self._ptr(q), self._params(p), self._ptr(P))
+        return P[:self.n_points]
 
-    def constraint_terms(self, t, q, qd):
-        """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
+    def constraint_terms(self, t, q, qd, p):
         q, qd = self._vec(q, "q"), self._vec(qd, "qd")
-        m, k = self._n_constraints, max(1, self._n_constraints)
-        phi, phid, D, gamma = np.empty(k), np.empty(k), np.empty((k, self.n_dof)), np.empty(k)
-        self.lib.constraint_terms(float(t), self._ptr(q), self._ptr(qd), self._params(),
+        m, k = self.m, max(1, self.m)
+        phi, phid, D, gamma = np.empty(k), np.empty(k), np.empty((k, self.n)), np.empty(k)
+        self.lib.constraint_terms(float(t), self._ptr(q), self._ptr(qd), self._params(p),
                                   self._ptr(phi), self._ptr(phid), self._ptr(D), self._ptr(gamma))
         return phi[:m], phid[:m], D[:m], gamma[:m]
 
-    def energies(self, q, qd):
-        """(kinetic, gravity potential, spring) energy in J, (3,)."""
+    def energies(self, q, qd, p):
         q, qd = self._vec(q, "q"), self._vec(qd, "qd")
         e = np.empty(3)
-        self.lib.energies(self._ptr(q), self._ptr(qd), self._params(), self._ptr(e))
+        self.lib.energies(self._ptr(q), self._ptr(qd), self._params(p), self._ptr(e))
         return e
 
-    def gpme_terms(self, t, q, qd):
-        """(M, f, Φ, Φ̇, D, γ) in one compiled pass."""
+    def gpme_terms(self, t, q, qd, p):
         q, qd = self._vec(q, "q"), self._vec(qd, "qd")
-        n, m = self.n_dof, self._n_constraints
+        n, m = self.n, self.m
         M, f = np.empty((n, n)), np.empty(n)
         phi, phid, D, gamma = (np.empty(max(1, m)), np.empty(max(1, m)), np.empty((max(1, m), n)),
                                np.empty(max(1, m)))
-        self.lib.gpme_terms(float(t), self._ptr(q), self._ptr(qd), self._params(), self._ptr(M), self._ptr(f),
+        self.lib.gpme_terms(float(t), self._ptr(q), self._ptr(qd), self._params(p), self._ptr(M), self._ptr(f),
                             self._ptr(phi), self._ptr(phid), self._ptr(D), self._ptr(gamma))
         return M, f, phi[:m], phid[:m], D[:m], gamma[:m]
 
-    def _solve(self, t, q, qd, M=None, f=None):
+    # --- the GPME solve and the RK4 loop ------------------------------------------------------
+    def _solve(self, t, q, qd, model, M=None, f=None):
         q, qd = self._vec(q, "q"), self._vec(qd, "qd")
-        dep, ind = self._partition_pointers()
-        qdd = np.empty(self.n_dof)
+        dep, ind = self._partition_pointers(model)
+        qdd = np.empty(self.n)
         if M is None:
-            status = self.lib.gpme_accelerations(float(t), self._ptr(q), self._ptr(qd), self._params(), dep, ind,
-                                                 self._ptr(qdd))
+            status = self.lib.gpme_accelerations(float(t), self._ptr(q), self._ptr(qd), self._params(model.p), dep,
+                                                 ind, self._ptr(qdd))
         else:
-            status = self.lib.gpme_motion(float(t), self._ptr(q), self._ptr(qd), self._params(), dep, ind,
+            status = self.lib.gpme_motion(float(t), self._ptr(q), self._ptr(qd), self._params(model.p), dep, ind,
                                           self._ptr(qdd), self._ptr(M), self._ptr(f))
-        if status == RK4_NONFINITE:
+        if status == SolveStatus.NONFINITE:
             raise SimulationError(
                 f"the GPME terms (M, f or D) are not finite at t = {float(t):g} s: check the state and the "
                 f"parameter values"
@@ -198,42 +187,22 @@ class CModel(LoadedModel):
             )
         return qdd
 
-    def motion(self, t, q, qd):
-        """(q̈, M, f): the GPME solution with the terms it was solved from, in one C call."""
-        M, f = np.empty((self.n_dof, self.n_dof)), np.empty(self.n_dof)
-        return self._solve(t, q, qd, M, f), M, f
+    def motion(self, t, q, qd, model):
+        M, f = np.empty((self.n, self.n)), np.empty(self.n)
+        return self._solve(t, q, qd, model, M, f), M, f
 
-    def accelerations(self, t, q, qd):
-        """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), solved in C."""
-        return self._solve(t, q, qd)
+    def accelerations(self, t, q, qd, model):
+        return self._solve(t, q, qd, model)
 
-    def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
-        """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), entirely in
-        C, on the grid of :func:`gpmegen.runtime.integrate.grid` (the NumPy loop's).
-
-        ``steps = (k_from, k_to)`` integrates only those steps of that grid, from ``q0``, ``qd0``
-        (n,) and ``w0`` at the end of step ``k_from`` (default: all of it, from ``t0``). Saves the
-        start, the state after every ``save_every``-th step of the grid and the final state.
-        Returns ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w`` (k, 2) the
-        work of the drive and of the constraint forces plus ``w0`` (J), ``status`` an int, 0 when
-        all steps were done, else the C return code (1 singular solve, 2 non-finite state, 3
-        invalid arguments; see ``RK4_STATUS``) with the states saved before the failure.
-        """
-        g = integrate.grid(t0, t_end, dt)
-        k_from, k_to = (0, g.n_steps) if steps is None else (int(steps[0]), int(steps[1]))
-        save_every = int(save_every)
-        if not 0 <= k_from <= k_to <= g.n_steps or save_every < 1:
-            raise ValueError(f"need 0 <= k_from <= k_to <= {g.n_steps} steps and save_every >= 1, got steps = "
-                             f"{steps} and save_every = {save_every}")
-        q0, qd0 = self._vec(q0, "q0"), self._vec(qd0, "qd0")
-        dep, ind = self._partition_pointers()
+    def rk4(self, model, g, k_from, k_to, save_every, y0):
+        n = self.n
+        dep, ind = self._partition_pointers(model)
+        q0, qd0, w0 = (np.ascontiguousarray(part) for part in (y0[:n], y0[n:2 * n], y0[2 * n:]))
         n_save = k_to // save_every - k_from // save_every + 2
-        t_out = np.empty(n_save)
-        q_out, qd_out = np.empty((n_save, self.n_dof)), np.empty((n_save, self.n_dof))
-        w_start, w_out = np.ascontiguousarray(w0, dtype=float), np.empty((n_save, 2))
+        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)), np.empty((n_save, 2))]
         n_saved = self.ffi.new("long *")
         status = self.lib.rk4(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, self._ptr(q0),
-                              self._ptr(qd0), self._ptr(w_start), self._params(), dep, ind, self._ptr(t_out),
-                              self._ptr(q_out), self._ptr(qd_out), self._ptr(w_out), n_saved)
+                              self._ptr(qd0), self._ptr(w0), self._params(model.p), dep, ind, self._ptr(t_out),
+                              *(self._ptr(part) for part in y_out), n_saved)
         k = int(n_saved[0])
-        return t_out[:k].copy(), q_out[:k].copy(), qd_out[:k].copy(), w_out[:k].copy(), int(status)
+        return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)

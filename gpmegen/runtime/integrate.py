@@ -14,22 +14,21 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import SimulationError
+from ..errors import EvaluationError, SimulationError
+from ..status import Ending, Outcome, SolveStatus
 
-FIX_NONFINITE = "try a smaller --dt (the flexible modes bound the RK4 step) or check the parameters"
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
                  "within reach")
-FIX_SINGULAR = ("either the motion blew up (try a smaller --dt) or the constraints are not independent there "
-                "(their Jacobian D lost rank: keep the prescribed motion away from such configurations)")
 
 
-def violation(model, t, q, qd, limit):
-    """The status of a run whose constraint violation max|Φ| at ``(t, q, qd)`` exceeds
+def violation(model, t, q, qd, limit) -> Outcome | None:
+    """The outcome of a run whose constraint violation max|Φ| at ``(t, q, qd)`` exceeds
     ``limit``, else None."""
     phi = model.constraint_terms(t, q, qd)[0]
     worst = float(np.max(np.abs(phi), initial=0.0))
     if worst > limit:
-        return f"diverged: constraint violation {worst:.3e} above {limit:.1e} at t = {t:.6g} s; {FIX_VIOLATION}"
+        return Outcome.diverged(t, f"constraint violation {worst:.3e} above {limit:.1e} at t = {t:.6g} s; "
+                                   f"{FIX_VIOLATION}")
     return None
 
 
@@ -113,6 +112,15 @@ class Grid(NamedTuple):
         """Length (s) of step ``k`` (1 … n_steps): ``dt``, the last one up to ``t_end``."""
         return self.t_end - self.time(k - 1) if k == self.n_steps else self.dt
 
+    def span(self, steps, save_every) -> tuple[int, int]:
+        """``steps = (k_from, k_to)`` of this grid (None: all of them) as ints, checked together
+        with ``save_every`` (a whole number of steps >= 1)."""
+        k_from, k_to = (0, self.n_steps) if steps is None else (int(steps[0]), int(steps[1]))
+        if not 0 <= k_from <= k_to <= self.n_steps or int(save_every) < 1:
+            raise ValueError(f"need 0 <= k_from <= k_to <= {self.n_steps} steps and save_every >= 1, got steps = "
+                             f"{steps} and save_every = {save_every}")
+        return k_from, k_to
+
 
 #: A remainder of (t_end - t0) / dt below this many steps is round-off, not a step to take.
 STEP_ROUND_OFF = 1e-6
@@ -132,53 +140,83 @@ def grid(t0: float, t_end: float, dt: float) -> Grid:
     return Grid(float(t0), float(dt), int(n_steps), float(t_end))
 
 
-def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None,
-        watch_every=1000):
-    """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s). Keeps the
-    initial state, the state after every ``save_every``-th step and the final state; ``watch``
-    (a :class:`gpmegen.runtime.partition.Watch`) looks at the partition every ``watch_every``
-    steps. Returns ``(t, y, status)`` with ``y`` rows of the augmented state and ``status`` one of
-    ``"complete"``, ``"interrupted"``, ``"diverged: …"``."""
-    n = model.n_dof
-    rhs = state_derivative(model)
+def rk4_steps(rhs, y, g: Grid, k_from: int, k_to: int, save_every: int):
+    """Steps ``k_from + 1 … k_to`` of classical RK4 on grid ``g`` from the augmented state ``y``
+    at the end of step ``k_from``, in Python: the loop the C code runs. Saves the start, the state
+    after every ``save_every``-th step of the grid and the last one. Returns ``(t, y, status)``:
+    the saved times (k,) s and states (k, len(y)), and a :class:`SolveStatus` (on a failure, the
+    rows saved before it; none when the start is not finite)."""
+    if not np.all(np.isfinite(y)):
+        return np.empty(0), np.empty((0, len(y))), SolveStatus.NONFINITE
+    ts, ys = [g.time(k_from)], [y.copy()]
+    with np.errstate(over="ignore", invalid="ignore"):  # a non-finite state is a status, as in C
+        status = _steps(rhs, y, g, k_from, k_to, save_every, ts, ys)
+    return np.array(ts), np.array(ys), status
+
+
+def _steps(rhs, y, g, k_from, k_to, save_every, ts, ys) -> SolveStatus:
+    """The loop of :func:`rk4_steps`, appending the saved times and states to ``ts``, ``ys``."""
+    for k in range(k_from + 1, k_to + 1):
+        t, h = g.time(k - 1), g.step(k)
+        try:
+            k1 = rhs(t, y)
+            k2 = rhs(t + h / 2, y + h / 2 * k1)
+            k3 = rhs(t + h / 2, y + h / 2 * k2)
+            k4 = rhs(t + h, y + h * k3)
+        except EvaluationError:  # Python's math raised where C gives inf or nan
+            return SolveStatus.NONFINITE
+        except (SimulationError, np.linalg.LinAlgError):
+            return SolveStatus.SINGULAR
+        y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        if not np.all(np.isfinite(y)):
+            return SolveStatus.NONFINITE
+        if k % save_every == 0 or k == k_to:
+            ts.append(g.time(k))
+            ys.append(y)
+    return SolveStatus.OK
+
+
+#: Simulated time (s) between two looks of the driver at a run (progress, violation, partition).
+CHUNK_SECONDS = 0.05
+
+
+def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None):
+    """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s), run by
+    ``model.rk4`` (in C or in Python) in chunks of about :data:`CHUNK_SECONDS`, so that progress
+    is shown, the constraint violation max|Φ| is checked against ``max_violation``, ``watch`` (a
+    :class:`gpmegen.runtime.partition.Watch`) looks at the partition, and Ctrl-C or SIGTERM keep
+    what was computed, at the same instants on both backends. Keeps the initial state, the state
+    after every ``save_every``-th step and the final state. Returns ``(t, y, outcome)``: ``y``
+    rows of the augmented state, ``outcome`` an :class:`Outcome`."""
     g = grid(t0, t_end, dt)
+    # a whole number of save intervals, so that the chunks' ends (always saved) are saved rows anyway
+    chunk = max(save_every, int(round(CHUNK_SECONDS / dt / save_every)) * save_every)
+    n = model.n_dof
     y = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
-    ts, ys = [g.time(0)], [y.copy()]
-    status = "complete"
+    ts, ys = [np.array([g.time(0)])], [y[None, :]]
+    done, outcome = 0, None
     bar = progress if progress is not None else Progress(t_end - t0, "RK4", enabled=False)
-    t = t0
     with interruptible():
         try:
-            for k in range(1, g.n_steps + 1):
-                t, h = g.time(k - 1), g.step(k)
-                k1 = rhs(t, y)
-                k2 = rhs(t + h / 2, y + h / 2 * k1)
-                k3 = rhs(t + h / 2, y + h / 2 * k2)
-                k4 = rhs(t + h, y + h * k3)
-                y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-                t = g.time(k)
-                if not np.all(np.isfinite(y)):
-                    status = f"diverged: non-finite state at t = {t:.6g} s; {FIX_NONFINITE}"
+            while done < g.n_steps and outcome is None:
+                end = min(done + chunk, g.n_steps)
+                t, q, qd, w, status = model.rk4(y[:n], y[n:2 * n], t_end, dt, save_every, t0, y[2 * n:], (done, end))
+                ts.append(t[1:])
+                ys.append(np.column_stack([q, qd, w])[1:])
+                if status != SolveStatus.OK:
+                    outcome = Outcome.failed(t[-1] if len(t) else g.time(done), status)
                     break
+                y, done = np.concatenate([q[-1], qd[-1], w[-1]]), end
                 if max_violation is not None:
-                    status = violation(model, t, y[:n], y[n:2 * n], max_violation) or status
-                    if status != "complete":
-                        ts.append(t)
-                        ys.append(y.copy())
-                        break
-                if watch is not None and k % watch_every == 0:
-                    watch.check(t, y[:n])
-                if k % save_every == 0 or k == g.n_steps:
-                    ts.append(t)
-                    ys.append(y.copy())
-                bar.update(t - t0)
+                    outcome = violation(model, t[-1], q[-1], qd[-1], max_violation)
+                if watch is not None and outcome is None:
+                    model = watch.check(t[-1], q[-1])  # with other dependent coordinates, maybe
+                bar.update(t[-1] - t0)
         except KeyboardInterrupt:
-            status = "interrupted"
-        except SimulationError as exc:
-            status = f"diverged: {exc} (t = {t:.6g} s)"
+            outcome = Outcome(Ending.INTERRUPTED, g.time(done))
         finally:
             bar.close()
-    return np.array(ts), np.array(ys), status
+    return np.concatenate(ts), np.concatenate(ys), outcome or Outcome(Ending.COMPLETE, g.t_end)
 
 
 IMPLICIT = ("Radau", "BDF", "LSODA")
@@ -201,7 +239,7 @@ def _difference_jacobian(rhs, relative=1e-7):
 
 
 def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
-    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, status)``.
+    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, outcome)``.
 
     The implicit methods (Radau, BDF, LSODA) integrate ``(q, q̇)`` only (the work columns of ``y``
     are then NaN) and get a forward-difference Jacobian with a fixed relative step: scipy's own
@@ -217,5 +255,6 @@ def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e
     options = {} if with_work else {"jac": _difference_jacobian(rhs)}
     sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
     y = sol.y.T if with_work else np.column_stack([sol.y.T, np.full((len(sol.t), 2), np.nan)])
-    status = "complete" if sol.success else f"diverged: {sol.message}"
-    return sol.t, y, status
+    reached = float(sol.t[-1]) if len(sol.t) else float(t0)
+    outcome = Outcome(Ending.COMPLETE, reached) if sol.success else Outcome.diverged(reached, sol.message)
+    return sol.t, y, outcome

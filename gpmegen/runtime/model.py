@@ -1,19 +1,130 @@
-"""A loaded generated model with the public contract of gpmegen (see README)."""
+"""A loaded generated model with the public contract of gpmegen (see README).
+
+A :class:`LoadedModel` is immutable: its parameter values and its partition of the coordinates
+are fixed when it is made, and :meth:`~LoadedModel.with_params` and
+:meth:`~LoadedModel.with_partition` return new models. What it evaluates it asks of an
+:class:`Evaluator`: the generated functions over the NumPy module (:class:`NumpyEvaluator`) or
+over the compiled C library (:class:`gpmegen.runtime.cmodel.CEvaluator`).
+"""
 
 from __future__ import annotations
 
 import copy
 from types import ModuleType
+from typing import Protocol
 
 import numpy as np
 
 from ..errors import EvaluationError, ModelError
 from ..model.requirements import first_violation
-from . import gpme
+from . import gpme, integrate
 
 # What a failing generated function did, by the exception Python's math raised.
 ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a double",
               ValueError: "takes a root or logarithm of a negative number"}
+
+
+def vector(x, n: int, what: str) -> np.ndarray:
+    """``x`` as a contiguous float array of shape (n,), else ValueError naming ``what``."""
+    a = np.ascontiguousarray(x, dtype=float)
+    if a.shape != (n,):
+        raise ValueError(f"{what} must have shape ({n},), got {a.shape}")
+    return a
+
+
+def frozen(a) -> np.ndarray:
+    """``a`` as an array that cannot be written to (a model's arrays are shared by its copies)."""
+    a = np.array(a)
+    a.flags.writeable = False
+    return a
+
+
+def call(module: ModuleType, function: str, *args):
+    """The generated ``function`` of the NumPy ``module`` at ``args``; an arithmetic failure in
+    it (Python's math raises where C gives inf or nan) becomes one EvaluationError."""
+    try:
+        return getattr(module, function)(*args)
+    except (ArithmeticError, ValueError) as exc:
+        if isinstance(exc, ValueError) and "math domain error" not in str(exc):
+            raise
+        what = next((text for kind, text in ARITHMETIC.items() if isinstance(exc, kind)), "fails")
+        raise EvaluationError(
+            f"model {module.MODEL}: {function} {what} ({exc}) at these parameter values and this state; "
+            f"check the parameters its expressions divide by or raise (--param), and the start "
+            f"configuration") from None
+
+
+class Evaluator(Protocol):
+    """The generated functions of one model on one backend. ``p`` (n_p,): the parameter values;
+    ``model``: the :class:`LoadedModel` whose parameters, gains and partition the GPME use.
+    Shapes and units as in :class:`LoadedModel`."""
+
+    def mass_matrix(self, q, p): ...
+    def forces(self, t, q, qd, p): ...
+    def static_residual(self, q, p): ...
+    def stiffness_jacobian(self, q, p): ...
+    def drive_forces(self, t, p): ...
+    def points(self, q, p): ...
+    def constraint_terms(self, t, q, qd, p): ...
+    def energies(self, q, qd, p): ...
+    def gpme_terms(self, t, q, qd, p): ...
+
+    def motion(self, t, q, qd, model):
+        """(q̈, M, f): the GPME solution with the terms it was solved from."""
+
+    def accelerations(self, t, q, qd, model):
+        """q̈ (n,) of the GPME."""
+
+    def rk4(self, model, g: integrate.Grid, k_from: int, k_to: int, save_every: int, y0):
+        """Steps ``k_from + 1 … k_to`` of RK4 on ``g`` from the augmented state ``y0``
+        (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
+        :func:`gpmegen.runtime.integrate.rk4_steps`."""
+
+
+class NumpyEvaluator:
+    """:class:`Evaluator` over a generated NumPy module; the GPME solved by :mod:`.gpme`."""
+
+    def __init__(self, module: ModuleType):
+        self.module = module
+
+    def mass_matrix(self, q, p):
+        return call(self.module, "mass_matrix", q, p)
+
+    def forces(self, t, q, qd, p):
+        return call(self.module, "forces", t, q, qd, p)
+
+    def static_residual(self, q, p):
+        return call(self.module, "static_residual", q, p)
+
+    def stiffness_jacobian(self, q, p):
+        return call(self.module, "stiffness_jacobian", q, p)
+
+    def drive_forces(self, t, p):
+        return call(self.module, "drive_forces", t, p)
+
+    def points(self, q, p):
+        return call(self.module, "points", q, p)
+
+    def constraint_terms(self, t, q, qd, p):
+        return call(self.module, "constraint_terms", t, q, qd, p)
+
+    def energies(self, q, qd, p):
+        return call(self.module, "energies", q, qd, p)
+
+    def gpme_terms(self, t, q, qd, p):
+        return call(self.module, "gpme_terms", t, q, qd, p)
+
+    def motion(self, t, q, qd, model):
+        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd, model.p)
+        qdd = gpme.accelerations(M, f, phi, phid, D, gamma, model.alpha, model.beta, model.constraint_orders,
+                                 model.dependent, model.independent)
+        return qdd, M, f
+
+    def accelerations(self, t, q, qd, model):
+        return self.motion(t, q, qd, model)[0]
+
+    def rk4(self, model, g, k_from, k_to, save_every, y0):
+        return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
 
 
 class LoadedModel:
@@ -25,8 +136,9 @@ class LoadedModel:
     """
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "numpy", folder=None,
-                 requirements=()):
+                 requirements=(), evaluator: Evaluator | None = None):
         self.module = module
+        self.evaluator: Evaluator = evaluator or NumpyEvaluator(module)
         self.requirements = tuple(requirements)
         self.backend = backend
         self.folder = folder
@@ -35,7 +147,7 @@ class LoadedModel:
         self.parameter_names: tuple = tuple(module.PARAMETERS)
         self.points: tuple = tuple(module.POINTS)
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
-        self.constraint_orders = np.array(module.CONSTRAINT_ORDERS, dtype=int)
+        self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
@@ -58,21 +170,22 @@ class LoadedModel:
         if problem:
             raise ModelError(f"model {self.module.MODEL}: {problem}")
         self.params: dict = values
-        self.p = np.array([values[k] for k in self.parameter_names], dtype=float)
-        alpha, beta = self._call("baumgarte_gains", self.p)
-        self.alpha, self.beta = np.asarray(alpha, float), np.asarray(beta, float)
+        self.p = frozen(np.array([values[k] for k in self.parameter_names], dtype=float))
+        alpha, beta = call(self.module, "baumgarte_gains", self.p)
+        self.alpha, self.beta = frozen(np.asarray(alpha, float)), frozen(np.asarray(beta, float))
 
     def _partition(self, dependent):
         if not self.constraint_names:
-            return np.arange(0), np.arange(self.n_dof)
+            return frozen(np.arange(0)), frozen(np.arange(self.n_dof))
         if dependent is None:
             return None, None  # chosen from the constraint Jacobian at the start of a run
         dep = [self.coordinates.index(name) for name in dependent]
         ind = [k for k in range(self.n_dof) if k not in dep]
-        return np.array(dep, dtype=int), np.array(ind, dtype=int)
+        return frozen(np.array(dep, dtype=int)), frozen(np.array(ind, dtype=int))
 
-    def set_partition(self, dependent) -> None:
-        """Use the coordinates at indices ``dependent`` as the dependent ones (one per constraint)."""
+    def with_partition(self, dependent) -> LoadedModel:
+        """The same model with the coordinates at indices ``dependent`` (one per constraint) as
+        the dependent ones."""
         dep = sorted(int(k) for k in dependent)
         distinct = len(set(dep)) == len(dep) and all(0 <= k < self.n_dof for k in dep)
         if len(dep) != len(self.constraint_names) or not distinct:
@@ -80,8 +193,10 @@ class LoadedModel:
                 f"need {len(self.constraint_names)} distinct dependent coordinate indices below {self.n_dof}, "
                 f"got {dependent!r}"
             )
-        self.dependent = np.array(dep, dtype=int)
-        self.independent = np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int)
+        other = copy.copy(self)
+        other.dependent = frozen(np.array(dep, dtype=int))
+        other.independent = frozen(np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int))
+        return other
 
     def with_params(self, **overrides) -> LoadedModel:
         """The same model (same generated code, compiled library and partition) with some
@@ -90,20 +205,6 @@ class LoadedModel:
         other._bind(self.params, overrides)
         return other
 
-    def _call(self, function: str, *args):
-        """The generated ``function`` of the NumPy module at ``args``; an arithmetic failure in
-        it (Python's math raises where C gives inf or nan) becomes one EvaluationError."""
-        try:
-            return getattr(self.module, function)(*args)
-        except (ArithmeticError, ValueError) as exc:
-            if isinstance(exc, ValueError) and "math domain error" not in str(exc):
-                raise
-            what = next((text for kind, text in ARITHMETIC.items() if isinstance(exc, kind)), "fails")
-            raise EvaluationError(
-                f"model {self.module.MODEL}: {function} {what} ({exc}) at these parameter values and this state; "
-                f"check the parameters its expressions divide by or raise (--param), and the start "
-                f"configuration") from None
-
     def index(self, coordinate: str) -> int:
         """Position of a coordinate in ``q``."""
         return self.coordinates.index(coordinate)
@@ -111,27 +212,27 @@ class LoadedModel:
     # --- the generated functions, bound to the parameter values -----------------------------
     def mass_matrix(self, q):
         """M(q), (n, n), kg·m² / kg."""
-        return self._call("mass_matrix", q, self.p)
+        return self.evaluator.mass_matrix(q, self.p)
 
     def forces(self, t, q, qd):
         """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
-        return self._call("forces", t, q, qd, self.p)
+        return self.evaluator.forces(t, q, qd, self.p)
 
     def static_residual(self, q):
         """g(q) + C q, (n,): zero at an equilibrium with no drive."""
-        return self._call("static_residual", q, self.p)
+        return self.evaluator.static_residual(q, self.p)
 
     def stiffness_jacobian(self, q):
         """K = ∂(g + C q)/∂q, (n, n)."""
-        return self._call("stiffness_jacobian", q, self.p)
+        return self.evaluator.stiffness_jacobian(q, self.p)
 
     def drive_forces(self, t):
         """Q(t), (n,)."""
-        return self._call("drive_forces", t, self.p)
+        return self.evaluator.drive_forces(t, self.p)
 
     def point_positions(self, q):
         """Positions of the named points in {0}, (n_points, 3), m."""
-        return self._call("points", q, self.p)
+        return self.evaluator.points(q, self.p)
 
     def end_effector(self, q):
         """Position of the end-effector (the first named point) in {0}, (3,), m."""
@@ -141,26 +242,42 @@ class LoadedModel:
 
     def constraint_terms(self, t, q, qd):
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
-        return self._call("constraint_terms", t, q, qd, self.p)
+        return self.evaluator.constraint_terms(t, q, qd, self.p)
 
     def energies(self, q, qd):
         """(kinetic, gravity potential, spring) energy in J."""
-        return self._call("energies", q, qd, self.p)
+        return self.evaluator.energies(q, qd, self.p)
 
     def gpme_terms(self, t, q, qd):
         """(M, f, Φ, Φ̇, D, γ) in one pass over the kinematics."""
-        return self._call("gpme_terms", t, q, qd, self.p)
+        return self.evaluator.gpme_terms(t, q, qd, self.p)
 
     def motion(self, t, q, qd):
         """(q̈, M, f): the GPME solution with the terms it was solved from."""
-        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd)
-        qdd = gpme.accelerations(M, f, phi, phid, D, gamma, self.alpha, self.beta,
-                                 self.constraint_orders, self.dependent, self.independent)
-        return qdd, M, f
+        return self.evaluator.motion(t, q, qd, self)
 
     def accelerations(self, t, q, qd):
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16)."""
-        return self.motion(t, q, qd)[0]
+        return self.evaluator.accelerations(t, q, qd, self)
+
+    def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
+        """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid
+        of :func:`gpmegen.runtime.integrate.grid`, in one call of the backend's loop (C or Python).
+
+        ``steps = (k_from, k_to)`` integrates only those steps of that grid, from ``q0``, ``qd0``
+        (n,) and the work ``w0`` (2,) J at the end of step ``k_from`` (default: all of it, from
+        ``t0``). Saves the start, the state after every ``save_every``-th step of the grid and the
+        final state. Returns ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w``
+        (k, 2) the work of the drive and of the constraint forces plus ``w0`` (J), ``status`` a
+        :class:`gpmegen.status.SolveStatus`, OK when all steps were done, else with the states
+        saved before the failure (none when the start is not finite).
+        """
+        g = integrate.grid(t0, t_end, dt)
+        k_from, k_to = g.span(steps, save_every)
+        y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"), vector(w0, 2, "w0")])
+        t, y, status = self.evaluator.rk4(self, g, k_from, k_to, int(save_every), y0)
+        n = self.n_dof
+        return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 
     def constraint_forces(self, t, q, qd):
         """Generalized forces the constraints exert, ``M q̈ - f`` (n,)."""

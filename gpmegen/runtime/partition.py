@@ -36,17 +36,17 @@ def condition(D, dependent) -> float:
 
 
 def partition_at(model, q, t=0.0):
-    """Set ``model``'s partition from the constraint Jacobian at ``q``; returns the names of the
-    dependent coordinates chosen."""
+    """``model`` with its dependent coordinates chosen from the constraint Jacobian at ``q``."""
     _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
-    model.set_partition(choose_dependent(D))
-    return tuple(model.coordinates[k] for k in model.dependent)
+    return model.with_partition(choose_dependent(D))
 
 
 class Watch:
-    """Watches the condition number of ``D_dc`` during a run: tells ``notify`` once when it
-    passes :data:`ILL_CONDITIONED`, and with ``repartition`` chooses the dependent coordinates
-    anew (each change is recorded in ``events`` as ``(t, old names, new names)``)."""
+    """The partition's part of a run: watches the condition number of ``D_dc``, tells
+    ``notify`` once when it passes :data:`ILL_CONDITIONED`, and with ``repartition`` goes on
+    with the dependent coordinates chosen anew. ``model`` is the model the run goes on with
+    (``model`` given at the start, or its repartitioned copy); each change is recorded in
+    ``events`` as ``(t, old names, new names)``."""
 
     def __init__(self, model, repartition=False, notify=None, limit=ILL_CONDITIONED):
         self.model, self.repartition, self.limit = model, repartition, limit
@@ -55,17 +55,18 @@ class Watch:
         self.events: list = []
 
     def check(self, t, q):
+        """Looks at the partition of :attr:`model` at ``(t, q)``; returns the model to go on with."""
         model = self.model
         if not len(model.constraint_names) or model.dependent is None:
-            return
+            return model
         _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
         c = condition(D, model.dependent)
         if c <= self.limit:
-            return
+            return model
         names = tuple(model.coordinates[k] for k in model.dependent)
         if self.repartition:
-            model.set_partition(choose_dependent(D))
-            new = tuple(model.coordinates[k] for k in model.dependent)
+            self.model = model.with_partition(choose_dependent(D))
+            new = tuple(model.coordinates[k] for k in self.model.dependent)
             if new != names:
                 self.events.append((float(t), names, new))
                 self.notify(f"t = {t:.6g} s: D_dc of {', '.join(names)} has condition number {c:.2e}; "
@@ -75,3 +76,4 @@ class Watch:
             self.notify(f"warning: t = {t:.6g} s: the dependent block D_dc ({', '.join(names)}) has condition "
                         f"number {c:.2e}; the GPME lose accuracy near this configuration: rerun with "
                         f"--repartition or choose other dependent coordinates")
+        return self.model
