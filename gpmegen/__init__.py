@@ -5,8 +5,8 @@ What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.lo
 ``gpmegen.load_model_file``, the model's elements and the errors.
 """
 
-from .version import __version__
-
+# Nothing is imported here: the console command imports this package before it can catch Ctrl-C
+# (gpmegen/entry.py), so every name, __version__ included, is looked up when first used.
 __all__ = [
     "load", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
@@ -16,8 +16,10 @@ __all__ = [
 
 
 def __getattr__(name):
-    # The public names come from gpmegen.api when first used, so that importing the package (as
-    # the console command does before it can catch Ctrl-C) costs nothing.
+    if name == "__version__":
+        from .version import __version__
+
+        return __version__
     if name == "limits":  # a submodule: imported as one, never through gpmegen.api
         import importlib
 
