@@ -160,7 +160,7 @@ def _start(case, start):
     return start
 
 
-def run_study(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
+def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
@@ -191,7 +191,7 @@ def cmd_simulate(args) -> int:
     case = _case(args.model_file, args.nrfe)
     start = _start(case, args.statics)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
-    run_study(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
+    _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
               dict(args.param or []), out, repartition=args.repartition)
     return 0
 
@@ -235,7 +235,7 @@ def cmd_demo(args) -> int:
                  "would take hours in Python)")
     results = []
     for nrfe, out in outs.items():
-        res = run_study(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
+        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
         results.append(res)
     from .analysis import plots
 
