@@ -75,15 +75,18 @@ def test_results_carry_the_cases_metadata_as_json(tmp_path):
 
 def test_a_model_of_your_own_is_labelled_by_its_name_whatever_it_is_called(tmp_path):
     """A file's model named like the reference case's is still labelled by its name, with no
-    paper figure numbers or constraint units."""
+    paper figure numbers or constraint units; its joints are drawn whatever they are called,
+    even like an sde rotation."""
     text = EXAMPLE.read_text(encoding="utf-8").replace('name = "planar_two_link_nrfe{nrfe}"',
                                                       'name = "manipulator_nrfe{nrfe}"')
+    text = text.replace("theta2", "psi_elbow_2")
     path = tmp_path / "lookalike.toml"
     path.write_text(text, encoding="utf-8")
     mine = _run(FileCase(str(path), 3), tmp_path, "initial")
     meta = results_io.metadata(mine)
     assert meta["model"] == "manipulator_nrfe3"
     assert plots.label(mine) == "manipulator_nrfe3 (initial start)"
+    assert plots.joint_names(mine) == ["theta1", "psi_elbow_2"]
     assert "constraint_units" not in meta and "figures" not in meta
 
 

@@ -54,8 +54,12 @@ class Case:
 
     def metadata(self, model) -> dict:
         """What plots need beyond the results' generic metadata (see :func:`results.metadata`):
-        ``label`` and those listed in :func:`gpmegen.analysis.results.metadata`."""
-        return {"label": model.module.MODEL}
+        ``label`` and those listed in :func:`gpmegen.analysis.results.metadata`. By default the
+        model's name, and its first four joints (not the sde rotations of its flexible links)."""
+        from ..model.chain import Joint
+
+        joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
+        return {"label": model.module.MODEL, "joints": joints[:4]}
 
     def extras(self, model, results) -> dict:
         """Arrays added to a run's results (none by default)."""

@@ -3,15 +3,12 @@ and energy balance, for one or more results files drawn together."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
 
 from ..fileio import atomic_write
 from .results import metadata
-
-SDE_ROTATION = re.compile(r"^(psi|theta|phi).+_\d+$")
 
 
 def _pyplot():
@@ -32,13 +29,8 @@ def label(results) -> str:
 
 
 def joint_names(results) -> list:
-    """The coordinates to draw as joints: those the case names, else those that are not sde
-    rotations of a flexible link (at most four)."""
-    names = [str(c) for c in results["coordinates"]]
-    joints = metadata(results).get("joints")
-    if joints:
-        return joints
-    return [c for c in names if not SDE_ROTATION.match(c)][:4] or names[:3]
+    """The coordinates to draw as joints: those the run's case names, else the first three."""
+    return metadata(results).get("joints") or [str(c) for c in results["coordinates"]][:3]
 
 
 def _title(runs, title, figure) -> str:
