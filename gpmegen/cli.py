@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import os
 import sys
 import time
@@ -107,69 +108,36 @@ def _check_results_path(out: Path) -> None:
     _writable_folder(out.parent)
 
 
-def _file_models(path, nrfe_values):
-    """(Model, rebuild command) for each n_rfe of a model file (its own default when None)."""
-    from .model.toml_file import read_model_file
+def _case(model_file, nrfe):
+    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), or the
+    reference manipulator (default 5 rfes)."""
+    if model_file:
+        from .analysis.cases import FileCase
 
-    out = []
-    for nrfe in nrfe_values or [None]:
-        model = read_model_file(path, nrfe=nrfe).model
-        command = f"gpmegen build {path}" + (f" --nrfe {nrfe}" if nrfe is not None else "")
-        out.append((model, command))
-    return out
+        return FileCase(model_file, nrfe)
+    from .analysis.reference_case import ReferenceCase
 
-
-def _located(path, action):
-    """Run ``action()``; a derivation error of a model file gets the file and line it comes from."""
-    try:
-        return action()
-    except DerivationError as exc:
-        if path is None:
-            raise
-        from .model.toml_file import locate
-
-        raise locate(path, exc, None) from None
+    return ReferenceCase(nrfe or 5)
 
 
 def cmd_build(args) -> int:
     from .codegen import build
-    from .model import reference_model
 
     out = Path(args.out)
-    if args.model_file:
-        pairs = _file_models(args.model_file, args.nrfe)
-    else:
-        pairs = [(reference_model(n), f"gpmegen build --nrfe {n}") for n in (args.nrfe or [5])]
+    cases = [_case(args.model_file, n) for n in (args.nrfe or [None])]
+    models = [case.model for case in cases]  # a bad model is refused before anything is written
     _writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
     total = time.perf_counter()
-    for model, command in pairs:
-        result = _located(args.model_file, lambda: build(model, out, backends, force=args.force,
-                                                                  progress=progress, command=command))
+    for case, model in zip(cases, models):
+        result = case.located(functools.partial(build, model, out, backends, force=args.force, progress=progress,
+                                                command=case.command))
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
         print(f"{result.model}: n_dof = {result.n_dof}, {state}; {result.folder}: {sizes}")
-    if len(pairs) > 1:
+    if len(cases) > 1:
         print(f"total {time.perf_counter() - total:.2f} s")
     return 0
-
-
-def _load(source, backend, params):
-    """Load the reference case (``source`` an n_rfe) or a model file (``source`` a path)."""
-    import gpmegen
-
-    if isinstance(source, int):
-        kw = dict(nrfe=source)
-    else:
-        (model, command), = _file_models(source[0], [source[1]] if source[1] else None)
-        kw = dict(model=model, command=command)
-    path = None if isinstance(source, int) else source[0]
-    if backend == "c":
-        try:
-            return _located(path, lambda: gpmegen.load(backend="c", params=params, progress=progress, **kw))
-        except BuildError as exc:
-            progress(f"C backend unavailable ({exc}); using the NumPy backend")
-    return _located(path, lambda: gpmegen.load(backend="numpy", params=params, progress=progress, **kw))
 
 
 def _default_backend() -> str:
@@ -184,57 +152,28 @@ def _default_backend() -> str:
         return "numpy"
 
 
-def _start(source, backend, start, overrides):
-    """The loaded model with its constants set, and q0: the reference study's statics, or a model
-    file's [initial] configuration (projected onto the constraints, optionally after statics)."""
-    from .analysis import study
-
-    if isinstance(source, int) and start == "initial":
-        raise UsageError("--statics initial is for model files; the reference case starts from statics "
-                         "(--statics locked or constrained)")
-    if isinstance(source, int):
-        model = _load(source, backend, {k: v for k, v in overrides.items() if k not in ("r_Ea", "y_c")})
-        progress(f"statics ({start} start) for n_rfe = {source}")
-        return study.initial_state(model, start, overrides)
-    from .model.toml_file import read_model_file
-
-    model = _load(source, backend, overrides)
-    initial = read_model_file(source[0], nrfe=source[1]).initial_values(model.params)
-    progress(f"start of {source[0]} ({start})")
-    return study.file_start(model, initial, start)
+def _start(case, start):
+    """``start``, or the case's default start; a start the case does not take is a usage error."""
+    start = start or case.starts[0]
+    if start not in case.starts:
+        raise UsageError(case.start_refusal)
+    return start
 
 
-def run_study(source, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
-    """Start, then the constrained motion; writes ``out`` (.npz and .csv), or beside it a
-    partial run (see :func:`gpmegen.analysis.results.save`). ``source``: an n_rfe of the reference
-    case, or ``(model file, n_rfe or None)``; ``backend`` None: C when a compiler is found.
-    Returns the results."""
-    from .analysis import results as results_io
-    from .analysis import study
+def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
+    """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
+    C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
+    from .analysis import runs
 
     _check_results_path(out)
     backend = backend or _default_backend()
-    _check_run(source, t_end, dt, save_every, method, backend)
-    model, q0 = _start(source, backend, start, overrides)
-    reference = ("theta1", "psi2", "x3")
-    shown = list(reference) if set(reference) <= set(model.coordinates) else list(model.coordinates[:3])
-    progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
-             + (f"; r_Ea = {model.params['r_Ea']:.6g} m, y_c = {model.params['y_c']:.6g} m"
-                if isinstance(source, int) else ""))
-    t0 = time.perf_counter()
-    bar = None
-    label = f"n_rfe = {source}" if isinstance(source, int) else Path(source[0]).stem
-    if method == "rk4":
-        from .runtime.integrate import Progress
-        bar = Progress(t_end, label, enabled=sys.stderr.isatty())
-    res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
-                         repartition=repartition, notify=progress)
-    wall = time.perf_counter() - t0
-    written = results_io.save(res, out)
+    done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
+                    repartition=repartition)
+    res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
-    final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in shown)
-    print(f"{label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.6g} s in {wall:.1f} s; "
+    final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in case.shown(model))
+    print(f"{case.label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.6g} s in {done.wall:.1f} s; "
           f"{final}; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; wrote {', '.join(map(str, written))}")
     if status != "complete":
         kept = f"results up to t = {res['t'][-1]:.6g} s kept in {written[0]} (partial)"
@@ -244,48 +183,28 @@ def run_study(source, start, t_end, dt, save_every, method, backend, overrides, 
     return res
 
 
-def _check_run(source, t_end, dt, save_every, method, backend):
-    """Refuse, before anything is loaded or solved, a run that cannot finish (gpmegen.limits)."""
-    from .model import reference_model
-
-    if isinstance(source, int):
-        model = reference_model(source)
-    else:
-        (model, _), = _file_models(source[0], [source[1]] if source[1] else None)
-    limits.check_run(limits.model_coordinates(model), len(model.constraints), t_end, dt, save_every, method, backend)
-
-
 class SimulationStopped(GpmegenError):
     """The run ended early (diverged or interrupted); partial results were written."""
 
 
-def _source(args):
-    if args.model_file:
-        return (args.model_file, args.nrfe)
-    return args.nrfe or 5
-
-
 def cmd_simulate(args) -> int:
-    overrides = dict(args.param or [])
-    source = _source(args)
-    start = args.statics or ("locked" if isinstance(source, int) else "initial")
-    name = f"run_nrfe{source}" if isinstance(source, int) else Path(args.model_file).stem
-    out = Path(args.out if args.out is not None else f"results/{name}.npz")
-    run_study(source, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-              overrides, out, repartition=args.repartition)
+    case = _case(args.model_file, args.nrfe)
+    start = _start(case, args.statics)
+    out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
+    _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
+              dict(args.param or []), out, repartition=args.repartition)
     return 0
 
 
 def cmd_statics(args) -> int:
-    source = _source(args)
-    start = args.statics or ("locked" if isinstance(source, int) else "initial")
-    model, q = _start(source, "numpy", start, dict(args.param or []))
+    case = _case(args.model_file, args.nrfe)
+    model, q = case.start("numpy", _start(case, args.statics), dict(args.param or []), progress)
     for name, value in zip(model.coordinates, q):
         print(f"{name:>10s} = {value: .9f}")
     for name, (x, y, z) in zip(model.points, model.point_positions(q)):
         print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
-    if isinstance(source, int):
-        print(f"r_Ea = {model.params['r_Ea']:.9f} m, y_c = {model.params['y_c']:.9f} m")
+    if case.constants(model):
+        print(case.constants(model))
     return 0
 
 
@@ -302,6 +221,8 @@ def cmd_plot(args) -> int:
 
 def cmd_demo(args) -> int:
     """The paper's study: rigid and flexible arms, 10 s, figures."""
+    from .analysis.reference_case import ReferenceCase
+
     outs = {nrfe: Path(args.results) / f"run_nrfe{nrfe}.npz" for nrfe in (1, 5)}
     for out in outs.values():
         _check_results_path(out)
@@ -314,7 +235,7 @@ def cmd_demo(args) -> int:
                  "would take hours in Python)")
     results = []
     for nrfe, out in outs.items():
-        res = run_study(nrfe, "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
+        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
         results.append(res)
     from .analysis import plots
 
@@ -325,16 +246,16 @@ def cmd_demo(args) -> int:
 
 def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
-    from .analysis import modes, modes_output, study
+    from .analysis import modes, modes_output, reference_case
 
     out = Path(args.out)
     _writable_folder(out)
-    model = _load(args.nrfe, "numpy", dict(args.param or []))
+    model = reference_case.ReferenceCase(args.nrfe).load("numpy", dict(args.param or []), progress)
     if args.lock == "joints":
-        q_eq, result = modes.locked_modes(model, study.joint_start(model))
+        q_eq, result = modes.locked_modes(model, reference_case.joint_start(model))
         where = "joints locked at the paper's start"
     else:
-        model, q_eq = study.initial_state(model, "constrained", dict(args.param or []))
+        model, q_eq = reference_case.initial_state(model, "constrained", dict(args.param or []))
         result = modes.constrained_modes(model, q_eq)
         where = "programmed constraints holding (constrained equilibrium, column rotation held)"
     print(f"n_rfe = {args.nrfe}, {where}:")

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import beam, convergence, modes, study
+from gpmegen.analysis import beam, convergence, modes, reference_case
 from gpmegen.runtime import statics
 
 NRFE = (5, 10, 20)
@@ -88,7 +88,7 @@ def test_manipulator_arm_tip_deflection(manipulators):
     for n, model in manipulators.items():
         for scale in (1e-3, 1.0):
             m = model.with_params(g=scale * 9.81)
-            q0 = study.joint_start(m)
+            q0 = reference_case.joint_start(m)
             q = statics.locked(m, q0)
             normal = np.array([-math.sin(INCLINATION), math.cos(INCLINATION), 0.0])  # up, ⟂ arm
             deflection = -float((arm_tip(m, q) - arm_tip(m, q0)) @ normal)

@@ -358,11 +358,11 @@ def test_cache_directory_default_and_override(monkeypatch, tmp_path):
 
 def test_rk4_work_integrals_match_the_numpy_integrator(pairs):
     """The C loop integrates the work of drive and constraints like integrate.rk4 does."""
-    from gpmegen.analysis import study
+    from gpmegen.analysis import reference_case
     from gpmegen.runtime import integrate
 
     c, n = pairs("nrfe1")
-    model_n, q0 = study.initial_state(n)
+    model_n, q0 = reference_case.initial_state(n)
     model_c = c.with_params(r_Ea=model_n.params["r_Ea"], y_c=model_n.params["y_c"], tdr0=50.0)
     model_n = model_n.with_params(tdr0=50.0)
     t, q, qd, w, status = model_c.rk4(q0, np.zeros(3), 4.3, 1e-3, save_every=100, t0=4.0)

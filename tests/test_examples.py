@@ -5,7 +5,6 @@ names the dependent coordinates it chose, and ``--repartition`` runs."""
 
 from __future__ import annotations
 
-import ast
 import tomllib
 from pathlib import Path
 
@@ -80,7 +79,7 @@ def _run(argv, capsys):
 
 
 def _settings(res) -> dict:
-    return ast.literal_eval(str(res["settings"]))
+    return results_io.metadata(res)["settings"]
 
 
 def _check_run(res, model_file):

@@ -4,15 +4,15 @@ Baumgarte rows, power balance, integrator agreement, results files and bad input
 import numpy as np
 import pytest
 
+from gpmegen.analysis import reference_case, study
 from gpmegen.analysis import results as results_io
-from gpmegen.analysis import study
 from gpmegen.cli import main
 from gpmegen.errors import SimulationError, StaticsError
 from gpmegen.runtime import integrate, statics
 
 
 def _random_state(model, rng):
-    q = study.joint_start(model) + rng.uniform(-0.2, 0.2, model.n_dof) * 0.5
+    q = reference_case.joint_start(model) + rng.uniform(-0.2, 0.2, model.n_dof) * 0.5
     return q, rng.uniform(-1, 1, model.n_dof)
 
 
@@ -50,7 +50,7 @@ def test_gpme_rows_hold(which, request, rng):
 
 
 def test_locked_statics_is_an_equilibrium_of_the_flexible_coordinates(flexible):
-    q = statics.locked(flexible, study.joint_start(flexible))
+    q = statics.locked(flexible, reference_case.joint_start(flexible))
     free = statics.spring_coordinates(flexible, q)
     assert len(free) == flexible.n_dof - 3
     assert np.abs(flexible.static_residual(q)[free]).max() < 1e-8
@@ -63,13 +63,13 @@ def test_locked_statics_is_an_equilibrium_of_the_flexible_coordinates(flexible):
 def test_statics_error_names_the_step(flexible):
     soft = flexible.with_params(E2=1e5)  # large rotations: one Newton step per load step is not enough
     with pytest.raises(StaticsError) as exc:
-        statics.locked(soft, study.joint_start(soft), max_iter=1)
+        statics.locked(soft, reference_case.joint_start(soft), max_iter=1)
     assert "gravity 0.0 m/s²" not in str(exc.value)
     assert "at gravity" in str(exc.value) and "residual" in str(exc.value)
 
 
 def test_constrained_statics_is_an_equilibrium_on_the_constraints(flexible):
-    model, q = study.initial_state(flexible, "constrained")
+    model, q = reference_case.initial_state(flexible, "constrained")
     phi, _, D, _ = model.constraint_terms(0.0, q, 0 * q)
     assert np.abs(phi).max() < 1e-10
     B = __import__("gpmegen.runtime.gpme", fromlist=["x"]).tangent_basis(D, model.dependent, model.independent)
@@ -86,13 +86,13 @@ def _still(model):
 
 
 def test_locked_start_is_not_an_equilibrium_once_freed(flexible):
-    model, q = study.initial_state(flexible, "locked")
+    model, q = reference_case.initial_state(flexible, "locked")
     assert np.abs(_still(model).accelerations(0.0, q, 0 * q)).max() > 1.0
 
 
 @pytest.mark.parametrize("which", ["rigid", "flexible"])
 def test_short_study_holds_constraints_and_balances_power(which, request):
-    model, q0 = study.initial_state(request.getfixturevalue(which))
+    model, q0 = reference_case.initial_state(request.getfixturevalue(which))
     # the flexible arm's stiff modes need a smaller RK4 step for the balance to close to 1e-6
     dt = 1e-4 if which == "flexible" else 1e-3
     res = study.simulate(model, q0, 0.3, dt=dt, save_every=10)
@@ -110,7 +110,7 @@ def test_short_study_holds_constraints_and_balances_power(which, request):
 
 
 def test_rk4_agrees_with_adaptive(rigid):
-    model, q0 = study.initial_state(rigid)
+    model, q0 = reference_case.initial_state(rigid)
     qd0 = np.zeros(3)
     t, y, status = integrate.rk4(model, q0, qd0, 1.0, 1e-3)
     ta, ya, status_a = integrate.adaptive(model, q0, qd0, 1.0, rtol=1e-11, atol=1e-12)
@@ -119,7 +119,7 @@ def test_rk4_agrees_with_adaptive(rigid):
 
 
 def test_divergence_keeps_results(rigid):
-    model, q0 = study.initial_state(rigid)
+    model, q0 = reference_case.initial_state(rigid)
     # gains of 2790 /s put the Baumgarte poles at -2790 /s, just beyond RK4's stability at dt = 1e-3 s
     # (-2785 /s), so Φ grows slowly enough to pass 1e-3 before the state overflows
     res = study.simulate(model.with_params(alpha_height=2.79e3, beta_height=2.79e3), q0, 0.5, dt=1e-3,
@@ -130,11 +130,11 @@ def test_divergence_keeps_results(rigid):
 
 def test_constraints_beyond_reach_are_refused(rigid):
     with pytest.raises(SimulationError, match="cannot be met"):
-        study.initial_state(rigid, overrides={"r_Ea": 1e6})
+        reference_case.initial_state(rigid, overrides={"r_Ea": 1e6})
 
 
 def test_results_round_trip_and_foreign_files(rigid, tmp_path):
-    model, q0 = study.initial_state(rigid)
+    model, q0 = reference_case.initial_state(rigid)
     res = study.simulate(model, q0, 0.05, dt=1e-3, save_every=5)
     paths = results_io.save(res, tmp_path / "run.npz")
     back = results_io.load(paths[0])
@@ -202,7 +202,7 @@ def test_partition_watch_warns_and_repartitions(rigid):
     it dependent has a singular D_dc: the watch says so, or picks a regular partition."""
     from gpmegen.runtime import partition
 
-    model, q = study.initial_state(rigid)
+    model, q = reference_case.initial_state(rigid)
     model = model.with_partition([model.index("theta1"), model.index("x3")])
     messages = []
     partition.Watch(model, repartition=False, notify=messages.append).check(0.0, q)

@@ -2,12 +2,12 @@
 
 import numpy as np
 
-from gpmegen.analysis import modes, study
+from gpmegen.analysis import modes, reference_case
 from gpmegen.cli import main
 
 
 def test_constrained_modes_move_along_the_constraints(flexible):
-    model, q = study.initial_state(flexible, "constrained")
+    model, q = reference_case.initial_state(flexible, "constrained")
     result = modes.constrained_modes(model, q)
     _, _, D, _ = model.constraint_terms(0.0, q, np.zeros(model.n_dof))
     assert np.all(result.frequencies > 0)  # a stable equilibrium
@@ -15,7 +15,7 @@ def test_constrained_modes_move_along_the_constraints(flexible):
     M = model.mass_matrix(q)
     np.testing.assert_allclose(result.shapes.T @ M @ result.shapes, np.eye(len(result.frequencies)), atol=1e-8)
     # holding E raises the first vertical bending frequency above the locked-joint one
-    _, locked = modes.locked_modes(flexible, study.joint_start(flexible))
+    _, locked = modes.locked_modes(flexible, reference_case.joint_start(flexible))
     assert result.first("vertical") > locked.first("vertical")
 
 

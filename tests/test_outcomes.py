@@ -8,18 +8,17 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import study
+from gpmegen.analysis import reference_case
 from gpmegen.runtime import integrate, partition
-from gpmegen.runtime.ccompile import find_compiler
 from gpmegen.status import MESSAGES, Ending, Outcome, SolveStatus
 
-pytestmark = pytest.mark.skipif(not find_compiler(), reason="no C compiler")
+pytestmark = pytest.mark.requires_cc
 
 
 @pytest.fixture(scope="module")
 def both(generated_elsewhere):
     """The rigid arm on its constraints, ``(C model, NumPy model, q0)``."""
-    numpy_model, q0 = study.initial_state(gpmegen.load(nrfe=1, backend="numpy"))
+    numpy_model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"))
     c_model = gpmegen.load(nrfe=1, backend="c").with_params(**numpy_model.params)
     return c_model, numpy_model, q0
 

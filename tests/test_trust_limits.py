@@ -15,7 +15,7 @@ import pytest
 
 import gpmegen
 from gpmegen import limits
-from gpmegen.analysis import study
+from gpmegen.analysis import reference_case, study
 from gpmegen.cli import main
 from gpmegen.errors import BuildError, EvaluationError, ModelError
 from gpmegen.limits import LimitError
@@ -142,7 +142,7 @@ def test_simulation_at_a_step_of_1e_300_ran_forever_even_without_limits(tmp_path
 
 
 def test_simulation_from_python_is_refused_too(rigid):
-    model, q0 = study.initial_state(rigid)
+    model, q0 = reference_case.initial_state(rigid)
     with pytest.raises(LimitError, match="saving 1e\\+14 samples"):
         study.simulate(model, q0, 1e9, dt=1e-5, save_every=1)
 

@@ -3,12 +3,12 @@ and energy balance, for one or more results files drawn together."""
 
 from __future__ import annotations
 
-import ast
 from pathlib import Path
 
 import numpy as np
 
 from ..fileio import atomic_write
+from .results import metadata
 
 
 def _pyplot():
@@ -21,28 +21,23 @@ def _pyplot():
 
 
 def label(results) -> str:
-    """A legend label: the model and, for the reference case, rigid or flexible."""
-    name = str(results["model"])
-    settings = ast.literal_eval(str(results["settings"])) if "settings" in results else {}
-    start = settings.get("start")
-    if name.startswith("manipulator_nrfe"):
-        n = int(name.rsplit("nrfe", 1)[1])
-        text = "rigid arm" if n == 1 else f"flexible arm, n_rfe = {n}"
-    else:
-        text = name
-    return f"{text} ({start} start)" if start and start != "locked" else text
+    """A legend label: the run's case's label (the model's name by default) and its start
+    unless it is the locked statics."""
+    meta = metadata(results)
+    text, start = meta.get("label", meta["model"]), meta["start"]
+    return f"{text} ({start} start)" if start != "locked" else text
 
 
 def joint_names(results) -> list:
-    """The coordinates to draw as joints: the paper's three for the reference case, else those
-    that are not sde rotations of a flexible link (at most four)."""
-    import re
+    """The coordinates to draw as joints: those the run's case names, else the first three."""
+    return metadata(results).get("joints") or [str(c) for c in results["coordinates"]][:3]
 
-    names = [str(c) for c in results["coordinates"]]
-    if {"theta1", "psi2", "x3"} <= set(names):
-        return ["theta1", "psi2", "x3"]
-    sde = re.compile(r"^(psi|theta|phi).+_\d+$")
-    return [c for c in names if not sde.match(c)][:4] or names[:3]
+
+def _title(runs, title, figure) -> str:
+    """``title``, with the figure of the source (e.g. "paper Fig. 2") that every run names."""
+    sources = {metadata(r).get("figures", {}).get(figure) for r in runs}
+    source = sources.pop() if len(sources) == 1 else None
+    return f"{title} ({source})" if source else title
 
 
 def _coordinate(results, name):
@@ -66,7 +61,7 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
     joints = joint_names(runs[0])
     fig, axes = plt.subplots(len(joints), 1, figsize=(8, 2.6 * len(joints) + 0.5), sharex=True, squeeze=False)
     axes = axes[:, 0]
-    pretty = {"theta1": "θ1 [rad]", "psi2": "ψ2 [rad]", "x3": "x3 [m]"}
+    pretty = metadata(runs[0]).get("joint_labels", {})
     for k, r in enumerate(runs):
         for ax, name in zip(axes, joints):
             v = _coordinate(r, name)
@@ -76,7 +71,7 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
             ax.grid(True, alpha=0.3)
     axes[0].legend()
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle("Joint coordinates (paper Fig. 2)" if joints == ["theta1", "psi2", "x3"] else "Joint coordinates")
+    fig.suptitle(_title(runs, "Joint coordinates", "joint_coordinates"))
     written.append(_save(fig, out, "joint_coordinates", fmt))
     plt.close(fig)
 
@@ -87,33 +82,29 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
             ax.plot(r["t"], r["end_effector"][:, i], styles[k % 4], label=label(r))
             ax.set_ylabel(name)
             ax.grid(True, alpha=0.3)
-        params = ast.literal_eval(str(r["params"])) if "params" in r else {}
-        if {"y_c", "A", "T"} <= params.keys():
-            t = r["t"]
-            axes[1].plot(t, params["y_c"] + params["A"] * np.cos(2 * np.pi * t / params["T"]), ":", color="k",
-                         lw=1, label=f"prescribed y_E,a ({label(r)})" if len(runs) > 1 else "prescribed y_E,a")
+        prescribed = metadata(r).get("prescribed")
+        if prescribed and "prescribed" in r:
+            name = prescribed["label"]
+            axes[prescribed["axis"]].plot(r["t"], r["prescribed"], ":", color="k", lw=1,
+                                          label=f"{name} ({label(r)})" if len(runs) > 1 else name)
     axes[1].legend(fontsize=8)
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle("Coordinates of the end-effector E (paper Fig. 3)")
+    fig.suptitle(_title(runs, "Coordinates of the end-effector E", "end_effector"))
     written.append(_save(fig, out, "end_effector", fmt))
     plt.close(fig)
 
     # Fig. 4: path of E in the x0z0 and x0y0 planes, starting points marked
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5))
     for k, r in enumerate(runs):
-        E = r["end_effector"]
-        colour = "C0" if "rigid" in label(r) else "C2"
+        E, meta = r["end_effector"], metadata(r)
+        colour, tag = meta.get("colour", "C2"), meta.get("start_tag", "start")
         a1.plot(E[:, 0], E[:, 2], styles[k % 4], lw=1, color=colour, label=label(r))
         a2.plot(E[:, 0], E[:, 1], styles[k % 4], lw=1, color=colour, label=label(r))
-        rigid = "rigid" in label(r)
-        reference = str(r["model"]).startswith("manipulator_nrfe")
-        tag = (r"$E'_r$" if rigid else r"$E'_f$") if reference else "start"
         for ax, (i, j) in ((a1, (0, 2)), (a2, (0, 1))):
-            ax.plot(E[0, i], E[0, j], "o", ms=7, color="C0" if rigid else "C2")
-            # the two starting points lie close together: put the tags on opposite sides
+            ax.plot(E[0, i], E[0, j], "o", ms=7, color=colour)
             ax.annotate(tag, (E[0, i], E[0, j]), textcoords="offset points",
-                        xytext=(-22, 8) if rigid else (8, -14), fontsize=12)
+                        xytext=meta.get("tag_offset", (8, -14)), fontsize=12)
     a1.set_xlabel("x0 [m]"), a1.set_ylabel("z0 [m]"), a1.set_aspect("equal", "datalim")
     a2.set_xlabel("x0 [m]"), a2.set_ylabel("y0 [m]")
     for ax in (a1, a2):
@@ -121,7 +112,7 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
         ax.legend(fontsize=8)
     a1.set_title("path of E in the x0z0 plane")
     a2.set_title("path of E in the x0y0 plane")
-    fig.suptitle("Path of the end-effector (paper Fig. 4)")
+    fig.suptitle(_title(runs, "Path of the end-effector", "path"))
     written.append(_save(fig, out, "path", fmt))
     plt.close(fig)
 
@@ -134,7 +125,8 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
             axes[i, 0].grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     axes[-1, 0].set_xlabel("t [s]")
-    fig.suptitle("Constraint violation (circle: m², height: m)")
+    units = metadata(runs[0]).get("constraint_units")
+    fig.suptitle("Constraint violation" + (f" ({', '.join(f'{c}: {u}' for c, u in units.items())})" if units else ""))
     written.append(_save(fig, out, "constraint_violation", fmt))
     plt.close(fig)
 

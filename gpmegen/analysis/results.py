@@ -1,13 +1,17 @@
 """Results files: NPZ (all arrays) and a CSV beside it, written as a pair.
 
-An NPZ written here holds ``format = "gpmegen-results-1"`` so that foreign files are refused
+An NPZ written here holds ``format = "gpmegen-results-2"`` so that foreign files are refused
 with a clear message instead of a KeyError deep inside plotting, and a ``run_id`` that the
-first line of its CSV repeats (``# gpmegen-results-1 run <id>: complete``, or ``partial (why)``),
-so that a reader can tell the two files of one run from a mismatched pair.
+first line of its CSV repeats (``# gpmegen-results-2 run <id>: complete``, or ``partial (why)``),
+so that a reader can tell the two files of one run from a mismatched pair. Its ``meta`` is a
+JSON object: ``model``, ``coordinates``, ``constraint_names``, ``backend``, ``start``,
+``settings``, ``params`` and what the run's case adds for plots (see :func:`metadata`). Files of
+format 1 (settings as Python text) are refused with the command that makes them again.
 """
 
 from __future__ import annotations
 
+import json
 import uuid
 import zipfile
 import zlib
@@ -18,8 +22,10 @@ import numpy as np
 from ..errors import GpmegenError
 from ..fileio import atomic_write_all
 
-FORMAT = "gpmegen-results-1"
-REQUIRED = ("t", "q", "qd", "coordinates", "end_effector", "phi", "tau_drive")
+FORMAT = "gpmegen-results-2"
+OLD_FORMATS = ("gpmegen-results-1",)
+REQUIRED = ("t", "q", "qd", "coordinates", "end_effector", "phi", "tau_drive", "meta")
+PER_SAMPLE = ("t", "q", "qd", "end_effector", "phi", "tau_drive")
 
 
 class ResultsError(GpmegenError):
@@ -33,6 +39,25 @@ def targets(path, complete: bool = True) -> tuple[Path, Path]:
     if not complete:
         path = path.with_name(f"{path.stem}.partial{path.suffix}")
     return path, path.with_suffix(".csv")
+
+
+def encode(meta: dict) -> np.ndarray:
+    """``meta`` as the JSON text a results file holds."""
+    return np.array(json.dumps(meta, ensure_ascii=False))
+
+
+def metadata(results) -> dict:
+    """The metadata of ``results``: ``model``, ``coordinates``, ``constraint_names``,
+    ``backend``, ``start``, ``settings`` (method, dt, save_every, t_end, dependent,
+    repartitions), ``params`` and, from the run's case (:mod:`gpmegen.analysis.cases`), what
+    plots use: ``label``, ``joints``, ``joint_labels``, ``constraint_units``, ``figures``,
+    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``."""
+    return json.loads(str(results["meta"]))
+
+
+def annotate(results: dict, meta: dict, arrays: dict) -> dict:
+    """``results`` with ``meta`` added to its metadata and ``arrays`` to its arrays."""
+    return dict(results, **arrays, meta=encode({**metadata(results), **meta}))
 
 
 def save(results: dict, path, csv: bool = True) -> list[Path]:
@@ -70,13 +95,22 @@ def load(path) -> dict:
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:  # empty, truncated, foreign
         raise ResultsError(f"{path}: not a gpmegen results file, or an incomplete one (cannot read it as NPZ: "
                            f"{exc or type(exc).__name__}); make it again with 'gpmegen simulate'") from None
-    if str(data.get("format", "")) != FORMAT:
+    found = str(data.get("format", ""))
+    if found in OLD_FORMATS:
+        raise ResultsError(f"{path}: written by an older gpmegen (format '{found}', this one reads '{FORMAT}'); "
+                           f"make it again with 'gpmegen simulate'")
+    if found != FORMAT:
         raise ResultsError(f"{path}: not a gpmegen results file (no '{FORMAT}' marker); make it with "
                            f"'gpmegen simulate'")
     missing = [k for k in REQUIRED if k not in data]
     if missing:
         raise ResultsError(f"{path}: results file lacks {', '.join(missing)}; make it again with 'gpmegen simulate'")
-    samples = {k: data[k].shape[0] if data[k].ndim else None for k in REQUIRED if k != "coordinates"}
+    try:
+        metadata(data)
+    except ValueError:
+        raise ResultsError(f"{path}: the results' metadata is not JSON; make them again with 'gpmegen simulate'") \
+            from None
+    samples = {k: data[k].shape[0] if data[k].ndim else None for k in PER_SAMPLE}
     if not samples["t"] or len(set(samples.values())) != 1:
         counts = ", ".join(f"{k} {v}" for k, v in samples.items())
         raise ResultsError(f"{path}: the results hold no samples or disagree on their number ({counts}); make "

@@ -1,10 +1,6 @@
-"""The paper's study on the reference manipulator: the static start, the programmed
-constraints' constants taken from it, and the constrained motion.
-
-Start (reference-model.md, "Initial state"): joints at ``θ1 = 0, ψ2 = 45°, x3 = 0``, flexible
-coordinates from the locked statics; ``r_E,a = sqrt(x_E² + z_E²)`` and ``y_c = y_E(0) - A``, so
-the motion starts on the constraints and at rest. ``statics="constrained"`` then moves to the
-equilibrium of the constrained system itself (no jolt when the joints are freed).
+"""A model's start (a model file's ``[initial]`` configuration moved onto the programmed
+constraints) and its constrained motion, with the derived quantities of the results. The paper's
+scenario is in :mod:`gpmegen.analysis.reference_case`.
 """
 
 from __future__ import annotations
@@ -14,25 +10,7 @@ import numpy as np
 from .. import limits
 from ..errors import SimulationError
 from ..runtime import integrate, partition, statics
-
-START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
-
-
-def joint_start(model) -> np.ndarray:
-    """q with the joints at the paper's start and the flexible coordinates zero."""
-    q = np.zeros(model.n_dof)
-    for name, value in START_JOINTS.items():
-        q[model.index(name)] = value
-    return q
-
-
-def constraint_constants(model, q) -> dict:
-    """``r_Ea`` and ``y_c`` that put E of configuration ``q`` on the programmed constraints."""
-    x, y, z = model.end_effector(q)
-    return {"r_Ea": float(np.hypot(x, z)), "y_c": float(y - model.params["A"])}
-
-
-REACH_HINT = "is the circle radius r_Ea or the height y_c beyond the arm's reach?"
+from . import results as results_io
 
 
 def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None):
@@ -64,25 +42,6 @@ def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None)
         f"moving {moved}: at best {violated}; "
         + (hint or "is the prescribed position within the chain's reach with these parameter values and this "
                    "start ([initial] q)?"))
-
-
-def initial_state(model, start="locked", overrides=None):
-    """The model with its constraint constants set, and the start configuration q0 (n,).
-
-    ``overrides``: parameter values given by the user; an explicit ``r_Ea`` or ``y_c`` is kept
-    and the start is moved onto the constraints it defines."""
-    overrides = dict(overrides or {})
-    q = statics.locked(model, joint_start(model))
-    constants = constraint_constants(model, q)
-    constants.update({k: v for k, v in overrides.items() if k in constants})
-    model = model.with_params(**constants)
-    if {"r_Ea", "y_c"} & overrides.keys():
-        q = project_onto_constraints(model, q, hint=REACH_HINT)
-    if start == "constrained":
-        q = statics.constrained(model, q)
-    elif start != "locked":
-        raise ValueError(f"unknown start {start!r}: use 'locked' or 'constrained'")
-    return model, q
 
 
 def file_start(model, initial: dict, start="initial"):
@@ -147,10 +106,16 @@ def collect(model, t, y, status, settings) -> dict:
     return {
         "t": t, "q": q, "qd": qd, "coordinates": np.array(model.coordinates),
         "end_effector": E, "phi": phi, "constraint_names": np.array(model.constraint_names),
-        "tau_drive": drive[:, model.index("theta1")] if "theta1" in model.coordinates else drive.sum(axis=1),
+        # the drives' generalized forces summed: the one drive torque of a single-drive model
+        "tau_drive": drive.sum(axis=1),
         "drive_forces": drive, "constraint_forces": reaction,
         "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
         "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1],
-        "status": np.array(status), "settings": np.array(repr(settings)),
-        "params": np.array(repr(model.params)), "model": np.array(model.module.MODEL),
+        "status": np.array(status),
+        "meta": results_io.encode({
+            "model": model.module.MODEL, "coordinates": list(model.coordinates),
+            "constraint_names": list(model.constraint_names), "backend": model.backend,
+            "start": settings["start"], "settings": settings,
+            "params": {name: float(value) for name, value in model.params.items()},
+        }),
     }
