@@ -96,13 +96,12 @@ class FileCase(Case):
     results_stem = label
 
     def located(self, action):
-        """Run ``action()``; a derivation error gets the file and line it comes from."""
+        """Run ``action()``; a derivation error gets the file and line it comes from (from the
+        text read once, never a second read of the file)."""
         try:
             return action()
         except DerivationError as exc:
-            from ..model.toml_file import locate
-
-            raise locate(self.path, exc, None) from None
+            raise self.file.locate(exc) from None
 
     def start(self, backend, start, overrides, progress):
         """The loaded model and q0: the file's ``[initial]`` configuration (see
