@@ -49,30 +49,13 @@ def prototypes(cdef: str) -> list[tuple[str, list[tuple[str, bool, str]]]]:
     return functions
 
 
-def _greedy_partition(D: np.ndarray) -> list[int]:
-    """Dependent columns of D (m, n) by Gaussian elimination with complete pivoting: regular
-    whenever D has full row rank."""
-    D = np.array(D, dtype=float)
-    rows, columns = list(range(D.shape[0])), list(range(D.shape[1]))
-    dependent = []
-    while rows:
-        block = np.abs(D[np.ix_(rows, columns)])
-        i, j = np.unravel_index(np.argmax(block), block.shape)
-        r, c = rows[i], columns[j]
-        if D[r, c] != 0.0:
-            D -= np.outer(D[:, c] / D[r, c], D[r]) * (np.arange(D.shape[0]) != r)[:, None]
-        dependent.append(c)
-        rows.remove(r)
-        columns.remove(c)
-    return sorted(dependent)
-
-
 def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
     """Call every function of ``library`` (compiled from ``source``) at two states, with
     buffers sized from the outputs of the NumPy module at ``module_path``. ``say`` is told the
     name of each function before it is called."""
     from .ccompile import HEADER, declarations, open_library, short_names
     from .loader import import_numpy_module
+    from .partition import choose_dependent
 
     module = import_numpy_module(Path(module_path).parent)
     header = Path(source).with_name(HEADER).read_text(encoding="utf-8")
@@ -112,8 +95,8 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
                 else:
                     call.append(doubles(values[a]))
             getattr(lib, name)(*call)
-        phi, _, D, _ = module.constraint_terms(t, q, qd, p)
-        dependent = _greedy_partition(np.reshape(D, (n_constraints, n))) if n_constraints else []
+        D = np.reshape(module.constraint_terms(t, q, qd, p)[2], (n_constraints, n))
+        dependent = choose_dependent(D).tolist()  # the project's choice (the C solve makes its own)
         independent = [k for k in range(n) if k not in dependent]
         dep = ffi.new("int[]", dependent or [0])
         ind = ffi.new("int[]", independent or [0])
