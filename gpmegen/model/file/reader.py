@@ -20,18 +20,22 @@ from .. import shapes
 from ..chain import (
     AXES,
     JOINT_KINDS,
+    SDE_FREEDOMS,
     TIME,
     Body,
     CircularSection,
     Constraint,
     Drive,
     FlexibleLink,
+    ISection,
     Joint,
     Model,
     Offset,
     Parameter,
     Point,
     RectangularSection,
+    StiffnessSection,
+    TubeSection,
     check_name,
     point_symbols,
     point_velocity_symbols,
@@ -40,7 +44,7 @@ from ..chain import (
 )
 from ..expand import expand
 from ..requirements import evaluate, requirements, violation
-from ..rfem import check_nrfe, discretize, link_coordinates
+from ..rfem import check_freedoms, check_link, check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
 from .locator import Locator, field_text, located
 from .model_file import ModelFile
@@ -61,7 +65,16 @@ SHAPE_KEYS = {
     "point_mass": ("type", "mass", "position"),
 }
 SHAPE_OPTIONAL = {"point_mass": ("position",)}
-SECTION_KEYS = {"rectangular": ("type", "width", "thickness"), "circular": ("type", "radius")}
+SECTION_KEYS = {
+    "rectangular": ("type", "width", "thickness"),
+    "circular": ("type", "radius"),
+    "tube": ("type", "outer_diameter", "inner_diameter"),
+    "I": ("type", "height", "width", "flange_thickness", "web_thickness"),
+    "stiffness": ("type", "EIz", "EIy", "GJ", "rhoA", "rhoIz", "rhoIy"),
+}
+SECTION_OPTIONAL = {"stiffness": ("rhoIz", "rhoIy")}
+SECTION_TYPES = {"rectangular": RectangularSection, "circular": CircularSection, "tube": TubeSection,
+                 "I": ISection, "stiffness": StiffnessSection}
 
 
 def _kind_of(value) -> str:
@@ -305,8 +318,10 @@ class Reader:
                 n_dof += 1
             elif isinstance(item, dict) and "flexible" in item:
                 n_rfe = item.get("nrfe", self.default_nrfe)
+                freedoms = item.get("freedoms", SDE_FREEDOMS)
+                freedoms = set(freedoms) & set(SDE_FREEDOMS) if isinstance(freedoms, list) else SDE_FREEDOMS
                 if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
-                    n_dof += link_coordinates(n_rfe)
+                    n_dof += link_coordinates(n_rfe, freedoms)
         limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
 
     def read_parameters(self, table):
@@ -359,7 +374,7 @@ class Reader:
             else:
                 element = getattr(self, f"read_{kinds[0]}")(item, path)
             if isinstance(element, FlexibleLink):
-                for part in self.expand_link(element):
+                for part in self.expand_link(element, path):
                     if isinstance(part, Joint):
                         moving = True
             elif isinstance(element, Joint):
@@ -466,8 +481,8 @@ class Reader:
 
     def read_flexible(self, item, path):
         keys = ("flexible", "length", "section", "density", "young_modulus", "shear_modulus",
-                "torsion_constant", "nrfe", "damping")
-        self.table(item, path, keys, keys[:6], "flexible link")
+                "torsion_constant", "nrfe", "damping", "freedoms")
+        self.table(item, path, keys, keys[:3], "flexible link")
         label = self.string(item["flexible"], path + ("flexible",), "a label in quotes")
         if not _LABEL.match(label):
             self.fail(path + ("flexible",), f"label {label!r} is not valid: use letters, digits and underscores "
@@ -478,42 +493,42 @@ class Reader:
                                             f"{first}; give each flexible link its own label")
         self.labels[label] = path + ("flexible",)
         P = self.params
-        length = self.quantity(item["length"], path + ("length",), P)
-        here = path + ("section",)
-        section = self.table(item["section"], here, ("type", "width", "thickness", "radius"), ("type",), "section")
-        kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
-        self.table(section, here, SECTION_KEYS[kind], SECTION_KEYS[kind], f"{kind} section")
-        if kind == "rectangular":
-            section = RectangularSection(
-                self.quantity(section["width"], here + ("width",), P),
-                self.quantity(section["thickness"], here + ("thickness",), P),
-            )
-        else:
-            section = CircularSection(self.quantity(section["radius"], here + ("radius",), P))
-        extra = {}
-        if "torsion_constant" in item:
-            extra["torsion_constant"] = self.quantity(item["torsion_constant"], path + ("torsion_constant",), P)
+        extra = {key: self.quantity(item[key], path + (key,), P)
+                 for key in ("density", "young_modulus", "shear_modulus", "torsion_constant") if key in item}
         if "damping" in item:
             extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3)
+        if "freedoms" in item:
+            freedoms = self.array(item["freedoms"], path + ("freedoms",), what="list of sde rotations")
+            try:
+                extra["freedoms"] = check_freedoms(freedoms, f"flexible link {label!r}", path + ("freedoms",))
+            except ModelError as exc:
+                raise located(exc, self.file, self.locator) from None
         if "nrfe" in item:
             n_rfe = self.nrfe(item["nrfe"], path + ("nrfe",))
         elif self.default_nrfe is not None:
             n_rfe = self.default_nrfe
         else:
             self.fail(path, "no n_rfe for this flexible link; add nrfe = 3 here or at the top of the file")
-        return FlexibleLink(
-            label=label,
-            length=length,
-            section=section,
-            density=self.quantity(item["density"], path + ("density",), P),
-            young_modulus=self.quantity(item["young_modulus"], path + ("young_modulus",), P),
-            shear_modulus=self.quantity(item["shear_modulus"], path + ("shear_modulus",), P),
-            n_rfe=n_rfe,
-            **extra,
-        )
+        return FlexibleLink(label=label, length=self.quantity(item["length"], path + ("length",), P),
+                            section=self.read_section(item["section"], path + ("section",)), n_rfe=n_rfe, **extra)
 
-    def expand_link(self, link):
-        """The rfem elements of ``link``, their coordinates recorded."""
+    def read_section(self, section, here):
+        """A flexible link's ``section`` table as a section of :mod:`gpmegen.model.chain`."""
+        self.table(section, here, tuple(dict.fromkeys(k for keys in SECTION_KEYS.values() for k in keys)), ("type",),
+                   "section")
+        kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
+        optional = SECTION_OPTIONAL.get(kind, ())
+        self.table(section, here, SECTION_KEYS[kind], tuple(k for k in SECTION_KEYS[kind] if k not in optional),
+                   f"{kind} section")
+        return SECTION_TYPES[kind](**{key: self.quantity(section[key], here + (key,), self.params)
+                                      for key in SECTION_KEYS[kind][1:] if key in section})
+
+    def expand_link(self, link, path):
+        """The rfem elements of ``link`` (the flexible link at ``path``), their coordinates recorded."""
+        try:
+            check_link(link, path)
+        except ModelError as exc:
+            raise located(exc, self.file, self.locator) from None
         parts = discretize(link)
         self.coordinates += [part.name for part in parts if isinstance(part, Joint)]
         return parts
