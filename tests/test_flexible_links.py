@@ -1,5 +1,5 @@
-"""Flexible links as users specify them: the sde rotations a link keeps (``freedoms``), and
-sections given by their stiffnesses or as tubes and I-sections.
+"""Flexible links as users specify them: the sde rotations a link keeps (``freedoms``), sections
+given by their stiffnesses or as tubes and I-sections, and joints moved by a prescribed law.
 
 A planar arm (a revolute joint about z, one flexible link bending in the x-y plane, gravity in
 that plane) keeps its out-of-plane sde rotations at zero by symmetry, so the link free in ``psi``
@@ -12,17 +12,20 @@ import math
 
 import numpy as np
 import pytest
+import sympy as sp
 
 import gpmegen
 from gpmegen.analysis import modes
 from gpmegen.errors import ModelError
 from gpmegen.model.chain import (
+    TIME,
     CircularSection,
     FlexibleLink,
     ISection,
     RectangularSection,
     StiffnessSection,
     TubeSection,
+    symbol,
 )
 from gpmegen.model.expand import expand
 from gpmegen.model.rfem import section_properties
@@ -262,3 +265,52 @@ def test_a_section_by_its_stiffnesses_needs_no_rotary_inertia_when_the_link_does
 ])
 def test_material_goes_with_sections_by_their_dimensions_only(tmp_path, link, words):
     assert words in read_error(tmp_path, planar_file("bad", link))
+
+
+# --- prescribed joints ---------------------------------------------------------------------------
+
+LAW = "W*t - sin(W*t)/2"
+
+
+def test_prescribed_is_the_hand_written_constraint_with_its_joint_dependent(tmp_path):
+    short = read_model_file(write(tmp_path, planar_file("arm", RECTANGLE, joint=f'prescribed = "{LAW}"'), "a.toml"))
+    long = read_model_file(write(tmp_path, planar_file(
+        "arm", RECTANGLE, top='dependent = ["theta1"]',
+        constraints=f'[[constraints]]\nname = "prescribed_theta1"\nexpression = "theta1 - ({LAW})"\n'), "b.toml"))
+    assert short.model == long.model
+    assert short.model.dependent == ("theta1",)
+    W = symbol("W")
+    assert short.prescribed == {"theta1": W * TIME - sp.sin(W * TIME) / 2}
+
+
+def test_prescribed_motion_gives_the_law_and_its_rate(tmp_path):
+    loaded = read_model_file(write(tmp_path, planar_file("arm", RECTANGLE, joint=f'prescribed = "{LAW}"')))
+    t, w, eps = 0.7, 4.0, 1e-6
+    law = lambda s: w * s - math.sin(w * s) / 2   # noqa: E731
+    q, qd = loaded.prescribed_motion(t, {"W": w})["theta1"]
+    assert q == law(t)
+    assert qd == pytest.approx((law(t + eps) - law(t - eps)) / (2 * eps), rel=1e-8)
+    assert loaded.prescribed_motion()["theta1"] == (0.0, 3.0 - 1.5)
+
+
+def test_a_prescribed_joint_follows_its_law(env, tmp_path):
+    arm = load(env, tmp_path, "prescribed_arm", RECTANGLE, joint=f'prescribed = "{LAW}"')
+    qd0 = np.zeros(arm.n_dof)
+    qd0[0] = 1.5   # the law's rate at t = 0
+    t, q, *_ = arm.rk4(np.zeros(arm.n_dof), qd0, 0.2, 1e-4)
+    assert np.abs(q[:, 0] - (3 * t - np.sin(3 * t) / 2)).max() < 1e-9
+    assert np.abs(q[:, 1:]).max() > 1e-6                # the link vibrates under the prescribed motion
+
+
+@pytest.mark.parametrize("joint, top, constraints, words", [
+    ('prescribed = "W*t + theta1"', "", "", "coordinate 'theta1' may appear only in constraints"),
+    ('prescribed = "W*t"', 'dependent = ["theta1"]', "", "dependent[0]: 'theta1' is prescribed"),
+    ('prescribed = "W*t"', "", '[[constraints]]\nname = "tip"\nexpression = "y_E - 0.1"\n',
+     "list the dependent coordinates of the [[constraints]]"),
+    ('prescribed = "W*t"', 'dependent = ["psi1_1"]',
+     '[[constraints]]\nname = "prescribed_theta1"\nexpression = "y_E - 0.1"\n',
+     "prescribed writes the constraint 'prescribed_theta1', and that name is already taken"),
+])
+def test_bad_prescribed_joints_are_one_located_line(tmp_path, joint, top, constraints, words):
+    message = read_error(tmp_path, planar_file("bad", RECTANGLE, joint=joint, top=top, constraints=constraints))
+    assert words in message

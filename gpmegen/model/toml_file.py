@@ -17,7 +17,8 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     L3 = 0.5                              # bare number: unit "" and doc ""
 
     [[chain]]                             # chain elements from the base outwards, one kind each:
-    joint = "theta1"                      #   joint: name, type, axis (+ stiffness, damping)
+    joint = "theta1"                      #   joint: name, type, axis (+ stiffness, damping,
+                                          #     prescribed = "law(t)": a constraint, joint dependent)
     type = "revolute"                     #     "revolute" (rad) | "prismatic" (m)
     axis = "y"                            #     "x" | "y" | "z" of the current frame
     [[chain]]

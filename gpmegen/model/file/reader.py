@@ -109,6 +109,7 @@ class Reader:
         self.points: list[str] = []
         self.moving_points: set[str] = set()
         self.labels: dict[str, tuple] = {}
+        self.prescribed: dict[str, tuple] = {}   # coordinate -> (law of t, path of its field)
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -295,6 +296,7 @@ class Reader:
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
         dependent = self.read_dependent(data.get("dependent", "auto"))
+        constraints, dependent = self.prescribe(constraints, dependent)
         initial = self.read_initial(data.get("initial", {}))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
@@ -305,7 +307,8 @@ class Reader:
             expand(model)
         except ModelError as exc:
             raise located(exc, self.file, self.locator) from None
-        return ModelFile(self.file, model, initial, self.source)
+        laws = {name: law for name, (law, _) in self.prescribed.items()}
+        return ModelFile(self.file, model, initial, self.source, prescribed=laws)
 
     def check_chain_size(self, items):
         """Refuse, before reading it element by element, a chain whose build cannot finish
@@ -385,7 +388,8 @@ class Reader:
         return tuple(elements)
 
     def read_joint(self, item, path):
-        self.table(item, path, ("joint", "type", "axis", "stiffness", "damping"), ("joint", "type", "axis"), "joint")
+        keys = ("joint", "type", "axis", "stiffness", "damping", "prescribed")
+        self.table(item, path, keys, keys[:3], "joint")
         name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
         kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
         axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
@@ -394,6 +398,9 @@ class Reader:
             if key in item:
                 extra[key] = self.quantity(item[key], path + (key,), self.params)
         self.coordinates.append(name)
+        if "prescribed" in item:
+            here = path + ("prescribed",)
+            self.prescribed[name] = (self.quantity(item["prescribed"], here, {**self.params, "t": TIME}), here)
         return Joint(name, kind, axis, **extra)
 
     def read_offset(self, item, path):
@@ -592,6 +599,34 @@ class Reader:
                     extra[key] = self.quantity(item[key], path + (key,), self.params)
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
+
+    def prescribe(self, constraints, dependent):
+        """``constraints`` and ``dependent`` with each prescribed joint's law written as the
+        position constraint ``prescribed_<q>: q - law(t) = 0``, after the file's own, and ``q``
+        dependent: the GPME prescribes a joint's motion by a programmed constraint with that
+        joint's coordinate dependent. The one place this is written."""
+        if not self.prescribed:
+            return constraints, dependent
+        taken = {c.name: ("constraints", k, "name") for k, c in enumerate(constraints)}
+        written = []
+        for name, (law, here) in self.prescribed.items():
+            cname = f"prescribed_{name}"
+            try:
+                check_name(cname, "the name of the constraint that prescribed writes")
+            except ModelError as exc:
+                raise self.error(here, f"{exc}: shorten the joint's name") from None
+            if cname in taken or cname in self.params or cname in self.coordinates or cname in self.points:
+                self.fail(here, f"prescribed writes the constraint {cname!r}, and that name is already taken in "
+                                f"the file; rename the other one")
+            if dependent is not None and name in dependent:
+                self.fail(("dependent", dependent.index(name)), f"{name!r} is prescribed, which makes it dependent "
+                                                                f"already; remove it from dependent")
+            written.append(Constraint(cname, symbol(name) - law))
+        if dependent is None and constraints:
+            self.fail(("dependent",), "with prescribed joints, list the dependent coordinates of the [[constraints]] "
+                                      "(one per constraint; the prescribed joints are added after them): write "
+                                      "dependent = [\"...\"]")
+        return constraints + tuple(written), tuple(dependent or ()) + tuple(self.prescribed)
 
     def read_dependent(self, value):
         """None for "auto", else the list as a tuple (its entries: expand())."""
