@@ -322,7 +322,7 @@ class Reader:
             elif isinstance(item, dict) and "flexible" in item:
                 n_rfe = item.get("nrfe", self.default_nrfe)
                 freedoms = item.get("freedoms", SDE_FREEDOMS)
-                freedoms = set(freedoms) & set(SDE_FREEDOMS) if isinstance(freedoms, list) else SDE_FREEDOMS
+                freedoms = [f for f in SDE_FREEDOMS if f in freedoms] if isinstance(freedoms, list) else SDE_FREEDOMS
                 if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
                     n_dof += link_coordinates(n_rfe, freedoms)
         limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
