@@ -29,7 +29,9 @@ from gpmegen.model.chain import (
 )
 from gpmegen.model.expand import expand
 from gpmegen.model.rfem import section_properties
+from gpmegen.model.shapes import point_mass
 from gpmegen.model.toml_file import read_model_file
+from gpmegen.runtime import statics
 from gpmegen.status import SolveStatus
 
 PARAMETERS = """\
@@ -147,10 +149,10 @@ def test_freedoms_choose_the_coordinates_in_the_sde_order(freedoms, coordinates)
 
 
 @pytest.mark.parametrize("freedoms, words", [
-    ('["psi", "tehta"]', "unknown sde rotation 'tehta' in freedoms; did you mean 'theta'?"),
-    ('["psi", "psi"]', "sde rotation 'psi' is listed twice"),
+    ('["psi", "tehta"]', "unknown sde freedom 'tehta' in freedoms; did you mean 'theta'?"),
+    ('["psi", "psi"]', "sde freedom 'psi' is listed twice"),
     ("[]", "freedoms must be a non-empty list"),
-    ('"psi"', "expected a list of sde rotations, got a string"),
+    ('"psi"', "expected a list of sde freedoms, got a string"),
 ])
 def test_bad_freedoms_are_one_located_line(tmp_path, freedoms, words):
     message = read_error(tmp_path, planar_file("bad", RECTANGLE + f"\nfreedoms = {freedoms}"))
@@ -159,13 +161,64 @@ def test_bad_freedoms_are_one_located_line(tmp_path, freedoms, words):
 
 def test_bad_freedoms_in_python_are_a_model_error():
     link = FlexibleLink("1", 1, RectangularSection(0.02, 0.005), 2700, 7e10, 2.6e10, n_rfe=3, freedoms=("chi",))
-    with pytest.raises(ModelError, match="unknown sde rotation 'chi'") as info:
+    with pytest.raises(ModelError, match="unknown sde freedom 'chi'") as info:
         expand(_model(link))
     assert info.value.subject == ("chain", 1, "freedoms", 0)
 
 
 def _model(link):
     return gpmegen.Model("m", (), (gpmegen.Joint("theta1", "revolute", "z"), link))
+
+
+# --- axial stretch -------------------------------------------------------------------------------
+
+STEEL = dict(density=7800.0, young_modulus=2.1e11, shear_modulus=8.1e10)
+
+
+def _hanging(n_rfe, tip_mass=0.0, freedoms=("u",)):
+    """A 2 m steel bar of 10 x 10 mm hanging from its top (its x axis along -y, gravity -y)."""
+    link = FlexibleLink("1", 2, RectangularSection(0.01, 0.01), n_rfe=n_rfe, freedoms=freedoms, **STEEL)
+    chain = (gpmegen.Offset((0, 0, 0), (("z", -sp.pi / 2),)), link,
+             gpmegen.Body("weight", point_mass(tip_mass)), gpmegen.Point("E"))
+    return gpmegen.Model(f"hanging_{n_rfe}_{len(freedoms)}", (gpmegen.Parameter("g", 9.81),), chain,
+                         gravity=(0, -symbol("g"), 0))
+
+
+@pytest.mark.parametrize("n_rfe", [2, 5])
+def test_a_link_free_to_stretch_hangs_as_long_as_beam_theory_says(env, n_rfe):
+    """Under its own weight ρAg and a tip weight mg the bar stretches by ρgL²/(2E) + mgL/(EA):
+    exact for the RFEM at any n_rfe, the sdes sitting at the middles of their segments, where
+    the axial force (linear in x) has its mean."""
+    rho, young, g, length, area, mass = 7800.0, 2.1e11, 9.81, 2.0, 1e-4, 5.0
+    bar = gpmegen.load(model=_hanging(n_rfe, mass))
+    assert bar.coordinates == tuple(f"u1_{r}" for r in range(1, n_rfe))
+    q = statics.locked(bar, np.zeros(bar.n_dof))
+    stretch = -bar.end_effector(q)[1] - length
+    expected = rho * g * length**2 / (2 * young) + mass * g * length / (young * area)
+    assert stretch == pytest.approx(expected, rel=1e-8)
+    rigid = gpmegen.load(model=_hanging(n_rfe, mass, ("psi", "theta", "phi")))
+    assert -rigid.end_effector(np.zeros(rigid.n_dof))[1] == pytest.approx(length, rel=1e-15)
+
+
+def test_the_axial_frequency_of_a_link_free_to_stretch_converges_to_the_bar_s(env):
+    """First axial mode of a fixed-free bar: ω = π/(2L) sqrt(E/ρ); the lumped RFEM chain
+    approaches it as 1/n_rfe²."""
+    exact = math.pi / (2 * 2.0) * math.sqrt(2.1e11 / 7800.0)
+    errors = []
+    for n_rfe in (3, 9):
+        bar = gpmegen.load(model=_hanging(n_rfe))
+        first = modes.natural_frequencies(bar, np.zeros(bar.n_dof), list(range(bar.n_dof))).frequencies[0]
+        errors.append(abs(2 * math.pi * first / exact - 1))
+    assert errors[1] < 0.005 and errors[0] / errors[1] > 6
+
+
+def test_a_section_by_its_stiffnesses_needs_ea_to_stretch(tmp_path):
+    section = 'section = { type = "stiffness", EIz = 1e3, EIy = 1e3, GJ = 1e3, rhoA = 1, rhoIz = 1e-4, rhoIy = 1e-4 }'
+    message = read_error(tmp_path, planar_file("bad", section + '\nfreedoms = ["u", "psi"]'))
+    assert "chain[1].section: flexible link '1': the link is free to stretch" in message and "add EA" in message
+    ok = read_model_file(write(tmp_path, planar_file("ok", section.replace("}", ", EA = 2e7 }") +
+                                                     '\nfreedoms = ["psi", "u"]'), "ok.toml"))
+    assert expand(ok.model).coordinates == ("theta1", "u1_1", "psi1_1", "u1_2", "psi1_2")
 
 
 # --- sections ------------------------------------------------------------------------------------

@@ -156,7 +156,7 @@ INJECTIONS = [
     "exp(exp(100))", "sqrt(-1)", "1/0", "0/0", "log(0)", "Min()", "atan2(1)", "sin(1, 2)", "((((((1))))))",
     "(" * 200 + "1" + ")" * 200, "1" + "+1" * 900, "-" * 50 + "1", "1e308*1e308", "L2*1e300", "-L2", "0*L2",
     "revolute", "prismatic", "cylinder", "bar", "rod", "point_mass", "rectangular", "circular", "x", "y", "z",
-    "tube", "I", "stiffness", "psi", "theta", "phi", "PSI", "W*t", "theta1 - t",
+    "tube", "I", "stiffness", "u", "psi", "theta", "phi", "PSI", "W*t", "theta1 - t",
     "auto", "Abs(-1)", "Max(0, -1)", "t0 - 5", "h1 - 0.6",
     "t" + "**t" * 300, "h1" + "**h1" * 300, "x_E" + "**x_E" * 300,   # deep power towers
     "t < 1", "1 < 2 < 3", "Piecewise((t, t < t0), (1, True))", "Piecewise((x_E, x_E > 0.1), (0.1, True))",   # switches
@@ -186,7 +186,7 @@ keys = st.one_of(st.sampled_from(["joint", "body", "flexible", "point", "transla
                                   "center", "inertia", "stiffness", "damping", "nrfe", "order", "alpha", "beta",
                                   "value", "unit", "doc", "q", "schema", "name", "torsion_constant", "position",
                                   "t", "x_E", "theta1_dot", "pi", "import", "freedoms", "prescribed", "EIz", "GJ",
-                                  "rhoA", "rhoIy", "outer_diameter", "inner_diameter", "height", "web_thickness",
+                                  "rhoA", "rhoIy", "EA", "outer_diameter", "inner_diameter", "height", "web_thickness",
                                   "section", "dependent", "density"]),
                  st.sampled_from(INJECTIONS), st.text(max_size=8))
 

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 43b316a143199b2b
+Input hash: e90b1feee1273ee5
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

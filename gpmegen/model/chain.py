@@ -180,7 +180,8 @@ class StiffnessSection:
     bending stiffnesses ``EIz`` (about the local z axis) and ``EIy`` (N·m²), torsional stiffness
     ``GJ`` (N·m²), mass per length ``rhoA`` (kg/m) and rotary inertias per length ``rhoIz = ρ∫y² dA``
     and ``rhoIy = ρ∫z² dA`` (kg·m; 0 by default: rotary inertia neglected as in Euler–Bernoulli
-    beam data, which leaves torsion without inertia, so a link free in ``phi`` needs them)."""
+    beam data, which leaves torsion without inertia, so a link free in ``phi`` needs them), and
+    the axial stiffness ``EA`` (N), needed only by a link free to stretch (``u``)."""
 
     EIz: sp.Expr
     EIy: sp.Expr
@@ -188,12 +189,15 @@ class StiffnessSection:
     rhoA: sp.Expr
     rhoIz: sp.Expr = sp.S.Zero
     rhoIy: sp.Expr = sp.S.Zero
+    EA: sp.Expr | None = None
 
 
-# The three sde rotations in the order each sde applies them, with their axes (paper eq. 1:
-# bending ψ about z, bending θ about y, torsion φ about x).
-SDE_ROTATIONS = (("psi", "z"), ("theta", "y"), ("phi", "x"))
-SDE_FREEDOMS = tuple(name for name, _ in SDE_ROTATIONS)
+# The freedoms of an sde in the order it applies them, each a joint of the current frame: the
+# axial stretch ``u`` along x (m), then the paper's rotations (eq. 1: bending ψ about z, bending
+# θ about y, torsion φ about x). A link has the paper's three unless it says otherwise.
+SDE_JOINTS = (("u", "prismatic", "x"), ("psi", "revolute", "z"), ("theta", "revolute", "y"), ("phi", "revolute", "x"))
+SDE_FREEDOMS = tuple(name for name, _, _ in SDE_JOINTS)
+PAPER_FREEDOMS = ("psi", "theta", "phi")
 
 
 @dataclass(frozen=True)
@@ -201,14 +205,16 @@ class FlexibleLink:
     """A slender link along the current frame's x axis, discretized by the modified rigid
     finite element method into ``n_rfe`` rfes joined by ``n_rfe - 1`` sdes (spring-damping
     elements) of up to three rotations each (bending about z: ``psi``, bending about y:
-    ``theta``, torsion about x: ``phi``).
+    ``theta``, torsion about x: ``phi``) and, when asked for, an axial stretch ``u``.
 
     ``label`` names the coordinates ``psi<label>_<r>``, ``theta<label>_<r>``, ``phi<label>_<r>``.
-    ``freedoms`` names the sde rotations that are free (all three by default, the paper's
-    choice); the others are held rigid and are no coordinates. ``density`` (kg/m³), the moduli
+    ``freedoms`` names the sde freedoms that are free (the three rotations by default, the
+    paper's choice; ``u`` adds the axial stretch, coordinates ``u<label>_<r>``); the others are
+    held rigid and are no coordinates. ``density`` (kg/m³), the moduli
     (Pa) and ``torsion_constant`` (m⁴; ``None``: the section's own) belong with a section given
     by its dimensions; a :class:`StiffnessSection` carries them itself and takes none of them.
-    ``damping`` holds the three damping coefficients of each sde, psi, theta, phi (N·m·s/rad).
+    ``damping`` holds the three damping coefficients of each sde, psi, theta, phi (N·m·s/rad;
+    the stretch is undamped).
     """
 
     label: str
@@ -220,7 +226,7 @@ class FlexibleLink:
     n_rfe: int | None = None
     torsion_constant: sp.Expr | None = None
     damping: tuple = (0, 0, 0)
-    freedoms: tuple = SDE_FREEDOMS
+    freedoms: tuple = PAPER_FREEDOMS
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,7 @@ NAMES = {
     "flange_overhang": ("flange overhang width - web_thickness", "flange overhangs"),
     "EIz": ("bending stiffness EIz", "stiffnesses"), "EIy": ("bending stiffness EIy", "stiffnesses"),
     "GJ": ("torsional stiffness GJ", "stiffnesses"), "rhoA": ("mass per length rhoA", "masses per length"),
+    "EA": ("axial stiffness EA", "stiffnesses"),
     "rhoIz": ("rotary inertia rhoIz", "rotary inertias"), "rhoIy": ("rotary inertia rhoIy", "rotary inertias"),
     "polar": ("polar rotary inertia rhoIz + rhoIy (torsion is free)", "polar rotary inertias of a link free in phi"),
     "stiffness": ("stiffness", "stiffnesses"), "damping": ("damping coefficient", "damping coefficients"),
@@ -96,7 +97,7 @@ def _section(link: FlexibleLink) -> list:
     and, when the link twists, the rotary inertia torsion needs."""
     section = link.section
     items = [(("section", f.name), getattr(section, f.name), NONNEGATIVE if f.name in _MAY_BE_ZERO else POSITIVE, "")
-             for f in dataclasses.fields(section)]
+             for f in dataclasses.fields(section) if getattr(section, f.name) is not None]
     if isinstance(section, TubeSection):
         items.append((("section", "inner_diameter"), section.outer_diameter - section.inner_diameter, POSITIVE,
                       "wall"))

@@ -3,13 +3,14 @@
 Primary division: the link of length ``L`` is cut into ``n_sde = n_rfe - 1`` equal segments of
 length ``Δ = L/n_sde`` with one sde at the middle of each. Secondary division: the rfes lie
 between the sdes, so the first and last are ``Δ/2`` long and the others ``Δ``. sde stiffness:
-``c_ψ = E·Iz/Δ``, ``c_θ = E·Iy/Δ``, ``c_φ = G·J/Δ`` (reference model, sect. "RFEM"). An rfe of
+``c_ψ = E·Iz/Δ``, ``c_θ = E·Iy/Δ``, ``c_φ = G·J/Δ`` (reference model, sect. "RFEM"), and
+``c_u = E·A/Δ`` for the axial stretch of a link that asks for it. An rfe of
 length ``ℓ`` has the mass ``ρA·ℓ``, its centre at ``ℓ/2`` and ``∫x² dm = ρA·ℓ³/3``,
 ``∫y² dm = ρIz·ℓ``, ``∫z² dm = ρIy·ℓ``.
 
 Every section reaches the RFEM through :func:`section_properties` (``EIz, EIy, GJ, ρA, ρIz,
-ρIy``), so a section given by those values builds the same elements as the section they come
-from. Links are axially rigid: no sde stretches.
+ρIy``, and ``EA``), so a section given by those values builds the same elements as the section
+they come from. Links are axially rigid unless their ``freedoms`` hold ``u``.
 """
 
 from __future__ import annotations
@@ -21,8 +22,9 @@ import sympy as sp
 
 from ..errors import ModelError
 from .chain import (
+    PAPER_FREEDOMS,
     SDE_FREEDOMS,
-    SDE_ROTATIONS,
+    SDE_JOINTS,
     Body,
     CircularSection,
     FlexibleLink,
@@ -43,7 +45,8 @@ MATERIAL = ("density", "young_modulus", "shear_modulus")
 class SectionProperties:
     """What the RFEM uses of a cross-section, per unit length: bending stiffnesses ``EIz``
     (about the local z axis), ``EIy`` and torsional stiffness ``GJ`` (N·m²), mass ``rhoA``
-    (kg/m) and rotary inertias ``rhoIz = ρ∫y² dA``, ``rhoIy = ρ∫z² dA`` (kg·m)."""
+    (kg/m), rotary inertias ``rhoIz = ρ∫y² dA``, ``rhoIy = ρ∫z² dA`` (kg·m) and axial
+    stiffness ``EA`` (N; None when a section given by its stiffnesses does not give it)."""
 
     EIz: sp.Expr
     EIy: sp.Expr
@@ -51,10 +54,11 @@ class SectionProperties:
     rhoA: sp.Expr
     rhoIz: sp.Expr
     rhoIy: sp.Expr
+    EA: sp.Expr | None
 
 
-def link_coordinates(n_rfe: int, freedoms=SDE_FREEDOMS) -> int:
-    """Coordinates of a flexible link of ``n_rfe`` rfes: the free rotations of each sde."""
+def link_coordinates(n_rfe: int, freedoms=PAPER_FREEDOMS) -> int:
+    """Coordinates of a flexible link of ``n_rfe`` rfes: the free freedoms of each sde."""
     return len(freedoms) * (n_rfe - 1)
 
 
@@ -104,11 +108,13 @@ def section_properties(link: FlexibleLink) -> SectionProperties:
     section's dimensions and its material (the link's ``torsion_constant`` when given)."""
     section = link.section
     if isinstance(section, StiffnessSection):
-        return SectionProperties(*(sp.sympify(getattr(section, key)) for key in SectionProperties.__dataclass_fields__))
+        return SectionProperties(*(None if getattr(section, key) is None else sp.sympify(getattr(section, key))
+                                   for key in SectionProperties.__dataclass_fields__))
     area, iy, iz, default_torsion = geometry(section)
     torsion = default_torsion if link.torsion_constant is None else link.torsion_constant
     rho, young = link.density, link.young_modulus
-    return SectionProperties(young * iz, young * iy, link.shear_modulus * torsion, rho * area, rho * iz, rho * iy)
+    return SectionProperties(young * iz, young * iy, link.shear_modulus * torsion, rho * area, rho * iz, rho * iy,
+                             young * area)
 
 
 def rfe_lengths(link: FlexibleLink):
@@ -132,31 +138,32 @@ def check_nrfe(nrfe, what: str, minimum: int = 1, subject: tuple = ()) -> int:
 
 
 def check_freedoms(freedoms, what: str, subject: tuple = ()) -> tuple:
-    """``freedoms`` as the free sde rotations in the order each sde applies them, else a
+    """``freedoms`` as the free sde freedoms in the order each sde applies them, else a
     ModelError naming ``what`` they are for (about the field ``subject``). The one place this
     rule is kept."""
     choices = ", ".join(f'"{name}"' for name in SDE_FREEDOMS)
     if isinstance(freedoms, str) or not isinstance(freedoms, (tuple, list)) or not freedoms:
-        raise ModelError(f"{what}: freedoms must be a non-empty list of sde rotations among {choices}, got "
+        raise ModelError(f"{what}: freedoms must be a non-empty list of sde freedoms among {choices}, got "
                          f"{freedoms!r}; write e.g. freedoms = [\"psi\"] (a rigid link: nrfe = 1)", subject)
     for k, name in enumerate(freedoms):
         if name not in SDE_FREEDOMS:
             close = difflib.get_close_matches(str(name), SDE_FREEDOMS, 1)
             hint = f"did you mean {close[0]!r}? " if close else ""
-            raise ModelError(f"{what}: unknown sde rotation {name!r} in freedoms; {hint}use {choices} (bending "
-                             f"about z, about y, torsion about x)", subject + (k,))
+            raise ModelError(f"{what}: unknown sde freedom {name!r} in freedoms; {hint}use {choices} (stretch "
+                             f"along x, bending about z, about y, torsion about x)", subject + (k,))
         if name in freedoms[:k]:
-            raise ModelError(f"{what}: sde rotation {name!r} is listed twice in freedoms; name each once",
+            raise ModelError(f"{what}: sde freedom {name!r} is listed twice in freedoms; name each once",
                              subject + (k,))
     return tuple(name for name in SDE_FREEDOMS if name in freedoms)
 
 
-def check_link(link: FlexibleLink, path: tuple = ()) -> None:
-    """Raise a ModelError about the field (under ``path``, the link's) at fault when ``link``'s
-    ``nrfe``, ``freedoms``, section or material do not go together."""
+def check_link(link: FlexibleLink, path: tuple = ()) -> tuple:
+    """``link``'s free sde rotations (:func:`check_freedoms`), or a ModelError about the field
+    (under ``path``, the link's) at fault when its ``nrfe``, ``freedoms``, section or material
+    do not go together."""
     what = f"flexible link {link.label!r}"
     check_nrfe(link.n_rfe, what, subject=path + ("nrfe",))
-    check_freedoms(link.freedoms, what, path + ("freedoms",))
+    freedoms = check_freedoms(link.freedoms, what, path + ("freedoms",))
     if not isinstance(link.section, SECTIONS):
         geometry(link.section)   # raises, naming the sections there are
     if isinstance(link.section, StiffnessSection):
@@ -164,11 +171,15 @@ def check_link(link: FlexibleLink, path: tuple = ()) -> None:
             if getattr(link, key) is not None:
                 raise ModelError(f"{what}: a section given by its stiffnesses (EIz, EIy, GJ, rhoA) already holds "
                                  f"the material; remove {key}", path + (key,))
-        return
+        if "u" in freedoms and link.section.EA is None:
+            raise ModelError(f"{what}: the link is free to stretch (\"u\" in freedoms) but its section gives no "
+                             f"axial stiffness; add EA (N) to the section or remove \"u\"", path + ("section",))
+        return freedoms
     for key in MATERIAL:
         if getattr(link, key) is None:
             raise ModelError(f"{what}: a section given by its dimensions needs the material: add {key} (or give "
                              f"the section by its stiffnesses EIz, EIy, GJ, rhoA)", path)
+    return freedoms
 
 
 def rfe_inertia(properties: SectionProperties, length):
@@ -180,9 +191,8 @@ def rfe_inertia(properties: SectionProperties, length):
 
 def discretize(link: FlexibleLink):
     """Expand ``link`` into chain elements: rfe bodies, offsets and sde joints (its free
-    rotations) with springs, ending with an offset to the link's tip."""
-    check_link(link)
-    freedoms = check_freedoms(link.freedoms, "")
+    freedoms) with springs, ending with an offset to the link's tip."""
+    freedoms = check_link(link)
     section = section_properties(link)
     lengths = rfe_lengths(link)
     n_sde = link.n_rfe - 1
@@ -190,17 +200,17 @@ def discretize(link: FlexibleLink):
     stiffness = {}
     if n_sde:
         stiffness = {"psi": section.EIz / delta, "theta": section.EIy / delta, "phi": section.GJ / delta}
-    damping = dict(zip(SDE_FREEDOMS, (sp.sympify(d) for d in link.damping)))
+        if "u" in freedoms:
+            stiffness["u"] = section.EA / delta
+    damping = dict(zip(PAPER_FREEDOMS, (sp.sympify(d) for d in link.damping)), u=sp.S.Zero)
 
     elements = []
     for r, length in enumerate(lengths):
         if r > 0:
             elements.append(Offset((lengths[r - 1], 0, 0)))
-            for rot, axis in SDE_ROTATIONS:
-                if rot in freedoms:
-                    elements.append(
-                        Joint(f"{rot}{link.label}_{r}", "revolute", axis, stiffness[rot], damping[rot])
-                    )
+            for name, kind, axis in SDE_JOINTS:
+                if name in freedoms:
+                    elements.append(Joint(f"{name}{link.label}_{r}", kind, axis, stiffness[name], damping[name]))
         elements.append(Body(f"rfe{link.label}_{r}", rfe_inertia(section, length)))
     elements.append(Offset((lengths[-1], 0, 0)))
     return elements

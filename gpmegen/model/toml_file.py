@@ -34,7 +34,7 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     density = "rho2"
     young_modulus = "E2"
     shear_modulus = "G2"                  #   + torsion_constant, nrfe, damping = [dψ, dθ, dφ],
-                                          #     freedoms = ["psi", "theta", "phi"] (the default)
+                                          #     freedoms = ["psi", "theta", "phi"] (default; "u": stretch)
     [[chain]]
     point = "E"                           #   point: name, position (m) in the current frame
     position = ["L3", 0, 0]
@@ -59,8 +59,8 @@ Body shapes: ``cylinder`` (mass, radius, length, axis: along ``axis`` from 0 to 
 ``inertia`` (3x3 about the centre of mass, kg·m²) in the body table itself. Sections:
 ``rectangular`` (width along the link's z, thickness along its y), ``circular`` (radius),
 ``tube`` (outer_diameter, inner_diameter), ``I`` (height, width, flange_thickness,
-web_thickness), or ``stiffness`` (EIz, EIy, GJ, rhoA, optional rhoIz, rhoIy; the link then gives
-no density, moduli nor torsion_constant).
+web_thickness), or ``stiffness`` (EIz, EIy, GJ, rhoA, optional rhoIz, rhoIy, EA; the link then
+gives no density, moduli nor torsion_constant).
 
 Quantities are numbers or expression strings. Chain quantities, gravity, Baumgarte gains and
 initial values may use parameters; drives also ``t``; constraints also coordinates, points

@@ -20,6 +20,7 @@ from .. import shapes
 from ..chain import (
     AXES,
     JOINT_KINDS,
+    PAPER_FREEDOMS,
     SDE_FREEDOMS,
     TIME,
     Body,
@@ -70,9 +71,9 @@ SECTION_KEYS = {
     "circular": ("type", "radius"),
     "tube": ("type", "outer_diameter", "inner_diameter"),
     "I": ("type", "height", "width", "flange_thickness", "web_thickness"),
-    "stiffness": ("type", "EIz", "EIy", "GJ", "rhoA", "rhoIz", "rhoIy"),
+    "stiffness": ("type", "EIz", "EIy", "GJ", "rhoA", "rhoIz", "rhoIy", "EA"),
 }
-SECTION_OPTIONAL = {"stiffness": ("rhoIz", "rhoIy")}
+SECTION_OPTIONAL = {"stiffness": ("rhoIz", "rhoIy", "EA")}
 SECTION_TYPES = {"rectangular": RectangularSection, "circular": CircularSection, "tube": TubeSection,
                  "I": ISection, "stiffness": StiffnessSection}
 
@@ -321,8 +322,8 @@ class Reader:
                 n_dof += 1
             elif isinstance(item, dict) and "flexible" in item:
                 n_rfe = item.get("nrfe", self.default_nrfe)
-                freedoms = item.get("freedoms", SDE_FREEDOMS)
-                freedoms = [f for f in SDE_FREEDOMS if f in freedoms] if isinstance(freedoms, list) else SDE_FREEDOMS
+                freedoms = item.get("freedoms", PAPER_FREEDOMS)
+                freedoms = [f for f in SDE_FREEDOMS if f in freedoms] if isinstance(freedoms, list) else PAPER_FREEDOMS
                 if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
                     n_dof += link_coordinates(n_rfe, freedoms)
         limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
@@ -505,7 +506,7 @@ class Reader:
         if "damping" in item:
             extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3)
         if "freedoms" in item:
-            freedoms = self.array(item["freedoms"], path + ("freedoms",), what="list of sde rotations")
+            freedoms = self.array(item["freedoms"], path + ("freedoms",), what="list of sde freedoms")
             try:
                 extra["freedoms"] = check_freedoms(freedoms, f"flexible link {label!r}", path + ("freedoms",))
             except ModelError as exc:
