@@ -166,6 +166,15 @@ def test_bad_freedoms_in_python_are_a_model_error():
     assert info.value.subject == ("chain", 1, "freedoms", 0)
 
 
+def test_a_link_without_nrfe_in_python_is_a_model_error(env):
+    """n_rfe has no default worth guessing; the build's size estimate, which runs before the
+    model is validated, must not trip over its absence."""
+    link = FlexibleLink("1", 1, RectangularSection(0.02, 0.005), 2700, 7e10, 2.6e10)
+    with pytest.raises(ModelError, match="nrfe must be a whole number") as info:
+        gpmegen.load(model=_model(link))
+    assert info.value.subject == ("chain", 1, "nrfe")
+
+
 def _model(link):
     return gpmegen.Model("m", (), (gpmegen.Joint("theta1", "revolute", "z"), link))
 

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: ed726e32dacdbd36
+Input hash: 825009312d256774
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: e90b1feee1273ee5
+Input hash: 6c915787217cf87b
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

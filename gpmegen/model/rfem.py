@@ -57,9 +57,15 @@ class SectionProperties:
     EA: sp.Expr | None
 
 
-def link_coordinates(n_rfe: int, freedoms=PAPER_FREEDOMS) -> int:
-    """Coordinates of a flexible link of ``n_rfe`` rfes: the free freedoms of each sde."""
-    return len(freedoms) * (n_rfe - 1)
+def link_coordinates(n_rfe, freedoms=PAPER_FREEDOMS) -> int:
+    """Coordinates of a flexible link of ``n_rfe`` rfes: the free freedoms of each sde. Values
+    not yet validated count as far as they can tell (an invalid ``n_rfe``: none; entries of
+    ``freedoms`` that are no sde freedom: none), for size estimates before validation."""
+    if isinstance(n_rfe, bool) or not isinstance(n_rfe, int) or n_rfe < 1:
+        return 0
+    if not isinstance(freedoms, (tuple, list)):
+        freedoms = PAPER_FREEDOMS
+    return sum(1 for name in SDE_FREEDOMS if name in freedoms) * (n_rfe - 1)
 
 
 def geometry(section):

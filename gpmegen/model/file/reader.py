@@ -21,7 +21,6 @@ from ..chain import (
     AXES,
     JOINT_KINDS,
     PAPER_FREEDOMS,
-    SDE_FREEDOMS,
     TIME,
     Body,
     CircularSection,
@@ -321,11 +320,7 @@ class Reader:
             if isinstance(item, dict) and "joint" in item:
                 n_dof += 1
             elif isinstance(item, dict) and "flexible" in item:
-                n_rfe = item.get("nrfe", self.default_nrfe)
-                freedoms = item.get("freedoms", PAPER_FREEDOMS)
-                freedoms = [f for f in SDE_FREEDOMS if f in freedoms] if isinstance(freedoms, list) else PAPER_FREEDOMS
-                if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
-                    n_dof += link_coordinates(n_rfe, freedoms)
+                n_dof += link_coordinates(item.get("nrfe", self.default_nrfe), item.get("freedoms", PAPER_FREEDOMS))
         limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
 
     def read_parameters(self, table):
