@@ -294,14 +294,15 @@ def test_an_i_section_by_its_flanges_and_web():
 
 @pytest.mark.parametrize("section, words", [
     ('{ type = "tube", outer_diameter = 0.04, inner_diameter = 0.05 }',
-     "section.inner_diameter: negative value -0.01; tube walls must be positive"),
+     "section.inner_diameter: negative value -0.01; tube walls (outer_diameter - inner_diameter) must be positive"),
     ('{ type = "I", height = 0.02, width = 0.1, flange_thickness = 0.01, web_thickness = 0.006 }',
-     "section.height: zero value 0; web heights must be positive"),
+     "section.height: zero value 0; web heights (height - 2 flange_thickness) must be positive"),
     ('{ type = "I", height = 0.2, width = 0.004, flange_thickness = 0.01, web_thickness = 0.006 }',
-     "flange overhangs must be positive"),
+     "flange overhangs (width - web_thickness) must be positive"),
     ('{ type = "stiffness", EIz = 1, EIy = 1, GJ = 1, rhoA = 0 }', "section.rhoA: zero value 0; masses per length"),
     ('{ type = "stiffness", EIz = 1, EIy = 1, GJ = 1, rhoA = 1 }',
-     "polar rotary inertias of a link free in phi must be positive"),
+     "section: zero value 0; rotary inertias rhoIz + rhoIy of a link free to twist (phi in freedoms) must be "
+     "positive"),
     ('{ type = "stiffness", EIz = 1, EIy = 1, GJ = 1, rhoA = 1, rhoIz = -1, rhoIy = 2 }',
      "section.rhoIz: negative value -1; rotary inertias must be zero or positive"),
     ('{ type = "stiffness", EIz = 1, EIy = 1, rhoA = 1 }', "missing required key 'GJ'"),

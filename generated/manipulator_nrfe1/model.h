@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 825009312d256774
+Input hash: b77e678f327779ca
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

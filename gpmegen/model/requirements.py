@@ -36,14 +36,14 @@ NAMES = {
     "outer_diameter": ("outer diameter", "diameters"), "inner_diameter": ("inner diameter", "diameters"),
     "height": ("height", "heights"), "flange_thickness": ("flange thickness", "thicknesses"),
     "web_thickness": ("web thickness", "thicknesses"),
-    "wall": ("tube wall outer_diameter - inner_diameter", "tube walls"),
-    "web_height": ("web height height - 2 flange_thickness", "web heights"),
-    "flange_overhang": ("flange overhang width - web_thickness", "flange overhangs"),
+    "wall": ("tube wall", "tube walls (outer_diameter - inner_diameter)"),
+    "web_height": ("web height", "web heights (height - 2 flange_thickness)"),
+    "flange_overhang": ("flange overhang", "flange overhangs (width - web_thickness)"),
     "EIz": ("bending stiffness EIz", "stiffnesses"), "EIy": ("bending stiffness EIy", "stiffnesses"),
     "GJ": ("torsional stiffness GJ", "stiffnesses"), "rhoA": ("mass per length rhoA", "masses per length"),
     "EA": ("axial stiffness EA", "stiffnesses"),
     "rhoIz": ("rotary inertia rhoIz", "rotary inertias"), "rhoIy": ("rotary inertia rhoIy", "rotary inertias"),
-    "polar": ("polar rotary inertia rhoIz + rhoIy (torsion is free)", "polar rotary inertias of a link free in phi"),
+    "polar": ("polar rotary inertia", "rotary inertias rhoIz + rhoIy of a link free to twist (phi in freedoms)"),
     "stiffness": ("stiffness", "stiffnesses"), "damping": ("damping coefficient", "damping coefficients"),
     "alpha": ("Baumgarte gain alpha", "Baumgarte gains"), "beta": ("Baumgarte gain beta", "Baumgarte gains"),
 }
@@ -104,7 +104,7 @@ def _section(link: FlexibleLink) -> list:
     elif isinstance(section, ISection):
         items += [(("section", "height"), section.height - 2 * section.flange_thickness, POSITIVE, "web_height"),
                   (("section", "width"), section.width - section.web_thickness, POSITIVE, "flange_overhang")]
-    elif isinstance(section, StiffnessSection) and "phi" in link.freedoms:
+    elif isinstance(section, StiffnessSection) and isinstance(link.freedoms, (tuple, list)) and "phi" in link.freedoms:
         items.append((("section",), sp.sympify(section.rhoIz) + sp.sympify(section.rhoIy), POSITIVE, "polar"))
     return items
 

@@ -164,7 +164,7 @@ def check_freedoms(freedoms, what: str, subject: tuple = ()) -> tuple:
 
 
 def check_link(link: FlexibleLink, path: tuple = ()) -> tuple:
-    """``link``'s free sde rotations (:func:`check_freedoms`), or a ModelError about the field
+    """``link``'s free sde freedoms (:func:`check_freedoms`), or a ModelError about the field
     (under ``path``, the link's) at fault when its ``nrfe``, ``freedoms``, section or material
     do not go together."""
     what = f"flexible link {link.label!r}"

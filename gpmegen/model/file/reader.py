@@ -603,7 +603,7 @@ class Reader:
         joint's coordinate dependent. The one place this is written."""
         if not self.prescribed:
             return constraints, dependent
-        taken = {c.name: ("constraints", k, "name") for k, c in enumerate(constraints)}
+        taken = {c.name for c in constraints} | set(self.params) | set(self.coordinates) | set(self.points)
         written = []
         for name, (law, here) in self.prescribed.items():
             cname = f"prescribed_{name}"
@@ -611,7 +611,7 @@ class Reader:
                 check_name(cname, "the name of the constraint that prescribed writes")
             except ModelError as exc:
                 raise self.error(here, f"{exc}: shorten the joint's name") from None
-            if cname in taken or cname in self.params or cname in self.coordinates or cname in self.points:
+            if cname in taken:
                 self.fail(here, f"prescribed writes the constraint {cname!r}, and that name is already taken in "
                                 f"the file; rename the other one")
             if dependent is not None and name in dependent:
