@@ -179,9 +179,9 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
 
 def model_coordinates(model) -> int:
     """n_dof of ``model`` (a :class:`gpmegen.model.Model`) counted without expanding it: one per
-    joint, three per sde of each flexible link."""
+    joint, one per free rotation of each sde of each flexible link."""
     from .model.chain import FlexibleLink, Joint
     from .model.rfem import link_coordinates
 
-    return sum(1 if isinstance(e, Joint) else link_coordinates(e.n_rfe) if isinstance(e, FlexibleLink) else 0
-               for e in model.chain)
+    return sum(1 if isinstance(e, Joint) else link_coordinates(e.n_rfe, e.freedoms) if isinstance(e, FlexibleLink)
+               else 0 for e in model.chain)

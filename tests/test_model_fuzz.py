@@ -1,5 +1,6 @@
-"""Mutated model files through ``gpmegen build``: the reference manipulator's file with one field
-replaced (wrong types; negative, zero, huge, non-finite numbers; code-injection attempts, very
+"""Mutated model files through ``gpmegen build``: the reference manipulator's file, and a file
+giving flexible links in every way (sections by stiffness, tube and I; freedoms; a prescribed
+joint), with one field replaced (wrong types; negative, zero, huge, non-finite numbers; code-injection attempts, very
 long and non-ASCII strings), a key deleted, renamed or added, or a stray line inserted. The
 build exits 0, 2 (the file is at fault: one located line) or 1 (an honest runtime failure),
 never raises or shows a traceback, writes no model folder when it fails, and what it writes when
@@ -28,6 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SOURCE = ROOT / "examples" / "manipulator.toml"
 BASE_TEXT = SOURCE.read_text()
 BASE = tomllib.loads(BASE_TEXT)
+LINKS_TEXT = (ROOT / "tests" / "models" / "flexible_sections.toml").read_text()
 
 try:
     CC = find_compiler()
@@ -105,8 +107,10 @@ def _same(a, b) -> bool:
     return a == b
 
 
-def test_writer_round_trips_the_example():
-    assert _same(tomllib.loads(dumps(BASE)), BASE)
+@pytest.mark.parametrize("text", [BASE_TEXT, LINKS_TEXT])
+def test_writer_round_trips_the_example(text):
+    base = tomllib.loads(text)
+    assert _same(tomllib.loads(dumps(base)), base)
 
 
 # --- mutations ---------------------------------------------------------------------------------
@@ -119,18 +123,26 @@ def _nodes(obj, prefix=()):
         yield from _nodes(v, prefix + (k,))
 
 
-NODES = list(_nodes(BASE))
-KEY_NODES = [p for p in NODES if isinstance(p[-1], str)]
-
-
 def _at(data, path):
     for part in path:
         data = data[part]
     return data
 
 
-TABLES = [()] + [p for p in NODES if isinstance(_at(BASE, p), dict)]
-TEXTS = [("description",), ("name",)] + [p for p in NODES if p[-1] in ("doc", "unit")]  # text reaching the code
+class Base:
+    """A file to mutate: its text and the paths of its values, keys, tables and texts."""
+
+    def __init__(self, text: str):
+        self.text = text
+        data = tomllib.loads(text)
+        self.nodes = list(_nodes(data))
+        self.keys = [p for p in self.nodes if isinstance(p[-1], str)]
+        self.tables = [()] + [p for p in self.nodes if isinstance(_at(data, p), dict)]
+        # text reaching the code
+        self.texts = [("description",), ("name",)] + [p for p in self.nodes if p[-1] in ("doc", "unit")]
+
+
+MANIPULATOR, LINKS = Base(BASE_TEXT), Base(LINKS_TEXT)
 
 INJECTIONS = [
     "__import__('os')", "__import__('os').system('touch gpmegen_pwned')", "().__class__.__bases__",
@@ -144,6 +156,7 @@ INJECTIONS = [
     "exp(exp(100))", "sqrt(-1)", "1/0", "0/0", "log(0)", "Min()", "atan2(1)", "sin(1, 2)", "((((((1))))))",
     "(" * 200 + "1" + ")" * 200, "1" + "+1" * 900, "-" * 50 + "1", "1e308*1e308", "L2*1e300", "-L2", "0*L2",
     "revolute", "prismatic", "cylinder", "bar", "rod", "point_mass", "rectangular", "circular", "x", "y", "z",
+    "tube", "I", "stiffness", "u", "psi", "theta", "phi", "PSI", "W*t", "theta1 - t",
     "auto", "Abs(-1)", "Max(0, -1)", "t0 - 5", "h1 - 0.6",
     "t" + "**t" * 300, "h1" + "**h1" * 300, "x_E" + "**x_E" * 300,   # deep power towers
     "t < 1", "1 < 2 < 3", "Piecewise((t, t < t0), (1, True))", "Piecewise((x_E, x_E > 0.1), (0.1, True))",   # switches
@@ -172,7 +185,9 @@ values = st.recursive(
 keys = st.one_of(st.sampled_from(["joint", "body", "flexible", "point", "translation", "rotations", "shape", "mass",
                                   "center", "inertia", "stiffness", "damping", "nrfe", "order", "alpha", "beta",
                                   "value", "unit", "doc", "q", "schema", "name", "torsion_constant", "position",
-                                  "t", "x_E", "theta1_dot", "pi", "import"]),
+                                  "t", "x_E", "theta1_dot", "pi", "import", "freedoms", "prescribed", "EIz", "GJ",
+                                  "rhoA", "rhoIy", "EA", "outer_diameter", "inner_diameter", "height", "web_thickness",
+                                  "section", "dependent", "density"]),
                  st.sampled_from(INJECTIONS), st.text(max_size=8))
 
 STRAY_LINES = ['"""', "*/", "[[chain]]", "[parameters]", "[initial]", 'x = __import__("os")', "schema = 1",
@@ -181,26 +196,26 @@ STRAY_LINES = ['"""', "*/", "[[chain]]", "[parameters]", "[initial]", 'x = __imp
 
 
 @st.composite
-def mutations(draw):
-    """(label, TOML text) of one mutation of the example."""
+def mutations(draw, base=MANIPULATOR):
+    """(label, TOML text) of one mutation of the file ``base``."""
     op = draw(st.sampled_from(["replace", "replace", "replace", "text", "delete", "rename", "add", "line"]))
     if op == "line":
-        lines = BASE_TEXT.splitlines()
+        lines = base.text.splitlines()
         k = draw(st.integers(0, len(lines)))
         stray = draw(st.sampled_from(STRAY_LINES) | st.text(max_size=20))
         return f"insert {stray!r} at line {k + 1}", "\n".join(lines[:k] + [stray] + lines[k:]) + "\n"
-    data = tomllib.loads(BASE_TEXT)
+    data = tomllib.loads(base.text)
     if op in ("replace", "text"):
-        path = draw(st.sampled_from(NODES if op == "replace" else TEXTS))
+        path = draw(st.sampled_from(base.nodes if op == "replace" else base.texts))
         value = draw(values if op == "replace" else st.sampled_from(INJECTIONS) | st.text())
         _at(data, path[:-1])[path[-1]] = value
         label = f"{path} = {value!r}"
     elif op == "delete":
-        path = draw(st.sampled_from(NODES))
+        path = draw(st.sampled_from(base.nodes))
         del _at(data, path[:-1])[path[-1]]
         label = f"del {path}"
     elif op == "rename":
-        path = draw(st.sampled_from(KEY_NODES))
+        path = draw(st.sampled_from(base.keys))
         new = draw(keys)
         parent = _at(data, path[:-1])
         if new in parent:
@@ -210,7 +225,7 @@ def mutations(draw):
         parent.update(items)
         label = f"rename {path} -> {new!r}"
     else:
-        path = draw(st.sampled_from(TABLES))
+        path = draw(st.sampled_from(base.tables))
         new, value = draw(keys), draw(values)
         _at(data, path)[new] = value
         label = f"add {path + (new,)} = {value!r}"
@@ -237,8 +252,8 @@ def _check_generated(folder: Path, label: str):
         assert done.returncode == 0, (label, done.stderr[:2000])
 
 
-def _mutated(path, value) -> tuple[str, str]:
-    data = tomllib.loads(BASE_TEXT)
+def _mutated(path, value, text=BASE_TEXT) -> tuple[str, str]:
+    data = tomllib.loads(text)
     _at(data, path[:-1])[path[-1]] = value
     return f"{path} = {value!r}", dumps(data)
 
@@ -258,6 +273,27 @@ def _mutated(path, value) -> tuple[str, str]:
                                  HealthCheck.data_too_large])
 @given(mutation=mutations())
 def test_mutated_model_file_builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
+    _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+
+
+# The new keys, with values at their edges: a held rotation named twice, none, a law that names
+# its own coordinate, a section by stiffness with the material added, a tube without its wall.
+@example(mutation=_mutated(("chain", 1, "freedoms"), ["psi", "psi"], LINKS_TEXT))
+@example(mutation=_mutated(("chain", 1, "freedoms"), [], LINKS_TEXT))
+@example(mutation=_mutated(("chain", 1, "freedoms", 0), [], LINKS_TEXT))     # an unhashable entry
+@example(mutation=_mutated(("chain", 0, "prescribed"), "theta1 + t", LINKS_TEXT))
+@example(mutation=_mutated(("chain", 1, "density"), 2700, LINKS_TEXT))
+@example(mutation=_mutated(("chain", 3, "section", "inner_diameter"), "D", LINKS_TEXT))
+@example(mutation=_mutated(("dependent",), ["theta1"], LINKS_TEXT))
+@settings(max_examples=150, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
+                                 HealthCheck.data_too_large])
+@given(mutation=mutations(LINKS))
+def test_mutated_flexible_links_build_or_fail_cleanly(mutation, tmp_path, capsys, monkeypatch):
+    _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+
+
+def _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
     label, text = mutation
     monkeypatch.chdir(tmp_path)  # an injected command would leave ./gpmegen_pwned; stray writes show here
     work = Path(tempfile.mkdtemp(dir=tmp_path))

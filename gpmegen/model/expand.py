@@ -3,6 +3,7 @@ points (flexible links discretized by RFEM)."""
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 from dataclasses import dataclass
@@ -26,7 +27,7 @@ from .chain import (
     symbol,
     velocity_symbol,
 )
-from .rfem import check_nrfe, discretize
+from .rfem import MATERIAL, check_link, discretize
 
 
 @dataclass(frozen=True)
@@ -95,10 +96,14 @@ def _flatten(model: Model):
     for k, element in enumerate(model.chain):
         path = ("chain", k)
         if isinstance(element, FlexibleLink):
-            for attr in ("length", "density", "young_modulus", "shear_modulus"):
-                _check_expression(getattr(element, attr), constant, f"flexible link {element.label!r} {attr}",
-                                  path + (attr,))
-            check_nrfe(element.n_rfe, f"flexible link {element.label!r}", subject=path + ("nrfe",))
+            check_link(element, path)
+            quantities = [(attr, getattr(element, attr)) for attr in ("length", *MATERIAL)]
+            quantities += [(f"section.{f.name}", getattr(element.section, f.name))
+                           for f in dataclasses.fields(element.section)]
+            for attr, value in quantities:
+                if value is not None:
+                    _check_expression(value, constant, f"flexible link {element.label!r} {attr}",
+                                      path + tuple(attr.split(".")))
             out += [(path + ("flexible",), part) for part in discretize(element)]
         elif isinstance(element, (Joint, Body, Point)):
             out.append((path + (_NAME_KEY[type(element)],), element))

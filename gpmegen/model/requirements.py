@@ -2,8 +2,10 @@
 
 Rigid bodies: masses, sizes and principal moments of inertia zero or positive (zero is a
 massless body or one of no extent; the beam checks use a massless slider). Flexible links:
-length, section sizes, density, moduli and torsion constant positive (the RFEM divides by the
-length and needs mass and stiffness in every element). Stiffness, damping and Baumgarte gains
+length, section sizes, density, moduli, torsion constant and a section's given stiffnesses and
+mass per length positive (the RFEM divides by the length and needs mass and stiffness in every
+element), a tube's wall, an I-section's web height and flange overhang positive, rotary inertias
+zero or positive but not both zero in a link free to twist. Stiffness, damping and Baumgarte gains
 zero or positive.
 
 :func:`requirements` lists them once from the model's elements; :func:`violation` evaluates one
@@ -14,12 +16,13 @@ defaults, the runtime whenever parameter values are bound (``gpmegen.load(params
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import sympy as sp
 
-from .chain import Body, CircularSection, Constraint, FlexibleLink, Joint, Model, symbol
+from .chain import Body, Constraint, FlexibleLink, ISection, Joint, Model, StiffnessSection, TubeSection, symbol
 
 POSITIVE, NONNEGATIVE = "positive", "nonnegative"
 
@@ -30,6 +33,17 @@ NAMES = {
     "inertia": ("moment of inertia", "moments of inertia"), "density": ("density", "densities"),
     "young_modulus": ("Young's modulus", "moduli"), "shear_modulus": ("shear modulus", "moduli"),
     "torsion_constant": ("torsion constant", "torsion constants"),
+    "outer_diameter": ("outer diameter", "diameters"), "inner_diameter": ("inner diameter", "diameters"),
+    "height": ("height", "heights"), "flange_thickness": ("flange thickness", "thicknesses"),
+    "web_thickness": ("web thickness", "thicknesses"),
+    "wall": ("tube wall", "tube walls (outer_diameter - inner_diameter)"),
+    "web_height": ("web height", "web heights (height - 2 flange_thickness)"),
+    "flange_overhang": ("flange overhang", "flange overhangs (width - web_thickness)"),
+    "EIz": ("bending stiffness EIz", "stiffnesses"), "EIy": ("bending stiffness EIy", "stiffnesses"),
+    "GJ": ("torsional stiffness GJ", "stiffnesses"), "rhoA": ("mass per length rhoA", "masses per length"),
+    "EA": ("axial stiffness EA", "stiffnesses"),
+    "rhoIz": ("rotary inertia rhoIz", "rotary inertias"), "rhoIy": ("rotary inertia rhoIy", "rotary inertias"),
+    "polar": ("polar rotary inertia", "rotary inertias rhoIz + rhoIy of a link free to twist (phi in freedoms)"),
     "stiffness": ("stiffness", "stiffnesses"), "damping": ("damping coefficient", "damping coefficients"),
     "alpha": ("Baumgarte gain alpha", "Baumgarte gains"), "beta": ("Baumgarte gain beta", "Baumgarte gains"),
 }
@@ -49,6 +63,7 @@ class Requirement:
     name: str
     key: tuple
     element: tuple = ()
+    word: str = ""   # the quantity's key in NAMES when it is not the last of ``key``
 
     @property
     def subject(self) -> tuple:
@@ -57,11 +72,11 @@ class Requirement:
 
     @property
     def quantity(self) -> str:
-        return NAMES[_word(self.key)][0]
+        return NAMES[self.word or _word(self.key)][0]
 
     @property
     def plural(self) -> str:
-        return NAMES[_word(self.key)][1]
+        return NAMES[self.word or _word(self.key)][1]
 
     @property
     def owner(self) -> str:
@@ -72,19 +87,36 @@ def _word(key) -> str:
     return next(part for part in reversed(key) if isinstance(part, str))
 
 
+# Section sizes that may be zero (a solid tube; a rotary inertia neglected); the others must be positive.
+_MAY_BE_ZERO = ("inner_diameter", "rhoIz", "rhoIy")
+
+
+def _section(link: FlexibleLink) -> list:
+    """(key, expression, sign, word) of the section's bounds: each given quantity, then the
+    differences of dimensions that make the shape (a tube's wall, an I-section's web and flange)
+    and, when the link twists, the rotary inertia torsion needs."""
+    section = link.section
+    items = [(("section", f.name), getattr(section, f.name), NONNEGATIVE if f.name in _MAY_BE_ZERO else POSITIVE, "")
+             for f in dataclasses.fields(section) if getattr(section, f.name) is not None]
+    if isinstance(section, TubeSection):
+        items.append((("section", "inner_diameter"), section.outer_diameter - section.inner_diameter, POSITIVE,
+                      "wall"))
+    elif isinstance(section, ISection):
+        items += [(("section", "height"), section.height - 2 * section.flange_thickness, POSITIVE, "web_height"),
+                  (("section", "width"), section.width - section.web_thickness, POSITIVE, "flange_overhang")]
+    elif isinstance(section, StiffnessSection) and isinstance(link.freedoms, (tuple, list)) and "phi" in link.freedoms:
+        items.append((("section",), sp.sympify(section.rhoIz) + sp.sympify(section.rhoIy), POSITIVE, "polar"))
+    return items
+
+
 def _link(link: FlexibleLink, element: tuple) -> list:
-    items = [(("length",), link.length)]
-    if isinstance(link.section, CircularSection):
-        items.append((("section", "radius"), link.section.radius))
-    else:
-        items += [(("section", "width"), link.section.width), (("section", "thickness"), link.section.thickness)]
-    items += [(("density",), link.density), (("young_modulus",), link.young_modulus),
-              (("shear_modulus",), link.shear_modulus)]
-    if link.torsion_constant is not None:
-        items.append((("torsion_constant",), link.torsion_constant))
-    need = [Requirement(sp.sympify(e), POSITIVE, "flexible link", link.label, key, element) for key, e in items]
-    return need + [Requirement(sp.sympify(d), NONNEGATIVE, "flexible link", link.label, ("damping", k), element)
-                   for k, d in enumerate(link.damping)]
+    items = [(("length",), link.length, POSITIVE, "")] + _section(link)
+    items += [((key,), getattr(link, key), POSITIVE, "")
+              for key in ("density", "young_modulus", "shear_modulus", "torsion_constant")
+              if getattr(link, key) is not None]
+    items += [(("damping", k), d, NONNEGATIVE, "") for k, d in enumerate(link.damping)]
+    return [Requirement(sp.sympify(e), sign, "flexible link", link.label, key, element, word)
+            for key, e, sign, word in items]
 
 
 def requirements(model: Model) -> tuple[Requirement, ...]:

@@ -17,7 +17,8 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     L3 = 0.5                              # bare number: unit "" and doc ""
 
     [[chain]]                             # chain elements from the base outwards, one kind each:
-    joint = "theta1"                      #   joint: name, type, axis (+ stiffness, damping)
+    joint = "theta1"                      #   joint: name, type, axis (+ stiffness, damping,
+                                          #     prescribed = "law(t)": a constraint, joint dependent)
     type = "revolute"                     #     "revolute" (rad) | "prismatic" (m)
     axis = "y"                            #     "x" | "y" | "z" of the current frame
     [[chain]]
@@ -32,7 +33,8 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     section = { type = "rectangular", width = "b2", thickness = "t2" }
     density = "rho2"
     young_modulus = "E2"
-    shear_modulus = "G2"                  #   + torsion_constant, nrfe, damping = [dψ, dθ, dφ]
+    shear_modulus = "G2"                  #   + torsion_constant, nrfe, damping = [dψ, dθ, dφ],
+                                          #     freedoms = ["psi", "theta", "phi"] (default; "u": stretch)
     [[chain]]
     point = "E"                           #   point: name, position (m) in the current frame
     position = ["L3", 0, 0]
@@ -55,7 +57,10 @@ Body shapes: ``cylinder`` (mass, radius, length, axis: along ``axis`` from 0 to 
 ``bar`` (mass, length, width, thickness: along x, thickness along y, width along z), ``rod``
 (mass, length, radius: along x), ``point_mass`` (mass, position); or ``mass``, ``center`` and
 ``inertia`` (3x3 about the centre of mass, kg·m²) in the body table itself. Sections:
-``rectangular`` (width along the link's z, thickness along its y) or ``circular`` (radius).
+``rectangular`` (width along the link's z, thickness along its y), ``circular`` (radius),
+``tube`` (outer_diameter, inner_diameter), ``I`` (height, width, flange_thickness,
+web_thickness), or ``stiffness`` (EIz, EIy, GJ, rhoA, optional rhoIz, rhoIy, EA; the link then
+gives no density, moduli nor torsion_constant).
 
 Quantities are numbers or expression strings. Chain quantities, gravity, Baumgarte gains and
 initial values may use parameters; drives also ``t``; constraints also coordinates, points

@@ -6,8 +6,10 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass, field
 
+import sympy as sp
+
 from ...errors import GpmegenError, ModelError
-from ..chain import Model, symbol
+from ..chain import TIME, Model, symbol
 from ..requirements import evaluate
 from .locator import Locator, located
 
@@ -17,12 +19,15 @@ class ModelFile:
     """A model read from a file, with the file's start configuration.
 
     ``initial``: coordinate name -> value (SymPy expression of parameters) from ``[initial] q``;
-    coordinates not named start at 0."""
+    coordinates not named start at 0. ``prescribed``: coordinate name -> its law (SymPy
+    expression of ``t`` and parameters) for the joints given ``prescribed = "law(t)"``, whose
+    constraints the model holds."""
 
     path: str
     model: Model
     initial: dict = field(default_factory=dict)
     source: str = field(default="", repr=False, compare=False)   # the file's text, for locate()
+    prescribed: dict = field(default_factory=dict)
 
     @functools.cached_property
     def _locator(self) -> Locator:
@@ -46,3 +51,20 @@ class ModelFile:
                 raise ModelError(f"{self.path}: initial.q.{name} = {expr} is not a finite real number with the "
                                  f"parameter values in use; change those parameters or the expression")
         return numbers
+
+    def prescribed_motion(self, t: float = 0.0, params: dict | None = None) -> dict[str, tuple[float, float]]:
+        """Each prescribed joint's position and velocity (rad or m, per s) at the time ``t`` (s):
+        its law and the law's time derivative, with the parameter defaults overridden by
+        ``params``; what a consistent start of the joint needs."""
+        values = {p.symbol: p.default for p in self.model.parameters}
+        values.update({symbol(name): float(value) for name, value in (params or {}).items()})
+        values[TIME] = float(t)
+        motion = {}
+        for name, law in self.prescribed.items():
+            pair = evaluate(law, values), evaluate(sp.diff(law, TIME), values)
+            if None in pair:
+                raise ModelError(f"{self.path}: the prescribed law of {name}, {law}, or its rate is not a finite "
+                                 f"real number at t = {t:g} s with the parameter values in use; change the law or "
+                                 f"those parameters")
+            motion[name] = pair
+        return motion

@@ -20,18 +20,22 @@ from .. import shapes
 from ..chain import (
     AXES,
     JOINT_KINDS,
+    PAPER_FREEDOMS,
     TIME,
     Body,
     CircularSection,
     Constraint,
     Drive,
     FlexibleLink,
+    ISection,
     Joint,
     Model,
     Offset,
     Parameter,
     Point,
     RectangularSection,
+    StiffnessSection,
+    TubeSection,
     check_name,
     point_symbols,
     point_velocity_symbols,
@@ -40,7 +44,7 @@ from ..chain import (
 )
 from ..expand import expand
 from ..requirements import evaluate, requirements, violation
-from ..rfem import check_nrfe, discretize, link_coordinates
+from ..rfem import check_freedoms, check_link, check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
 from .locator import Locator, field_text, located
 from .model_file import ModelFile
@@ -61,7 +65,16 @@ SHAPE_KEYS = {
     "point_mass": ("type", "mass", "position"),
 }
 SHAPE_OPTIONAL = {"point_mass": ("position",)}
-SECTION_KEYS = {"rectangular": ("type", "width", "thickness"), "circular": ("type", "radius")}
+SECTION_KEYS = {
+    "rectangular": ("type", "width", "thickness"),
+    "circular": ("type", "radius"),
+    "tube": ("type", "outer_diameter", "inner_diameter"),
+    "I": ("type", "height", "width", "flange_thickness", "web_thickness"),
+    "stiffness": ("type", "EIz", "EIy", "GJ", "rhoA", "rhoIz", "rhoIy", "EA"),
+}
+SECTION_OPTIONAL = {"stiffness": ("rhoIz", "rhoIy", "EA")}
+SECTION_TYPES = {"rectangular": RectangularSection, "circular": CircularSection, "tube": TubeSection,
+                 "I": ISection, "stiffness": StiffnessSection}
 
 
 def _kind_of(value) -> str:
@@ -96,6 +109,7 @@ class Reader:
         self.points: list[str] = []
         self.moving_points: set[str] = set()
         self.labels: dict[str, tuple] = {}
+        self.prescribed: dict[str, tuple] = {}   # coordinate -> (law of t, path of its field)
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -282,6 +296,7 @@ class Reader:
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
         dependent = self.read_dependent(data.get("dependent", "auto"))
+        constraints, dependent = self.prescribe(constraints, dependent)
         initial = self.read_initial(data.get("initial", {}))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
@@ -292,7 +307,8 @@ class Reader:
             expand(model)
         except ModelError as exc:
             raise located(exc, self.file, self.locator) from None
-        return ModelFile(self.file, model, initial, self.source)
+        laws = {name: law for name, (law, _) in self.prescribed.items()}
+        return ModelFile(self.file, model, initial, self.source, prescribed=laws)
 
     def check_chain_size(self, items):
         """Refuse, before reading it element by element, a chain whose build cannot finish
@@ -304,9 +320,7 @@ class Reader:
             if isinstance(item, dict) and "joint" in item:
                 n_dof += 1
             elif isinstance(item, dict) and "flexible" in item:
-                n_rfe = item.get("nrfe", self.default_nrfe)
-                if isinstance(n_rfe, int) and not isinstance(n_rfe, bool) and n_rfe >= 1:
-                    n_dof += link_coordinates(n_rfe)
+                n_dof += link_coordinates(item.get("nrfe", self.default_nrfe), item.get("freedoms", PAPER_FREEDOMS))
         limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
 
     def read_parameters(self, table):
@@ -359,7 +373,7 @@ class Reader:
             else:
                 element = getattr(self, f"read_{kinds[0]}")(item, path)
             if isinstance(element, FlexibleLink):
-                for part in self.expand_link(element):
+                for part in self.expand_link(element, path):
                     if isinstance(part, Joint):
                         moving = True
             elif isinstance(element, Joint):
@@ -370,7 +384,8 @@ class Reader:
         return tuple(elements)
 
     def read_joint(self, item, path):
-        self.table(item, path, ("joint", "type", "axis", "stiffness", "damping"), ("joint", "type", "axis"), "joint")
+        keys = ("joint", "type", "axis", "stiffness", "damping", "prescribed")
+        self.table(item, path, keys, keys[:3], "joint")
         name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
         kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
         axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
@@ -379,6 +394,9 @@ class Reader:
             if key in item:
                 extra[key] = self.quantity(item[key], path + (key,), self.params)
         self.coordinates.append(name)
+        if "prescribed" in item:
+            here = path + ("prescribed",)
+            self.prescribed[name] = (self.quantity(item["prescribed"], here, {**self.params, "t": TIME}), here)
         return Joint(name, kind, axis, **extra)
 
     def read_offset(self, item, path):
@@ -466,8 +484,8 @@ class Reader:
 
     def read_flexible(self, item, path):
         keys = ("flexible", "length", "section", "density", "young_modulus", "shear_modulus",
-                "torsion_constant", "nrfe", "damping")
-        self.table(item, path, keys, keys[:6], "flexible link")
+                "torsion_constant", "nrfe", "damping", "freedoms")
+        self.table(item, path, keys, keys[:3], "flexible link")
         label = self.string(item["flexible"], path + ("flexible",), "a label in quotes")
         if not _LABEL.match(label):
             self.fail(path + ("flexible",), f"label {label!r} is not valid: use letters, digits and underscores "
@@ -478,42 +496,42 @@ class Reader:
                                             f"{first}; give each flexible link its own label")
         self.labels[label] = path + ("flexible",)
         P = self.params
-        length = self.quantity(item["length"], path + ("length",), P)
-        here = path + ("section",)
-        section = self.table(item["section"], here, ("type", "width", "thickness", "radius"), ("type",), "section")
-        kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
-        self.table(section, here, SECTION_KEYS[kind], SECTION_KEYS[kind], f"{kind} section")
-        if kind == "rectangular":
-            section = RectangularSection(
-                self.quantity(section["width"], here + ("width",), P),
-                self.quantity(section["thickness"], here + ("thickness",), P),
-            )
-        else:
-            section = CircularSection(self.quantity(section["radius"], here + ("radius",), P))
-        extra = {}
-        if "torsion_constant" in item:
-            extra["torsion_constant"] = self.quantity(item["torsion_constant"], path + ("torsion_constant",), P)
+        extra = {key: self.quantity(item[key], path + (key,), P)
+                 for key in ("density", "young_modulus", "shear_modulus", "torsion_constant") if key in item}
         if "damping" in item:
             extra["damping"] = self.read_vector(item["damping"], path + ("damping",), P, 3)
+        if "freedoms" in item:
+            freedoms = self.array(item["freedoms"], path + ("freedoms",), what="list of sde freedoms")
+            try:
+                extra["freedoms"] = check_freedoms(freedoms, f"flexible link {label!r}", path + ("freedoms",))
+            except ModelError as exc:
+                raise located(exc, self.file, self.locator) from None
         if "nrfe" in item:
             n_rfe = self.nrfe(item["nrfe"], path + ("nrfe",))
         elif self.default_nrfe is not None:
             n_rfe = self.default_nrfe
         else:
             self.fail(path, "no n_rfe for this flexible link; add nrfe = 3 here or at the top of the file")
-        return FlexibleLink(
-            label=label,
-            length=length,
-            section=section,
-            density=self.quantity(item["density"], path + ("density",), P),
-            young_modulus=self.quantity(item["young_modulus"], path + ("young_modulus",), P),
-            shear_modulus=self.quantity(item["shear_modulus"], path + ("shear_modulus",), P),
-            n_rfe=n_rfe,
-            **extra,
-        )
+        return FlexibleLink(label=label, length=self.quantity(item["length"], path + ("length",), P),
+                            section=self.read_section(item["section"], path + ("section",)), n_rfe=n_rfe, **extra)
 
-    def expand_link(self, link):
-        """The rfem elements of ``link``, their coordinates recorded."""
+    def read_section(self, section, here):
+        """A flexible link's ``section`` table as a section of :mod:`gpmegen.model.chain`."""
+        self.table(section, here, tuple(dict.fromkeys(k for keys in SECTION_KEYS.values() for k in keys)), ("type",),
+                   "section")
+        kind = self.choice(section["type"], here + ("type",), tuple(SECTION_KEYS), "section type")
+        optional = SECTION_OPTIONAL.get(kind, ())
+        self.table(section, here, SECTION_KEYS[kind], tuple(k for k in SECTION_KEYS[kind] if k not in optional),
+                   f"{kind} section")
+        return SECTION_TYPES[kind](**{key: self.quantity(section[key], here + (key,), self.params)
+                                      for key in SECTION_KEYS[kind][1:] if key in section})
+
+    def expand_link(self, link, path):
+        """The rfem elements of ``link`` (the flexible link at ``path``), their coordinates recorded."""
+        try:
+            check_link(link, path)
+        except ModelError as exc:
+            raise located(exc, self.file, self.locator) from None
         parts = discretize(link)
         self.coordinates += [part.name for part in parts if isinstance(part, Joint)]
         return parts
@@ -577,6 +595,34 @@ class Reader:
                     extra[key] = self.quantity(item[key], path + (key,), self.params)
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
+
+    def prescribe(self, constraints, dependent):
+        """``constraints`` and ``dependent`` with each prescribed joint's law written as the
+        position constraint ``prescribed_<q>: q - law(t) = 0``, after the file's own, and ``q``
+        dependent: the GPME prescribes a joint's motion by a programmed constraint with that
+        joint's coordinate dependent. The one place this is written."""
+        if not self.prescribed:
+            return constraints, dependent
+        taken = {c.name for c in constraints} | set(self.params) | set(self.coordinates) | set(self.points)
+        written = []
+        for name, (law, here) in self.prescribed.items():
+            cname = f"prescribed_{name}"
+            try:
+                check_name(cname, "the name of the constraint that prescribed writes")
+            except ModelError as exc:
+                raise self.error(here, f"{exc}: shorten the joint's name") from None
+            if cname in taken:
+                self.fail(here, f"prescribed writes the constraint {cname!r}, and that name is already taken in "
+                                f"the file; rename the other one")
+            if dependent is not None and name in dependent:
+                self.fail(("dependent", dependent.index(name)), f"{name!r} is prescribed, which makes it dependent "
+                                                                f"already; remove it from dependent")
+            written.append(Constraint(cname, symbol(name) - law))
+        if dependent is None and constraints:
+            self.fail(("dependent",), "with prescribed joints, list the dependent coordinates of the [[constraints]] "
+                                      "(one per constraint; the prescribed joints are added after them): write "
+                                      "dependent = [\"...\"]")
+        return constraints + tuple(written), tuple(dependent or ()) + tuple(self.prescribed)
 
     def read_dependent(self, value):
         """None for "auto", else the list as a tuple (its entries: expand())."""
