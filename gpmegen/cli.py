@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import limits
+from .analysis.plots import IncompatibleResults
 from .errors import BuildError, DerivationError, GpmegenError, ModelError
 
 
@@ -68,6 +69,18 @@ def parameter_override(text: str):
         return name.strip(), float(value)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: the value of {name.strip()!r} is not a number") from None
+
+
+def figure_formats(text: str) -> tuple:
+    """argparse type: comma-separated figure formats among png, pdf and svg (``png,pdf``)."""
+    from .analysis.plots import FORMATS
+
+    formats = tuple(dict.fromkeys(f.strip().lower() for f in text.split(",")))
+    wrong = [f for f in formats if f not in FORMATS]
+    if wrong or not formats:
+        raise argparse.ArgumentTypeError(f"{text!r}: figure formats are {', '.join(FORMATS)}, separated by commas "
+                                         f"(e.g. png,pdf)")
+    return formats
 
 
 class UsageError(GpmegenError):
@@ -213,8 +226,9 @@ def cmd_plot(args) -> int:
     from .analysis import results as results_io
 
     runs = [results_io.load(p) for p in args.results]
+    plots.check_compatible(runs, args.results)  # before any folder or figure is made
     _writable_folder(Path(args.out))
-    for path in plots.plot_all(runs, Path(args.out), args.format):
+    for path in plots.plot_all(runs, Path(args.out), args.format, names=args.results):
         print(path)
     return 0
 
@@ -333,10 +347,11 @@ def build_parser() -> argparse.ArgumentParser:
     study_options(st)
     st.set_defaults(func=cmd_statics)
 
-    pl = sub.add_parser("plot", help="the paper's figures from results files")
+    pl = sub.add_parser("plot", help="figures from results files of one model")
     pl.add_argument("results", nargs="+", type=path_argument, help="results .npz files (e.g. results/*.npz)")
     pl.add_argument("--out", type=path_argument, default="figures", help="folder for the figures (default figures/)")
-    pl.add_argument("--format", choices=("png", "pdf", "svg"), default="png")
+    pl.add_argument("--format", type=figure_formats, default=("png",), metavar="png,pdf,svg",
+                    help="figure formats, separated by commas: png (200 dpi), pdf and svg (vector); default png")
     pl.set_defaults(func=cmd_plot)
 
     m = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium")
@@ -376,7 +391,7 @@ def main(argv=None) -> int:
     try:
         with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext():
             return args.func(args)
-    except (UsageError, limits.LimitError) as exc:
+    except (UsageError, limits.LimitError, IncompatibleResults) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:
