@@ -23,9 +23,12 @@ DPI = 200
 # Metadata that would differ between two runs (dates) is left out; the rest is fixed.
 _FILE_METADATA = {"png": {}, "pdf": {"CreationDate": None}, "svg": {"Date": None}}
 _SVG_SALT = "gpmegen"
-PALETTE = tuple(f"C{k}" for k in range(10))
+# The reference case's rigid and flexible arm ask for C0 and C2 (metadata "colour"): they come
+# last, so that another run (a second start) does not take the colour of an arm missing from it.
+PALETTE = ("C1", "C3", "C4", "C5", "C6", "C8", "C9", "C7", "C0", "C2")
 LINESTYLES = ("-", "--", "-.", ":")
 MARKERS = ("o", "s", "^", "D", "v", "P")
+FOOT = 0.55     # in: the strip under the axes that holds the legend and the caption
 WINDOWS = 200   # the violation plot shows the largest |Φ| in each of this many windows of the run
 
 
@@ -119,15 +122,25 @@ def _coordinate(results, name):
 
 
 def _finish(fig, runs, title, handles, caption=None):
-    """Title, one legend below the axes (outside the data) and the caption line under it."""
+    """Title, one legend under the axes (outside the data) and the caption line under it, both in
+    the strip that :func:`_figure` keeps free at the bottom."""
     fig.suptitle(title)
-    legend = fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize=9,
-                        frameon=False)
-    if caption:  # under the legend, once the layout has placed it
-        fig.canvas.draw()
-        bottom = legend.get_window_extent().transformed(fig.transFigure.inverted()).y0
-        fig.text(0.5, bottom - 0.004, caption, ha="center", va="top", fontsize=9, style="italic", color="0.3",
-                 in_layout=False)
+    height = fig.get_figheight()
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, FOOT / height), ncols=min(len(handles), 3),
+               fontsize=9, frameon=False).set_in_layout(False)
+    if caption:
+        fig.text(0.5, 0.04 / height, caption, ha="center", va="bottom", fontsize=9, style="italic", color="0.3")
+    _freeze_layout(fig)
+
+
+def _freeze_layout(fig):
+    """Make the layout once and keep it, its positions rounded to 1e-5 of the figure: the layout
+    solver's last digits can differ between two figures of the same data (the order it meets
+    the axes in), which would change the bytes of the file."""
+    fig.canvas.draw()
+    fig.set_layout_engine("none")
+    for ax in fig.axes:
+        ax.set_position(np.round(ax.get_position().bounds, 5))
 
 
 def _run_handles(runs, style, marker=False):
@@ -137,7 +150,11 @@ def _run_handles(runs, style, marker=False):
 
 
 def _figure(plt, rows, cols, height, width=8.0, **kwargs):
-    fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, layout="constrained", **kwargs)
+    """A figure of ``rows`` x ``cols`` axes ``height`` in tall in all, plus a strip of FOOT in at the
+    bottom, outside the layout, for the legend and the caption."""
+    total = height + FOOT
+    fig, axes = plt.subplots(rows, cols, figsize=(width, total), squeeze=False, layout="constrained", **kwargs)
+    fig.get_layout_engine().set(rect=(0, FOOT / total, 1, 1 - FOOT / total))
     return fig, axes
 
 
@@ -193,8 +210,11 @@ def path(plt, runs, style):
         for ax, (i, j) in ((a1, (0, 2)), (a2, (0, 1))):
             ax.plot(E[:, i], E[:, j], **_line(s), lw=1)
             ax.plot(E[0, i], E[0, j], "o", ms=7, color=s["color"])
+            # the case may place the tag; else a start at the right of the path is tagged on its left
+            inward = 1 if "tag_offset" in meta else _inward(E[:, i], E[0, i])
             ax.annotate(meta.get("start_tag", "start"), (E[0, i], E[0, j]), textcoords="offset points",
-                        xytext=meta.get("tag_offset", (8, -14)), fontsize=12)
+                        xytext=meta.get("tag_offset", (8 * inward, -14)), ha="left" if inward > 0 else "right",
+                        fontsize=12)
     a1.set_xlabel("x0 [m]"), a1.set_ylabel("z0 [m]"), a1.set_aspect("equal", "datalim")
     a2.set_xlabel("x0 [m]"), a2.set_ylabel("y0 [m]")
     a1.set_title("x0z0 plane", fontsize=10)
@@ -204,6 +224,13 @@ def path(plt, runs, style):
     _finish(fig, runs, _title(runs, "Path of the end-effector E"), _run_handles(runs, style),
             _caption(runs, "path"))
     return fig
+
+
+def _inward(values, start) -> int:
+    """+1 when ``start`` lies in the lower half of the range of ``values``, else -1: the side of
+    the start point on which its tag stays within the axes."""
+    low, high = np.min(values), np.max(values)
+    return 1 if start <= (low + high) / 2 else -1
 
 
 def window_maxima(t, values, windows=WINDOWS):
@@ -299,7 +326,7 @@ def _saver(fig, fmt):
         import matplotlib
 
         with matplotlib.rc_context({"svg.hashsalt": _SVG_SALT}):
-            fig.savefig(fh, format=fmt, dpi=DPI, bbox_inches="tight", metadata=_FILE_METADATA[fmt])
+            fig.savefig(fh, format=fmt, dpi=DPI, metadata=_FILE_METADATA[fmt])
 
     return write
 
