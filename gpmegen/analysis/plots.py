@@ -1,10 +1,10 @@
 """The paper's figures (joint coordinates, coordinates and path of E) plus constraint violation
 and energy balance, for one or more runs of one model drawn together.
 
-Each run keeps its colour and line style in every figure (:func:`styles`); legends sit outside
+Each run keeps its colour and line style in every figure (:func:`styles`); the legend sits under
 the axes; titles name the model, and the paper's figure number appears, in a caption line, only
-when every run is the paper's case. Figures are byte-reproducible: the files carry no dates and
-SVG ids come from a fixed salt.
+when every run is the paper's case. Figures are byte-reproducible: the layout is made once and
+rounded, the files carry no dates and SVG ids come from a fixed salt.
 """
 
 from __future__ import annotations
@@ -28,7 +28,8 @@ _SVG_SALT = "gpmegen"
 PALETTE = ("C1", "C3", "C4", "C5", "C6", "C8", "C9", "C7", "C0", "C2")
 LINESTYLES = ("-", "--", "-.", ":")
 MARKERS = ("o", "s", "^", "D", "v", "P")
-FOOT = 0.55     # in: the strip under the axes that holds the legend and the caption
+LEGEND_COLUMNS = 3
+LEGEND_PAD, LEGEND_ROW, CAPTION_ROW = 0.1, 0.22, 0.23  # in: the strip under the axes
 WINDOWS = 200   # the violation plot shows the largest |Φ| in each of this many windows of the run
 
 
@@ -121,13 +122,17 @@ def _coordinate(results, name):
     return results["q"][:, names.index(name)] if name in names else None
 
 
-def _finish(fig, runs, title, handles, caption=None):
-    """Title, one legend under the axes (outside the data) and the caption line under it, both in
-    the strip that :func:`_figure` keeps free at the bottom."""
+def _finish(fig, title, handles, caption=None):
+    """Title, one legend under the axes (outside the data) and the caption line under it, in a
+    strip added at the bottom of the figure, outside the layout."""
     fig.suptitle(title)
-    height = fig.get_figheight()
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, FOOT / height), ncols=min(len(handles), 3),
-               fontsize=9, frameon=False).set_in_layout(False)
+    rows = -(-len(handles) // LEGEND_COLUMNS)
+    foot = LEGEND_PAD + LEGEND_ROW * rows + (CAPTION_ROW if caption else 0.0)  # in
+    height = fig.get_figheight() + foot
+    fig.set_figheight(height)
+    fig.get_layout_engine().set(rect=(0, foot / height, 1, 1 - foot / height))
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, foot / height),
+               ncols=min(len(handles), LEGEND_COLUMNS), fontsize=9, frameon=False).set_in_layout(False)
     if caption:
         fig.text(0.5, 0.04 / height, caption, ha="center", va="bottom", fontsize=9, style="italic", color="0.3")
     _freeze_layout(fig)
@@ -150,11 +155,9 @@ def _run_handles(runs, style, marker=False):
 
 
 def _figure(plt, rows, cols, height, width=8.0, **kwargs):
-    """A figure of ``rows`` x ``cols`` axes ``height`` in tall in all, plus a strip of FOOT in at the
-    bottom, outside the layout, for the legend and the caption."""
-    total = height + FOOT
-    fig, axes = plt.subplots(rows, cols, figsize=(width, total), squeeze=False, layout="constrained", **kwargs)
-    fig.get_layout_engine().set(rect=(0, FOOT / total, 1, 1 - FOOT / total))
+    """A figure of ``rows`` x ``cols`` axes, ``width`` x ``height`` in before :func:`_finish` adds
+    the strip for the legend and the caption."""
+    fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, layout="constrained", **kwargs)
     return fig, axes
 
 
@@ -172,7 +175,7 @@ def joint_coordinates(plt, runs, style):
         ax.set_ylabel(pretty.get(name, name))
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
-    _finish(fig, runs, _title(runs, "Joint coordinates"), _run_handles(runs, style),
+    _finish(fig, _title(runs, "Joint coordinates"), _run_handles(runs, style),
             _caption(runs, "joint_coordinates"))
     return fig
 
@@ -196,7 +199,7 @@ def end_effector(plt, runs, style):
         ax.set_ylabel(name)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("t [s]")
-    _finish(fig, runs, _title(runs, "Coordinates of the end-effector E"), _run_handles(runs, style) + extra,
+    _finish(fig, _title(runs, "Coordinates of the end-effector E"), _run_handles(runs, style) + extra,
             _caption(runs, "end_effector"))
     return fig
 
@@ -221,7 +224,7 @@ def path(plt, runs, style):
     a2.set_title("x0y0 plane", fontsize=10)
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)
-    _finish(fig, runs, _title(runs, "Path of the end-effector E"), _run_handles(runs, style),
+    _finish(fig, _title(runs, "Path of the end-effector E"), _run_handles(runs, style),
             _caption(runs, "path"))
     return fig
 
@@ -274,7 +277,7 @@ def constraint_violation(plt, runs, style):
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     caption = f"Largest |Φ| in each of {min(WINDOWS, len(runs[0]['t']))} windows of the run"
-    _finish(fig, runs, _title(runs, "Constraint violation"), _run_handles(runs, style, marker=True),
+    _finish(fig, _title(runs, "Constraint violation"), _run_handles(runs, style, marker=True),
             caption + ("; exact zeros on the dotted line." if any(zeros) else "."))
     return fig
 
@@ -306,7 +309,7 @@ def energy_balance(plt, runs, style):
         ax.grid(True, alpha=0.3)
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
-    _finish(fig, runs, _title(runs, "Energy balance"), _run_handles(runs, style),
+    _finish(fig, _title(runs, "Energy balance"), _run_handles(runs, style),
             "ΔE = ΔT + ΔV gravity + ΔV springs against W = W drive + W constraints.")
     return fig
 
