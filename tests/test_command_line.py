@@ -21,7 +21,6 @@ from gpmegen.help_pages import DESCRIPTIONS
 from gpmegen.version import __version__
 
 MODELS = Path(__file__).resolve().parent / "models"
-COMMANDS = ["build", "simulate", "statics", "plot", "modes", "convergence", "demo"]
 
 
 def _exit(argv, capsys):
@@ -47,9 +46,9 @@ def test_version_is_the_packages(capsys):
     assert __version__ == version("gpmegen")  # the installed distribution says the same
 
 
-@pytest.mark.parametrize("command", COMMANDS)
+@pytest.mark.parametrize("command", sorted(_commands()))
 def test_each_help_page_has_a_description_examples_and_the_files_written(command, capsys):
-    assert set(_commands()) == set(COMMANDS)
+    assert command in DESCRIPTIONS, f"{command}: give it a description, examples and files in gpmegen/help_pages.py"
     code, out, _ = _exit([command, "--help"], capsys)
     assert code == 0
     first_line = DESCRIPTIONS[command].splitlines()[0]
