@@ -1,15 +1,17 @@
 """Command line: ``gpmegen build | statics | simulate | plot | modes | convergence | demo``.
 
-Usage errors exit with status 2, runtime failures with 1; either prints one line naming the
-problem and the fix, never a traceback.
+Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
+SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import functools
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -17,7 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from . import limits
+from .analysis.plots import IncompatibleResults
 from .errors import BuildError, DerivationError, GpmegenError, ModelError
+from .status import Ending
 
 
 def positive_int(text: str) -> int:
@@ -61,13 +65,48 @@ def path_argument(text: str) -> str:
 
 
 def parameter_override(text: str):
+    """argparse type: ``NAME=VALUE``, the value a number or an expression of numbers as a model
+    file's parameter values are (``tdr0=2*pi``), read by the model file's expression parser."""
+    from .model.file.expressions import parse
+    from .model.requirements import evaluate
+
     name, sep, value = text.partition("=")
     if not sep:
         raise argparse.ArgumentTypeError(f"{text!r}: write a parameter override as NAME=VALUE")
+    name = name.strip()
+    unknown = f"the value of {name!r} may use numbers, pi and functions such as sqrt, not names; write e.g. 2*pi"
     try:
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: the value of {name.strip()!r} is not a number") from None
+        number = evaluate(parse(value, {}, lambda other, scope: f"{other!r}: {unknown}"), {})
+    except ModelError as exc:
+        raise argparse.ArgumentTypeError(f"{text!r}: {exc}") from None
+    if number is None:
+        raise argparse.ArgumentTypeError(f"{text!r}: the value of {name!r} is not a finite real number")
+    return name, number
+
+
+METHODS = ("rk4", "DOP853", "RK45", "Radau", "LSODA")
+
+
+def method_name(text: str) -> str:
+    """argparse type: an integrator's name in any case (``dop853`` → ``DOP853``)."""
+    by_lower = {method.lower(): method for method in METHODS}
+    if text.lower() in by_lower:
+        return by_lower[text.lower()]
+    close = difflib.get_close_matches(text.lower(), by_lower, 1)
+    hint = f"; did you mean {by_lower[close[0]]}?" if close else ""
+    raise argparse.ArgumentTypeError(f"{text!r} is not an integrator (choose from {', '.join(METHODS)}){hint}")
+
+
+def figure_formats(text: str) -> tuple:
+    """argparse type: comma-separated figure formats among png, pdf and svg (``png,pdf``)."""
+    from .analysis.plots import FORMATS
+
+    formats = tuple(dict.fromkeys(f.strip().lower() for f in text.split(",")))
+    wrong = [f for f in formats if f not in FORMATS]
+    if wrong or not formats:
+        raise argparse.ArgumentTypeError(f"{text!r}: figure formats are {', '.join(FORMATS)}, separated by commas "
+                                         f"(e.g. png,pdf)")
+    return formats
 
 
 class UsageError(GpmegenError):
@@ -164,6 +203,7 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
+    from .analysis.cases import FileCase
 
     _check_results_path(out)
     backend = backend or _default_backend()
@@ -172,19 +212,46 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
-    final = ", ".join(f"{name} = {res['q'][-1, model.index(name)]:.6f}" for name in case.shown(model))
-    print(f"{case.label} ({model.backend}, {method}, dt = {dt:g} s): t = {res['t'][-1]:.6g} s in {done.wall:.1f} s; "
-          f"{final}; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; wrote {', '.join(map(str, written))}")
+    names = model.coordinates if isinstance(case, FileCase) else case.shown(model)
+    final = _coordinate_values(names, [res["q"][-1, model.index(name)] for name in names])
+    print(f"{case.label} ({model.backend}, {method}, dt = {dt:g} s): {_outcome(status, res['t'][-1])} "
+          f"in {done.wall:.1f} s; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; "
+          f"wrote {', '.join(map(str, written))}; state at t = {res['t'][-1]:.6g} s:\n{final}")
     if status != "complete":
         kept = f"results up to t = {res['t'][-1]:.6g} s kept in {written[0]} (partial)"
         if out.exists():
             kept += f"; {out} is left as it was"
-        raise SimulationStopped(f"{status}; {kept}")
+        raise SimulationStopped(f"{status}; {kept}", interrupted=status == Ending.INTERRUPTED.value)
     return res
 
 
+def _outcome(status: str, t_last: float) -> str:
+    """How a run ended, as its summary says it: ``complete at t = 10 s``, ``DIVERGED after t = 0.53 s``
+    or ``INTERRUPTED after t = 2.1 s`` (``status``: the results' status text; ``t_last``: the time
+    of the last state computed, in s)."""
+    ending = status.split(":")[0]
+    if ending == Ending.COMPLETE.value:
+        return f"complete at t = {t_last:.6g} s"
+    return f"{ending.upper()} after t = {t_last:.6g} s"
+
+
+def _coordinate_values(names, values, per_line=4) -> str:
+    """``name = value`` for each coordinate, a few to a line, aligned, indented: the final state
+    of a run."""
+    cells = [f"{name} = {value: .6f}" for name, value in zip(names, values)]
+    width = max(map(len, cells))
+    lines = ["  " + "   ".join(c.ljust(width) for c in cells[k:k + per_line]).rstrip()
+             for k in range(0, len(cells), per_line)]
+    return "\n".join(lines)
+
+
 class SimulationStopped(GpmegenError):
-    """The run ended early (diverged or interrupted); partial results were written."""
+    """The run ended early (diverged or interrupted); partial results were written.
+    ``interrupted``: by Ctrl-C or SIGTERM (exit status 130), else it diverged (1)."""
+
+    def __init__(self, message, interrupted=False):
+        super().__init__(message)
+        self.interrupted = interrupted
 
 
 def cmd_simulate(args) -> int:
@@ -213,8 +280,9 @@ def cmd_plot(args) -> int:
     from .analysis import results as results_io
 
     runs = [results_io.load(p) for p in args.results]
+    plots.check_compatible(runs, args.results)  # before any folder or figure is made
     _writable_folder(Path(args.out))
-    for path in plots.plot_all(runs, Path(args.out), args.format):
+    for path in plots.plot_all(runs, Path(args.out), args.format, names=args.results):
         print(path)
     return 0
 
@@ -283,22 +351,64 @@ def cmd_convergence(args) -> int:
     return 0
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with errors in one line, with "did you mean" for a mistyped subcommand or option."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}{self._suggestion(message)} (see {self.prog} --help)\n")
+
+    def _suggestion(self, message) -> str:
+        wrong = re.search(r"invalid choice: '([^']*)'", message)
+        if wrong and self._subparsers is not None:
+            close = difflib.get_close_matches(wrong.group(1), self._commands(), 1)
+            return f"; did you mean {close[0]!r}?" if close else ""
+        if message.startswith("unrecognized arguments: "):
+            options = [o for a in self._actions for o in a.option_strings]
+            guesses = [difflib.get_close_matches(word.split("=")[0], options, 1)
+                       for word in message.split(": ", 1)[1].split() if word.startswith("-")]
+            close = [g[0] for g in guesses if g]
+            return f"; did you mean {' '.join(close)}?" if close else ""
+        return ""
+
+    def _commands(self) -> list:
+        return [name for a in self._actions if isinstance(a, argparse._SubParsersAction) for name in a.choices]
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, but an option that the chosen subcommand does not know is reported by
+        that subcommand (which knows its options, to suggest one)."""
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            sub = next((a.choices[parsed.command] for a in self._actions
+                        if isinstance(a, argparse._SubParsersAction) and getattr(parsed, "command", None) in a.choices),
+                       self)
+            sub.error(f"unrecognized arguments: {' '.join(extras)}")
+        return parsed
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from .help_pages import DESCRIPTIONS, EPILOGS
+    from .version import __version__
+
+    parser = Parser(
         prog="gpmegen",
         description="Reference dynamics models (GPME) of manipulators with flexible links, as generated code.",
+        epilog="gpmegen COMMAND --help describes a command, with examples and the files it writes. Exit status: 0 "
+               "done, 1 failure, 2 usage or model error, 130 interrupted.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser.add_argument("--version", action="version", version=f"gpmegen {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
 
-    b = sub.add_parser("build", help="generate the NumPy and C modules of the reference manipulator")
+    def command(name, help):
+        return sub.add_parser(name, help=help, description=DESCRIPTIONS[name], epilog=EPILOGS[name],
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+
+    b = command("build", "generate the NumPy and C modules of the reference manipulator or a model file")
     b.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml); default: the reference manipulator")
     b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
-    b.add_argument("--backend", choices=("numpy", "c", "all"), default="all",
-                   help="backends to generate (both are always written; the NumPy one is the C one's oracle)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.set_defaults(func=cmd_build)
 
@@ -312,15 +422,16 @@ def build_parser() -> argparse.ArgumentParser:
                             "equilibrium of the constrained system, or a model file's [initial] configuration "
                             "(its default)")
         p.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
-                       help="override a parameter (repeatable), e.g. --param tdr0=2")
+                       help="override a parameter (repeatable); the value is a number or an expression as in "
+                            "model files, e.g. --param tdr0=2*pi")
 
-    s = sub.add_parser("simulate", help="statics, then the constrained motion (RK4 or adaptive)")
+    s = command("simulate", "statics, then the constrained motion (RK4 or adaptive)")
     study_options(s)
     s.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
     s.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
     s.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
-    s.add_argument("--method", choices=("rk4", "DOP853", "RK45", "Radau", "LSODA"), default="rk4",
-                   help="integrator: fixed-step rk4 (paper) or an adaptive scipy method")
+    s.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
+                   help="integrator, in any case: fixed-step rk4 (the paper's, default) or an adaptive SciPy method")
     s.add_argument("--backend", choices=("numpy", "c"), default=None,
                    help="generated code to run (default: c when a compiler is present)")
     s.add_argument("--out", type=path_argument, default=None,
@@ -329,27 +440,29 @@ def build_parser() -> argparse.ArgumentParser:
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.set_defaults(func=cmd_simulate)
 
-    st = sub.add_parser("statics", help="print the static start configuration")
+    st = command("statics", "print the static start configuration")
     study_options(st)
     st.set_defaults(func=cmd_statics)
 
-    pl = sub.add_parser("plot", help="the paper's figures from results files")
+    pl = command("plot", "figures from results files of one model")
     pl.add_argument("results", nargs="+", type=path_argument, help="results .npz files (e.g. results/*.npz)")
     pl.add_argument("--out", type=path_argument, default="figures", help="folder for the figures (default figures/)")
-    pl.add_argument("--format", choices=("png", "pdf", "svg"), default="png")
+    pl.add_argument("--format", type=figure_formats, default=("png",), metavar="png,pdf,svg",
+                    help="figure formats, separated by commas: png (200 dpi), pdf and svg (vector); default png")
     pl.set_defaults(func=cmd_plot)
 
-    m = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium")
+    m = command("modes", "natural frequencies and mode shapes about the static equilibrium")
     m.add_argument("--nrfe", type=positive_int, default=5, help="rigid finite elements of the arm (≥ 2 to have modes)")
     m.add_argument("--lock", choices=("joints", "constraints"), default="joints",
                    help="linearize with the joints locked, or with the programmed constraints holding")
     m.add_argument("--count", type=positive_int, default=10, help="modes to print (default 10)")
-    m.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE")
+    m.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
+                   help="override a parameter (repeatable); a number or an expression, e.g. --param d2=0.01")
     m.add_argument("--out", type=path_argument, default="figures",
                    help="folder for the CSV and the figure (default figures/)")
     m.set_defaults(func=cmd_modes)
 
-    c = sub.add_parser("convergence", help="clamped arm against n_rfe, beside Euler–Bernoulli and Saint-Venant")
+    c = command("convergence", "clamped arm against n_rfe, beside Euler–Bernoulli and Saint-Venant")
     c.add_argument("--nrfe", type=positive_int, nargs="+", default=[2, 3, 5, 8, 10, 15, 20],
                    help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
@@ -359,7 +472,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--out", type=path_argument, default="figures", help="folder for convergence.png (default figures/)")
     c.set_defaults(func=cmd_convergence)
 
-    d = sub.add_parser("demo", help="the paper's study: rigid and flexible arms, figures")
+    d = command("demo", "the paper's study: rigid and flexible arms, figures")
     d.add_argument("--t-end", type=positive_float, default=10.0, help="simulated time in s (default 10)")
     d.add_argument("--results", type=path_argument, default="results", help="folder for results (default results/)")
     d.add_argument("--figures", type=path_argument, default="figures", help="folder for figures (default figures/)")
@@ -376,7 +489,10 @@ def main(argv=None) -> int:
     try:
         with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext():
             return args.func(args)
-    except (UsageError, limits.LimitError) as exc:
+    except SimulationStopped as exc:
+        print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)
+        return 130 if exc.interrupted else 1
+    except (UsageError, limits.LimitError, IncompatibleResults) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:

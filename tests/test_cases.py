@@ -67,10 +67,11 @@ def test_results_carry_the_cases_metadata_as_json(tmp_path):
     assert plots.label(reference) == "rigid arm"
     assert plots.label(mine) == f"{name} (initial start)"
     assert plots.joint_names(reference) == ["theta1", "psi2", "x3"]
-    # the paper's figure numbers only where every run is the paper's case
-    assert plots._title([reference], "Path", "path") == "Path (paper Fig. 4)"
-    assert plots._title([reference, mine], "Path", "path") == "Path"
-    assert {p.name for p in plots.plot_all([reference, mine], tmp_path / "figures")} >= {"path.png"}
+    # titles name the model; the paper's figure numbers only where every run is the paper's case
+    assert plots._title([reference], "Path") == "Path: manipulator"
+    assert plots._caption([reference], "path") == "Corresponds to paper Fig. 4."
+    assert plots._caption([mine], "path") is None
+    assert {p.name for p in plots.plot_all([mine], tmp_path / "figures")} >= {"path.png"}
 
 
 def test_a_model_of_your_own_is_labelled_by_its_name_whatever_it_is_called(tmp_path):

@@ -1,14 +1,40 @@
 """The paper's figures (joint coordinates, coordinates and path of E) plus constraint violation
-and energy balance, for one or more results files drawn together."""
+and energy balance, for one or more runs of one model drawn together.
+
+Each run keeps its colour and line style in every figure (:func:`styles`); the legend sits under
+the axes; titles name the model, and the paper's figure number appears, in a caption line, only
+when every run is the paper's case. Figures are byte-reproducible: the layout is made once and
+rounded, the files carry no dates and SVG ids come from a fixed salt.
+"""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
-from ..fileio import atomic_write
+from ..errors import GpmegenError
+from ..fileio import atomic_write_all
 from .results import metadata
+
+FORMATS = ("png", "pdf", "svg")
+DPI = 200
+# Metadata that would differ between two runs (dates) is left out; the rest is fixed.
+_FILE_METADATA = {"png": {}, "pdf": {"CreationDate": None}, "svg": {"Date": None}}
+_SVG_SALT = "gpmegen"
+# The reference case's rigid and flexible arm ask for C0 and C2 (metadata "colour"): they come
+# last, so that another run (a second start) does not take the colour of an arm missing from it.
+PALETTE = ("C1", "C3", "C4", "C5", "C6", "C8", "C9", "C7", "C0", "C2")
+LINESTYLES = ("-", "--", "-.", ":")
+MARKERS = ("o", "s", "^", "D", "v", "P")
+LEGEND_COLUMNS = 3
+LEGEND_PAD, LEGEND_ROW, CAPTION_ROW = 0.1, 0.22, 0.23  # in: the strip under the axes
+WINDOWS = 200   # the violation plot shows the largest |Φ| in each of this many windows of the run
+
+
+class IncompatibleResults(GpmegenError):
+    """Results of different models (or with different constraints) asked for one figure."""
 
 
 def _pyplot():
@@ -33,11 +59,62 @@ def joint_names(results) -> list:
     return metadata(results).get("joints") or [str(c) for c in results["coordinates"]][:3]
 
 
-def _title(runs, title, figure) -> str:
-    """``title``, with the figure of the source (e.g. "paper Fig. 2") that every run names."""
+def family(results) -> str:
+    """The model a run belongs to, whatever its number of rfes: its name without a trailing
+    ``nrfe<N>`` (``manipulator_nrfe5`` → ``manipulator``)."""
+    return re.sub(r"[_-]?nrfe\d+$", "", metadata(results)["model"]) or metadata(results)["model"]
+
+
+def _kind(results) -> tuple:
+    """What must be equal for two runs to share figures: the model and its constraints."""
+    return family(results), tuple(str(c) for c in results["constraint_names"])
+
+
+def check_compatible(runs: list, names=None) -> None:
+    """Refuse (IncompatibleResults, one line) runs of different models or constraints; ``names``
+    (e.g. the files) say which run is which."""
+    names = list(names) if names is not None else [f"run {k + 1}" for k in range(len(runs))]
+    groups: dict = {}
+    for name, r in zip(names, runs):
+        groups.setdefault(_kind(r), []).append(str(name))
+    if len(groups) > 1:
+        parts = "; ".join(f"{', '.join(members)}: model {model}, "
+                          f"{len(cons)} constraint{'s' if len(cons) != 1 else ''}"
+                          + (f" ({', '.join(cons)})" if cons else "")
+                          for (model, cons), members in groups.items())
+        raise IncompatibleResults(f"results of different models or constraints cannot share figures ({parts}); "
+                                  f"plot each group on its own, with its own --out folder")
+
+
+def styles(runs: list) -> list[dict]:
+    """One style per run, the same in every figure: the colour its case asks for (rigid and
+    flexible arm) unless an earlier run took it, else the next free one; line styles in turn."""
+    taken, out = set(), []
+    for k, r in enumerate(runs):
+        wish = metadata(r).get("colour")
+        free = next((c for c in PALETTE if c not in taken), PALETTE[k % len(PALETTE)])
+        colour = wish if wish and wish not in taken else free
+        taken.add(colour)
+        out.append({"color": colour, "linestyle": LINESTYLES[k % len(LINESTYLES)],
+                    "marker": MARKERS[k % len(MARKERS)]})
+    return out
+
+
+def _line(style) -> dict:
+    """A run's style for a plain line (no markers)."""
+    return {"color": style["color"], "linestyle": style["linestyle"]}
+
+
+def _title(runs, title) -> str:
+    """``title`` naming the model of the runs (see :func:`family`)."""
+    return f"{title}: {family(runs[0])}"
+
+
+def _caption(runs, figure) -> str | None:
+    """The source figure (e.g. "paper Fig. 2") when every run names the same one, else None."""
     sources = {metadata(r).get("figures", {}).get(figure) for r in runs}
     source = sources.pop() if len(sources) == 1 else None
-    return f"{title} ({source})" if source else title
+    return f"Corresponds to {source}." if source else None
 
 
 def _coordinate(results, name):
@@ -45,107 +122,234 @@ def _coordinate(results, name):
     return results["q"][:, names.index(name)] if name in names else None
 
 
-def _save(fig, out: Path, stem: str, fmt: str) -> Path:
-    return atomic_write(out / f"{stem}.{fmt}", lambda fh: fig.savefig(fh, format=fmt, dpi=130, bbox_inches="tight"))
+def _finish(fig, title, handles, caption=None):
+    """Title, one legend under the axes (outside the data) and the caption line under it, in a
+    strip added at the bottom of the figure, outside the layout."""
+    fig.suptitle(title)
+    rows = -(-len(handles) // LEGEND_COLUMNS)
+    foot = LEGEND_PAD + LEGEND_ROW * rows + (CAPTION_ROW if caption else 0.0)  # in
+    height = fig.get_figheight() + foot
+    fig.set_figheight(height)
+    fig.get_layout_engine().set(rect=(0, foot / height, 1, 1 - foot / height))
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, foot / height),
+               ncols=min(len(handles), LEGEND_COLUMNS), fontsize=9, frameon=False).set_in_layout(False)
+    if caption:
+        fig.text(0.5, 0.04 / height, caption, ha="center", va="bottom", fontsize=9, style="italic", color="0.3")
+    _freeze_layout(fig)
 
 
-def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
-    """Write the figures for ``runs`` (results dicts) into ``out``; returns the paths."""
-    plt = _pyplot()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    styles = ["-", "--", "-.", ":"]
+def _freeze_layout(fig):
+    """Make the layout once and keep it, its positions rounded to 1e-5 of the figure: the layout
+    solver's last digits can differ between two figures of the same data (the order it meets
+    the axes in), which would change the bytes of the file."""
+    fig.canvas.draw()
+    fig.set_layout_engine("none")
+    for ax in fig.axes:
+        ax.set_position(np.round(ax.get_position().bounds, 5))
 
-    # Fig. 2: joint coordinates
+
+def _run_handles(runs, style, marker=False):
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], **(s if marker else _line(s)), label=label(r)) for r, s in zip(runs, style)]
+
+
+def _figure(plt, rows, cols, height, width=8.0, **kwargs):
+    """A figure of ``rows`` x ``cols`` axes, ``width`` x ``height`` in before :func:`_finish` adds
+    the strip for the legend and the caption."""
+    fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, layout="constrained", **kwargs)
+    return fig, axes
+
+
+def joint_coordinates(plt, runs, style):
+    """Paper Fig. 2: the joint coordinates against time, one panel each."""
     joints = joint_names(runs[0])
-    fig, axes = plt.subplots(len(joints), 1, figsize=(8, 2.6 * len(joints) + 0.5), sharex=True, squeeze=False)
-    axes = axes[:, 0]
     pretty = metadata(runs[0]).get("joint_labels", {})
-    for k, r in enumerate(runs):
-        for ax, name in zip(axes, joints):
+    fig, axes = _figure(plt, len(joints), 1, 2.2 * len(joints) + 1.0, sharex=True)
+    for r, s in zip(runs, style):
+        for ax, name in zip(axes[:, 0], joints):
             v = _coordinate(r, name)
             if v is not None:
-                ax.plot(r["t"], v, styles[k % 4], label=label(r))
-            ax.set_ylabel(pretty.get(name, name))
-            ax.grid(True, alpha=0.3)
-    axes[0].legend()
-    axes[-1].set_xlabel("t [s]")
-    fig.suptitle(_title(runs, "Joint coordinates", "joint_coordinates"))
-    written.append(_save(fig, out, "joint_coordinates", fmt))
-    plt.close(fig)
+                ax.plot(r["t"], v, **_line(s), lw=1.2)
+    for ax, name in zip(axes[:, 0], joints):
+        ax.set_ylabel(pretty.get(name, name))
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("t [s]")
+    _finish(fig, _title(runs, "Joint coordinates"), _run_handles(runs, style),
+            _caption(runs, "joint_coordinates"))
+    return fig
 
-    # Fig. 3: coordinates of E, with the prescribed height
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
-    for k, r in enumerate(runs):
-        for i, (ax, name) in enumerate(zip(axes, ["x_E [m]", "y_E [m]", "z_E [m]"])):
-            ax.plot(r["t"], r["end_effector"][:, i], styles[k % 4], label=label(r))
-            ax.set_ylabel(name)
-            ax.grid(True, alpha=0.3)
+
+def end_effector(plt, runs, style):
+    """Paper Fig. 3: the coordinates of E against time, with a prescribed coordinate if any."""
+    from matplotlib.lines import Line2D
+
+    fig, axes = _figure(plt, 3, 1, 7.5, sharex=True)
+    axes = axes[:, 0]
+    extra = []
+    for r, s in zip(runs, style):
+        for i, ax in enumerate(axes):
+            ax.plot(r["t"], r["end_effector"][:, i], **_line(s), lw=1.2)
         prescribed = metadata(r).get("prescribed")
         if prescribed and "prescribed" in r:
-            name = prescribed["label"]
-            axes[prescribed["axis"]].plot(r["t"], r["prescribed"], ":", color="k", lw=1,
-                                          label=f"{name} ({label(r)})" if len(runs) > 1 else name)
-    axes[1].legend(fontsize=8)
-    axes[0].legend(fontsize=8)
+            axes[prescribed["axis"]].plot(r["t"], r["prescribed"], ":", color="k", lw=1)
+            if not extra:
+                extra.append(Line2D([], [], linestyle=":", color="k", lw=1, label=prescribed["label"]))
+    for ax, name in zip(axes, ("x_E [m]", "y_E [m]", "z_E [m]")):
+        ax.set_ylabel(name)
+        ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("t [s]")
-    fig.suptitle(_title(runs, "Coordinates of the end-effector E", "end_effector"))
-    written.append(_save(fig, out, "end_effector", fmt))
-    plt.close(fig)
+    _finish(fig, _title(runs, "Coordinates of the end-effector E"), _run_handles(runs, style) + extra,
+            _caption(runs, "end_effector"))
+    return fig
 
-    # Fig. 4: path of E in the x0z0 and x0y0 planes, starting points marked
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5))
-    for k, r in enumerate(runs):
+
+def path(plt, runs, style):
+    """Paper Fig. 4: the path of E in the x0z0 and x0y0 planes, starting points marked."""
+    fig, axes = _figure(plt, 1, 2, 5.0, width=11.0)
+    a1, a2 = axes[0]
+    for r, s in zip(runs, style):
         E, meta = r["end_effector"], metadata(r)
-        colour, tag = meta.get("colour", "C2"), meta.get("start_tag", "start")
-        a1.plot(E[:, 0], E[:, 2], styles[k % 4], lw=1, color=colour, label=label(r))
-        a2.plot(E[:, 0], E[:, 1], styles[k % 4], lw=1, color=colour, label=label(r))
         for ax, (i, j) in ((a1, (0, 2)), (a2, (0, 1))):
-            ax.plot(E[0, i], E[0, j], "o", ms=7, color=colour)
-            ax.annotate(tag, (E[0, i], E[0, j]), textcoords="offset points",
-                        xytext=meta.get("tag_offset", (8, -14)), fontsize=12)
+            ax.plot(E[:, i], E[:, j], **_line(s), lw=1)
+            ax.plot(E[0, i], E[0, j], "o", ms=7, color=s["color"])
+            # the case may place the tag; else a start at the right of the path is tagged on its left
+            inward = 1 if "tag_offset" in meta else _inward(E[:, i], E[0, i])
+            ax.annotate(meta.get("start_tag", "start"), (E[0, i], E[0, j]), textcoords="offset points",
+                        xytext=meta.get("tag_offset", (8 * inward, -14)), ha="left" if inward > 0 else "right",
+                        fontsize=12)
     a1.set_xlabel("x0 [m]"), a1.set_ylabel("z0 [m]"), a1.set_aspect("equal", "datalim")
     a2.set_xlabel("x0 [m]"), a2.set_ylabel("y0 [m]")
+    a1.set_title("x0z0 plane", fontsize=10)
+    a2.set_title("x0y0 plane", fontsize=10)
     for ax in (a1, a2):
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8)
-    a1.set_title("path of E in the x0z0 plane")
-    a2.set_title("path of E in the x0y0 plane")
-    fig.suptitle(_title(runs, "Path of the end-effector", "path"))
-    written.append(_save(fig, out, "path", fmt))
-    plt.close(fig)
+    _finish(fig, _title(runs, "Path of the end-effector E"), _run_handles(runs, style),
+            _caption(runs, "path"))
+    return fig
 
-    # Constraint violation
-    fig, axes = plt.subplots(len(runs[0]["constraint_names"]) or 1, 1, figsize=(8, 6), sharex=True, squeeze=False)
-    for k, r in enumerate(runs):
-        for i, name in enumerate(r["constraint_names"]):
-            axes[i, 0].semilogy(r["t"], np.maximum(np.abs(r["phi"][:, i]), 1e-18), styles[k % 4], label=label(r))
-            axes[i, 0].set_ylabel(f"|Φ {name}|")
-            axes[i, 0].grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=8)
+
+def _inward(values, start) -> int:
+    """+1 when ``start`` lies in the lower half of the range of ``values``, else -1: the side of
+    the start point on which its tag stays within the axes."""
+    low, high = np.min(values), np.max(values)
+    return 1 if start <= (low + high) / 2 else -1
+
+
+def window_maxima(t, values, windows=WINDOWS):
+    """The largest of ``values`` in each of ``windows`` consecutive windows of samples, at the
+    time of the window's middle sample: (times, maxima)."""
+    chunks = np.array_split(np.arange(len(t)), min(windows, len(t)))
+    return (np.array([t[c[len(c) // 2]] for c in chunks]), np.array([values[c].max() for c in chunks]))
+
+
+def log_floor(values) -> float:
+    """Where zeros are drawn on a log axis: a decade below the smallest positive of ``values``
+    (1e-18 when there is none)."""
+    values = np.concatenate([np.ravel(v) for v in values])
+    positive = values[values > 0]
+    return 10.0 ** (np.floor(np.log10(positive.min())) - 1) if positive.size else 1e-18
+
+
+def _violation_panel(ax, runs, style, i) -> bool:
+    """|Φ| of constraint ``i`` of every run on ``ax``; whether exact zeros were drawn (on the floor)."""
+    curves = [window_maxima(r["t"], np.abs(r["phi"][:, i])) for r in runs]
+    floor = log_floor([top for _, top in curves])
+    for (t, top), s in zip(curves, style):
+        ax.semilogy(t, np.maximum(top, floor), **s, lw=1, ms=4, markevery=max(1, len(t) // 12))
+    zeros = any((top == 0).any() for _, top in curves)
+    if zeros:
+        ax.axhline(floor, color="0.5", lw=0.8, linestyle=":")
+        ax.annotate("exact 0", (1, floor), xycoords=("axes fraction", "data"), xytext=(-4, 3),
+                    textcoords="offset points", ha="right", fontsize=8, color="0.4")
+    return zeros
+
+
+def constraint_violation(plt, runs, style):
+    """|Φ| of each constraint (one panel each) on a log axis: the largest value in each window of
+    the run, markers thinned out; exact zeros drawn on a marked floor line."""
+    names = [str(c) for c in runs[0]["constraint_names"]]
+    units = metadata(runs[0]).get("constraint_units", {})
+    fig, axes = _figure(plt, len(names), 1, 2.2 * len(names) + 1.2, sharex=True)
+    zeros = [_violation_panel(ax, runs, style, i) for i, ax in enumerate(axes[:, 0])]
+    for ax, name in zip(axes[:, 0], names):
+        ax.set_ylabel(f"|Φ {name}|" + (f" [{units[name]}]" if name in units else ""))
+        ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
-    units = metadata(runs[0]).get("constraint_units")
-    fig.suptitle("Constraint violation" + (f" ({', '.join(f'{c}: {u}' for c, u in units.items())})" if units else ""))
-    written.append(_save(fig, out, "constraint_violation", fmt))
-    plt.close(fig)
+    caption = f"Largest |Φ| in each of {min(WINDOWS, len(runs[0]['t']))} windows of the run"
+    _finish(fig, _title(runs, "Constraint violation"), _run_handles(runs, style, marker=True),
+            caption + ("; exact zeros on the dotted line." if any(zeros) else "."))
+    return fig
 
-    # Energy balance
+
+ENERGY_PANELS = (
+    ("ΔT kinetic [J]", lambda r: r["kinetic_energy"] - r["kinetic_energy"][0]),
+    ("ΔV gravity [J]", lambda r: r["gravity_energy"] - r["gravity_energy"][0]),
+    ("ΔV springs [J]", lambda r: r["spring_energy"] - r["spring_energy"][0]),
+    ("W drive [J]", lambda r: r["work_drive"]),
+    ("W constraints [J]", lambda r: r["work_constraints"]),
+    ("ΔE − W [J]", lambda r: balance_error(r)),
+)
+
+
+def balance_error(results):
+    """ΔE − W: the change of total energy (kinetic, gravity, springs) since the start less the
+    work of the drive and of the constraint forces, in J; zero for an exact solution."""
+    total = results["kinetic_energy"] + results["gravity_energy"] + results["spring_energy"]
+    return total - total[0] - results["work_drive"] - results["work_constraints"]
+
+
+def energy_balance(plt, runs, style):
+    """Each energy term and work since the start in its own panel, the balance error in the last."""
+    fig, axes = _figure(plt, 3, 2, 7.5, width=10.0, sharex=True)
+    for ax, (name, value) in zip(axes.ravel(), ENERGY_PANELS):
+        for r, s in zip(runs, style):
+            ax.plot(r["t"], value(r), **_line(s), lw=1.2)
+        ax.set_ylabel(name)
+        ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    _finish(fig, _title(runs, "Energy balance"), _run_handles(runs, style),
+            "ΔE = ΔT + ΔV gravity + ΔV springs against W = W drive + W constraints.")
+    return fig
+
+
+def figures(runs) -> list:
+    """The (stem, draw) of the figures ``runs`` can make: draw(plt, runs, styles) -> Figure."""
+    made = [("joint_coordinates", joint_coordinates), ("end_effector", end_effector), ("path", path)]
+    if len(runs[0]["constraint_names"]):
+        made.append(("constraint_violation", constraint_violation))
     if all("kinetic_energy" in r for r in runs):
-        fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
-        for k, r in enumerate(runs):
-            total = r["kinetic_energy"] + r["gravity_energy"] + r["spring_energy"]
-            work = r["work_drive"] + r["work_constraints"]
-            axes[0].plot(r["t"], total - total[0], styles[k % 4], label=f"ΔE, {label(r)}")
-            axes[0].plot(r["t"], work, styles[k % 4], lw=3, alpha=0.4, label=f"W drive + W constraints, {label(r)}")
-            axes[1].plot(r["t"], total - total[0] - work, styles[k % 4], label=label(r))
-        axes[0].set_ylabel("energy [J]")
-        axes[1].set_ylabel("ΔE - W [J]")
-        for ax in axes:
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=8)
-        axes[-1].set_xlabel("t [s]")
-        fig.suptitle("Power balance: change of total energy against the work of drive and constraints")
-        written.append(_save(fig, out, "energy_balance", fmt))
-        plt.close(fig)
+        made.append(("energy_balance", energy_balance))
+    return made
+
+
+def _saver(fig, fmt):
+    def write(fh):
+        import matplotlib
+
+        with matplotlib.rc_context({"svg.hashsalt": _SVG_SALT}):
+            fig.savefig(fh, format=fmt, dpi=DPI, metadata=_FILE_METADATA[fmt])
+
+    return write
+
+
+def plot_all(runs: list, out, formats=("png",), names=None) -> list[Path]:
+    """Write the figures for ``runs`` (results dicts of one model) into ``out``, each in every
+    format of ``formats`` (of FORMATS); returns the paths. Runs of different models are refused
+    before anything is written (``names`` say which run is which)."""
+    formats = (formats,) if isinstance(formats, str) else tuple(formats)
+    if not formats or not set(formats) <= set(FORMATS):
+        raise ValueError(f"figure formats {formats}: choose among {', '.join(FORMATS)}")
+    check_compatible(runs, names)
+    plt = _pyplot()
+    out = Path(out)
+    style = styles(runs)
+    written = []
+    for stem, draw in figures(runs):
+        fig = draw(plt, runs, style)
+        try:
+            written += atomic_write_all({out / f"{stem}.{fmt}": _saver(fig, fmt) for fmt in formats})
+        finally:
+            plt.close(fig)
     return written

@@ -1,0 +1,96 @@
+"""The help pages of the command line: for each subcommand a description, examples and the
+files it writes (``gpmegen COMMAND --help``)."""
+
+from __future__ import annotations
+
+DESCRIPTIONS = {
+    "build": """\
+Generate the model's code: the derivation (SymPy) rendered as a NumPy module and as C with its
+header. Both are always written; the NumPy module is the C one's oracle. Inputs that have not
+changed since the last build are skipped unless --force.""",
+    "simulate": """\
+Find the start (statics, or a model file's [initial] configuration), then integrate the
+constrained motion with fixed-step RK4 (the paper's) or an adaptive SciPy method. The summary
+line names how the run ended: complete, diverged at t, or interrupted (Ctrl-C; exit status 130).""",
+    "statics": """\
+Print the static start configuration: every coordinate, the positions of the points and the
+constants the start sets (the reference case's r_Ea and y_c).""",
+    "plot": """\
+Draw the figures of one or more results files of one model, overlaid: each run keeps its colour
+and line style in every figure. Results of different models, or with different constraints, are
+refused before any figure is written: plot each group into its own folder.""",
+    "modes": """\
+Natural frequencies and mode shapes about the static equilibrium of the reference manipulator,
+with its joints locked or with the programmed constraints holding.""",
+    "convergence": """\
+Clamp the arm at its root and compare its static tip deflection and first frequencies against
+the number of rfes with Euler-Bernoulli and Saint-Venant beam theory.""",
+    "demo": """\
+The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
+motion from the locked-joint statics, and their figures.""",
+}
+
+EPILOGS = {
+    "build": """\
+examples:
+  gpmegen build --nrfe 5
+  gpmegen build --nrfe 1 5 20 --force
+  gpmegen build examples/planar_two_link.toml --out my_models
+
+files written:
+  <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: generated/)""",
+    "simulate": """\
+examples:
+  gpmegen simulate --nrfe 5 --t-end 10 --dt 1e-5
+  gpmegen simulate --nrfe 5 --statics constrained --out results/constrained.npz
+  gpmegen simulate --nrfe 1 --method dop853
+  gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
+  gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
+
+files written:
+  results/run_nrfe<N>.npz and .csv (a model file: results/<file name>.npz and .csv), or --out
+  and its .csv; a run that diverges or is interrupted writes <name>.partial.npz and .csv instead
+  and leaves a complete <name>.npz as it was""",
+    "statics": """\
+examples:
+  gpmegen statics --nrfe 5
+  gpmegen statics --nrfe 5 --statics constrained --param g=9.80665
+  gpmegen statics examples/planar_two_link.toml
+
+files written:
+  none (the configuration is printed)""",
+    "plot": """\
+examples:
+  gpmegen plot results/run_nrfe1.npz results/run_nrfe5.npz
+  gpmegen plot results/*.npz --out figures/paper --format png,pdf,svg
+
+files written:
+  <out>/joint_coordinates, end_effector, path, constraint_violation (when the model has
+  constraints) and energy_balance, each as .png (200 dpi), .pdf or .svg (default out: figures/);
+  the same input gives the same bytes""",
+    "modes": """\
+examples:
+  gpmegen modes --nrfe 5
+  gpmegen modes --nrfe 5 --lock constraints --count 6
+
+files written:
+  <out>/modes_nrfe<N>_<lock>.csv (frequencies and shapes) and .png (the first shapes along the
+  arm)   (default out: figures/)""",
+    "convergence": """\
+examples:
+  gpmegen convergence
+  gpmegen convergence --nrfe 2 3 5 10 --static nonlinear --directory built/
+
+files written:
+  <out>/convergence.png (default out: figures/); with --directory, the clamped-arm models built
+  there""",
+    "demo": """\
+examples:
+  gpmegen demo
+  gpmegen demo --t-end 2 --results short --figures short/figures
+
+files written:
+  <results>/run_nrfe1.npz, run_nrfe5.npz and their .csv (default results/);
+  <figures>/joint_coordinates.png, end_effector.png, path.png, constraint_violation.png,
+  energy_balance.png (default figures/)""",
+}

@@ -1,0 +1,192 @@
+"""Figures: one style per run in every figure, titles that name the model, readable violation
+and energy plots, refusal of results of different models before any file is written, 200 dpi
+PNG plus PDF and SVG, and the same bytes for the same input."""
+
+from __future__ import annotations
+
+import matplotlib
+import numpy as np
+import pytest
+
+from gpmegen.analysis import plots, runs
+from gpmegen.analysis import results as results_io
+from gpmegen.analysis.reference_case import ReferenceCase
+from gpmegen.cli import main
+
+matplotlib.use("Agg")
+
+
+def _quiet(message):
+    pass
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    """Short runs of the rigid and a flexible arm (NumPy backend), as saved and loaded."""
+    folder = tmp_path_factory.mktemp("runs")
+    loaded = []
+    for nrfe in (1, 2):
+        out = folder / f"run_nrfe{nrfe}.npz"
+        runs.run(ReferenceCase(nrfe), "locked", 0.05, 1e-3, 5, "rk4", "numpy", {}, out, _quiet)
+        loaded.append(results_io.load(out))
+    return folder, loaded
+
+
+def _with_meta(results, **changes):
+    return dict(results, meta=results_io.encode({**results_io.metadata(results), **changes}))
+
+
+def _drawn(fig):
+    """The colours of the lines in ``fig``'s axes, the black and grey reference lines left out."""
+    from matplotlib.colors import to_hex
+
+    return {to_hex(line.get_color()) for ax in fig.axes for line in ax.get_lines()} - {"#000000", "#808080"}
+
+
+def test_each_run_keeps_its_colour_and_line_style_in_every_figure(pair):
+    """The flexible arm used to be orange in Figs. 2-3 and green in Fig. 4."""
+    from matplotlib.colors import to_hex
+
+    _, loaded = pair
+    plt = plots._pyplot()
+    style = plots.styles(loaded)
+    assert [s["color"] for s in style] == ["C0", "C2"]  # the reference case's rigid and flexible colours
+    assert style[0]["linestyle"] != style[1]["linestyle"]
+    wanted = {to_hex(s["color"]) for s in style}
+    for stem, draw in plots.figures(loaded):
+        fig = draw(plt, loaded, style)
+        try:
+            assert _drawn(fig) == wanted, stem
+            legend = {text.get_text(): to_hex(line.get_color())
+                      for text, line in zip(fig.legends[0].get_texts(), fig.legends[0].get_lines())}
+            assert {label: legend[label] for label in map(plots.label, loaded)} == \
+                   {plots.label(r): to_hex(s["color"]) for r, s in zip(loaded, style)}, stem
+            # the legend is the figure's, outside every axes
+            assert not any(ax.get_legend() for ax in fig.axes), stem
+        finally:
+            plt.close(fig)
+
+
+def test_runs_asking_for_the_same_colour_get_different_ones(pair):
+    """Two flexible runs (locked and constrained starts) both ask for the flexible arm's colour."""
+    _, (rigid, flexible) = pair
+    twin = _with_meta(flexible, start="constrained")
+    colours = [s["color"] for s in plots.styles([rigid, flexible, twin])]
+    assert colours[:2] == ["C0", "C2"] and len(set(colours)) == 3
+
+
+def test_titles_name_the_model_and_only_the_reference_case_cites_the_paper(pair):
+    _, loaded = pair
+    plt = plots._pyplot()
+    mine = [_with_meta(r, model=f"crane_nrfe{k + 1}", figures={}, label=f"crane {k + 1}")
+            for k, r in enumerate(loaded)]
+    for runs_, cited in ((loaded, True), (mine, False)):
+        fig = plots.joint_coordinates(plt, runs_, plots.styles(runs_))
+        texts = [fig._suptitle.get_text()] + [t.get_text() for t in fig.texts]
+        plt.close(fig)
+        assert texts[0] == ("Joint coordinates: manipulator" if cited else "Joint coordinates: crane")
+        assert any("paper Fig. 2" in t for t in texts) is cited
+        assert not any("paper" in t for t in texts[:1])
+
+
+def test_window_maxima_are_the_largest_values_of_each_window():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 1, 1001)
+    values = rng.random(1001)
+    times, tops = plots.window_maxima(t, values, windows=7)
+    chunks = np.array_split(np.arange(1001), 7)
+    assert tops.tolist() == [values[c].max() for c in chunks]
+    assert all(t[c[0]] <= tm <= t[c[-1]] for tm, c in zip(times, chunks))
+
+
+def test_exact_zeros_are_drawn_on_a_floor_a_decade_below_the_smallest_violation(pair):
+    """Exact zeros used to be clipped to 1e-18 (a barcode of 1e5 samples)."""
+    _, (rigid, _) = pair
+    samples = 100 * plots.WINDOWS
+    phi = np.full((samples, len(rigid["constraint_names"])), 2e-14)
+    phi[: samples // 2, 0] = 0.0            # the first half of the first constraint holds exactly
+    phi[samples // 2:, 0] = 3e-15
+    zeroed = dict(rigid, t=np.linspace(0.0, 1.0, samples), phi=phi)
+    assert plots.log_floor([phi[:, 0]]) == pytest.approx(1e-16)
+    plt = plots._pyplot()
+    fig = plots.constraint_violation(plt, [zeroed], plots.styles([zeroed]))
+    try:
+        first = fig.axes[0]
+        data = [line for line in first.get_lines() if line.get_marker() not in ("None", "", None)][0]
+        y = data.get_ydata()
+        assert len(y) == plots.WINDOWS and np.all(y > 0)  # decimated, log-safe
+        assert set(np.round(y / 1e-16, 9)) == {1.0, 30.0}  # zeros on the floor, the rest as they are
+        assert len(fig.axes) == len(rigid["constraint_names"])  # one panel per constraint
+        assert first.get_yscale() == "log"
+        assert any("exact zeros" in t.get_text() for t in fig.texts)
+    finally:
+        plt.close(fig)
+
+
+def test_energy_terms_and_the_balance_error_have_panels_of_their_own(pair):
+    _, (rigid, flexible) = pair
+    plt = plots._pyplot()
+    fig = plots.energy_balance(plt, [rigid, flexible], plots.styles([rigid, flexible]))
+    try:
+        labels = [ax.get_ylabel() for ax in fig.axes]
+        assert labels == [name for name, _ in plots.ENERGY_PANELS] and labels[-1] == "ΔE − W [J]"
+        for ax, (_, value) in zip(fig.axes, plots.ENERGY_PANELS):
+            for line, r in zip(ax.get_lines(), (rigid, flexible)):
+                np.testing.assert_array_equal(line.get_ydata(), value(r))
+    finally:
+        plt.close(fig)
+    # the balance error of a run is its energy change less the work, computed independently
+    total = rigid["kinetic_energy"] + rigid["gravity_energy"] + rigid["spring_energy"]
+    expected = (total - total[0]) - (rigid["work_drive"] + rigid["work_constraints"])
+    np.testing.assert_allclose(plots.balance_error(rigid), expected, rtol=0, atol=0)
+    # and it is small against the work done: the power balance holds (RK4, dt = 1e-3 s)
+    assert np.abs(expected).max() < 1e-6 * np.abs(rigid["work_constraints"]).max()
+
+
+def test_figures_are_png_at_200_dpi_pdf_and_svg_and_the_same_bytes_every_time(pair, tmp_path):
+    from PIL import Image
+
+    _, loaded = pair
+    first = plots.plot_all(loaded, tmp_path / "a", ("png", "pdf", "svg"))
+    second = plots.plot_all(loaded, tmp_path / "b", ("png", "pdf", "svg"))
+    assert {p.name for p in first} == {f"{stem}.{fmt}" for stem, _ in plots.figures(loaded)
+                                       for fmt in ("png", "pdf", "svg")}
+    for a, b in zip(first, second):
+        assert a.read_bytes() == b.read_bytes(), a.name
+    for path in first:
+        data = path.read_bytes()
+        if path.suffix == ".png":
+            dpi = Image.open(path).info["dpi"]
+            assert [round(d) for d in dpi] == [200, 200]
+        elif path.suffix == ".pdf":
+            assert data.startswith(b"%PDF") and b"CreationDate" not in data
+        else:
+            assert b"<svg" in data and b"<dc:date>" not in data
+
+
+def test_plot_refuses_results_of_different_models_before_writing_anything(pair, tmp_path, capsys):
+    """Results with different numbers of constraints used to crash plot after three of five figures."""
+    folder, (rigid, _) = pair
+    other = _with_meta(dict(rigid, phi=rigid["phi"][:, :1], constraint_names=np.array(["circle"])),
+                       model="crane_nrfe1")
+    path = tmp_path / "crane.npz"
+    results_io.save(other, path)
+    out = tmp_path / "figures"
+    assert main(["plot", str(folder / "run_nrfe1.npz"), str(path), "--out", str(out), "--format", "png,svg"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("gpmegen plot: error: results of different models")
+    assert "crane.npz: model crane, 1 constraint (circle)" in err[0]
+    assert "model manipulator, 2 constraints (circle, height)" in err[0]
+    assert not out.exists()
+
+
+def test_results_of_one_model_with_any_number_of_rfes_share_figures(pair, tmp_path, capsys):
+    folder, _ = pair
+    out = tmp_path / "figures"
+    argv = ["plot", str(folder / "run_nrfe1.npz"), str(folder / "run_nrfe2.npz"), "--out", str(out)]
+    assert main([*argv, "--format", "PDF,svg"]) == 0
+    written = capsys.readouterr().out.split()
+    assert sorted(written) == sorted(str(out / f"{stem}.{fmt}") for stem in
+                                     ("joint_coordinates", "end_effector", "path", "constraint_violation",
+                                      "energy_balance") for fmt in ("pdf", "svg"))
+    assert {plots.family(results_io.load(folder / f"run_nrfe{n}.npz")) for n in (1, 2)} == {"manipulator"}
