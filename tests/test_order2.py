@@ -1,7 +1,7 @@
 """Second-order programmed constraints (``order = 2``, linear in the accelerations).
 
-- A position constraint and the same constraint written by hand as ``Φ̈ = 0`` (expanded in this
-  file, not by gpmegen) give the same motion from the same consistent start, and the
+- A position constraint and the same constraint written by hand as ``Φ̈ = 0`` (expanded in
+  ``tests/models/reaching_arm_ddot.toml``, not by gpmegen) give the same motion from the same consistent start, and the
   second-order rows hold along the run.
 - The curvature example's path has the prescribed curvature, computed from positions alone.
 - Wrong second-order constraints and the starts they have none of are refused in one line.
@@ -23,21 +23,19 @@ from gpmegen.runtime import integrate, partition, statics
 
 ROOT = Path(__file__).resolve().parents[1]
 REACHING = ROOT / "tests" / "models" / "reaching_arm.toml"
+REACHING_DDOT = ROOT / "tests" / "models" / "reaching_arm_ddot.toml"
 CURVATURE = ROOT / "examples" / "curvature_arm.toml"
+TANGENTIAL = ROOT / "examples" / "manipulator_tangential.toml"
 
-# The reaching arm's two position constraints, Φ = x² + y² - R(t)² with R = r0 + A(1 - cos wt) and
-# Φ = θ1 - B(1 - cos wt), differentiated twice by hand:
-#   Φ̈ = 2(vx² + vy² + x ax + y ay) - 2(Ṙ² + R R̈),  Ṙ = A w sin wt,  R̈ = A w² cos wt;  Φ̈ = θ̈1 - B w² cos wt.
-REACH = ('"x_E^2 + y_E^2 - (r0 + A*(1 - cos(w*t)))^2"\nalpha = "alpha_c"\nbeta = "beta_c"',
-         '"2*(vx_E^2 + vy_E^2 + x_E*ax_E + y_E*ay_E) - 2*((A*w*sin(w*t))^2 + (r0 + A*(1 - cos(w*t)))*A*w^2*cos(w*t))"'
-         '\norder = 2')
-SHOULDER = ('"theta1 - B*(1 - cos(w*t))"\nalpha = "alpha_c"\nbeta = "beta_c"',
-            '"theta1_ddot - B*w^2*cos(w*t)"\norder = 2')
+# The reaching arm's position constraints, as in its file, and their gains (left out in a
+# second-order constraint); reaching_arm_ddot.toml holds the same constraints as Φ̈ = 0, by hand.
+REACH = '"x_E^2 + y_E^2 - (r0 + A*(1 - cos(w*t)))^2"\nalpha = "alpha_c"\nbeta = "beta_c"'
+SHOULDER = '"theta1 - B*(1 - cos(w*t))"\nalpha = "alpha_c"\nbeta = "beta_c"'
 
 
-def _variant(tmp_path, name, *replacements, source=REACHING):
-    """A copy of the model file ``source`` named ``name``, with text replaced."""
-    text = source.read_text().replace('name = "reaching_arm_nrfe{nrfe}"', f'name = "{name}_nrfe{{nrfe}}"')
+def _variant(tmp_path, name, *replacements):
+    """A copy of the reaching arm's file named ``name``, with text replaced."""
+    text = REACHING.read_text().replace('name = "reaching_arm_nrfe{nrfe}"', f'name = "{name}_nrfe{{nrfe}}"')
     for old, new in replacements:
         assert old in text, old
         text = text.replace(old, new)
@@ -64,9 +62,9 @@ def _residuals(model, t, y):
 
 
 @pytest.mark.requires_cc
-def test_position_constraint_and_its_second_derivative_give_the_same_motion(env, tmp_path):
+def test_position_constraint_and_its_second_derivative_give_the_same_motion(env):
     position, initial = _load(REACHING)
-    second, _ = _load(_variant(tmp_path, "reaching_arm_ddot", REACH, SHOULDER))
+    second, _ = _load(REACHING_DDOT)
     assert tuple(second.constraint_orders) == (2, 2)
     position, q0 = study.file_start(position, initial, "initial")
     qd0 = np.zeros(position.n_dof)   # Φ = 0 (moved there) and Φ̇ = 0: both laws start at rest
@@ -108,6 +106,29 @@ def test_curvature_example_keeps_its_curvature_and_speed(env):
     assert abs((heading[-1] - heading[0]) - np.trapezoid(kappa * speed, t)) <= 1e-4
 
 
+@pytest.mark.requires_cc
+def test_tangential_example_follows_its_speed_law_on_the_circle(env):
+    """On the circle the tangent's rate is normal to the velocity, so the speed along the circle
+    is the integral of the tangential acceleration the constraint prescribes."""
+    file = read_model_file(TANGENTIAL, 2)
+    model = gpmegen.load(model=file.model, backend="c")
+    model, q0 = study.file_start(model, file.initial_values(model.params), "locked")
+    n, p = model.n_dof, model.params
+    t, y, end = integrate.rk4(model, q0, np.zeros(n), 1.0, 1e-5, 2000)
+    assert str(end) == "complete"
+    speed, along = np.zeros(len(t)), np.zeros(len(t))
+    for k, tk in enumerate(t):
+        q, qd = y[k, :n], y[k, n:2 * n]
+        E, v, a = point_motion.point_motion(model, "E", q, qd, model.accelerations(tk, q, qd))
+        tangent = np.array([E[2], 0.0, -E[0]]) / p["r_Ea"]
+        speed[k], along[k] = v @ tangent, a @ tangent
+        assert np.max(np.abs(model.constraint_terms(tk, q, qd)[0])) <= 1e-10   # circle and height
+    omega = 2 * np.pi / p["Ta"]
+    assert np.max(np.abs(along - p["a0"] * np.sin(omega * t))) <= 1e-6
+    assert np.max(np.abs(speed - p["a0"] / omega * (1 - np.cos(omega * t)))) <= 1e-8
+    assert speed[-1] > 0.1   # E did move along the circle
+
+
 def test_curvature_rows_vanish_at_rest_and_runs_and_partitions_say_so(env):
     file = read_model_file(CURVATURE)
     model = gpmegen.load(model=file.model, backend="numpy")
@@ -133,7 +154,7 @@ def test_curvature_rows_vanish_at_rest_and_runs_and_partitions_say_so(env):
     ('"vx_E^2 + x_E"', "a second-order constraint must involve accelerations"),
 ])
 def test_second_order_constraint_must_be_linear_in_accelerations(tmp_path, expression, message):
-    path = _variant(tmp_path, "bad", (REACH[0], expression + "\norder = 2"))
+    path = _variant(tmp_path, "bad", (REACH, expression + "\norder = 2"))
     with pytest.raises(ModelError, match="reaching_arm|bad") as info:
         read_model_file(path)
     assert message in str(info.value) and "\n" not in str(info.value)
@@ -155,13 +176,13 @@ def test_accelerations_and_gains_out_of_place_are_refused(tmp_path, replacement,
 
 
 def test_cli_refuses_a_nonlinear_second_order_constraint_in_one_line(tmp_path, capsys):
-    path = _variant(tmp_path, "bad", (REACH[0], '"ax_E^2 + theta1_ddot"\norder = 2'))
+    path = _variant(tmp_path, "bad", (REACH, '"ax_E^2 + theta1_ddot"\norder = 2'))
     assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "ax_E**2 is not linear in the accelerations" in err
 
 
 def test_first_order_constraint_must_be_linear_in_velocities_mixed_products_too(tmp_path):
-    path = _variant(tmp_path, "bad", (SHOULDER[0], '"vx_E*vy_E - 0.1"\norder = 1'))
+    path = _variant(tmp_path, "bad", (SHOULDER, '"vx_E*vy_E - 0.1"\norder = 1'))
     with pytest.raises(ModelError, match="the term vx_E\\*vy_E is not linear in the velocities"):
         read_model_file(path)
