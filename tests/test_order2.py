@@ -51,13 +51,16 @@ def _load(path, backend="c"):
 
 
 def _residuals(model, t, y):
-    """max |D q̈ + γ| at each saved state, q̈ from the GPME."""
+    """max |D q̈ + γ| at each saved state, q̈ from the GPME (computed here, beside
+    ``constraint_values``, which must give the same)."""
     n = model.n_dof
     out = []
     for k, tk in enumerate(t):
         q, qd = y[k, :n], y[k, n:2 * n]
         _, _, D, gamma = model.constraint_terms(tk, q, qd)
-        out.append(np.max(np.abs(D @ model.accelerations(tk, q, qd) + gamma)))
+        residual = D @ model.accelerations(tk, q, qd) + gamma
+        assert np.array_equal(model.constraint_values(tk, q, qd), residual)
+        out.append(np.max(np.abs(residual)))
     return np.array(out)
 
 
@@ -104,6 +107,21 @@ def test_curvature_example_keeps_its_curvature_and_speed(env):
     # P turned through about the angle the curvature prescribes: ∫ κ |v| dt
     heading = np.unwrap(np.arctan2(v[:, 1], v[:, 0]))
     assert abs((heading[-1] - heading[0]) - np.trapezoid(kappa * speed, t)) <= 1e-4
+
+
+@pytest.mark.requires_cc
+def test_results_hold_the_second_order_residual(env, tmp_path):
+    """The results' phi column holds each constraint as written: D q̈ + γ for a second-order one."""
+    out = tmp_path / "run.npz"
+    assert main(["simulate", str(TANGENTIAL), "--nrfe", "1", "--t-end", "0.05", "--dt", "1e-4", "--out",
+                 str(out)]) == 0
+    res = np.load(out)
+    model = gpmegen.load(model=read_model_file(TANGENTIAL, 1).model, backend="c")
+    for k in (0, len(res["t"]) // 2, -1):
+        t, q, qd = res["t"][k], res["q"][k], res["qd"][k]
+        _, _, D, gamma = model.constraint_terms(t, q, qd)
+        assert res["phi"][k, 2] == (D @ model.accelerations(t, q, qd) + gamma)[2]
+    assert np.max(np.abs(res["phi"])) <= 1e-10
 
 
 @pytest.mark.requires_cc
