@@ -148,9 +148,10 @@ def _check_element(element, path, names: _Names, constant: set):
 
 
 def _check_derived_names(flat, names: _Names):
-    """The names constraint expressions give to velocities (``<coordinate>_dot``) and points
-    (``x_P``, ``vx_P``) and accelerations (``<coordinate>_ddot``, ``ax_P``) must not be a parameter's or a
-    coordinate's, nor made twice, else an expression would silently mean one of the two."""
+    """The names constraint expressions give to velocities and accelerations of coordinates
+    (``<coordinate>_dot``, ``<coordinate>_ddot``) and to points (``x_P``, ``vx_P``, ``ax_P``) must
+    not be a parameter's or a coordinate's, nor made twice, else an expression would silently
+    mean one of the two."""
     made: dict[str, tuple[str, str, tuple]] = {}   # name -> (owner, meaning, owner's path)
     for path, element in flat:
         if isinstance(element, Joint):

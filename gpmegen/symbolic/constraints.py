@@ -125,7 +125,7 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
         _check_printable(c.name, (first, second), ("constraints", k, "expression"))
         law = as_piecewise(exact(c.expression))
         # a second-order constraint that jumps makes the accelerations jump: no impulse is lost
-        checked = {0: (("Φ", law), ("Φ̇", rate(law))), 1: (("Ψ", law),), 2: ()}[c.order]
+        checked = (("Φ", law), ("Φ̇", rate(law))) if c.order == 0 else (("Ψ", law),) if c.order == 1 else ()
         warnings += _jump_warnings(c.name, checked, defaults, "continuously differentiable" if c.order == 0 else
                                    "continuous")
         values.append(define(expr.xreplace(internal)) if c.order < 2 else sp.S.Zero)
