@@ -9,15 +9,19 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
 
 import gpmegen
-from gpmegen.analysis import point_motion, study
+from gpmegen.analysis import modes, point_motion, study
 from gpmegen.cli import main
 from gpmegen.errors import ModelError, SimulationError, StaticsError
+from gpmegen.model.chain import TIME
+from gpmegen.model.expand import expand
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import integrate, partition, statics
 
@@ -152,7 +156,7 @@ def test_curvature_rows_vanish_at_rest_and_runs_and_partitions_say_so(env):
     model = gpmegen.load(model=file.model, backend="numpy")
     q = np.zeros(model.n_dof)
     q[model.index("theta2")] = np.pi / 2
-    at_rest = "constraints 'curvature', 'speed' are zero, so no motion can be chosen to hold them; .* start in motion"
+    at_rest = "second-order constraints 'curvature', 'speed' are zero, so no motion can be chosen to hold them"
     with pytest.raises(SimulationError, match=at_rest):
         partition.partition_at(model, q)
     with pytest.raises(SimulationError, match=at_rest):
@@ -163,6 +167,33 @@ def test_curvature_rows_vanish_at_rest_and_runs_and_partitions_say_so(env):
     assert [model.coordinates[k] for k in chosen.dependent] == ["theta1", "theta2"]
     with pytest.raises(StaticsError, match="'curvature', 'speed' are of second order.*--statics locked or initial"):
         statics.constrained(model, q)
+    with pytest.raises(StaticsError, match="modes with the constraints holding: the constraints 'curvature', 'speed'"):
+        modes.constrained_modes(model, q)
+
+
+def test_python_constraint_of_second_order_gives_the_files_accelerations(env, rng):
+    """The hand-expanded Φ̈ = 0 of reaching_arm_ddot.toml, built in Python as Constraint(order=2)."""
+    base = read_model_file(REACHING).model
+    s = {p.name: p.symbol for p in base.parameters}
+    x, y, vx, vy, ax, ay, theta1_ddot = sp.symbols("x_E y_E vx_E vy_E ax_E ay_E theta1_ddot", real=True)
+    w, t = s["w"], TIME
+    R = s["r0"] + s["A"] * (1 - sp.cos(w * t))
+    reach = 2 * (vx**2 + vy**2 + x * ax + y * ay) - 2 * ((s["A"] * w * sp.sin(w * t))**2
+                                                         + R * s["A"] * w**2 * sp.cos(w * t))
+    shoulder = theta1_ddot - s["B"] * w**2 * sp.cos(w * t)
+    python = replace(base, name="reaching_arm_python_nrfe2", constraints=(
+        gpmegen.Constraint("reach", reach, order=2), gpmegen.Constraint("shoulder", shoulder, order=2)))
+    built = gpmegen.load(model=python, backend="numpy")
+    filed = gpmegen.load(model=read_model_file(REACHING_DDOT).model, backend="numpy")
+    for _ in range(3):
+        q, qd, tk = rng.normal(0, 0.3, built.n_dof), rng.normal(0, 1.0, built.n_dof), rng.uniform(0, 2)
+        q[built.index("theta2")] += 1.2
+        np.testing.assert_allclose(built.accelerations(tk, q, qd), filed.accelerations(tk, q, qd), rtol=1e-12,
+                                   atol=1e-12)
+    # a symbol without real=True is another symbol to SymPy: the error says so
+    with pytest.raises(ModelError, match="ax_E is not declared real"):
+        expand(replace(python, constraints=(gpmegen.Constraint("reach", sp.Symbol("ax_E") + theta1_ddot, order=2),
+                                            python.constraints[1])))
 
 
 @pytest.mark.parametrize("expression, message", [

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 978e10f452f1830f
+Input hash: 48a3baf5356321d2
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 4be273ec0da53c5e
+Input hash: 5024deaf7b5f2181
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

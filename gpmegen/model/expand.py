@@ -67,6 +67,10 @@ def _check_expression(expr, allowed: set, where: str, subject: tuple):
         raise ModelError(f"{where}: a Piecewise has no last pair (value, True), so its value is undefined where "
                          f"no condition holds; end it with (value, True)", subject)
     unknown = sorted(str(s) for s in expr.free_symbols if s not in allowed)
+    unreal = [name for name in unknown if name in {str(s) for s in allowed}]
+    if unreal:   # SymPy holds Symbol('x') and Symbol('x', real=True) as two symbols
+        raise ModelError(f"{where}: the symbol {unreal[0]} is not declared real; make it "
+                         f"sympy.Symbol({unreal[0]!r}, real=True), as gpmegen's own names are", subject)
     if unknown:
         raise ModelError(f"{where}: unknown name(s) {', '.join(unknown)}; declare them as parameters or use "
                          f"names defined in the model", subject)

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import EvaluationError, SimulationError
 from ..status import Ending, Outcome, SolveStatus
-from .partition import check_rank
+from .partition import check_second_order_rows
 
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
                  "within reach")
@@ -182,9 +182,10 @@ CHUNK_SECONDS = 0.05
 
 
 def check_start(model, t0, q0, qd0):
-    """Refuse a start where the constraint rows are dependent (SimulationError naming them): a
-    second-order constraint's row may vanish at rest."""
-    check_rank(model, model.constraint_terms(t0, q0, qd0)[2], t0, qd0)
+    """Refuse a start where the row of a second-order constraint vanishes (at rest, for a path
+    curvature), with SimulationError naming it; other singular starts end the run at its first
+    step with their own message."""
+    check_second_order_rows(model, model.constraint_terms(t0, q0, qd0)[2], t0, qd0)
 
 
 def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None):

@@ -40,29 +40,29 @@ def condition(D, dependent) -> float:
 def partition_at(model, q, t=0.0, qd=None):
     """``model`` with its dependent coordinates chosen from the constraint Jacobian at ``(q, qd)``
     (``qd`` default: at rest; the rows of second-order constraints may depend on it). Raises
-    SimulationError naming the constraints whose rows are dependent there (no choice helps)."""
+    SimulationError naming the second-order constraints whose rows vanish there (no choice helps)."""
     qd = np.zeros(model.n_dof) if qd is None else qd
     _, _, D, _ = model.constraint_terms(t, q, qd)
-    check_rank(model, D, t, qd)
+    check_second_order_rows(model, D, t, qd)
     return model.with_partition(choose_dependent(D))
 
 
-def check_rank(model, D, t, qd):
-    """Raise SimulationError when the rows of ``D`` (m, n) at time ``t`` and velocities ``qd``
-    are linearly dependent: the constraints whose rows are zero are named, else all of them."""
-    m = D.shape[0]
-    if m == 0 or not np.all(np.isfinite(D)) or np.linalg.matrix_rank(D) == m:
+def check_second_order_rows(model, D, t, qd):
+    """Raise SimulationError naming the second-order constraints whose rows of ``D`` (m, n) are
+    zero at time ``t`` and velocities ``qd``: their acceleration terms carry the velocities (a path
+    curvature), so no motion can hold them there, whatever the dependent coordinates."""
+    second = np.asarray(model.constraint_orders) == 2
+    if not np.any(second) or not np.all(np.isfinite(D)):
         return   # a D not finite: the run reports it at its first step
     size = max(float(np.max(np.abs(D))), 1.0)
-    zero = [name for name, row in zip(model.constraint_names, D) if np.max(np.abs(row)) <= 1e-12 * size]
-    names = ", ".join(repr(name) for name in (zero or model.constraint_names))
-    state = "at rest" if not np.any(qd) else "with these velocities"
-    fix = ("a second-order constraint whose acceleration terms carry the velocities (a path curvature, say) needs "
-           "a start in motion" if zero and not np.any(qd) else "start from another configuration or change the "
-           "constraints")
-    raise SimulationError(f"model {model.module.MODEL}: at t = {t:.6g} s {state} the rows of D of the constraints "
-                          f"{names} are {'zero' if zero else 'linearly dependent'}, so no motion can be chosen to "
-                          f"hold them; {fix}")
+    zero = [name for name, row, order2 in zip(model.constraint_names, D, second)
+            if order2 and np.max(np.abs(row)) <= 1e-12 * size]
+    if zero:
+        state = "at rest" if not np.any(qd) else "with these velocities"
+        raise SimulationError(
+            f"model {model.module.MODEL}: at t = {t:.6g} s {state} the rows of D of the second-order constraints "
+            f"{', '.join(map(repr, zero))} are zero, so no motion can be chosen to hold them; their acceleration "
+            f"terms vanish with the velocities there: start in motion")
 
 
 class Watch:
