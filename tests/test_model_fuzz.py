@@ -1,6 +1,7 @@
-"""Mutated model files through ``gpmegen build``: the reference manipulator's file, and a file
+"""Mutated model files through ``gpmegen build``: the reference manipulator's file, a file
 giving flexible links in every way (sections by stiffness, tube and I; freedoms; a prescribed
-joint), with one field replaced (wrong types; negative, zero, huge, non-finite numbers; code-injection attempts, very
+joint) and the constraints of the manipulator's variant with a second-order constraint, with one
+field replaced (wrong types; negative, zero, huge, non-finite numbers; code-injection attempts, very
 long and non-ASCII strings), a key deleted, renamed or added, or a stray line inserted. The
 build exits 0, 2 (the file is at fault: one located line) or 1 (an honest runtime failure),
 never raises or shows a traceback, writes no model folder when it fails, and what it writes when
@@ -144,6 +145,12 @@ class Base:
 
 MANIPULATOR, LINKS = Base(BASE_TEXT), Base(LINKS_TEXT)
 
+# Expressions naming accelerations: allowed, nonlinear or out of place in a constraint.
+ACCELERATIONS = [
+    "ax_E", "theta1_ddot", "x3_ddot - 1", "ax_E^2", "ax_E*az_E", "vx_E*ax_E + vz_E*az_E", "sin(ay_E)",
+    "Abs(ax_E)", "ax_E/ay_E", "x_E*az_E - z_E*ax_E", "theta1_ddot*theta1_dot^2", "Piecewise((ax_E, t < 1), (0, True))",
+    "Heaviside(ay_E)", "ay_E_ddot", "ax_F", "psi2_1_ddot", "(vx_E^2 + vz_E^2)^(3/2)*ay_E",
+]
 INJECTIONS = [
     "__import__('os')", "__import__('os').system('touch gpmegen_pwned')", "().__class__.__bases__",
     "eval('1')", "exec('x=1')", "lambda: 0", "open('/etc/passwd').read()", '"""', "'''", "*/", "/*", "\\",
@@ -163,6 +170,7 @@ INJECTIONS = [
     "Piecewise((t, t < 1))", "Piecewise((1, True), (t, t < 1))", "Piecewise((t, (t < 1)), (0, True))",
     "Piecewise((t, t <= sqrt(-1)), (0, True))", "Heaviside(t - t0)", "Heaviside(x_E, 1)", "Abs(x_E - 0.1)",
     "Min(t, t0)*x_E", "Max(Abs(Abs(x_E) - 0.1), Min(t, 1))",
+    *ACCELERATIONS,
 ]
 NUMBERS = [0, -1, 1, 2, 3, 100, -(2 ** 63), 2 ** 63, 10 ** 30, -(10 ** 400), 0.0, -0.0, -1.0, 0.5, 1e-320, 1e-300,
            1e300, 1.7976931348623157e308, -1e308, float("nan"), float("inf"), float("-inf")]
@@ -185,8 +193,9 @@ values = st.recursive(
 keys = st.one_of(st.sampled_from(["joint", "body", "flexible", "point", "translation", "rotations", "shape", "mass",
                                   "center", "inertia", "stiffness", "damping", "nrfe", "order", "alpha", "beta",
                                   "value", "unit", "doc", "q", "schema", "name", "torsion_constant", "position",
-                                  "t", "x_E", "theta1_dot", "pi", "import", "freedoms", "prescribed", "EIz", "GJ",
-                                  "rhoA", "rhoIy", "EA", "outer_diameter", "inner_diameter", "height", "web_thickness",
+                                  "t", "x_E", "theta1_dot", "ax_E", "theta1_ddot", "pi", "import", "freedoms",
+                                  "prescribed", "EIz", "GJ", "rhoA", "rhoIy", "EA", "outer_diameter", "inner_diameter",
+                                  "height", "web_thickness",
                                   "section", "dependent", "density"]),
                  st.sampled_from(INJECTIONS), st.text(max_size=8))
 
@@ -258,6 +267,10 @@ def _mutated(path, value, text=BASE_TEXT) -> tuple[str, str]:
     return f"{path} = {value!r}", dumps(data)
 
 
+SETTINGS = dict(deadline=None, derandomize=True, suppress_health_check=[
+    HealthCheck.function_scoped_fixture, HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
 # Explicit cases first (found by this fuzzer; kept as regressions), then the random ones.
 @example(mutation=_mutated(("parameters", "beta_circle", "\r\n"), 2))            # key with a line break
 @example(mutation=_mutated(("parameters", "m1", "value"), -(10 ** 400)))           # int beyond double range
@@ -268,9 +281,7 @@ def _mutated(path, value, text=BASE_TEXT) -> tuple[str, str]:
 @example(mutation=_mutated(("constraints", 1, "expression"),                       # a switch: builds, warns
                            "y_E - y_c - A*Piecewise((cos(2*pi*t/T), t < T), (1, True))"))
 @example(mutation=_mutated(("drives", 0, "expression"), "tdr0*Heaviside(t - t0) + Piecewise((t, t <= t0), (t0, True))"))
-@settings(max_examples=300, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
-                                 HealthCheck.data_too_large])
+@settings(max_examples=300, **SETTINGS)
 @given(mutation=mutations())
 def test_mutated_model_file_builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
     _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
@@ -285,15 +296,42 @@ def test_mutated_model_file_builds_or_fails_cleanly(mutation, tmp_path, capsys, 
 @example(mutation=_mutated(("chain", 1, "density"), 2700, LINKS_TEXT))
 @example(mutation=_mutated(("chain", 3, "section", "inner_diameter"), "D", LINKS_TEXT))
 @example(mutation=_mutated(("dependent",), ["theta1"], LINKS_TEXT))
-@settings(max_examples=150, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
-                                 HealthCheck.data_too_large])
+@settings(max_examples=150, **SETTINGS)
 @given(mutation=mutations(LINKS))
 def test_mutated_flexible_links_build_or_fail_cleanly(mutation, tmp_path, capsys, monkeypatch):
     _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
 
 
+SECOND_ORDER_TEXT = (ROOT / "examples" / "manipulator_tangential.toml").read_text()
+SECOND_ORDER_FIELDS = ("expression", "order", "alpha", "beta", "name")
+
+
+@st.composite
+def second_order_mutations(draw):
+    """(label, TOML text): one field of a constraint of the example with a second-order
+    constraint replaced or added, mostly by expressions that name accelerations."""
+    data = tomllib.loads(SECOND_ORDER_TEXT)
+    k = draw(st.integers(0, len(data["constraints"]) - 1))
+    key = draw(st.sampled_from(SECOND_ORDER_FIELDS))
+    value = draw(st.sampled_from(ACCELERATIONS) | st.sampled_from([0, 1, 2, 3, -2, 2.0, "2", True])
+                 | st.sampled_from(INJECTIONS) | values)
+    data["constraints"][k][key] = value
+    return f"constraints[{k}].{key} = {value!r}", dumps(data)
+
+
+@example(mutation=("constraints[2].expression = 'ax_E^2'",
+                   SECOND_ORDER_TEXT.replace('"(z_E*ax_E - x_E*az_E)/r_Ea - a0*sin(2*pi*t/Ta)"', '"ax_E^2"')))
+@example(mutation=("constraints[0].order = 2", SECOND_ORDER_TEXT.replace("order = 0", "order = 2", 1)))
+@example(mutation=("constraints[0].order = []", SECOND_ORDER_TEXT.replace("order = 0", "order = []", 1)))  # unhashable
+@example(mutation=("constraints[2].order = 1", SECOND_ORDER_TEXT.replace("order = 2", "order = 1", 1)))
+@settings(max_examples=80, **SETTINGS)
+@given(mutation=second_order_mutations())
+def test_mutated_second_order_constraint_builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
+    _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+
+
 def _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
+    """``gpmegen build`` of the mutated file exits 0, 1 or 2 as the module's doc says."""
     label, text = mutation
     monkeypatch.chdir(tmp_path)  # an injected command would leave ./gpmegen_pwned; stray writes show here
     work = Path(tempfile.mkdtemp(dir=tmp_path))

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 98e6c0e42d29c2f9
+Input hash: 6d0fc6f1508ac1b2
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe5_input_hash(void) { return "98e6c0e42d29c2f9"; }
+const char *manipulator_nrfe5_input_hash(void) { return "6d0fc6f1508ac1b2"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -4952,13 +4952,15 @@ NOINLINE static void ldlt_solve(int n, const double *a, const double *inv_d, dou
 }
 
 
-/* Order of each programmed constraint: 0 position (Baumgarte 2 alpha, beta^2), 1 first order. */
+/* Order of each programmed constraint: 0 position (Baumgarte 2 alpha, beta^2), 1 first order
+   (alpha), 2 second order (no gains). */
 static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
 
 /* The GPME with Baumgarte terms (paper eqs. 12-16):
        B^T (M qdd - f) = 0                             one row per independent coordinate,
        D qdd = c,  c = -gamma - 2 alpha phi_rate - beta^2 phi   (position constraints)
                    c = -gamma - alpha phi                       (first-order constraints),
+                   c = -gamma                                   (second-order constraints),
    with X = D_dc^-1 D_ic and B = [I; -X] arranged by coordinate index. Every basis B of the
    motions the constraints allow gives the same qdd, so the dependent coordinates are chosen here,
    at each call, as the pivots of constraint_basis() (|X| <= 2^(m-1) for m constraints), not taken
@@ -5009,9 +5011,9 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
         }
     }
     for (int a = 0; a < NC; ++a) {
-        c[a] = CONSTRAINT_ORDERS[a] == 0
-            ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
-            : -gam[a] - alpha[a] * phi[a];
+        c[a] = CONSTRAINT_ORDERS[a] == 0 ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
+             : CONSTRAINT_ORDERS[a] == 1 ? -gam[a] - alpha[a] * phi[a]
+             : -gam[a];
     }
     if ((status = constraint_basis(D, c, dependent, independent, X)) != GPMEGEN_OK) {
         return status;

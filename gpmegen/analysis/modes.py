@@ -116,6 +116,7 @@ def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
     vectors ``B v`` normalized to unit modal mass."""
     from ..runtime.gpme import tangent_basis
 
+    statics.refuse_second_order(model, "modes with the constraints holding")
     q_eq = np.asarray(q_eq, dtype=float)
     n = model.n_dof
     zero = np.zeros(n)

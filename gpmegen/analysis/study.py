@@ -98,7 +98,7 @@ def collect(model, t, y, status, settings) -> dict:
     energy = np.zeros((samples, 3))
     for k in range(samples):
         E[k] = model.end_effector(q[k])
-        phi[k] = model.constraint_terms(t[k], q[k], qd[k])[0]
+        phi[k] = model.constraint_values(t[k], q[k], qd[k])
         drive[k] = model.drive_forces(t[k])
         if np.all(np.isfinite(y[k])):
             reaction[k] = model.constraint_forces(t[k], q[k], qd[k])

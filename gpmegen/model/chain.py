@@ -65,6 +65,11 @@ def velocity_symbol(coordinate: str) -> sp.Symbol:
     return sp.Symbol(f"{coordinate}_dot", real=True)
 
 
+def acceleration_symbol(coordinate: str) -> sp.Symbol:
+    """Symbol of a coordinate's acceleration in second-order constraints: ``<name>_ddot``."""
+    return sp.Symbol(f"{coordinate}_ddot", real=True)
+
+
 def point_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
     """Symbols of a point's coordinates in {0}: ``x_P, y_P, z_P`` (m)."""
     return tuple(sp.Symbol(f"{a}_{point}", real=True) for a in AXES)
@@ -73,6 +78,12 @@ def point_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
 def point_velocity_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
     """Symbols of a point's velocity in {0}: ``vx_P, vy_P, vz_P`` (m/s)."""
     return tuple(sp.Symbol(f"v{a}_{point}", real=True) for a in AXES)
+
+
+def point_acceleration_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Symbols of a point's acceleration in {0} in second-order constraints: ``ax_P, ay_P, az_P``
+    (m/s²)."""
+    return tuple(sp.Symbol(f"a{a}_{point}", real=True) for a in AXES)
 
 
 def as_expr(value) -> sp.Expr:
@@ -244,7 +255,9 @@ class Constraint:
     ``order=0``: position constraint ``Φ(points, q, t) = 0``, stabilized by
     ``Φ̈ + 2 α Φ̇ + β² Φ = 0``. ``order=1``: first-order constraint, linear in velocities
     (point velocities ``vx_P…`` and coordinate velocities ``<name>_dot``), stabilized by
-    ``Ψ̇ + α Ψ = 0``. ``alpha`` and ``beta`` are expressions of parameters.
+    ``Ψ̇ + α Ψ = 0``. ``order=2``: second-order constraint, linear in accelerations (point
+    accelerations ``ax_P…`` and coordinate accelerations ``<name>_ddot``), held as it stands
+    (no gains). ``alpha`` and ``beta`` are expressions of parameters.
     """
 
     name: str

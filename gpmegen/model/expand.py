@@ -21,7 +21,9 @@ from .chain import (
     Model,
     Offset,
     Point,
+    acceleration_symbol,
     check_name,
+    point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
     symbol,
@@ -66,6 +68,10 @@ def _check_expression(expr, allowed: set, where: str, subject: tuple):
         raise ModelError(f"{where}: a Piecewise has no last pair (value, True), so its value is undefined where "
                          f"no condition holds; end it with (value, True)", subject)
     unknown = sorted(str(s) for s in expr.free_symbols if s not in allowed)
+    unreal = [name for name in unknown if name in {str(s) for s in allowed}]
+    if unreal:   # SymPy holds Symbol('x') and Symbol('x', real=True) as two symbols
+        raise ModelError(f"{where}: the symbol {unreal[0]} is not declared real; make it "
+                         f"sympy.Symbol({unreal[0]!r}, real=True), as gpmegen's own names are", subject)
     if unknown:
         raise ModelError(f"{where}: unknown name(s) {', '.join(unknown)}; declare them as parameters or use "
                          f"names defined in the model", subject)
@@ -151,14 +157,16 @@ def _check_element(element, path, names: _Names, constant: set):
 
 
 def _check_derived_names(flat, names: _Names):
-    """The names constraint expressions give to velocities (``<coordinate>_dot``) and points
-    (``x_P``, ``vx_P``; ``ax_P`` inside the derivation) must not be a parameter's or a
-    coordinate's, nor made twice, else an expression would silently mean one of the two."""
+    """The names constraint expressions give to velocities and accelerations of coordinates
+    (``<coordinate>_dot``, ``<coordinate>_ddot``) and to points (``x_P``, ``vx_P``, ``ax_P``) must
+    not be a parameter's or a coordinate's, nor made twice, else an expression would silently
+    mean one of the two."""
     made: dict[str, tuple[str, str, tuple]] = {}   # name -> (owner, meaning, owner's path)
     for path, element in flat:
         if isinstance(element, Joint):
             owner = f"coordinate {element.name!r}"
-            derived = [(f"{element.name}_dot", f"velocity of {owner}")]
+            derived = [(f"{element.name}_dot", f"velocity of {owner}"),
+                       (f"{element.name}_ddot", f"acceleration of {owner}")]
         elif isinstance(element, Point):
             owner = f"point {element.name!r}"
             derived = [(f"{prefix}{a}_{element.name}", f"{quantity} {a} of {owner}")
@@ -193,30 +201,52 @@ def _check_drives(model: Model, coordinates: list, constant: set):
         _check_expression(drive.expression, constant | {TIME}, f"drive on {drive.coordinate!r}", path + ("expression",))
 
 
+ORDERS = {0: "position", 1: "first order, linear in velocities", 2: "second order, linear in accelerations"}
+
+
 def _check_constraints(model: Model, flat, coordinates: list, names: _Names):
     constant = {p.symbol for p in model.parameters}
     points = [e.name for _, e in flat if isinstance(e, Point)]
     kinematic = constant | {TIME} | {symbol(c) for c in coordinates}
     rates = {velocity_symbol(c) for c in coordinates}
+    accelerations = {acceleration_symbol(c) for c in coordinates}
     for name in points:
         kinematic |= set(point_symbols(name))
         rates |= set(point_velocity_symbols(name))
+        accelerations |= set(point_acceleration_symbols(name))
     for k, c in enumerate(model.constraints):
         path = ("constraints", k)
         names.claim(c.name, "constraint", path + ("name",))
-        if isinstance(c.order, bool) or c.order not in (0, 1):
-            raise ModelError(f"constraint {c.name!r}: order must be 0 (position) or 1 (first order, linear in "
-                             f"velocities), got {c.order!r}", path + ("order",))
-        allowed = kinematic | (rates if c.order == 1 else set())
+        if isinstance(c.order, bool) or c.order not in tuple(ORDERS):   # a tuple: order may be unhashable
+            raise ModelError(f"constraint {c.name!r}: order must be "
+                             + ", ".join(f"{o} ({what})" for o, what in ORDERS.items()) + f", got {c.order!r}",
+                             path + ("order",))
+        allowed = kinematic | (rates if c.order >= 1 else set()) | (accelerations if c.order == 2 else set())
         where = path + ("expression",)
         expr = _check_expression(c.expression, allowed, f"constraint {c.name!r}", where)
-        if c.order == 1 and not (expr.free_symbols & rates):
-            raise ModelError(f"constraint {c.name!r}: a first-order constraint must involve velocities", where)
-        if c.order == 1 and any(sp.diff(expr, r, 2) != 0 for r in expr.free_symbols & rates):
-            raise ModelError(f"constraint {c.name!r}: a first-order constraint must be linear in the velocities",
-                             where)
+        highest, kind = {1: (rates, "velocities"), 2: (accelerations, "accelerations")}.get(c.order, (None, ""))
+        if highest is not None and not (expr.free_symbols & highest):
+            raise ModelError(f"constraint {c.name!r}: a {('first', 'second')[c.order - 1]}-order constraint must "
+                             f"involve {kind}", where)
+        if highest is not None:
+            term = nonlinear_term(expr, highest)
+            if term is not None:
+                raise ModelError(f"constraint {c.name!r}: the term {term} is not linear in the {kind}; write "
+                                 f"the constraint as a sum of {kind} times factors free of them", where)
         for key in ("alpha", "beta"):
             _check_expression(getattr(c, key), constant, f"constraint {c.name!r} {key}", path + (key,))
+
+
+def nonlinear_term(expr, variables) -> sp.Expr | None:
+    """The first term of ``expr`` (a sum) that is not linear in ``variables`` (symbols), or
+    ``expr`` itself when only the sum is not; None when ``expr`` is linear in them."""
+    def linear(e):
+        used = sorted(e.free_symbols & variables, key=str)
+        return all(not (sp.diff(e, a).free_symbols & variables) for a in used)
+
+    if linear(expr):
+        return None
+    return next((term for term in sp.Add.make_args(expr) if not linear(term)), expr)
 
 
 def _check_dependent(model: Model, coordinates: list):

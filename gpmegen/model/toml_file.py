@@ -44,7 +44,8 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     expression = "tdr0*Min(t/t0, 1)^3*(10 - 15*Min(t/t0, 1) + 6*Min(t/t0, 1)^2)"
 
     [[constraints]]                       # order 0: Φ(points, q, t) = 0; order 1: linear in
-    name = "circle"                       # velocities; Baumgarte gains alpha, beta
+    name = "circle"                       # velocities; order 2: linear in accelerations, no gains;
+                                          # Baumgarte gains alpha, beta
     expression = "x_E^2 + z_E^2 - r_Ea^2"
     order = 0
     alpha = "alpha_circle"

@@ -7,6 +7,7 @@ Jacobian ``D = [D_ic D_dc]`` gives ``∂q̇_dc/∂q̇_ic = -D_dc⁻¹ D_ic`` (eq
     Bᵀ (M q̈ - f) = 0                         (n - m rows, one per independent coordinate)
     D q̈ = -γ - 2αΦ̇ - β²Φ   (position)        (m rows, eq. 16 with Baumgarte terms)
     D q̈ = -γ - αΨ           (first order)
+    D q̈ = -γ                (second order)
 
 solved together for ``q̈`` (n,).
 """
@@ -23,7 +24,7 @@ def constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders):
     orders = np.asarray(orders)
     position = -gamma - 2.0 * alpha * phi_rate - beta**2 * phi
     first = -gamma - alpha * phi
-    return np.where(orders == 0, position, first)
+    return np.select([orders == 0, orders == 1], [position, first], -gamma)
 
 
 def tangent_basis(D, dependent, independent):

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import EvaluationError, SimulationError
 from ..status import Ending, Outcome, SolveStatus
+from .partition import check_second_order_rows
 
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
                  "within reach")
@@ -180,6 +181,13 @@ def _steps(rhs, y, g, k_from, k_to, save_every, ts, ys) -> SolveStatus:
 CHUNK_SECONDS = 0.05
 
 
+def check_start(model, t0, q0, qd0):
+    """Refuse a start where the row of a second-order constraint vanishes (at rest, for a path
+    curvature), with SimulationError naming it; other singular starts end the run at its first
+    step with their own message."""
+    check_second_order_rows(model, model.constraint_terms(t0, q0, qd0)[2], t0, qd0)
+
+
 def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None):
     """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s), run by
     ``model.rk4`` (in C or in Python) in chunks of about :data:`CHUNK_SECONDS`, so that progress
@@ -188,6 +196,7 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
     what was computed, at the same instants on both backends. Keeps the initial state, the state
     after every ``save_every``-th step and the final state. Returns ``(t, y, outcome)``: ``y``
     rows of the augmented state, ``outcome`` an :class:`Outcome`."""
+    check_start(model, t0, q0, qd0)
     g = grid(t0, t_end, dt)
     # a whole number of save intervals, so that the chunks' ends (always saved) are saved rows anyway
     chunk = max(save_every, int(round(CHUNK_SECONDS / dt / save_every)) * save_every)
@@ -210,7 +219,7 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
                 if max_violation is not None:
                     outcome = violation(model, t[-1], q[-1], qd[-1], max_violation)
                 if watch is not None and outcome is None:
-                    model = watch.check(t[-1], q[-1])  # with other dependent coordinates, maybe
+                    model = watch.check(t[-1], q[-1], qd[-1])  # with other dependent coordinates, maybe
                 bar.update(t[-1] - t0)
         except KeyboardInterrupt:
             outcome = Outcome(Ending.INTERRUPTED, g.time(done))
@@ -247,6 +256,7 @@ def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e
     (the column's rotation θ1, or the work states), until the state overflows."""
     from scipy.integrate import solve_ivp
 
+    check_start(model, t0, q0, qd0)
     n = model.n_dof
     with_work = method not in IMPLICIT
     y0 = np.concatenate([q0, qd0] + ([[0.0, 0.0]] if with_work else [])).astype(float)

@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import EvaluationError, ModelError
+from ..errors import EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
 from . import gpme, integrate
 
@@ -243,6 +243,20 @@ class LoadedModel:
     def constraint_terms(self, t, q, qd):
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
         return self.evaluator.constraint_terms(t, q, qd, self.p)
+
+    def constraint_values(self, t, q, qd):
+        """Each constraint's value as written, (m,): Φ, Ψ, and for a second-order constraint
+        (which has no value at a state) ``D q̈ + γ`` with q̈ from the GPME, NaN where they have
+        no solution."""
+        phi, _, D, gamma = self.constraint_terms(t, q, qd)
+        second = self.constraint_orders == 2
+        if not np.any(second):
+            return phi
+        try:
+            qdd = self.accelerations(t, q, qd)
+        except SimulationError:   # a diverged or singular state of a run that failed
+            qdd = np.full(self.n_dof, np.nan)
+        return np.where(second, D @ qdd + gamma, phi)
 
     def energies(self, q, qd):
         """(kinetic, gravity potential, spring) energy in J."""

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from ..errors import SimulationError
+
 # Above this condition number of D_dc the partition is reported as ill-conditioned.
 ILL_CONDITIONED = 1e8
 
@@ -35,10 +37,32 @@ def condition(D, dependent) -> float:
     return float(c) if np.isfinite(c) else float("inf")
 
 
-def partition_at(model, q, t=0.0):
-    """``model`` with its dependent coordinates chosen from the constraint Jacobian at ``q``."""
-    _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
+def partition_at(model, q, t=0.0, qd=None):
+    """``model`` with its dependent coordinates chosen from the constraint Jacobian at ``(q, qd)``
+    (``qd`` default: at rest; the rows of second-order constraints may depend on it). Raises
+    SimulationError naming the second-order constraints whose rows vanish there (no choice helps)."""
+    qd = np.zeros(model.n_dof) if qd is None else qd
+    _, _, D, _ = model.constraint_terms(t, q, qd)
+    check_second_order_rows(model, D, t, qd)
     return model.with_partition(choose_dependent(D))
+
+
+def check_second_order_rows(model, D, t, qd):
+    """Raise SimulationError naming the second-order constraints whose rows of ``D`` (m, n) are
+    zero at time ``t`` and velocities ``qd``: their acceleration terms carry the velocities (a path
+    curvature), so no motion can hold them there, whatever the dependent coordinates."""
+    second = np.asarray(model.constraint_orders) == 2
+    if not np.any(second) or not np.all(np.isfinite(D)):
+        return   # a D not finite: the run reports it at its first step
+    size = max(float(np.max(np.abs(D))), 1.0)
+    zero = [name for name, row, order2 in zip(model.constraint_names, D, second)
+            if order2 and np.max(np.abs(row)) <= 1e-12 * size]
+    if zero:
+        state = "at rest" if not np.any(qd) else "with these velocities"
+        raise SimulationError(
+            f"model {model.module.MODEL}: at t = {t:.6g} s {state} the rows of D of the second-order constraints "
+            f"{', '.join(map(repr, zero))} are zero, so no motion can be chosen to hold them; their acceleration "
+            f"terms vanish with the velocities there: start in motion")
 
 
 class Watch:
@@ -54,12 +78,13 @@ class Watch:
         self.warned = False
         self.events: list = []
 
-    def check(self, t, q):
-        """Looks at the partition of :attr:`model` at ``(t, q)``; returns the model to go on with."""
+    def check(self, t, q, qd=None):
+        """Looks at the partition of :attr:`model` at ``(t, q, qd)`` (``qd`` default: at rest);
+        returns the model to go on with."""
         model = self.model
         if not len(model.constraint_names) or model.dependent is None:
             return model
-        _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
+        _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof) if qd is None else qd)
         c = condition(D, model.dependent)
         if c <= self.limit:
             return model

@@ -85,6 +85,18 @@ def _force_scale(model, q):
     return float(np.max(np.abs(model.static_residual(np.zeros_like(q))) + np.abs(model.static_residual(q))))
 
 
+def refuse_second_order(model, what: str):
+    """Raise StaticsError when ``model`` has second-order constraints: they hold accelerations,
+    not a configuration, so ``what`` (an equilibrium on the constraints) is not defined."""
+    names = [name for name, order in zip(model.constraint_names, model.constraint_orders) if order == 2]
+    if names:
+        raise StaticsError(
+            f"{what}: the constraint{'s' if len(names) > 1 else ''} {', '.join(map(repr, names))} "
+            f"{'are' if len(names) > 1 else 'is'} of second order, which holds accelerations, not a configuration, "
+            f"so there is no equilibrium on the constraints; start from the locked statics or the initial "
+            f"configuration (--statics locked or initial)")
+
+
 def constrained(model, q_start, hold=None, t=0.0, gravity_parameter="g", steps=GRAVITY_STEPS, tol=1e-10, max_iter=100):
     """Equilibrium of the constrained system: ``g + C q - Dᵀλ = 0`` on the free coordinates and
     ``Φ(q, t) = 0``, drive off; ``hold`` (default: independent coordinates without a spring)
@@ -92,6 +104,7 @@ def constrained(model, q_start, hold=None, t=0.0, gravity_parameter="g", steps=G
 
     Newton's Jacobian ``[[K, -Dᵀ], [D, 0]]`` leaves out ``λ·∂²Φ/∂q²`` (not emitted), so the
     convergence is linear with a rate set by that term; it is small against the stiffness."""
+    refuse_second_order(model, "constrained statics")
     q = np.array(q_start, dtype=float)
     n = model.n_dof
     if hold is None:

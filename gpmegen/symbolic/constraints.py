@@ -2,13 +2,17 @@
 
 For each constraint the generated code returns ``Φ`` (value), ``Φ̇`` (rate, position
 constraints only), the row ``D`` and ``γ`` such that the constraint's highest derivative is
-``D q̈ + γ`` (``Φ̈`` for a position constraint, ``Ψ̇`` for a first-order one). The GPME rows are
-then ``D q̈ = -γ - 2αΦ̇ - β²Φ`` or ``D q̈ = -γ - αΨ`` (paper eqs. 13 and 16).
+``D q̈ + γ`` (``Φ̈`` for a position constraint, ``Ψ̇`` for a first-order one, the constraint
+itself for a second-order one). The GPME rows are then ``D q̈ = -γ - 2αΦ̇ - β²Φ``,
+``D q̈ = -γ - αΨ`` (paper eqs. 13 and 16) or ``D q̈ = -γ``. A second-order constraint has no
+value at a state ``(t, q, q̇)`` (it needs ``q̈``): its ``Φ`` and ``Φ̇`` are 0.
 
 Expressions name point coordinates ``x_P, y_P, z_P``, point velocities ``vx_P, vy_P, vz_P``,
-coordinates by name, their velocities ``<name>_dot``, time ``t`` and parameters. Point
-velocities and accelerations come from the kinematics, so ``p̈ = J_P q̈ + a_P`` is never
-differentiated symbolically through the chain.
+point accelerations ``ax_P, ay_P, az_P``, coordinates by name, their velocities ``<name>_dot``
+and accelerations ``<name>_ddot``, time ``t`` and parameters. Point velocities and
+accelerations come from the kinematics, so ``p̈ = J_P q̈ + a_P`` is never differentiated
+symbolically through the chain: an acceleration's coefficient enters ``D`` through ``J_P`` (or
+the coordinate's column), and ``γ`` is the constraint with ``p̈ → a_P`` and ``q̈ → 0``.
 
 Laws that switch (``Min``, ``Max``, ``Abs``, ``Heaviside``, ``Piecewise``) are differentiated
 branch by branch (:mod:`gpmegen.symbolic.piecewise`): the Dirac delta at a switch is dropped,
@@ -24,7 +28,15 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..errors import DerivationError
-from ..model.chain import TIME, point_symbols, point_velocity_symbols, symbol, velocity_symbol
+from ..model.chain import (
+    TIME,
+    acceleration_symbol,
+    point_acceleration_symbols,
+    point_symbols,
+    point_velocity_symbols,
+    symbol,
+    velocity_symbol,
+)
 from .kinematics import Kinematics
 from .names import point_acceleration
 from .piecewise import as_piecewise, exact, jumps
@@ -54,22 +66,25 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
     names = kin.chain.coordinates
     internal = {}                     # user symbol -> internal expression
     rate_of = {}                      # user symbol -> its time derivative (q̈ = 0), user symbols
-    coordinate_rate = {}              # q̇_j symbol -> j (enters D)
-    point_rate = {}                   # point velocity symbol -> Jacobian components (enter D)
+    # the rates of a first-order expression and the accelerations of a second-order one, by
+    # where their coefficients enter D: the column j of a coordinate, or a point's Jacobian row
+    velocity_column, acceleration_column = {}, {}     # symbol -> j
+    velocity_jacobian, acceleration_jacobian = {}, {}   # symbol -> (n,) Jacobian components
     for j, name in enumerate(names):
         internal[symbol(name)] = kin.q[j]
         internal[velocity_symbol(name)] = kin.qd[j]
+        internal[acceleration_symbol(name)] = sp.S.Zero   # its velocity-product part
         rate_of[symbol(name)] = velocity_symbol(name)
-        coordinate_rate[velocity_symbol(name)] = j
+        velocity_column[velocity_symbol(name)] = acceleration_column[acceleration_symbol(name)] = j
     for pname, pt in kin.points.items():
         xs, vs, accs = point_symbols(pname), point_velocity_symbols(pname), point_acceleration(pname)
-        for k in range(3):
+        for k, a in enumerate(point_acceleration_symbols(pname)):
             internal[xs[k]] = pt.position[k]
             internal[vs[k]] = pt.velocity[k]
-            internal[accs[k]] = pt.acceleration[k]
+            internal[accs[k]] = internal[a] = pt.acceleration[k]
             rate_of[xs[k]] = vs[k]
             rate_of[vs[k]] = accs[k]
-            point_rate[vs[k]] = [pt.jacobian[j][k] for j in range(n)]
+            velocity_jacobian[vs[k]] = acceleration_jacobian[a] = [pt.jacobian[j][k] for j in range(n)]
 
     def rate(expr):
         """Velocity-product part of d/dt expr (the q̈ part is D q̈), in user symbols."""
@@ -78,15 +93,17 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
             sp.S.Zero,
         )
 
-    def jacobian_row(expr):
-        """Coefficients of q̈ in d/dt expr, for expr linear in velocities (internal symbols)."""
+    def jacobian_row(expr, column, jacobian):
+        """Coefficients of q̈ in ``expr``'s highest derivative, for expr linear in the rates that
+        ``column`` and ``jacobian`` map (velocities: of d/dt expr; accelerations: of expr
+        itself), in internal symbols."""
         row = [sp.S.Zero] * n
         for s in sorted(expr.free_symbols, key=str):
-            if s in coordinate_rate:
-                row[coordinate_rate[s]] += sp.diff(expr, s)
-            elif s in point_rate:
+            if s in column:
+                row[column[s]] += sp.diff(expr, s)
+            elif s in jacobian:
                 coeff = sp.diff(expr, s)
-                for j, component in enumerate(point_rate[s]):
+                for j, component in enumerate(jacobian[s]):
                     row[j] += coeff * component
         return [v.xreplace(internal) for v in row]
 
@@ -94,26 +111,31 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
     values, rates, rows, gammas, warnings = [], [], [], [], []
     for k, c in enumerate(constraints):
         expr = as_piecewise(c.expression)
-        first = rate(expr) if c.order == 0 else expr  # Φ̇, or Ψ itself
-        row = jacobian_row(first)
+        if c.order == 2:
+            first = sp.S.Zero
+            row = jacobian_row(expr, acceleration_column, acceleration_jacobian)
+        else:
+            first = rate(expr) if c.order == 0 else expr  # Φ̇, or Ψ itself
+            row = jacobian_row(first, velocity_column, velocity_jacobian)
         if all(v == 0 for v in row):
             raise DerivationError(
                 f"constraint {c.name!r} does not depend on any coordinate, so no motion can hold "
                 f"it: check that it names a point or a coordinate", ("constraints", k, "expression"))
-        second = rate(first)
+        second = expr if c.order == 2 else rate(first)   # γ: the velocity-product part
         _check_printable(c.name, (first, second), ("constraints", k, "expression"))
         law = as_piecewise(exact(c.expression))
-        checked = (("Φ", law), ("Φ̇", rate(law))) if c.order == 0 else (("Ψ", law),)
+        # a second-order constraint that jumps makes the accelerations jump: no impulse is lost
+        checked = (("Φ", law), ("Φ̇", rate(law))) if c.order == 0 else (("Ψ", law),) if c.order == 1 else ()
         warnings += _jump_warnings(c.name, checked, defaults, "continuously differentiable" if c.order == 0 else
                                    "continuous")
-        values.append(define(expr.xreplace(internal)))
+        values.append(define(expr.xreplace(internal)) if c.order < 2 else sp.S.Zero)
         rates.append(define(first.xreplace(internal)) if c.order == 0 else sp.S.Zero)
         rows.append([define(v) for v in row])
         gammas.append(define(second.xreplace(internal)))
     m = len(values)
     return ConstraintTerms(
         names=tuple(c.name for c in constraints),
-        orders=tuple(c.order for c in constraints),
+        orders=tuple(int(c.order) for c in constraints),   # 2.0 -> 2: printed into C as an int
         value=sp.Matrix(m, 1, values),
         rate=sp.Matrix(m, 1, rates),
         jacobian=sp.Matrix(m, n, [v for r in rows for v in r]) if m else sp.zeros(0, n),

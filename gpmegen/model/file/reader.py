@@ -36,7 +36,9 @@ from ..chain import (
     RectangularSection,
     StiffnessSection,
     TubeSection,
+    acceleration_symbol,
     check_name,
+    point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
     symbol,
@@ -53,6 +55,9 @@ SCHEMA = 1
 
 _LABEL = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_]{0,31}$")
 _POINT_NAME = re.compile(r"^(vx|vy|vz|ax|ay|az|x|y|z)_(.+)$")
+# Velocities ("v") and accelerations ("a") in constraint expressions: what they are, where they may appear.
+_RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 or 2"),
+          "a": ("acceleration", "second-order constraints; set order = 2")}
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
@@ -242,18 +247,19 @@ class Reader:
                     f"number, or the expression where the value is used")
         if name in self.coordinates:
             return f"coordinate {name!r} may appear only in constraints; use parameters (and t in drives) here"
-        if name.endswith("_dot"):
-            base = name[:-4]
-            if base in self.coordinates:
-                return (f"the velocity {name} may appear only in first-order constraints; set order = 1 "
-                        f"or remove it")
-            return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
+        for suffix, (quantity, orders) in (("_ddot", _RATES["a"]), ("_dot", _RATES["v"])):
+            if name.endswith(suffix):
+                base = name[:-len(suffix)]
+                if base in self.coordinates:
+                    return f"the {quantity} {name} may appear only in {orders} or remove it"
+                return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
         point = _POINT_NAME.match(name)
-        if point and point.group(1) in ("x", "y", "z", "vx", "vy", "vz"):
+        if point:
             if point.group(2) in self.points:
-                if point.group(1).startswith("v") and any(symbol(f"x_{point.group(2)}") == s for s in scope.values()):
-                    return (f"the point velocity {name} may appear only in first-order constraints; set "
-                            f"order = 1 or remove it")
+                kind = point.group(1)[0]
+                if kind in _RATES and symbol(f"x_{point.group(2)}") in scope.values():
+                    quantity, orders = _RATES[kind]
+                    return f"the point {quantity} {name} may appear only in {orders} or remove it"
                 return f"point coordinate {name} may appear only in constraints; remove it"
             known = ", ".join(self.points) or "none"
             return (f"{name!r} names no declared point {point.group(2)!r} (points: {known}); declare the "
@@ -555,25 +561,22 @@ class Reader:
         return tuple(drives)
 
     def constraint_scope(self, order):
+        """The names a constraint of ``order`` may use: parameters, t, coordinates and point
+        coordinates; velocities from order 1 on, accelerations at order 2."""
         scope = {**self.params, "t": TIME}
-        for name in self.coordinates:
-            scope[name] = symbol(name)
-        for point in self.points:
-            for s in point_symbols(point):
-                scope[s.name] = s
-        if order == 1:
-            for name in self.coordinates:
-                scope[velocity_symbol(name).name] = velocity_symbol(name)
-            for point in self.points:
-                for s in point_velocity_symbols(point):
-                    scope[s.name] = s
+        highest = order if order in (1, 2) and not isinstance(order, bool) else 0   # other orders: expand()
+        made = ((symbol, point_symbols), (velocity_symbol, point_velocity_symbols),
+                (acceleration_symbol, point_acceleration_symbols))
+        for of_coordinate, of_point in made[:highest + 1]:
+            scope.update({of_coordinate(c).name: of_coordinate(c) for c in self.coordinates})
+            scope.update({s.name: s for point in self.points for s in of_point(point)})
         return scope
 
     def read_constraints(self, items):
         self.array(items, ("constraints",), what="list of [[constraints]] tables")
-        moving = {symbol(c) for c in self.coordinates} | {velocity_symbol(c) for c in self.coordinates}
+        moving = {f(c) for c in self.coordinates for f in (symbol, velocity_symbol, acceleration_symbol)}
         for point in self.moving_points:
-            moving |= set(point_symbols(point)) | set(point_velocity_symbols(point))
+            moving |= {s for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(point)}
         constraints = []
         for k, item in enumerate(items):
             path = ("constraints", k)
@@ -592,6 +595,9 @@ class Reader:
                     if key == "beta" and order == 1:
                         self.fail(path + ("beta",), "beta applies to position constraints only (a first-order "
                                                     "constraint is stabilized by alpha); remove it")
+                    if order == 2:
+                        self.fail(path + (key,), f"{key} applies to position and first-order constraints only "
+                                                 f"(a second-order constraint is held as it stands); remove it")
                     extra[key] = self.quantity(item[key], path + (key,), self.params)
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
