@@ -198,13 +198,17 @@ def cmd_simulate(args) -> int:
 
 def cmd_statics(args) -> int:
     case = _case(args.model_file, args.nrfe)
-    model, q = case.start("numpy", _start(case, args.statics), dict(args.param or []), progress)
-    for name, value in zip(model.coordinates, q):
-        print(f"{name:>10s} = {value: .9f}")
+    begun = case.start("numpy", _start(case, args.statics), dict(args.param or []), progress)
+    model, q = begun.model, begun.q
+    for name, value, rate in zip(model.coordinates, q, begun.qd):
+        print(f"{name:>10s} = {value: .9f}" + (f"   {name}_dot = {rate: .9f}" if begun.qd.any() else ""))
     for name, (x, y, z) in zip(model.points, model.point_positions(q)):
         print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
     if case.constants(model):
         print(case.constants(model))
+    print(begun.report())
+    if begun.warning():
+        progress(begun.warning())
     return 0
 
 
@@ -307,10 +311,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="a model description (.toml); default: the reference manipulator")
         p.add_argument("--nrfe", type=positive_int, default=None,
                        help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
-        p.add_argument("--statics", choices=("locked", "constrained", "initial"), default=None,
-                       help="start: the paper's locked-joint statics (default for the reference case), the "
-                            "equilibrium of the constrained system, or a model file's [initial] configuration "
-                            "(its default)")
+        p.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
+                       help="start: the statics with the joints locked (default for the reference case), the "
+                            "equilibrium of the constrained system, or none: a model file's [initial] "
+                            "configuration as given, undeformed (its default)")
         p.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
                        help="override a parameter (repeatable), e.g. --param tdr0=2")
 

@@ -16,7 +16,7 @@ class Case:
     """A model and its scenario. Subclasses give ``model`` (the symbolic Model), ``command`` (the
     build command that makes it), ``label`` (for progress and summaries), ``results_stem`` (the
     default results name), ``starts`` (the starts it accepts, the default first) and
-    :meth:`start`."""
+    :meth:`start` (returning a :class:`gpmegen.analysis.study.Start`)."""
 
     starts: tuple = ()
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
@@ -70,7 +70,7 @@ class FileCase(Case):
     """A model file (``path``) with ``nrfe`` rfes (None: the file's own); the file is read once,
     when first needed."""
 
-    starts = ("initial", "locked", "constrained")
+    starts = ("none", "locked", "constrained")
 
     def __init__(self, path, nrfe=None):
         self.path, self.nrfe = path, nrfe
@@ -104,11 +104,12 @@ class FileCase(Case):
             raise self.file.locate(exc) from None
 
     def start(self, backend, start, overrides, progress):
-        """The loaded model and q0: the file's ``[initial]`` configuration (see
+        """The loaded model's consistent start (:class:`gpmegen.analysis.study.Start`) from the
+        file's ``[initial]`` configuration and velocities (see
         :func:`gpmegen.analysis.study.file_start`)."""
         from . import study
 
         model = self.load(backend, overrides, progress)
-        initial = self.file.initial_values(model.params)
-        progress(f"start of {self.path} ({start})")
-        return study.file_start(model, initial, start)
+        progress(f"start of {self.path} ({'no statics' if start == 'none' else start + ' statics'})")
+        return study.file_start(model, self.file.initial_values(model.params), start,
+                                self.file.initial_velocities(model.params))

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..runtime import statics
 from .cases import Case
-from .study import project_onto_constraints
+from .study import consistent, project_onto_constraints
 
 START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
 CONSTANTS = ("r_Ea", "y_c")  # set from the locked statics unless the user gives them
@@ -60,7 +60,7 @@ class ReferenceCase(Case):
     """The paper's manipulator with its arm cut into ``nrfe`` rfes (1: rigid)."""
 
     starts = ("locked", "constrained")
-    start_refusal = ("--statics initial is for model files; the reference case starts from statics "
+    start_refusal = ("--statics none is for model files; the reference case starts from statics "
                      "(--statics locked or constrained)")
 
     def __init__(self, nrfe: int = 5):
@@ -85,10 +85,12 @@ class ReferenceCase(Case):
         return f"run_nrfe{self.nrfe}"
 
     def start(self, backend, start, overrides, progress):
-        """The loaded model with r_Ea and y_c set, and q0 (see :func:`initial_state`)."""
+        """The loaded model with r_Ea and y_c set, at rest at q0 (see :func:`initial_state`), as
+        a :class:`gpmegen.analysis.study.Start`."""
         model = self.load(backend, {k: v for k, v in overrides.items() if k not in CONSTANTS}, progress)
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
-        return initial_state(model, start, overrides)
+        model, q = initial_state(model, start, overrides)
+        return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT)
 
     def shown(self, model) -> list[str]:
         return list(START_JOINTS)

@@ -51,7 +51,8 @@ def metadata(results) -> dict:
     ``backend``, ``start``, ``settings`` (method, dt, save_every, t_end, dependent,
     repartitions), ``params`` and, from the run's case (:mod:`gpmegen.analysis.cases`), what
     plots use: ``label``, ``joints``, ``joint_labels``, ``constraint_units``, ``figures``,
-    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``."""
+    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``; and ``start_moved``: how far the start
+    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`)."""
     return json.loads(str(results["meta"]))
 
 

@@ -34,10 +34,14 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`). ``progress`` takes one-line messages."""
     check(case, t_end, dt, save_every, method, backend)
-    model, q0 = case.start(backend, start, overrides, progress)
+    begun = case.start(backend, start, overrides, progress)
+    model, q0 = begun.model, begun.q
     shown = case.shown(model)
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
              + case.start_note(model))
+    progress(begun.report())
+    if begun.warning():
+        progress(begun.warning())
     t0 = time.perf_counter()
     bar = None
     if method == "rk4":
@@ -45,7 +49,7 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
 
         bar = Progress(t_end, case.label, enabled=sys.stderr.isatty())
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
-                         repartition=repartition, notify=progress)
+                         repartition=repartition, notify=progress, qd0=begun.qd)
     wall = time.perf_counter() - t0
-    res = results_io.annotate(res, case.metadata(model), case.extras(model, res))
+    res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta()}, case.extras(model, res))
     return Run(model, res, results_io.save(res, out), wall)
