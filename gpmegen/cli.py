@@ -95,11 +95,16 @@ def _writable_folder(path: Path) -> None:
         raise UsageError(f"output folder {path} is not writable ({exc.strerror}); choose another --out") from None
 
 
-def _check_results_path(out: Path) -> None:
+def _check_results_path(out: Path, overwrite: bool = False) -> None:
     """Refuse, before any work, a results path that cannot take a run's files (complete or
-    partial): not .npz, a folder, or in a folder that cannot be written."""
+    partial): not .npz, a folder, in a folder that cannot be written, or holding the results of
+    an earlier run (unless ``overwrite``)."""
     from .analysis import results as results_io
 
+    taken = results_io.existing(out)
+    if taken is not None and not overwrite and not taken.is_dir():
+        raise UsageError(f"{taken} holds an earlier run's results; pass --overwrite to replace them, or choose "
+                         f"another --out")
     if out.suffix != ".npz":
         raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
     for path in (*results_io.targets(out), *results_io.targets(out, complete=False)):
@@ -160,12 +165,13 @@ def _start(case, start):
     return start
 
 
-def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
+def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
+                    overwrite=False):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
 
-    _check_results_path(out)
+    _check_results_path(out, overwrite)
     backend = backend or _default_backend()
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
                     repartition=repartition)
@@ -188,11 +194,13 @@ class SimulationStopped(GpmegenError):
 
 
 def cmd_simulate(args) -> int:
+    from .analysis.results import default_name
+
     case = _case(args.model_file, args.nrfe)
     start = _start(case, args.statics)
-    out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
+    out = Path(args.out if args.out is not None else f"results/{default_name(case.results_stem, start, args.method)}")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-              dict(args.param or []), out, repartition=args.repartition)
+                    dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite)
     return 0
 
 
@@ -229,7 +237,7 @@ def cmd_demo(args) -> int:
 
     outs = {nrfe: Path(args.results) / f"run_nrfe{nrfe}.npz" for nrfe in (1, 5)}
     for out in outs.values():
-        _check_results_path(out)
+        _check_results_path(out, overwrite=True)  # the demo's own files, remade by each demo
     _writable_folder(Path(args.figures))
     backend = _default_backend()
     dt = 1e-5 if backend == "c" else 1e-4
@@ -239,7 +247,8 @@ def cmd_demo(args) -> int:
                  "would take hours in Python)")
     results = []
     for nrfe, out in outs.items():
-        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
+        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out,
+                              overwrite=True)
         results.append(res)
     from .analysis import plots
 
@@ -328,7 +337,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--backend", choices=("numpy", "c"), default=None,
                    help="generated code to run (default: c when a compiler is present)")
     s.add_argument("--out", type=path_argument, default=None,
-                   help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
+                   help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
+    s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")
     s.add_argument("--repartition", action="store_true",
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.set_defaults(func=cmd_simulate)

@@ -107,3 +107,31 @@ def test_simulate_reports_how_far_the_start_moved_and_records_it(env, tmp_path, 
     assert meta["start_moved"]["qd"]["coordinate"] == "theta1"
     assert meta["start_moved"]["qd"]["max_change"] == pytest.approx(0.4, abs=1e-12)
     assert abs(results_io.load(out)["phi"]).max() < 1e-10
+
+
+# ---- results are never replaced silently --------------------------------------------------------
+
+def _simulate(*argv):
+    return main(["simulate", *argv, "--t-end", "0.002", "--dt", "1e-3", "--backend", "numpy"])
+
+
+def test_runs_with_other_starts_or_methods_get_their_own_default_files(env, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    for start, method in (("none", "rk4"), ("locked", "rk4"), ("none", "RK45")):
+        assert _simulate(str(TIP_LAW), "--statics", start, "--method", method) == 0, capsys.readouterr().err
+        meta = results_io.metadata(results_io.load(f"results/tip_law_{start}_{method.lower()}.npz"))
+        assert meta["start"] == start and meta["settings"]["method"] == method
+    assert len(list((tmp_path / "results").glob("*.npz"))) == 3
+
+
+def test_an_earlier_runs_results_are_replaced_only_with_overwrite(env, tmp_path, capsys):
+    out = tmp_path / "run.npz"
+    assert _simulate(str(TIP_LAW), "--out", str(out)) == 0
+    capsys.readouterr()
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert _simulate(str(TIP_LAW), "--out", str(out), "--statics", "locked") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "earlier run" in err and "--overwrite" in err and "gpmegen: " not in err
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    assert _simulate(str(TIP_LAW), "--out", str(out), "--statics", "locked", "--overwrite") == 0
+    assert results_io.metadata(results_io.load(out))["start"] == "locked"
