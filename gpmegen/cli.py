@@ -114,12 +114,12 @@ def _check_results_path(out: Path, overwrite: bool = False) -> None:
 
 
 def _case(model_file, nrfe):
-    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), or the
-    reference manipulator (default 5 rfes)."""
+    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), a folder made
+    by ``gpmegen build --out``, or the reference manipulator (default 5 rfes)."""
     if model_file:
-        from .analysis.cases import FileCase
+        from .analysis.cases import case_of_path
 
-        return FileCase(model_file, nrfe)
+        return case_of_path(model_file, nrfe)
     from .analysis.reference_case import ReferenceCase
 
     return ReferenceCase(nrfe or 5)
@@ -206,7 +206,7 @@ def cmd_simulate(args) -> int:
 
 def cmd_statics(args) -> int:
     case = _case(args.model_file, args.nrfe)
-    begun = case.start("numpy", _start(case, args.statics), dict(args.param or []), progress)
+    begun = case.started("numpy", _start(case, args.statics), dict(args.param or []), progress)
     model, q = begun.model, begun.q
     for name, value, rate in zip(model.coordinates, q, begun.qd):
         print(f"{name:>10s} = {value: .9f}" + (f"   {name}_dot = {rate: .9f}" if begun.qd.any() else ""))
@@ -214,9 +214,6 @@ def cmd_statics(args) -> int:
         print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
     if case.constants(model):
         print(case.constants(model))
-    print(begun.report())
-    if begun.warning():
-        progress(begun.warning())
     return 0
 
 
@@ -259,21 +256,22 @@ def cmd_demo(args) -> int:
 
 def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
-    from .analysis import modes, modes_output, reference_case
+    from .analysis import modes, modes_output
 
     out = Path(args.out)
     _writable_folder(out)
-    model = reference_case.ReferenceCase(args.nrfe).load("numpy", dict(args.param or []), progress)
+    case = _case(args.model_file, args.nrfe)
+    start = "locked" if args.lock == "joints" else "constrained"
+    begun = case.started("numpy", start, dict(args.param or []), progress)
     if args.lock == "joints":
-        q_eq, result = modes.locked_modes(model, reference_case.joint_start(model))
-        where = "joints locked at the paper's start"
+        _, result = modes.locked_modes(begun.model, begun.q)
+        where = "joints locked at the start"
     else:
-        model, q_eq = reference_case.initial_state(model, "constrained", dict(args.param or []))
-        result = modes.constrained_modes(model, q_eq)
-        where = "programmed constraints holding (constrained equilibrium, column rotation held)"
-    print(f"n_rfe = {args.nrfe}, {where}:")
+        result = modes.constrained_modes(begun.model, begun.q)
+        where = "programmed constraints holding (constrained equilibrium, joints without springs held)"
+    print(f"{case.label}, {where}:")
     print(result.format(args.count))
-    stem = f"modes_nrfe{args.nrfe}_{args.lock}"
+    stem = f"modes_{case.name}_{args.lock}"
     print(modes_output.write_modes_csv(result, out / f"{stem}.csv"))
     print(modes_output.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
     return 0
@@ -290,6 +288,7 @@ def cmd_convergence(args) -> int:
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
         table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
+                                              params=dict(args.param or []),
                                         progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
     print(table.format())
     print(modes_output.plot_convergence(table, out / "convergence.png"))
@@ -354,7 +353,11 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=cmd_plot)
 
     m = sub.add_parser("modes", help="natural frequencies and mode shapes about the static equilibrium")
-    m.add_argument("--nrfe", type=positive_int, default=5, help="rigid finite elements of the arm (≥ 2 to have modes)")
+    m.add_argument("model_file", nargs="?", type=path_argument,
+                   help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
+                        "manipulator")
+    m.add_argument("--nrfe", type=positive_int, default=None,
+                   help="rigid finite elements of the arm (≥ 2 to have modes; default 5, or the file's)")
     m.add_argument("--lock", choices=("joints", "constraints"), default="joints",
                    help="linearize with the joints locked, or with the programmed constraints holding")
     m.add_argument("--count", type=positive_int, default=10, help="modes to print (default 10)")
@@ -368,6 +371,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
                    help="static deflection from the linear stiffness solve or full Newton–Raphson")
+    c.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
+                   help="override a parameter of the arm (repeatable), e.g. --param E2=2.1e11")
     c.add_argument("--directory", type=path_argument, default=None,
                    help="keep the built clamped-arm models here (default: temporary)")
     c.add_argument("--out", type=path_argument, default="figures", help="folder for convergence.png (default figures/)")

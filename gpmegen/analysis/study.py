@@ -98,7 +98,7 @@ class Start:
     def report(self) -> str:
         """One line: how far the start was moved onto the constraints."""
         return "start moved onto the constraints by " + "; ".join(
-            f"max|Δ{key}| = {value:.3e} ({name})" for key, (value, name) in self.moved.items())
+            f"max|Δ{key}| = {value:.3e}" + (f" ({name})" if value else "") for key, (value, name) in self.moved.items())
 
     def warning(self) -> str | None:
         """One line when the start was moved by more than :data:`MOVE_WARNING`, else None."""

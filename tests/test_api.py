@@ -1,0 +1,161 @@
+"""The public Python API that mirrors the command line: gpmegen.statics, gpmegen.simulate and
+their Results; every command on model files and on folders made by ``gpmegen build --out``."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.analysis import reference_case
+from gpmegen.analysis.results import ResultsError
+from gpmegen.cli import main
+from gpmegen.runtime import partition
+from gpmegen.status import SolveStatus
+
+ROOT = Path(__file__).resolve().parents[1]
+TIP_LAW = ROOT / "tests" / "models" / "tip_law.toml"
+
+
+def _readme_block(marker):
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(encoding="utf-8"), re.S)
+    return next(block for block in blocks if marker in block)
+
+
+def test_the_readme_example_of_the_python_api_runs(env, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    namespace = {}
+    exec(compile(_readme_block("gpmegen.simulate("), "README.md", "exec"), namespace)
+    run, again, own = namespace["run"], namespace["again"], namespace["own"]
+    assert run.status == "complete" and run.t[-1] == pytest.approx(0.1)
+    np.testing.assert_array_equal(again.q, run.q)
+    assert own.meta["start"] == "none" and own.status == "complete"
+    assert "start moved onto the constraints" in capsys.readouterr().out
+
+
+def test_load_statics_and_simulate_bind_the_same_constraint_constants(env):
+    """r_Ea, y_c: those that put E of the locked statics on the constraints, on every path."""
+    loaded = gpmegen.load(nrfe=5)
+    begun = gpmegen.statics(nrfe=5)
+    run = gpmegen.simulate(nrfe=5, t_end=1e-3, dt=1e-4)
+    for name in ("r_Ea", "y_c"):
+        assert loaded.params[name] == begun.model.params[name] == run.meta["params"][name]
+    x, y, z = loaded.end_effector(begun.q)
+    assert loaded.params["r_Ea"] == pytest.approx(np.hypot(x, z), abs=1e-12)
+    assert loaded.params["y_c"] == pytest.approx(y - loaded.params["A"], abs=1e-12)
+    # the arm's sag moves E: not the rigid arm's values, which stay the file's defaults
+    rigid = gpmegen.load(nrfe=1)
+    assert abs(loaded.params["r_Ea"] - rigid.params["r_Ea"]) > 1e-2
+    assert rigid.params["r_Ea"] == pytest.approx(np.hypot(*rigid.end_effector(reference_case.joint_start(rigid))[::2]))
+    assert gpmegen.load(nrfe=5, params={"r_Ea": 1.05}).params["r_Ea"] == 1.05
+
+
+def test_simulate_returns_results_with_named_accessors_and_saves_without_replacing(env, tmp_path):
+    run = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=1e-3, save_every=2)
+    assert run.coordinates == ("theta1", "psi1_1", "theta1_1", "phi1_1")
+    np.testing.assert_array_equal(run.coordinate("theta1"), run.q[:, 0])
+    np.testing.assert_array_equal(run.velocity("psi1_1"), run.qd[:, 1])
+    # the tip law y = v0 t holds from the first step (the start is consistent)
+    np.testing.assert_allclose(run["end_effector"][:, 1], 0.2 * run.t, atol=1e-12)
+    assert run["phi"].shape == (len(run.t), 1) and run.meta["start_moved"]["qd"]["max_change"] < 1e-12
+    path = tmp_path / "tip.npz"
+    assert run.save(path) == [path, path.with_suffix(".csv")]
+    with pytest.raises(ResultsError, match="earlier run's results.*overwrite=True"):
+        run.save(path)
+    run.save(path, overwrite=True)
+    np.testing.assert_array_equal(gpmegen.Results.load(path).qd, run.qd)
+    with pytest.raises(KeyError, match="not a coordinate"):
+        run.coordinate("x3")
+
+
+def test_a_start_off_its_constraints_is_a_python_warning(env, tmp_path):
+    path = tmp_path / "from_rest.toml"
+    path.write_text(TIP_LAW.read_text(encoding="utf-8").replace('qd = { theta1 = "v0/L" }', ""), encoding="utf-8")
+    with pytest.warns(RuntimeWarning, match="qd of theta1 by 4.000e-01"):
+        begun = gpmegen.statics(path)
+    assert begun.qd[0] == pytest.approx(0.4)
+
+
+def test_a_model_with_auto_dependent_coordinates_evaluates_out_of_the_box(env, tmp_path):
+    """With ``dependent = "auto"`` the accelerations are those of any regular partition: the
+    GPME rows Bᵀ(M q̈ - f) = 0 span the same space for every choice of dependent coordinates."""
+    text = TIP_LAW.read_text(encoding="utf-8")
+    path = tmp_path / "auto.toml"
+    path.write_text(text.replace('dependent = ["theta1"]', 'dependent = "auto"').replace("tip_law_", "tip_auto_"),
+                    encoding="utf-8")
+    model = gpmegen.load(model=gpmegen.load_model_file(path))
+    given = gpmegen.load(model=gpmegen.load_model_file(TIP_LAW))
+    assert model.dependent is None
+    rng = np.random.default_rng(3)
+    q, qd = rng.normal(scale=0.1, size=4), rng.normal(size=4)
+    np.testing.assert_allclose(model.accelerations(0.3, q, qd), given.accelerations(0.3, q, qd), rtol=1e-10,
+                               atol=1e-10)
+    chosen = partition.partition_at(model, q, 0.3)
+    np.testing.assert_array_equal(model.accelerations(0.3, q, qd), chosen.accelerations(0.3, q, qd))
+    t, q_run, _, _, status = model.rk4(q, qd, 1e-3, 1e-4)
+    assert status == SolveStatus.OK and np.all(np.isfinite(q_run))
+
+
+def test_every_command_runs_on_a_folder_made_by_build_out(env, tmp_path, capsys):
+    out = tmp_path / "built"
+    assert main(["build", str(TIP_LAW), "--out", str(out)]) == 0
+    folder = out / "tip_law_nrfe2"
+    run = tmp_path / "folder.npz"
+    assert main(["simulate", str(out), "--t-end", "0.01", "--dt", "1e-3", "--backend", "numpy",
+                 "--out", str(run)]) == 0
+    assert main(["statics", str(folder), "--statics", "locked"]) == 0
+    assert main(["modes", str(folder), "--out", str(tmp_path / "figures")]) == 0
+    assert main(["plot", str(run), "--out", str(tmp_path / "figures")]) == 0
+    capsys.readouterr()
+    # without its source the folder's model starts undeformed at rest at q = 0, made consistent:
+    # the same run as the model itself started so
+    with pytest.warns(RuntimeWarning, match="qd of theta1"):  # from rest, off the tip's law
+        mine = gpmegen.simulate(gpmegen.load_model_file(TIP_LAW), t_end=0.01, dt=1e-3, save_every=100,
+                                directory=tmp_path / "generated")
+    np.testing.assert_allclose(gpmegen.Results.load(run).q, mine.q, atol=1e-14)
+    # an output folder holding two models is refused in one line
+    assert main(["build", "--nrfe", "1", "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["statics", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds 2 built models" in err
+
+
+def test_a_folder_of_the_reference_manipulator_runs_its_scenario(env, tmp_path, capsys):
+    out = tmp_path / "built"
+    assert main(["build", "--nrfe", "1", "--out", str(out)]) == 0
+    run = gpmegen.simulate(out, t_end=1e-3, dt=1e-4)
+    assert run.meta["label"] == "rigid arm" and run.meta["start"] == "locked"
+    assert run.meta["params"]["r_Ea"] == gpmegen.load(nrfe=1).params["r_Ea"]
+    assert "prescribed" in run.keys()
+
+
+def test_modes_of_a_model_file_match_the_single_spring_formula(env, tmp_path, capsys):
+    """n_rfe = 2: one sde at the middle, the outer half (a bar of length L/2) on a spring
+    c = E·b·h³/(12 L) (bending in the plane of the joint); joints locked: f = √(c/J)/2π with J the
+    half's inertia about the sde."""
+    assert main(["modes", str(TIP_LAW), "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    L, b, h, rho, E = 0.5, 0.02, 0.01, 2700.0, 7.0e10
+    c = E * b * h**3 / 12 / L
+    m = rho * b * h * L / 2
+    J = m * ((L / 2) ** 2 + h**2) / 12 + m * (L / 4) ** 2
+    first = float(re.search(r"^\s+1\s+(\S+)\s+vertical", out, re.M).group(1))
+    assert first == pytest.approx(np.sqrt(c / J) / (2 * np.pi), rel=1e-5)
+    assert (tmp_path / "modes_tip_law_joints.csv").exists()
+
+
+def test_convergence_takes_param_overrides(tmp_path, capsys):
+    """The clamped arm's static tip deflection (linear) goes as 1/E: E2 four times larger, a
+    quarter of the deflection, in beam theory and in every n_rfe."""
+    tables = []
+    for extra in ([], ["--param", "E2=2.8e11"]):
+        assert main(["convergence", "--nrfe", "2", "3", "--out", str(tmp_path), *extra]) == 0
+        out = capsys.readouterr().out
+        block = out.split("\n\n")[1].splitlines()
+        analytic = float(re.search(r"analytic (\S+)", block[0]).group(1))
+        values = [float(line.split()[1]) for line in block[2:4]]
+        tables.append(np.array([analytic, *values]))
+    np.testing.assert_allclose(tables[1] / tables[0], 0.25, rtol=1e-6)
