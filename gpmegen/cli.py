@@ -137,6 +137,7 @@ def cmd_build(args) -> int:
     for case, model in zip(cases, models):
         result = case.located(functools.partial(build, model, out, backends, force=args.force, progress=progress,
                                                 command=case.command))
+        case.record_start(result.folder)
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
         print(f"{result.model}: n_dof = {result.n_dof}, {state}; {result.folder}: {sizes}")

@@ -109,12 +109,18 @@ def test_every_command_runs_on_a_folder_made_by_build_out(env, tmp_path, capsys)
     assert main(["modes", str(folder), "--out", str(tmp_path / "figures")]) == 0
     assert main(["plot", str(run), "--out", str(tmp_path / "figures")]) == 0
     capsys.readouterr()
-    # without its source the folder's model starts undeformed at rest at q = 0, made consistent:
-    # the same run as the model itself started so
-    with pytest.warns(RuntimeWarning, match="qd of theta1"):  # from rest, off the tip's law
-        mine = gpmegen.simulate(gpmegen.load_model_file(TIP_LAW), t_end=0.01, dt=1e-3, save_every=100,
-                                directory=tmp_path / "generated")
+    # the folder keeps the file's [initial] (start.json): the same run as from the file itself
+    mine = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=1e-3, save_every=100)
     np.testing.assert_allclose(gpmegen.Results.load(run).q, mine.q, atol=1e-14)
+    assert gpmegen.Results.load(run).qd[0, 0] == pytest.approx(0.4)
+    # a Model of one's own starts at rest at q = 0, here off the tip's law in velocity
+    with pytest.warns(RuntimeWarning, match="qd of theta1"):
+        gpmegen.statics(gpmegen.load_model_file(TIP_LAW), directory=tmp_path / "generated")
+    (folder / "start.json").write_text("{", encoding="utf-8")
+    assert main(["statics", str(folder)]) == 1
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("gpmegen statics: error: ") and "start.json is damaged" in last and "--out" in last
     # an output folder holding two models is refused in one line
     assert main(["build", "--nrfe", "1", "--out", str(out)]) == 0
     capsys.readouterr()

@@ -78,6 +78,10 @@ class Case:
         """Arrays added to a run's results (none by default)."""
         return {}
 
+    def record_start(self, folder) -> None:
+        """Keep in the built ``folder`` what a run from the folder alone needs to start as this
+        case does (nothing by default)."""
+
     def size(self) -> tuple[int, int]:
         """(coordinates, constraints) of the model, known before it is derived or loaded."""
         from .. import limits
@@ -169,12 +173,19 @@ class FileCase(ModelCase):
         """The file's ``[initial] q`` and ``qd``."""
         return self.file.initial_values(params), self.file.initial_velocities(params)
 
+    def record_start(self, folder) -> None:
+        """The file's ``[initial]`` at the parameter defaults, for :class:`FolderCase`."""
+        from ..folder import write_start
+
+        write_start(folder, *self.initial(None))
+
 
 class FolderCase(ModelCase):
     """A model built by ``gpmegen build --out`` and opened from its ``folder`` (the files its
-    manifest records), without its source: it starts at rest and undeformed at q = 0 (run the
-    model file itself for its ``[initial]``), and parameter values are not checked against the
-    model's physical bounds (those live in the source)."""
+    manifest records), without its source: it starts from the model file's ``[initial]`` at the
+    parameter defaults that the build recorded (:func:`gpmegen.folder.read_start`; at rest at
+    q = 0 without one), and parameter values are not checked against the model's physical
+    bounds (those live in the source)."""
 
     def __init__(self, folder, manifest):
         self.folder, self.manifest = Path(folder), manifest
@@ -208,6 +219,11 @@ class FolderCase(ModelCase):
 
     def size(self) -> tuple[int, int]:
         return int(self.manifest["n_dof"]), len(self.manifest["constraints"])
+
+    def initial(self, params) -> tuple[dict, dict]:
+        from ..folder import read_start
+
+        return read_start(self.folder)
 
     def metadata(self, model) -> dict:
         """The model's name, and its first four coordinates as the joints of the figures (the
