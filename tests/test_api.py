@@ -165,3 +165,39 @@ def test_convergence_takes_param_overrides(tmp_path, capsys):
         values = [float(line.split()[1]) for line in block[2:4]]
         tables.append(np.array([analytic, *values]))
     np.testing.assert_allclose(tables[1] / tables[0], 0.25, rtol=1e-6)
+
+
+def _standalone(folder):
+    """The generated NumPy module of ``folder`` imported as a plain file, without gpmegen."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"standalone_{folder.name}", folder / "model_numpy.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("order", (0, 1))
+def test_the_standalone_numpy_module_solves_the_gpme_as_gpmegen_does(env, tmp_path, rng, order):
+    """The module's own accelerations (null-space basis, no partition) against gpmegen's solve
+    (a partition's B), at random states; order 1: the tip's velocity prescribed instead."""
+    path = tmp_path / f"order{order}.toml"
+    text = TIP_LAW.read_text(encoding="utf-8").replace("tip_law_", f"tip_order{order}_")
+    if order:
+        text = text.replace('expression = "y_tip - v0*t"', 'expression = "vy_tip - v0"\norder = 1')
+        text = text.replace('beta = "beta_tip"\n', "")
+    path.write_text(text, encoding="utf-8")
+    model = gpmegen.load(model=gpmegen.load_model_file(path), directory=tmp_path / "generated")
+    module = _standalone(tmp_path / "generated" / model.module.MODEL)
+    for _ in range(3):
+        q, qd, t = rng.normal(scale=0.3, size=4), rng.normal(size=4), rng.uniform(0, 1)
+        np.testing.assert_allclose(module.accelerations(t, q, qd, module.DEFAULTS), model.accelerations(t, q, qd),
+                                   rtol=1e-9, atol=1e-9)
+
+
+def test_the_reference_snapshots_standalone_accelerations_agree_with_gpmegen(flexible, rng):
+    module = _standalone(ROOT / "generated" / "manipulator_nrfe5")
+    q, qd = rng.normal(scale=0.1, size=15), rng.normal(scale=0.1, size=15)
+    q[1] += np.pi / 4
+    np.testing.assert_allclose(module.accelerations(0.2, q, qd, flexible.p), flexible.accelerations(0.2, q, qd),
+                               rtol=1e-9, atol=1e-9)

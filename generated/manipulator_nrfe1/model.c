@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 81baf3d6575c5c2e
+Input hash: 7f68919ecb9977e5
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe1_input_hash(void) { return "81baf3d6575c5c2e"; }
+const char *manipulator_nrfe1_input_hash(void) { return "7f68919ecb9977e5"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }

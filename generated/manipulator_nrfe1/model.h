@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 81baf3d6575c5c2e
+Input hash: 7f68919ecb9977e5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c089f1952e2c8cd1
+Input hash: 5bf20fa9a8403c41
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
