@@ -279,20 +279,31 @@ def cmd_modes(args) -> int:
 
 
 def cmd_convergence(args) -> int:
-    """Tip deflection and first frequencies of the clamped arm against n_rfe, beside beam theory."""
+    """Tip deflection and first frequencies of a clamped link against n_rfe, beside beam theory:
+    the reference arm, or each flexible link of a model file."""
     import tempfile
 
     from .analysis import convergence, modes_output
 
     out = Path(args.out)
     _writable_folder(out)
+    studies = {"convergence": convergence.Clamped()}
+    if args.model_file:
+        model = _case(args.model_file, None).model
+        links = convergence.flexible_links(model)
+        if not links:
+            raise UsageError(f"{args.model_file}: model {model.name} has no flexible link, so there is nothing to "
+                             f"converge; add a [[chain]] flexible link or study another model")
+        studies = {f"convergence_{model.name}_link{link.label}": convergence.Clamped(model, link.label)
+                   for link in links}
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
-        table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
-                                              params=dict(args.param or []),
-                                        progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
-    print(table.format())
-    print(modes_output.plot_convergence(table, out / "convergence.png"))
+        for stem, clamped in studies.items():
+            table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
+                                                  params=dict(args.param or []), clamped=clamped,
+                                                  progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
+            print(table.format())
+            print(modes_output.plot_convergence(table, out / f"{stem}.png"))
     return 0
 
 
@@ -368,6 +379,8 @@ def build_parser() -> argparse.ArgumentParser:
     m.set_defaults(func=cmd_modes)
 
     c = sub.add_parser("convergence", help="clamped arm against n_rfe, beside Euler–Bernoulli and Saint-Venant")
+    c.add_argument("model_file", nargs="?", type=path_argument,
+                   help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
     c.add_argument("--nrfe", type=positive_int, nargs="+", default=[2, 3, 5, 8, 10, 15, 20],
                    help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",

@@ -201,3 +201,30 @@ def test_the_reference_snapshots_standalone_accelerations_agree_with_gpmegen(fle
     q[1] += np.pi / 4
     np.testing.assert_allclose(module.accelerations(0.2, q, qd, flexible.p), flexible.accelerations(0.2, q, qd),
                                rtol=1e-9, atol=1e-9)
+
+
+def test_convergence_of_a_model_files_flexible_link_against_beam_theory(env, tmp_path, capsys):
+    """The tip law's link clamped: beam theory's w L⁴/(8 E Iz), and at n_rfe = 2 (one sde in the
+    middle) exactly half of it: the middle turns by (w (L/2)²/2)/(E Iz/L), the tip drops by that
+    times L/2, i.e. w L⁴/(16 E Iz)."""
+    assert main(["convergence", str(TIP_LAW), "--nrfe", "2", "3", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "flexible link '1' of tip_law_nrfe2, clamped" in out
+    block = out.split("\n\n")[1].splitlines()
+    L, b, h, rho, E, g = 0.5, 0.02, 0.01, 2700.0, 7.0e10, 9.81
+    exact = rho * b * h * g * L**4 / (8 * E * b * h**3 / 12)
+    assert float(re.search(r"analytic (\S+)", block[0]).group(1)) == pytest.approx(exact, rel=1e-7)
+    assert float(block[2].split()[1]) == pytest.approx(exact / 2, rel=1e-6)
+    assert (tmp_path / "convergence_tip_law_nrfe2_link1.png").exists()
+
+
+def test_convergence_refuses_a_model_without_a_flexible_link_in_one_line(tmp_path, capsys):
+    text = TIP_LAW.read_text(encoding="utf-8")
+    start = text.index("[[chain]]\nflexible")
+    rigid = text[:start] + '[[chain]]\nbody = "bar"\nshape = { type = "rod", mass = 1, length = "L", radius = 0.01 }\n' \
+        + text[text.index("[[chain]]\npoint"):]
+    path = tmp_path / "rigid.toml"
+    path.write_text(rigid.replace("[initial]\nqd", "[initial]\nq"), encoding="utf-8")
+    assert main(["convergence", str(path), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "has no flexible link" in err

@@ -149,20 +149,28 @@ class ArmReference:
     horizontal_bending_rotary: float
 
 
+def link_reference(L, A, Iy, Iz, J, rho, E, G, g) -> ArmReference:
+    """:class:`ArmReference` of a clamped–free link of length ``L`` (m), section area ``A`` (m²),
+    second moments ``Iy``, ``Iz`` and torsion constant ``J`` (m⁴), density ``rho``, moduli ``E``,
+    ``G`` (Pa), under gravity ``g`` (m/s²) perpendicular to it, bending about z."""
+    Ip = Iy + Iz
+    w = rho * A * g
+    return ArmReference(
+        tip_deflection=cantilever_uniform_load(w, L, E * Iz)[0],
+        vertical_bending=cantilever_bending_frequency(E * Iz, rho * A, L),
+        horizontal_bending=cantilever_bending_frequency(E * Iy, rho * A, L),
+        torsion=shaft_torsion_frequency(G * J, rho * Ip, L),
+        vertical_bending_rotary=cantilever_bending_frequency_rotary(E * Iz, rho * A, rho * Iz, L),
+        horizontal_bending_rotary=cantilever_bending_frequency_rotary(E * Iy, rho * A, rho * Iy, L),
+    )
+
+
 def arm_reference(params: dict) -> ArmReference:
     """:class:`ArmReference` of the reference arm from a parameter dict with the reference
     names ``L2, b2, t2, rho2, E2, G2, J2, g`` (``model.params`` of a loaded model)."""
     s = rectangular_section(params["b2"], params["t2"])
-    L, rho, E, G, J = (float(params[k]) for k in ("L2", "rho2", "E2", "G2", "J2"))
-    w = rho * s.A * float(params["g"])
-    return ArmReference(
-        tip_deflection=cantilever_uniform_load(w, L, E * s.Iz)[0],
-        vertical_bending=cantilever_bending_frequency(E * s.Iz, rho * s.A, L),
-        horizontal_bending=cantilever_bending_frequency(E * s.Iy, rho * s.A, L),
-        torsion=shaft_torsion_frequency(G * J, rho * s.Ip, L),
-        vertical_bending_rotary=cantilever_bending_frequency_rotary(E * s.Iz, rho * s.A, rho * s.Iz, L),
-        horizontal_bending_rotary=cantilever_bending_frequency_rotary(E * s.Iy, rho * s.A, rho * s.Iy, L),
-    )
+    L, rho, E, G, J, g = (float(params[k]) for k in ("L2", "rho2", "E2", "G2", "J2", "g"))
+    return link_reference(L, s.A, s.Iy, s.Iz, J, rho, E, G, g)
 
 
 def manipulator_arm_tip(params: dict, inclination: float) -> tuple[float, float]:
@@ -186,6 +194,6 @@ __all__ = [
     "CLAMPED_FREE_LAMBDA", "Section", "rectangular_section", "cantilever_uniform_load",
     "cantilever_tip_force", "cantilever_tip_moment", "cantilever_tip",
     "cantilever_bending_frequency", "CLAMPED_FREE_SLOPE_RATIO", "cantilever_bending_frequency_rotary",
-    "shaft_torsion_frequency", "ArmReference", "arm_reference",
+    "shaft_torsion_frequency", "ArmReference", "arm_reference", "link_reference",
     "manipulator_arm_tip",
 ]
