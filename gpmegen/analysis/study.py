@@ -118,8 +118,10 @@ class Start:
 def largest_change(model, before, after):
     """(largest |after - before|, the coordinate it is on)."""
     change = np.abs(np.asarray(after) - np.asarray(before))
-    k = int(np.argmax(change)) if change.size else 0
-    return float(change[k]) if change.size else 0.0, model.coordinates[k] if change.size else ""
+    if not change.size:
+        return 0.0, ""
+    k = int(np.argmax(change))
+    return float(change[k]), model.coordinates[k]
 
 
 def consistent(model, q, qd, t=0.0, hint=None) -> Start:
