@@ -64,10 +64,10 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     """
     check_backend(backend)
     if model is None:
-        from .analysis.reference_case import with_constants
+        from .analysis.reference_case import CONSTANTS, with_constants
 
         model = reference_model(check_nrfe(nrfe, "the reference arm"))
-        free = {k: v for k, v in (params or {}).items() if k not in ("r_Ea", "y_c")}
+        free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
         loaded = load(backend=backend, params=free, model=model, directory=directory, build=build,
                       progress=progress, command=f"gpmegen build --nrfe {nrfe}")
         return with_constants(loaded, params)[0]
@@ -115,7 +115,8 @@ def _messages(progress):
 
 def _started(model, nrfe, start, directory):
     case = _case(model, nrfe)
-    case.directory = directory
+    if directory is not None:
+        case.directory = directory
     start = start or case.starts[0]
     if start not in case.starts:
         raise ModelError(f"start {start!r}: {case.start_refusal or 'use one of ' + ', '.join(case.starts)}")

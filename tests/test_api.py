@@ -136,6 +136,7 @@ def test_a_folder_of_the_reference_manipulator_runs_its_scenario(env, tmp_path, 
     assert run.meta["label"] == "rigid arm" and run.meta["start"] == "locked"
     assert run.meta["params"]["r_Ea"] == gpmegen.load(nrfe=1).params["r_Ea"]
     assert "prescribed" in run.keys()
+    assert gpmegen.statics(out).model.folder == out / "manipulator_nrfe1"  # the folder's code, not a new build
 
 
 def test_modes_of_a_model_file_match_the_single_spring_formula(env, tmp_path, capsys):
@@ -221,8 +222,8 @@ def test_convergence_of_a_model_files_flexible_link_against_beam_theory(env, tmp
 def test_convergence_refuses_a_model_without_a_flexible_link_in_one_line(tmp_path, capsys):
     text = TIP_LAW.read_text(encoding="utf-8")
     start = text.index("[[chain]]\nflexible")
-    rigid = text[:start] + '[[chain]]\nbody = "bar"\nshape = { type = "rod", mass = 1, length = "L", radius = 0.01 }\n' \
-        + text[text.index("[[chain]]\npoint"):]
+    body = '[[chain]]\nbody = "bar"\nshape = { type = "rod", mass = 1, length = "L", radius = 0.01 }\n'
+    rigid = text[:start] + body + text[text.index("[[chain]]\npoint"):]
     path = tmp_path / "rigid.toml"
     path.write_text(rigid.replace("[initial]\nqd", "[initial]\nq"), encoding="utf-8")
     assert main(["convergence", str(path), "--out", str(tmp_path)]) == 2
