@@ -328,7 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     def study_options(p):
         p.add_argument("model_file", nargs="?", type=path_argument,
-                       help="a model description (.toml); default: the reference manipulator")
+                       help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
+                            "manipulator")
         p.add_argument("--nrfe", type=positive_int, default=None,
                        help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
         p.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
