@@ -135,3 +135,17 @@ def test_an_earlier_runs_results_are_replaced_only_with_overwrite(env, tmp_path,
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
     assert _simulate(str(TIP_LAW), "--out", str(out), "--statics", "locked", "--overwrite") == 0
     assert results_io.metadata(results_io.load(out))["start"] == "locked"
+
+
+def test_a_first_order_law_sets_the_velocity_and_leaves_the_position_alone(env, tmp_path):
+    """The tip's velocity prescribed (order 1, Ψ = vy_tip - v0): no position condition, so
+    [initial] q stays (Ψ at rest is -v0, no position would meet it), and θ̇1 is solved from Ψ = 0:
+    the undeformed link turned by θ1 moves its tip along y at L cos θ1 θ̇1 = v0."""
+    path = _variant(tmp_path, 'expression = "y_tip - v0*t"', 'expression = "vy_tip - v0"\norder = 1')
+    path.write_text(path.read_text(encoding="utf-8").replace('beta = "beta_tip"\n', "")
+                    .replace('qd = { theta1 = "v0/L" }', "q = { theta1 = 0.3 }"), encoding="utf-8")
+    begun = _start(path)
+    model = begun.model
+    assert begun.moved["q"][0] == 0.0 and begun.q[model.index("theta1")] == 0.3
+    assert begun.qd[model.index("theta1")] == pytest.approx(0.2 / (0.5 * np.cos(0.3)), rel=1e-12)
+    assert abs(model.constraint_terms(0.0, begun.q, begun.qd)[0]).max() < 1e-12
