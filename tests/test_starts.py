@@ -101,7 +101,7 @@ def test_simulate_reports_how_far_the_start_moved_and_records_it(env, tmp_path, 
     assert main(["simulate", str(path), "--t-end", "0.01", "--dt", "1e-4", "--backend", "numpy",
                  "--out", str(out)]) == 0
     err = capsys.readouterr().err
-    assert "start moved onto the constraints" in err and "warning: the start given" in err
+    assert "start moved onto the constraints" in err and "warning: the start (as given" in err
     meta = results_io.metadata(results_io.load(out))
     assert meta["start"] == "none"
     assert meta["start_moved"]["qd"]["coordinate"] == "theta1"

@@ -106,9 +106,11 @@ class Start:
         if not far:
             return None
         given = " and ".join(f"[initial] {key}" for key in far)
-        return ("warning: the start given was off the programmed constraints: putting it on them changed "
-                + ", ".join(f"{key} of {name} by {value:.3e}" for key, (value, name) in far.items())
-                + f"; give {given} that meet them (docs/model-file.md, 'Starts')")
+        changes = ", ".join(f"{key} of {name} by {value:.3e}" for key, (value, name) in far.items())
+        return (f"warning: the start (as given, or after the statics) was off the programmed constraints: putting "
+                f"it on them changed {changes}"
+                + f"; give {given} that meet them, or constraint constants that the start meets (docs/model-file.md, "
+                  f"'Starts')")
 
     def meta(self) -> dict:
         """The report as results metadata."""
