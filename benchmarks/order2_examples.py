@@ -35,7 +35,8 @@ def start(path, backend="c", nrfe=None):
     """The loaded model of the example file ``path`` and its locked-statics start q0 (n,)."""
     file = read_model_file(path, nrfe)
     model = gpmegen.load(model=file.model, backend=backend)
-    return study.file_start(model, file.initial_values(model.params), "locked")
+    begun = study.file_start(model, file.initial_values(model.params), "locked")
+    return begun.model, begun.q
 
 
 def run(model, q0, qd0, t_end, dt, save_every):

@@ -2,13 +2,14 @@
 with flexible links, as generated NumPy and C code.
 
 What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.load``,
-``gpmegen.load_model_file``, the model's elements and the errors.
+``gpmegen.load_model_file``, ``gpmegen.statics``, ``gpmegen.simulate``, the model's elements and
+the errors.
 """
 
 # Nothing is imported here: the console command imports this package before it can catch Ctrl-C
 # (gpmegen/entry.py), so every name, __version__ included, is looked up when first used.
 __all__ = [
-    "load", "load_model_file", "read_model_file", "reference_model",
+    "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__",

@@ -2,6 +2,8 @@
 
 - :func:`load`: a model (the reference manipulator, or any :class:`~gpmegen.model.Model`), built
   into generated code when missing or stale, opened on the NumPy or the C backend;
+- :func:`statics`, :func:`simulate`: a model's consistent start and its constrained motion (as
+  ``gpmegen statics`` and ``gpmegen simulate``), the latter as :class:`Results`;
 - :func:`load_model_file`, :func:`read_model_file`: models from TOML files;
 - the model's elements (:class:`Model`, :class:`Joint`, :class:`FlexibleLink`, ...) and the
   reference case (:func:`reference_model`);
@@ -13,6 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
+from .analysis.runs import Results
 from .codegen.render import build as build_model
 from .codegen.render import input_hash
 from .errors import (
@@ -53,11 +56,21 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     :func:`gpmegen.runtime.loader.default_directory`) when missing or stale, or when a file it
     uses differs from the sha256 its manifest records, unless ``build=False``, which raises
     :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
+
+    The reference manipulator (``model`` None) is bound with the constraint constants ``r_Ea``
+    and ``y_c`` that its runs use: those that put E of the locked statics at the paper's joint
+    start on the constraints (unless ``params`` gives them). A ``model`` passed in is bound with
+    its parameters' defaults.
     """
     check_backend(backend)
     if model is None:
+        from .analysis.reference_case import CONSTANTS, with_constants
+
         model = reference_model(check_nrfe(nrfe, "the reference arm"))
-        command = f"gpmegen build --nrfe {nrfe}"
+        free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
+        loaded = load(backend=backend, params=free, model=model, directory=directory, build=build,
+                      progress=progress, command=f"gpmegen build --nrfe {nrfe}")
+        return with_constants(loaded, params)[0]
     directory = Path(directory) if directory is not None else default_directory()
     folder = directory / model.name
     recover_folder(folder)
@@ -72,8 +85,76 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model))
 
 
+def _case(model, nrfe):
+    """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
+    model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
+    from .analysis import cases, reference_case
+
+    if model is None:
+        return reference_case.ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
+    if isinstance(model, Model):
+        return cases.ModelCase(model)
+    if isinstance(model, (str, Path)):
+        return cases.case_of_path(model, nrfe)
+    raise TypeError(f"model must be None, a path or a gpmegen.Model, got {type(model).__name__}")
+
+
+def _messages(progress):
+    """``progress``, or when None a sink that passes only warnings on, as Python warnings."""
+    if progress is not None:
+        return progress
+
+    def warn(message):
+        if message.startswith("warning: "):
+            import warnings
+
+            warnings.warn(message[len("warning: "):], RuntimeWarning, stacklevel=4)
+
+    return warn
+
+
+def _started(model, nrfe, start, directory):
+    case = _case(model, nrfe)
+    if directory is not None:
+        case.directory = directory
+    start = start or case.starts[0]
+    if start not in case.starts:
+        raise ModelError(f"start {start!r}: {case.start_refusal or 'use one of ' + ', '.join(case.starts)}")
+    return case, start
+
+
+def statics(model=None, *, nrfe=None, start=None, params=None, backend="numpy", directory=None, progress=None):
+    """The consistent start of a run, as ``gpmegen statics`` finds it: a
+    :class:`gpmegen.analysis.study.Start` with ``model`` (loaded, its constants bound), ``q`` and
+    ``qd`` (n,) on the programmed constraints at t = 0, and ``moved`` (how far they were moved
+    onto them).
+
+    ``model``: None (the reference manipulator, ``nrfe`` rfes, default 5), a model file's path, a
+    folder made by ``gpmegen build --out``, or a :class:`Model`. ``start``: "locked" or
+    "constrained" statics, or "none" (the default of models other than the reference case: the
+    configuration as given, undeformed). ``params`` overrides parameter values. ``progress``
+    takes one-line messages (default: only warnings, as Python warnings)."""
+    case, start = _started(model, nrfe, start, directory)
+    return case.started(backend, start, dict(params or {}), _messages(progress))
+
+
+def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=100, method="rk4",
+             params=None, backend="numpy", repartition=False, directory=None, progress=None):
+    """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
+    :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
+    and ``t_end``, ``dt`` (s), ``save_every`` (steps), ``method`` ("rk4" or a scipy method:
+    "DOP853", "RK45", "Radau", "LSODA"), ``repartition``. A run that stops early (diverges) is
+    returned with its ``status`` saying why."""
+    from .analysis import runs
+
+    case, start = _started(model, nrfe, start, directory)
+    done = runs.run(case, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
+                    _messages(progress), repartition=repartition)
+    return runs.Results(done.results)
+
+
 __all__ = [
-    "load", "load_model_file", "read_model_file", "reference_model",
+    "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__",

@@ -134,11 +134,16 @@ def _writable_folder(path: Path) -> None:
         raise UsageError(f"output folder {path} is not writable ({exc.strerror}); choose another --out") from None
 
 
-def _check_results_path(out: Path) -> None:
+def _check_results_path(out: Path, overwrite: bool = False) -> None:
     """Refuse, before any work, a results path that cannot take a run's files (complete or
-    partial): not .npz, a folder, or in a folder that cannot be written."""
+    partial): not .npz, a folder, in a folder that cannot be written, or holding the results of
+    an earlier run (unless ``overwrite``)."""
     from .analysis import results as results_io
 
+    taken = results_io.existing(out)
+    if taken is not None and not overwrite and not taken.is_dir():
+        raise UsageError(f"{taken} holds an earlier run's results; pass --overwrite to replace them, or choose "
+                         f"another --out")
     if out.suffix != ".npz":
         raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
     for path in (*results_io.targets(out), *results_io.targets(out, complete=False)):
@@ -148,12 +153,12 @@ def _check_results_path(out: Path) -> None:
 
 
 def _case(model_file, nrfe):
-    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), or the
-    reference manipulator (default 5 rfes)."""
+    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), a folder made
+    by ``gpmegen build --out``, or the reference manipulator (default 5 rfes)."""
     if model_file:
-        from .analysis.cases import FileCase
+        from .analysis.cases import case_of_path
 
-        return FileCase(model_file, nrfe)
+        return case_of_path(model_file, nrfe)
     from .analysis.reference_case import ReferenceCase
 
     return ReferenceCase(nrfe or 5)
@@ -171,6 +176,7 @@ def cmd_build(args) -> int:
     for case, model in zip(cases, models):
         result = case.located(functools.partial(build, model, out, backends, force=args.force, progress=progress,
                                                 command=case.command))
+        case.record_start(result.folder)
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
         print(f"{result.model}: n_dof = {result.n_dof}, {state}; {result.folder}: {sizes}")
@@ -199,13 +205,14 @@ def _start(case, start):
     return start
 
 
-def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
+def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
+                    overwrite=False):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
     from .analysis.cases import FileCase
 
-    _check_results_path(out)
+    _check_results_path(out, overwrite)
     backend = backend or _default_backend()
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
                     repartition=repartition)
@@ -255,19 +262,22 @@ class SimulationStopped(GpmegenError):
 
 
 def cmd_simulate(args) -> int:
+    from .analysis.results import default_name
+
     case = _case(args.model_file, args.nrfe)
     start = _start(case, args.statics)
-    out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
+    out = Path(args.out if args.out is not None else f"results/{default_name(case.results_stem, start, args.method)}")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-              dict(args.param or []), out, repartition=args.repartition)
+                    dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite)
     return 0
 
 
 def cmd_statics(args) -> int:
     case = _case(args.model_file, args.nrfe)
-    model, q = case.start("numpy", _start(case, args.statics), dict(args.param or []), progress)
-    for name, value in zip(model.coordinates, q):
-        print(f"{name:>10s} = {value: .9f}")
+    begun = case.started("numpy", _start(case, args.statics), dict(args.param or []), progress)
+    model, q = begun.model, begun.q
+    for name, value, rate in zip(model.coordinates, q, begun.qd):
+        print(f"{name:>10s} = {value: .9f}" + (f"   {name}_dot = {rate: .9f}" if begun.qd.any() else ""))
     for name, (x, y, z) in zip(model.points, model.point_positions(q)):
         print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
     if case.constants(model):
@@ -293,7 +303,7 @@ def cmd_demo(args) -> int:
 
     outs = {nrfe: Path(args.results) / f"run_nrfe{nrfe}.npz" for nrfe in (1, 5)}
     for out in outs.values():
-        _check_results_path(out)
+        _check_results_path(out, overwrite=True)  # the demo's own files, remade by each demo
     _writable_folder(Path(args.figures))
     backend = _default_backend()
     dt = 1e-5 if backend == "c" else 1e-4
@@ -303,7 +313,8 @@ def cmd_demo(args) -> int:
                  "would take hours in Python)")
     results = []
     for nrfe, out in outs.items():
-        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out)
+        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out,
+                              overwrite=True)
         results.append(res)
     from .analysis import plots
 
@@ -314,40 +325,53 @@ def cmd_demo(args) -> int:
 
 def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
-    from .analysis import modes, modes_output, reference_case
+    from .analysis import modes, modes_output
 
     out = Path(args.out)
     _writable_folder(out)
-    model = reference_case.ReferenceCase(args.nrfe).load("numpy", dict(args.param or []), progress)
+    case = _case(args.model_file, args.nrfe)
+    start = "locked" if args.lock == "joints" else "constrained"
+    begun = case.started("numpy", start, dict(args.param or []), progress)
     if args.lock == "joints":
-        q_eq, result = modes.locked_modes(model, reference_case.joint_start(model))
-        where = "joints locked at the paper's start"
+        _, result = modes.locked_modes(begun.model, begun.q)
+        where = "joints locked at the start"
     else:
-        model, q_eq = reference_case.initial_state(model, "constrained", dict(args.param or []))
-        result = modes.constrained_modes(model, q_eq)
-        where = "programmed constraints holding (constrained equilibrium, column rotation held)"
-    print(f"n_rfe = {args.nrfe}, {where}:")
+        result = modes.constrained_modes(begun.model, begun.q)
+        where = "programmed constraints holding (constrained equilibrium, joints without springs held)"
+    print(f"{case.label}, {where}:")
     print(result.format(args.count))
-    stem = f"modes_nrfe{args.nrfe}_{args.lock}"
+    stem = f"modes_{case.name}_{args.lock}"
     print(modes_output.write_modes_csv(result, out / f"{stem}.csv"))
     print(modes_output.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
     return 0
 
 
 def cmd_convergence(args) -> int:
-    """Tip deflection and first frequencies of the clamped arm against n_rfe, beside beam theory."""
+    """Tip deflection and first frequencies of a clamped link against n_rfe, beside beam theory:
+    the reference arm, or each flexible link of a model file."""
     import tempfile
 
     from .analysis import convergence, modes_output
 
     out = Path(args.out)
     _writable_folder(out)
+    studies = {"convergence": convergence.Clamped()}
+    if args.model_file:
+        model = _case(args.model_file, None).model
+        links = convergence.flexible_links(model)
+        if not links:
+            raise UsageError(f"{args.model_file}: model {model.name} has no flexible link, so there is nothing to "
+                             f"converge; add a [[chain]] flexible link or study another model")
+        studies = {f"convergence_{model.name}_link{link.label}": convergence.Clamped(model, link.label)
+                   for link in links}
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
-        table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
-                                        progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
-    print(table.format())
-    print(modes_output.plot_convergence(table, out / "convergence.png"))
+        for stem, clamped in studies.items():
+            table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
+                                                  params=dict(args.param or []), clamped=clamped,
+                                                  progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
+            print(table.format())
+            print(modes_output.plot_convergence(table, out / f"{stem}.png"))
     return 0
 
 
@@ -414,13 +438,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     def study_options(p):
         p.add_argument("model_file", nargs="?", type=path_argument,
-                       help="a model description (.toml); default: the reference manipulator")
+                       help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
+                            "manipulator")
         p.add_argument("--nrfe", type=positive_int, default=None,
                        help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
-        p.add_argument("--statics", choices=("locked", "constrained", "initial"), default=None,
-                       help="start: the paper's locked-joint statics (default for the reference case), the "
-                            "equilibrium of the constrained system, or a model file's [initial] configuration "
-                            "(its default)")
+        p.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
+                       help="start: the statics with the joints locked (default for the reference case), the "
+                            "equilibrium of the constrained system, or none: a model file's [initial] "
+                            "configuration as given, undeformed (its default)")
         p.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
                        help="override a parameter (repeatable); the value is a number or an expression as in "
                             "model files, e.g. --param tdr0=2*pi")
@@ -435,7 +460,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--backend", choices=("numpy", "c"), default=None,
                    help="generated code to run (default: c when a compiler is present)")
     s.add_argument("--out", type=path_argument, default=None,
-                   help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
+                   help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
+    s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")
     s.add_argument("--repartition", action="store_true",
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.set_defaults(func=cmd_simulate)
@@ -452,7 +478,11 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=cmd_plot)
 
     m = command("modes", "natural frequencies and mode shapes about the static equilibrium")
-    m.add_argument("--nrfe", type=positive_int, default=5, help="rigid finite elements of the arm (≥ 2 to have modes)")
+    m.add_argument("model_file", nargs="?", type=path_argument,
+                   help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
+                        "manipulator")
+    m.add_argument("--nrfe", type=positive_int, default=None,
+                   help="rigid finite elements of the arm (≥ 2 to have modes; default 5, or the file's)")
     m.add_argument("--lock", choices=("joints", "constraints"), default="joints",
                    help="linearize with the joints locked, or with the programmed constraints holding")
     m.add_argument("--count", type=positive_int, default=10, help="modes to print (default 10)")
@@ -462,11 +492,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="folder for the CSV and the figure (default figures/)")
     m.set_defaults(func=cmd_modes)
 
-    c = command("convergence", "clamped arm against n_rfe, beside Euler–Bernoulli and Saint-Venant")
+    c = command("convergence", "clamped flexible links against n_rfe, beside Euler–Bernoulli and Saint-Venant")
+    c.add_argument("model_file", nargs="?", type=path_argument,
+                   help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
     c.add_argument("--nrfe", type=positive_int, nargs="+", default=[2, 3, 5, 8, 10, 15, 20],
                    help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
                    help="static deflection from the linear stiffness solve or full Newton–Raphson")
+    c.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
+                   help="override a parameter of the arm (repeatable), e.g. --param E2=2.1e11")
     c.add_argument("--directory", type=path_argument, default=None,
                    help="keep the built clamped-arm models here (default: temporary)")
     c.add_argument("--out", type=path_argument, default="figures", help="folder for convergence.png (default figures/)")

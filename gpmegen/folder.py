@@ -21,6 +21,9 @@ from .errors import BuildError, StaleModelError
 #: The files each backend is generated into (the C library's header beside its source).
 BACKEND_FILES = {"numpy": ("model_numpy.py",), "c": ("model.h", "model.c")}
 MANIFEST = "manifest.json"
+#: A built model's start from its source (a model file's ``[initial]`` at the parameter
+#: defaults), beside the generated files: what a run from the folder alone starts from.
+START = "start.json"
 
 
 def read_manifest(folder: Path) -> dict | None:
@@ -30,6 +33,28 @@ def read_manifest(folder: Path) -> dict | None:
     except (OSError, ValueError):
         return None
     return manifest if isinstance(manifest, dict) else None
+
+
+def write_start(folder: Path, q: dict, qd: dict) -> None:
+    """Record the start ``q``, ``qd`` (coordinate name -> number) in the built ``folder``."""
+    from .fileio import atomic_write_bytes
+
+    text = json.dumps({"q": q, "qd": qd}, indent=2, sort_keys=True) + "\n"
+    atomic_write_bytes(Path(folder) / START, text.encode())
+
+
+def read_start(folder: Path) -> tuple[dict, dict]:
+    """The start recorded in ``folder`` by :func:`write_start`, or ``({}, {})`` (rest at q = 0)
+    when none is; a damaged record raises BuildError."""
+    path = Path(folder) / START
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        return {str(k): float(v) for k, v in data["q"].items()}, {str(k): float(v) for k, v in data["qd"].items()}
+    except FileNotFoundError:
+        return {}, {}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        raise BuildError(f"{path} is damaged; build the model into this folder again with 'gpmegen build "
+                         f"<its model file> --out {Path(folder).parent}'") from None
 
 
 def _checked(folder: Path, name: str, manifest: dict | None) -> tuple[str | None, str | None]:

@@ -21,10 +21,12 @@ and line style in every figure. Results of different models, or with different c
 refused before any figure is written: plot each group into its own folder.""",
     "modes": """\
 Natural frequencies and mode shapes about the static equilibrium of the reference manipulator,
-with its joints locked or with the programmed constraints holding.""",
+a model file or a folder made by 'build --out', with the joints locked or with the programmed
+constraints holding.""",
     "convergence": """\
-Clamp the arm at its root and compare its static tip deflection and first frequencies against
-the number of rfes with Euler-Bernoulli and Saint-Venant beam theory.""",
+Clamp the arm (or each flexible link of a model file, alone) at its root and compare its static
+tip deflection and first frequencies against the number of rfes with Euler-Bernoulli and
+Saint-Venant beam theory.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
@@ -43,19 +45,21 @@ files written:
 examples:
   gpmegen simulate --nrfe 5 --t-end 10 --dt 1e-5
   gpmegen simulate --nrfe 5 --statics constrained --out results/constrained.npz
+  gpmegen simulate generated/my_arm                (a folder made by 'build --out')
   gpmegen simulate --nrfe 1 --method dop853
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
 
 files written:
-  results/run_nrfe<N>.npz and .csv (a model file: results/<file name>.npz and .csv), or --out
-  and its .csv; a run that diverges or is interrupted writes <name>.partial.npz and .csv instead
-  and leaves a complete <name>.npz as it was""",
+  results/<run_nrfe<N> or the model file's name>_<start>_<method>.npz and .csv, or --out and
+  its .csv; an existing results file is refused unless --overwrite; a run that diverges or is
+  interrupted writes <name>.partial.npz and .csv instead and leaves a complete <name>.npz as it
+  was""",
     "statics": """\
 examples:
   gpmegen statics --nrfe 5
   gpmegen statics --nrfe 5 --statics constrained --param g=9.80665
-  gpmegen statics examples/planar_two_link.toml
+  gpmegen statics examples/planar_two_link.toml --statics locked
 
 files written:
   none (the configuration is printed)""",
@@ -72,6 +76,7 @@ files written:
 examples:
   gpmegen modes --nrfe 5
   gpmegen modes --nrfe 5 --lock constraints --count 6
+  gpmegen modes examples/planar_two_link.toml --nrfe 4
 
 files written:
   <out>/modes_nrfe<N>_<lock>.csv (frequencies and shapes) and .png (the first shapes along the
@@ -80,9 +85,11 @@ files written:
 examples:
   gpmegen convergence
   gpmegen convergence --nrfe 2 3 5 10 --static nonlinear --directory built/
+  gpmegen convergence examples/planar_two_link.toml --param E_al=6.9e10
 
 files written:
-  <out>/convergence.png (default out: figures/); with --directory, the clamped-arm models built
+  <out>/convergence.png, or convergence_<model>_link<label>.png per flexible link of a model
+  file (default out: figures/); with --directory, the clamped-arm models built
   there""",
     "demo": """\
 examples:

@@ -54,7 +54,7 @@ def test_a_model_file_is_read_once_per_command(command, tmp_path, parses, capsys
 
 def test_results_carry_the_cases_metadata_as_json(tmp_path):
     reference = _run(ReferenceCase(1), tmp_path, "locked")
-    mine = _run(FileCase(str(EXAMPLE)), tmp_path, "initial")
+    mine = _run(FileCase(str(EXAMPLE)), tmp_path, "none")
     meta = results_io.metadata(results_io.load(tmp_path / "run_nrfe1.npz"))
     assert meta["model"] == "manipulator_nrfe1" and meta["backend"] == "numpy" and meta["start"] == "locked"
     assert meta["coordinates"] == ["theta1", "psi2", "x3"] and meta["constraint_names"] == ["circle", "height"]
@@ -65,7 +65,7 @@ def test_results_carry_the_cases_metadata_as_json(tmp_path):
 
     name = toml_file.read_model_file(EXAMPLE).model.name
     assert plots.label(reference) == "rigid arm"
-    assert plots.label(mine) == f"{name} (initial start)"
+    assert plots.label(mine) == f"{name} (no statics)"
     assert plots.joint_names(reference) == ["theta1", "psi2", "x3"]
     # titles name the model; the paper's figure numbers only where every run is the paper's case
     assert plots._title([reference], "Path") == "Path: manipulator"
@@ -83,10 +83,10 @@ def test_a_model_of_your_own_is_labelled_by_its_name_whatever_it_is_called(tmp_p
     text = text.replace("theta2", "psi_elbow_2")
     path = tmp_path / "lookalike.toml"
     path.write_text(text, encoding="utf-8")
-    mine = _run(FileCase(str(path), 3), tmp_path, "initial")
+    mine = _run(FileCase(str(path), 3), tmp_path, "none")
     meta = results_io.metadata(mine)
     assert meta["model"] == "manipulator_nrfe3"
-    assert plots.label(mine) == "manipulator_nrfe3 (initial start)"
+    assert plots.label(mine) == "manipulator_nrfe3 (no statics)"
     assert plots.joint_names(mine) == ["theta1", "psi_elbow_2"]
     assert "constraint_units" not in meta and "figures" not in meta
 
@@ -104,5 +104,5 @@ def test_a_results_file_of_the_older_format_is_refused_in_one_line(tmp_path, cap
 
 
 def test_the_reference_case_refuses_a_model_files_start(capsys):
-    assert main(["statics", "--nrfe", "1", "--statics", "initial"]) == 2
-    assert "--statics initial is for model files" in capsys.readouterr().err
+    assert main(["statics", "--nrfe", "1", "--statics", "none"]) == 2
+    assert "--statics none is for model files" in capsys.readouterr().err

@@ -126,7 +126,7 @@ def test_example_builds_simulates_and_plots(name, tmp_path, generated, capsys):
     settings = _settings(res)
     assert settings["backend"] == ("c" if _have_compiler() else "numpy")
     assert settings["dependent"] == list(model.dependent)
-    assert settings["start"] == "initial"
+    assert settings["start"] == "none"
 
     # the end-effector (the file's only point) follows what the file prescribes
     residual, travel = CASES[name]

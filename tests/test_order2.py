@@ -73,7 +73,8 @@ def test_position_constraint_and_its_second_derivative_give_the_same_motion(env)
     position, initial = _load(REACHING)
     second, _ = _load(REACHING_DDOT)
     assert tuple(second.constraint_orders) == (2, 2)
-    position, q0 = study.file_start(position, initial, "initial")
+    begun = study.file_start(position, initial, "none")
+    position, q0 = begun.model, begun.q
     qd0 = np.zeros(position.n_dof)   # Φ = 0 (moved there) and Φ̇ = 0: both laws start at rest
     assert np.max(np.abs(position.constraint_terms(0.0, q0, qd0)[0])) <= 1e-12
     n = position.n_dof
@@ -94,9 +95,10 @@ def test_position_constraint_and_its_second_derivative_give_the_same_motion(env)
 def test_curvature_example_keeps_its_curvature_and_speed(env):
     file = read_model_file(CURVATURE)
     model = gpmegen.load(model=file.model, backend="c")
-    model, q0 = study.file_start(model, file.initial_values(model.params), "locked")
-    qd0 = np.zeros(model.n_dof)
-    qd0[model.index("theta1")] = model.params["w0"]
+    begun = study.file_start(model, file.initial_values(model.params), "locked",
+                             file.initial_velocities(model.params))
+    model, q0, qd0 = begun.model, begun.q, begun.qd
+    assert qd0[model.index("theta1")] == model.params["w0"]     # the file's [initial] qd
     t, y, end = integrate.rk4(model, q0, qd0, 1.0, 1e-4, 50)
     assert str(end) == "complete"
     n, p = model.n_dof, model.params
@@ -134,7 +136,8 @@ def test_tangential_example_follows_its_speed_law_on_the_circle(env):
     is the integral of the tangential acceleration the constraint prescribes."""
     file = read_model_file(TANGENTIAL, 2)
     model = gpmegen.load(model=file.model, backend="c")
-    model, q0 = study.file_start(model, file.initial_values(model.params), "locked")
+    begun = study.file_start(model, file.initial_values(model.params), "locked")
+    model, q0 = begun.model, begun.q
     n, p = model.n_dof, model.params
     t, y, end = integrate.rk4(model, q0, np.zeros(n), 1.0, 1e-5, 2000)
     assert str(end) == "complete"

@@ -236,8 +236,8 @@ def test_model_with_an_infinite_default_wrote_a_module_that_cannot_be_imported(t
 
 
 def test_statics_initial_on_the_reference_case_was_an_internal_error(capsys):
-    assert main(["statics", "--nrfe", "1", "--statics", "initial"]) == 2
-    assert "--statics initial is for model files" in _one_line_error(capsys)
+    assert main(["statics", "--nrfe", "1", "--statics", "none"]) == 2
+    assert "--statics none is for model files" in _one_line_error(capsys)
 
 
 def test_zero_arm_length_divided_by_zero_in_generated_code(capsys):

@@ -236,7 +236,7 @@ def test_ctrl_c_keeps_the_previous_complete_result_and_writes_the_partial_beside
     # stderr on a terminal shows the progress bar, drawn from inside the integration loop: once it
     # has been drawn twice (0.25 s apart), Ctrl-C lands in the integration, which would take minutes
     master, terminal = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "gpmegen.cli", *common, "--t-end", "1000"],
+    proc = subprocess.Popen([sys.executable, "-m", "gpmegen.cli", *common, "--t-end", "1000", "--overwrite"],
                             stdout=subprocess.PIPE, stderr=terminal, text=True)
     os.close(terminal)
     try:

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1c34163298877be0
+Input hash: 6eb7ec0b2cddcadf
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

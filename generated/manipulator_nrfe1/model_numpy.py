@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1c34163298877be0
+Input hash: 6eb7ec0b2cddcadf
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -43,7 +43,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe1'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '1c34163298877be0'
+INPUT_HASH = '6eb7ec0b2cddcadf'
 N_DOF = 3
 COORDINATES = ('theta1', 'psi2', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -901,3 +901,29 @@ def gpme_terms(t, q, qd, p):
     gamma = np.array([_x147, _x153], dtype=float)
     return M, f, phi, phi_rate, jacobian, gamma
 
+
+
+def accelerations(t, q, qd, p):
+    """Accelerations qdd of the GPME with Baumgarte terms (eq. 16), for use without gpmegen:
+    the rows B^T (M qdd - f) = 0, with B an orthonormal basis of the null space of D (every basis
+    of the velocities the constraints allow gives the same qdd, so no dependent coordinates are
+    needed), stacked with the constraint rows D qdd = -gamma - 2 alpha phi_rate - beta^2 phi
+    (position constraints) and D qdd = -gamma - alpha phi (first order), solved together;
+    M^-1 f without constraints.
+
+    Arguments:
+        t: time (s)
+        q: coordinates (N_DOF,), order COORDINATES
+        qd: velocities (N_DOF,)
+        p: parameter values (len(PARAMETERS),), order PARAMETERS (defaults: DEFAULTS)
+    Returns:
+        qdd: accelerations (N_DOF,)
+    """
+    M, f, phi, phi_rate, D, gamma = gpme_terms(t, q, qd, p)
+    if not CONSTRAINTS:
+        return np.linalg.solve(M, f)
+    alpha, beta = baumgarte_gains(p)
+    position = np.asarray(CONSTRAINT_ORDERS) == 0
+    rhs = np.where(position, -gamma - 2.0 * alpha * phi_rate - beta**2 * phi, -gamma - alpha * phi)
+    B = np.linalg.svd(D)[2][len(CONSTRAINTS):].T
+    return np.linalg.solve(np.vstack([B.T @ M, D]), np.concatenate([B.T @ f, rhs]))

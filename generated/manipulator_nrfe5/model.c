@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6d0fc6f1508ac1b2
+Input hash: da6d956313eb98a6
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe5_input_hash(void) { return "6d0fc6f1508ac1b2"; }
+const char *manipulator_nrfe5_input_hash(void) { return "da6d956313eb98a6"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6d0fc6f1508ac1b2
+Input hash: da6d956313eb98a6
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6d0fc6f1508ac1b2
+Input hash: da6d956313eb98a6
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -55,7 +55,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe5'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '6d0fc6f1508ac1b2'
+INPUT_HASH = 'da6d956313eb98a6'
 N_DOF = 15
 COORDINATES = ('theta1', 'psi2', 'psi2_1', 'theta2_1', 'phi2_1', 'psi2_2', 'theta2_2', 'phi2_2', 'psi2_3', 'theta2_3', 'phi2_3', 'psi2_4', 'theta2_4', 'phi2_4', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -4159,3 +4159,29 @@ def gpme_terms(t, q, qd, p):
     gamma = np.array([_x882, _x888], dtype=float)
     return M, f, phi, phi_rate, jacobian, gamma
 
+
+
+def accelerations(t, q, qd, p):
+    """Accelerations qdd of the GPME with Baumgarte terms (eq. 16), for use without gpmegen:
+    the rows B^T (M qdd - f) = 0, with B an orthonormal basis of the null space of D (every basis
+    of the velocities the constraints allow gives the same qdd, so no dependent coordinates are
+    needed), stacked with the constraint rows D qdd = -gamma - 2 alpha phi_rate - beta^2 phi
+    (position constraints) and D qdd = -gamma - alpha phi (first order), solved together;
+    M^-1 f without constraints.
+
+    Arguments:
+        t: time (s)
+        q: coordinates (N_DOF,), order COORDINATES
+        qd: velocities (N_DOF,)
+        p: parameter values (len(PARAMETERS),), order PARAMETERS (defaults: DEFAULTS)
+    Returns:
+        qdd: accelerations (N_DOF,)
+    """
+    M, f, phi, phi_rate, D, gamma = gpme_terms(t, q, qd, p)
+    if not CONSTRAINTS:
+        return np.linalg.solve(M, f)
+    alpha, beta = baumgarte_gains(p)
+    position = np.asarray(CONSTRAINT_ORDERS) == 0
+    rhs = np.where(position, -gamma - 2.0 * alpha * phi_rate - beta**2 * phi, -gamma - alpha * phi)
+    B = np.linalg.svd(D)[2][len(CONSTRAINTS):].T
+    return np.linalg.solve(np.vstack([B.T @ M, D]), np.concatenate([B.T @ f, rhs]))

@@ -149,20 +149,28 @@ class ArmReference:
     horizontal_bending_rotary: float
 
 
+def link_reference(L, EIz, EIy, GJ, rhoA, rhoIz, rhoIy, g) -> ArmReference:
+    """:class:`ArmReference` of a clamped–free link of length ``L`` (m) with bending stiffnesses
+    ``EIz``, ``EIy`` and torsional stiffness ``GJ`` (N·m²), mass ``rhoA`` (kg/m) and rotary
+    inertias ``rhoIz``, ``rhoIy`` (kg·m), under gravity ``g`` (m/s²) perpendicular to it, bending
+    about z. A section without rotary inertia has no torsion frequency (nan)."""
+    polar = rhoIz + rhoIy
+    return ArmReference(
+        tip_deflection=cantilever_uniform_load(rhoA * g, L, EIz)[0],
+        vertical_bending=cantilever_bending_frequency(EIz, rhoA, L),
+        horizontal_bending=cantilever_bending_frequency(EIy, rhoA, L),
+        torsion=shaft_torsion_frequency(GJ, polar, L) if polar > 0 else float("nan"),
+        vertical_bending_rotary=cantilever_bending_frequency_rotary(EIz, rhoA, rhoIz, L),
+        horizontal_bending_rotary=cantilever_bending_frequency_rotary(EIy, rhoA, rhoIy, L),
+    )
+
+
 def arm_reference(params: dict) -> ArmReference:
     """:class:`ArmReference` of the reference arm from a parameter dict with the reference
     names ``L2, b2, t2, rho2, E2, G2, J2, g`` (``model.params`` of a loaded model)."""
     s = rectangular_section(params["b2"], params["t2"])
-    L, rho, E, G, J = (float(params[k]) for k in ("L2", "rho2", "E2", "G2", "J2"))
-    w = rho * s.A * float(params["g"])
-    return ArmReference(
-        tip_deflection=cantilever_uniform_load(w, L, E * s.Iz)[0],
-        vertical_bending=cantilever_bending_frequency(E * s.Iz, rho * s.A, L),
-        horizontal_bending=cantilever_bending_frequency(E * s.Iy, rho * s.A, L),
-        torsion=shaft_torsion_frequency(G * J, rho * s.Ip, L),
-        vertical_bending_rotary=cantilever_bending_frequency_rotary(E * s.Iz, rho * s.A, rho * s.Iz, L),
-        horizontal_bending_rotary=cantilever_bending_frequency_rotary(E * s.Iy, rho * s.A, rho * s.Iy, L),
-    )
+    L, rho, E, G, J, g = (float(params[k]) for k in ("L2", "rho2", "E2", "G2", "J2", "g"))
+    return link_reference(L, E * s.Iz, E * s.Iy, G * J, rho * s.A, rho * s.Iz, rho * s.Iy, g)
 
 
 def manipulator_arm_tip(params: dict, inclination: float) -> tuple[float, float]:
@@ -186,6 +194,6 @@ __all__ = [
     "CLAMPED_FREE_LAMBDA", "Section", "rectangular_section", "cantilever_uniform_load",
     "cantilever_tip_force", "cantilever_tip_moment", "cantilever_tip",
     "cantilever_bending_frequency", "CLAMPED_FREE_SLOPE_RATIO", "cantilever_bending_frequency_rotary",
-    "shaft_torsion_frequency", "ArmReference", "arm_reference",
+    "shaft_torsion_frequency", "ArmReference", "arm_reference", "link_reference",
     "manipulator_arm_tip",
 ]

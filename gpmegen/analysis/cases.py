@@ -14,9 +14,10 @@ from ..errors import BuildError, DerivationError
 
 class Case:
     """A model and its scenario. Subclasses give ``model`` (the symbolic Model), ``command`` (the
-    build command that makes it), ``label`` (for progress and summaries), ``results_stem`` (the
+    build command that makes it), ``label`` (for progress and summaries), ``name`` (in file
+    names), ``results_stem`` (the
     default results name), ``starts`` (the starts it accepts, the default first) and
-    :meth:`start`."""
+    :meth:`start` (returning a :class:`gpmegen.analysis.study.Start`)."""
 
     starts: tuple = ()
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
@@ -25,13 +26,16 @@ class Case:
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
         return action()
 
+    directory = None  # where generated models live (None: gpmegen.runtime.loader.default_directory)
+
     def load(self, backend, params, progress):
         """The generated model on ``backend`` ("c" falls back to "numpy" when it cannot be built)."""
         import gpmegen
 
         def load(name):
             return self.located(lambda: gpmegen.load(backend=name, params=params, progress=progress,
-                                                     model=self.model, command=self.command))
+                                                     model=self.model, command=self.command,
+                                                     directory=self.directory))
 
         if backend == "c":
             try:
@@ -39,6 +43,15 @@ class Case:
             except BuildError as exc:
                 progress(f"C backend unavailable ({exc}); using the NumPy backend")
         return load("numpy")
+
+    def started(self, backend, start, overrides, progress):
+        """:meth:`start`, with its report and, when the start was off the constraints, its
+        warning told to ``progress``."""
+        begun = self.start(backend, start, overrides, progress)
+        progress(begun.report())
+        if begun.warning():
+            progress(begun.warning())
+        return begun
 
     def shown(self, model) -> list[str]:
         """The coordinates a run's start and end lines show: the first three."""
@@ -65,12 +78,67 @@ class Case:
         """Arrays added to a run's results (none by default)."""
         return {}
 
+    def record_start(self, folder) -> None:
+        """Keep in the built ``folder`` what a run from the folder alone needs to start as this
+        case does (nothing by default)."""
 
-class FileCase(Case):
+    def size(self) -> tuple[int, int]:
+        """(coordinates, constraints) of the model, known before it is derived or loaded."""
+        from .. import limits
+
+        return limits.model_coordinates(self.model), len(self.model.constraints)
+
+
+class ModelCase(Case):
+    """A :class:`~gpmegen.model.Model` of the user's own, started at rest and undeformed at
+    q = 0 (a model file adds its ``[initial]``: :class:`FileCase`)."""
+
+    starts = ("none", "locked", "constrained")
+    start_refusal = "a model of your own starts with --statics none, locked or constrained"
+
+    def __init__(self, model=None):
+        self._model = model
+
+    @property
+    def model(self):
+        return self._model
+
+    @property
+    def command(self) -> str | None:
+        return None  # built from Python: gpmegen.load names "gpmegen build" as the fix
+
+    @property
+    def label(self) -> str:
+        return self.model.name
+
+    @property
+    def name(self) -> str:
+        """The case in file names (e.g. ``modes_<name>_joints.csv``)."""
+        return self.label
+
+    @property
+    def results_stem(self) -> str:
+        return self.name
+
+    def initial(self, params) -> tuple[dict, dict]:
+        """The start configuration and velocities before they are made consistent: coordinate
+        name -> value (rad, m; rad/s, m/s) at the parameter values ``params``."""
+        return {}, {}
+
+    def start(self, backend, start, overrides, progress):
+        """The loaded model's consistent start (:class:`gpmegen.analysis.study.Start`) from
+        :meth:`initial` (see :func:`gpmegen.analysis.study.file_start`)."""
+        from . import study
+
+        model = self.load(backend, overrides, progress)
+        progress(f"start of {self.label} ({'no statics' if start == 'none' else start + ' statics'})")
+        q, qd = self.initial(model.params)
+        return study.file_start(model, q, start, qd)
+
+
+class FileCase(ModelCase):
     """A model file (``path``) with ``nrfe`` rfes (None: the file's own); the file is read once,
     when first needed."""
-
-    starts = ("initial", "locked", "constrained")
 
     def __init__(self, path, nrfe=None):
         self.path, self.nrfe = path, nrfe
@@ -93,8 +161,6 @@ class FileCase(Case):
     def label(self) -> str:
         return Path(self.path).stem
 
-    results_stem = label
-
     def located(self, action):
         """Run ``action()``; a derivation error gets the file and line it comes from (from the
         text read once, never a second read of the file)."""
@@ -103,12 +169,108 @@ class FileCase(Case):
         except DerivationError as exc:
             raise self.file.locate(exc) from None
 
-    def start(self, backend, start, overrides, progress):
-        """The loaded model and q0: the file's ``[initial]`` configuration (see
-        :func:`gpmegen.analysis.study.file_start`)."""
-        from . import study
+    def initial(self, params) -> tuple[dict, dict]:
+        """The file's ``[initial] q`` and ``qd``."""
+        return self.file.initial_values(params), self.file.initial_velocities(params)
 
-        model = self.load(backend, overrides, progress)
-        initial = self.file.initial_values(model.params)
-        progress(f"start of {self.path} ({start})")
-        return study.file_start(model, initial, start)
+    def record_start(self, folder) -> None:
+        """The file's ``[initial]`` at the parameter defaults, for :class:`FolderCase`."""
+        from ..folder import write_start
+
+        write_start(folder, *self.initial(None))
+
+
+class FolderCase(ModelCase):
+    """A model built by ``gpmegen build --out`` and opened from its ``folder`` (the files its
+    manifest records), without its source: it starts from the model file's ``[initial]`` at the
+    parameter defaults that the build recorded (:func:`gpmegen.folder.read_start`; at rest at
+    q = 0 without one), and parameter values are not checked against the model's physical
+    bounds (those live in the source)."""
+
+    def __init__(self, folder, manifest):
+        self.folder, self.manifest = Path(folder), manifest
+
+    @property
+    def model(self):
+        from ..errors import ModelError
+
+        raise ModelError(f"{self.folder} holds generated code, not its model; give the model file instead")
+
+    @property
+    def command(self) -> str:
+        return f"gpmegen build <its model file> --out {self.folder.parent}"
+
+    @property
+    def label(self) -> str:
+        return self.manifest["model"]
+
+    def load(self, backend, params, progress):
+        from ..runtime.loader import open_folder
+
+        def load(name):
+            return open_folder(self.folder, name, params, rebuild=self.command)
+
+        if backend == "c":
+            try:
+                return load("c")
+            except BuildError as exc:
+                progress(f"C backend unavailable ({exc}); using the NumPy backend")
+        return load("numpy")
+
+    def size(self) -> tuple[int, int]:
+        return int(self.manifest["n_dof"]), len(self.manifest["constraints"])
+
+    def initial(self, params) -> tuple[dict, dict]:
+        from ..folder import read_start
+
+        return read_start(self.folder)
+
+    def metadata(self, model) -> dict:
+        """The model's name, and its first four coordinates as the joints of the figures (the
+        folder does not say which coordinates are joints)."""
+        return {"label": self.label, "joints": list(model.coordinates[:4])}
+
+
+def case_of_path(path, nrfe=None) -> Case:
+    """The case of ``path``: a model file, or a folder made by ``gpmegen build --out`` (a model's
+    folder, or the output folder holding exactly one). A folder of the reference manipulator runs
+    as the reference case (its scenario), loaded from that folder."""
+    from ..errors import ModelError
+    from ..folder import MANIFEST, read_manifest
+
+    path = Path(path)
+    if not path.is_dir():
+        return FileCase(str(path), nrfe)
+    folders = [path] if (path / MANIFEST).exists() else sorted(p.parent for p in path.glob(f"*/{MANIFEST}"))
+    if len(folders) != 1:
+        found = ", ".join(str(p) for p in folders)
+        raise ModelError(f"{path}: " + (f"holds {len(folders)} built models ({found}); name one of them"
+                                        if folders else "is a folder without a built model (no manifest.json); give "
+                                                        "a model file or a folder made by 'gpmegen build --out'"))
+    manifest = read_manifest(folders[0])
+    if manifest is None or "model" not in manifest:
+        raise ModelError(f"{folders[0]}/{MANIFEST} is unreadable; build the model again with 'gpmegen build --force'")
+    if nrfe is not None:
+        raise ModelError(f"--nrfe {nrfe} does not apply to {folders[0]}, built with its own; build the model with "
+                         f"--nrfe {nrfe} into a folder and name that one")
+    reference = _reference_case_of(manifest)
+    if reference is not None:
+        reference.directory = folders[0].parent
+        return reference
+    return FolderCase(folders[0], manifest)
+
+
+def _reference_case_of(manifest):
+    """The reference case whose generated code the folder of ``manifest`` holds, or None: its
+    name and input hash are those of the built-in manipulator's."""
+    import re
+
+    from ..codegen.render import input_hash
+    from ..runtime.loader import BACKENDS
+    from .reference_case import ReferenceCase
+
+    match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
+    if not match:
+        return None
+    case = ReferenceCase(int(match.group(1)))
+    return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None

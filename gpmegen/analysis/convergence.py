@@ -1,20 +1,22 @@
 """The convergence of the RFEM arm to beam theory: the reference arm alone, clamped at its root
-(:func:`clamped_arm_model`), its static tip deflection and first frequencies for several
-``n_rfe`` against Euler–Bernoulli / Saint-Venant values (:mod:`gpmegen.analysis.beam`), with the
-observed order of convergence (:func:`convergence_table`). Its figure:
-:func:`gpmegen.analysis.modes_output.plot_convergence`.
+(:func:`clamped_arm_model`), or a flexible link of any model so (:func:`clamped_link_model`), its
+static tip deflection and first frequencies for several ``n_rfe`` against Euler–Bernoulli /
+Saint-Venant values (:mod:`gpmegen.analysis.beam`), with the observed order of convergence
+(:func:`convergence_table`). Its figure: :func:`gpmegen.analysis.modes_output.plot_convergence`.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..model.chain import Body, Model, Point
+from ..errors import ModelError
+from ..model.chain import Body, FlexibleLink, Model, Parameter, Point, symbol
 from ..model.reference import PARAMETERS, reference_arm
-from ..model.rfem import check_nrfe
+from ..model.requirements import evaluate
+from ..model.rfem import check_nrfe, section_properties
 from ..model.shapes import shape_quantities, solid_cylinder
 from ..runtime import statics
 from . import beam
@@ -44,6 +46,70 @@ def clamped_arm_model(nrfe: int, with_slider: bool = False) -> Model:
         gravity=(0, -P["g"], 0),
         description="the reference arm clamped at its root" + (", slider at its tip" if with_slider else ""),
     )
+
+
+GRAVITY = 9.81  # m/s², the clamped link's weight when its model has no parameter g
+
+
+def flexible_links(model) -> list:
+    """The flexible links of ``model``'s chain, from the base outwards."""
+    return [element for element in model.chain if isinstance(element, FlexibleLink)]
+
+
+def clamped_link_model(model: Model, label: str, nrfe: int) -> Model:
+    """The flexible link ``label`` of ``model`` alone with ``nrfe`` rfes, clamped at its root and
+    horizontal along x0, gravity ``(0, -g, 0)`` with the model's parameter ``g`` (else a parameter
+    ``g`` of 9.81 m/s²); coordinates ``psi<label>_r, theta<label>_r, phi<label>_r``, point ``tip``
+    at the link's tip; the model's parameters."""
+    check_nrfe(nrfe, f"flexible link {label!r} clamped (nrfe = 1 has no coordinate)", minimum=2)
+    link = next((element for element in flexible_links(model) if element.label == label), None)
+    if link is None:
+        raise ModelError(f"model {model.name} has no flexible link {label!r}; its flexible links are "
+                         f"{', '.join(repr(element.label) for element in flexible_links(model)) or 'none'}")
+    parameters = tuple(model.parameters)
+    if "g" not in {p.name for p in parameters}:
+        parameters += (Parameter("g", GRAVITY, "m/s^2", "gravitational acceleration on the clamped link"),)
+    return Model(
+        name=f"{model.name[:20]}_link{label}_clamped_nrfe{nrfe}",
+        parameters=parameters,
+        chain=(replace(link, n_rfe=nrfe), Point("tip", (0, 0, 0))),
+        gravity=(0, -symbol("g"), 0),
+        description=f"flexible link {label!r} of {model.name}, clamped at its root",
+    )
+
+
+def link_reference(link: FlexibleLink, params: dict) -> beam.ArmReference:
+    """Beam-theory values of ``link`` clamped (:func:`gpmegen.analysis.beam.link_reference`) at
+    the parameter values ``params`` (name -> number, with ``g``)."""
+    values = {symbol(name): float(value) for name, value in params.items()}
+    p = section_properties(link)
+    numbers = [evaluate(x, values) for x in (link.length, p.EIz, p.EIy, p.GJ, p.rhoA, p.rhoIz, p.rhoIy, symbol("g"))]
+    return beam.link_reference(*numbers)
+
+
+@dataclass(frozen=True)
+class Clamped:
+    """What a convergence study clamps: the reference arm (``model`` None) or the flexible link
+    ``label`` of ``model``."""
+
+    model: Model | None = None
+    label: str = "2"
+
+    @property
+    def title(self) -> str:
+        if self.model is None:
+            return "clamped arm (no slider)"
+        return f"flexible link {self.label!r} of {self.model.name}, clamped"
+
+    def build(self, nrfe: int) -> Model:
+        if self.model is None:
+            return clamped_arm_model(nrfe)
+        return clamped_link_model(self.model, self.label, nrfe)
+
+    def reference(self, params: dict) -> beam.ArmReference:
+        if self.model is None:
+            return beam.arm_reference(params)
+        return link_reference(next(link for link in flexible_links(self.model) if link.label == self.label), params)
 
 
 def load_clamped_arm(nrfe: int, with_slider: bool = False, directory=None, params: dict | None = None):
@@ -96,10 +162,11 @@ class ConvergenceTable:
     orders_sde: dict
     build_seconds: np.ndarray
     static: str = "linear"
+    subject: str = "clamped arm (no slider)"
 
     def format(self) -> str:
         """The table as text, one block per quantity."""
-        lines = [f"clamped arm (no slider) against beam theory; static deflection: {self.static}; "
+        lines = [f"{self.subject} against beam theory; static deflection: {self.static}; "
                  f"frequencies at zero gravity about the straight arm",
                  "err EB: against Euler-Bernoulli / Saint-Venant; err limit: against the same with the "
                  "sections' rotary inertia (Rayleigh beam), the RFEM's continuum limit"]
@@ -170,24 +237,26 @@ def _relative(values, reference, nrfe):
 
 
 def convergence_table(nrfe_values, directory=None, params: dict | None = None, static: str = "linear",
-                      progress=None) -> ConvergenceTable:
-    """Build the clamped arm without slider for each ``nrfe`` (≥ 2) into ``directory`` (default:
-    gpmegen's generated folder) and compare it with beam theory (:func:`beam.arm_reference`).
-    ``params`` overrides the reference parameters; ``static`` as in :func:`tip_deflection`;
-    ``progress(nrfe, seconds)`` is called after each build. Returns a
-    :class:`ConvergenceTable`."""
+                      progress=None, clamped: Clamped = Clamped()) -> ConvergenceTable:
+    """Build the ``clamped`` link (default: the reference arm without slider) for each ``nrfe``
+    (≥ 2) into ``directory`` (default: gpmegen's generated folder) and compare it with beam
+    theory (:meth:`Clamped.reference`). ``params`` overrides the model's parameters; ``static``
+    as in :func:`tip_deflection`; ``progress(nrfe, seconds)`` is called after each build.
+    Returns a :class:`ConvergenceTable`."""
+    from .. import load
+
     nrfe_values = [int(n) for n in nrfe_values]
     values = {key: [] for key, _, _ in QUANTITIES}
     seconds = []
     reference = None
     for n in nrfe_values:
         start = time.perf_counter()
-        model = load_clamped_arm(n, directory=directory, params=params)
+        model = load(model=clamped.build(n), directory=directory, params=params)
         seconds.append(time.perf_counter() - start)
         if progress is not None:
             progress(n, seconds[-1])
         if reference is None:
-            reference = beam.arm_reference(model.params)
+            reference = clamped.reference(model.params)
         for key, value in arm_quantities(model, static).items():
             values[key].append(value)
     values = {k: np.array(v) for k, v in values.items()}
@@ -199,10 +268,11 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
                   for k, e in errors_limit.items()}
     return ConvergenceTable(np.array(nrfe_values), values, analytic, errors, orders, local,
                             limit, errors_limit, orders_limit, local_limit, orders_sde,
-                            np.array(seconds), static)
+                            np.array(seconds), static, clamped.title)
 
 
 __all__ = [
-    "clamped_arm_model", "load_clamped_arm", "ConvergenceTable", "convergence_table", "tip_deflection",
+    "clamped_arm_model", "load_clamped_arm", "clamped_link_model", "flexible_links", "link_reference",
+    "Clamped", "ConvergenceTable", "convergence_table", "tip_deflection",
     "arm_quantities", "observed_order", "QUANTITIES", "LIMIT_KEYS",
 ]

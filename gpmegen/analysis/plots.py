@@ -51,7 +51,7 @@ def label(results) -> str:
     unless it is the locked statics."""
     meta = metadata(results)
     text, start = meta.get("label", meta["model"]), meta["start"]
-    return f"{text} ({start} start)" if start != "locked" else text
+    return text if start == "locked" else f"{text} (no statics)" if start == "none" else f"{text} ({start} start)"
 
 
 def joint_names(results) -> list:

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..runtime import statics
 from .cases import Case
-from .study import project_onto_constraints
+from .study import consistent, project_onto_constraints
 
 START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
 CONSTANTS = ("r_Ea", "y_c")  # set from the locked statics unless the user gives them
@@ -37,16 +37,24 @@ def constraint_constants(model, q) -> dict:
     return {"r_Ea": float(np.hypot(x, z)), "y_c": float(y - model.params["A"])}
 
 
+def with_constants(model, overrides=None):
+    """``model`` with ``r_Ea`` and ``y_c`` set from its locked statics at the paper's joint start
+    (those of ``overrides`` kept), and that start q (n,). What both ``gpmegen.load(nrfe=N)``
+    and a run of the reference case bind."""
+    overrides = dict(overrides or {})
+    q = statics.locked(model, joint_start(model))
+    constants = constraint_constants(model, q)
+    constants.update({k: v for k, v in overrides.items() if k in constants})
+    return model.with_params(**constants), q
+
+
 def initial_state(model, start="locked", overrides=None):
     """The model with its constraint constants set, and the start configuration q0 (n,).
 
     ``overrides``: parameter values given by the user; an explicit ``r_Ea`` or ``y_c`` is kept
     and the start is moved onto the constraints it defines."""
     overrides = dict(overrides or {})
-    q = statics.locked(model, joint_start(model))
-    constants = constraint_constants(model, q)
-    constants.update({k: v for k, v in overrides.items() if k in constants})
-    model = model.with_params(**constants)
+    model, q = with_constants(model, overrides)
     if set(CONSTANTS) & overrides.keys():
         q = project_onto_constraints(model, q, hint=REACH_HINT)
     if start == "constrained":
@@ -60,7 +68,7 @@ class ReferenceCase(Case):
     """The paper's manipulator with its arm cut into ``nrfe`` rfes (1: rigid)."""
 
     starts = ("locked", "constrained")
-    start_refusal = ("--statics initial is for model files; the reference case starts from statics "
+    start_refusal = ("--statics none is for model files; the reference case starts from statics "
                      "(--statics locked or constrained)")
 
     def __init__(self, nrfe: int = 5):
@@ -81,14 +89,20 @@ class ReferenceCase(Case):
         return f"n_rfe = {self.nrfe}"
 
     @property
+    def name(self) -> str:
+        return f"nrfe{self.nrfe}"
+
+    @property
     def results_stem(self) -> str:
-        return f"run_nrfe{self.nrfe}"
+        return f"run_{self.name}"
 
     def start(self, backend, start, overrides, progress):
-        """The loaded model with r_Ea and y_c set, and q0 (see :func:`initial_state`)."""
+        """The loaded model with r_Ea and y_c set, at rest at q0 (see :func:`initial_state`), as
+        a :class:`gpmegen.analysis.study.Start`."""
         model = self.load(backend, {k: v for k, v in overrides.items() if k not in CONSTANTS}, progress)
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
-        return initial_state(model, start, overrides)
+        model, q = initial_state(model, start, overrides)
+        return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT)
 
     def shown(self, model) -> list[str]:
         return list(START_JOINTS)

@@ -41,6 +41,18 @@ def targets(path, complete: bool = True) -> tuple[Path, Path]:
     return path, path.with_suffix(".csv")
 
 
+def existing(path) -> Path | None:
+    """The file of a complete run's pair for ``path`` (.npz, or the .csv beside it) that is
+    already there, or None: results are never replaced unless that is asked for."""
+    return next((p for p in targets(path) if p.exists()), None)
+
+
+def default_name(stem: str, start: str, method: str) -> str:
+    """The default results file of a run: ``<stem>_<start>_<method>.npz``, one name per model,
+    start and integrator, so that runs of one model with other settings keep their own files."""
+    return f"{stem}_{start}_{method.lower()}.npz"
+
+
 def encode(meta: dict) -> np.ndarray:
     """``meta`` as the JSON text a results file holds."""
     return np.array(json.dumps(meta, ensure_ascii=False))
@@ -51,7 +63,8 @@ def metadata(results) -> dict:
     ``backend``, ``start``, ``settings`` (method, dt, save_every, t_end, dependent,
     repartitions), ``params`` and, from the run's case (:mod:`gpmegen.analysis.cases`), what
     plots use: ``label``, ``joints``, ``joint_labels``, ``constraint_units``, ``figures``,
-    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``."""
+    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``; and ``start_moved``: how far the start
+    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`)."""
     return json.loads(str(results["meta"]))
 
 

@@ -25,16 +25,17 @@ class Run:
 
 def check(case, t_end, dt, save_every, method, backend) -> None:
     """Refuse, before anything is loaded or solved, a run that cannot finish (gpmegen.limits)."""
-    model = case.model
-    limits.check_run(limits.model_coordinates(model), len(model.constraints), t_end, dt, save_every, method, backend)
+    limits.check_run(*case.size(), t_end, dt, save_every, method, backend)
 
 
 def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False) -> Run:
     """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion and
     write ``out`` (.npz and .csv), or beside it a partial run (see
-    :func:`gpmegen.analysis.results.save`). ``progress`` takes one-line messages."""
+    :func:`gpmegen.analysis.results.save`); nothing when ``out`` is None. ``progress`` takes
+    one-line messages."""
     check(case, t_end, dt, save_every, method, backend)
-    model, q0 = case.start(backend, start, overrides, progress)
+    begun = case.started(backend, start, overrides, progress)
+    model, q0 = begun.model, begun.q
     shown = case.shown(model)
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
              + case.start_note(model))
@@ -45,7 +46,66 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
 
         bar = Progress(t_end, case.label, enabled=sys.stderr.isatty())
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
-                         repartition=repartition, notify=progress)
+                         repartition=repartition, notify=progress, qd0=begun.qd)
     wall = time.perf_counter() - t0
-    res = results_io.annotate(res, case.metadata(model), case.extras(model, res))
-    return Run(model, res, results_io.save(res, out), wall)
+    res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta()}, case.extras(model, res))
+    return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
+
+
+class Results:
+    """A run's results (what :func:`gpmegen.simulate` returns, and what a results file holds):
+    ``t`` (k,) s; ``q``, ``qd`` (k, n) in rad, m, rad/s, m/s; ``coordinates``; ``meta`` (model,
+    start, settings, parameters, how far the start moved; see
+    :func:`gpmegen.analysis.results.metadata`); ``status`` ("complete" or why the run stopped);
+    every array of the file by name (``results["phi"]``, ``results["end_effector"]``, ...)."""
+
+    def __init__(self, arrays: dict):
+        self.arrays = dict(arrays)
+
+    @classmethod
+    def load(cls, path) -> Results:
+        """The results written to ``path`` (.npz) by ``gpmegen simulate`` or :meth:`save`."""
+        return cls(results_io.load(path))
+
+    t = property(lambda self: self.arrays["t"], doc="sample times (k,) s")
+    q = property(lambda self: self.arrays["q"], doc="coordinates (k, n)")
+    qd = property(lambda self: self.arrays["qd"], doc="velocities (k, n)")
+    coordinates = property(lambda self: tuple(str(c) for c in self.arrays["coordinates"]),
+                           doc="names of the columns of q and qd")
+    meta = property(lambda self: results_io.metadata(self.arrays), doc="the run's metadata (dict)")
+    status = property(lambda self: str(self.arrays["status"]), doc='"complete", or why the run stopped')
+
+    def __getitem__(self, name):
+        return self.arrays[name]
+
+    def keys(self):
+        return self.arrays.keys()
+
+    def _column(self, name):
+        if name not in self.coordinates:
+            raise KeyError(f"{name!r} is not a coordinate of this run; its coordinates are "
+                           f"{', '.join(self.coordinates)}")
+        return self.coordinates.index(name)
+
+    def coordinate(self, name: str):
+        """The coordinate ``name`` over time, (k,) rad or m."""
+        return self.q[:, self._column(name)]
+
+    def velocity(self, name: str):
+        """The velocity of coordinate ``name`` over time, (k,) rad/s or m/s."""
+        return self.qd[:, self._column(name)]
+
+    def save(self, path, overwrite: bool = False) -> list:
+        """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
+        see :func:`gpmegen.analysis.results.save`); an earlier run's results there are replaced
+        only with ``overwrite``. Returns the paths written."""
+        taken = results_io.existing(path)
+        if taken is not None and not overwrite:
+            raise results_io.ResultsError(f"{taken} holds an earlier run's results; save with overwrite=True to "
+                                          f"replace them, or choose another path")
+        return results_io.save(self.arrays, path)
+
+    def __repr__(self):
+        return (f"<gpmegen results {self.meta['model']} ({self.meta['start']} start, {self.status}): "
+                f"{len(self.t)} samples to t = {self.t[-1]:.6g} s>")
+

@@ -5,6 +5,8 @@ scenario is in :mod:`gpmegen.analysis.reference_case`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from .. import limits
@@ -12,24 +14,36 @@ from ..errors import SimulationError
 from ..runtime import integrate, partition, statics
 from . import results as results_io
 
+# Above this move (rad or m, rad/s or m/s) of a coordinate, making the start consistent is
+# reported as a warning: the start given was not one the programmed constraints allow.
+MOVE_WARNING = 1e-6
+
 
 def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None):
-    """Move the dependent coordinates so that Φ(q, t) = 0 (Newton on the m×m block). When it
-    fails, the message names the model's constraints left violated, with their values at the
-    closest configuration found, and ends with ``hint`` (default: a generic one)."""
+    """Move the dependent coordinates so that the position constraints (order 0) hold,
+    Φ(q, t) = 0 (Newton on their block of D; least squares when first-order constraints take
+    some dependent coordinates). When it fails, the message names the model's constraints left
+    violated, with their values at the closest configuration found, and ends with ``hint``
+    (default: a generic one)."""
     q = np.array(q, dtype=float)
     dep = model.dependent
+    rows = np.flatnonzero(np.asarray(model.constraint_orders) == 0)
     qd = np.zeros_like(q)
     closest = None
     for _ in range(max_iter):
         phi, _, D, _ = model.constraint_terms(t, q, qd)
+        phi = np.where(np.asarray(model.constraint_orders) == 0, phi, 0.0)
         worst = np.max(np.abs(phi), initial=0.0)
         if worst <= tol:
             return q
         if closest is None or worst < np.max(np.abs(closest)):
             closest = phi
         try:
-            q[dep] -= np.linalg.solve(D[:, dep], phi)
+            block = D[np.ix_(rows, dep)]
+            if block.shape[0] == block.shape[1]:
+                q[dep] -= np.linalg.solve(block, phi[rows])
+            else:
+                q[dep] -= np.linalg.lstsq(block, phi[rows], rcond=None)[0]
         except np.linalg.LinAlgError:
             break
         if not np.all(np.isfinite(q)):
@@ -44,35 +58,119 @@ def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None)
                    "start ([initial] q)?"))
 
 
-def file_start(model, initial: dict, start="initial"):
-    """Start of a model file's run: the ``[initial]`` configuration (``initial``: coordinate name
-    → value), dependent coordinates chosen when the file says "auto", optionally the locked
-    statics first, then moved onto the constraints; ``start="constrained"`` then solves the
-    constrained equilibrium. Returns the model and q0 (n,)."""
-    q = np.zeros(model.n_dof)
-    for name, value in initial.items():
-        q[model.index(name)] = value
+def velocity_residual(model, t, q, qd):
+    """What the velocity ``qd`` (n,) leaves of the constraints at ``(t, q)``, (m,): Φ̇ of the
+    position constraints, Ψ of the first-order ones. Both are affine in ``qd`` with slope D."""
+    phi, phi_rate, D, _ = model.constraint_terms(t, q, qd)
+    return np.where(np.asarray(model.constraint_orders) == 0, phi_rate, phi), D
+
+
+def project_velocities(model, q, qd, t=0.0):
+    """``qd`` (n,) with the dependent velocities solved from the constraints (Φ̇ = 0 for position
+    constraints, Ψ = 0 for first-order ones) for the independent velocities given."""
+    qd = np.array(qd, dtype=float)
+    dep = model.dependent
+    if not len(model.constraint_names):
+        return qd
+    for _ in range(2):  # affine in qd: one step solves it, the second removes round-off
+        r, D = velocity_residual(model, t, q, qd)
+        try:
+            qd[dep] -= np.linalg.solve(D[:, dep], r)
+        except np.linalg.LinAlgError:
+            raise SimulationError(
+                f"model {model.module.MODEL}: the dependent block D_dc of the constraint Jacobian is singular at the "
+                f"start, so the dependent velocities cannot be solved; choose other dependent coordinates "
+                f"(model 'dependent') or another start ([initial] q)") from None
+    return qd
+
+
+@dataclass
+class Start:
+    """A consistent start: the ``model`` (with its partition), ``q`` and ``qd`` (n,) on the
+    programmed constraints at t = 0, and ``moved``: for "q" and "qd", the largest change that
+    putting them there made (rad or m, rad/s or m/s) and the coordinate it was made on."""
+
+    model: object
+    q: np.ndarray
+    qd: np.ndarray
+    moved: dict = field(default_factory=dict)
+
+    def report(self) -> str:
+        """One line: how far the start was moved onto the constraints."""
+        return "start moved onto the constraints by " + "; ".join(
+            f"max|Δ{key}| = {value:.3e}" + (f" ({name})" if value else "") for key, (value, name) in self.moved.items())
+
+    def warning(self) -> str | None:
+        """One line when the start was moved by more than :data:`MOVE_WARNING`, else None."""
+        far = {key: (value, name) for key, (value, name) in self.moved.items() if value > MOVE_WARNING}
+        if not far:
+            return None
+        given = " and ".join(f"[initial] {key}" for key in far)
+        changes = ", ".join(f"{key} of {name} by {value:.3e}" for key, (value, name) in far.items())
+        return (f"warning: the start (as given, or after the statics) was off the programmed constraints: putting "
+                f"it on them changed {changes}"
+                + f"; give {given} that meet them, or constraint constants that the start meets (docs/model-file.md, "
+                  f"'Starts')")
+
+    def meta(self) -> dict:
+        """The report as results metadata."""
+        return {key: {"max_change": float(value), "coordinate": name} for key, (value, name) in self.moved.items()}
+
+
+def largest_change(model, before, after):
+    """(largest |after - before|, the coordinate it is on)."""
+    change = np.abs(np.asarray(after) - np.asarray(before))
+    if not change.size:
+        return 0.0, ""
+    k = int(np.argmax(change))
+    return float(change[k]), model.coordinates[k]
+
+
+def consistent(model, q, qd, t=0.0, hint=None) -> Start:
+    """``q`` moved onto Φ = 0, then ``qd`` onto the constraint velocities, with the report of
+    how far each moved (see :class:`Start`)."""
+    q_on = project_onto_constraints(model, q, t, hint=hint) if len(model.constraint_names) else np.array(q, float)
+    qd_on = project_velocities(model, q_on, qd, t)
+    return Start(model, q_on, qd_on, {"q": largest_change(model, q, q_on), "qd": largest_change(model, qd, qd_on)})
+
+
+def vector_of(model, values: dict) -> np.ndarray:
+    """(n,) with the named coordinates set from ``values`` (name -> number), the others 0."""
+    x = np.zeros(model.n_dof)
+    for name, value in values.items():
+        x[model.index(name)] = value
+    return x
+
+
+def file_start(model, initial: dict, start="none", velocities: dict | None = None) -> Start:
+    """Start of a model file's run: the ``[initial]`` configuration (``initial``, ``velocities``:
+    coordinate name → value), dependent coordinates chosen when the file says "auto",
+    optionally the locked statics first (``start="locked"``), then made consistent
+    (:func:`consistent`); ``start="constrained"`` then solves the constrained equilibrium (the
+    velocities are projected again there)."""
+    if start not in ("none", "locked", "constrained"):
+        raise ValueError(f"unknown start {start!r}: use 'none', 'locked' or 'constrained'")
+    q = vector_of(model, initial)
     if model.dependent is None:
         model = partition.partition_at(model, q)
     if start == "locked":
         q = statics.locked(model, q)
-    q = project_onto_constraints(model, q)
+    begun = consistent(model, q, vector_of(model, velocities or {}))
     if start == "constrained":
-        q = statics.constrained(model, q)
-    elif start not in ("initial", "locked"):
-        raise ValueError(f"unknown start {start!r}: use 'initial', 'locked' or 'constrained'")
-    return model, q
+        begun.q = statics.constrained(model, begun.q)
+        begun.qd = project_velocities(model, begun.q, begun.qd)
+    return begun
 
 
 def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
-             start="locked", repartition=False, notify=None):
-    """The constrained motion from rest at ``q0``; returns a results dict (see
+             start="locked", repartition=False, notify=None, qd0=None):
+    """The constrained motion from ``q0`` with velocities ``qd0`` (default rest); returns a results dict (see
     :mod:`gpmegen.analysis.results`). The conditioning of the dependent block of ``D`` is
     watched: ``notify`` (a callable taking a message) is told when it degrades, and with
     ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that cannot finish
     is refused before it starts (:func:`gpmegen.limits.check_run`)."""
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
-    qd0 = np.zeros(model.n_dof)
+    qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
     watch = partition.Watch(model, repartition, notify)
     if method == "rk4":
         t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,

@@ -266,13 +266,25 @@ class LoadedModel:
         """(M, f, Φ, Φ̇, D, γ) in one pass over the kinematics."""
         return self.evaluator.gpme_terms(t, q, qd, self.p)
 
+    def partitioned(self, t, q) -> LoadedModel:
+        """This model, or when its dependent coordinates are "auto" and not chosen yet, a copy
+        with them chosen at ``(t, q)`` (pivoted QR of D there, :mod:`gpmegen.runtime.partition`)."""
+        if self.dependent is not None:
+            return self
+        from .partition import partition_at
+
+        return partition_at(self, vector(q, self.n_dof, "q"), t)
+
     def motion(self, t, q, qd):
-        """(q̈, M, f): the GPME solution with the terms it was solved from."""
-        return self.evaluator.motion(t, q, qd, self)
+        """(q̈, M, f): the GPME solution with the terms it was solved from. With "auto"
+        dependent coordinates not chosen yet, they are chosen at this state (:meth:`partitioned`)."""
+        model = self.partitioned(t, q)
+        return model.evaluator.motion(t, q, qd, model)
 
     def accelerations(self, t, q, qd):
-        """q̈ (n,) from the GPME with Baumgarte terms (eq. 16)."""
-        return self.evaluator.accelerations(t, q, qd, self)
+        """q̈ (n,) from the GPME with Baumgarte terms (eq. 16); the partition as :meth:`motion`."""
+        model = self.partitioned(t, q)
+        return model.evaluator.accelerations(t, q, qd, model)
 
     def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
         """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid
@@ -289,7 +301,8 @@ class LoadedModel:
         g = integrate.grid(t0, t_end, dt)
         k_from, k_to = g.span(steps, save_every)
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"), vector(w0, 2, "w0")])
-        t, y, status = self.evaluator.rk4(self, g, k_from, k_to, int(save_every), y0)
+        model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
+        t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
         n = self.n_dof
         return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 

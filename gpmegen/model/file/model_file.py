@@ -18,15 +18,16 @@ from .locator import Locator, located
 class ModelFile:
     """A model read from a file, with the file's start configuration.
 
-    ``initial``: coordinate name -> value (SymPy expression of parameters) from ``[initial] q``;
-    coordinates not named start at 0. ``prescribed``: coordinate name -> its law (SymPy
-    expression of ``t`` and parameters) for the joints given ``prescribed = "law(t)"``, whose
-    constraints the model holds."""
+    ``initial``, ``initial_qd``: coordinate name -> value (SymPy expression of parameters) from
+    ``[initial] q`` and ``[initial] qd``; coordinates not named start at 0. ``prescribed``:
+    coordinate name -> its law (SymPy expression of ``t`` and parameters) for the joints given
+    ``prescribed = "law(t)"``, whose constraints the model holds."""
 
     path: str
     model: Model
     initial: dict = field(default_factory=dict)
     source: str = field(default="", repr=False, compare=False)   # the file's text, for locate()
+    initial_qd: dict = field(default_factory=dict)
     prescribed: dict = field(default_factory=dict)
 
     @functools.cached_property
@@ -42,13 +43,20 @@ class ModelFile:
     def initial_values(self, params: dict | None = None) -> dict[str, float]:
         """The start configuration as numbers (rad, m), with the parameter defaults overridden
         by ``params``."""
+        return self._numbers(self.initial, "q", params)
+
+    def initial_velocities(self, params: dict | None = None) -> dict[str, float]:
+        """The start velocities ``[initial] qd`` as numbers (rad/s, m/s), as :meth:`initial_values`."""
+        return self._numbers(self.initial_qd, "qd", params)
+
+    def _numbers(self, table, key, params):
         values = {p.symbol: p.default for p in self.model.parameters}
         values.update({symbol(name): float(value) for name, value in (params or {}).items()})
         numbers = {}
-        for name, expr in self.initial.items():
+        for name, expr in table.items():
             numbers[name] = evaluate(expr, values)
             if numbers[name] is None:
-                raise ModelError(f"{self.path}: initial.q.{name} = {expr} is not a finite real number with the "
+                raise ModelError(f"{self.path}: initial.{key}.{name} = {expr} is not a finite real number with the "
                                  f"parameter values in use; change those parameters or the expression")
         return numbers
 

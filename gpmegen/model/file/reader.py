@@ -303,7 +303,7 @@ class Reader:
         constraints = self.read_constraints(data.get("constraints", []))
         dependent = self.read_dependent(data.get("dependent", "auto"))
         constraints, dependent = self.prescribe(constraints, dependent)
-        initial = self.read_initial(data.get("initial", {}))
+        initial, initial_qd = self.read_initial(data.get("initial", {}))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description,
@@ -314,7 +314,7 @@ class Reader:
         except ModelError as exc:
             raise located(exc, self.file, self.locator) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
-        return ModelFile(self.file, model, initial, self.source, prescribed=laws)
+        return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws)
 
     def check_chain_size(self, items):
         """Refuse, before reading it element by element, a chain whose build cannot finish
@@ -640,15 +640,19 @@ class Reader:
         return tuple(value)
 
     def read_initial(self, table):
+        """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities."""
         path = ("initial",)
-        self.table(table, path, ("q",), what="initial table")
-        q = self.table(table.get("q", {}), path + ("q",), what="table of coordinates")
-        initial = {}
+        self.table(table, path, ("q", "qd"), what="initial table")
+        return tuple(self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
+
+    def read_coordinate_values(self, table, path):
+        q = self.table(table, path, what="table of coordinates")
+        values = {}
         for name, value in q.items():
             if name not in self.coordinates:
                 close = difflib.get_close_matches(name, self.coordinates, 1)
                 hint = f"did you mean {close[0]!r}? " if close else ""
-                self.fail(path + ("q", name), f"{name!r} is not a coordinate; {hint}the coordinates are "
-                                              f"{', '.join(self.coordinates)}")
-            initial[name] = self.quantity(value, path + ("q", name), self.params)
-        return initial
+                self.fail(path + (name,), f"{name!r} is not a coordinate; {hint}the coordinates are "
+                                          f"{', '.join(self.coordinates)}")
+            values[name] = self.quantity(value, path + (name,), self.params)
+        return values

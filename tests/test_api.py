@@ -1,0 +1,231 @@
+"""The public Python API that mirrors the command line: gpmegen.statics, gpmegen.simulate and
+their Results; every command on model files and on folders made by ``gpmegen build --out``."""
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.analysis import reference_case
+from gpmegen.analysis.results import ResultsError
+from gpmegen.cli import main
+from gpmegen.runtime import partition
+from gpmegen.status import SolveStatus
+
+ROOT = Path(__file__).resolve().parents[1]
+TIP_LAW = ROOT / "tests" / "models" / "tip_law.toml"
+
+
+def _readme_block(marker):
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(encoding="utf-8"), re.S)
+    return next(block for block in blocks if marker in block)
+
+
+def test_the_readme_example_of_the_python_api_runs(env, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    namespace = {}
+    exec(compile(_readme_block("gpmegen.simulate("), "README.md", "exec"), namespace)
+    run, again, own = namespace["run"], namespace["again"], namespace["own"]
+    assert run.status == "complete" and run.t[-1] == pytest.approx(0.1)
+    np.testing.assert_array_equal(again.q, run.q)
+    assert own.meta["start"] == "none" and own.status == "complete"
+    assert "start moved onto the constraints" in capsys.readouterr().out
+
+
+def test_load_statics_and_simulate_bind_the_same_constraint_constants(env):
+    """r_Ea, y_c: those that put E of the locked statics on the constraints, on every path."""
+    loaded = gpmegen.load(nrfe=5)
+    begun = gpmegen.statics(nrfe=5)
+    run = gpmegen.simulate(nrfe=5, t_end=1e-3, dt=1e-4)
+    for name in ("r_Ea", "y_c"):
+        assert loaded.params[name] == begun.model.params[name] == run.meta["params"][name]
+    x, y, z = loaded.end_effector(begun.q)
+    assert loaded.params["r_Ea"] == pytest.approx(np.hypot(x, z), abs=1e-12)
+    assert loaded.params["y_c"] == pytest.approx(y - loaded.params["A"], abs=1e-12)
+    # the arm's sag moves E: not the rigid arm's values, which stay the file's defaults
+    rigid = gpmegen.load(nrfe=1)
+    assert abs(loaded.params["r_Ea"] - rigid.params["r_Ea"]) > 1e-2
+    assert rigid.params["r_Ea"] == pytest.approx(np.hypot(*rigid.end_effector(reference_case.joint_start(rigid))[::2]))
+    assert gpmegen.load(nrfe=5, params={"r_Ea": 1.05}).params["r_Ea"] == 1.05
+
+
+def test_simulate_returns_results_with_named_accessors_and_saves_without_replacing(env, tmp_path):
+    run = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=1e-3, save_every=2)
+    assert run.coordinates == ("theta1", "psi1_1", "theta1_1", "phi1_1")
+    np.testing.assert_array_equal(run.coordinate("theta1"), run.q[:, 0])
+    np.testing.assert_array_equal(run.velocity("psi1_1"), run.qd[:, 1])
+    # the tip law y = v0 t holds from the first step (the start is consistent)
+    np.testing.assert_allclose(run["end_effector"][:, 1], 0.2 * run.t, atol=1e-12)
+    assert run["phi"].shape == (len(run.t), 1) and run.meta["start_moved"]["qd"]["max_change"] < 1e-12
+    path = tmp_path / "tip.npz"
+    assert run.save(path) == [path, path.with_suffix(".csv")]
+    with pytest.raises(ResultsError, match="earlier run's results.*overwrite=True"):
+        run.save(path)
+    run.save(path, overwrite=True)
+    np.testing.assert_array_equal(gpmegen.Results.load(path).qd, run.qd)
+    with pytest.raises(KeyError, match="not a coordinate"):
+        run.coordinate("x3")
+
+
+def test_a_start_off_its_constraints_is_a_python_warning(env, tmp_path):
+    path = tmp_path / "from_rest.toml"
+    path.write_text(TIP_LAW.read_text(encoding="utf-8").replace('qd = { theta1 = "v0/L" }', ""), encoding="utf-8")
+    with pytest.warns(RuntimeWarning, match="qd of theta1 by 4.000e-01"):
+        begun = gpmegen.statics(path)
+    assert begun.qd[0] == pytest.approx(0.4)
+
+
+def test_a_model_with_auto_dependent_coordinates_evaluates_out_of_the_box(env, tmp_path):
+    """With ``dependent = "auto"`` the accelerations are those of any regular partition: the
+    GPME rows Bᵀ(M q̈ - f) = 0 span the same space for every choice of dependent coordinates."""
+    text = TIP_LAW.read_text(encoding="utf-8")
+    path = tmp_path / "auto.toml"
+    path.write_text(text.replace('dependent = ["theta1"]', 'dependent = "auto"').replace("tip_law_", "tip_auto_"),
+                    encoding="utf-8")
+    model = gpmegen.load(model=gpmegen.load_model_file(path))
+    given = gpmegen.load(model=gpmegen.load_model_file(TIP_LAW))
+    assert model.dependent is None
+    rng = np.random.default_rng(3)
+    q, qd = rng.normal(scale=0.1, size=4), rng.normal(size=4)
+    np.testing.assert_allclose(model.accelerations(0.3, q, qd), given.accelerations(0.3, q, qd), rtol=1e-10,
+                               atol=1e-10)
+    chosen = partition.partition_at(model, q, 0.3)
+    np.testing.assert_array_equal(model.accelerations(0.3, q, qd), chosen.accelerations(0.3, q, qd))
+    t, q_run, _, _, status = model.rk4(q, qd, 1e-3, 1e-4)
+    assert status == SolveStatus.OK and np.all(np.isfinite(q_run))
+
+
+def test_every_command_runs_on_a_folder_made_by_build_out(env, tmp_path, capsys):
+    out = tmp_path / "built"
+    assert main(["build", str(TIP_LAW), "--out", str(out)]) == 0
+    folder = out / "tip_law_nrfe2"
+    run = tmp_path / "folder.npz"
+    assert main(["simulate", str(out), "--t-end", "0.01", "--dt", "1e-3", "--backend", "numpy",
+                 "--out", str(run)]) == 0
+    assert main(["statics", str(folder), "--statics", "locked"]) == 0
+    assert main(["modes", str(folder), "--out", str(tmp_path / "figures")]) == 0
+    assert main(["plot", str(run), "--out", str(tmp_path / "figures")]) == 0
+    capsys.readouterr()
+    # the folder keeps the file's [initial] (start.json): the same run as from the file itself
+    mine = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=1e-3, save_every=100)
+    np.testing.assert_allclose(gpmegen.Results.load(run).q, mine.q, atol=1e-14)
+    assert gpmegen.Results.load(run).qd[0, 0] == pytest.approx(0.4)
+    # a Model of one's own starts at rest at q = 0, here off the tip's law in velocity
+    with pytest.warns(RuntimeWarning, match="qd of theta1"):
+        gpmegen.statics(gpmegen.load_model_file(TIP_LAW), directory=tmp_path / "generated")
+    (folder / "start.json").write_text("{", encoding="utf-8")
+    assert main(["statics", str(folder)]) == 1
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("gpmegen statics: error: ") and "start.json is damaged" in last and "--out" in last
+    # an output folder holding two models is refused in one line
+    assert main(["build", "--nrfe", "1", "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["statics", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds 2 built models" in err
+
+
+def test_a_folder_of_the_reference_manipulator_runs_its_scenario(env, tmp_path, capsys):
+    out = tmp_path / "built"
+    assert main(["build", "--nrfe", "1", "--out", str(out)]) == 0
+    run = gpmegen.simulate(out, t_end=1e-3, dt=1e-4)
+    assert run.meta["label"] == "rigid arm" and run.meta["start"] == "locked"
+    assert run.meta["params"]["r_Ea"] == gpmegen.load(nrfe=1).params["r_Ea"]
+    assert "prescribed" in run.keys()
+    assert gpmegen.statics(out).model.folder == out / "manipulator_nrfe1"  # the folder's code, not a new build
+
+
+def test_modes_of_a_model_file_match_the_single_spring_formula(env, tmp_path, capsys):
+    """n_rfe = 2: one sde at the middle, the outer half (a bar of length L/2) on a spring
+    c = E·b·h³/(12 L) (bending in the plane of the joint); joints locked: f = √(c/J)/2π with J the
+    half's inertia about the sde."""
+    assert main(["modes", str(TIP_LAW), "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    L, b, h, rho, E = 0.5, 0.02, 0.01, 2700.0, 7.0e10
+    c = E * b * h**3 / 12 / L
+    m = rho * b * h * L / 2
+    J = m * ((L / 2) ** 2 + h**2) / 12 + m * (L / 4) ** 2
+    first = float(re.search(r"^\s+1\s+(\S+)\s+vertical", out, re.M).group(1))
+    assert first == pytest.approx(np.sqrt(c / J) / (2 * np.pi), rel=1e-5)
+    assert (tmp_path / "modes_tip_law_joints.csv").exists()
+
+
+def test_convergence_takes_param_overrides(tmp_path, capsys):
+    """The clamped arm's static tip deflection (linear) goes as 1/E: E2 four times larger, a
+    quarter of the deflection, in beam theory and in every n_rfe."""
+    tables = []
+    for extra in ([], ["--param", "E2=2.8e11"]):
+        assert main(["convergence", "--nrfe", "2", "3", "--out", str(tmp_path), *extra]) == 0
+        out = capsys.readouterr().out
+        block = out.split("\n\n")[1].splitlines()
+        analytic = float(re.search(r"analytic (\S+)", block[0]).group(1))
+        values = [float(line.split()[1]) for line in block[2:4]]
+        tables.append(np.array([analytic, *values]))
+    np.testing.assert_allclose(tables[1] / tables[0], 0.25, rtol=1e-6)
+
+
+def _standalone(folder):
+    """The generated NumPy module of ``folder`` imported as a plain file, without gpmegen."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"standalone_{folder.name}", folder / "model_numpy.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("order", (0, 1))
+def test_the_standalone_numpy_module_solves_the_gpme_as_gpmegen_does(env, tmp_path, rng, order):
+    """The module's own accelerations (null-space basis, no partition) against gpmegen's solve
+    (a partition's B), at random states; order 1: the tip's velocity prescribed instead."""
+    path = tmp_path / f"order{order}.toml"
+    text = TIP_LAW.read_text(encoding="utf-8").replace("tip_law_", f"tip_order{order}_")
+    if order:
+        text = text.replace('expression = "y_tip - v0*t"', 'expression = "vy_tip - v0"\norder = 1')
+        text = text.replace('beta = "beta_tip"\n', "")
+    path.write_text(text, encoding="utf-8")
+    model = gpmegen.load(model=gpmegen.load_model_file(path), directory=tmp_path / "generated")
+    module = _standalone(tmp_path / "generated" / model.module.MODEL)
+    for _ in range(3):
+        q, qd, t = rng.normal(scale=0.3, size=4), rng.normal(size=4), rng.uniform(0, 1)
+        np.testing.assert_allclose(module.accelerations(t, q, qd, module.DEFAULTS), model.accelerations(t, q, qd),
+                                   rtol=1e-9, atol=1e-9)
+
+
+def test_the_reference_snapshots_standalone_accelerations_agree_with_gpmegen(flexible, rng):
+    module = _standalone(ROOT / "generated" / "manipulator_nrfe5")
+    q, qd = rng.normal(scale=0.1, size=15), rng.normal(scale=0.1, size=15)
+    q[1] += np.pi / 4
+    np.testing.assert_allclose(module.accelerations(0.2, q, qd, flexible.p), flexible.accelerations(0.2, q, qd),
+                               rtol=1e-9, atol=1e-9)
+
+
+def test_convergence_of_a_model_files_flexible_link_against_beam_theory(env, tmp_path, capsys):
+    """The tip law's link clamped: beam theory's w L⁴/(8 E Iz), and at n_rfe = 2 (one sde in the
+    middle) exactly half of it: the middle turns by (w (L/2)²/2)/(E Iz/L), the tip drops by that
+    times L/2, i.e. w L⁴/(16 E Iz)."""
+    assert main(["convergence", str(TIP_LAW), "--nrfe", "2", "3", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "flexible link '1' of tip_law_nrfe2, clamped" in out
+    block = out.split("\n\n")[1].splitlines()
+    L, b, h, rho, E, g = 0.5, 0.02, 0.01, 2700.0, 7.0e10, 9.81
+    exact = rho * b * h * g * L**4 / (8 * E * b * h**3 / 12)
+    assert float(re.search(r"analytic (\S+)", block[0]).group(1)) == pytest.approx(exact, rel=1e-7)
+    assert float(block[2].split()[1]) == pytest.approx(exact / 2, rel=1e-6)
+    assert (tmp_path / "convergence_tip_law_nrfe2_link1.png").exists()
+
+
+def test_convergence_refuses_a_model_without_a_flexible_link_in_one_line(tmp_path, capsys):
+    text = TIP_LAW.read_text(encoding="utf-8")
+    start = text.index("[[chain]]\nflexible")
+    body = '[[chain]]\nbody = "bar"\nshape = { type = "rod", mass = 1, length = "L", radius = 0.01 }\n'
+    rigid = text[:start] + body + text[text.index("[[chain]]\npoint"):]
+    path = tmp_path / "rigid.toml"
+    path.write_text(rigid.replace("[initial]\nqd", "[initial]\nq"), encoding="utf-8")
+    assert main(["convergence", str(path), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "has no flexible link" in err
