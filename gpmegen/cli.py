@@ -160,7 +160,8 @@ def _start(case, start):
     return start
 
 
-def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False):
+def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
+                    actuated=()):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
@@ -168,7 +169,7 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     _check_results_path(out)
     backend = backend or _default_backend()
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
-                    repartition=repartition)
+                    repartition=repartition, actuated=actuated)
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
@@ -192,7 +193,7 @@ def cmd_simulate(args) -> int:
     start = _start(case, args.statics)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-              dict(args.param or []), out, repartition=args.repartition)
+              dict(args.param or []), out, repartition=args.repartition, actuated=args.actuated or ())
     return 0
 
 
@@ -327,6 +328,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
     s.add_argument("--repartition", action="store_true",
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
+    s.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
+                   help="realize the programmed constraints by inputs on these coordinates alone, one per "
+                        "constraint (e.g. --actuated psi2 x3), instead of ideally")
     s.set_defaults(func=cmd_simulate)
 
     st = sub.add_parser("statics", help="print the static start configuration")

@@ -8,8 +8,8 @@ import time
 from dataclasses import dataclass
 
 from .. import limits
+from . import driving, study
 from . import results as results_io
-from . import study
 
 
 @dataclass
@@ -29,12 +29,15 @@ def check(case, t_end, dt, save_every, method, backend) -> None:
     limits.check_run(limits.model_coordinates(model), len(model.constraints), t_end, dt, save_every, method, backend)
 
 
-def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False) -> Run:
-    """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion and
+def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
+        actuated=()) -> Run:
+    """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion (held
+    by inputs on the coordinates ``actuated``, one per constraint, when given) and
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`). ``progress`` takes one-line messages."""
     check(case, t_end, dt, save_every, method, backend)
     model, q0 = case.start(backend, start, overrides, progress)
+    model = model.with_actuators(actuated)
     shown = case.shown(model)
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
              + case.start_note(model))
@@ -48,4 +51,5 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
                          repartition=repartition, notify=progress)
     wall = time.perf_counter() - t0
     res = results_io.annotate(res, case.metadata(model), case.extras(model, res))
+    res = driving.annotate(res, case.model, model)
     return Run(model, res, results_io.save(res, out), wall)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import limits
 from ..errors import SimulationError
-from ..runtime import integrate, partition, statics
+from ..runtime import gpme, integrate, partition, statics
 from . import results as results_io
 
 
@@ -73,7 +73,10 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     is refused before it starts (:func:`gpmegen.limits.check_run`)."""
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
     qd0 = np.zeros(model.n_dof)
-    watch = partition.Watch(model, repartition, notify)
+    model.check_actuators(0.0, q0)
+    # the actuated realization does not use the partition: nothing to watch
+    watch = partition.Watch(model, repartition, notify, limit=np.inf if len(model.actuators) else
+                            partition.ILL_CONDITIONED)
     if method == "rk4":
         t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
                                       max_violation=max_violation, watch=watch)
@@ -82,33 +85,42 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     model = watch.model  # with the dependent coordinates the run ended with
     settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
-                    repartitions=watch.events)
+                    repartitions=watch.events, actuators=[model.coordinates[k] for k in model.actuators])
     return collect(model, t, y, str(outcome), settings)
 
 
 def collect(model, t, y, status, settings) -> dict:
-    """Derived quantities at the saved samples: E, Φ, drive, constraint forces, energies."""
-    n = model.n_dof
+    """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
+    constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
+    actuated one), energies."""
+    n, m = model.n_dof, len(model.constraint_names)
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
     E = np.zeros((samples, 3))
-    phi = np.zeros((samples, len(model.constraint_names)))
+    phi = np.zeros((samples, m))
     drive = np.zeros((samples, n))
+    qdd = np.full((samples, n), np.nan)
     reaction = np.zeros((samples, n))
+    lam = np.full((samples, m), np.nan)
     energy = np.zeros((samples, 3))
+    actuated = len(model.actuators) > 0
     for k in range(samples):
         E[k] = model.end_effector(q[k])
-        phi[k] = model.constraint_terms(t[k], q[k], qd[k])[0]
+        phi[k], _, D, _ = model.constraint_terms(t[k], q[k], qd[k])
         drive[k] = model.drive_forces(t[k])
         if np.all(np.isfinite(y[k])):
-            reaction[k] = model.constraint_forces(t[k], q[k], qd[k])
+            qdd[k], M, f = model.motion(t[k], q[k], qd[k])
+            reaction[k] = M @ qdd[k] - f
+            lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)
         energy[k] = model.energies(q[k], qd[k])
+    realization = ({"u": lam, "actuators": np.array([model.coordinates[k] for k in model.actuators])} if actuated
+                   else {"lambda": lam})
     return {
-        "t": t, "q": q, "qd": qd, "coordinates": np.array(model.coordinates),
+        "t": t, "q": q, "qd": qd, "qdd": qdd, "coordinates": np.array(model.coordinates),
         "end_effector": E, "phi": phi, "constraint_names": np.array(model.constraint_names),
         # the drives' generalized forces summed: the one drive torque of a single-drive model
         "tau_drive": drive.sum(axis=1),
-        "drive_forces": drive, "constraint_forces": reaction,
+        "drive_forces": drive, "constraint_forces": reaction, **realization,
         "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
         "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1],
         "status": np.array(status),
