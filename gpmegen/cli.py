@@ -206,6 +206,9 @@ def cmd_statics(args) -> int:
         print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
     if case.constants(model):
         print(case.constants(model))
+    from .analysis import driving
+
+    print(driving.format_holding(case.model, model, q, case.metadata(model).get("constraint_units")))
     return 0
 
 

@@ -157,3 +157,56 @@ def test_cli_writes_the_driving_functions_with_units(tmp_path, capsys):
     assert cli.main(common + ["--out", str(tmp_path / "bad.npz"), "--actuated", "theta1", "psi2"]) == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
     assert len(errors) == 1 and errors[0].startswith("gpmegen simulate: error: at t = 0 s the inputs on theta1, psi2")
+
+
+def test_holding_forces_at_rest_against_the_oracle(flexible3):
+    """At the locked start the joints' holding forces are the oracle's g + C q on θ1, ψ2, x3;
+    at the constrained equilibrium the constraints alone hold the arm (nothing left unbalanced),
+    while at the locked start they cannot (the jolt when the joints are freed)."""
+    model, q_locked = flexible3
+    symbolic = reference_case.ReferenceCase(3).model
+    orc = ref.oracle(3, model.params)
+    expected = orc.chain.gravity(q_locked) + orc.chain.stiffness() @ q_locked
+    held = driving.holding(symbolic, model, q_locked)
+    assert list(held["joints"]) == ["theta1", "psi2", "x3"]
+    joints = [model.index(name) for name in held["joints"]]
+    assert np.allclose(list(held["joints"].values()), expected[joints], rtol=1e-10, atol=1e-10)
+    assert held["unbalanced"] > 1.0
+    _, q_constrained = reference_case.initial_state(model, "constrained")
+    assert driving.holding(symbolic, model, q_constrained)["unbalanced"] < 1e-8
+
+
+def test_deformation_is_the_springs_and_the_flexible_displacement_of_E(flexible3, ideal3):
+    """``spring_forces`` is C q with C from the oracle's springs; the deflection of E vanishes for
+    the rigid arm's configuration and equals E(q) - E(q with the sde rotations zero)."""
+    model, _ = flexible3
+    orc = ref.oracle(3, model.params)
+    out = driving.deformation(model, ideal3["q"])
+    assert np.allclose(out["spring_forces"], ideal3["q"] @ orc.chain.stiffness().T, rtol=1e-12, atol=1e-9)
+    rigid = ideal3["q"].copy()
+    rigid[:, [k for k, name in enumerate(model.coordinates) if name not in reference_case.START_JOINTS]] = 0.0
+    assert np.max(np.abs(driving.deformation(model, rigid)["deflection"])) == 0.0
+    k = -1
+    assert np.allclose(out["deflection"][k], orc.end_effector(ideal3["q"][k]) - orc.end_effector(rigid[k]),
+                       rtol=1e-10, atol=1e-12)
+    assert np.max(np.abs(out["deflection"][:, 1])) > 1e-4  # m: the arm sags
+
+
+def test_driving_figures_need_the_driving_functions(flexible3, ideal3, rigid_runs, tmp_path):
+    """The figures of the driving functions are drawn from runs that hold them; a results file of
+    format 2 written before they were saved still plots, without them. The force drawn on a
+    joint is its drive plus the reaction, M q̈ - f there."""
+    from gpmegen.analysis import driving_plots, plots
+
+    model, _ = flexible3
+    res = driving.annotate(ideal3, reference_case.ReferenceCase(3).model, model)
+    k = model.index("psi2")
+    M, f, *_ = model.gpme_terms(res["t"][-1], res["q"][-1], res["qd"][-1])
+    assert np.isclose(driving_plots.joint_forces(res, "psi2")[-1], (M @ res["qdd"][-1] - f)[k]
+                      + res["drive_forces"][-1, k], rtol=1e-12)
+    names = {p.name for p in plots.plot_all([res, rigid_runs[2]], tmp_path / "new")}
+    assert {"driving_functions.png", "elastic_deformation.png", "constraint_multipliers.png"} <= names
+    old = {key: value for key, value in ideal3.items()
+           if key not in ("qdd", "lambda", "u", "actuators", "drive_forces", "constraint_forces")}
+    names = {p.name for p in plots.plot_all([old], tmp_path / "old")}
+    assert "joint_coordinates.png" in names and "driving_functions.png" not in names

@@ -15,6 +15,7 @@ import sympy as sp
 
 from ..model.chain import TIME, Joint, point_symbols
 from ..model.expand import expand
+from ..runtime import statics
 from . import results as results_io
 
 # Unit of a generalized force on a coordinate, by joint kind.
@@ -74,15 +75,60 @@ def point_forces(model, loaded, t, q, lam) -> dict:
     return out
 
 
+def deformation(loaded, q) -> dict:
+    """The elastic deformation at the samples ``q`` (k, n): ``spring_forces`` (k, n) the springs'
+    generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
+    coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
+    {0} from where the rigid arm at the same joint coordinates puts it (spring coordinates zero)."""
+    C = statics.spring_stiffness(loaded, q[0])
+    springs = np.flatnonzero(np.abs(np.diag(C)) > 0)
+    rigid = q.copy()
+    rigid[:, springs] = 0.0
+    deflection = np.array([loaded.end_effector(q[k]) - loaded.end_effector(rigid[k]) for k in range(len(q))])
+    return {"spring_forces": q @ C.T, "deflection": deflection.reshape(len(q), 3)}
+
+
 def annotate(results: dict, model, loaded) -> dict:
     """``results`` of a run of the symbolic ``model`` (loaded as ``loaded``) with the units of its
-    driving functions in the metadata (``force_units``, ``lambda_units``) and, for the ideal
-    realization, ``point_forces`` (k, n_points, 3) N on the points named by ``meta["force_points"]``."""
+    driving functions in the metadata (``force_units``, ``lambda_units``), the elastic
+    :func:`deformation` and, for the ideal realization, ``point_forces`` (k, n_points, 3) N on
+    the points named by ``meta["force_points"]``."""
     meta = results_io.metadata(results)
     units = {"force_units": force_units(model),
              "lambda_units": lambda_units(model, meta.get("constraint_units", {}))}
-    if "lambda" not in results:
-        return results_io.annotate(results, units, {})
-    forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"])
-    arrays = {"point_forces": np.stack(list(forces.values()), axis=1)} if forces else {}
-    return results_io.annotate(results, {**units, "force_points": list(forces)}, arrays)
+    arrays = deformation(loaded, results["q"]) if loaded.points and len(results["t"]) else {}
+    if "lambda" in results:
+        forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"])
+        units["force_points"] = list(forces)
+        if forces:
+            arrays["point_forces"] = np.stack(list(forces.values()), axis=1)
+    return results_io.annotate(results, units, arrays)
+
+
+def holding(model, loaded, q) -> dict:
+    """What holds the configuration ``q`` at rest, drive off: ``joints`` (name → generalized
+    force of ``g + C q`` on each coordinate without a spring, N·m or N), ``lambda`` (m,) the
+    multipliers with which the constraints alone come closest (``Dᵀλ = g + C q``, least squares)
+    and ``unbalanced`` the largest generalized force they leave (0 at a constrained
+    equilibrium; at the locked start, what the joints' locks hold)."""
+    r = loaded.static_residual(q)
+    springs = set(np.flatnonzero(np.abs(np.diag(statics.spring_stiffness(loaded, q))) > 0).tolist())
+    joints = {name: float(r[k]) for k, name in enumerate(loaded.coordinates) if k not in springs}
+    D = loaded.constraint_terms(0.0, q, np.zeros(loaded.n_dof))[2]
+    lam = np.linalg.lstsq(D.T, r, rcond=None)[0] if len(D) else np.zeros(0)
+    return {"joints": joints, "lambda": lam, "unbalanced": float(np.max(np.abs(r - D.T @ lam), initial=0.0))}
+
+
+def format_holding(model, loaded, q, constraint_units=None) -> str:
+    """:func:`holding` as ``gpmegen statics`` prints it, with units."""
+    held = holding(model, loaded, q)
+    units = force_units(model)
+    lines = ["holding forces at rest, drive off (g + C q on the joints): "
+             + ", ".join(f"{name} = {value:.6g} {units[name]}" for name, value in held["joints"].items())]
+    if len(held["lambda"]):
+        lam_units = lambda_units(model, constraint_units or {})
+        lines.append("constraint multipliers at rest (Dᵀλ = g + C q, least squares): "
+                     + ", ".join(f"{c.name} = {value:.6g} {lam_units[c.name]}"
+                                 for c, value in zip(model.constraints, held["lambda"]))
+                     + f"; largest generalized force the constraints leave: {held['unbalanced']:.3g} (N or N·m)")
+    return "\n".join(lines)

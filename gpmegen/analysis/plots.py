@@ -148,4 +148,6 @@ def plot_all(runs: list, out, fmt: str = "png") -> list[Path]:
         fig.suptitle("Power balance: change of total energy against the work of drive and constraints")
         written.append(_save(fig, out, "energy_balance", fmt))
         plt.close(fig)
-    return written
+    from .driving_plots import plot_driving  # the driving functions and the elastic deformation
+
+    return written + plot_driving(runs, out, fmt)
