@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import limits
 from ..errors import SimulationError
-from ..runtime import gpme, integrate, partition, statics
+from ..runtime import gpme, integrate, internal, partition, statics
 from . import results as results_io
 
 
@@ -74,6 +74,11 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
     qd0 = np.zeros(model.n_dof)
     model.check_actuators(0.0, q0)
+    actuated = [model.coordinates[k] for k in model.actuators]
+    if actuated:
+        stability = internal.eigenvalues(model, 0.0, q0, qd0)
+        (notify or (lambda message: None))(
+            f"internal dynamics of the inputs on {', '.join(actuated)} at the start: {internal.describe(stability)}")
     # the actuated realization does not use the partition: nothing to watch
     watch = partition.Watch(model, repartition, notify, limit=np.inf if len(model.actuators) else
                             partition.ILL_CONDITIONED)
@@ -83,9 +88,11 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     else:
         t, y, outcome = integrate.adaptive(model, q0, qd0, t_end, method=method)
     model = watch.model  # with the dependent coordinates the run ended with
+    if actuated:
+        outcome = internal.explain(outcome, stability, actuated)
     settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
-                    repartitions=watch.events, actuators=[model.coordinates[k] for k in model.actuators])
+                    repartitions=watch.events, actuators=actuated)
     return collect(model, t, y, str(outcome), settings)
 
 
