@@ -161,7 +161,7 @@ def _start(case, start):
 
 
 def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
-                    actuated=()):
+                    actuated=None):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
@@ -193,7 +193,8 @@ def cmd_simulate(args) -> int:
     start = _start(case, args.statics)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-              dict(args.param or []), out, repartition=args.repartition, actuated=args.actuated or ())
+              dict(args.param or []), out, repartition=args.repartition,
+              actuated=() if args.actuated == ["none"] else args.actuated)
     return 0
 
 
@@ -333,7 +334,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
-                        "constraint (e.g. --actuated psi2 x3), instead of ideally")
+                        "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
+                        "actuators (--actuated none: ideally), else none")
     s.set_defaults(func=cmd_simulate)
 
     st = sub.add_parser("statics", help="print the static start configuration")

@@ -4,6 +4,7 @@ continuum beam's non-minimum-phase zeros."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,8 @@ LINK = Path(__file__).resolve().parent / "models" / "flexible_link.toml"
 def link(nrfe):
     """The flexible link on its hub, straight (an equilibrium: no gravity, tip on the x0 axis),
     its hub actuated."""
-    model = gpmegen.load(model=gpmegen.load_model_file(LINK, nrfe=nrfe)).with_actuators(["theta1"])
+    file = gpmegen.read_model_file(LINK, nrfe=nrfe)
+    model = gpmegen.load(model=file.model).with_actuators(file.actuators)
     return model, np.zeros(model.n_dof)
 
 
@@ -104,3 +106,23 @@ def test_a_run_diverging_by_its_internal_dynamics_says_so(tmp_path, capsys):
     assert (tmp_path / "flexible.partial.npz").exists() and not out.exists()
     assert cli.main(common + ["--nrfe", "1", "--t-end", "0.02", "--out", str(tmp_path / "rigid.npz")]) == 0
     assert "at the start: stable" in capsys.readouterr().err
+
+
+def test_model_file_actuators(env, tmp_path, capsys):
+    """``actuators`` of a model file realize its constraints by default (``--actuated none``:
+    ideally); a coordinate that is not one, or a count other than one per constraint, is
+    refused with the file's line."""
+    assert gpmegen.read_model_file(LINK).actuators == ("theta1",)
+    common = ["simulate", str(LINK), "--nrfe", "2", "--t-end", "0.01", "--dt", "1e-4", "--backend", "numpy"]
+    assert cli.main(common + ["--out", str(tmp_path / "a.npz")]) == 0
+    assert "internal dynamics of the inputs on theta1 at the start" in capsys.readouterr().err
+    assert list(np.load(tmp_path / "a.npz")["actuators"]) == ["theta1"]
+    assert cli.main(common + ["--out", str(tmp_path / "b.npz"), "--actuated", "none"]) == 0
+    assert "lambda" in np.load(tmp_path / "b.npz").files
+    text = LINK.read_text(encoding="utf-8")
+    for bad, message in (('["theta7"]', "'theta7' is not a coordinate; did you mean 'theta1'?"),
+                         ('["theta1", "psi1_1"]', "one input per constraint, got 2")):
+        path = tmp_path / "bad.toml"
+        path.write_text(text.replace('actuators = ["theta1"]', f"actuators = {bad}"), encoding="utf-8")
+        with pytest.raises(gpmegen.ModelError, match=r"bad.toml:\d+: actuators: .*" + re.escape(message)):
+            gpmegen.read_model_file(path)

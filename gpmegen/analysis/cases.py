@@ -19,6 +19,7 @@ class Case:
     :meth:`start`."""
 
     starts: tuple = ()
+    actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
 
     def located(self, action):
@@ -94,6 +95,10 @@ class FileCase(Case):
         return Path(self.path).stem
 
     results_stem = label
+
+    @property
+    def actuators(self) -> tuple:
+        return self.file.actuators
 
     def located(self, action):
         """Run ``action()``; a derivation error gets the file and line it comes from (from the

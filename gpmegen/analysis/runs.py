@@ -30,14 +30,15 @@ def check(case, t_end, dt, save_every, method, backend) -> None:
 
 
 def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
-        actuated=()) -> Run:
+        actuated=None) -> Run:
     """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion (held
-    by inputs on the coordinates ``actuated``, one per constraint, when given) and
+    by inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a
+    model file's ``actuators``; ``()``: ideally) and
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`). ``progress`` takes one-line messages."""
     check(case, t_end, dt, save_every, method, backend)
     model, q0 = case.start(backend, start, overrides, progress)
-    model = model.with_actuators(actuated)
+    model = model.with_actuators(case.actuators if actuated is None else actuated)
     shown = case.shown(model)
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
              + case.start_note(model))

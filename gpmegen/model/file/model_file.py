@@ -17,12 +17,14 @@ class ModelFile:
     """A model read from a file, with the file's start configuration.
 
     ``initial``: coordinate name -> value (SymPy expression of parameters) from ``[initial] q``;
-    coordinates not named start at 0."""
+    coordinates not named start at 0. ``actuators``: the coordinates whose inputs realize the
+    constraints (empty: ideally)."""
 
     path: str
     model: Model
     initial: dict = field(default_factory=dict)
     source: str = field(default="", repr=False, compare=False)   # the file's text, for locate()
+    actuators: tuple = ()
 
     @functools.cached_property
     def _locator(self) -> Locator:
