@@ -161,7 +161,7 @@ def _start(case, start):
 
 
 def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
-                    actuated=None):
+                    actuated=None, internal_dynamics=False):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
@@ -169,7 +169,7 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     _check_results_path(out)
     backend = backend or _default_backend()
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
-                    repartition=repartition, actuated=actuated)
+                    repartition=repartition, actuated=actuated, internal_dynamics=internal_dynamics)
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
@@ -194,7 +194,7 @@ def cmd_simulate(args) -> int:
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
               dict(args.param or []), out, repartition=args.repartition,
-              actuated=() if args.actuated == ["none"] else args.actuated)
+              actuated=() if args.actuated == ["none"] else args.actuated, internal_dynamics=args.internal_dynamics)
     return 0
 
 
@@ -336,6 +336,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
                         "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
                         "actuators (--actuated none: ideally), else none")
+    s.add_argument("--internal-dynamics", action="store_true",
+                   help="with an actuated realization: save the linearized internal dynamics' eigenvalues at "
+                        "every saved sample (internal_eigenvalues)")
     s.set_defaults(func=cmd_simulate)
 
     st = sub.add_parser("statics", help="print the static start configuration")

@@ -126,3 +126,29 @@ def test_model_file_actuators(env, tmp_path, capsys):
         path.write_text(text.replace('actuators = ["theta1"]', f"actuators = {bad}"), encoding="utf-8")
         with pytest.raises(gpmegen.ModelError, match=r"bad.toml:\d+: actuators: .*" + re.escape(message)):
             gpmegen.read_model_file(path)
+
+
+def test_internal_dynamics_along_a_run_of_the_rigid_arm():
+    """On request the eigenvalues are saved at every sample. For the rigid arm actuated on ψ2 and
+    x3 the internal dynamics are the column's: d(I θ̇1)/dt = τ_drive with I = M[θ1, θ1], whose
+    linearization I δθ̈1 + İ δθ̇1 = 0 has the eigenvalues 0 and -İ/I (İ by differences of M
+    along q̇); without actuators the request is refused."""
+    from gpmegen.analysis import reference_case, study
+
+    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1), "locked")
+    actuated = model.with_actuators(["psi2", "x3"])
+    res = study.simulate(actuated, q0, 2.0, 1e-3, 125, internal_dynamics=True)
+    values = res["internal_eigenvalues"]
+    assert values.shape == (len(res["t"]), 2)
+    rates = []
+    for k in range(len(res["t"])):
+        q, qd, h = res["q"][k], res["qd"][k], 1e-6
+        inertia = actuated.mass_matrix(q)[0, 0]
+        rate = (actuated.mass_matrix(q + h * qd)[0, 0] - actuated.mass_matrix(q - h * qd)[0, 0]) / (2 * h) / inertia
+        near = values[k][np.argsort(np.abs(values[k] + rate))]
+        # 1e-5: where İ = 0 the double zero is split by the differences' round-off (its square root)
+        assert abs(near[0] + rate) < 1e-5 and abs(near[1]) < 1e-5
+        rates.append(rate)
+    assert np.max(np.abs(rates)) > 0.03  # 1/s: the arm's motion changes the column's inertia
+    with pytest.raises(gpmegen.ModelError, match="internal dynamics belong to an actuated realization"):
+        study.simulate(model, q0, 0.01, 1e-3, internal_dynamics=True)

@@ -30,10 +30,11 @@ def check(case, t_end, dt, save_every, method, backend) -> None:
 
 
 def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
-        actuated=None) -> Run:
+        actuated=None, internal_dynamics=False) -> Run:
     """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion (held
     by inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a
-    model file's ``actuators``; ``()``: ideally) and
+    model file's ``actuators``; ``()``: ideally; with ``internal_dynamics``, their eigenvalues saved
+    along the run) and
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`). ``progress`` takes one-line messages."""
     check(case, t_end, dt, save_every, method, backend)
@@ -49,7 +50,7 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
 
         bar = Progress(t_end, case.label, enabled=sys.stderr.isatty())
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
-                         repartition=repartition, notify=progress)
+                         repartition=repartition, notify=progress, internal_dynamics=internal_dynamics)
     wall = time.perf_counter() - t0
     res = results_io.annotate(res, case.metadata(model), case.extras(model, res))
     res = driving.annotate(res, case.model, model)

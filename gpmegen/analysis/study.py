@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import limits
-from ..errors import SimulationError
+from ..errors import ModelError, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
 from . import results as results_io
 
@@ -65,16 +65,21 @@ def file_start(model, initial: dict, start="initial"):
 
 
 def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
-             start="locked", repartition=False, notify=None):
+             start="locked", repartition=False, notify=None, internal_dynamics=False):
     """The constrained motion from rest at ``q0``; returns a results dict (see
     :mod:`gpmegen.analysis.results`). The conditioning of the dependent block of ``D`` is
     watched: ``notify`` (a callable taking a message) is told when it degrades, and with
     ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that cannot finish
-    is refused before it starts (:func:`gpmegen.limits.check_run`)."""
+    is refused before it starts (:func:`gpmegen.limits.check_run`). An actuated run (``model``
+    with actuators) tells ``notify`` its internal dynamics at the start and, with
+    ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
     qd0 = np.zeros(model.n_dof)
     model.check_actuators(0.0, q0)
     actuated = [model.coordinates[k] for k in model.actuators]
+    if internal_dynamics and not actuated:
+        raise ModelError("the internal dynamics belong to an actuated realization: name the actuated coordinates "
+                         "(--actuated, or a model file's actuators)")
     if actuated:
         stability = internal.eigenvalues(model, 0.0, q0, qd0)
         (notify or (lambda message: None))(
@@ -93,7 +98,14 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
                     repartitions=watch.events, actuators=actuated)
-    return collect(model, t, y, str(outcome), settings)
+    results = collect(model, t, y, str(outcome), settings)
+    if actuated and internal_dynamics and len(t):
+        results["internal_eigenvalues"] = internal.along(model, t, results["q"], results["qd"])
+        worst = np.nanmax(results["internal_eigenvalues"].real, axis=1, initial=-np.inf)
+        k = int(np.argmax(worst))
+        (notify or (lambda message: None))(
+            f"internal dynamics along the run: largest real part {worst[k]:.4g} 1/s at t = {t[k]:.6g} s")
+    return results
 
 
 def collect(model, t, y, status, settings) -> dict:

@@ -61,6 +61,16 @@ def eigenvalues(model, t, q, qd):
     return values[np.argsort(values.real, kind="stable")]
 
 
+def along(model, t, q, qd) -> np.ndarray:
+    """:func:`eigenvalues` at the samples ``t`` (k,), ``q``, ``qd`` (k, n) of a run: (k, 2(n - m))
+    complex, NaN at samples that are not finite."""
+    out = np.full((len(t), 2 * (model.n_dof - len(model.constraint_names))), np.nan, dtype=complex)
+    for k in range(len(t)):
+        if np.all(np.isfinite(q[k])) and np.all(np.isfinite(qd[k])):
+            out[k] = eigenvalues(model, t[k], q[k], qd[k])
+    return out
+
+
 def unstable(values) -> np.ndarray:
     """The eigenvalues with a real part above :data:`UNSTABLE` times the largest modulus, fastest
     first."""
