@@ -1,4 +1,4 @@
-"""Command line: ``gpmegen build | statics | simulate | plot | modes | convergence | demo``.
+"""Command line: ``gpmegen build | statics | simulate | invert | plot | modes | convergence | demo``.
 
 Usage errors exit with status 2, runtime failures with 1; either prints one line naming the
 problem and the fix, never a traceback.
@@ -198,6 +198,27 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def cmd_invert(args) -> int:
+    """Stable inversion: the bounded inputs of the actuated realization over a rest-to-rest motion."""
+    from .analysis import inversions
+    from .analysis import results as results_io
+
+    case = _case(args.model_file, args.nrfe)
+    out = Path(args.out if args.out is not None else f"results/{case.results_stem}_inversion.npz")
+    _check_results_path(out)
+    if not args.t1 > args.t0:
+        raise UsageError(f"--t1 ({args.t1:g} s) must come after --t0 ({args.t0:g} s)")
+    res, inv, written = inversions.invert(case, _start(case, args.statics), args.t0, args.t1, args.pre, args.post,
+                                          args.nodes, dict(args.param or []), args.actuated, out, progress)
+    units = results_io.metadata(res).get("force_units", {})
+    peak = ", ".join(f"{name} {np.max(np.abs(res['u'][:, j])):.4g} {units.get(str(name), '')}".rstrip()
+                     for j, name in enumerate(res["actuators"]))
+    print(f"{case.label} (stable inversion, {len(inv.t)} nodes, residual {inv.residual:.1e}): the inputs start "
+          f"{inv.lead:.4g} s before t0 = {args.t0:g} s and act until {inv.lag:.4g} s after t1 = {args.t1:g} s; "
+          f"max|u|: {peak}; wrote {', '.join(map(str, written))}")
+    return 0
+
+
 def cmd_statics(args) -> int:
     case = _case(args.model_file, args.nrfe)
     model, q = case.start("numpy", _start(case, args.statics), dict(args.param or []), progress)
@@ -341,6 +362,20 @@ def build_parser() -> argparse.ArgumentParser:
                         "every saved sample (internal_eigenvalues)")
     s.set_defaults(func=cmd_simulate)
 
+    inv = sub.add_parser("invert", help="stable inversion: bounded inputs of the actuated realization, "
+                                        "with pre- and post-actuation")
+    study_options(inv)
+    inv.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
+                     help="the inputs' coordinates, one per constraint (default: a model file's actuators)")
+    inv.add_argument("--t0", type=float, default=0.0, help="the programmed motion rests before t0 (s, default 0)")
+    inv.add_argument("--t1", type=float, required=True, help="and after t1 (s)")
+    inv.add_argument("--pre", type=positive_float, default=0.1, help="pre-actuation window before t0 (s, default 0.1)")
+    inv.add_argument("--post", type=positive_float, default=0.1, help="post-actuation window after t1 (s, default 0.1)")
+    inv.add_argument("--nodes", type=positive_int, default=200, help="initial mesh nodes of the BVP (default 200)")
+    inv.add_argument("--out", type=path_argument, default=None,
+                     help="results file .npz (default results/<case>_inversion.npz)")
+    inv.set_defaults(func=cmd_invert)
+
     st = sub.add_parser("statics", help="print the static start configuration")
     study_options(st)
     st.set_defaults(func=cmd_statics)
@@ -376,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--results", type=path_argument, default="results", help="folder for results (default results/)")
     d.add_argument("--figures", type=path_argument, default="figures", help="folder for figures (default figures/)")
     d.set_defaults(func=cmd_demo)
-    for p in (b, s, st, m, c, d):
+    for p in (b, s, inv, st, m, c, d):
         p.add_argument("--no-limits", action="store_true",
                        help="start even work estimated to take more than an hour or more memory than is available")
     return parser

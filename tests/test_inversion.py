@@ -79,3 +79,23 @@ def test_stable_inversion_needs_hyperbolic_internal_dynamics(env):
     model = link(2, Y=0.001)
     with pytest.raises(SimulationError, match="hyperbolic internal dynamics.*damp the sdes"):
         inversion.stable_inversion(model, np.zeros(model.n_dof), 0.0, 0.2, 0.1, 0.1)
+
+
+def test_cli_invert_writes_the_bounded_inputs(env, tmp_path, capsys):
+    """``gpmegen invert`` writes the inputs and says how long before the motion they start; a
+    case whose internal dynamics keep a neutral coordinate (the rigid arm's column) is refused."""
+    from gpmegen import cli
+    from gpmegen.analysis import results as results_io
+
+    out = tmp_path / "inv.npz"
+    args = ["invert", str(LINK), "--nrfe", "2", "--t1", "0.2", "--out", str(out)]
+    assert cli.main(args + [f"--param={k}={v}" for k, v in MOVE.items()]) == 0
+    line = capsys.readouterr().out
+    res = results_io.load(out)
+    settings = results_io.metadata(res)["settings"]
+    assert f"the inputs start {settings['lead']:.4g} s before t0 = 0 s" in line and settings["lead"] > 0.005
+    assert list(res["actuators"]) == ["theta1"] and res["t"][0] == pytest.approx(-0.1)
+    assert np.max(np.abs(res["u"][res["t"] < 0])) > 0.01 * np.max(np.abs(res["u"]))  # pre-actuation
+    assert cli.main(["invert", "--nrfe", "1", "--actuated", "psi2", "x3", "--t1", "1",
+                     "--out", str(tmp_path / "rigid.npz")]) == 1
+    assert "stable inversion needs hyperbolic internal dynamics" in capsys.readouterr().err

@@ -55,7 +55,13 @@ def rest(model, q, t, tol=1e-12, max_iter=50):
         if np.max(np.abs(r)) <= tol * max(1.0, np.max(np.abs(model.static_residual(q)))):
             return q
         J = np.vstack([model.stiffness_jacobian(q)[free], D])
-        q = q - np.linalg.solve(J, r)
+        try:
+            q = q - np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            raise SimulationError(
+                f"the rest state at t = {t:g} s is not unique (the unactuated rows of g + C q with Φ have a singular "
+                f"Jacobian: a coordinate left to the internal dynamics is neutral, without spring or gravity); "
+                f"stable inversion needs hyperbolic internal dynamics: actuate it or give it a spring") from None
     raise SimulationError(f"no rest state of {model.module.MODEL} with the programmed constraints at t = {t:g} s "
                           f"(Newton did not converge); is the programmed motion at rest there?")
 
@@ -106,10 +112,11 @@ def _hyperbolic(model, t, y_rest, rhs):
     return _jacobian(rhs, t, y_rest)
 
 
-def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=400, tol=1e-8) -> Inversion:
+def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6) -> Inversion:
     """The bounded solution of ``model``'s actuated realization (actuators set) for a programmed
     motion at rest before ``t0`` and after ``t1`` (s), on ``[t0 - pre, t1 + post]`` with
-    ``nodes`` mesh points at first; ``q_guess`` (n,) starts the Newton search of the rest states."""
+    ``nodes`` mesh points at first and the BVP's relative residual ``tol``; ``q_guess`` (n,)
+    starts the Newton search of the rest states."""
     n = model.n_dof
     rhs = _rhs(model)
     ta, tb = t0 - pre, t1 + post
