@@ -210,3 +210,15 @@ def test_driving_figures_need_the_driving_functions(flexible3, ideal3, rigid_run
            if key not in ("qdd", "lambda", "u", "actuators", "drive_forces", "constraint_forces")}
     names = {p.name for p in plots.plot_all([old], tmp_path / "old")}
     assert "joint_coordinates.png" in names and "driving_functions.png" not in names
+
+
+@pytest.mark.requires_cc
+def test_actuated_realization_on_the_c_terms_equals_numpy(env):
+    """The actuated loop runs in Python over either backend's terms: the same motion and inputs."""
+    runs = {}
+    for backend in ("numpy", "c"):
+        model, q0 = started(gpmegen.load(nrfe=2, backend=backend))
+        runs[backend] = study.simulate(model.with_actuators(["psi2", "x3"]), q0, 0.02, 1e-4, 20, max_violation=None)
+    assert str(runs["c"]["status"]) == str(runs["numpy"]["status"]) == "complete"
+    for key in ("q", "qd", "u"):
+        assert np.allclose(runs["c"][key], runs["numpy"][key], rtol=1e-9, atol=1e-9)
