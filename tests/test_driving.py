@@ -222,3 +222,15 @@ def test_actuated_realization_on_the_c_terms_equals_numpy(env):
     assert str(runs["c"]["status"]) == str(runs["numpy"]["status"]) == "complete"
     for key in ("q", "qd", "u"):
         assert np.allclose(runs["c"][key], runs["numpy"][key], rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.requires_cc
+def test_actuated_runs_are_refused_by_the_python_loop_s_estimate(env):
+    """A run the C loop would finish in seconds is refused before it starts when actuated: its
+    loop runs in Python (3·10⁷ RK4 steps of the rigid arm: about 20 s in C, 2 h in Python)."""
+    from gpmegen import limits
+
+    model, q0 = started(gpmegen.load(nrfe=1, backend="c"))
+    limits.check_run(model.n_dof, 2, 300.0, 1e-5, 100, "rk4", "c")  # the ideal realization: accepted
+    with pytest.raises(limits.LimitError, match="would take about"):
+        study.simulate(model.with_actuators(["psi2", "x3"]), q0, 300.0, 1e-5, 100)

@@ -73,7 +73,9 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     is refused before it starts (:func:`gpmegen.limits.check_run`). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
-    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, model.backend)
+    # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
+    loop = "numpy" if len(model.actuators) else model.backend
+    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop)
     qd0 = np.zeros(model.n_dof)
     model.check_actuators(0.0, q0)
     actuated = [model.coordinates[k] for k in model.actuators]
