@@ -1,4 +1,4 @@
-"""Command line: ``gpmegen build | statics | simulate | plot | modes | convergence | demo``.
+"""Command line: ``gpmegen build | statics | simulate | invert | plot | modes | convergence | demo``.
 
 Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
@@ -206,7 +206,7 @@ def _start(case, start):
 
 
 def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
-                    overwrite=False):
+                    overwrite=False, actuated=None, internal_dynamics=False):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
@@ -215,7 +215,7 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     _check_results_path(out, overwrite)
     backend = backend or _default_backend()
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
-                    repartition=repartition)
+                    repartition=repartition, actuated=actuated, internal_dynamics=internal_dynamics)
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
@@ -268,7 +268,30 @@ def cmd_simulate(args) -> int:
     start = _start(case, args.statics)
     out = Path(args.out if args.out is not None else f"results/{default_name(case.results_stem, start, args.method)}")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-                    dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite)
+                    dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
+                    actuated=() if args.actuated == ["none"] else args.actuated,
+                    internal_dynamics=args.internal_dynamics)
+    return 0
+
+
+def cmd_invert(args) -> int:
+    """Stable inversion: the bounded inputs of the actuated realization over a rest-to-rest motion."""
+    from .analysis import inversions
+    from .analysis import results as results_io
+
+    case = _case(args.model_file, args.nrfe)
+    out = Path(args.out if args.out is not None else f"results/{case.results_stem}_inversion.npz")
+    _check_results_path(out)
+    if not args.t1 > args.t0:
+        raise UsageError(f"--t1 ({args.t1:g} s) must come after --t0 ({args.t0:g} s)")
+    res, inv, written = inversions.invert(case, _start(case, args.statics), args.t0, args.t1, args.pre, args.post,
+                                          args.nodes, dict(args.param or []), args.actuated, out, progress)
+    units = results_io.metadata(res).get("force_units", {})
+    peak = ", ".join(f"{name} {np.max(np.abs(res['u'][:, j])):.4g} {units.get(str(name), '')}".rstrip()
+                     for j, name in enumerate(res["actuators"]))
+    print(f"{case.label} (stable inversion, {len(inv.t)} nodes, residual {inv.residual:.1e}): the inputs start "
+          f"{inv.lead:.4g} s before t0 = {args.t0:g} s and act until {inv.lag:.4g} s after t1 = {args.t1:g} s; "
+          f"max|u|: {peak}; wrote {', '.join(map(str, written))}")
     return 0
 
 
@@ -282,6 +305,10 @@ def cmd_statics(args) -> int:
         print(f"{name} = ({x:.9f}, {y:.9f}, {z:.9f}) m")
     if case.constants(model):
         print(case.constants(model))
+    if case.source is not None:  # the holding forces' units come from the model (a built folder has none)
+        from .analysis import driving
+
+        print(driving.format_holding(case.source, model, q, case.metadata(model).get("constraint_units")))
     return 0
 
 
@@ -464,7 +491,28 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")
     s.add_argument("--repartition", action="store_true",
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
+    s.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
+                   help="realize the programmed constraints by inputs on these coordinates alone, one per "
+                        "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
+                        "actuators (--actuated none: ideally), else none")
+    s.add_argument("--internal-dynamics", action="store_true",
+                   help="with an actuated realization: save the linearized internal dynamics' eigenvalues at "
+                        "every saved sample (internal_eigenvalues)")
     s.set_defaults(func=cmd_simulate)
+
+    inv = command("invert", "stable inversion: bounded inputs of the actuated realization, with pre- and "
+                            "post-actuation")
+    study_options(inv)
+    inv.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
+                     help="the inputs' coordinates, one per constraint (default: a model file's actuators)")
+    inv.add_argument("--t0", type=float, default=0.0, help="the programmed motion rests before t0 (s, default 0)")
+    inv.add_argument("--t1", type=float, required=True, help="and after t1 (s)")
+    inv.add_argument("--pre", type=positive_float, default=0.1, help="pre-actuation window before t0 (s, default 0.1)")
+    inv.add_argument("--post", type=positive_float, default=0.1, help="post-actuation window after t1 (s, default 0.1)")
+    inv.add_argument("--nodes", type=positive_int, default=200, help="initial mesh nodes of the BVP (default 200)")
+    inv.add_argument("--out", type=path_argument, default=None,
+                     help="results file .npz (default results/<case>_inversion.npz)")
+    inv.set_defaults(func=cmd_invert)
 
     st = command("statics", "print the static start configuration")
     study_options(st)
@@ -511,7 +559,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--results", type=path_argument, default="results", help="folder for results (default results/)")
     d.add_argument("--figures", type=path_argument, default="figures", help="folder for figures (default figures/)")
     d.set_defaults(func=cmd_demo)
-    for p in (b, s, st, m, c, d):
+    for p in (b, s, inv, st, m, c, d):
         p.add_argument("--no-limits", action="store_true",
                        help="start even work estimated to take more than an hour or more memory than is available")
     return parser

@@ -27,6 +27,11 @@ constraints holding.""",
 Clamp the arm (or each flexible link of a model file, alone) at its root and compare its static
 tip deflection and first frequencies against the number of rfes with Euler-Bernoulli and
 Saint-Venant beam theory.""",
+    "invert": """\
+Stable inversion of the actuated realization: the bounded inputs that realize a programmed
+motion resting before t0 and after t1 when the internal dynamics are unstable (non-minimum
+phase), found as a boundary-value problem over [t0 - pre, t1 + post]. Prints how long before t0
+the inputs must start and after t1 they act.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
@@ -48,6 +53,7 @@ examples:
   gpmegen simulate generated/my_arm                (a folder made by 'build --out')
   gpmegen simulate --nrfe 1 --method dop853
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
+  gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
 
 files written:
@@ -91,6 +97,14 @@ files written:
   <out>/convergence.png, or convergence_<model>_link<label>.png per flexible link of a model
   file (default out: figures/); with --directory, the clamped-arm models built
   there""",
+    "invert": """\
+examples:
+  gpmegen invert tests/models/flexible_link.toml --nrfe 3 --t1 0.2
+  gpmegen invert my_arm.toml --t1 1.5 --pre 0.3 --post 0.3 --out results/arm_inverse.npz
+
+files written:
+  results/<case>_inversion.npz and .csv (or --out and its .csv): t, q, qd, the inputs u on the
+  actuated coordinates""",
     "demo": """\
 examples:
   gpmegen demo

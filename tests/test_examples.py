@@ -20,7 +20,9 @@ from gpmegen.runtime import partition
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 T_END, DT, SAVE_EVERY = 0.5, 1e-4, 10
-FIGURES = {"joint_coordinates", "end_effector", "path", "constraint_violation", "energy_balance"}
+# every example has flexible links, so the driving functions come with the elastic deformation
+FIGURES = {"joint_coordinates", "end_effector", "path", "constraint_violation", "energy_balance",
+           "driving_functions", "constraint_multipliers", "elastic_deformation"}
 
 
 def _have_compiler() -> bool:

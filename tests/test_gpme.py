@@ -183,8 +183,8 @@ def test_simulate_and_plot_end_to_end(tmp_path, capsys):
     assert out.exists() and out.with_suffix(".csv").exists()
     assert main(["plot", str(out), "--out", str(tmp_path / "figs")]) == 0
     names = sorted(p.name for p in (tmp_path / "figs").iterdir())
-    assert names == ["constraint_violation.png", "end_effector.png", "energy_balance.png", "joint_coordinates.png",
-                     "path.png"]
+    assert names == ["constraint_multipliers.png", "constraint_violation.png", "driving_functions.png",
+                     "end_effector.png", "energy_balance.png", "joint_coordinates.png", "path.png"]
 
 
 def test_a_loaded_model_is_immutable(rigid):

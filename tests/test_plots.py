@@ -52,15 +52,18 @@ def test_each_run_keeps_its_colour_and_line_style_in_every_figure(pair):
     style = plots.styles(loaded)
     assert [s["color"] for s in style] == ["C0", "C2"]  # the reference case's rigid and flexible colours
     assert style[0]["linestyle"] != style[1]["linestyle"]
-    wanted = {to_hex(s["color"]) for s in style}
+    stems = [stem for stem, _ in plots.figures(loaded)]
+    assert {"driving_functions", "elastic_deformation", "constraint_multipliers"} <= set(stems)
     for stem, draw in plots.figures(loaded):
         fig = draw(plt, loaded, style)
+        # the elastic deformation is drawn for the runs with springs only (here the flexible arm)
+        shown = [k for k, r in enumerate(loaded) if stem != "elastic_deformation" or np.any(r["spring_forces"])]
         try:
-            assert _drawn(fig) == wanted, stem
+            assert _drawn(fig) == {to_hex(style[k]["color"]) for k in shown}, stem
             legend = {text.get_text(): to_hex(line.get_color())
                       for text, line in zip(fig.legends[0].get_texts(), fig.legends[0].get_lines())}
-            assert {label: legend[label] for label in map(plots.label, loaded)} == \
-                   {plots.label(r): to_hex(s["color"]) for r, s in zip(loaded, style)}, stem
+            assert {plots.label(loaded[k]): legend[plots.label(loaded[k])] for k in shown} == \
+                   {plots.label(loaded[k]): to_hex(style[k]["color"]) for k in shown}, stem
             # the legend is the figure's, outside every axes
             assert not any(ax.get_legend() for ax in fig.axes), stem
         finally:
@@ -188,5 +191,6 @@ def test_results_of_one_model_with_any_number_of_rfes_share_figures(pair, tmp_pa
     written = capsys.readouterr().out.split()
     assert sorted(written) == sorted(str(out / f"{stem}.{fmt}") for stem in
                                      ("joint_coordinates", "end_effector", "path", "constraint_violation",
-                                      "energy_balance") for fmt in ("pdf", "svg"))
+                                      "energy_balance", "driving_functions", "elastic_deformation",
+                                      "constraint_multipliers") for fmt in ("pdf", "svg"))
     assert {plots.family(results_io.load(folder / f"run_nrfe{n}.npz")) for n in (1, 2)} == {"manipulator"}

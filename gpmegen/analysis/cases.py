@@ -20,11 +20,17 @@ class Case:
     :meth:`start` (returning a :class:`gpmegen.analysis.study.Start`)."""
 
     starts: tuple = ()
+    actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
 
     def located(self, action):
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
         return action()
+
+    @property
+    def source(self):
+        """The symbolic model where the case has it (None: a built folder's code alone)."""
+        return self.model
 
     directory = None  # where generated models live (None: gpmegen.runtime.loader.default_directory)
 
@@ -161,6 +167,10 @@ class FileCase(ModelCase):
     def label(self) -> str:
         return Path(self.path).stem
 
+    @property
+    def actuators(self) -> tuple:
+        return self.file.actuators
+
     def located(self, action):
         """Run ``action()``; a derivation error gets the file and line it comes from (from the
         text read once, never a second read of the file)."""
@@ -195,6 +205,8 @@ class FolderCase(ModelCase):
         from ..errors import ModelError
 
         raise ModelError(f"{self.folder} holds generated code, not its model; give the model file instead")
+
+    source = None
 
     @property
     def command(self) -> str:

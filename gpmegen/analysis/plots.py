@@ -321,7 +321,9 @@ def figures(runs) -> list:
         made.append(("constraint_violation", constraint_violation))
     if all("kinetic_energy" in r for r in runs):
         made.append(("energy_balance", energy_balance))
-    return made
+    from . import driving_plots  # the driving functions and the elastic deformation, where the runs hold them
+
+    return made + driving_plots.figures(runs)
 
 
 def _saver(fig, fmt):

@@ -7,6 +7,11 @@ so that a reader can tell the two files of one run from a mismatched pair. Its `
 JSON object: ``model``, ``coordinates``, ``constraint_names``, ``backend``, ``start``,
 ``settings``, ``params`` and what the run's case adds for plots (see :func:`metadata`). Files of
 format 1 (settings as Python text) are refused with the command that makes them again.
+
+The driving functions were added to format 2 without changing it (files without them are read as
+before): ``qdd`` (k, n) q̈, ``constraint_forces`` (k, n) ``M q̈ - f``, and either ``lambda``
+(k, m) with ``point_forces`` (k, n_points, 3) N (ideal realization) or ``u`` (k, m) with
+``actuators`` (m,) names (actuated realization); their units are in ``meta``.
 """
 
 from __future__ import annotations
@@ -63,8 +68,10 @@ def metadata(results) -> dict:
     ``backend``, ``start``, ``settings`` (method, dt, save_every, t_end, dependent,
     repartitions), ``params`` and, from the run's case (:mod:`gpmegen.analysis.cases`), what
     plots use: ``label``, ``joints``, ``joint_labels``, ``constraint_units``, ``figures``,
-    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``; and ``start_moved``: how far the start
-    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`)."""
+    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``; ``start_moved``: how far the start
+    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`); and the units
+    of the driving functions (:func:`gpmegen.analysis.driving.annotate`): ``force_units``,
+    ``lambda_units``, ``force_points``."""
     return json.loads(str(results["meta"]))
 
 
@@ -73,8 +80,28 @@ def annotate(results: dict, meta: dict, arrays: dict) -> dict:
     return dict(results, **arrays, meta=encode({**metadata(results), **meta}))
 
 
+def driving_columns(results: dict) -> tuple[list, list]:
+    """The CSV's columns of the driving functions, with units in their names: λ of each
+    constraint (ideal realization), the force on each constrained point in {0}, or the inputs
+    ``u`` (actuated realization). Returns (names, arrays (k,) or (k, j))."""
+    meta = metadata(results)
+    if "u" in results:
+        units = meta.get("force_units", {})
+        return ([f"u_{c} [{units.get(str(c), 'generalized')}]" for c in results["actuators"]], [results["u"]])
+    if "lambda" not in results:
+        return [], []
+    units = meta.get("lambda_units", {})
+    names = [f"lambda_{c} [{units.get(str(c), 'generalized')}]" for c in results["constraint_names"]]
+    arrays = [results["lambda"]]
+    if "point_forces" in results:
+        names += [f"F{a}_{p} [N]" for p in meta["force_points"] for a in "xyz"]
+        arrays.append(results["point_forces"].reshape(len(results["t"]), -1))
+    return names, arrays
+
+
 def save(results: dict, path, csv: bool = True) -> list[Path]:
-    """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E and Φ beside it,
+    """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E, Φ and the driving
+    functions (:func:`driving_columns`) beside it,
     both files or neither. A partial run (``status`` other than "complete") goes to the
     :func:`targets` beside ``path``, so a complete result there is never replaced by it.
     Returns the paths written."""
@@ -87,11 +114,12 @@ def save(results: dict, path, csv: bool = True) -> list[Path]:
         names = [str(c) for c in results["coordinates"]]
         cons = [f"phi_{c}" for c in results.get("constraint_names", [])]
         state = "complete" if status == "complete" else f"partial ({' '.join(status.split())})"
+        columns, driving = driving_columns(results)
         header = (f"# {FORMAT} run {run_id}: {state}\n"
                   + ",".join(["t"] + names + [f"{c}_dot" for c in names] + ["x_E", "y_E", "z_E"] + cons
-                             + ["tau_drive"]))
+                             + ["tau_drive"] + columns))
         table = np.column_stack([results["t"], results["q"], results["qd"], results["end_effector"],
-                                 results["phi"], results["tau_drive"]])
+                                 results["phi"], results["tau_drive"], *driving])
         writes[csv_path] = lambda fh: np.savetxt(fh, table, delimiter=",", header=header, comments="", fmt="%.12g",
                                                  encoding="utf-8")
     return atomic_write_all(writes)

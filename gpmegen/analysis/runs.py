@@ -8,8 +8,8 @@ import time
 from dataclasses import dataclass
 
 from .. import limits
+from . import driving, study
 from . import results as results_io
-from . import study
 
 
 @dataclass
@@ -28,14 +28,19 @@ def check(case, t_end, dt, save_every, method, backend) -> None:
     limits.check_run(*case.size(), t_end, dt, save_every, method, backend)
 
 
-def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False) -> Run:
-    """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion and
+def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
+        actuated=None, internal_dynamics=False) -> Run:
+    """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion (held
+    by inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a
+    model file's ``actuators``; ``()``: ideally; with ``internal_dynamics``, their eigenvalues saved
+    along the run) and
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`); nothing when ``out`` is None. ``progress`` takes
     one-line messages."""
     check(case, t_end, dt, save_every, method, backend)
     begun = case.started(backend, start, overrides, progress)
-    model, q0 = begun.model, begun.q
+    model = begun.model.with_actuators(case.actuators if actuated is None else actuated)
+    q0 = begun.q
     shown = case.shown(model)
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
              + case.start_note(model))
@@ -46,9 +51,11 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
 
         bar = Progress(t_end, case.label, enabled=sys.stderr.isatty())
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
-                         repartition=repartition, notify=progress, qd0=begun.qd)
+                         repartition=repartition, notify=progress, qd0=begun.qd,
+                         internal_dynamics=internal_dynamics)
     wall = time.perf_counter() - t0
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta()}, case.extras(model, res))
+    res = driving.annotate(res, case.source, model)
     return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
 
 

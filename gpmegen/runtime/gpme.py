@@ -50,3 +50,44 @@ def accelerations(M, f, phi, phi_rate, D, gamma, alpha, beta, orders, dependent,
     A = np.vstack([B.T @ M, D])
     b = np.concatenate([B.T @ f, constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders)])
     return np.linalg.solve(A, b)
+
+
+def multipliers(M, f, qdd, D):
+    """λ (m,) of the ideal realization ``M q̈ - f = Dᵀλ``: the least-squares solution of
+    ``Dᵀλ = M q̈ - f`` (exact when ``q̈`` solves the GPME, whose residual lies in the range of
+    ``Dᵀ``). Units: a generalized force per unit of the constraint (J/[Φ] for a position
+    constraint, W/[Ψ] for a first-order one)."""
+    if D.shape[0] == 0:
+        return np.zeros(0)
+    return np.linalg.lstsq(D.T, M @ qdd - f, rcond=None)[0]
+
+
+def selection(n, actuators):
+    """``S`` (n, k): column j is the unit vector of coordinate ``actuators[j]``, so ``S u`` puts
+    the input ``u_j`` on that coordinate."""
+    S = np.zeros((n, len(actuators)))
+    S[list(actuators), np.arange(len(actuators))] = 1.0
+    return S
+
+
+def actuated(M, f, phi, phi_rate, D, gamma, alpha, beta, orders, actuators):
+    """(q̈ (n,), u (m,)) of the actuated realization (servo-constraints): ``M q̈ = f + S u`` with
+    the programmed constraints held by the inputs ``u`` on the coordinates ``actuators`` alone,
+
+        [M  -S] [q̈]   [f                       ]
+        [D   0] [u ] = [-γ - Baumgarte terms    ]
+
+    np.linalg.LinAlgError when the system is singular (``D M⁻¹ S`` singular: the inputs cannot
+    move the constraints)."""
+    n, m = M.shape[0], D.shape[0]
+    S = selection(n, actuators)
+    A = np.block([[M, -S], [D, np.zeros((m, m))]])
+    b = np.concatenate([f, constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders)])
+    x = np.linalg.solve(A, b)
+    return x[:n], x[n:]
+
+
+def input_coupling(M, D, actuators):
+    """``D M⁻¹ S`` (m, m): how the inputs on ``actuators`` accelerate the constraints; the
+    actuated realization exists where it is regular."""
+    return D @ np.linalg.solve(M, selection(M.shape[0], actuators))

@@ -54,6 +54,10 @@ def call(module: ModuleType, function: str, *args):
             f"configuration") from None
 
 
+# Above this condition number of D M⁻¹ S the actuated coordinates are refused at the start.
+UNCONTROLLABLE = 1e10
+
+
 class Evaluator(Protocol):
     """The generated functions of one model on one backend. ``p`` (n_p,): the parameter values;
     ``model``: the :class:`LoadedModel` whose parameters, gains and partition the GPME use.
@@ -149,6 +153,7 @@ class LoadedModel:
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
+        self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
         self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
     def _bind(self, values: dict, overrides: dict, check_all: bool = False) -> None:
@@ -196,6 +201,24 @@ class LoadedModel:
         other = copy.copy(self)
         other.dependent = frozen(np.array(dep, dtype=int))
         other.independent = frozen(np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int))
+        return other
+
+    def with_actuators(self, names) -> LoadedModel:
+        """The same model with the programmed constraints realized by inputs ``u`` on the named
+        coordinates (one per constraint; see :func:`gpmegen.runtime.gpme.actuated`) instead of
+        ideally; ``()`` returns to the ideal realization."""
+        names = tuple(names)
+        unknown = [name for name in names if name not in self.coordinates]
+        if unknown:
+            raise ModelError(f"unknown actuated coordinate {', '.join(map(repr, unknown))}; the model's coordinates "
+                             f"are {', '.join(self.coordinates)}")
+        m = len(self.constraint_names)
+        if names and (len(names) != m or len(set(names)) != m):
+            raise ModelError(f"model {self.module.MODEL} has {m} programmed constraint(s) "
+                             f"({', '.join(self.constraint_names) or 'none'}): name as many distinct actuated "
+                             f"coordinates, one input per constraint, got {', '.join(names)}")
+        other = copy.copy(self)
+        other.actuators = frozen(np.array([self.coordinates.index(name) for name in names], dtype=int))
         return other
 
     def with_params(self, **overrides) -> LoadedModel:
@@ -276,15 +299,61 @@ class LoadedModel:
         return partition_at(self, vector(q, self.n_dof, "q"), t)
 
     def motion(self, t, q, qd):
-        """(q̈, M, f): the GPME solution with the terms it was solved from. With "auto"
-        dependent coordinates not chosen yet, they are chosen at this state (:meth:`partitioned`)."""
+        """(q̈, M, f): the GPME solution (or, with :attr:`actuators`, the actuated realization's)
+        with the terms it was solved from. With "auto" dependent coordinates not chosen yet, they
+        are chosen at this state (:meth:`partitioned`)."""
+        if len(self.actuators):
+            qdd, _, M, f = self.actuation(t, q, qd)
+            return qdd, M, f
         model = self.partitioned(t, q)
         return model.evaluator.motion(t, q, qd, model)
 
     def accelerations(self, t, q, qd):
-        """q̈ (n,) from the GPME with Baumgarte terms (eq. 16); the partition as :meth:`motion`."""
+        """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), or of the actuated realization; the
+        partition as :meth:`motion`."""
+        if len(self.actuators):
+            return self.actuation(t, q, qd)[0]
         model = self.partitioned(t, q)
         return model.evaluator.accelerations(t, q, qd, model)
+
+    def actuation(self, t, q, qd):
+        """(q̈ (n,), u (m,), M, f) of the actuated realization on :attr:`actuators`: the inputs
+        ``u`` (N·m on a rotation, N on a translation) that alone hold the programmed
+        constraints. SimulationError where ``D M⁻¹ S`` is singular."""
+        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd)
+        try:
+            qdd, u = gpme.actuated(M, f, phi, phid, D, gamma, self.alpha, self.beta, self.constraint_orders,
+                                   self.actuators)
+        except np.linalg.LinAlgError:
+            raise SimulationError(self.uncontrollable(t, D)) from None
+        return qdd, u, M, f
+
+    def uncontrollable(self, t, D, condition=np.inf) -> str:
+        """Why the actuated realization fails at ``t``: its inputs cannot move the constraints
+        (``D`` (m, n) their Jacobian there; ``condition`` that of ``D M⁻¹ S``)."""
+        names = ", ".join(self.coordinates[k] for k in self.actuators)
+        moved = ", ".join(self.coordinates[k] for k in np.flatnonzero(np.any(D != 0, axis=0)))
+        return (f"at t = {t:.6g} s the inputs on {names} cannot hold the constraints "
+                f"{', '.join(self.constraint_names)} (D M⁻¹ S is singular, condition number {condition:.2e}); "
+                f"actuate coordinates the constraints depend on ({moved}) with --actuated")
+
+    def check_actuators(self, t, q) -> None:
+        """ModelError naming the actuated coordinates when their inputs cannot hold the
+        constraints at ``(t, q)`` from rest: ``D M⁻¹ S`` singular (condition above
+        :data:`UNCONTROLLABLE`), e.g. an input on a coordinate no constraint depends on."""
+        if not len(self.actuators):
+            return
+        M, _, _, _, D, _ = self.gpme_terms(t, q, np.zeros(self.n_dof))
+        with np.errstate(all="ignore"):
+            c = np.linalg.cond(gpme.input_coupling(M, D, self.actuators))
+        if not c <= UNCONTROLLABLE:
+            raise ModelError(self.uncontrollable(t, D, c))
+
+    def multipliers(self, t, q, qd):
+        """λ (m,) of the ideal realization at ``(t, q, qd)`` (:func:`gpmegen.runtime.gpme.multipliers`)."""
+        qdd, M, f = self.motion(t, q, qd)
+        D = self.constraint_terms(t, q, qd)[2]
+        return gpme.multipliers(M, f, qdd, D)
 
     def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
         """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid
@@ -294,20 +363,26 @@ class LoadedModel:
         (n,) and the work ``w0`` (2,) J at the end of step ``k_from`` (default: all of it, from
         ``t0``). Saves the start, the state after every ``save_every``-th step of the grid and the
         final state. Returns ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w``
-        (k, 2) the work of the drive and of the constraint forces plus ``w0`` (J), ``status`` a
+        (k, 2) the work of the drive and of the constraint forces (of the inputs, with
+        :attr:`actuators`) plus ``w0`` (J), ``status`` a
         :class:`gpmegen.status.SolveStatus`, OK when all steps were done, else with the states
         saved before the failure (none when the start is not finite).
         """
         g = integrate.grid(t0, t_end, dt)
         k_from, k_to = g.span(steps, save_every)
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"), vector(w0, 2, "w0")])
-        model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
-        t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
+        if len(self.actuators):  # the generated loops solve the GPME: the actuated one runs in Python
+            t, y, status = integrate.rk4_steps(integrate.state_derivative(self), y0, g, k_from, k_to,
+                                               int(save_every))
+        else:
+            model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
+            t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
         n = self.n_dof
         return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 
     def constraint_forces(self, t, q, qd):
-        """Generalized forces the constraints exert, ``M q̈ - f`` (n,)."""
+        """Generalized forces that realize the constraints, ``M q̈ - f`` (n,): ``Dᵀλ`` in the ideal
+        realization, ``S u`` (the inputs on :attr:`actuators`) in the actuated one."""
         qdd, M, f = self.motion(t, q, qd)
         return M @ qdd - f
 

@@ -73,11 +73,15 @@ def locked(model, q_start, free=None, gravity_parameter="g", steps=GRAVITY_STEPS
     return q
 
 
+def spring_stiffness(model, q):
+    """The springs' stiffness ``C`` (n, n): ``K`` at ``q`` with gravity (the parameter ``g``) off."""
+    m0 = model.with_params(**{"g": 0.0}) if "g" in model.params else model
+    return m0.stiffness_jacobian(q)
+
+
 def spring_coordinates(model, q):
     """Indices of coordinates that carry a spring (nonzero diagonal of K at zero gravity)."""
-    m0 = model.with_params(**{"g": 0.0}) if "g" in model.params else model
-    k = np.diag(m0.stiffness_jacobian(q))
-    return np.flatnonzero(np.abs(k) > 0)
+    return np.flatnonzero(np.abs(np.diag(spring_stiffness(model, q))) > 0)
 
 
 def _force_scale(model, q):

@@ -21,7 +21,8 @@ class ModelFile:
     ``initial``, ``initial_qd``: coordinate name -> value (SymPy expression of parameters) from
     ``[initial] q`` and ``[initial] qd``; coordinates not named start at 0. ``prescribed``:
     coordinate name -> its law (SymPy expression of ``t`` and parameters) for the joints given
-    ``prescribed = "law(t)"``, whose constraints the model holds."""
+    ``prescribed = "law(t)"``, whose constraints the model holds. ``actuators``: the coordinates
+    whose inputs realize the constraints (empty: ideally)."""
 
     path: str
     model: Model
@@ -29,6 +30,7 @@ class ModelFile:
     source: str = field(default="", repr=False, compare=False)   # the file's text, for locate()
     initial_qd: dict = field(default_factory=dict)
     prescribed: dict = field(default_factory=dict)
+    actuators: tuple = ()
 
     @functools.cached_property
     def _locator(self) -> Locator:

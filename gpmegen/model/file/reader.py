@@ -61,7 +61,7 @@ _RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "initial")
+            "chain", "drives", "constraints", "initial", "actuators")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
 SHAPE_KEYS = {
     "cylinder": ("type", "mass", "radius", "length", "axis"),
@@ -304,6 +304,7 @@ class Reader:
         dependent = self.read_dependent(data.get("dependent", "auto"))
         constraints, dependent = self.prescribe(constraints, dependent)
         initial, initial_qd = self.read_initial(data.get("initial", {}))
+        actuators = self.read_actuators(data.get("actuators", []), len(constraints))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description,
@@ -314,7 +315,7 @@ class Reader:
         except ModelError as exc:
             raise located(exc, self.file, self.locator) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
-        return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws)
+        return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators)
 
     def check_chain_size(self, items):
         """Refuse, before reading it element by element, a chain whose build cannot finish
@@ -639,6 +640,26 @@ class Reader:
                                       f"{value!r}; write dependent = [\"psi2\"] or dependent = \"auto\"")
         return tuple(value)
 
+    def check_coordinate(self, name, path):
+        """Refuse ``name`` (at ``path``) unless it is a coordinate of the chain read."""
+        if name not in self.coordinates:
+            close = difflib.get_close_matches(name, self.coordinates, 1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            self.fail(path, f"{name!r} is not a coordinate; {hint}the coordinates are {', '.join(self.coordinates)}")
+
+    def read_actuators(self, value, constraints: int) -> tuple:
+        """The coordinates whose inputs realize the constraints (none: ideally), one per
+        constraint."""
+        path = ("actuators",)
+        if not isinstance(value, list) or not all(isinstance(name, str) for name in value):
+            self.fail(path, f"expected a list of coordinate names, got {_kind_of(value)} {value!r}; write "
+                            f"actuators = [\"psi2\", \"x3\"]")
+        for name in value:
+            self.check_coordinate(name, path)
+        if value and (len(value) != constraints or len(set(value)) != len(value)):
+            self.fail(path, f"name {constraints} distinct coordinate(s), one input per constraint, got {len(value)}")
+        return tuple(value)
+
     def read_initial(self, table):
         """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities."""
         path = ("initial",)
@@ -646,13 +667,10 @@ class Reader:
         return tuple(self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
 
     def read_coordinate_values(self, table, path):
+        """A table of coordinate name -> quantity (at ``path``)."""
         q = self.table(table, path, what="table of coordinates")
         values = {}
         for name, value in q.items():
-            if name not in self.coordinates:
-                close = difflib.get_close_matches(name, self.coordinates, 1)
-                hint = f"did you mean {close[0]!r}? " if close else ""
-                self.fail(path + (name,), f"{name!r} is not a coordinate; {hint}the coordinates are "
-                                          f"{', '.join(self.coordinates)}")
+            self.check_coordinate(name, path + (name,))
             values[name] = self.quantity(value, path + (name,), self.params)
         return values

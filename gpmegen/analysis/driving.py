@@ -1,0 +1,137 @@
+"""Driving functions: the forces that realize the programmed constraints, with their units.
+
+Ideal realization (the GPME): ``M q̈ - f = Dᵀλ``. The generalized reaction ``Dᵀλ`` acts on all
+coordinates, the elastic ones included, so it is not a set of actuator torques; ``λ_i`` is the
+force of constraint ``i`` per unit of its expression. For position constraints written on the
+coordinates of one point P, ``Dᵀλ = J_Pᵀ F`` with ``F = Σ λ_i ∂Φ_i/∂r_P`` (N, in {0}): the force
+applied at P that realizes those constraints. Actuated realization: inputs ``u`` on named
+coordinates alone (:meth:`gpmegen.runtime.model.LoadedModel.actuation`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from ..model.chain import TIME, Joint, point_symbols
+from ..model.expand import expand
+from ..runtime import statics
+from . import results as results_io
+
+# Unit of a generalized force on a coordinate, by joint kind.
+FORCE_UNITS = {"revolute": "N·m", "prismatic": "N"}
+# Unit of λ by (constraint order, unit of its expression): λ·Φ̇ (order 0) or λ·Ψ (order 1) is a power.
+LAMBDA_UNITS = {(0, "m"): "N", (0, "m²"): "N/m", (0, "rad"): "N·m",
+                (1, "m/s"): "N", (1, "rad/s"): "N·m", (1, "m²/s"): "N/m"}
+GENERALIZED = "generalized"
+
+
+def force_units(model) -> dict:
+    """Unit of the generalized force on each coordinate of the symbolic ``model``."""
+    return {e.name: FORCE_UNITS[e.kind] for e in expand(model).elements if isinstance(e, Joint)}
+
+
+def lambda_units(model, constraint_units: dict) -> dict:
+    """Unit of each constraint's λ from the unit of its expression (``constraint_units``, name →
+    unit, where the case knows it), else "generalized"."""
+    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name)), GENERALIZED)
+            for c in model.constraints}
+
+
+def point_constraints(model) -> dict:
+    """Point name → indices of the position constraints written on that point's coordinates
+    alone (besides time and parameters)."""
+    params = {p.symbol for p in model.parameters}
+    found = {}
+    for point in expand(model).points:
+        allowed = set(point_symbols(point)) | params | {TIME}
+        rows = [i for i, c in enumerate(model.constraints)
+                if c.order == 0 and sp.sympify(c.expression).free_symbols <= allowed
+                and sp.sympify(c.expression).free_symbols & set(point_symbols(point))]
+        if rows:
+            found[point] = rows
+    return found
+
+
+def point_force_function(model, point: str, rows):
+    """``F(t, r_P, p, λ)`` (3,) N: ``Σ λ_i ∂Φ_i/∂r_P`` over the constraints ``rows`` on ``point``;
+    ``p`` the parameter values in the model's order."""
+    xyz = point_symbols(point)
+    params = [p.symbol for p in model.parameters]
+    gradient = sp.Matrix([[sp.diff(model.constraints[i].expression, a) for a in xyz] for i in rows])
+    evaluate = sp.lambdify([TIME, xyz, params], gradient, modules="numpy")
+    return lambda t, r, p, lam: np.asarray(evaluate(t, r, p), dtype=float).T @ np.asarray(lam)[rows]
+
+
+def point_forces(model, loaded, t, q, lam) -> dict:
+    """Point name → (k, 3) forces in {0} (N) that realize the constraints on it, at the saved
+    samples ``t`` (k,), ``q`` (k, n) with multipliers ``lam`` (k, m)."""
+    out = {}
+    for point, rows in point_constraints(model).items():
+        force = point_force_function(model, point, rows)
+        index = loaded.points.index(point)
+        out[point] = np.array([force(t[k], loaded.point_positions(q[k])[index], loaded.p, lam[k])
+                               for k in range(len(t))]).reshape(len(t), 3)
+    return out
+
+
+def deformation(loaded, q) -> dict:
+    """The elastic deformation at the samples ``q`` (k, n): ``spring_forces`` (k, n) the springs'
+    generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
+    coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
+    {0} from where the rigid arm at the same joint coordinates puts it (spring coordinates zero)."""
+    C = statics.spring_stiffness(loaded, q[0])
+    springs = np.flatnonzero(np.abs(np.diag(C)) > 0)
+    rigid = q.copy()
+    rigid[:, springs] = 0.0
+    deflection = np.array([loaded.end_effector(q[k]) - loaded.end_effector(rigid[k]) for k in range(len(q))])
+    return {"spring_forces": q @ C.T, "deflection": deflection.reshape(len(q), 3)}
+
+
+def annotate(results: dict, model, loaded) -> dict:
+    """``results`` of a run of the symbolic ``model`` (loaded as ``loaded``) with the units of its
+    driving functions in the metadata (``force_units``, ``lambda_units``), the elastic
+    :func:`deformation` and, for the ideal realization, ``point_forces`` (k, n_points, 3) N on
+    the points named by ``meta["force_points"]``. ``model`` None (generated code alone): the
+    deformation only."""
+    meta = results_io.metadata(results)
+    arrays = deformation(loaded, results["q"]) if loaded.points and len(results["t"]) else {}
+    if model is None:  # generated code without its model (a built folder): forces in generalized units
+        return results_io.annotate(results, {}, arrays)
+    units = {"force_units": force_units(model),
+             "lambda_units": lambda_units(model, meta.get("constraint_units", {}))}
+    if "lambda" in results:
+        forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"])
+        units["force_points"] = list(forces)
+        if forces:
+            arrays["point_forces"] = np.stack(list(forces.values()), axis=1)
+    return results_io.annotate(results, units, arrays)
+
+
+def holding(model, loaded, q) -> dict:
+    """What holds the configuration ``q`` at rest, drive off: ``joints`` (name → generalized
+    force of ``g + C q`` on each coordinate without a spring, N·m or N), ``lambda`` (m,) the
+    multipliers with which the constraints alone come closest (``Dᵀλ = g + C q``, least squares)
+    and ``unbalanced`` the largest generalized force they leave (0 at a constrained
+    equilibrium; at the locked start, what the joints' locks hold)."""
+    r = loaded.static_residual(q)
+    springs = set(np.flatnonzero(np.abs(np.diag(statics.spring_stiffness(loaded, q))) > 0).tolist())
+    joints = {name: float(r[k]) for k, name in enumerate(loaded.coordinates) if k not in springs}
+    D = loaded.constraint_terms(0.0, q, np.zeros(loaded.n_dof))[2]
+    lam = np.linalg.lstsq(D.T, r, rcond=None)[0] if len(D) else np.zeros(0)
+    return {"joints": joints, "lambda": lam, "unbalanced": float(np.max(np.abs(r - D.T @ lam), initial=0.0))}
+
+
+def format_holding(model, loaded, q, constraint_units=None) -> str:
+    """:func:`holding` as ``gpmegen statics`` prints it, with units."""
+    held = holding(model, loaded, q)
+    units = force_units(model)
+    lines = ["holding forces at rest, drive off (g + C q on the joints): "
+             + ", ".join(f"{name} = {value:.6g} {units[name]}" for name, value in held["joints"].items())]
+    if len(held["lambda"]):
+        lam_units = lambda_units(model, constraint_units or {})
+        lines.append("constraint multipliers at rest (Dᵀλ = g + C q, least squares): "
+                     + ", ".join(f"{c.name} = {value:.6g} {lam_units[c.name]}"
+                                 for c, value in zip(model.constraints, held["lambda"]))
+                     + f"; largest generalized force the constraints leave: {held['unbalanced']:.3g} (N or N·m)")
+    return "\n".join(lines)

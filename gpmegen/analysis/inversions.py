@@ -1,0 +1,43 @@
+"""A stable inversion of a case (:mod:`gpmegen.runtime.inversion`) as a results file: the bounded
+inputs of its actuated realization over a rest-to-rest programmed motion."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import cumulative_trapezoid
+
+from ..errors import ModelError
+from ..runtime import inversion
+from . import driving, study
+from . import results as results_io
+
+
+def work(t, qd, forces) -> np.ndarray:
+    """∫ q̇·Q dt (k,) J along the samples, by the trapezoid rule (``forces`` (k, n))."""
+    return cumulative_trapezoid(np.einsum("ij,ij->i", qd, forces), t, initial=0.0)
+
+
+def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, progress):
+    """Stable inversion of ``case`` (from its ``start``, the guess of the first rest state) for
+    its programmed motion at rest before ``t0`` and after ``t1`` (s), with the inputs on
+    ``actuated`` (None: the case's own); writes ``out`` and returns ``(results, inversion,
+    written)``."""
+    begun = case.started("numpy", start, overrides, progress)
+    model, q0 = begun.model, begun.q
+    model = model.with_actuators(case.actuators if actuated is None else actuated)
+    if not len(model.actuators):
+        raise ModelError("a stable inversion needs actuated coordinates, one per constraint: give --actuated "
+                         "(or a model file's actuators)")
+    inv = inversion.stable_inversion(model, q0, t0, t1, pre, post, nodes=nodes)
+    n = model.n_dof
+    drive = np.array([model.drive_forces(t) for t in inv.t])
+    inputs = np.zeros((len(inv.t), n))
+    inputs[:, model.actuators] = inv.u
+    y = np.column_stack([inv.q, inv.qd, work(inv.t, inv.qd, drive), work(inv.t, inv.qd, inputs)])
+    settings = dict(method="stable inversion (solve_bvp)", t0=t0, t1=t1, pre=pre, post=post, nodes=len(inv.t),
+                    lead=inv.lead, lag=inv.lag, residual=inv.residual, start=start, backend="numpy",
+                    actuators=[model.coordinates[k] for k in model.actuators])
+    res = study.collect(model, inv.t, y, "complete", settings)
+    res = results_io.annotate(res, case.metadata(model), case.extras(model, res))
+    res = driving.annotate(res, case.source, model)
+    return res, inv, results_io.save(res, out)

@@ -1,0 +1,101 @@
+"""Stable inversion: the bounded inputs of a flexible link whose tip is moved rest to rest by a
+torque at its hub (non-minimum phase), against the non-causal inverse of the linear system
+computed independently in the frequency domain."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.errors import SimulationError
+from gpmegen.runtime import internal, inversion
+
+LINK = Path(__file__).resolve().parent / "models" / "flexible_link.toml"
+MOVE = {"d": 0.01, "Y": 0.001, "T": 0.2}  # a 1 mm move in 0.2 s: the linear range
+
+
+def link(nrfe, **params):
+    file = gpmegen.read_model_file(LINK, nrfe=nrfe)
+    return gpmegen.load(model=file.model, params=params).with_actuators(file.actuators)
+
+
+def smooth_step_acceleration(t, Y, T):
+    """ÿ of y = Y s(t/T), s(τ) = 35τ⁴ - 84τ⁵ + 70τ⁶ - 20τ⁷ on [0, 1] (constant outside)."""
+    tau = np.clip(t / T, 0.0, 1.0)
+    inside = (t > 0) & (t < T)
+    return np.where(inside, Y / T**2 * (420 * tau**2 - 1680 * tau**3 + 2100 * tau**4 - 840 * tau**5), 0.0)
+
+
+def linear_inverse(model, t):
+    """u(t) of the linear system M q̈ + C q̇ + K q = S u, y = D q about the straight link, inverted
+    non-causally: U(ω) = FFT(ÿ_d)(ω) / H(iω) with H(s) = s² D (M s² + C s + K)⁻¹ S, on a long
+    periodic window (the motion is at rest far from it)."""
+    n = model.n_dof
+    q = np.zeros(n)
+    M, K = model.mass_matrix(q), model.stiffness_jacobian(q)
+    C = np.diag([0.0 if name == "theta1" else MOVE["d"] for name in model.coordinates])
+    D = model.constraint_terms(0.0, q, q)[2]
+    S = np.zeros((n, 1))
+    S[model.index("theta1"), 0] = 1.0
+    dt = t[1] - t[0]
+    acc = smooth_step_acceleration(t, MOVE["Y"], MOVE["T"])
+    omega = 2 * np.pi * np.fft.rfftfreq(len(t), dt)
+    U = np.zeros(len(omega), dtype=complex)
+    spectrum = np.fft.rfft(acc)
+    for k, w in enumerate(omega[1:], start=1):
+        s = 1j * w
+        H = s**2 * (D @ np.linalg.solve(M * s**2 + C * s + K, S))[0, 0]
+        U[k] = spectrum[k] / H
+    return np.fft.irfft(U, len(t))
+
+
+def test_stable_inversion_matches_the_non_causal_linear_inverse(env):
+    """The BVP's inputs equal the frequency-domain inverse of the linearized link (within its
+    nonlinearity, 1 mm on 1 m), start before the motion (pre-actuation) and stay bounded, and
+    they hold the equations and the constraint along the solution."""
+    model = link(2, **MOVE)
+    assert len(internal.unstable(internal.eigenvalues(model, 0.0, np.zeros(model.n_dof),
+                                                      np.zeros(model.n_dof)))) == 1
+    inv = inversion.stable_inversion(model, np.zeros(model.n_dof), 0.0, MOVE["T"], 0.1, 0.1, nodes=80, tol=1e-6)
+    window = np.arange(-2.0, 2.0, 1e-4)
+    expected = np.interp(inv.t, window, linear_inverse(model, window))
+    scale = np.max(np.abs(expected))
+    assert np.max(np.abs(inv.u[:, 0] - expected)) < 1e-4 * scale  # measured 2.3e-6
+    assert inv.lead > 0.005 and inv.lag > 0.005  # s: the inputs act before and after the motion
+    for k in range(0, len(inv.t), 7):
+        M, f, phi, _, _, _ = model.gpme_terms(inv.t[k], inv.q[k], inv.qd[k])
+        qdd = model.actuation(inv.t[k], inv.q[k], inv.qd[k])[0]
+        assert abs((M @ qdd - f)[0] - inv.u[k, 0]) < 1e-9 * scale
+        assert np.max(np.abs((M @ qdd - f)[1:])) < 1e-9 * scale
+        assert abs(phi[0]) < 1e-8
+    assert np.max(np.abs(inv.q[:, 1:])) < 0.01  # rad: the elastic coordinates stay small
+
+
+def test_stable_inversion_needs_hyperbolic_internal_dynamics(env):
+    """Undamped sdes leave eigenvalues on the imaginary axis: refused, saying what to change."""
+    model = link(2, Y=0.001)
+    with pytest.raises(SimulationError, match="hyperbolic internal dynamics.*damp the sdes"):
+        inversion.stable_inversion(model, np.zeros(model.n_dof), 0.0, 0.2, 0.1, 0.1)
+
+
+def test_cli_invert_writes_the_bounded_inputs(env, tmp_path, capsys):
+    """``gpmegen invert`` writes the inputs and says how long before the motion they start; a
+    case whose internal dynamics keep a neutral coordinate (the rigid arm's column) is refused."""
+    from gpmegen import cli
+    from gpmegen.analysis import results as results_io
+
+    out = tmp_path / "inv.npz"
+    args = ["invert", str(LINK), "--nrfe", "2", "--t1", "0.2", "--out", str(out)]
+    assert cli.main(args + [f"--param={k}={v}" for k, v in MOVE.items()]) == 0
+    line = capsys.readouterr().out
+    res = results_io.load(out)
+    settings = results_io.metadata(res)["settings"]
+    assert f"the inputs start {settings['lead']:.4g} s before t0 = 0 s" in line and settings["lead"] > 0.005
+    assert list(res["actuators"]) == ["theta1"] and res["t"][0] == pytest.approx(-0.1)
+    assert np.max(np.abs(res["u"][res["t"] < 0])) > 0.01 * np.max(np.abs(res["u"]))  # pre-actuation
+    assert cli.main(["invert", "--nrfe", "1", "--actuated", "psi2", "x3", "--t1", "1",
+                     "--out", str(tmp_path / "rigid.npz")]) == 1
+    assert "stable inversion needs hyperbolic internal dynamics" in capsys.readouterr().err
