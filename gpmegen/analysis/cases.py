@@ -112,3 +112,13 @@ class FileCase(Case):
         initial = self.file.initial_values(model.params)
         progress(f"start of {self.path} ({start})")
         return study.file_start(model, initial, start)
+
+
+def case_for(model_file, nrfe) -> Case:
+    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), or the
+    reference manipulator (default 5 rfes)."""
+    if model_file:
+        return FileCase(model_file, nrfe)
+    from .reference_case import ReferenceCase
+
+    return ReferenceCase(nrfe or 5)
