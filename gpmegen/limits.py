@@ -47,9 +47,9 @@ STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
 #: One saved sample against n_dof: the derived quantities (E, Φ, drive, constraint forces,
 #: energies) evaluated after the run, and its share of the .npz and .csv writing.
 SAMPLE_SECONDS = {"c": ((3, 34e-6), (15, 54e-6)), "numpy": ((3, 80e-6), (15, 226e-6))}
-#: What a run of a sweep takes beyond its integration: the start (statics) and the writing of its
-#: results (n_rfe = 1 and 5, C, 0.05 s at 1e-4 s saving every step; the larger).
-RUN_SECONDS = 0.3
+#: What a run of a sweep takes beyond its integration: its start (statics) and the writing of its
+#: results (n_rfe = 1 and 5, C, runs of 10 steps: 0.01 to 0.04 s each).
+RUN_SECONDS = 0.02
 #: Memory of the process before a run (interpreter, NumPy, SymPy, the loaded model).
 BASE_BYTES = 110e6
 

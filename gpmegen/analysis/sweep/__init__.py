@@ -177,8 +177,9 @@ def _make(tasks, todo, rows, client, size, say) -> int:
             bar.update(done[0])
         else:
             state = row["status"] + (f": {row['message']}" if row.get("message") else "")
-            say(f"run {done[0]}/{total} ({task.run_id}, nrfe = {task.nrfe}, "
-                f"{', '.join(f'{k} = {v:g}' for k, v in task.params)}): {state} ({row['wall_s']:.2f} s)")
+            inputs = [f"nrfe = {task.nrfe}"] if task.nrfe is not None else []
+            inputs += [f"{k} = {v:g}" for k, v in task.params]
+            say(f"run {done[0]}/{total} ({', '.join([task.run_id, *inputs])}): {state} ({row['wall_s']:.2f} s)")
 
     n_workers = min(size, len(todo))
     if todo:

@@ -1,7 +1,7 @@
 """The summary of a sweep: one row per run, its inputs and scalar outcomes, written as CSV and
 as Parquet (the same table, column for column).
 
-Columns: ``run`` (id), ``nrfe``, the parameters given, ``status`` (complete, diverged,
+Columns: ``run`` (id), ``nrfe`` (empty: a model file's own), the parameters given, ``status`` (complete, diverged,
 interrupted or failed), ``message`` (why, when not complete), ``t_final`` (s), ``max_abs_phi``
 and ``max_abs_phi.<constraint>`` (the largest constraint violation over the run), ``q_final.<c>``
 per coordinate, ``peak_drive.<c>`` per driven coordinate and ``peak_constraint_force.<c>`` per
