@@ -345,19 +345,23 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",
                        help="override a parameter (repeatable), e.g. --param tdr0=2")
 
+    def run_options(p):
+        """How a run integrates: simulate's options, which a sweep's runs take too."""
+        p.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
+        p.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
+        p.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
+        p.add_argument("--method", choices=("rk4", "DOP853", "RK45", "Radau", "LSODA"), default="rk4",
+                       help="integrator: fixed-step rk4 (paper) or an adaptive scipy method")
+        p.add_argument("--backend", choices=("numpy", "c"), default=None,
+                       help="generated code to run (default: c when a compiler is present)")
+        p.add_argument("--repartition", action="store_true",
+                       help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
+
     s = sub.add_parser("simulate", help="statics, then the constrained motion (RK4 or adaptive)")
     study_options(s)
-    s.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
-    s.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
-    s.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
-    s.add_argument("--method", choices=("rk4", "DOP853", "RK45", "Radau", "LSODA"), default="rk4",
-                   help="integrator: fixed-step rk4 (paper) or an adaptive scipy method")
-    s.add_argument("--backend", choices=("numpy", "c"), default=None,
-                   help="generated code to run (default: c when a compiler is present)")
+    run_options(s)
     s.add_argument("--out", type=path_argument, default=None,
                    help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
-    s.add_argument("--repartition", action="store_true",
-                   help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.set_defaults(func=cmd_simulate)
 
     st = sub.add_parser("statics", help="print the static start configuration")
@@ -411,14 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="--samples as a Latin hypercube (default) or independent uniform draws")
     sw.add_argument("--statics", choices=("locked", "constrained", "initial"), default=None,
                     help="start of every run, as for simulate")
-    sw.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
-    sw.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5)")
-    sw.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
-    sw.add_argument("--method", choices=("rk4", "DOP853", "RK45", "Radau", "LSODA"), default="rk4",
-                    help="integrator, as for simulate")
-    sw.add_argument("--backend", choices=("numpy", "c"), default=None,
-                    help="generated code to run (default: c when a compiler is present)")
-    sw.add_argument("--repartition", action="store_true", help="as for simulate")
+    run_options(sw)
     sw.add_argument("--out", type=path_argument, required=True,
                     help="folder of the sweep: runs/ (one results file per run), summary.csv, summary.parquet")
     sw.add_argument("--workers", type=positive_int, default=None,

@@ -173,11 +173,25 @@ def test_a_failing_run_is_recorded_and_the_sweep_goes_on(tmp_path, capsys):
     assert main(argv) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("gpmegen sweep: error: 1 of 3 runs did not complete")
+    assert sum(line.startswith("gpmegen: run ") for line in err) == 3  # a progress line per run (no terminal)
     table = outcomes.read_csv(out / "summary.csv")
     assert table["status"] == ["complete", "failed", "complete"]
     assert "the programmed constraints cannot be met" in table["message"][1]
     assert table["q_final.theta1"][1] is None and table["q_final.theta1"][2] is not None
     assert not (out / "runs" / f"{table['run'][1]}.npz").exists()
+
+
+def test_samples_are_run_with_the_values_drawn(tmp_path):
+    params = {"tdr0": (1.0, 3.0), "d2": 0.01}
+    summary = gpmegen.sweep(out=tmp_path / "drawn", nrfe=[1], params=params, samples=3, seed=5, t_end=0.002,
+                            dt=1e-3, save_every=1, backend="numpy", workers=1)
+    drawn = plan.points(plan.normalize(params, 3), 3, seed=5)
+    assert summary.columns["tdr0"] == [p["tdr0"] for p in drawn] and summary.columns["d2"] == [0.01] * 3
+    assert len(set(summary.columns["tdr0"])) == 3 and summary.columns["status"] == ["complete"] * 3
+    with pytest.raises(plan.SweepError, match="given twice"):
+        gpmegen.sweep(out=tmp_path / "twice", params={"tdr0": [1.0, 2.0, 1.0]}, t_end=0.01)
+    with pytest.raises(plan.SweepError, match="draws within ranges"):
+        gpmegen.sweep(out=tmp_path / "fixed", params={"tdr0": 1.0}, samples=3, t_end=0.01)
 
 
 def test_a_folder_of_another_sweep_is_refused(tmp_path, capsys):

@@ -90,6 +90,8 @@ def sweep(*, out, params: dict, t_end: float, model_file=None, nrfe=None, sample
     began = time.perf_counter()
     if samples is not None and samples < 1:
         raise SweepError(f"--samples {samples}: draw at least one sample")
+    if seed < 0:
+        raise SweepError(f"--seed {seed}: give a whole number >= 0")
     params = plan.normalize(dict(params), samples)
     nrfe_values = list(dict.fromkeys(nrfe)) if nrfe else [None]
     model_file = str(Path(model_file).resolve()) if model_file else None
@@ -125,7 +127,7 @@ def sweep(*, out, params: dict, t_end: float, model_file=None, nrfe=None, sample
     if failed:
         first = next(row for row in ordered if row["status"] != "complete")
         raise SweepFailures(f"{failed} of {len(tasks)} runs did not complete (first: run {first['run']}, "
-                            f"{first['status']}: {first['message']}); summary in {written[0]}", ) from None
+                            f"{first['status']}: {first['message']}); summary in {written[0]}")
     return summary
 
 

@@ -91,7 +91,12 @@ def normalize(params: dict, samples: int | None) -> dict:
         if samples is not None and len(values) > 1:
             raise SweepError(f"--param {name}: with --samples give a range {name}=low:high (or one fixed value), "
                              f"not a list of values")
+        twice = sorted({v for v in values if values.count(v) > 1})
+        if twice:
+            raise SweepError(f"--param {name}: {', '.join(f'{v:g}' for v in twice)} given twice; give each value once")
         out[name] = values
+    if samples is not None and not any(isinstance(v, Range) for v in out.values()):
+        raise SweepError("--samples draws within ranges: give at least one --param NAME=low:high")
     return out
 
 
