@@ -296,6 +296,8 @@ def cmd_sweep(args) -> int:
     params = dict(args.param or [])
     if len(params) != len(args.param or []):
         raise UsageError("a parameter is given twice with --param; give each once, with all its values")
+    if not Path(args.out).is_file():
+        _writable_folder(Path(args.out))
     try:
         summary = sweep.sweep(out=args.out, params=params, t_end=args.t_end, model_file=args.model_file,
                               nrfe=args.nrfe, samples=args.samples, seed=args.seed, sampling=args.sampling,

@@ -88,29 +88,23 @@ def sweep(*, out, params: dict, t_end: float, model_file=None, nrfe=None, sample
     :class:`SweepFailures` (after writing the summary) when some runs did not complete."""
     say = progress or (lambda message: None)
     began = time.perf_counter()
-    if samples is not None and samples < 1:
-        raise SweepError(f"--samples {samples}: draw at least one sample")
-    if seed < 0:
-        raise SweepError(f"--seed {seed}: give a whole number >= 0")
+    _check_draws(samples, seed, sampling)
     params = plan.normalize(dict(params), samples)
     nrfe_values = list(dict.fromkeys(nrfe)) if nrfe else [None]
     model_file = str(Path(model_file).resolve()) if model_file else None
     models = _plan_models(model_file, nrfe_values, start)
     _check_parameters(models, params)
-    per_model = plan.count(params, samples)
-
+    settings = dict(t_end=t_end, dt=dt, save_every=save_every, method=method, backend=backend,
+                    repartition=repartition)
+    arguments = {"model_file": model_file, "model_sha256": _file_digest(model_file), "nrfe": nrfe_values,
+                 "params": params, "samples": samples, "seed": seed if samples is not None else None,
+                 "sampling": sampling if samples is not None else None, "start": [s for _, s, _ in models],
+                 **settings}
+    folder = Path(out)
     client = pools.cluster_workers(scheduler) if scheduler else None
     try:
         size = pools.cluster_size(client) if client else max(1, workers or os.cpu_count() or 1)
-        limits.check_sweep([(per_model, limits.run_estimate(limits.model_coordinates(case.model),
-                                                            len(case.model.constraints), t_end, dt, save_every,
-                                                            method, backend)) for case, _, _ in models], size)
-        folder = Path(out)
-        arguments = {"model_file": model_file, "model_sha256": _file_digest(model_file), "nrfe": nrfe_values,
-                     "params": params, "samples": samples, "seed": seed if samples is not None else None,
-                     "sampling": sampling if samples is not None else None, "start": [s for _, s, _ in models],
-                     "t_end": t_end, "dt": dt, "save_every": save_every, "method": method, "backend": backend,
-                     "repartition": repartition}
+        _check_limits(models, plan.count(params, samples), size, settings)
         plan.claim(folder, arguments)
         tasks = _tasks(models, plan.points(params, samples, seed, sampling), arguments, folder)
         rows, todo = _completed(tasks)
@@ -122,18 +116,39 @@ def sweep(*, out, params: dict, t_end: float, model_file=None, nrfe=None, sample
             client.close()
     ordered = [rows[task.run_id] for task in tasks]
     written = outcomes.write(ordered, folder)
-    summary = Summary(outcomes.columns(ordered), written, len(tasks), failed, len(tasks) - len(todo),
-                      min(size, max(1, len(todo))), time.perf_counter() - began)
     if failed:
         first = next(row for row in ordered if row["status"] != "complete")
         raise SweepFailures(f"{failed} of {len(tasks)} runs did not complete (first: run {first['run']}, "
                             f"{first['status']}: {first['message']}); summary in {written[0]}")
-    return summary
+    return Summary(outcomes.columns(ordered), written, len(tasks), failed, len(tasks) - len(todo),
+                   min(size, max(1, len(todo))), time.perf_counter() - began)
+
+
+def _check_draws(samples, seed, sampling) -> None:
+    if samples is not None and samples < 1:
+        raise SweepError(f"--samples {samples}: draw at least one sample")
+    if seed < 0:
+        raise SweepError(f"--seed {seed}: give a whole number >= 0")
+    if sampling not in plan.SAMPLINGS:
+        raise SweepError(f"--sampling {sampling!r}: use {' or '.join(plan.SAMPLINGS)}")
+
+
+def _check_limits(models, per_model: int, size: int, settings: dict) -> None:
+    """Refuse a sweep that cannot finish (:func:`gpmegen.limits.check_sweep`): ``per_model`` runs
+    of each model on ``size`` workers."""
+    s = settings
+    limits.check_sweep([(per_model, limits.run_estimate(limits.model_coordinates(case.model),
+                                                        len(case.model.constraints), s["t_end"], s["dt"],
+                                                        s["save_every"], s["method"], s["backend"]))
+                        for case, _, _ in models], size)
+
+
+SETTINGS = ("t_end", "dt", "save_every", "method", "backend", "repartition")
 
 
 def _tasks(models, points, arguments, folder) -> list:
     """One :class:`~.plan.Task` per rfe count and parameter point."""
-    settings = {key: arguments[key] for key in ("t_end", "dt", "save_every", "method", "backend", "repartition")}
+    settings = {key: arguments[key] for key in SETTINGS}
     tasks = []
     for case, start, digest in models:
         nrfe = getattr(case, "nrfe", None)

@@ -194,7 +194,9 @@ def claim(folder: Path, arguments: dict) -> None:
             raise SweepError(f"--out {folder} holds a different sweep ({'; '.join(differ)}); rerun with its "
                              f"arguments to finish it, or choose another --out")
         return
-    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+    if folder.exists() and not folder.is_dir():
+        raise SweepError(f"--out {folder} is a file; give a folder for the sweep")
+    if folder.exists() and any(folder.iterdir()):
         raise SweepError(f"--out {folder} is not empty and holds no sweep ({MANIFEST} is missing); choose a new or "
                          f"empty folder")
     text = json.dumps({"format": FORMAT, "arguments": arguments}, indent=2, sort_keys=True) + "\n"
