@@ -44,6 +44,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=2, help="alternating rounds, best kept (default 2)")
     parser.add_argument("--workers", type=int, default=os.cpu_count(), help="pool size (default: one per core)")
     args = parser.parse_args()
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="gpmegen-sweep-bench-") as tmp:
         tmp = Path(tmp)
         gpmegen.sweep(out=tmp / "warm", nrfe=[1, 5], params={"E2": MODULI[:1]}, t_end=0.001, dt=1e-5, backend="c",
@@ -55,8 +56,8 @@ def main() -> None:
     load = os.getloadavg()[0]
     efficiency = best["sequential"] / (args.workers * best["pool"])
     print(f"16 runs (n_rfe 1 and 5, 8 moduli), t_end = {args.t_end:g} s at dt = 1e-5 s, C backend; "
-          f"load average {load:.2f} on {os.cpu_count()} cores at the end")
-    print(f"sequential (this process): {best['sequential']:.2f} s")
+          f"load average {load_before:.2f} before, {load:.2f} after, on {os.cpu_count()} cores")
+    print(f"sequential (--workers 1): {best['sequential']:.2f} s")
     print(f"local pool, {args.workers} processes: {best['pool']:.2f} s")
     print(f"speed-up {best['sequential'] / best['pool']:.2f}, parallel efficiency {efficiency:.2f}")
 

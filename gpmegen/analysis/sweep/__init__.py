@@ -19,7 +19,7 @@ from pathlib import Path
 
 from ... import limits
 from ...errors import GpmegenError
-from . import outcomes, plan, pools, workers
+from . import outcomes, plan, pools
 from .plan import Range, SweepError
 
 __all__ = ["sweep", "Summary", "Range", "SweepError", "SweepFailures"]
@@ -204,14 +204,11 @@ def _make(tasks, todo, rows, client, size, say) -> int:
             "in this process" if n_workers == 1 else f"on {n_workers} local processes"
         say(f"{len(todo)} runs {where}")
     try:
-        if client is None:
-            for task in {task.digest: task for task in todo}.values():
-                workers.prepare(task, say)
         with interruptible():  # SIGTERM stops the sweep as Ctrl-C does
             if client is not None:
                 pools.on_cluster(todo, record, client)
             elif n_workers <= 1:
-                pools.in_process(todo, record)
+                pools.in_process(todo, record, say)
             else:
                 pools.local_pool(todo, record, n_workers)
     except KeyboardInterrupt:

@@ -17,8 +17,15 @@ from .plan import SweepError
 DIED = "the process making this run died (a crash in compiled code, or it was killed); run the sweep again to retry it"
 
 
-def in_process(tasks, record) -> None:
+def models(tasks) -> list:
+    """One task of each model among ``tasks``."""
+    return list({task.digest: task for task in tasks}.values())
+
+
+def in_process(tasks, record, progress) -> None:
     """The runs one after the other in this process; Ctrl-C during one ends the sweep."""
+    for task in models(tasks):
+        workers.prepare(task, progress)
     stderr, sys.stderr = sys.stderr, workers.NotATerminal(sys.stderr)  # no run draws its own progress bar
     try:
         for task in tasks:
@@ -32,12 +39,17 @@ def in_process(tasks, record) -> None:
 
 def local_pool(tasks, record, n_workers: int) -> None:
     """The runs on ``n_workers`` processes of this machine. The processes are spawned (not
-    forked): each starts clean and loads the C library itself, with the environment of now."""
+    forked): each starts clean and loads the C library itself, with the environment of now. Each
+    model is first loaded by one of them alone, so that one process builds and compiles it when
+    it is missing (the others start up meanwhile)."""
     context = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
                                initializer=workers.initialize_pool_process)
-    futures = {pool.submit(workers.perform, task): task for task in tasks}
+    futures = {}
     try:
+        for task in models(tasks):
+            pool.submit(workers.prepare, task).result()
+        futures = {pool.submit(workers.perform, task): task for task in tasks}
         for future in as_completed(futures):
             try:
                 row = future.result()

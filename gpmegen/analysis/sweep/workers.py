@@ -56,9 +56,9 @@ def _case(task: Task):
         return _cases[key]
 
 
-def prepare(task: Task, progress) -> None:
+def prepare(task: Task, progress=_quiet) -> None:
     """Load the model of ``task`` in this process, building and compiling it when missing (with
-    ``progress`` messages), so that a local pool's processes find it ready."""
+    ``progress`` messages), so that the runs find it ready."""
     _case(task).load(task.backend, {}, progress)
 
 
