@@ -70,6 +70,11 @@ def lifted():
         _lifted.reset(token)
 
 
+def are_lifted() -> bool:
+    """Whether this code runs within :func:`lifted` (a sweep's workers are told so)."""
+    return _lifted.get()
+
+
 def available_memory() -> float | None:
     """Memory the system can give to a new task without swapping (bytes; ``MemAvailable``), or
     None when the system does not say."""

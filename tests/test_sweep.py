@@ -212,3 +212,23 @@ def test_a_sweep_beyond_the_limits_is_refused_with_its_numbers(tmp_path):
         gpmegen.sweep(out=tmp_path / "big", nrfe=[1, 5], params={"tdr0": (1.0, 2.0)}, samples=2000, t_end=10.0,
                       workers=2)
     assert not (tmp_path / "big").exists()
+
+
+def test_runs_in_other_processes_keep_the_limits_lifted(tmp_path, monkeypatch):
+    """A pool's process or a Dask worker does not see the caller's limits.lifted(): its tasks say it."""
+    from gpmegen import limits
+    from gpmegen.analysis import sweep
+    from gpmegen.analysis.sweep import workers
+
+    folder = tmp_path / "lifted"
+    settings = dict(t_end=0.002, dt=1e-3, save_every=1, method="rk4", backend="numpy", repartition=False)
+    gpmegen.sweep(out=folder, nrfe=[1], params={"tdr0": 2.0}, workers=1, **settings)  # the folder and manifest
+    models = sweep._plan_models(None, [1], None)
+    arguments = {"model_file": None, "model_sha256": None, **settings}
+    with limits.lifted():
+        (lifted,) = sweep._tasks(models, [{"tdr0": 2.0}], arguments, folder)
+    (bound,) = sweep._tasks(models, [{"tdr0": 2.0}], arguments, folder)
+    monkeypatch.setattr(limits, "MAX_SECONDS", 1e-9)  # every run is now beyond the limit
+    assert workers.perform(lifted)["status"] == "complete"
+    refused = workers.perform(bound)
+    assert refused["status"] == "failed" and "beyond the limit" in refused["message"]

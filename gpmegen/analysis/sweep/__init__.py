@@ -157,7 +157,8 @@ def _tasks(models, points, arguments, folder) -> list:
             identity = {"model": digest, "model_sha256": arguments["model_sha256"], "nrfe": nrfe, "params": point,
                         "start": start, **settings}
             tasks.append(plan.Task(plan.run_id(identity), arguments["model_file"], nrfe, tuple(point.items()), start,
-                                   folder=str(folder.resolve()), digest=digest, driven=driven, **settings))
+                                   folder=str(folder.resolve()), digest=digest, driven=driven,
+                                   no_limits=limits.are_lifted(), **settings))
     return tasks
 
 

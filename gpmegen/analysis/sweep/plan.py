@@ -137,7 +137,9 @@ def points(params: dict, samples: int | None, seed: int, sampling: str = "lhs") 
 class Task:
     """One run of a sweep: what decides its results (``inputs``), the results file ``out``
     (.npz, under ``folder``/runs), the coordinates its drives act on (``driven``, for the
-    summary) and the model's input hash ``digest`` (the key of a worker's loaded models)."""
+    summary), the model's input hash ``digest`` (the key of a worker's loaded models) and
+    whether the limits are lifted for it (``no_limits``: the sweep ran within
+    :func:`gpmegen.limits.lifted`, which another process does not see)."""
 
     run_id: str
     model_file: str | None
@@ -153,6 +155,7 @@ class Task:
     folder: str
     digest: str
     driven: tuple
+    no_limits: bool = False
 
     @property
     def out(self) -> Path:

@@ -8,6 +8,7 @@ raises for a run that fails, it returns the failure as the run's row.
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import socket
 import sys
@@ -15,6 +16,7 @@ import threading
 import time
 from pathlib import Path
 
+from ... import limits
 from ...errors import GpmegenError
 from .. import cases, runs
 from . import outcomes
@@ -71,8 +73,9 @@ def perform(task: Task) -> dict:
         if not (Path(task.folder) / MANIFEST).is_file():
             raise SweepError(f"the sweep's folder {task.folder} is not there on {socket.gethostname()}: a sweep on a "
                              f"cluster needs an --out folder that every worker shares")
-        done = runs.run(_case(task), task.start, task.t_end, task.dt, task.save_every, task.method, task.backend,
-                        dict(task.params), task.out, _quiet, repartition=task.repartition)
+        with limits.lifted() if task.no_limits else contextlib.nullcontext():
+            done = runs.run(_case(task), task.start, task.t_end, task.dt, task.save_every, task.method,
+                            task.backend, dict(task.params), task.out, _quiet, repartition=task.repartition)
         row = outcomes.outcomes(done.results, task.driven)
     except GpmegenError as exc:
         row = outcomes.failure(str(exc))
