@@ -12,7 +12,7 @@ __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
-    "SimulationError", "limits", "__version__",
+    "SimulationError", "limits", "__version__", "sweep",
 ]
 
 

@@ -7,6 +7,7 @@
 - :func:`load_model_file`, :func:`read_model_file`: models from TOML files;
 - the model's elements (:class:`Model`, :class:`Joint`, :class:`FlexibleLink`, ...) and the
   reference case (:func:`reference_model`);
+- :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
 - the errors, one type per failure family (:class:`GpmegenError` and its subclasses).
 """
 
@@ -16,6 +17,7 @@ from pathlib import Path
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .analysis.runs import Results
+from .analysis.sweep import sweep
 from .codegen.render import build as build_model
 from .codegen.render import input_hash
 from .errors import (
@@ -157,5 +159,5 @@ __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
-    "SimulationError", "limits", "__version__",
+    "SimulationError", "limits", "__version__", "sweep",
 ]

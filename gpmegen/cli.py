@@ -1,4 +1,4 @@
-"""Command line: ``gpmegen build | statics | simulate | invert | plot | modes | convergence | demo``.
+"""Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | modes | convergence | demo``.
 
 Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
@@ -153,15 +153,10 @@ def _check_results_path(out: Path, overwrite: bool = False) -> None:
 
 
 def _case(model_file, nrfe):
-    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), a folder made
-    by ``gpmegen build --out``, or the reference manipulator (default 5 rfes)."""
-    if model_file:
-        from .analysis.cases import case_of_path
+    """The case a command runs (:func:`gpmegen.analysis.cases.case_for`)."""
+    from .analysis.cases import case_for
 
-        return case_of_path(model_file, nrfe)
-    from .analysis.reference_case import ReferenceCase
-
-    return ReferenceCase(nrfe or 5)
+    return case_for(model_file, nrfe)
 
 
 def cmd_build(args) -> int:
@@ -436,6 +431,43 @@ class Parser(argparse.ArgumentParser):
         return parsed
 
 
+def sweep_param(text: str):
+    """argparse type: a swept parameter, NAME=v1,v2,… | NAME=start:stop:count | NAME=low:high."""
+    from .analysis.sweep import SweepError, plan
+
+    try:
+        return plan.parse_param(text)
+    except SweepError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def cmd_sweep(args) -> int:
+    """Many runs of one case over parameter values and rfe counts; a summary table."""
+    from .analysis import sweep
+
+    params = dict(args.param or [])
+    if len(params) != len(args.param or []):
+        raise UsageError("a parameter is given twice with --param; give each once, with all its values")
+    if not Path(args.out).is_file():
+        _writable_folder(Path(args.out))
+    try:
+        summary = sweep.sweep(out=args.out, params=params, t_end=args.t_end, model_file=args.model_file,
+                              nrfe=args.nrfe, samples=args.samples, seed=args.seed, sampling=args.sampling,
+                              dt=args.dt, save_every=args.save_every, method=args.method,
+                              backend=args.backend or _default_backend(), start=args.statics,
+                              repartition=args.repartition, workers=args.workers, scheduler=args.scheduler,
+                              progress=progress)
+    except sweep.SweepError as exc:
+        raise UsageError(str(exc)) from None
+    except KeyboardInterrupt as exc:
+        if str(exc):
+            progress(str(exc))
+        raise
+    print(f"{summary.runs} runs complete ({summary.skipped} kept from before) in {summary.wall:.1f} s on "
+          f"{summary.workers} worker{'s' if summary.workers > 1 else ''}; wrote {', '.join(map(str, summary.written))}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .help_pages import DESCRIPTIONS, EPILOGS
     from .version import __version__
@@ -477,20 +509,25 @@ def build_parser() -> argparse.ArgumentParser:
                        help="override a parameter (repeatable); the value is a number or an expression as in "
                             "model files, e.g. --param tdr0=2*pi")
 
+    def run_options(p):
+        """How a run integrates: simulate's options, which a sweep's runs take too."""
+        p.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
+        p.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
+        p.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
+        p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
+                       help="integrator, in any case: fixed-step rk4 (the paper's, default) or an adaptive SciPy "
+                            "method")
+        p.add_argument("--backend", choices=("numpy", "c"), default=None,
+                       help="generated code to run (default: c when a compiler is present)")
+        p.add_argument("--repartition", action="store_true",
+                       help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
+
     s = command("simulate", "statics, then the constrained motion (RK4 or adaptive)")
     study_options(s)
-    s.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
-    s.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
-    s.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
-    s.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
-                   help="integrator, in any case: fixed-step rk4 (the paper's, default) or an adaptive SciPy method")
-    s.add_argument("--backend", choices=("numpy", "c"), default=None,
-                   help="generated code to run (default: c when a compiler is present)")
+    run_options(s)
     s.add_argument("--out", type=path_argument, default=None,
                    help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
     s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")
-    s.add_argument("--repartition", action="store_true",
-                   help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
     s.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
                         "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
@@ -559,7 +596,32 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--results", type=path_argument, default="results", help="folder for results (default results/)")
     d.add_argument("--figures", type=path_argument, default="figures", help="folder for figures (default figures/)")
     d.set_defaults(func=cmd_demo)
-    for p in (b, s, inv, st, m, c, d):
+    sw = command("sweep", "many runs over parameter values and rfe counts, on all cores or a Dask cluster")
+    sw.add_argument("model_file", nargs="?", type=path_argument,
+                    help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
+                         "manipulator")
+    sw.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+                    help="rigid finite elements of the arm, one sweep of the parameters for each (default 5, or "
+                         "the file's)")
+    sw.add_argument("--param", type=sweep_param, action="append", metavar="NAME=SPEC",
+                    help="a parameter's values: NAME=v1,v2,… or NAME=start:stop:count (every combination is run), "
+                         "or NAME=low:high with --samples (repeatable)")
+    sw.add_argument("--samples", type=positive_int, default=None,
+                    help="draw this many points within the NAME=low:high ranges instead of a grid")
+    sw.add_argument("--seed", type=int, default=0, help="seed of --samples (default 0)")
+    sw.add_argument("--sampling", choices=("lhs", "random"), default="lhs",
+                    help="--samples as a Latin hypercube (default) or independent uniform draws")
+    sw.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
+                    help="start of every run, as for simulate")
+    run_options(sw)
+    sw.add_argument("--out", type=path_argument, required=True,
+                    help="folder of the sweep: runs/ (one results file per run), summary.csv, summary.parquet")
+    sw.add_argument("--workers", type=positive_int, default=None,
+                    help="local processes (default: one per core; 1 runs in this process)")
+    sw.add_argument("--scheduler", type=path_argument, default=None, metavar="ADDRESS",
+                    help="run on the Dask cluster of this scheduler (tcp://HOST:PORT or a scheduler file)")
+    sw.set_defaults(func=cmd_sweep)
+    for p in (b, s, inv, st, m, c, d, sw):
         p.add_argument("--no-limits", action="store_true",
                        help="start even work estimated to take more than an hour or more memory than is available")
     return parser

@@ -32,6 +32,12 @@ Stable inversion of the actuated realization: the bounded inputs that realize a 
 motion resting before t0 and after t1 when the internal dynamics are unstable (non-minimum
 phase), found as a boundary-value problem over [t0 - pre, t1 + post]. Prints how long before t0
 the inputs must start and after t1 they act.""",
+    "sweep": """\
+Many runs of one case: every combination of the given parameter values and rfe counts, or K
+samples (Latin hypercube or uniform) within given ranges. Each run is a simulate run (the same
+code, the same results file); the runs go to all local cores by default, or to a Dask cluster
+with --scheduler. A failed run is recorded with its message and the others go on; run the same
+sweep again after an interruption and the runs already complete are kept.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
@@ -105,6 +111,15 @@ examples:
 files written:
   results/<case>_inversion.npz and .csv (or --out and its .csv): t, q, qd, the inputs u on the
   actuated coordinates""",
+    "sweep": """\
+examples:
+  gpmegen sweep --nrfe 1 5 --param E2=2e9:2e11:8 --t-end 2.5 --out sweeps/stiffness
+  gpmegen sweep examples/planar_two_link.toml --param m2=0.5:2 --samples 32 --seed 1 --t-end 2 --out sweeps/mc
+  gpmegen sweep --param E2=7e10,2e11 --t-end 1 --out sweeps/e2 --scheduler tcp://10.0.0.5:8786
+
+files written:
+  <out>/sweep.json (the sweep's arguments), <out>/runs/<run id>.npz and .csv (one results file per
+  run), <out>/summary.csv and summary.parquet (per-run inputs and scalar outcomes)""",
     "demo": """\
 examples:
   gpmegen demo

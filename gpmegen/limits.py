@@ -47,6 +47,9 @@ STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
 #: One saved sample against n_dof: the derived quantities (E, Φ, drive, constraint forces,
 #: energies) evaluated after the run, and its share of the .npz and .csv writing.
 SAMPLE_SECONDS = {"c": ((3, 34e-6), (15, 54e-6)), "numpy": ((3, 80e-6), (15, 226e-6))}
+#: What a run of a sweep takes beyond its integration: its start (statics) and the writing of its
+#: results (n_rfe = 1 and 5, C, runs of 10 steps: 0.01 to 0.04 s each).
+RUN_SECONDS = 0.02
 #: Memory of the process before a run (interpreter, NumPy, SymPy, the loaded model).
 BASE_BYTES = 110e6
 
@@ -65,6 +68,11 @@ def lifted():
         yield
     finally:
         _lifted.reset(token)
+
+
+def are_lifted() -> bool:
+    """Whether this code runs within :func:`lifted` (a sweep's workers are told so)."""
+    return _lifted.get()
 
 
 def available_memory() -> float | None:
@@ -159,13 +167,13 @@ def sample_bytes(n_dof: int, n_constraints: int, backend: str) -> float:
     return 8.0 * doubles + python_lists
 
 
-def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
-              backend: str) -> None:
-    """Refuse a fixed-step run (``method`` "rk4") that cannot finish: ``t_end/dt`` steps of
-    ``backend`` ("c" or "numpy") keeping every ``save_every``-th state. Adaptive methods choose
-    their own steps, which cannot be known before."""
+def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
+                 backend: str) -> tuple[str, float, float] | None:
+    """``(work, seconds, bytes)`` of a fixed-step run (``method`` "rk4"): ``t_end/dt`` steps of
+    ``backend`` ("c" or "numpy") keeping every ``save_every``-th state, and what it is in words;
+    None for adaptive methods, which choose their own steps (they cannot be known before)."""
     if method != "rk4":
-        return
+        return None
     n_steps = steps(t_end, dt)
     samples = n_steps // max(1, int(save_every)) + 2
     backend = "c" if backend == "c" else "numpy"
@@ -173,8 +181,31 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
                + samples * interpolate(SAMPLE_SECONDS[backend], n_dof))
     n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
     where = "in C" if backend == "c" else "in NumPy"
-    check(f"running {n_steps:.3g} RK4 steps of n_dof = {n_dof} {where}, saving {samples:.3g} samples,", seconds,
-          n_bytes, "use a shorter --t-end, a larger --dt or a larger --save-every")
+    return f"{n_steps:.3g} RK4 steps of n_dof = {n_dof} {where}, saving {samples:.3g} samples,", seconds, n_bytes
+
+
+def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
+              backend: str) -> None:
+    """Refuse a fixed-step run that cannot finish (see :func:`run_estimate`)."""
+    estimate = run_estimate(n_dof, n_constraints, t_end, dt, save_every, method, backend)
+    if estimate is not None:
+        work, seconds, n_bytes = estimate
+        check(f"running {work}", seconds, n_bytes, "use a shorter --t-end, a larger --dt or a larger --save-every")
+
+
+def check_sweep(runs: list[tuple[int, tuple | None]], workers: int) -> None:
+    """Refuse a sweep that cannot finish: ``runs`` lists ``(count, estimate)`` of each of its
+    models (``estimate`` of one run, from :func:`run_estimate`; None: not known), made ``workers``
+    at a time, each run taking :data:`RUN_SECONDS` beyond its integration; its memory is that of
+    ``workers`` runs at once. A count beyond :data:`MAX_COUNT` is refused always."""
+    total = sum(n for n, _ in runs)
+    if total > MAX_COUNT:
+        raise LimitError(f"a sweep of {total:.3g} runs is more than can be counted ({MAX_COUNT:.3g}); give fewer "
+                         f"values or --samples")
+    seconds = sum(n * (RUN_SECONDS + (estimate[1] if estimate else 0.0)) for n, estimate in runs) / workers
+    n_bytes = workers * max((estimate[2] if estimate else BASE_BYTES) for _, estimate in runs)
+    check(f"a sweep of {total} runs on {workers} worker{'s' if workers > 1 else ''}", seconds, n_bytes,
+          "give fewer values or --samples, a shorter --t-end, a larger --dt or --save-every, or more workers")
 
 
 def model_coordinates(model) -> int:

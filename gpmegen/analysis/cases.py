@@ -286,3 +286,14 @@ def _reference_case_of(manifest):
         return None
     case = ReferenceCase(int(match.group(1)))
     return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
+
+
+def case_for(model_file, nrfe) -> Case:
+    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), a folder made
+    by ``gpmegen build --out`` (:func:`case_of_path`), or the reference manipulator (default 5
+    rfes)."""
+    if model_file:
+        return case_of_path(model_file, nrfe)
+    from .reference_case import ReferenceCase
+
+    return ReferenceCase(nrfe or 5)

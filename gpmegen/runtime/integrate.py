@@ -44,7 +44,7 @@ class Progress:
 
     def update(self, done: float):
         now = time.perf_counter()
-        if not self.enabled or now - self.last < 0.25:
+        if not self.enabled or (now - self.last < 0.25 and done < self.total):  # the end is always drawn
             return
         self.last = now
         frac = min(done / self.total, 1.0) if self.total else 1.0
