@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: b77e678f327779ca
+Input hash: 1099880e19db9f73
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe1_input_hash(void) { return "b77e678f327779ca"; }
+const char *manipulator_nrfe1_input_hash(void) { return "1099880e19db9f73"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -138,6 +138,18 @@ void manipulator_nrfe1_mass_matrix(const double *q, const double *p, double *out
     out_M[6] = _x76;
     out_M[7] = _x82;
     out_M[8] = _x83;
+}
+
+
+/* mass_matrix at n states, one after the other, the same arithmetic state by state:
+   q hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe1_mass_matrix_batch(long n, const double *q, const double *p, double *out_M)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe1_mass_matrix(q + k * N_DOF, p, out_M + k * 9);
+    }
 }
 
 
@@ -277,6 +289,18 @@ void manipulator_nrfe1_forces(double t, const double *q, const double *qd, const
     out_f[0] = -_x96 + _p_tdr0*(_x106*_x106*_x106)*(10.0 - 15.0*_x106 + 6.0*(_x106*_x106));
     out_f[1] = _x101 - _x102;
     out_f[2] = _x104 - _x105;
+}
+
+
+/* forces at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe1_forces_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_f)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe1_forces(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_f + k * 3);
+    }
 }
 
 
@@ -516,6 +540,18 @@ void manipulator_nrfe1_constraint_terms(double t, const double *q, const double 
     out_jacobian[5] = _x3;
     out_gamma[0] = _x44;
     out_gamma[1] = _x50;
+}
+
+
+/* constraint_terms at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe1_constraint_terms_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe1_constraint_terms(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_phi + k * 2, out_phi_rate + k * 2, out_jacobian + k * 6, out_gamma + k * 2);
+    }
 }
 
 
@@ -1228,6 +1264,22 @@ int manipulator_nrfe1_gpme_accelerations(double t, const double *q, const double
 {
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
     return manipulator_nrfe1_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+}
+
+/* qdd (n x N_DOF) at n states, each as manipulator_nrfe1_gpme_accelerations (see model.h). */
+long manipulator_nrfe1_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p,
+    const int *dependent, const int *independent, double *qdd, int *status)
+{
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    for (long k = 0; k < n; ++k) {
+        *status = gpme_solve(t[k], q + k * N_DOF, qd + k * N_DOF, p, dependent, independent, qdd + k * N_DOF, M, f,
+                             &power);
+        if (*status != GPMEGEN_OK) {
+            return k;
+        }
+    }
+    *status = GPMEGEN_OK;
+    return n;
 }
 
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */

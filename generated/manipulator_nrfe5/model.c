@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 98e6c0e42d29c2f9
+Input hash: 1e76b10b68e6ae5e
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe5_input_hash(void) { return "98e6c0e42d29c2f9"; }
+const char *manipulator_nrfe5_input_hash(void) { return "1e76b10b68e6ae5e"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -813,6 +813,18 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
 }
 
 
+/* mass_matrix at n states, one after the other, the same arithmetic state by state:
+   q hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *p, double *out_M)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe5_mass_matrix(q + k * N_DOF, p, out_M + k * 225);
+    }
+}
+
+
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -1455,6 +1467,18 @@ void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const
     out_f[12] = _x563 - _x564 - _qd_theta2_4*_p_d2 - 1.0/3.0*_p_E2*_q_theta2_4*_x22*_x572*_p_t2;
     out_f[13] = _x566 - _x567 - _qd_phi2_4*_p_d2 - 4.0*_p_G2*_p_J2*_q_phi2_4*_x572;
     out_f[14] = _x569 - _x570;
+}
+
+
+/* forces at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_forces_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_f)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe5_forces(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_f + k * 15);
+    }
 }
 
 
@@ -2894,6 +2918,18 @@ void manipulator_nrfe5_constraint_terms(double t, const double *q, const double 
     out_jacobian[29] = _x262;
     out_gamma[0] = _x374;
     out_gamma[1] = _x380;
+}
+
+
+/* constraint_terms at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_constraint_terms_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe5_constraint_terms(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_phi + k * 2, out_phi_rate + k * 2, out_jacobian + k * 30, out_gamma + k * 2);
+    }
 }
 
 
@@ -5094,6 +5130,22 @@ int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double
 {
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
     return manipulator_nrfe5_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+}
+
+/* qdd (n x N_DOF) at n states, each as manipulator_nrfe5_gpme_accelerations (see model.h). */
+long manipulator_nrfe5_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p,
+    const int *dependent, const int *independent, double *qdd, int *status)
+{
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    for (long k = 0; k < n; ++k) {
+        *status = gpme_solve(t[k], q + k * N_DOF, qd + k * N_DOF, p, dependent, independent, qdd + k * N_DOF, M, f,
+                             &power);
+        if (*status != GPMEGEN_OK) {
+            return k;
+        }
+    }
+    *status = GPMEGEN_OK;
+    return n;
 }
 
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */
