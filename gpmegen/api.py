@@ -53,6 +53,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     :func:`gpmegen.runtime.loader.default_directory`) when missing or stale, or when a file it
     uses differs from the sha256 its manifest records, unless ``build=False``, which raises
     :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
+    ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
     """
     check_backend(backend)
     if model is None:
@@ -69,7 +70,8 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest)
-    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model))
+    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
+                       progress=progress)
 
 
 __all__ = [

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1099880e19db9f73
+Input hash: b8ef2f1de6746bf2
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe1_input_hash(void) { return "1099880e19db9f73"; }
+const char *manipulator_nrfe1_input_hash(void) { return "b8ef2f1de6746bf2"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }

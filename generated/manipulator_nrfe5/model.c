@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1e76b10b68e6ae5e
+Input hash: 39e0d257d6f8a98a
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,7 +18,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe5_input_hash(void) { return "1e76b10b68e6ae5e"; }
+const char *manipulator_nrfe5_input_hash(void) { return "39e0d257d6f8a98a"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }

@@ -50,6 +50,8 @@ GCC_FLAGS = ("-fira-algorithm=priority",)
 LINK_FLAGS = ("-shared", "-fPIC") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux") else ())
 #: The header of a generated C file, beside it; model.c includes it.
 HEADER = "model.h"
+#: Seconds between the progress lines of a running compile.
+HEARTBEAT = 10.0
 #: The function every generated header declares as ``<prefix>input_hash``: it names the prefix.
 PREFIX_ANCHOR = "input_hash"
 COMPILERS = ("cc", "gcc", "clang")
@@ -224,8 +226,27 @@ def _remove_abandoned(cache: Path, older_than=24 * 3600.0) -> None:
             pass
 
 
+def _run_compiler(argv, source: bytes, cwd: str, say) -> tuple[int, bytes]:
+    """Run the compiler ``argv`` on ``source``: (exit status, standard error). With ``say``, a line
+    every :data:`HEARTBEAT` seconds says it is still running; an interruption ends the compiler."""
+    with subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          cwd=cwd) as run:
+        t0 = time.perf_counter()
+        try:
+            while True:
+                try:
+                    _, err = run.communicate(source, timeout=HEARTBEAT if say else None)
+                    return run.returncode, err
+                except subprocess.TimeoutExpired:
+                    source = None  # sent already: a retry only waits
+                    say(f"still compiling, {time.perf_counter() - t0:.0f} s so far")
+        except BaseException:
+            run.kill()
+            raise
+
+
 def _compile(compiler, flags, source: str, header: str, source_path: Path, lib_path: Path, meta_path: Path,
-             key: str) -> float:
+             key: str, say=None) -> float:
     cache = lib_path.parent
     _remove_abandoned(cache)
     fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".so.tmp", dir=cache)
@@ -241,15 +262,15 @@ def _compile(compiler, flags, source: str, header: str, source_path: Path, lib_p
         with tempfile.TemporaryDirectory(prefix=f".{key[:16]}.", suffix=".h.tmp", dir=cache) as include:
             Path(include, HEADER).write_text(header, encoding="utf-8")
             try:
-                run = subprocess.run(argv, input=source.encode("utf-8"), capture_output=True, cwd=include)
+                returncode, stderr = _run_compiler(argv, source.encode("utf-8"), include, say)
             except OSError as exc:
                 raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
                                  f"working C compiler or use backend='numpy'") from None
         seconds = time.perf_counter() - t0
-        diagnostics = run.stderr.decode("utf-8", "replace").strip()
-        if run.returncode != 0:
+        diagnostics = stderr.decode("utf-8", "replace").strip()
+        if returncode != 0:
             raise BuildError(
-                f"compiling {source_path} failed (exit {run.returncode}):\n{diagnostics[:4000]}\n"
+                f"compiling {source_path} failed (exit {returncode}):\n{diagnostics[:4000]}\n"
                 f"command: {' '.join(shlex.quote(a) for a in argv)} < {shlex.quote(str(source_path))}"
             )
         digest = _sha256_file(tmp)
@@ -276,10 +297,13 @@ def _read_source(source_path: Path) -> str:
                          f"'gpmegen build --force'") from None
 
 
-def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None, header=None) -> CompiledLibrary:
+def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None, header=None,
+                  progress=None) -> CompiledLibrary:
     """The shared library of the C file ``source_path`` (of its ``text`` when given, already
     read) and of its ``header`` (by default the text of ``model.h`` beside it): reused from the
-    cache when its key matches and its bytes are intact, else compiled. Raises
+    cache when its key matches and its bytes are intact, else compiled. ``progress`` (a callable
+    taking one line) is told when a compile starts, with its estimated time, while it runs, and
+    when it ends. Raises
     :class:`BuildError` when no compiler is found, the cache folder is not writable, or
     compilation fails."""
     source_path = Path(source_path)
@@ -299,12 +323,18 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None, heade
     ok, reason, meta = _cached_ok(lib_path, meta_path)
     if ok:
         return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
-    limits.check_compile(len(source.encode()), source_path)
+    size = len(source.encode())
+    limits.check_compile(size, source_path)
+    if progress:
+        progress(f"compiling {source_path.name} ({size / 1e6:.2g} MB of C; estimated "
+                 f"{limits.duration(limits.interpolate(limits.COMPILE_SECONDS, size))} of CPU time)")
     try:
-        seconds = _compile(compiler, flags, source, header, source_path, lib_path, meta_path, key)
+        seconds = _compile(compiler, flags, source, header, source_path, lib_path, meta_path, key, progress)
     except OSError as exc:  # e.g. a read-only cache folder: the library cannot be written there
         raise BuildError(f"cannot write the compiled library into the C cache folder {cache} ({exc.strerror}); "
                          f"set GPMEGEN_CACHE to a writable folder") from None
+    if progress:
+        progress(f"compiled {source_path.name} in {seconds:.1f} s")
     return CompiledLibrary(lib_path, key, compiler[0], flags, True, seconds, reason)
 
 
@@ -346,7 +376,7 @@ def checked(info: CompiledLibrary, check, source_path: Path) -> None:
 
 
 def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None, text=None, check=None,
-                 header=None):
+                 header=None, progress=None):
     """Build (or reuse) and load the library of ``source_path`` (of its ``text`` when given,
     already read) and its ``header`` (by default ``model.h`` beside it); each file is read once,
     declarations and library from the same texts.
@@ -355,11 +385,11 @@ def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None,
     :func:`checked`); a library it rejects is never loaded. Returns ``(ffi, lib, info)`` with
     ``info`` a :class:`CompiledLibrary`. A cached library that fails to load, or reports another
     input hash than ``expect_hash``, is rebuilt once. The returned ``lib`` holds the functions
-    under their short names (``lib.mass_matrix``)."""
+    under their short names (``lib.mass_matrix``). ``progress``: as for :func:`build_library`."""
     source_path = Path(source_path)
     text = _read_source(source_path) if text is None else text
     header = _read_source(source_path.with_name(HEADER)) if header is None else header
-    info = build_library(source_path, flags, cache, text, header)
+    info = build_library(source_path, flags, cache, text, header, progress)
     for attempt in (0, 1):
         if check is not None:
             checked(info, check, source_path)
@@ -377,6 +407,6 @@ def load_library(source_path, flags=DEFAULT_FLAGS, cache=None, expect_hash=None,
                 _loaded.pop(str(info.path), None)
             info.path.unlink(missing_ok=True)
             reason = f"{info.path.name} failed to load ({exc})"
-            info = build_library(source_path, flags, cache, text, header)
+            info = build_library(source_path, flags, cache, text, header, progress)
             info.rebuilt_reason = reason
     raise AssertionError("unreachable")

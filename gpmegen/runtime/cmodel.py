@@ -26,16 +26,17 @@ class CModel(LoadedModel):
     when it has the sha256 the folder's manifest records; else StaleModelError gives
     ``<rebuild> --force`` as the fix).
 
+    ``progress`` (a callable taking one line) hears about a compile as it runs.
     ``compile_seconds`` is the compiler's wall time for the library in use (recorded when it
     was built, also when it was reused from the cache); ``compiled`` says whether this process
     built it.
     """
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "c", folder=None,
-                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build", requirements=()):
+                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build", requirements=(), progress=None):
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")
-        evaluator = CEvaluator(module, folder, flags, cache, rebuild)
+        evaluator = CEvaluator(module, folder, flags, cache, rebuild, progress)
         super().__init__(module, params, "c", folder, requirements, evaluator)
         self.ffi, self.lib, self.library = evaluator.ffi, evaluator.lib, evaluator.library
         self.compiled = self.library.compiled
@@ -52,7 +53,7 @@ class CEvaluator:
     """The generated functions, GPME solve and RK4 loop of ``<folder>/model.c``, compiled and
     loaded (an :class:`gpmegen.runtime.model.Evaluator`)."""
 
-    def __init__(self, module: ModuleType, folder, flags, cache, rebuild):
+    def __init__(self, module: ModuleType, folder, flags, cache, rebuild, progress=None):
         source = Path(folder) / "model.c"
         # compiled from the very text checked against the manifest, never read again
         text = read_verified(folder, source.name, rebuild)
@@ -60,7 +61,7 @@ class CEvaluator:
         self.ffi, self.lib, self.library = ccompile.load_library(
             source, flags, cache, expect_hash=module.INPUT_HASH, text=text,
             header=read_verified(folder, ccompile.HEADER, rebuild),
-            check=lambda library: cprobe.check_in_child(library, source, module_path))
+            check=lambda library: cprobe.check_in_child(library, source, module_path), progress=progress)
         self.model_name = module.MODEL
         self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
         self.n_parameters = len(module.PARAMETERS)
