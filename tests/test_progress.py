@@ -30,12 +30,13 @@ def test_building_and_compiling_say_what_they_do(env, monkeypatch):
     assert lines == []
 
 
-def test_an_interrupted_compile_ends_the_compiler(monkeypatch):
+def test_an_interrupted_compile_ends_the_compilers(monkeypatch, tmp_path):
     monkeypatch.setattr(ccompile, "HEARTBEAT", 0.05)
     def interrupt(line):
         raise KeyboardInterrupt  # Ctrl-C while the compiler runs
 
     t0 = time.perf_counter()
     with pytest.raises(KeyboardInterrupt):
-        ccompile._run_compiler([sys.executable, "-c", "import time; time.sleep(60)"], b"", ".", interrupt)
+        ccompile._run_compilers([[sys.executable, "-c", "import time; time.sleep(60)"]] * 2, str(tmp_path),
+                                interrupt)
     assert time.perf_counter() - t0 < 30  # killed, not waited for

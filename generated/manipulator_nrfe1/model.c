@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: b8ef2f1de6746bf2
+Input hash: 515c2e86910158d8
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,13 +18,27 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe1_input_hash(void) { return "b8ef2f1de6746bf2"; }
+/* Two parts, compiled apart (gpmegen.runtime.ccompile) and each with the optimization it deserves:
+   GPMEGEN_PART 1, the hot path (the functions every GPME solve and RK4 stage calls, the solve and
+   the RK4 loop), and GPMEGEN_PART 2, the functions called rarely (statics, output sampling).
+   Without GPMEGEN_PART the file is whole; the arithmetic, and so every result, is the same. */
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 1
+#define HOT_PART 1
+#endif
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 2
+#define COLD_PART 1
+#endif
+
+#ifdef HOT_PART
+const char *manipulator_nrfe1_input_hash(void) { return "515c2e86910158d8"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
 int manipulator_nrfe1_n_points(void) { return N_POINTS; }
+#endif
 
 
+#ifdef COLD_PART
 /* Mass matrix M(q).
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -151,8 +165,10 @@ void manipulator_nrfe1_mass_matrix_batch(long n, const double *q, const double *
         manipulator_nrfe1_mass_matrix(q + k * N_DOF, p, out_M + k * 9);
     }
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -302,8 +318,10 @@ void manipulator_nrfe1_forces_batch(long n, const double *t, const double *q, co
         manipulator_nrfe1_forces(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_f + k * 3);
     }
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Gravity and spring terms g(q) + C q.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -347,8 +365,10 @@ void manipulator_nrfe1_static_residual(const double *q, const double *p, double 
     out_r[1] = _x19;
     out_r[2] = _x21;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -400,8 +420,10 @@ void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, doub
     out_K[7] = _x22;
     out_K[8] = 0.0;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -416,8 +438,10 @@ void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q)
     out_Q[1] = 0.0;
     out_Q[2] = 0.0;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Positions of the named points in {0}.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -450,8 +474,10 @@ void manipulator_nrfe1_points(const double *q, const double *p, double *out_P)
     out_P[1] = _x13;
     out_P[2] = _x14;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -553,8 +579,10 @@ void manipulator_nrfe1_constraint_terms_batch(long n, const double *t, const dou
         manipulator_nrfe1_constraint_terms(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_phi + k * 2, out_phi_rate + k * 2, out_jacobian + k * 6, out_gamma + k * 2);
     }
 }
+#endif
 
 
+#ifdef HOT_PART
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -571,8 +599,10 @@ void manipulator_nrfe1_baumgarte_gains(const double *p, double *out_alpha, doubl
     out_beta[0] = _p_beta_circle;
     out_beta[1] = _p_beta_height;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Kinetic, gravity potential and spring energy.
    q: (3,) coordinates in COORDINATES order
    qd: (3,) velocities in COORDINATES order
@@ -687,8 +717,10 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
     out_e[1] = _x3*_p_g + _x31*_p_g + _x49*_p_g;
     out_e[2] = 0.0;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -906,8 +938,10 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
     out_gamma[0] = _x147;
     out_gamma[1] = _x153;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
 /* The factorization below runs on a matrix whose size is fixed at build time. Up to
@@ -1430,3 +1464,4 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+#endif

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: b8ef2f1de6746bf2
+Input hash: 515c2e86910158d8
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 39e0d257d6f8a98a
+Input hash: b1a913c45b848939
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,13 +18,27 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe5_input_hash(void) { return "39e0d257d6f8a98a"; }
+/* Two parts, compiled apart (gpmegen.runtime.ccompile) and each with the optimization it deserves:
+   GPMEGEN_PART 1, the hot path (the functions every GPME solve and RK4 stage calls, the solve and
+   the RK4 loop), and GPMEGEN_PART 2, the functions called rarely (statics, output sampling).
+   Without GPMEGEN_PART the file is whole; the arithmetic, and so every result, is the same. */
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 1
+#define HOT_PART 1
+#endif
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 2
+#define COLD_PART 1
+#endif
+
+#ifdef HOT_PART
+const char *manipulator_nrfe5_input_hash(void) { return "b1a913c45b848939"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
 int manipulator_nrfe5_n_points(void) { return N_POINTS; }
+#endif
 
 
+#ifdef COLD_PART
 /* Mass matrix M(q).
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -823,8 +837,10 @@ void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *
         manipulator_nrfe5_mass_matrix(q + k * N_DOF, p, out_M + k * 225);
     }
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -1480,8 +1496,10 @@ void manipulator_nrfe5_forces_batch(long n, const double *t, const double *q, co
         manipulator_nrfe5_forces(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_f + k * 15);
     }
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Gravity and spring terms g(q) + C q.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -1709,8 +1727,10 @@ void manipulator_nrfe5_static_residual(const double *q, const double *p, double 
     out_r[13] = _x173 + 4.0*_p_G2*_p_J2*_q_phi2_4*_x176;
     out_r[14] = _x175;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2282,8 +2302,10 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
     out_K[223] = _x308;
     out_K[224] = 0.0;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -2310,8 +2332,10 @@ void manipulator_nrfe5_drive_forces(double t, const double *p, double *out_Q)
     out_Q[13] = 0.0;
     out_Q[14] = 0.0;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Positions of the named points in {0}.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2451,8 +2475,10 @@ void manipulator_nrfe5_points(const double *q, const double *p, double *out_P)
     out_P[1] = _x109;
     out_P[2] = _x110;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -2931,8 +2957,10 @@ void manipulator_nrfe5_constraint_terms_batch(long n, const double *t, const dou
         manipulator_nrfe5_constraint_terms(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_phi + k * 2, out_phi_rate + k * 2, out_jacobian + k * 30, out_gamma + k * 2);
     }
 }
+#endif
 
 
+#ifdef HOT_PART
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -2949,8 +2977,10 @@ void manipulator_nrfe5_baumgarte_gains(const double *p, double *out_alpha, doubl
     out_beta[0] = _p_beta_circle;
     out_beta[1] = _p_beta_height;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Kinetic, gravity potential and spring energy.
    q: (15,) coordinates in COORDINATES order
    qd: (15,) velocities in COORDINATES order
@@ -3537,8 +3567,10 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
     out_e[1] = _x184*_p_g + _x196*_p_g + _x208*_p_g + _x220*_p_g + _x232*_p_g + _x253*_p_g + _x3*_p_g;
     out_e[2] = 2.0*_p_G2*_p_J2*_x529*(_q_phi2_1*_q_phi2_1) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_2*_q_phi2_2) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_3*_q_phi2_3) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_4*_q_phi2_4) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_1*_q_psi2_1) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_2*_q_psi2_2) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_3*_q_psi2_3) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_4*_q_psi2_4) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_1*_q_theta2_1) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_2*_q_theta2_2) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_3*_q_theta2_3) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_4*_q_theta2_4);
 }
+#endif
 
 
+#ifdef HOT_PART
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -4772,8 +4804,10 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     out_gamma[0] = _x882;
     out_gamma[1] = _x888;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
 /* The factorization below runs on a matrix whose size is fixed at build time. Up to
@@ -5296,3 +5330,4 @@ int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+#endif

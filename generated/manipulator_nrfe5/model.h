@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 39e0d257d6f8a98a
+Input hash: b1a913c45b848939
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
