@@ -10,6 +10,12 @@ Run: ``.venv/bin/python benchmarks/runtime.py [--nrfe 1 5 10] [--quick]``. Model
 the usual way (``GPMEGEN_GENERATED`` / ``GPMEGEN_CACHE`` choose the folders); the compile time
 is the one recorded when the library was built (a cache hit reports the original build).
 
+``--versus 5 20`` then compares one ``accelerations`` call from Python with ``pinocchio.aba`` on a
+serial chain of as many revolute joints (the ``pin`` package; a plain chain of rods about
+alternating axes, not the flexible arm: the articulated-body algorithm's cost depends on the
+number and kind of joints, not on the inertias), in the same process and interleaved, and times
+batched evaluation: ``accelerations`` of N = 1000 states in one call, per state.
+
 For the reference case (n_rfe = 5) it then times the paper's run, 10 s at dt = 1e-5 (a million
 RK4 steps), entirely in C: for real when the per-step time says it takes under a minute, else
 extrapolated. ``--quick`` always extrapolates. The state is the paper's start with the flexible
@@ -84,12 +90,60 @@ def c_rk4_per_step(model, q, qd, n_steps, repeat=5):
     return best / n_steps
 
 
+def pinocchio_chain(n_joints: int):
+    """(model, data) of a serial chain of ``n_joints`` revolute joints about alternating z and y
+    axes, each carrying a 1 kg rod 0.1 m long along x."""
+    import pinocchio as pin
+
+    model, parent = pin.Model(), 0
+    rod = pin.Inertia(1.0, np.array([0.05, 0.0, 0.0]), np.diag([1e-5, 0.1**2 / 12, 0.1**2 / 12]))
+    for k in range(n_joints):
+        joint = pin.JointModelRZ() if k % 2 == 0 else pin.JointModelRY()
+        placement = pin.SE3(np.eye(3), np.array([0.1 if k else 0.0, 0.0, 0.0]))
+        parent = model.addJoint(parent, joint, placement, f"j{k}")
+        model.appendBodyToJoint(parent, rod, pin.SE3.Identity())
+    return model, model.createData()
+
+
+def versus_pinocchio(values, rounds, batch=1000):
+    """One accelerations call against pinocchio.aba on as many joints, and batched evaluation."""
+    import pinocchio as pin
+
+    print(f"\n{'n_rfe':>5} {'n_dof':>5} {'C q̈ [µs]':>9} {'aba [µs]':>9} {'ratio':>6} "
+          f"{'batched q̈ [µs/state]':>21} {'C step [µs]':>11}")
+    for n in values:
+        c_model = gpmegen.load(nrfe=n, backend="c")
+        q, qd = start_state(c_model)
+        pin_model, pin_data = pinocchio_chain(c_model.n_dof)
+        rng = np.random.default_rng(1)
+        pq, pv, tau = (rng.standard_normal(c_model.n_dof) for _ in range(3))
+        Q, QD = np.tile(q, (batch, 1)), np.tile(qd, (batch, 1))
+        Q[:, 0] += np.linspace(0.0, 0.1, batch)  # distinct states
+        best = [float("inf")] * 4
+        for _ in range(rounds):
+            figures = (per_call(lambda: c_model.accelerations(0.1, q, qd), 0.2),
+                       per_call(lambda: pin.aba(pin_model, pin_data, pq, pv, tau), 0.2),
+                       per_call(lambda: c_model.accelerations(0.1, Q, QD), 0.3) / batch,
+                       c_rk4_per_step(c_model, q, qd, 2000))
+            best = [min(a, b) for a, b in zip(best, figures)]
+        ours, aba, batched, step = best
+        print(f"{n:>5} {c_model.n_dof:>5} {ours * 1e6:>9.2f} {aba * 1e6:>9.2f} {ours / aba:>5.2f}× "
+              f"{batched * 1e6:>21.2f} {step * 1e6:>11.2f}", flush=True)
+    print(f"ratio: ours / aba, both called from Python (best of {rounds} interleaved rounds); batched: one call "
+          f"for {batch} states, per state; C step: one RK4 step inside the C loop.")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--nrfe", type=int, nargs="+", default=[1, 5, 10])
     ap.add_argument("--quick", action="store_true", help="never run the million-step loop")
     ap.add_argument("--rounds", type=int, default=4, help="interleaved measuring rounds (best kept)")
+    ap.add_argument("--versus", type=int, nargs="*", default=[], metavar="NRFE",
+                    help="compare with pinocchio.aba at these n_rfe (e.g. 5 20), then stop")
     args = ap.parse_args()
+    if args.versus:
+        versus_pinocchio(args.versus, args.rounds)
+        return
 
     print(f"{'n_rfe':>5} {'n_dof':>5} {'compile [s]':>11} {'cache':>5} {'numpy q̈ [µs]':>13} {'C q̈ [µs]':>9} "
           f"{'numpy bare step':>15} {'numpy loop step':>15} {'C step [µs]':>11} {'bare/C':>7} {'loop/C':>7}")

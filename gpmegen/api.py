@@ -63,6 +63,8 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     and ``y_c`` that its runs use: those that put E of the locked statics at the paper's joint
     start on the constraints (unless ``params`` gives them). A ``model`` passed in is bound with
     its parameters' defaults.
+
+    ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
     """
     check_backend(backend)
     if model is None:
@@ -84,7 +86,8 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest)
-    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model))
+    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
+                       progress=progress)
 
 
 def _case(model, nrfe):

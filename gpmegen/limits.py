@@ -37,10 +37,11 @@ OVERRIDE = "pass --no-limits (in Python: with gpmegen.limits.lifted(): ...) to s
 BUILD_SECONDS = ((3, 0.4), (15, 1.67), (30, 4.3), (60, 12.9), (150, 62.3), (240, 148.0))
 #: Peak resident memory of the build process against n_dof.
 BUILD_BYTES = ((3, 64e6), (15, 71e6), (30, 86e6), (60, 130e6), (90, 192e6), (150, 372e6), (240, 777e6))
-#: C compile (gcc -O3, CPU time) against the size of model.c in bytes (n_rfe = 5, 10, 20).
-COMPILE_SECONDS = ((249e3, 2.9), (610e3, 17.5), (1.74e6, 214.0))
-#: Peak resident memory of the compiler against the size of model.c.
-COMPILE_BYTES = ((249e3, 123e6), (610e3, 476e6), (1.74e6, 1.34e9))
+#: C compile (the hot part at -O3 and the rest at -O0, CPU time of both) against the size of
+#: model.c in bytes (n_rfe = 5, 10, 20; benchmarks/build_time.py).
+COMPILE_SECONDS = ((282e3, 1.5), (679e3, 7.2), (1.92e6, 63.4))
+#: Peak resident memory of the largest compiler (the hot part's) against the size of model.c.
+COMPILE_BYTES = ((282e3, 101e6), (679e3, 346e6), (1.92e6, 1.32e9))
 #: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``.
 STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
                 "numpy": ((3, 207e-6), (15, 549e-6), (30, 1123e-6))}

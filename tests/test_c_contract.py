@@ -67,10 +67,11 @@ def test_the_cffi_declarations_are_the_header_without_preprocessor_lines(built):
     header = (built[1] / "model.h").read_text()
     cdef = ccompile.declarations(header)
     assert "#" not in cdef and "manipulator_nrfe1_rk4(" in cdef
+    functions = model_functions(derive(reference_model(1)))
     assert sorted(ccompile.short_names(re.findall(r"(\w+)\(", cdef))) == sorted(
-        [fn.name for fn in model_functions(derive(reference_model(1)))]
+        [fn.name for fn in functions] + [fn.name + "_batch" for fn in functions if fn.batched]
         + ["input_hash", "n_dof", "n_constraints", "n_parameters", "n_points", "gpme_motion",
-           "gpme_accelerations", "rk4"])
+           "gpme_accelerations", "gpme_accelerations_batch", "rk4"])
 
 
 @pytest.mark.requires_cc

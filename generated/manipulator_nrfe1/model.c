@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 6eb7ec0b2cddcadf
+Input hash: 135893fdc036d146
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,13 +18,27 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe1_input_hash(void) { return "6eb7ec0b2cddcadf"; }
+/* Two parts, compiled apart (gpmegen.runtime.ccompile) and each with the optimization it deserves:
+   GPMEGEN_PART 1, the hot path (the functions every GPME solve and RK4 stage calls, the solve and
+   the RK4 loop), and GPMEGEN_PART 2, the functions called rarely (statics, output sampling).
+   Without GPMEGEN_PART the file is whole; the arithmetic, and so every result, is the same. */
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 1
+#define HOT_PART 1
+#endif
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 2
+#define COLD_PART 1
+#endif
+
+#ifdef HOT_PART
+const char *manipulator_nrfe1_input_hash(void) { return "135893fdc036d146"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
 int manipulator_nrfe1_n_points(void) { return N_POINTS; }
+#endif
 
 
+#ifdef COLD_PART
 /* Mass matrix M(q).
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -141,6 +155,20 @@ void manipulator_nrfe1_mass_matrix(const double *q, const double *p, double *out
 }
 
 
+/* mass_matrix at n states, one after the other, the same arithmetic state by state:
+   q hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe1_mass_matrix_batch(long n, const double *q, const double *p, double *out_M)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe1_mass_matrix(q + k * N_DOF, p, out_M + k * 9);
+    }
+}
+#endif
+
+
+#ifdef COLD_PART
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -280,6 +308,20 @@ void manipulator_nrfe1_forces(double t, const double *q, const double *qd, const
 }
 
 
+/* forces at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe1_forces_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_f)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe1_forces(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_f + k * 3);
+    }
+}
+#endif
+
+
+#ifdef COLD_PART
 /* Gravity and spring terms g(q) + C q.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -323,8 +365,10 @@ void manipulator_nrfe1_static_residual(const double *q, const double *p, double 
     out_r[1] = _x19;
     out_r[2] = _x21;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -376,8 +420,10 @@ void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, doub
     out_K[7] = _x22;
     out_K[8] = 0.0;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -392,8 +438,10 @@ void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q)
     out_Q[1] = 0.0;
     out_Q[2] = 0.0;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Positions of the named points in {0}.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -426,8 +474,10 @@ void manipulator_nrfe1_points(const double *q, const double *p, double *out_P)
     out_P[1] = _x13;
     out_P[2] = _x14;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -519,6 +569,20 @@ void manipulator_nrfe1_constraint_terms(double t, const double *q, const double 
 }
 
 
+/* constraint_terms at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe1_constraint_terms_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe1_constraint_terms(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_phi + k * 2, out_phi_rate + k * 2, out_jacobian + k * 6, out_gamma + k * 2);
+    }
+}
+#endif
+
+
+#ifdef HOT_PART
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -535,8 +599,10 @@ void manipulator_nrfe1_baumgarte_gains(const double *p, double *out_alpha, doubl
     out_beta[0] = _p_beta_circle;
     out_beta[1] = _p_beta_height;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Kinetic, gravity potential and spring energy.
    q: (3,) coordinates in COORDINATES order
    qd: (3,) velocities in COORDINATES order
@@ -651,8 +717,10 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
     out_e[1] = _x3*_p_g + _x31*_p_g + _x49*_p_g;
     out_e[2] = 0.0;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -870,8 +938,10 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
     out_gamma[0] = _x147;
     out_gamma[1] = _x153;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
 /* The factorization below runs on a matrix whose size is fixed at build time. Up to
@@ -1232,6 +1302,22 @@ int manipulator_nrfe1_gpme_accelerations(double t, const double *q, const double
     return manipulator_nrfe1_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
 }
 
+/* qdd (n x N_DOF) at n states, each as manipulator_nrfe1_gpme_accelerations (see model.h). */
+long manipulator_nrfe1_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p,
+    const int *dependent, const int *independent, double *qdd, int *status)
+{
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    for (long k = 0; k < n; ++k) {
+        *status = gpme_solve(t[k], q + k * N_DOF, qd + k * N_DOF, p, dependent, independent, qdd + k * N_DOF, M, f,
+                             &power);
+        if (*status != GPMEGEN_OK) {
+            return k;
+        }
+    }
+    *status = GPMEGEN_OK;
+    return n;
+}
+
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */
 
 static int all_finite(const double *x, int n)
@@ -1380,3 +1466,4 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+#endif

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: da6d956313eb98a6
+Input hash: 1b58b861dc3efcba
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -18,13 +18,27 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define N_PARAMETERS 25
 #define N_POINTS 1
 
-const char *manipulator_nrfe5_input_hash(void) { return "da6d956313eb98a6"; }
+/* Two parts, compiled apart (gpmegen.runtime.ccompile) and each with the optimization it deserves:
+   GPMEGEN_PART 1, the hot path (the functions every GPME solve and RK4 stage calls, the solve and
+   the RK4 loop), and GPMEGEN_PART 2, the functions called rarely (statics, output sampling).
+   Without GPMEGEN_PART the file is whole; the arithmetic, and so every result, is the same. */
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 1
+#define HOT_PART 1
+#endif
+#if !defined(GPMEGEN_PART) || GPMEGEN_PART == 2
+#define COLD_PART 1
+#endif
+
+#ifdef HOT_PART
+const char *manipulator_nrfe5_input_hash(void) { return "1b58b861dc3efcba"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
 int manipulator_nrfe5_n_points(void) { return N_POINTS; }
+#endif
 
 
+#ifdef COLD_PART
 /* Mass matrix M(q).
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -813,6 +827,20 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
 }
 
 
+/* mass_matrix at n states, one after the other, the same arithmetic state by state:
+   q hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *p, double *out_M)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe5_mass_matrix(q + k * N_DOF, p, out_M + k * 225);
+    }
+}
+#endif
+
+
+#ifdef COLD_PART
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -1458,6 +1486,20 @@ void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const
 }
 
 
+/* forces at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_forces_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_f)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe5_forces(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_f + k * 15);
+    }
+}
+#endif
+
+
+#ifdef COLD_PART
 /* Gravity and spring terms g(q) + C q.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -1685,8 +1727,10 @@ void manipulator_nrfe5_static_residual(const double *q, const double *p, double 
     out_r[13] = _x173 + 4.0*_p_G2*_p_J2*_q_phi2_4*_x176;
     out_r[14] = _x175;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2258,8 +2302,10 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
     out_K[223] = _x308;
     out_K[224] = 0.0;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -2286,8 +2332,10 @@ void manipulator_nrfe5_drive_forces(double t, const double *p, double *out_Q)
     out_Q[13] = 0.0;
     out_Q[14] = 0.0;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Positions of the named points in {0}.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2427,8 +2475,10 @@ void manipulator_nrfe5_points(const double *q, const double *p, double *out_P)
     out_P[1] = _x109;
     out_P[2] = _x110;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -2897,6 +2947,20 @@ void manipulator_nrfe5_constraint_terms(double t, const double *q, const double 
 }
 
 
+/* constraint_terms at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_constraint_terms_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    for (long k = 0; k < n; ++k) {
+        manipulator_nrfe5_constraint_terms(t[k], q + k * N_DOF, qd + k * N_DOF, p, out_phi + k * 2, out_phi_rate + k * 2, out_jacobian + k * 30, out_gamma + k * 2);
+    }
+}
+#endif
+
+
+#ifdef HOT_PART
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -2913,8 +2977,10 @@ void manipulator_nrfe5_baumgarte_gains(const double *p, double *out_alpha, doubl
     out_beta[0] = _p_beta_circle;
     out_beta[1] = _p_beta_height;
 }
+#endif
 
 
+#ifdef COLD_PART
 /* Kinetic, gravity potential and spring energy.
    q: (15,) coordinates in COORDINATES order
    qd: (15,) velocities in COORDINATES order
@@ -3501,8 +3567,10 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
     out_e[1] = _x184*_p_g + _x196*_p_g + _x208*_p_g + _x220*_p_g + _x232*_p_g + _x253*_p_g + _x3*_p_g;
     out_e[2] = 2.0*_p_G2*_p_J2*_x529*(_q_phi2_1*_q_phi2_1) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_2*_q_phi2_2) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_3*_q_phi2_3) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_4*_q_phi2_4) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_1*_q_psi2_1) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_2*_q_psi2_2) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_3*_q_psi2_3) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_4*_q_psi2_4) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_1*_q_theta2_1) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_2*_q_theta2_2) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_3*_q_theta2_3) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_4*_q_theta2_4);
 }
+#endif
 
 
+#ifdef HOT_PART
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -4736,8 +4804,10 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     out_gamma[0] = _x882;
     out_gamma[1] = _x888;
 }
+#endif
 
 
+#ifdef HOT_PART
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
 /* The factorization below runs on a matrix whose size is fixed at build time. Up to
@@ -5098,6 +5168,22 @@ int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double
     return manipulator_nrfe5_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
 }
 
+/* qdd (n x N_DOF) at n states, each as manipulator_nrfe5_gpme_accelerations (see model.h). */
+long manipulator_nrfe5_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p,
+    const int *dependent, const int *independent, double *qdd, int *status)
+{
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    for (long k = 0; k < n; ++k) {
+        *status = gpme_solve(t[k], q + k * N_DOF, qd + k * N_DOF, p, dependent, independent, qdd + k * N_DOF, M, f,
+                             &power);
+        if (*status != GPMEGEN_OK) {
+            return k;
+        }
+    }
+    *status = GPMEGEN_OK;
+    return n;
+}
+
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */
 
 static int all_finite(const double *x, int n)
@@ -5246,3 +5332,4 @@ int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+#endif

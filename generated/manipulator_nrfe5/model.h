@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: da6d956313eb98a6
+Input hash: 1b58b861dc3efcba
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -83,6 +83,12 @@ int manipulator_nrfe5_n_points(void);
 */
 void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out_M);
 
+/* mass_matrix at n states, one after the other, the same arithmetic state by state:
+   q hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *p, double *out_M);
+
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -91,6 +97,12 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
    out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
 */
 void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const double *p, double *out_f);
+
+/* forces at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_forces_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_f);
 
 /* Gravity and spring terms g(q) + C q.
    q: (15,) coordinates in COORDINATES order
@@ -132,6 +144,12 @@ void manipulator_nrfe5_points(const double *q, const double *p, double *out_P);
 */
 void manipulator_nrfe5_constraint_terms(double t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
 
+/* constraint_terms at n states, one after the other, the same arithmetic state by state:
+   t, q, qd hold n of the single call's inputs one after the other (row-major), p is
+   shared; each output holds the n outputs one after the other (out_X[k * size + i], size the
+   entries of one state's out_X). */
+void manipulator_nrfe5_constraint_terms_batch(long n, const double *t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
+
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -171,6 +189,11 @@ int manipulator_nrfe5_gpme_motion(double t, const double *q, const double *qd, c
 
 /* qdd (15,) alone; see manipulator_nrfe5_gpme_motion. */
 int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd);
+
+/* qdd (n, 15) at n states t (n,), q, qd (n, 15), each solved as manipulator_nrfe5_gpme_accelerations solves
+   one (the same arithmetic, so the same bits). Stops at the first state that fails, its status
+   in *status (GPMEGEN_OK when none failed); returns the number of states solved. */
+long manipulator_nrfe5_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, int *status);
 
 /* Classical RK4 over steps k_from + 1 .. k_to of a grid of n_steps steps of dt from t0, the last
    ending at t_end, from q0, qd0 (15,) and the work w0 (2,) (J) of drive and constraint forces

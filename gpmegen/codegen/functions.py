@@ -30,6 +30,8 @@ class Function:
     doc: str
     inputs: tuple  # subset of ("t", "q", "qd", "p"), in that order
     outputs: tuple
+    batched: bool = False  # the C library also exports <name>_batch over many states
+    hot: bool = False  # called by every GPME solve: compiled with the solve and RK4 (model.c.j2)
 
 
 #: What each input is; ``{n}`` is the number of its entries.
@@ -86,28 +88,28 @@ def model_functions(d: Derivation) -> list[Function]:
              vector=True),
     )
     fns = [
-        Function("mass_matrix", "Mass matrix M(q).", ("q", "p"), (mass,)),
+        Function("mass_matrix", "Mass matrix M(q).", ("q", "p"), (mass,), batched=True),
         Function("forces", "Generalized forces: drive, velocity, gravity, spring and damping terms.",
-                 ("t", "q", "qd", "p"), (forces,)),
+                 ("t", "q", "qd", "p"), (forces,), batched=True),
         Function("static_residual", "Gravity and spring terms g(q) + C q.", ("q", "p"),
                  (_out("r", dyn.gravity_terms + dyn.spring_forces, "g(q) + C q", vector=True),)),
         Function("stiffness_jacobian", "Tangent stiffness K = d(g + C q)/dq, from T_ij.", ("q", "p"),
                  (_out("K", dyn.stiffness_jacobian, "K[i, j] = d(g + C q)_i / dq_j"),)),
         Function("drive_forces", "Drive forces Q(t).", ("t", "p"),
-                 (_out("Q", dyn.drive_forces, "drive forces Q(t)", vector=True),)),
+                 (_out("Q", dyn.drive_forces, "drive forces Q(t)", vector=True),), hot=True),
         Function("points", "Positions of the named points in {0}.", ("q", "p"),
                  (Output("P", (points.shape[0], 3), tuple(points),
                          "positions (m), one row per point in POINTS order: x, y, z in {0}"),)),
         Function("constraint_terms", "phi, phi_rate, D, gamma of the programmed constraints.",
-                 ("t", "q", "qd", "p"), constraint_outputs),
+                 ("t", "q", "qd", "p"), constraint_outputs, batched=True),
         Function("baumgarte_gains", "Baumgarte gains alpha, beta of each constraint.", ("p",),
                  (_out("alpha", con.alpha, "alpha per constraint, in CONSTRAINTS order", vector=True),
-                  _out("beta", con.beta, "beta per constraint, in CONSTRAINTS order", vector=True))),
+                  _out("beta", con.beta, "beta per constraint, in CONSTRAINTS order", vector=True)), hot=True),
         Function("energies", "Kinetic, gravity potential and spring energy.", ("q", "qd", "p"),
                  (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy),
                          "kinetic, gravity potential and spring energy (J)"),)),
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
-                 ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs),
+                 ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs, hot=True),
     ]
     return fns
 

@@ -98,7 +98,9 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     say = progress or (lambda msg: None)
     digest = digest or input_hash(model, backends)
     t0 = time.perf_counter()
-    say("deriving the equations of motion")
+    n_dof = limits.model_coordinates(model)
+    say(f"deriving the equations of motion of {n_dof} coordinates (deriving and printing estimated at "
+        f"{limits.duration(limits.interpolate(limits.BUILD_SECONDS, n_dof))} of CPU time)")
     d = derive(model)
     say(f"derived {len(d.program.definitions)} intermediate quantities for {d.chain.n_dof} coordinates "
         f"in {time.perf_counter() - t0:.1f} s")

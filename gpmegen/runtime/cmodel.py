@@ -8,6 +8,7 @@ parameters, points, …).
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 from types import ModuleType
 
@@ -25,16 +26,17 @@ class CModel(LoadedModel):
     when it has the sha256 the folder's manifest records; else StaleModelError gives
     ``<rebuild> --force`` as the fix).
 
+    ``progress`` (a callable taking one line) hears about a compile as it runs.
     ``compile_seconds`` is the compiler's wall time for the library in use (recorded when it
     was built, also when it was reused from the cache); ``compiled`` says whether this process
     built it.
     """
 
     def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "c", folder=None,
-                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build", requirements=()):
+                 *, flags=ccompile.DEFAULT_FLAGS, cache=None, rebuild="gpmegen build", requirements=(), progress=None):
         if folder is None:
             raise BuildError("the C backend needs the generated folder holding model.c")
-        evaluator = CEvaluator(module, folder, flags, cache, rebuild)
+        evaluator = CEvaluator(module, folder, flags, cache, rebuild, progress)
         super().__init__(module, params, "c", folder, requirements, evaluator)
         self.ffi, self.lib, self.library = evaluator.ffi, evaluator.lib, evaluator.library
         self.compiled = self.library.compiled
@@ -51,7 +53,7 @@ class CEvaluator:
     """The generated functions, GPME solve and RK4 loop of ``<folder>/model.c``, compiled and
     loaded (an :class:`gpmegen.runtime.model.Evaluator`)."""
 
-    def __init__(self, module: ModuleType, folder, flags, cache, rebuild):
+    def __init__(self, module: ModuleType, folder, flags, cache, rebuild, progress=None):
         source = Path(folder) / "model.c"
         # compiled from the very text checked against the manifest, never read again
         text = read_verified(folder, source.name, rebuild)
@@ -59,15 +61,22 @@ class CEvaluator:
         self.ffi, self.lib, self.library = ccompile.load_library(
             source, flags, cache, expect_hash=module.INPUT_HASH, text=text,
             header=read_verified(folder, ccompile.HEADER, rebuild),
-            check=lambda library: cprobe.check_in_child(library, source, module_path))
+            check=lambda library: cprobe.check_in_child(library, source, module_path), progress=progress)
         self.model_name = module.MODEL
         self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
         self.n_parameters = len(module.PARAMETERS)
         if self.lib.n_dof() != self.n or self.lib.n_parameters() != self.n_parameters:
             raise BuildError(f"{source} does not match {module_path}; rebuild with 'gpmegen build --force'")
-        self._partition_c = None
+        self.shape = (self.n,)
+        self._partition_c = (None, None, None, None)
+        self._params_c = (None, None)
+        self._scratch = threading.local()
 
     # --- marshalling ------------------------------------------------------------------------
+    # A call costs what the C costs plus this marshalling (a few 0.1 µs per array), so what can be
+    # done once is: the parameters' and the partition's C views are kept for the last model asked,
+    # and the state of a single call goes into C buffers of the calling thread (cffi releases the
+    # GIL, so threads must not share them) rather than into a new cffi view per array.
     def _vec(self, x, what):
         return vector(x, self.n, what)
 
@@ -75,45 +84,80 @@ class CEvaluator:
         # from_buffer is the cheapest way to hand cffi a contiguous float64 array (no copy).
         return self.ffi.from_buffer("double[]", a)
 
+    def _state(self, q, qd):
+        """The thread's C buffers holding q and qd (n,) (qd may be None), checked and converted:
+        (scratch, q pointer, qd pointer)."""
+        scratch = self._scratch
+        try:
+            view = scratch.q
+        except AttributeError:
+            view = self._new_scratch(scratch)
+        if type(q) is not np.ndarray or q.shape != self.shape:
+            q = vector(q, self.n, "q")
+        view[...] = q
+        if qd is not None:
+            if type(qd) is not np.ndarray or qd.shape != self.shape:
+                qd = vector(qd, self.n, "qd")
+            scratch.qd[...] = qd
+        return scratch, scratch.q_c, scratch.qd_c
+
+    def _new_scratch(self, scratch):
+        n = self.n
+        buffer = self.ffi.new("double[]", 3 * n)  # q, qd, qdd
+        view = np.frombuffer(self.ffi.buffer(buffer), dtype=float)
+        scratch.buffer = buffer
+        scratch.q, scratch.qd, scratch.qdd = view[:n], view[n:2 * n], view[2 * n:]
+        scratch.q_c, scratch.qd_c, scratch.qdd_c = buffer, buffer + n, buffer + 2 * n
+        return scratch.q
+
     def _params(self, p):
-        p = np.ascontiguousarray(p, dtype=float)
-        if p.shape != (self.n_parameters,):
-            raise ValueError(f"p must have shape ({self.n_parameters},), got {p.shape}")
-        return self.ffi.from_buffer("double[]", p) if p.size else self.ffi.new("double[]", 1)
+        last, pointer = self._params_c
+        if p is last:  # the model's own frozen array: its view stays valid while it is held here
+            return pointer
+        array = np.ascontiguousarray(p, dtype=float)
+        if array.shape != (self.n_parameters,):
+            raise ValueError(f"p must have shape ({self.n_parameters},), got {array.shape}")
+        pointer = self.ffi.from_buffer("double[]", array) if array.size else self.ffi.new("double[]", 1)
+        if array is p and not p.flags.writeable:
+            self._params_c = (p, pointer)
+        return pointer
 
     def _partition_pointers(self, model):
         # C copies of the model's partition, kept for the last one asked (a run uses one at a time)
+        # when its index arrays are frozen, so that the same objects mean the same partition
+        last_dep, last_ind, dep_c, ind_c = self._partition_c
+        if model.dependent is last_dep and model.independent is last_ind and dep_c is not None:
+            return dep_c, ind_c
         if model.dependent is None or model.independent is None:
             raise ModelError(
                 f"model {self.model_name} has no dependent coordinates chosen yet, so the GPME cannot "
                 f"split q; set the model's 'dependent' coordinates"
             )
-        key = (tuple(np.asarray(model.dependent).tolist()), tuple(np.asarray(model.independent).tolist()))
-        if self._partition_c is None or self._partition_c[0] != key:
-            dep, ind = key
-            if sorted(dep + ind) != list(range(self.n)) or len(dep) != self.m:
-                raise ModelError(
-                    f"dependent {dep} and independent {ind} must split the {self.n} coordinates, with one "
-                    f"dependent coordinate per constraint ({self.m})"
-                )
-            dep_c = self.ffi.new("int[]", max(1, len(dep)))
-            ind_c = self.ffi.new("int[]", max(1, len(ind)))
-            dep_c[0:len(dep)] = list(dep)
-            ind_c[0:len(ind)] = list(ind)
-            self._partition_c = (key, dep_c, ind_c)
-        return self._partition_c[1], self._partition_c[2]
+        dep, ind = (tuple(np.asarray(part).tolist()) for part in (model.dependent, model.independent))
+        if sorted(dep + ind) != list(range(self.n)) or len(dep) != self.m:
+            raise ModelError(
+                f"dependent {dep} and independent {ind} must split the {self.n} coordinates, with one "
+                f"dependent coordinate per constraint ({self.m})"
+            )
+        dep_c = self.ffi.new("int[]", max(1, len(dep)))
+        ind_c = self.ffi.new("int[]", max(1, len(ind)))
+        dep_c[0:len(dep)] = list(dep)
+        ind_c[0:len(ind)] = list(ind)
+        if all(isinstance(a, np.ndarray) and not a.flags.writeable for a in (model.dependent, model.independent)):
+            self._partition_c = (model.dependent, model.independent, dep_c, ind_c)
+        return dep_c, ind_c
 
     # --- the generated functions -------------------------------------------------------------
     def mass_matrix(self, q, p):
-        q = self._vec(q, "q")
+        _, q_c, _ = self._state(q, None)
         M = np.empty((self.n, self.n))
-        self.lib.mass_matrix(self._ptr(q), self._params(p), self._ptr(M))
+        self.lib.mass_matrix(q_c, self._params(p), self._ptr(M))
         return M
 
     def forces(self, t, q, qd, p):
-        q, qd = self._vec(q, "q"), self._vec(qd, "qd")
+        _, q_c, qd_c = self._state(q, qd)
         f = np.empty(self.n)
-        self.lib.forces(float(t), self._ptr(q), self._ptr(qd), self._params(p), self._ptr(f))
+        self.lib.forces(float(t), q_c, qd_c, self._params(p), self._ptr(f))
         return f
 
     def static_residual(self, q, p):
@@ -140,12 +184,15 @@ class CEvaluator:
         return P[:self.n_points]
 
     def constraint_terms(self, t, q, qd, p):
-        q, qd = self._vec(q, "q"), self._vec(qd, "qd")
-        m, k = self.m, max(1, self.m)
-        phi, phid, D, gamma = np.empty(k), np.empty(k), np.empty((k, self.n)), np.empty(k)
-        self.lib.constraint_terms(float(t), self._ptr(q), self._ptr(qd), self._params(p),
-                                  self._ptr(phi), self._ptr(phid), self._ptr(D), self._ptr(gamma))
-        return phi[:m], phid[:m], D[:m], gamma[:m]
+        _, q_c, qd_c = self._state(q, qd)
+        phi, phid, D, gamma = self._constraint_outputs(())
+        self.lib.constraint_terms(float(t), q_c, qd_c, self._params(p), *map(self._ptr, (phi, phid, D, gamma)))
+        return phi[:self.m], phid[:self.m], D[:self.m], gamma[:self.m]
+
+    def _constraint_outputs(self, batch: tuple):
+        """Empty Φ, Φ̇, D, γ with leading axes ``batch``, one row at least (C has no empty arrays)."""
+        k = max(1, self.m)
+        return np.empty(batch + (k,)), np.empty(batch + (k,)), np.empty(batch + (k, self.n)), np.empty(batch + (k,))
 
     def energies(self, q, qd, p):
         q, qd = self._vec(q, "q"), self._vec(qd, "qd")
@@ -165,27 +212,30 @@ class CEvaluator:
 
     # --- the GPME solve and the RK4 loop ------------------------------------------------------
     def _solve(self, t, q, qd, model, M=None, f=None):
-        q, qd = self._vec(q, "q"), self._vec(qd, "qd")
+        scratch, q_c, qd_c = self._state(q, qd)
         dep, ind = self._partition_pointers(model)
-        qdd = np.empty(self.n)
         if M is None:
-            status = self.lib.gpme_accelerations(float(t), self._ptr(q), self._ptr(qd), self._params(model.p), dep,
-                                                 ind, self._ptr(qdd))
+            status = self.lib.gpme_accelerations(float(t), q_c, qd_c, self._params(model.p), dep, ind, scratch.qdd_c)
         else:
-            status = self.lib.gpme_motion(float(t), self._ptr(q), self._ptr(qd), self._params(model.p), dep, ind,
-                                          self._ptr(qdd), self._ptr(M), self._ptr(f))
+            status = self.lib.gpme_motion(float(t), q_c, qd_c, self._params(model.p), dep, ind, scratch.qdd_c,
+                                          self._ptr(M), self._ptr(f))
+        if status:
+            raise self._failure(status, t)
+        return scratch.qdd.copy()
+
+    @staticmethod
+    def _failure(status, t, where=""):
+        """The SimulationError of a failed GPME solve (``status`` a SolveStatus) at time ``t``."""
         if status == SolveStatus.NONFINITE:
-            raise SimulationError(
-                f"the GPME terms (M, f or D) are not finite at t = {float(t):g} s: check the state and the "
+            return SimulationError(
+                f"the GPME terms (M, f or D) are not finite at t = {float(t):g} s{where}: check the state and the "
                 f"parameter values"
             )
-        if status:
-            raise SimulationError(
-                f"the GPME system is singular at t = {float(t):g} s: the constraints are not independent in "
-                f"this configuration (their Jacobian D lost rank) or M is singular on the motions they allow; "
-                f"start from a configuration where the constraints are independent"
-            )
-        return qdd
+        return SimulationError(
+            f"the GPME system is singular at t = {float(t):g} s{where}: the constraints are not independent in "
+            f"this configuration (their Jacobian D lost rank) or M is singular on the motions they allow; "
+            f"start from a configuration where the constraints are independent"
+        )
 
     def motion(self, t, q, qd, model):
         M, f = np.empty((self.n, self.n)), np.empty(self.n)
@@ -193,6 +243,32 @@ class CEvaluator:
 
     def accelerations(self, t, q, qd, model):
         return self._solve(t, q, qd, model)
+
+    # --- many states in one call (see gpmegen.runtime.batch) -----------------------------------
+    def mass_matrix_batch(self, q, p):
+        M = np.empty((len(q), self.n, self.n))
+        self.lib.mass_matrix_batch(len(q), self._ptr(q), self._params(p), self._ptr(M))
+        return M
+
+    def forces_batch(self, t, q, qd, p):
+        f = np.empty((len(q), self.n))
+        self.lib.forces_batch(len(q), self._ptr(t), self._ptr(q), self._ptr(qd), self._params(p), self._ptr(f))
+        return f
+
+    def constraint_terms_batch(self, t, q, qd, p):
+        outputs = self._constraint_outputs((len(q),))
+        self.lib.constraint_terms_batch(len(q), self._ptr(t), self._ptr(q), self._ptr(qd), self._params(p),
+                                        *map(self._ptr, outputs))
+        return tuple(a[:, :self.m] for a in outputs)
+
+    def accelerations_batch(self, t, q, qd, model):
+        dep, ind = self._partition_pointers(model)
+        qdd, status = np.empty((len(q), self.n)), self.ffi.new("int *")
+        done = self.lib.gpme_accelerations_batch(len(q), self._ptr(t), self._ptr(q), self._ptr(qd),
+                                                 self._params(model.p), dep, ind, self._ptr(qdd), status)
+        if status[0]:
+            raise self._failure(status[0], t[done], f" (state {done} of the batch)")
+        return qdd
 
     def rk4(self, model, g, k_from, k_to, save_every, y0):
         n = self.n

@@ -30,6 +30,9 @@ _PROTOTYPE = re.compile(r"^\s*(\w[\w\s\*]*?)\b(\w+)\((.*)\);\s*$")
 _ARGUMENT = re.compile(r"(const\s+)?(double|int|long)\s*(\*?)\s*(\w+)$")
 
 
+BATCH = "_batch"  # what ends the name of a function's batched form (model.h)
+
+
 def prototypes(cdef: str) -> list[tuple[str, list[tuple[str, bool, str]]]]:
     """The functions of a cdef block: ``(name, [(type, is_pointer, argument name), ...])``."""
     functions = []
@@ -76,6 +79,8 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         values = {"t": t, "q": q, "qd": qd, "p": p}
         for c_name, arguments in functions:
             name = short[c_name]
+            if name.endswith(BATCH):
+                continue  # below, over both states at once
             say(name)
             if not arguments:
                 getattr(lib, name)()
@@ -112,6 +117,23 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         lib.rk4(t, dt, steps, t + steps * dt, 0, steps, 1, doubles(q), doubles(qd), doubles([0.0, 0.0]),
                 doubles(p), dep, ind, doubles(np.zeros(n_save)), doubles(np.zeros(n_save * n)),
                 doubles(np.zeros(n_save * n)), doubles(np.zeros(n_save * 2)), n_saved)
+    batch = {"t": [t for t, _, _ in states], "q": [q for _, q, _ in states], "qd": [qd for _, _, qd in states],
+             "p": p}
+    for c_name, arguments in functions:
+        name = short[c_name]
+        single = name[:-len(BATCH)]
+        if not name.endswith(BATCH) or not hasattr(module, single):
+            continue
+        say(name)
+        inputs = [a for *_, a in arguments[1:] if not a.startswith("out_")]
+        expected = getattr(module, single)(*(values[a] for a in inputs))
+        outputs = iter(expected if isinstance(expected, tuple) else (expected,))
+        call = [len(states)] + [doubles(np.zeros(len(states) * np.size(next(outputs)))) if a.startswith("out_")
+                                else doubles(batch[a]) for *_, a in arguments[1:]]
+        getattr(lib, name)(*call)
+    say("gpme_accelerations_batch")
+    lib.gpme_accelerations_batch(len(states), doubles(batch["t"]), doubles(batch["q"]), doubles(batch["qd"]),
+                                 doubles(p), dep, ind, doubles(np.zeros(len(states) * n)), ffi.new("int *"))
 
 
 def check_in_child(library: Path, source: Path, module_path: Path, env=None, timeout=TIMEOUT) -> str | None:

@@ -54,11 +54,12 @@ def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
 
 
 def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None, *, digest: str | None = None,
-                rebuild: str = "gpmegen build", requirements=()):
+                rebuild: str = "gpmegen build", requirements=(), progress=None):
     """The generated model of ``folder`` ready to evaluate on ``backend``, its parameters
     overridden by ``params`` and checked against ``requirements`` (the model's physical bounds,
     :func:`gpmegen.model.requirements.requirements`). ``digest``: the input hash the folder must
-    have been generated from (StaleModelError naming ``<rebuild> --force`` otherwise)."""
+    have been generated from (StaleModelError naming ``<rebuild> --force`` otherwise).
+    ``progress`` (a callable taking one line) hears about a C compile as it runs."""
     from .model import LoadedModel
 
     check_backend(backend)
@@ -68,5 +69,5 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
                               f"'{rebuild} --force'")
     if backend == "c":
         from .cmodel import CModel
-        return CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements)
+        return CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
     return LoadedModel(module, params, "numpy", folder, requirements)

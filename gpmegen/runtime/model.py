@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
 from . import gpme, integrate
+from .batch import is_batch, rows, stacked, states
 
 # What a failing generated function did, by the exception Python's math raised.
 ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a double",
@@ -28,7 +29,7 @@ def vector(x, n: int, what: str) -> np.ndarray:
     """``x`` as a contiguous float array of shape (n,), else ValueError naming ``what``."""
     a = np.ascontiguousarray(x, dtype=float)
     if a.shape != (n,):
-        raise ValueError(f"{what} must have shape ({n},), got {a.shape}")
+        raise ValueError(f"{what} must have shape ({n},), or (N, {n}) for N states, got {a.shape}")
     return a
 
 
@@ -79,6 +80,18 @@ class Evaluator(Protocol):
     def accelerations(self, t, q, qd, model):
         """q̈ (n,) of the GPME."""
 
+    def mass_matrix_batch(self, q, p):
+        """M at each of the N states q (N, n): (N, n, n), bit for bit as N calls."""
+
+    def forces_batch(self, t, q, qd, p):
+        """f at each state (t (N,), q, qd (N, n)): (N, n), bit for bit as N calls."""
+
+    def constraint_terms_batch(self, t, q, qd, p):
+        """(Φ, Φ̇, D, γ) at each state: (N, m), (N, m), (N, m, n), (N, m), bit for bit as N calls."""
+
+    def accelerations_batch(self, t, q, qd, model):
+        """q̈ at each state: (N, n), bit for bit as N calls."""
+
     def rk4(self, model, g: integrate.Grid, k_from: int, k_to: int, save_every: int, y0):
         """Steps ``k_from + 1 … k_to`` of RK4 on ``g`` from the augmented state ``y0``
         (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
@@ -90,33 +103,40 @@ class NumpyEvaluator:
 
     def __init__(self, module: ModuleType):
         self.module = module
+        self.n = len(module.COORDINATES)
+
+    def _q(self, q):
+        return vector(q, self.n, "q")
+
+    def _qd(self, qd):
+        return vector(qd, self.n, "qd")
 
     def mass_matrix(self, q, p):
-        return call(self.module, "mass_matrix", q, p)
+        return call(self.module, "mass_matrix", self._q(q), p)
 
     def forces(self, t, q, qd, p):
-        return call(self.module, "forces", t, q, qd, p)
+        return call(self.module, "forces", t, self._q(q), self._qd(qd), p)
 
     def static_residual(self, q, p):
-        return call(self.module, "static_residual", q, p)
+        return call(self.module, "static_residual", self._q(q), p)
 
     def stiffness_jacobian(self, q, p):
-        return call(self.module, "stiffness_jacobian", q, p)
+        return call(self.module, "stiffness_jacobian", self._q(q), p)
 
     def drive_forces(self, t, p):
         return call(self.module, "drive_forces", t, p)
 
     def points(self, q, p):
-        return call(self.module, "points", q, p)
+        return call(self.module, "points", self._q(q), p)
 
     def constraint_terms(self, t, q, qd, p):
-        return call(self.module, "constraint_terms", t, q, qd, p)
+        return call(self.module, "constraint_terms", t, self._q(q), self._qd(qd), p)
 
     def energies(self, q, qd, p):
-        return call(self.module, "energies", q, qd, p)
+        return call(self.module, "energies", self._q(q), self._qd(qd), p)
 
     def gpme_terms(self, t, q, qd, p):
-        return call(self.module, "gpme_terms", t, q, qd, p)
+        return call(self.module, "gpme_terms", t, self._q(q), self._qd(qd), p)
 
     def motion(self, t, q, qd, model):
         M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd, model.p)
@@ -127,6 +147,19 @@ class NumpyEvaluator:
     def accelerations(self, t, q, qd, model):
         return self.motion(t, q, qd, model)[0]
 
+    # a loop over the states: the generated functions take one state (plain floats, like C)
+    def mass_matrix_batch(self, q, p):
+        return stacked([self.mass_matrix(x, p) for x in q])
+
+    def forces_batch(self, t, q, qd, p):
+        return stacked([self.forces(*state, p) for state in zip(t.tolist(), q, qd)])
+
+    def constraint_terms_batch(self, t, q, qd, p):
+        return stacked([self.constraint_terms(*state, p) for state in zip(t.tolist(), q, qd)])
+
+    def accelerations_batch(self, t, q, qd, model):
+        return stacked([self.accelerations(*state, model) for state in zip(t.tolist(), q, qd)])
+
     def rk4(self, model, g, k_from, k_to, save_every, y0):
         return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
 
@@ -134,7 +167,10 @@ class NumpyEvaluator:
 class LoadedModel:
     """A generated model bound to parameter values.
 
-    Shapes: ``q``, ``qd`` (n_dof,); time ``t`` in s; SI units throughout. ``requirements``: the
+    Shapes: ``q``, ``qd`` (n_dof,); time ``t`` in s; SI units throughout. :meth:`mass_matrix`,
+    :meth:`forces`, :meth:`constraint_terms` and :meth:`accelerations` also take a batch of N
+    states, ``q``, ``qd`` (N, n_dof) and ``t`` a scalar or (N,), and return their results with a
+    leading axis N, bit for bit those of N single calls (one call into C on the C backend). ``requirements``: the
     model's physical bounds (:func:`gpmegen.model.requirements.requirements`), checked whenever
     parameter values are bound.
     """
@@ -235,10 +271,14 @@ class LoadedModel:
     # --- the generated functions, bound to the parameter values -----------------------------
     def mass_matrix(self, q):
         """M(q), (n, n), kg·m² / kg."""
+        if is_batch(q):
+            return self.evaluator.mass_matrix_batch(rows(q, self.n_dof, "q"), self.p)
         return self.evaluator.mass_matrix(q, self.p)
 
     def forces(self, t, q, qd):
         """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
+        if is_batch(q):
+            return self.evaluator.forces_batch(*states(t, q, qd, self.n_dof), self.p)
         return self.evaluator.forces(t, q, qd, self.p)
 
     def static_residual(self, q):
@@ -265,6 +305,8 @@ class LoadedModel:
 
     def constraint_terms(self, t, q, qd):
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
+        if is_batch(q):
+            return self.evaluator.constraint_terms_batch(*states(t, q, qd, self.n_dof), self.p)
         return self.evaluator.constraint_terms(t, q, qd, self.p)
 
     def constraint_values(self, t, q, qd):
@@ -310,7 +352,13 @@ class LoadedModel:
 
     def accelerations(self, t, q, qd):
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), or of the actuated realization; the
-        partition as :meth:`motion`."""
+        partition as :meth:`motion`. A batch (``q``, ``qd`` (N, n), ``t`` scalar or (N,)) gives
+        (N, n), in one call into C where the GPME alone is solved."""
+        if is_batch(q):
+            t, q, qd = states(t, q, qd, self.n_dof)
+            if len(self.actuators) or self.dependent is None:  # per state: the realization or partition
+                return stacked([self.accelerations(tk, qk, qdk) for tk, qk, qdk in zip(t, q, qd)])
+            return self.evaluator.accelerations_batch(t, q, qd, self)
         if len(self.actuators):
             return self.actuation(t, q, qd)[0]
         model = self.partitioned(t, q)
