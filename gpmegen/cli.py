@@ -188,11 +188,39 @@ class SimulationStopped(GpmegenError):
 
 
 def cmd_simulate(args) -> int:
+    if args.extrapolate or len(args.nrfe or ()) > 1:
+        return cmd_extrapolate(args)
+    args.nrfe = args.nrfe[0] if args.nrfe else None
     case = _case(args.model_file, args.nrfe)
     start = _start(case, args.statics)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}.npz")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
               dict(args.param or []), out, repartition=args.repartition)
+    return 0
+
+
+def cmd_extrapolate(args) -> int:
+    """``simulate --extrapolate``: the run at each --nrfe, then the outputs' limit and errors."""
+    from .analysis import extrapolate, extrapolate_plots
+    from .errors import ExtrapolationError
+
+    nrfe = sorted(set(args.nrfe or ()))
+    if not args.extrapolate or len(nrfe) < 2 or nrfe[0] < 2:
+        raise UsageError("several --nrfe need --extrapolate, and --extrapolate needs at least two distinct --nrfe "
+                         "of 2 or more (e.g. --nrfe 5 10 20 --extrapolate)")
+    cases = [_case(args.model_file, n) for n in nrfe]
+    start = _start(cases[0], args.statics)
+    out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
+    _check_results_path(out)
+    backend = args.backend or _default_backend()
+    levels, _ = extrapolate.run_levels(cases, start, args.t_end, args.dt, args.save_every, args.method, backend,
+                                       dict(args.param or []), out, progress)
+    try:
+        data = extrapolate.extrapolate(levels)
+    except ExtrapolationError as exc:
+        raise UsageError(str(exc)) from None
+    print("\n".join(extrapolate.summary(data)))
+    print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
     return 0
 
 
@@ -302,11 +330,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.set_defaults(func=cmd_build)
 
-    def study_options(p):
+    def study_options(p, levels=False):
         p.add_argument("model_file", nargs="?", type=path_argument,
                        help="a model description (.toml); default: the reference manipulator")
-        p.add_argument("--nrfe", type=positive_int, default=None,
-                       help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
+        p.add_argument("--nrfe", type=positive_int, default=None, nargs="+" if levels else None,
+                       help="rigid finite elements of the arm (1: rigid; default 5, or the file's)"
+                            + ("; several with --extrapolate" if levels else ""))
         p.add_argument("--statics", choices=("locked", "constrained", "initial"), default=None,
                        help="start: the paper's locked-joint statics (default for the reference case), the "
                             "equilibrium of the constrained system, or a model file's [initial] configuration "
@@ -315,7 +344,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="override a parameter (repeatable), e.g. --param tdr0=2")
 
     s = sub.add_parser("simulate", help="statics, then the constrained motion (RK4 or adaptive)")
-    study_options(s)
+    study_options(s, levels=True)
     s.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
     s.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
     s.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
@@ -327,6 +356,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="results file .npz (default results/run_nrfe<N>.npz or results/<file>.npz)")
     s.add_argument("--repartition", action="store_true",
                    help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
+    s.add_argument("--extrapolate", action="store_true",
+                   help="run every --nrfe (at least two) and extrapolate the outputs to the continuum limit, "
+                        "with the discretization error of each run and of the limit")
     s.set_defaults(func=cmd_simulate)
 
     st = sub.add_parser("statics", help="print the static start configuration")
