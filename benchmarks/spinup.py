@@ -57,17 +57,11 @@ def in_hub_frame(t, points, omega):
 
 def gpmegen_runs(model_file, omega, nrfe, dt):
     """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds)."""
-    from gpmegen.analysis import extrapolate, study
-    from gpmegen.analysis.cases import FileCase
+    from gpmegen.analysis import extrapolate
 
-    levels, seconds = [], []
-    for n in nrfe:
-        case = FileCase(model_file, n)
-        model, q0 = case.start("c", "initial", {"Omega": omega}, lambda message: None)
-        start = time.perf_counter()
-        res = study.simulate(model, q0, T_END, dt, save_every=int(round(SAVED / dt)), start="initial")
-        seconds.append(time.perf_counter() - start)
-        levels.append(extrapolate.Level(n, case.model, model, res))
+    levels = extrapolate.simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
+                                         backend="c", params={"Omega": omega})
+    seconds = [level.seconds for level in levels]
     data = extrapolate.extrapolate(levels, ["points"])
     t = data["t"]
     tip = {"levels": np.array([in_hub_frame(t, p[:, 0], omega) for p in data["points"]])}

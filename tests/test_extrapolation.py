@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from gpmegen.analysis import beam, convergence, extrapolate, richardson
-from gpmegen.analysis.cases import FileCase
 from gpmegen.cli import main
 from gpmegen.errors import ExtrapolationError
 
@@ -81,15 +80,8 @@ def test_clamped_arm_tip_deflection_extrapolates_to_beam_theory(env):
 
 
 def spinup_levels(nrfe, t_end, dt, backend="c", omega=4.0):
-    from gpmegen.analysis import study
-
-    levels = []
-    for n in nrfe:
-        case = FileCase(SPINUP, n)
-        model, q0 = case.start(backend, "initial", {"Omega": omega}, lambda message: None)
-        res = study.simulate(model, q0, t_end, dt, save_every=10, start="initial")
-        levels.append(extrapolate.Level(n, case.model, model, res))
-    return levels
+    return extrapolate.simulate_levels(SPINUP, nrfe, t_end, dt, save_every=10, backend=backend,
+                                       params={"Omega": omega})
 
 
 @pytest.mark.requires_cc

@@ -30,12 +30,13 @@ OUTPUTS = ("joints", "joint_velocities", "points", "point_velocities", "deflecti
 @dataclass
 class Level:
     """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
-    ``loaded`` model its run ended with and the run's ``results`` dict."""
+    ``loaded`` model its run ended with, the run's ``results`` dict and its wall ``seconds``."""
 
     nrfe: int
     model: object
     loaded: object
     results: dict
+    seconds: float = float("nan")
 
 
 def joint_names(model) -> list[str]:
@@ -168,9 +169,30 @@ def run_levels(cases, start, t_end, dt, save_every, method, backend, overrides, 
                        level_path(out, case.nrfe), progress)
         progress(f"n_rfe = {case.nrfe}: t = {run.results['t'][-1]:.6g} s in {run.wall:.1f} s; "
                  f"wrote {', '.join(map(str, run.written))}")
-        levels.append(Level(case.nrfe, case.model, run.model, run.results))
+        levels.append(Level(case.nrfe, case.model, run.model, run.results, run.wall))
         done.append(run)
     return levels, done
+
+
+def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", backend="numpy", params=None,
+                    start="initial") -> list[Level]:
+    """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
+    started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
+    overrides ``params``, integrated by :func:`gpmegen.analysis.study.simulate`. Pass the levels
+    to :func:`extrapolate`."""
+    import time
+
+    from . import study
+    from .cases import FileCase
+
+    levels = []
+    for n in sorted(set(nrfe)):
+        case = FileCase(model_file, n)
+        model, q0 = case.start(backend, start, dict(params or {}), lambda message: None)
+        begin = time.perf_counter()
+        res = study.simulate(model, q0, t_end, dt, save_every, method, start=start)
+        levels.append(Level(n, case.model, model, res, time.perf_counter() - begin))
+    return levels
 
 
 def save(data: dict, path) -> Path:
@@ -214,4 +236,4 @@ def summary(data: dict) -> list[str]:
 
 
 __all__ = ["FORMAT", "OUTPUTS", "ExtrapolationError", "Level", "extrapolate", "outputs", "save", "load",
-           "summary", "run_levels", "level_path", "check_requested", "common_grid", "joint_names"]
+           "summary", "run_levels", "simulate_levels", "level_path", "check_requested", "common_grid", "joint_names"]
