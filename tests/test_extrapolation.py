@@ -107,8 +107,25 @@ def test_outputs_not_comparable_across_discretizations_are_refused(env):
     other = spinup_levels((4,), t_end=0.02, dt=1e-3, backend="numpy", omega=6.0)
     with pytest.raises(ExtrapolationError, match="different parameter values, not one model"):
         extrapolate.extrapolate(levels + other)
-    with pytest.raises(ExtrapolationError, match="at least two"):
-        extrapolate.extrapolate(levels[:1])
+    for few in (levels[:1], levels[:1] * 2):
+        with pytest.raises(ExtrapolationError, match="at least two distinct levels"):
+            extrapolate.extrapolate(few)
+
+
+def test_point_velocities_and_hub_torque_agree_with_positions_and_energy(env):
+    """The outputs of one run against independent quantities of the same run: point velocities
+    against the time derivative of the positions, the hub's reaction torque against the power
+    that the energies take in (no gravity, no damping: τ θ̇ = d(T + V)/dt)."""
+    (level,) = extrapolate.simulate_levels(SPINUP, [3], t_end=2.0, dt=1e-3, save_every=1,
+                                           params={"Omega": 6.0})
+    out, res = extrapolate.outputs(level), level.results
+    t = res["t"]
+    dt = t[1] - t[0]
+    slope = (out["points"][2:] - out["points"][:-2]) / (2 * dt)
+    assert np.max(np.abs(out["point_velocities"][1:-1] - slope)) < 1e-5 * np.max(np.abs(slope))
+    power = out["constraint_forces"][:, 0] * out["joint_velocities"][:, 0]
+    energy = res["kinetic_energy"] + res["spring_energy"]
+    assert np.max(np.abs(power[1:-1] - (energy[2:] - energy[:-2]) / (2 * dt))) < 1e-4 * np.max(np.abs(power))
 
 
 def test_simulate_extrapolate_writes_limits_errors_and_the_figure(env, tmp_path):

@@ -132,9 +132,10 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> 
     (N, ...), ``X_limit_error`` (N, ...) (NaN with two levels) and ``X_order`` (observed, NaN with
     two levels); ``grid`` says how the levels came onto ``t``."""
     levels = sorted(levels, key=lambda level: level.nrfe)
-    n_sde = richardson.check_levels([level.nrfe - 1 for level in levels]) if len(levels) >= 2 else None
-    if n_sde is None:
-        raise ExtrapolationError("one discretization cannot be extrapolated: give at least two, e.g. --nrfe 5 10")
+    try:
+        n_sde = richardson.check_levels([level.nrfe - 1 for level in levels])
+    except richardson.LevelsError as exc:
+        raise ExtrapolationError(f"n_rfe = {[level.nrfe for level in levels]}: {exc}, e.g. --nrfe 5 10") from None
     names = check_requested(requested)
     check_comparable(levels)
     t, grid = common_grid(levels)
