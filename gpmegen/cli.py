@@ -209,16 +209,17 @@ def cmd_extrapolate(args) -> int:
         raise UsageError("several --nrfe need --extrapolate, and --extrapolate needs at least two distinct --nrfe "
                          "of 2 or more (e.g. --nrfe 5 10 20 --extrapolate)")
     cases = [_case(args.model_file, n) for n in nrfe]
+    try:
+        extrapolate.check_flexible(cases[0].model)
+    except ExtrapolationError as exc:
+        raise UsageError(str(exc)) from None
     start = _start(cases[0], args.statics)
     out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
     _check_results_path(out)
     backend = args.backend or _default_backend()
     levels, _ = extrapolate.run_levels(cases, start, args.t_end, args.dt, args.save_every, args.method, backend,
                                        dict(args.param or []), out, progress)
-    try:
-        data = extrapolate.extrapolate(levels)
-    except ExtrapolationError as exc:
-        raise UsageError(str(exc)) from None
+    data = extrapolate.extrapolate(levels)  # a level that stopped early: ExtrapolationError, exit status 1
     print("\n".join(extrapolate.summary(data)))
     print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
     return 0

@@ -139,3 +139,15 @@ def test_simulate_extrapolate_writes_limits_errors_and_the_figure(env, tmp_path)
     assert out.with_suffix(".png").stat().st_size > 0
     assert (tmp_path / "spin_nrfe2.npz").exists() and (tmp_path / "spin_nrfe3.npz").exists()
     assert main(["simulate", str(SPINUP), "--nrfe", "3", "5", "--t-end", "0.05", "--out", str(out)]) == 2
+
+
+def test_a_model_without_flexible_link_is_refused_before_any_run(tmp_path, capsys):
+    model = tmp_path / "pendulum.toml"
+    model.write_text('schema = 1\nname = "pendulum"\ngravity = [0, "-g", 0]\n[parameters]\ng = 9.81\nm = 1.0\n'
+                     '[[chain]]\njoint = "theta1"\ntype = "revolute"\naxis = "z"\n'
+                     '[[chain]]\nbody = "bob"\nshape = { type = "point_mass", mass = "m" }\n'
+                     '[[chain]]\npoint = "E"\n')
+    out = tmp_path / "p.npz"
+    assert main(["simulate", str(model), "--nrfe", "2", "3", "--extrapolate", "--out", str(out)]) == 2
+    assert "no flexible link, so nothing changes with n_rfe" in capsys.readouterr().err
+    assert not list(tmp_path.glob("p*.npz"))

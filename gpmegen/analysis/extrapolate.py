@@ -85,13 +85,20 @@ def outputs(level: Level) -> dict:
     }
 
 
+def check_flexible(model) -> None:
+    """Refuse a symbolic model without a flexible link: nothing in it changes with n_rfe."""
+    from ..model.chain import FlexibleLink
+
+    if not any(isinstance(element, FlexibleLink) for element in model.chain):
+        raise ExtrapolationError(f"model {model.name}: no flexible link, so nothing changes with n_rfe; "
+                                 f"extrapolate a model with a flexible link")
+
+
 def check_comparable(levels: list[Level]) -> None:
     """Refuse levels that are not one model at several discretizations: different joints,
     points or parameter values, no flexible link, unfinished runs."""
     first = levels[0]
-    if first.loaded.n_dof == len(joint_names(first.model)):
-        raise ExtrapolationError(f"model {first.model.name}: no flexible link, so nothing changes with n_rfe; "
-                                 f"extrapolate a model with a flexible link")
+    check_flexible(first.model)
     for level in levels:
         status = str(level.results["status"])
         if status != "complete":
@@ -236,5 +243,7 @@ def summary(data: dict) -> list[str]:
     return lines
 
 
-__all__ = ["FORMAT", "OUTPUTS", "ExtrapolationError", "Level", "extrapolate", "outputs", "save", "load",
-           "summary", "run_levels", "simulate_levels", "level_path", "check_requested", "common_grid", "joint_names"]
+__all__ = [
+    "OUTPUTS", "FORMAT", "Level", "extrapolate", "outputs", "save", "load", "summary", "run_levels", "simulate_levels",
+    "level_path", "check_requested", "check_flexible", "common_grid", "joint_names",
+]
