@@ -257,6 +257,9 @@ class SimulationStopped(GpmegenError):
 
 
 def cmd_simulate(args) -> int:
+    if args.extrapolate or len(args.nrfe or ()) > 1:
+        return cmd_extrapolate(args)
+    args.nrfe = args.nrfe[0] if args.nrfe else None
     from .analysis.results import default_name
 
     case = _case(args.model_file, args.nrfe)
@@ -287,6 +290,32 @@ def cmd_invert(args) -> int:
     print(f"{case.label} (stable inversion, {len(inv.t)} nodes, residual {inv.residual:.1e}): the inputs start "
           f"{inv.lead:.4g} s before t0 = {args.t0:g} s and act until {inv.lag:.4g} s after t1 = {args.t1:g} s; "
           f"max|u|: {peak}; wrote {', '.join(map(str, written))}")
+    return 0
+
+
+def cmd_extrapolate(args) -> int:
+    """``simulate --extrapolate``: the run at each --nrfe, then the outputs' limit and errors."""
+    from .analysis import extrapolate, extrapolate_plots
+    from .errors import ExtrapolationError
+
+    nrfe = sorted(set(args.nrfe or ()))
+    if not args.extrapolate or len(nrfe) < 2 or nrfe[0] < 2:
+        raise UsageError("several --nrfe need --extrapolate, and --extrapolate needs at least two distinct --nrfe "
+                         "of 2 or more (e.g. --nrfe 5 10 20 --extrapolate)")
+    cases = [_case(args.model_file, n) for n in nrfe]
+    try:
+        extrapolate.check_flexible(cases[0].model)
+    except ExtrapolationError as exc:
+        raise UsageError(str(exc)) from None
+    start = _start(cases[0], args.statics)
+    out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
+    _check_results_path(out)
+    backend = args.backend or _default_backend()
+    levels, _ = extrapolate.run_levels(cases, start, args.t_end, args.dt, args.save_every, args.method, backend,
+                                       dict(args.param or []), out, progress)
+    data = extrapolate.extrapolate(levels)  # a level that stopped early: ExtrapolationError, exit status 1
+    print("\n".join(extrapolate.summary(data)))
+    print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
     return 0
 
 
@@ -495,12 +524,13 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.set_defaults(func=cmd_build)
 
-    def study_options(p):
+    def study_options(p, levels=False):
         p.add_argument("model_file", nargs="?", type=path_argument,
                        help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
                             "manipulator")
-        p.add_argument("--nrfe", type=positive_int, default=None,
-                       help="rigid finite elements of the arm (1: rigid; default 5, or the file's)")
+        p.add_argument("--nrfe", type=positive_int, default=None, nargs="+" if levels else None,
+                       help="rigid finite elements of the arm (1: rigid; default 5, or the file's)"
+                            + ("; several with --extrapolate" if levels else ""))
         p.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
                        help="start: the statics with the joints locked (default for the reference case), the "
                             "equilibrium of the constrained system, or none: a model file's [initial] "
@@ -523,7 +553,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
 
     s = command("simulate", "statics, then the constrained motion (RK4 or adaptive)")
-    study_options(s)
+    study_options(s, levels=True)
     run_options(s)
     s.add_argument("--out", type=path_argument, default=None,
                    help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
@@ -535,6 +565,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--internal-dynamics", action="store_true",
                    help="with an actuated realization: save the linearized internal dynamics' eigenvalues at "
                         "every saved sample (internal_eigenvalues)")
+    s.add_argument("--extrapolate", action="store_true",
+                   help="run every --nrfe (at least two) and extrapolate the outputs to the continuum limit, "
+                        "with the discretization error of each run and of the limit")
     s.set_defaults(func=cmd_simulate)
 
     inv = command("invert", "stable inversion: bounded inputs of the actuated realization, with pre- and "

@@ -56,3 +56,8 @@ class SimulationError(GpmegenError):
 class EvaluationError(SimulationError):
     """A generated function failed arithmetically (division by zero, overflow, a root or log of
     a negative number) at the parameter values and state it was given."""
+
+
+class ExtrapolationError(GpmegenError):
+    """Runs that cannot be extrapolated across discretizations: outputs not comparable between
+    them, different models, fewer than two levels, a level that did not finish."""

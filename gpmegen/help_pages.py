@@ -61,12 +61,14 @@ examples:
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
   gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
+  gpmegen simulate examples/spinup.toml --nrfe 5 10 20 --extrapolate --t-end 20 --dt 1e-4
 
 files written:
   results/<run_nrfe<N> or the model file's name>_<start>_<method>.npz and .csv, or --out and
   its .csv; an existing results file is refused unless --overwrite; a run that diverges or is
   interrupted writes <name>.partial.npz and .csv instead and leaves a complete <name>.npz as it
-  was""",
+  was; with --extrapolate, <out>_nrfe<N>.npz for each level and the extrapolation in
+  results/<name>_extrapolated.npz (or --out) with its figure .png""",
     "statics": """\
 examples:
   gpmegen statics --nrfe 5

@@ -1,0 +1,226 @@
+"""The spin-up benchmark: gpmegen's extrapolated tip deflection against an independent reference.
+
+A beam clamped to a hub whose angle is prescribed (Kane, Ryan & Banerjee 1987, with the data of
+Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
+θ(t) = (Ωs/T)[t²/2 + (T/2π)²(cos(2πt/T) - 1)] for t ≤ T = 15 s, then Ωs(t - T/2)), 20 s, for
+Ωs = 4, 6 and 10 rad/s. Output: the tip's deflection in the hub frame.
+
+- gpmegen: examples/spinup_axial.toml (sdes that bend and stretch; --model bending:
+  examples/spinup.toml, inextensible) at several n_rfe (RK4), extrapolated to n_rfe → ∞
+  (gpmegen.analysis.extrapolate);
+- reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
+  generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed; coarser
+  Exudyn runs give its error against wall time;
+- the conventional linear modal model (clamped-free modes in the hub frame, no geometric
+  stiffening), which loses stability once the hub turns faster than the first bending frequency.
+
+Prints, per Ωs, the error of each gpmegen level and of the limit relative to the reference's peak,
+the estimated error beside the true one, wall times; writes figures/spinup.png.
+
+    .venv/bin/python -m pip install exudyn      # the reference engine: a benchmark dependency only
+    .venv/bin/python benchmarks/spinup.py                        # Ωs = 4, 6, 10
+    .venv/bin/python benchmarks/spinup.py --omega 4 --nrfe 5 10 20 --elements 32
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = {"axial": ROOT / "examples" / "spinup_axial.toml", "bending": ROOT / "examples" / "spinup.toml"}
+L, EI, EA, RHOA, T, T_END = 10.0, 1.4e4, 2.8e7, 1.2, 15.0, 20.0
+SAVED = 0.01  # s between compared samples
+
+
+def hub_angle(t, omega):
+    """θ(t) (rad) of the spin-up law, and its first two derivatives."""
+    t = np.asarray(t, dtype=float)
+    w = 2 * math.pi / T
+    up = t <= T
+    theta = np.where(up, omega / T * (t**2 / 2 + (np.cos(w * t) - 1) / w**2), omega * (t - T / 2))
+    rate = np.where(up, omega / T * (t - np.sin(w * t) / w), omega)
+    acceleration = np.where(up, omega / T * (1 - np.cos(w * t)), 0.0)
+    return theta, rate, acceleration
+
+
+def in_hub_frame(t, points, omega):
+    """The y coordinate in the hub frame of points (N, 3) given in the base frame."""
+    theta = hub_angle(t, omega)[0]
+    return -np.sin(theta) * points[:, 0] + np.cos(theta) * points[:, 1]
+
+
+def gpmegen_runs(model_file, omega, nrfe, dt):
+    """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds)."""
+    from gpmegen.analysis import extrapolate
+
+    levels = extrapolate.simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
+                                         backend="c", params={"Omega": omega})
+    seconds = [level.seconds for level in levels]
+    data = extrapolate.extrapolate(levels, ["points"])
+    t = data["t"]
+    tip = {"levels": np.array([in_hub_frame(t, p[:, 0], omega) for p in data["points"]])}
+    # θ is prescribed, so the rotation into the hub frame is exact and linear in the point: the
+    # limit and the errors rotate like the values
+    theta = hub_angle(t, omega)[0]
+    rotate = np.stack([-np.sin(theta), np.cos(theta)], axis=-1)
+    tip["errors"] = np.einsum("nk,lnk->ln", rotate, data["points_error"][:, :, 0, :2])
+    tip["limit"] = np.einsum("nk,nk->n", rotate, data["points_limit"][:, 0, :2])
+    tip["limit_error"] = np.einsum("nk,nk->n", rotate, data["points_limit_error"][:, 0, :2])
+    tip["order"] = float(data["points_order"])
+    return t, tip, seconds
+
+
+def exudyn_run(omega, elements, step, t):
+    """The tip's deflection in the hub frame by Exudyn's ANCF cable elements, at the instants
+    ``t``; returns (values, wall seconds)."""
+    import exudyn
+    from exudyn import utilities as xu
+    from exudyn.beams import GenerateStraightLineANCFCable2D
+
+    container = exudyn.SystemContainer()
+    mbs = container.AddSystem()
+    ground = mbs.AddObject(xu.ObjectGround())
+    cable = xu.Cable2D(physicsMassPerLength=RHOA, physicsBendingStiffness=EI, physicsAxialStiffness=EA)
+    nodes = GenerateStraightLineANCFCable2D(mbs, [0, 0, 0], [L, 0, 0], elements, cable)[0]
+    # a rigid hub turning about z, its angle held to θ(t); the cable's first node clamped to it
+    hub = mbs.CreateRigidBody(referencePosition=[0, 0, 0], inertia=xu.InertiaCuboid(1000, [0.1, 0.1, 0.1]),
+                              create2D=True, returnDict=True)
+    hub_marker = mbs.AddMarker(xu.MarkerBodyRigid(bodyNumber=hub["bodyNumber"], localPosition=[0, 0, 0]))
+    root = mbs.AddMarker(xu.MarkerNodeRigid(nodeNumber=nodes[0]))
+    mbs.AddObject(xu.GenericJoint(markerNumbers=[root, hub_marker], constrainedAxes=[1, 1, 0, 0, 0, 1]))
+    mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[hub_marker, mbs.AddMarker(xu.MarkerBodyRigid(bodyNumber=ground))]))
+    fixed = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(xu.NodePointGround()), coordinate=0))
+    angle = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=hub["nodeNumber"], coordinate=2))
+    def law(mbs, time, item, offset):
+        return float(hub_angle(time, omega)[0])
+
+    mbs.AddObject(xu.CoordinateConstraint(markerNumbers=[fixed, angle], offset=0.0, offsetUserFunction=law))
+    sensor = mbs.AddSensor(xu.SensorNode(nodeNumber=nodes[-1], storeInternal=True,
+                                      outputVariableType=exudyn.OutputVariableType.Position))
+    mbs.Assemble()
+    settings = exudyn.SimulationSettings()
+    settings.timeIntegration.numberOfSteps = int(round(T_END / step))
+    settings.timeIntegration.endTime = T_END
+    settings.timeIntegration.generalizedAlpha.spectralRadius = 0.8  # 1.0 fails to converge (index-3 constraints)
+    settings.timeIntegration.newton.absoluteTolerance = 1e-6  # the default fails on the axial forces' round-off
+    settings.timeIntegration.newton.useModifiedNewton = False
+    settings.timeIntegration.adaptiveStep = False
+    settings.timeIntegration.verboseMode = 0
+    settings.solutionSettings.writeSolutionToFile = False
+    settings.solutionSettings.sensorsWritePeriod = step  # every step: interpolated onto t below
+    settings.linearSolverType = exudyn.LinearSolverType.EigenSparse
+    start = time.perf_counter()
+    mbs.SolveDynamic(settings)
+    wall = time.perf_counter() - start
+    stored = mbs.GetSensorStoredData(sensor)
+    y = in_hub_frame(stored[:, 0], stored[:, 1:4], omega)
+    return np.interp(t, stored[:, 0], y), wall
+
+
+def modal_run(omega, t, modes=4):
+    """The conventional linear model: clamped-free Euler–Bernoulli modes φᵢ in the hub frame,
+    ``q̈ᵢ + (ωᵢ² - θ̇²) qᵢ = -θ̈ ∫ρA x φᵢ dx`` (mass-normalized modes, no geometric stiffening);
+    the tip's deflection Σ φᵢ(L) qᵢ at ``t``. None where it overflows."""
+    from scipy.integrate import solve_ivp
+
+    from gpmegen.analysis.beam import CLAMPED_FREE_LAMBDA
+
+    x = np.linspace(0.0, L, 4001)
+    shapes, omegas = [], []
+    for lam in CLAMPED_FREE_LAMBDA[:modes]:
+        sigma = (math.cosh(lam) + math.cos(lam)) / (math.sinh(lam) + math.sin(lam))
+        z = lam * x / L
+        phi = np.cosh(z) - np.cos(z) - sigma * (np.sinh(z) - np.sin(z))
+        shapes.append(phi / math.sqrt(np.trapezoid(RHOA * phi**2, x)))
+        omegas.append(lam**2 / L**2 * math.sqrt(EI / RHOA))
+    shapes, omegas = np.array(shapes), np.array(omegas)
+    load = np.trapezoid(RHOA * x * shapes, x, axis=1)
+
+    def rhs(time, y):
+        _, rate, acceleration = hub_angle(time, omega)
+        q, qd = y[:modes], y[modes:]
+        return np.concatenate([qd, -(omegas**2 - rate**2) * q - acceleration * load])
+
+    sol = solve_ivp(rhs, (0.0, T_END), np.zeros(2 * modes), t_eval=t, method="DOP853", rtol=1e-10, atol=1e-12)
+    tip = np.full(len(t), np.nan)
+    tip[: sol.y.shape[1]] = shapes[:, -1] @ sol.y[:modes]
+    return tip
+
+
+def figure(cases, path):
+    """Tip deflection in the hub frame for each Ωs: reference, gpmegen's limit, linear model."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, len(cases), figsize=(5.2 * len(cases), 6.8), squeeze=False)
+    for j, (omega, c) in enumerate(cases.items()):
+        top, bottom = axes[0, j], axes[1, j]
+        top.plot(c["t"], c["reference"], "k", lw=2.5, alpha=0.4, label="reference (Exudyn ANCF)")
+        top.plot(c["t"], c["tip"]["limit"], "C0", lw=1, label="gpmegen, extrapolated")
+        linear = np.where(np.abs(c["linear"]) < 3 * np.max(np.abs(c["reference"])), c["linear"], np.nan)
+        top.plot(c["t"], linear, "C3--", lw=1, label="linear modal model (no geometric stiffening)")
+        top.set_title(f"Ωs = {omega:g} rad/s")
+        top.set_ylabel("tip deflection in the hub frame (m)")
+        top.legend(fontsize=7)
+        scale = np.max(np.abs(c["reference"]))
+        for n, e in zip(c["nrfe"], c["tip"]["levels"]):
+            bottom.semilogy(c["t"], np.abs(e - c["reference"]) / scale, lw=0.7, label=f"n_rfe = {n}")
+        bottom.semilogy(c["t"], np.abs(c["tip"]["limit"] - c["reference"]) / scale, "k", lw=1, label="limit")
+        bottom.semilogy(c["t"], np.abs(c["tip"]["limit_error"]) / scale, "k:", lw=1, label="limit, estimated")
+        bottom.set_ylabel("|error| / peak of the reference")
+        bottom.set_xlabel("t (s)")
+        bottom.legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    return path
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--omega", type=float, nargs="+", default=[4.0, 6.0, 10.0], help="final hub speeds (rad/s)")
+    parser.add_argument("--nrfe", type=int, nargs="+", default=[5, 10, 20], help="gpmegen's levels")
+    parser.add_argument("--model", choices=tuple(MODELS), default="axial",
+                        help="gpmegen's beam: stretching and bending like the reference (default), or bending only")
+    parser.add_argument("--dt", type=float, default=1e-4, help="gpmegen's RK4 step (s); 5e-4 will do for bending")
+    parser.add_argument("--elements", type=int, default=32, help="ANCF elements of the reference")
+    parser.add_argument("--step", type=float, default=5e-4, help="the reference's step (s)")
+    parser.add_argument("--coarse", type=int, nargs="*", default=[4, 8], help="coarser Exudyn runs, for their cost")
+    parser.add_argument("--figure", type=Path, default=ROOT / "figures" / "spinup.png")
+    args = parser.parse_args(argv)
+
+    cases = {}
+    for omega in args.omega:
+        t, tip, seconds = gpmegen_runs(MODELS[args.model], omega, args.nrfe, args.dt)
+        reference, wall = exudyn_run(omega, args.elements, args.step, t)
+        scale = np.max(np.abs(reference))
+        print(f"\nΩs = {omega:g} rad/s: reference peak {scale:.6f} m (Exudyn, {args.elements} ANCF elements, "
+              f"step {args.step:g} s, {wall:.1f} s)")
+        for n, values, estimated, s in zip(args.nrfe, tip["levels"], tip["errors"], seconds):
+            print(f"  n_rfe {n:3d}: error {np.max(np.abs(values - reference)) / scale:.2e}, estimated "
+                  f"{np.max(np.abs(estimated)) / scale:.2e}  ({s:.2f} s)")
+        true = np.max(np.abs(tip["limit"] - reference)) / scale
+        estimate = np.max(np.abs(tip["limit_error"])) / scale
+        print(f"  limit:      error {true:.2e}, estimated {estimate:.2e} (ratio {estimate / true:.2f}); observed "
+              f"order {tip['order']:.2f}; gpmegen total {sum(seconds):.2f} s")
+        for elements in args.coarse:
+            coarse, seconds_coarse = exudyn_run(omega, elements, args.step, t)
+            print(f"  Exudyn {elements:3d} elements: error {np.max(np.abs(coarse - reference)) / scale:.2e} "
+                  f"({seconds_coarse:.1f} s)")
+        linear = modal_run(omega, t)
+        print(f"  linear modal model: peak |tip| {np.nanmax(np.abs(linear)):.3g} m")
+        cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": args.nrfe}
+    print(f"\nfigure: {figure(cases, args.figure)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

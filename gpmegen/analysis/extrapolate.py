@@ -1,0 +1,249 @@
+"""The same motion at several discretizations, and its limit: the outputs that mean the same at
+every ``n_rfe`` (:func:`outputs`) on one time grid, each extrapolated
+(:func:`gpmegen.analysis.richardson.richardson`), written as one file (:func:`save`).
+
+Comparable outputs (SI units, in the base frame {0}; N samples): ``joints`` (N, j) and
+``joint_velocities`` (N, j), the coordinates of the model's joints (not the elastic ones of its
+flexible links, whose number and meaning change with ``n_rfe``); ``points`` (N, n_points, 3) and
+``point_velocities`` the named points; ``deflections`` (N, n_points, 3) each point's displacement
+by the elastic coordinates, ``P(q) - P(q with the elastic coordinates 0)``; ``drive_forces`` and
+``constraint_forces`` (N, j), the drives' and the programmed constraints' generalized forces on
+the joints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ExtrapolationError
+from ..fileio import atomic_write
+from . import richardson
+
+FORMAT = "gpmegen-extrapolation-1"
+OUTPUTS = ("joints", "joint_velocities", "points", "point_velocities", "deflections", "drive_forces",
+           "constraint_forces")
+
+
+@dataclass
+class Level:
+    """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
+    ``loaded`` model its run ended with, the run's ``results`` dict and its wall ``seconds``."""
+
+    nrfe: int
+    model: object
+    loaded: object
+    results: dict
+    seconds: float = float("nan")
+
+
+def joint_names(model) -> list[str]:
+    """The coordinates of the joints of a symbolic model, in chain order."""
+    from ..model.chain import Joint
+
+    return [element.name for element in model.chain if isinstance(element, Joint)]
+
+
+def check_requested(requested) -> list[str]:
+    """``requested`` output names (None: all of :data:`OUTPUTS`), refused with the reason when
+    one is not comparable across discretizations (an elastic coordinate, ``q``...)."""
+    if requested is None:
+        return list(OUTPUTS)
+    refused = [name for name in requested if name not in OUTPUTS]
+    if refused:
+        raise ExtrapolationError(f"output {refused[0]!r} is not comparable across discretizations (the elastic "
+                                 f"coordinates, and so q, change in number and meaning with n_rfe); extrapolate "
+                                 f"outputs that mean the same at every n_rfe: {', '.join(OUTPUTS)}")
+    return list(requested)
+
+
+def _velocities(loaded, q, qd):
+    """Point velocities (N, n_points, 3) by central differences of the positions along qd,
+    with a step that moves the coordinates by 1e-6 (error ~1e-12 relative)."""
+    out = np.zeros((len(q), len(loaded.points), 3))
+    for k in range(len(q)):
+        h = 1e-6 / max(float(np.max(np.abs(qd[k]))), 1e-300)
+        out[k] = (loaded.point_positions(q[k] + h * qd[k]) - loaded.point_positions(q[k] - h * qd[k])) / (2 * h)
+    return out
+
+
+def outputs(level: Level) -> dict:
+    """The comparable outputs of one level (see the module's doc), keyed by :data:`OUTPUTS`."""
+    loaded, res = level.loaded, level.results
+    joints = [loaded.index(name) for name in joint_names(level.model)]
+    elastic = np.ones(loaded.n_dof, dtype=bool)
+    elastic[joints] = False
+    q, qd = res["q"], res["qd"]
+    points = np.array([loaded.point_positions(x) for x in q])
+    rigid = np.array([loaded.point_positions(np.where(elastic, 0.0, x)) for x in q])
+    return {
+        "joints": q[:, joints], "joint_velocities": qd[:, joints],
+        "points": points, "point_velocities": _velocities(loaded, q, qd), "deflections": points - rigid,
+        "drive_forces": res["drive_forces"][:, joints], "constraint_forces": res["constraint_forces"][:, joints],
+    }
+
+
+def check_flexible(model) -> None:
+    """Refuse a symbolic model without a flexible link: nothing in it changes with n_rfe."""
+    from ..model.chain import FlexibleLink
+
+    if not any(isinstance(element, FlexibleLink) for element in model.chain):
+        raise ExtrapolationError(f"model {model.name}: no flexible link, so nothing changes with n_rfe; "
+                                 f"extrapolate a model with a flexible link")
+
+
+def check_comparable(levels: list[Level]) -> None:
+    """Refuse levels that are not one model at several discretizations: different joints,
+    points or parameter values, no flexible link, unfinished runs."""
+    first = levels[0]
+    check_flexible(first.model)
+    for level in levels:
+        status = str(level.results["status"])
+        if status != "complete":
+            raise ExtrapolationError(f"the run at n_rfe = {level.nrfe} did not finish ({status}): the levels "
+                                     f"must cover the same motion; fix that run (a smaller --dt?) first")
+        for what, get in (("joints", lambda lv: joint_names(lv.model)), ("points", lambda lv: list(lv.loaded.points)),
+                          ("parameter values", lambda lv: dict(lv.loaded.params))):
+            if get(level) != get(first):
+                raise ExtrapolationError(f"n_rfe = {level.nrfe} and n_rfe = {first.nrfe}: different {what}, "
+                                         f"not one model at two discretizations; extrapolate runs of one model file")
+
+
+def common_grid(levels: list[Level]) -> tuple[np.ndarray, str]:
+    """The time grid of the extrapolation and how the levels are brought onto it: their own
+    when they saved the same instants, else the finest level's within the span they all cover,
+    the others interpolated linearly (an error of order (Δt_saved)², not removed)."""
+    grids = [np.asarray(level.results["t"], dtype=float) for level in levels]
+    if all(g.shape == grids[0].shape and np.array_equal(g, grids[0]) for g in grids):
+        return grids[0], "common"
+    start, end = max(g[0] for g in grids), min(g[-1] for g in grids)
+    finest = grids[-1]
+    return finest[(finest >= start) & (finest <= end)], (
+        f"interpolated linearly onto the samples of n_rfe = {levels[-1].nrfe}")
+
+
+def on_grid(t_level, values, t):
+    """``values`` (N_level, ...) sampled at ``t_level``, linearly interpolated at ``t``."""
+    flat = values.reshape(len(t_level), -1)
+    return np.stack([np.interp(t, t_level, flat[:, j]) for j in range(flat.shape[1])], axis=-1).reshape(
+        (len(t),) + values.shape[1:])
+
+
+def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> dict:
+    """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe) for each ``requested`` output
+    (default: all of :data:`OUTPUTS`). Returns the arrays of the file :func:`save` writes:
+    ``t`` (N,), ``nrfe``, ``n_sde`` (k,) and for each output X: ``X`` (k, N, ...) its values,
+    ``X_error`` (k, N, ...) the estimated discretization error of each level, ``X_limit``
+    (N, ...), ``X_limit_error`` (N, ...) (NaN with two levels) and ``X_order`` (observed, NaN with
+    two levels); ``grid`` says how the levels came onto ``t``."""
+    levels = sorted(levels, key=lambda level: level.nrfe)
+    try:
+        n_sde = richardson.check_levels([level.nrfe - 1 for level in levels])
+    except richardson.LevelsError as exc:
+        raise ExtrapolationError(f"n_rfe = {[level.nrfe for level in levels]}: {exc}, e.g. --nrfe 5 10") from None
+    names = check_requested(requested)
+    check_comparable(levels)
+    t, grid = common_grid(levels)
+    per_level = [outputs(level) for level in levels]
+    data = {"t": t, "nrfe": np.array([level.nrfe for level in levels]), "n_sde": n_sde, "grid": np.array(grid),
+            "joint_names": np.array(joint_names(levels[0].model)), "point_names": np.array(levels[0].loaded.points)}
+    for name in names:
+        values = np.stack([on_grid(np.asarray(level.results["t"], dtype=float), out[name], t)
+                           for level, out in zip(levels, per_level)])
+        estimate = richardson.richardson(n_sde, values, order)
+        data.update({name: values, f"{name}_error": estimate.errors, f"{name}_limit": estimate.limit,
+                     f"{name}_limit_error": estimate.limit_error, f"{name}_order": np.array(estimate.order)})
+    data["assumed_order"] = np.array(float(order))
+    return data
+
+
+def level_path(out, nrfe) -> Path:
+    """Where the run of one level is written beside the extrapolation ``out`` (.npz)."""
+    out = Path(out)
+    return out.with_name(f"{out.stem}_nrfe{nrfe}{out.suffix}")
+
+
+def run_levels(cases, start, t_end, dt, save_every, method, backend, overrides, out, progress) -> list:
+    """Run each case (one model at one n_rfe, :mod:`gpmegen.analysis.cases`, with ``nrfe``) with
+    the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path`;
+    returns the :class:`Level` of each and the :class:`~gpmegen.analysis.runs.Run` of each."""
+    from . import runs
+
+    levels, done = [], []
+    for case in cases:
+        run = runs.run(case, start, t_end, dt, save_every, method, backend, overrides,
+                       level_path(out, case.nrfe), progress)
+        progress(f"n_rfe = {case.nrfe}: t = {run.results['t'][-1]:.6g} s in {run.wall:.1f} s; "
+                 f"wrote {', '.join(map(str, run.written))}")
+        levels.append(Level(case.nrfe, case.model, run.model, run.results, run.wall))
+        done.append(run)
+    return levels, done
+
+
+def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", backend="numpy", params=None,
+                    start="none") -> list[Level]:
+    """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
+    started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
+    overrides ``params``, integrated by :func:`gpmegen.analysis.study.simulate`. Pass the levels
+    to :func:`extrapolate`."""
+    import time
+
+    from . import study
+    from .cases import FileCase
+
+    levels = []
+    for n in sorted(set(nrfe)):
+        case = FileCase(model_file, n)
+        begun = case.started(backend, start, dict(params or {}), lambda message: None)
+        begin = time.perf_counter()
+        res = study.simulate(begun.model, begun.q, t_end, dt, save_every, method, start=start, qd0=begun.qd)
+        levels.append(Level(n, case.model, begun.model, res, time.perf_counter() - begin))
+    return levels
+
+
+def save(data: dict, path) -> Path:
+    """Write an extrapolation (:func:`extrapolate`) to ``path`` (.npz) atomically, marked with
+    :data:`FORMAT`; an existing file is replaced only by a complete one."""
+    return atomic_write(path, lambda fh: np.savez_compressed(fh, format=np.array(FORMAT), **data))
+
+
+def load(path) -> dict:
+    """Read a file written by :func:`save`; ExtrapolationError if it is not one."""
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            data = {k: f[k] for k in f.files}
+    except (OSError, ValueError, EOFError) as exc:
+        raise ExtrapolationError(f"{path}: cannot read it as an extrapolation ({exc}); make it with "
+                                 f"'gpmegen simulate MODEL --nrfe 5 10 20 --extrapolate'") from None
+    if str(data.get("format", "")) != FORMAT:
+        raise ExtrapolationError(f"{path}: not a gpmegen extrapolation (no '{FORMAT}' marker)")
+    return data
+
+
+def summary(data: dict) -> list[str]:
+    """One line per output: the largest estimated error of each level and of the limit, relative
+    to the output's largest magnitude, and the observed order."""
+    lines = []
+    for name in OUTPUTS:
+        if f"{name}_limit" not in data:
+            continue
+        scale = float(np.max(np.abs(data[f"{name}_limit"]), initial=0.0))
+        if scale == 0.0:
+            continue
+        levels = ", ".join(f"n_rfe {n}: {np.max(np.abs(e)) / scale:.2e}" for n, e in zip(data["nrfe"],
+                                                                                          data[f"{name}_error"]))
+        limit_error = data[f"{name}_limit_error"]
+        limit = (f"limit: {np.max(np.abs(limit_error)) / scale:.2e}" if np.all(np.isfinite(limit_error))
+                 else "limit: unknown with two levels")
+        order = float(data[f"{name}_order"])
+        lines.append(f"{name}: max error / max |value|: {levels}; {limit}; observed order "
+                     + (f"{order:.2f}" if np.isfinite(order) else "-"))
+    return lines
+
+
+__all__ = [
+    "OUTPUTS", "FORMAT", "Level", "extrapolate", "outputs", "save", "load", "summary", "run_levels", "simulate_levels",
+    "level_path", "check_requested", "check_flexible", "common_grid", "joint_names",
+]

@@ -1,0 +1,153 @@
+"""Richardson extrapolation across discretizations: the estimator on data with a known error,
+the clamped arm's static tip deflection against beam theory (an exact limit), the spin-up
+beam's motion against a finer run, and the refusal of what cannot be compared."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gpmegen.analysis import beam, convergence, extrapolate, richardson
+from gpmegen.cli import main
+from gpmegen.errors import ExtrapolationError
+
+SPINUP = Path(__file__).resolve().parent.parent / "examples" / "spinup.toml"
+N_SDE = np.array([4, 9, 19])  # n_rfe 5, 10, 20
+
+
+def synthetic(limit, C, D, q, n=N_SDE):
+    """values (k, 50, 2) = limit + C/n² + D/n^q at every sample."""
+    return np.array([limit + C / m**2 + D / m**q for m in n])
+
+
+@pytest.fixture
+def signal(rng):
+    t = np.linspace(0.0, 1.0, 50)
+    return np.stack([np.sin(5 * t), t**2], axis=-1), rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
+
+
+def test_pure_second_order_error_is_removed_exactly_with_a_zero_error_estimate(signal):
+    limit, C, _ = signal
+    est = richardson.richardson(N_SDE, synthetic(limit, C, 0.0, 3))
+    assert np.allclose(est.limit, limit, rtol=0, atol=1e-13)
+    assert np.allclose(est.errors, [C / m**2 for m in N_SDE], rtol=0, atol=1e-13)
+    assert np.max(np.abs(est.limit_error)) < 1e-13
+    assert est.order == pytest.approx(2.0, abs=1e-9)
+
+
+def test_next_order_term_is_what_the_limit_error_estimates(signal):
+    limit, C, D = signal
+    est = richardson.richardson(N_SDE, synthetic(limit, C, 30 * D, 3))  # the assumed next term n^-3: exact
+    assert np.allclose(est.limit_error, est.limit - limit, rtol=1e-9, atol=1e-14)
+    # a faster next term, n^-4: the estimate is conservative, 2.34 times the true error here
+    est = richardson.richardson(N_SDE, synthetic(limit, C, 3 + np.abs(D), 4))
+    ratio = est.limit_error / (est.limit - limit)
+    assert np.all((ratio > 1) & (ratio < 3))
+
+
+def test_observed_order_is_the_order_of_the_data_and_two_levels_do_not_tell_it(signal):
+    limit, C, _ = signal
+    values = np.array([limit + C / m**1.5 for m in N_SDE])
+    assert richardson.observed_order(N_SDE, values) == pytest.approx(1.5, abs=1e-9)
+    two = richardson.richardson(N_SDE[:2], values[:2])
+    assert np.isnan(two.order) and np.all(np.isnan(two.limit_error))
+    assert np.isnan(richardson.observed_order(N_SDE, np.array([limit, limit + C, limit])))  # no convergence
+
+
+@pytest.mark.parametrize("levels", [[4], [4, 4], [0, 3]])
+def test_levels_that_cannot_be_extrapolated_are_refused(levels):
+    with pytest.raises(richardson.LevelsError, match="at least two distinct levels"):
+        richardson.richardson(levels, np.zeros(len(levels)))
+
+
+def test_clamped_arm_tip_deflection_extrapolates_to_beam_theory(env):
+    """The RFEM's static tip deflection under self weight is exactly wL⁴/8EI·(1 - 1/(2 n_sde²))
+    (checked here too), so two levels give wL⁴/8EI and three an order of 2 and no error left."""
+    nrfe = (2, 3, 5)
+    models = [convergence.load_clamped_arm(n, directory=env[0]) for n in nrfe]
+    exact = beam.arm_reference(models[0].params).tip_deflection
+    values = np.array([convergence.tip_deflection(m) for m in models])
+    n_sde = np.array(nrfe) - 1
+    assert np.allclose(values / exact - 1, -1 / (2 * n_sde**2), rtol=1e-12, atol=1e-14)
+    est = richardson.richardson(n_sde[:2], values[:2])
+    assert est.limit == pytest.approx(exact, rel=1e-12)
+    est = richardson.richardson(n_sde, values)
+    assert est.limit == pytest.approx(exact, rel=1e-12)
+    assert abs(est.limit_error) < 1e-12 * exact and est.order == pytest.approx(2.0, abs=1e-6)
+    assert np.allclose(est.errors, values - exact, rtol=1e-9, atol=1e-16)
+
+
+def spinup_levels(nrfe, t_end, dt, backend="c", omega=4.0):
+    return extrapolate.simulate_levels(SPINUP, nrfe, t_end, dt, save_every=10, backend=backend,
+                                       params={"Omega": omega})
+
+
+@pytest.mark.requires_cc
+def test_spinup_limit_from_coarse_runs_is_closer_to_a_fine_run_than_any_of_them(env):
+    """The tip's deflection during the spin-up: extrapolated from n_rfe 3, 5, 7 it is far nearer
+    the limit from n_rfe 7 and 13 than the runs themselves, and the estimated error of the n_rfe 7
+    run is its distance from that limit."""
+    levels = spinup_levels((3, 5, 7, 13), t_end=6.0, dt=1e-3)
+    data = extrapolate.extrapolate(levels[:3], ["deflections", "point_velocities"])
+    fine = extrapolate.extrapolate(levels[2:], ["deflections"])["deflections_limit"]
+    run = data["deflections"][-1]
+    assert np.max(np.abs(data["deflections_limit"] - fine)) < 0.05 * np.max(np.abs(run - fine))
+    assert np.max(np.abs(data["deflections_error"][-1] - (run - fine))) < 0.05 * np.max(np.abs(run - fine))
+    assert 1.7 < float(data["deflections_order"]) < 2.3
+    assert data["point_velocities_limit"].shape == (len(data["t"]), 1, 3)
+
+
+def test_outputs_not_comparable_across_discretizations_are_refused(env):
+    levels = spinup_levels((2, 3), t_end=0.02, dt=1e-3, backend="numpy")
+    for name in ("q", "psi1_1"):
+        with pytest.raises(ExtrapolationError, match=f"output '{name}' is not comparable across discretizations"):
+            extrapolate.extrapolate(levels, [name])
+    other = spinup_levels((4,), t_end=0.02, dt=1e-3, backend="numpy", omega=6.0)
+    with pytest.raises(ExtrapolationError, match="different parameter values, not one model"):
+        extrapolate.extrapolate(levels + other)
+    for few in (levels[:1], levels[:1] * 2):
+        with pytest.raises(ExtrapolationError, match="at least two distinct levels"):
+            extrapolate.extrapolate(few)
+
+
+def test_point_velocities_and_hub_torque_agree_with_positions_and_energy(env):
+    """The outputs of one run against independent quantities of the same run: point velocities
+    against the time derivative of the positions, the hub's reaction torque against the power
+    that the energies take in (no gravity, no damping: τ θ̇ = d(T + V)/dt)."""
+    (level,) = extrapolate.simulate_levels(SPINUP, [3], t_end=2.0, dt=1e-3, save_every=1,
+                                           params={"Omega": 6.0})
+    out, res = extrapolate.outputs(level), level.results
+    t = res["t"]
+    dt = t[1] - t[0]
+    slope = (out["points"][2:] - out["points"][:-2]) / (2 * dt)
+    assert np.max(np.abs(out["point_velocities"][1:-1] - slope)) < 1e-5 * np.max(np.abs(slope))
+    power = out["constraint_forces"][:, 0] * out["joint_velocities"][:, 0]
+    energy = res["kinetic_energy"] + res["spring_energy"]
+    assert np.max(np.abs(power[1:-1] - (energy[2:] - energy[:-2]) / (2 * dt))) < 1e-4 * np.max(np.abs(power))
+
+
+def test_simulate_extrapolate_writes_limits_errors_and_the_figure(env, tmp_path):
+    out = tmp_path / "spin.npz"
+    assert main(["simulate", str(SPINUP), "--nrfe", "3", "2", "--extrapolate", "--t-end", "0.05", "--dt", "1e-3",
+                 "--save-every", "5", "--backend", "numpy", "--out", str(out)]) == 0
+    data = extrapolate.load(out)
+    assert list(data["nrfe"]) == [2, 3] and data["points"].shape == (2, 11, 1, 3)
+    assert data["points_error"].shape == data["points"].shape and data["points_limit"].shape == (11, 1, 3)
+    assert np.allclose(data["points_error"], data["points"] - data["points_limit"])
+    assert out.with_suffix(".png").stat().st_size > 0
+    assert (tmp_path / "spin_nrfe2.npz").exists() and (tmp_path / "spin_nrfe3.npz").exists()
+    assert main(["simulate", str(SPINUP), "--nrfe", "3", "5", "--t-end", "0.05", "--out", str(out)]) == 2
+
+
+def test_a_model_without_flexible_link_is_refused_before_any_run(tmp_path, capsys):
+    model = tmp_path / "pendulum.toml"
+    model.write_text('schema = 1\nname = "pendulum"\ngravity = [0, "-g", 0]\n[parameters]\ng = 9.81\nm = 1.0\n'
+                     '[[chain]]\njoint = "theta1"\ntype = "revolute"\naxis = "z"\n'
+                     '[[chain]]\nbody = "bob"\nshape = { type = "point_mass", mass = "m" }\n'
+                     '[[chain]]\npoint = "E"\n')
+    out = tmp_path / "p.npz"
+    assert main(["simulate", str(model), "--nrfe", "2", "3", "--extrapolate", "--out", str(out)]) == 2
+    assert "no flexible link, so nothing changes with n_rfe" in capsys.readouterr().err
+    assert not list(tmp_path.glob("p*.npz"))
