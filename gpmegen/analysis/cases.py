@@ -36,19 +36,19 @@ class Case:
 
     def load(self, backend, params, progress):
         """The generated model on ``backend`` ("c" falls back to "numpy" when it cannot be built)."""
-        import gpmegen
-
-        def load(name):
-            return self.located(lambda: gpmegen.load(backend=name, params=params, progress=progress,
-                                                     model=self.model, command=self.command,
-                                                     directory=self.directory))
-
         if backend == "c":
             try:
-                return load("c")
+                return self.open("c", params, progress)
             except BuildError as exc:
                 progress(f"C backend unavailable ({exc}); using the NumPy backend")
-        return load("numpy")
+        return self.open("numpy", params, progress)
+
+    def open(self, backend, params, progress):
+        """The generated model on ``backend``, built first where missing or stale."""
+        import gpmegen
+
+        return self.located(lambda: gpmegen.load(backend=backend, params=params, progress=progress, model=self.model,
+                                                 command=self.command, directory=self.directory))
 
     def started(self, backend, start, overrides, progress):
         """:meth:`start`, with its report and, when the start was off the constraints, its
@@ -216,18 +216,11 @@ class FolderCase(ModelCase):
     def label(self) -> str:
         return self.manifest["model"]
 
-    def load(self, backend, params, progress):
+    def open(self, backend, params, progress):
+        """The folder's generated model on ``backend``, as its manifest records it (never rebuilt)."""
         from ..runtime.loader import open_folder
 
-        def load(name):
-            return open_folder(self.folder, name, params, rebuild=self.command)
-
-        if backend == "c":
-            try:
-                return load("c")
-            except BuildError as exc:
-                progress(f"C backend unavailable ({exc}); using the NumPy backend")
-        return load("numpy")
+        return open_folder(self.folder, backend, params, rebuild=self.command, progress=progress)
 
     def size(self) -> tuple[int, int]:
         return int(self.manifest["n_dof"]), len(self.manifest["constraints"])
