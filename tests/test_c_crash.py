@@ -128,6 +128,27 @@ def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env):
     assert meta["check"].startswith("the test process was killed")
 
 
+def test_a_test_run_that_cannot_start_leaves_no_verdict(tmp_path, env):
+    """A test process whose Python cannot start (its environment torn down under it, as a removed
+    virtual environment does) says nothing of the library: it used to be recorded as the
+    library's failure, so every later load of that library, in any environment, was refused."""
+    rigid = gpmegen.load(nrfe=1, backend="numpy")
+    folder = Path(rigid.folder)
+    cache = tmp_path / "cache"
+
+    def broken(library):
+        return cprobe.check_in_child(library, folder / "model.c", folder / "model_numpy.py",
+                                     env={"PYTHONHOME": str(tmp_path / "no-python-here")})
+
+    with pytest.raises(cprobe.ProbeUnavailable, match="could not start"):
+        ccompile.load_library(folder / "model.c", cache=cache, check=broken)
+    assert "check" not in json.loads(next(cache.glob("*.json")).read_text())
+    ffi, lib, _ = ccompile.load_library(  # the next load tests it again, and it passes
+        folder / "model.c", cache=cache,
+        check=lambda library: cprobe.check_in_child(library, folder / "model.c", folder / "model_numpy.py"))
+    assert json.loads(next(cache.glob("*.json")).read_text())["check"] == "ok"
+
+
 def test_the_command_line_falls_back_to_numpy_in_one_line(tmp_path, env):
     cache = tmp_path / "cache"
     gpmegen.load(nrfe=1, backend="c")  # compile once, checked

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import BuildError
+
 #: Seconds the child may take: it calls each function a few times, so anything longer is a hang.
 TIMEOUT = 120.0
 
@@ -136,17 +138,31 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
                                  doubles(p), dep, ind, doubles(np.zeros(len(states) * n)), ffi.new("int *"))
 
 
+STARTED = "probe started"  # the child's first line: from here on, a failure is the library's
+
+
+class ProbeUnavailable(BuildError):
+    """The test run could not say anything about the library: its process did not get as far as
+    loading it (its Python could not import gpmegen, say), or it did not finish in time on a busy
+    machine. No verdict is kept: the library is tested again next time."""
+
+
 def check_in_child(library: Path, source: Path, module_path: Path, env=None, timeout=TIMEOUT) -> str | None:
     """Run :func:`exercise` in a child process. Returns None when every call returned, else one
-    line saying how the child ended and in which function."""
+    line saying how the child ended and in which function; :class:`ProbeUnavailable` when the
+    child ended before it began to test the library, or did not finish within ``timeout`` s."""
     argv = [sys.executable, "-m", "gpmegen.runtime.cprobe", str(library), str(source), str(module_path)]
     try:
         run = subprocess.run(argv, capture_output=True, text=True, timeout=timeout,
                              env={**os.environ, **(env or {})})
     except subprocess.TimeoutExpired:
-        return f"it did not finish within {timeout:g} s"
+        raise ProbeUnavailable(f"the test run of {library} did not finish within {timeout:g} s") from None
     if run.returncode == 0:
         return None
+    if STARTED not in run.stdout.splitlines():
+        detail = " ".join(run.stderr.strip().splitlines()[-1:])[:300]
+        raise ProbeUnavailable(f"the test run of {library} could not start (exit status {run.returncode}: "
+                               f"{detail or 'no message'})")
     calls = [line[len("calling "):] for line in run.stdout.splitlines() if line.startswith("calling ")]
     where = f" in {calls[-1]}()" if calls else ""
     if run.returncode < 0:
@@ -161,6 +177,7 @@ def check_in_child(library: Path, source: Path, module_path: Path, env=None, tim
 
 def main(argv=None) -> int:
     library, source, module_path = (argv or sys.argv[1:])[:3]
+    print(STARTED, flush=True)
     exercise(Path(library), Path(source), Path(module_path),
              say=lambda name: print(f"calling {name}", flush=True))
     return 0
