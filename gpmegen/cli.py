@@ -216,7 +216,9 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
     names = model.coordinates if isinstance(case, FileCase) else case.shown(model)
     final = _coordinate_values(names, [res["q"][-1, model.index(name)] for name in names])
-    print(f"{case.label} ({model.backend}, {method}, dt = {dt:g} s): {_outcome(status, res['t'][-1])} "
+    realization = f", actuated on {', '.join(model.coordinates[k] for k in model.actuators)}" if len(
+        model.actuators) else ""
+    print(f"{case.label} ({model.backend}, {method}, dt = {dt:g} s{realization}): {_outcome(status, res['t'][-1])} "
           f"in {done.wall:.1f} s; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; "
           f"wrote {', '.join(map(str, written))}; state at t = {res['t'][-1]:.6g} s:\n{final}")
     if status != "complete":
@@ -264,11 +266,12 @@ def cmd_simulate(args) -> int:
 
     case = _case(args.model_file, args.nrfe)
     start = _start(case, args.statics)
-    out = Path(args.out if args.out is not None else f"results/{default_name(case.results_stem, start, args.method)}")
+    actuated = () if args.actuated == ["none"] else args.actuated
+    name = default_name(case.results_stem, start, args.method, case.actuators if actuated is None else actuated)
+    out = Path(args.out if args.out is not None else f"results/{name}")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
                     dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
-                    actuated=() if args.actuated == ["none"] else args.actuated,
-                    internal_dynamics=args.internal_dynamics)
+                    actuated=actuated, internal_dynamics=args.internal_dynamics)
     return 0
 
 

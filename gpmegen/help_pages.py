@@ -64,8 +64,8 @@ examples:
   gpmegen simulate examples/spinup.toml --nrfe 5 10 20 --extrapolate --t-end 20 --dt 1e-4
 
 files written:
-  results/<run_nrfe<N> or the model file's name>_<start>_<method>.npz and .csv, or --out and
-  its .csv; an existing results file is refused unless --overwrite; a run that diverges or is
+  results/<run_nrfe<N> or the model file's name>_<start>_<method>[_actuated-<coordinates>].npz
+  and .csv, or --out and its .csv; an existing results file is refused unless --overwrite; a run that diverges or is
   interrupted writes <name>.partial.npz and .csv instead and leaves a complete <name>.npz as it
   was; with --extrapolate, <out>_nrfe<N>.npz for each level and the extrapolation in
   results/<name>_extrapolated.npz (or --out) with its figure .png""",

@@ -234,3 +234,18 @@ def test_actuated_runs_are_refused_by_the_python_loop_s_estimate(env):
     limits.check_run(model.n_dof, 2, 300.0, 1e-5, 100, "rk4", "c")  # the ideal realization: accepted
     with pytest.raises(limits.LimitError, match="would take about"):
         study.simulate(model.with_actuators(["psi2", "x3"]), q0, 300.0, 1e-5, 100)
+
+
+def test_an_actuated_run_keeps_its_own_default_results_and_says_so(tmp_path, monkeypatch, capsys):
+    """Without --out the ideal and the actuated run of one model, start and method used to share
+    a default name (the second refused); each now has its own, and the summary names the inputs."""
+    monkeypatch.chdir(tmp_path)
+    common = ["simulate", "--nrfe", "1", "--t-end", "0.01", "--dt", "1e-3", "--save-every", "5", "--backend", "numpy"]
+    assert cli.main(common) == 0
+    assert "actuated" not in capsys.readouterr().out
+    assert cli.main(common + ["--actuated", "psi2", "x3"]) == 0
+    summary = capsys.readouterr().out
+    assert "(numpy, rk4, dt = 0.001 s, actuated on psi2, x3)" in summary
+    assert sorted(p.name for p in (tmp_path / "results").glob("*.npz")) == [
+        "run_nrfe1_locked_rk4.npz", "run_nrfe1_locked_rk4_actuated-psi2-x3.npz"]
+    assert "u" in results_io.load(tmp_path / "results" / "run_nrfe1_locked_rk4_actuated-psi2-x3.npz")

@@ -52,10 +52,12 @@ def existing(path) -> Path | None:
     return next((p for p in targets(path) if p.exists()), None)
 
 
-def default_name(stem: str, start: str, method: str) -> str:
+def default_name(stem: str, start: str, method: str, actuators=()) -> str:
     """The default results file of a run: ``<stem>_<start>_<method>.npz``, one name per model,
-    start and integrator, so that runs of one model with other settings keep their own files."""
-    return f"{stem}_{start}_{method.lower()}.npz"
+    start and integrator (and ``_actuated-<coordinates>`` for an actuated realization), so that
+    runs of one model with other settings keep their own files."""
+    realization = "_actuated-" + "-".join(actuators) if len(actuators) else ""
+    return f"{stem}_{start}_{method.lower()}{realization}.npz"
 
 
 def encode(meta: dict) -> np.ndarray:
