@@ -634,8 +634,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=cmd_demo)
     sw = command("sweep", "many runs over parameter values and rfe counts, on all cores or a Dask cluster")
     sw.add_argument("model_file", nargs="?", type=path_argument,
-                    help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
-                         "manipulator")
+                    help="a model description (.toml; a folder made by 'build --out' holds no model to vary); "
+                         "default: the reference manipulator")
     sw.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
                     help="rigid finite elements of the arm, one sweep of the parameters for each (default 5, or "
                          "the file's)")

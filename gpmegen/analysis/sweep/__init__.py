@@ -46,16 +46,7 @@ class Summary:
 
 
 def _file_digest(model_file) -> str | None:
-    """sha256 of the model file, or of the manifests of a folder made by ``build --out``."""
-    if not model_file:
-        return None
-    path = Path(model_file)
-    if not path.is_dir():
-        return hashlib.sha256(path.read_bytes()).hexdigest()
-    digest = hashlib.sha256()
-    for manifest in sorted(path.rglob("manifest.json")):
-        digest.update(manifest.read_bytes())
-    return digest.hexdigest()
+    return hashlib.sha256(Path(model_file).read_bytes()).hexdigest() if model_file else None
 
 
 def _plan_models(model_file, nrfe_values, start):
