@@ -159,18 +159,34 @@ def _case(model_file, nrfe):
     return case_for(model_file, nrfe)
 
 
+def transform_kinds(text: str) -> tuple:
+    """argparse type: the body transforms to generate, T,T_i,T_ij separated by commas, or none."""
+    from .symbolic.transforms import check_kinds
+
+    if text.strip() == "none":
+        return ()
+    try:
+        return check_kinds([k.strip() for k in text.split(",")])
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def cmd_build(args) -> int:
     from .codegen import build
+    from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 
     out = Path(args.out)
     cases = [_case(args.model_file, n) for n in (args.nrfe or [None])]
     models = [case.model for case in cases]  # a bad model is refused before anything is written
     _writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
+    transforms, asked = DEFAULT_TRANSFORMS, ""
+    if args.transforms is not None:
+        transforms, asked = args.transforms, f" --transforms {','.join(args.transforms) or 'none'}"
     total = time.perf_counter()
     for case, model in zip(cases, models):
         result = case.located(functools.partial(build, model, out, backends, force=args.force, progress=progress,
-                                                command=case.command))
+                                                command=case.command + asked, transforms=transforms))
         case.record_start(result.folder)
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
@@ -525,6 +541,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
+    b.add_argument("--transforms", type=transform_kinds, default=None, metavar="T,T_i,T_ij",
+                   help="body transforms to generate: T (4x4 per body, the default), its first derivatives T_i and "
+                        "second derivatives T_ij (large: O(n_dof²) matrices per body), or none")
     b.set_defaults(func=cmd_build)
 
     def study_options(p, levels=False):
