@@ -42,6 +42,12 @@ sweep again after an interruption and the runs already complete are kept.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
+    "animate": """\
+Draw the arm of a results file moving in 3D: each rigid body as the box of its inertia, the rfes
+of each flexible link as a chain of segments, the named points and the path of the points the
+programmed constraints hold. --magnify K scales the elastic coordinates (those with a spring)
+by K, as the title says. The model is the one the results name (a model file, the reference
+arm); --model gives it when they name none. With --still, a figure of the arm at chosen times.""",
 }
 
 EPILOGS = {
@@ -133,4 +139,12 @@ files written:
   <results>/run_nrfe1.npz, run_nrfe5.npz and their .csv (default results/);
   <figures>/joint_coordinates.png, end_effector.png, path.png, constraint_violation.png,
   energy_balance.png (default figures/)""",
+    "animate": """\
+examples:
+  gpmegen animate results/run_nrfe5.npz --out arm.gif --magnify 20
+  gpmegen animate results/run_nrfe5.npz --out arm.mp4 --fps 30 --view 30,-45
+  gpmegen animate results/run_nrfe5.npz --still 0,2.5,5 --magnify 20 --out deformed.pdf
+
+files written:
+  --out: the GIF (Pillow) or MP4 (needs ffmpeg), or the still figure""",
 }
