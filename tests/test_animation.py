@@ -192,3 +192,15 @@ def test_an_mp4_is_written_with_ffmpeg(arm_run, tmp_path):
 def test_the_reference_arm_results_name_it(env):
     run = gpmegen.simulate(nrfe=2, t_end=0.002, dt=1e-3, save_every=1, backend="numpy")
     assert run.meta["model_source"] == {"reference": 2}
+
+
+@pytest.mark.parametrize("gravity, vertical", [(("0", "-g", "0"), "y"), (("0", "0", "g"), "-z"),
+                                               (("-3", "1", "0"), "x"), (("0", "0", "0"), "z")])
+def test_the_axis_against_gravity_is_drawn_upwards(gravity, vertical):
+    import sympy as sp
+
+    from gpmegen.model.chain import Model, Parameter, symbol
+
+    model = Model("m", (Parameter("g", 9.81),), (), gravity=tuple(sp.sympify(v, locals={"g": symbol("g")})
+                                                                    for v in gravity))
+    assert animation.vertical_axis(model, {"g": 9.81}) == vertical

@@ -44,17 +44,18 @@ def format_of(out, still: bool) -> str:
     if fmt not in allowed:
         kind = "a still figure (--still)" if still else "an animation"
         raise RequestError(f"--out {out}: {kind} is written as {', '.join('.' + f for f in allowed)}; choose one "
-                             f"of those suffixes")
+                           f"of those suffixes")
     if fmt == "mp4" and shutil.which("ffmpeg") is None:
         raise RequestError(f"--out {out}: writing .mp4 needs ffmpeg, which is not on PATH; write a .gif instead, "
-                             f"or install ffmpeg")
+                           f"or install ffmpeg")
     return fmt
 
 
 @dataclass(frozen=True)
 class View:
     """How the arm is shown: ``elev``, ``azim`` (degrees) of the camera, the ``vertical`` axis of
-    {0} (against gravity), ``magnify`` the factor on the deformation, ``label`` of the model."""
+    {0} drawn upwards (against gravity: "y", or "-y" when gravity points along +y), ``magnify`` the
+    factor on the deformation, ``label`` of the model."""
 
     elev: float
     azim: float
@@ -68,10 +69,14 @@ class View:
 
 
 def vertical_axis(model, params) -> str:
-    """The axis of {0} most against gravity (z when there is none): drawn upwards."""
+    """The axis of {0} nearest to gravity, signed to point against it ("z" when there is none):
+    drawn upwards."""
     values = {p.symbol: params[p.name] for p in model.parameters}
     g = np.array([float(sp.sympify(v).subs(values)) for v in model.gravity])
-    return "xyz"[int(np.argmax(np.abs(g)))] if np.any(g) else "z"
+    if not np.any(g):
+        return "z"
+    k = int(np.argmax(np.abs(g)))
+    return ("-" if g[k] > 0 else "") + "xyz"[k]
 
 
 class Canvas:
@@ -81,7 +86,7 @@ class Canvas:
         plt = _pyplot()
         self.plt = plt
         # a cyclic permutation of x, y, z (it keeps the frame right-handed) puts the vertical axis last
-        self.order = {"x": (1, 2, 0), "y": (2, 0, 1), "z": (0, 1, 2)}[view.vertical]
+        self.order = {"x": (1, 2, 0), "y": (2, 0, 1), "z": (0, 1, 2)}[view.vertical.lstrip("-")]
         self.fig = plt.figure(figsize=size, dpi=dpi)
         ax = self.ax = self.fig.add_subplot(projection="3d")
         low, high = np.asarray(low)[list(self.order)], np.asarray(high)[list(self.order)]
@@ -92,6 +97,9 @@ class Canvas:
         ax.set(xlim=(low[0], high[0]), ylim=(low[1], high[1]), zlim=(low[2], high[2]),
                xlabel=labels[0], ylabel=labels[1], zlabel=labels[2])
         ax.set_box_aspect(high - low)
+        if view.vertical.startswith("-"):  # upside down: turned half a turn about the first axis
+            ax.set_ylim(high[1], low[1])
+            ax.set_zlim(high[2], low[2])
         ax.view_init(elev=view.elev, azim=view.azim)
         self.fig.subplots_adjust(left=0, right=1, bottom=0, top=0.92)
 
