@@ -81,14 +81,16 @@ def test_results_name_the_model_file_that_made_them(arm_run, shown):
         f"{name}1_{r}" for r in (1, 2) for name in ("psi", "theta", "phi")]
 
 
-def test_the_gif_has_one_frame_per_shown_sample(arm_run, tmp_path, monkeypatch):
+def test_the_gif_has_one_frame_per_shown_sample(arm_run, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)  # the results find their model file from any folder
     gif = tmp_path / "arm.gif"
     assert main(["animate", str(arm_run[0]), "--out", str(gif), "--every", "4", "--fps", "10", "--dpi", "40"]) == 0
     samples = len(results_io.load(arm_run[0])["t"])
+    frames = len(range(0, samples, 4))
     with Image.open(gif) as image:
-        assert image.n_frames == len(range(0, samples, 4)) and image.n_frames > 3
+        assert image.n_frames == frames and frames > 3
         assert image.info["duration"] == 100
+    assert f"frame {frames} / {frames}" in capsys.readouterr().err  # progress, to the last frame
     assert [p.name for p in tmp_path.iterdir()] == ["arm.gif"]  # no temporary file left beside it
     again = tmp_path / "again.gif"
     assert main(["animate", str(arm_run[0]), "--out", str(again), "--every", "4", "--fps", "10", "--dpi", "40"]) == 0
