@@ -46,11 +46,13 @@ from .model.requirements import requirements
 from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
+from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
+from .symbolic.transforms import check_kinds
 from .version import __version__
 
 
 def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,
-         directory=None, build: bool = True, progress=None, command=None):
+         directory=None, build: bool = True, progress=None, command=None, transforms=DEFAULT_TRANSFORMS):
     """The generated model ready to evaluate.
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
@@ -65,6 +67,8 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     its parameters' defaults.
 
     ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
+    ``transforms``: the body transforms to generate, of "T", "T_i", "T_ij"
+    (:meth:`LoadedModel.transforms`); a folder built with others is built again.
     """
     check_backend(backend)
     if model is None:
@@ -73,19 +77,21 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         model = reference_model(check_nrfe(nrfe, "the reference arm"))
         free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
         loaded = load(backend=backend, params=free, model=model, directory=directory, build=build,
-                      progress=progress, command=f"gpmegen build --nrfe {nrfe}")
+                      progress=progress, command=f"gpmegen build --nrfe {nrfe}", transforms=transforms)
         return with_constants(loaded, params)[0]
     directory = Path(directory) if directory is not None else default_directory()
     folder = directory / model.name
     recover_folder(folder)
     rebuild = command or "gpmegen build"
-    digest = input_hash(model, BACKENDS)
+    transforms = check_kinds(transforms)
+    digest = input_hash(model, BACKENDS, transforms)
     used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
     reason = stale_reason(folder, read_manifest(folder), digest, used)
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
-        build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest)
+        build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest,
+                    transforms=transforms)
     return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
                        progress=progress)
 

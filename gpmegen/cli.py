@@ -1,4 +1,5 @@
-"""Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | modes | convergence | demo``.
+"""Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | animate | modes | convergence |
+demo``.
 
 Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
@@ -109,6 +110,26 @@ def figure_formats(text: str) -> tuple:
     return formats
 
 
+def number_list(text: str) -> tuple:
+    """argparse type: finite numbers separated by commas (``0,2.5,5``)."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a list of numbers separated by commas (e.g. 0,2.5,5)") \
+            from None
+    if not all(np.isfinite(values)):
+        raise argparse.ArgumentTypeError(f"{text!r}: every number must be finite")
+    return values
+
+
+def camera(text: str) -> tuple:
+    """argparse type: the camera's elevation and azimuth in degrees, ``elev,azim``."""
+    values = number_list(text)
+    if len(values) != 2:
+        raise argparse.ArgumentTypeError(f"{text!r}: give the elevation and the azimuth in degrees, e.g. 20,-60")
+    return values
+
+
 class UsageError(GpmegenError):
     """A problem with the command line itself (exit status 2)."""
 
@@ -159,18 +180,34 @@ def _case(model_file, nrfe):
     return case_for(model_file, nrfe)
 
 
+def transform_kinds(text: str) -> tuple:
+    """argparse type: the body transforms to generate, T,T_i,T_ij separated by commas, or none."""
+    from .symbolic.transforms import check_kinds
+
+    if text.strip() == "none":
+        return ()
+    try:
+        return check_kinds([k.strip() for k in text.split(",")])
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def cmd_build(args) -> int:
     from .codegen import build
+    from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 
     out = Path(args.out)
     cases = [_case(args.model_file, n) for n in (args.nrfe or [None])]
     models = [case.model for case in cases]  # a bad model is refused before anything is written
     _writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
+    transforms, asked = DEFAULT_TRANSFORMS, ""
+    if args.transforms is not None:
+        transforms, asked = args.transforms, f" --transforms {','.join(args.transforms) or 'none'}"
     total = time.perf_counter()
     for case, model in zip(cases, models):
         result = case.located(functools.partial(build, model, out, backends, force=args.force, progress=progress,
-                                                command=case.command))
+                                                command=case.command + asked, transforms=transforms))
         case.record_start(result.folder)
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
@@ -429,6 +466,27 @@ def cmd_convergence(args) -> int:
     return 0
 
 
+def cmd_animate(args) -> int:
+    """The arm moving in 3D (GIF or MP4), or a still figure of it at chosen times."""
+    from .analysis import animation
+
+    try:
+        animation.format_of(args.out, still=args.still is not None)  # before anything is loaded
+        _writable_folder(Path(args.out).parent)
+        shown = animation.subject(args.results, args.model, progress)
+        view = shown.view(*args.view, args.magnify)
+        t, q = shown.results["t"], shown.results["q"]
+        if args.still is not None:
+            print(animation.still(shown.scene, shown.loaded, t, q, view, args.still, args.out, dpi=args.dpi or 200))
+            return 0
+        every = args.every or animation.real_time_every(t, args.fps)
+        print(animation.movie(shown.scene, shown.loaded, t, q, view, args.out, args.fps, every,
+                              dpi=args.dpi or 100, progress=progress))
+    except animation.RequestError as exc:
+        raise UsageError(str(exc)) from None
+    return 0
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with errors in one line, with "did you mean" for a mistyped subcommand or option."""
 
@@ -525,6 +583,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
+    b.add_argument("--transforms", type=transform_kinds, default=None, metavar="T,T_i,T_ij",
+                   help="body transforms to generate: T (4x4 per body, the default), its first derivatives T_i and "
+                        "second derivatives T_ij (large: O(n_dof²) matrices per body), or none")
     b.set_defaults(func=cmd_build)
 
     def study_options(p, levels=False):
@@ -657,6 +718,23 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--scheduler", type=path_argument, default=None, metavar="ADDRESS",
                     help="run on the Dask cluster of this scheduler (tcp://HOST:PORT or a scheduler file)")
     sw.set_defaults(func=cmd_sweep)
+    an = command("animate", "the arm moving in 3D (GIF or MP4), or a still figure of the deformed arm")
+    an.add_argument("results", type=path_argument, help="a results .npz file of simulate or invert")
+    an.add_argument("--out", type=path_argument, required=True,
+                    help="arm.gif or arm.mp4 (ffmpeg); with --still a figure .png, .pdf or .svg")
+    an.add_argument("--still", type=number_list, default=None, metavar="T1,T2,...",
+                    help="draw the arm at these times (s), overlaid in one figure, instead of an animation")
+    an.add_argument("--magnify", type=_finite_number(lambda v: v >= 0, "must be zero (the rigid arm) or more"),
+                    default=1.0, metavar="K", help="scale the elastic coordinates by K (default 1: as computed)")
+    an.add_argument("--fps", type=positive_float, default=20.0, help="frames per second (default 20)")
+    an.add_argument("--every", type=positive_int, default=None,
+                    help="show every k-th saved sample (default: the step that plays the run in real time)")
+    an.add_argument("--view", type=camera, default=(20.0, -60.0), metavar="ELEV,AZIM",
+                    help="camera elevation and azimuth in degrees (default 20,-60)")
+    an.add_argument("--dpi", type=positive_int, default=None, help="resolution (default 100, 200 for --still)")
+    an.add_argument("--model", type=path_argument, default=None,
+                    help="the model file that made the results (default: the one their metadata names)")
+    an.set_defaults(func=cmd_animate)
     for p in (b, s, inv, st, m, c, d, sw):
         p.add_argument("--no-limits", action="store_true",
                        help="start even work estimated to take more than an hour or more memory than is available")

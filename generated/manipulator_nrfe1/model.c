@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: 5f6fec4d5a0f8902
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -30,7 +30,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "135893fdc036d146"; }
+const char *manipulator_nrfe1_input_hash(void) { return "5f6fec4d5a0f8902"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -937,6 +937,85 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
     out_jacobian[5] = _x4;
     out_gamma[0] = _x147;
     out_gamma[1] = _x153;
+}
+#endif
+
+
+#ifdef COLD_PART
+/* Body transforms T = [R p; 0 1] from each body's frame to {0}.
+   q: (3,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_T: (3, 4, 4) T of each body in BODIES order (p in m), row-major
+*/
+void manipulator_nrfe1_transforms(const double *q, const double *p, double *out_T)
+{
+    const double _q_theta1 = q[0];
+    const double _q_psi2 = q[1];
+    const double _q_x3 = q[2];
+    const double _p_h1 = p[2];
+    const double _p_L2 = p[4];
+    const double _x0 = cos(_q_theta1);
+    const double _x1 = sin(_q_theta1);
+    const double _x2 = cos(_q_psi2);
+    const double _x3 = sin(_q_psi2);
+    const double _x4 = _x0*_x2;
+    const double _x5 = -_x0*_x3;
+    const double _x6 = -_x1*_x2;
+    const double _x7 = _x1*_x3;
+    const double _x8 = _p_L2*_x4;
+    const double _x9 = _p_h1 + _p_L2*_x3;
+    const double _x10 = _p_L2*_x6;
+    const double _x11 = _x8 + _q_x3*_x4;
+    const double _x12 = _x9 + _q_x3*_x3;
+    const double _x13 = _x10 + _q_x3*_x6;
+    out_T[0] = _x0;
+    out_T[1] = 0.0;
+    out_T[2] = _x1;
+    out_T[3] = 0.0;
+    out_T[4] = 0.0;
+    out_T[5] = 1.0;
+    out_T[6] = 0.0;
+    out_T[7] = 0.0;
+    out_T[8] = -_x1;
+    out_T[9] = 0.0;
+    out_T[10] = _x0;
+    out_T[11] = 0.0;
+    out_T[12] = 0.0;
+    out_T[13] = 0.0;
+    out_T[14] = 0.0;
+    out_T[15] = 1.0;
+    out_T[16] = _x4;
+    out_T[17] = _x5;
+    out_T[18] = _x1;
+    out_T[19] = 0.0;
+    out_T[20] = _x3;
+    out_T[21] = _x2;
+    out_T[22] = 0.0;
+    out_T[23] = _p_h1;
+    out_T[24] = _x6;
+    out_T[25] = _x7;
+    out_T[26] = _x0;
+    out_T[27] = 0.0;
+    out_T[28] = 0.0;
+    out_T[29] = 0.0;
+    out_T[30] = 0.0;
+    out_T[31] = 1.0;
+    out_T[32] = _x4;
+    out_T[33] = _x5;
+    out_T[34] = _x1;
+    out_T[35] = _x11;
+    out_T[36] = _x3;
+    out_T[37] = _x2;
+    out_T[38] = 0.0;
+    out_T[39] = _x12;
+    out_T[40] = _x6;
+    out_T[41] = _x7;
+    out_T[42] = _x0;
+    out_T[43] = _x13;
+    out_T[44] = 0.0;
+    out_T[45] = 0.0;
+    out_T[46] = 0.0;
+    out_T[47] = 1.0;
 }
 #endif
 

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: 5f6fec4d5a0f8902
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -36,6 +36,7 @@ PARAMETERS (order of p; default value, unit):
     24: beta_height = 50.0 1/s
 
 POINTS (rows of out_P): E
+BODIES (first axis of the transforms T): column, rfe2_0, slider
 CONSTRAINTS (rows of the constraint terms): circle, height
 
 Every array is row-major and owned by the caller: an output of shape (r, c) is written
@@ -166,6 +167,13 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
    out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
 */
 void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
+
+/* Body transforms T = [R p; 0 1] from each body's frame to {0}.
+   q: (3,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_T: (3, 4, 4) T of each body in BODIES order (p in m), row-major
+*/
+void manipulator_nrfe1_transforms(const double *q, const double *p, double *out_T);
 
 
 /* qdd (3,) from the GPME at (t, q, qd, p), and the M (3, 3) and f (3,) it was solved

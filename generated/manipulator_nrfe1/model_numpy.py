@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: 5f6fec4d5a0f8902
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -43,12 +43,14 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe1'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '135893fdc036d146'
+INPUT_HASH = '5f6fec4d5a0f8902'
 N_DOF = 3
 COORDINATES = ('theta1', 'psi2', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
 DEFAULTS = (9.81, 10.0, 0.6, 0.05, 1.0, 0.04, 0.01, 2700.0, 70000000000.0, 26000000000.0, 1.124e-08, 0.0, 2.0, 0.5, 0.02, 1.0, 5.0, 0.5, 2.5, 1.06066017177982, 1.16066017177982, 100.0, 50.0, 100.0, 50.0)
 POINTS = ('E',)
+BODIES = ('column', 'rfe2_0', 'slider')
+TRANSFORMS = ('T',)
 CONSTRAINTS = ('circle', 'height')
 CONSTRAINT_ORDERS = (0, 0)
 DEPENDENT = ('psi2', 'x3')
@@ -900,6 +902,48 @@ def gpme_terms(t, q, qd, p):
     jacobian = np.array([0, _x145, _x146, 0, _x49, _x4], dtype=float).reshape(2, 3)
     gamma = np.array([_x147, _x153], dtype=float)
     return M, f, phi, phi_rate, jacobian, gamma
+
+
+
+def transforms(q, p):
+    """Body transforms T = [R p; 0 1] from each body's frame to {0}.
+
+    Arguments:
+        q: (3,) coordinates in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        T: (3, 4, 4) T of each body in BODIES order (p in m), row-major
+    """
+    q = np.asarray(q, dtype=float).tolist()
+    p = np.asarray(p, dtype=float).tolist()
+    _q_theta1 = q[0]
+    _q_psi2 = q[1]
+    _q_x3 = q[2]
+    _p_h1 = p[2]
+    _p_L2 = p[4]
+    _x0 = math.cos(_q_theta1)
+    _x1 = math.sin(_q_theta1)
+    _x2 = math.cos(_q_psi2)
+    _x3 = math.sin(_q_psi2)
+    _x4 = _x0*_x2
+    _x5 = -_x0*_x3
+    _x6 = -_x1*_x2
+    _x7 = _x1*_x3
+    _x8 = _p_L2*_x4
+    _x9 = _p_h1 + _p_L2*_x3
+    _x10 = _p_L2*_x6
+    _x11 = _x8 + _q_x3*_x4
+    _x12 = _x9 + _q_x3*_x3
+    _x13 = _x10 + _q_x3*_x6
+    T = np.array([_x0, 0, _x1, 0, 0, 1,
+        0, 0, -_x1, 0, _x0, 0,
+        0, 0, 0, 1, _x4, _x5,
+        _x1, 0, _x3, _x2, 0, _p_h1,
+        _x6, _x7, _x0, 0, 0, 0,
+        0, 1, _x4, _x5, _x1, _x11,
+        _x3, _x2, 0, _x12, _x6, _x7,
+        _x0, _x13, 0, 0, 0, 1], dtype=float).reshape(3, 4, 4)
+    return T
 
 
 

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1b58b861dc3efcba
+Input hash: c934fe68e97e3135
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -30,7 +30,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "1b58b861dc3efcba"; }
+const char *manipulator_nrfe5_input_hash(void) { return "c934fe68e97e3135"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -4803,6 +4803,269 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     out_jacobian[29] = _x278;
     out_gamma[0] = _x882;
     out_gamma[1] = _x888;
+}
+#endif
+
+
+#ifdef COLD_PART
+/* Body transforms T = [R p; 0 1] from each body's frame to {0}.
+   q: (15,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_T: (7, 4, 4) T of each body in BODIES order (p in m), row-major
+*/
+void manipulator_nrfe5_transforms(const double *q, const double *p, double *out_T)
+{
+    const double _q_theta1 = q[0];
+    const double _q_psi2 = q[1];
+    const double _q_psi2_1 = q[2];
+    const double _q_theta2_1 = q[3];
+    const double _q_phi2_1 = q[4];
+    const double _q_psi2_2 = q[5];
+    const double _q_theta2_2 = q[6];
+    const double _q_phi2_2 = q[7];
+    const double _q_psi2_3 = q[8];
+    const double _q_theta2_3 = q[9];
+    const double _q_phi2_3 = q[10];
+    const double _q_psi2_4 = q[11];
+    const double _q_theta2_4 = q[12];
+    const double _q_phi2_4 = q[13];
+    const double _q_x3 = q[14];
+    const double _p_h1 = p[2];
+    const double _p_L2 = p[4];
+    const double _x0 = cos(_q_theta1);
+    const double _x1 = sin(_q_theta1);
+    const double _x2 = cos(_q_psi2);
+    const double _x3 = sin(_q_psi2);
+    const double _x4 = _x0*_x2;
+    const double _x5 = -_x0*_x3;
+    const double _x6 = -_x1*_x2;
+    const double _x7 = _x1*_x3;
+    const double _x8 = (1.0/8.0)*_p_L2*_x4;
+    const double _x9 = _p_h1 + (1.0/8.0)*_p_L2*_x3;
+    const double _x10 = (1.0/8.0)*_p_L2*_x6;
+    const double _x11 = cos(_q_psi2_1);
+    const double _x12 = sin(_q_psi2_1);
+    const double _x13 = _x11*_x4 + _x12*_x5;
+    const double _x14 = _x11*_x5 - _x12*_x4;
+    const double _x15 = _x11*_x3 + _x12*_x2;
+    const double _x16 = _x11*_x2 - _x12*_x3;
+    const double _x17 = _x11*_x6 + _x12*_x7;
+    const double _x18 = _x11*_x7 - _x12*_x6;
+    const double _x19 = cos(_q_theta2_1);
+    const double _x20 = sin(_q_theta2_1);
+    const double _x21 = _x13*_x19 - _x1*_x20;
+    const double _x22 = _x1*_x19 + _x13*_x20;
+    const double _x23 = _x15*_x19;
+    const double _x24 = _x15*_x20;
+    const double _x25 = _x17*_x19 - _x0*_x20;
+    const double _x26 = _x0*_x19 + _x17*_x20;
+    const double _x27 = cos(_q_phi2_1);
+    const double _x28 = sin(_q_phi2_1);
+    const double _x29 = _x14*_x27 + _x22*_x28;
+    const double _x30 = _x22*_x27 - _x14*_x28;
+    const double _x31 = _x16*_x27 + _x24*_x28;
+    const double _x32 = _x24*_x27 - _x16*_x28;
+    const double _x33 = _x18*_x27 + _x26*_x28;
+    const double _x34 = _x26*_x27 - _x18*_x28;
+    const double _x35 = _x8 + (1.0/4.0)*_p_L2*_x21;
+    const double _x36 = _x9 + (1.0/4.0)*_p_L2*_x23;
+    const double _x37 = _x10 + (1.0/4.0)*_p_L2*_x25;
+    const double _x38 = cos(_q_psi2_2);
+    const double _x39 = sin(_q_psi2_2);
+    const double _x40 = _x21*_x38 + _x29*_x39;
+    const double _x41 = _x29*_x38 - _x21*_x39;
+    const double _x42 = _x23*_x38 + _x31*_x39;
+    const double _x43 = _x31*_x38 - _x23*_x39;
+    const double _x44 = _x25*_x38 + _x33*_x39;
+    const double _x45 = _x33*_x38 - _x25*_x39;
+    const double _x46 = cos(_q_theta2_2);
+    const double _x47 = sin(_q_theta2_2);
+    const double _x48 = _x40*_x46 - _x30*_x47;
+    const double _x49 = _x30*_x46 + _x40*_x47;
+    const double _x50 = _x42*_x46 - _x32*_x47;
+    const double _x51 = _x32*_x46 + _x42*_x47;
+    const double _x52 = _x44*_x46 - _x34*_x47;
+    const double _x53 = _x34*_x46 + _x44*_x47;
+    const double _x54 = cos(_q_phi2_2);
+    const double _x55 = sin(_q_phi2_2);
+    const double _x56 = _x41*_x54 + _x49*_x55;
+    const double _x57 = _x49*_x54 - _x41*_x55;
+    const double _x58 = _x43*_x54 + _x51*_x55;
+    const double _x59 = _x51*_x54 - _x43*_x55;
+    const double _x60 = _x45*_x54 + _x53*_x55;
+    const double _x61 = _x53*_x54 - _x45*_x55;
+    const double _x62 = _x35 + (1.0/4.0)*_p_L2*_x48;
+    const double _x63 = _x36 + (1.0/4.0)*_p_L2*_x50;
+    const double _x64 = _x37 + (1.0/4.0)*_p_L2*_x52;
+    const double _x65 = cos(_q_psi2_3);
+    const double _x66 = sin(_q_psi2_3);
+    const double _x67 = _x48*_x65 + _x56*_x66;
+    const double _x68 = _x56*_x65 - _x48*_x66;
+    const double _x69 = _x50*_x65 + _x58*_x66;
+    const double _x70 = _x58*_x65 - _x50*_x66;
+    const double _x71 = _x52*_x65 + _x60*_x66;
+    const double _x72 = _x60*_x65 - _x52*_x66;
+    const double _x73 = cos(_q_theta2_3);
+    const double _x74 = sin(_q_theta2_3);
+    const double _x75 = _x67*_x73 - _x57*_x74;
+    const double _x76 = _x57*_x73 + _x67*_x74;
+    const double _x77 = _x69*_x73 - _x59*_x74;
+    const double _x78 = _x59*_x73 + _x69*_x74;
+    const double _x79 = _x71*_x73 - _x61*_x74;
+    const double _x80 = _x61*_x73 + _x71*_x74;
+    const double _x81 = cos(_q_phi2_3);
+    const double _x82 = sin(_q_phi2_3);
+    const double _x83 = _x68*_x81 + _x76*_x82;
+    const double _x84 = _x76*_x81 - _x68*_x82;
+    const double _x85 = _x70*_x81 + _x78*_x82;
+    const double _x86 = _x78*_x81 - _x70*_x82;
+    const double _x87 = _x72*_x81 + _x80*_x82;
+    const double _x88 = _x80*_x81 - _x72*_x82;
+    const double _x89 = _x62 + (1.0/4.0)*_p_L2*_x75;
+    const double _x90 = _x63 + (1.0/4.0)*_p_L2*_x77;
+    const double _x91 = _x64 + (1.0/4.0)*_p_L2*_x79;
+    const double _x92 = cos(_q_psi2_4);
+    const double _x93 = sin(_q_psi2_4);
+    const double _x94 = _x75*_x92 + _x83*_x93;
+    const double _x95 = _x83*_x92 - _x75*_x93;
+    const double _x96 = _x77*_x92 + _x85*_x93;
+    const double _x97 = _x85*_x92 - _x77*_x93;
+    const double _x98 = _x79*_x92 + _x87*_x93;
+    const double _x99 = _x87*_x92 - _x79*_x93;
+    const double _x100 = cos(_q_theta2_4);
+    const double _x101 = sin(_q_theta2_4);
+    const double _x102 = _x100*_x94 - _x101*_x84;
+    const double _x103 = _x100*_x84 + _x101*_x94;
+    const double _x104 = _x100*_x96 - _x101*_x86;
+    const double _x105 = _x100*_x86 + _x101*_x96;
+    const double _x106 = _x100*_x98 - _x101*_x88;
+    const double _x107 = _x100*_x88 + _x101*_x98;
+    const double _x108 = cos(_q_phi2_4);
+    const double _x109 = sin(_q_phi2_4);
+    const double _x110 = _x103*_x109 + _x108*_x95;
+    const double _x111 = _x103*_x108 - _x109*_x95;
+    const double _x112 = _x105*_x109 + _x108*_x97;
+    const double _x113 = _x105*_x108 - _x109*_x97;
+    const double _x114 = _x107*_x109 + _x108*_x99;
+    const double _x115 = _x107*_x108 - _x109*_x99;
+    const double _x116 = _x89 + (1.0/8.0)*_p_L2*_x102;
+    const double _x117 = _x90 + (1.0/8.0)*_p_L2*_x104;
+    const double _x118 = _x91 + (1.0/8.0)*_p_L2*_x106;
+    const double _x119 = _x116 + _q_x3*_x102;
+    const double _x120 = _x117 + _q_x3*_x104;
+    const double _x121 = _x118 + _q_x3*_x106;
+    out_T[0] = _x0;
+    out_T[1] = 0.0;
+    out_T[2] = _x1;
+    out_T[3] = 0.0;
+    out_T[4] = 0.0;
+    out_T[5] = 1.0;
+    out_T[6] = 0.0;
+    out_T[7] = 0.0;
+    out_T[8] = -_x1;
+    out_T[9] = 0.0;
+    out_T[10] = _x0;
+    out_T[11] = 0.0;
+    out_T[12] = 0.0;
+    out_T[13] = 0.0;
+    out_T[14] = 0.0;
+    out_T[15] = 1.0;
+    out_T[16] = _x4;
+    out_T[17] = _x5;
+    out_T[18] = _x1;
+    out_T[19] = 0.0;
+    out_T[20] = _x3;
+    out_T[21] = _x2;
+    out_T[22] = 0.0;
+    out_T[23] = _p_h1;
+    out_T[24] = _x6;
+    out_T[25] = _x7;
+    out_T[26] = _x0;
+    out_T[27] = 0.0;
+    out_T[28] = 0.0;
+    out_T[29] = 0.0;
+    out_T[30] = 0.0;
+    out_T[31] = 1.0;
+    out_T[32] = _x21;
+    out_T[33] = _x29;
+    out_T[34] = _x30;
+    out_T[35] = _x8;
+    out_T[36] = _x23;
+    out_T[37] = _x31;
+    out_T[38] = _x32;
+    out_T[39] = _x9;
+    out_T[40] = _x25;
+    out_T[41] = _x33;
+    out_T[42] = _x34;
+    out_T[43] = _x10;
+    out_T[44] = 0.0;
+    out_T[45] = 0.0;
+    out_T[46] = 0.0;
+    out_T[47] = 1.0;
+    out_T[48] = _x48;
+    out_T[49] = _x56;
+    out_T[50] = _x57;
+    out_T[51] = _x35;
+    out_T[52] = _x50;
+    out_T[53] = _x58;
+    out_T[54] = _x59;
+    out_T[55] = _x36;
+    out_T[56] = _x52;
+    out_T[57] = _x60;
+    out_T[58] = _x61;
+    out_T[59] = _x37;
+    out_T[60] = 0.0;
+    out_T[61] = 0.0;
+    out_T[62] = 0.0;
+    out_T[63] = 1.0;
+    out_T[64] = _x75;
+    out_T[65] = _x83;
+    out_T[66] = _x84;
+    out_T[67] = _x62;
+    out_T[68] = _x77;
+    out_T[69] = _x85;
+    out_T[70] = _x86;
+    out_T[71] = _x63;
+    out_T[72] = _x79;
+    out_T[73] = _x87;
+    out_T[74] = _x88;
+    out_T[75] = _x64;
+    out_T[76] = 0.0;
+    out_T[77] = 0.0;
+    out_T[78] = 0.0;
+    out_T[79] = 1.0;
+    out_T[80] = _x102;
+    out_T[81] = _x110;
+    out_T[82] = _x111;
+    out_T[83] = _x89;
+    out_T[84] = _x104;
+    out_T[85] = _x112;
+    out_T[86] = _x113;
+    out_T[87] = _x90;
+    out_T[88] = _x106;
+    out_T[89] = _x114;
+    out_T[90] = _x115;
+    out_T[91] = _x91;
+    out_T[92] = 0.0;
+    out_T[93] = 0.0;
+    out_T[94] = 0.0;
+    out_T[95] = 1.0;
+    out_T[96] = _x102;
+    out_T[97] = _x110;
+    out_T[98] = _x111;
+    out_T[99] = _x119;
+    out_T[100] = _x104;
+    out_T[101] = _x112;
+    out_T[102] = _x113;
+    out_T[103] = _x120;
+    out_T[104] = _x106;
+    out_T[105] = _x114;
+    out_T[106] = _x115;
+    out_T[107] = _x121;
+    out_T[108] = 0.0;
+    out_T[109] = 0.0;
+    out_T[110] = 0.0;
+    out_T[111] = 1.0;
 }
 #endif
 

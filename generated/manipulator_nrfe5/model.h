@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1b58b861dc3efcba
+Input hash: c934fe68e97e3135
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -48,6 +48,7 @@ PARAMETERS (order of p; default value, unit):
     24: beta_height = 50.0 1/s
 
 POINTS (rows of out_P): E
+BODIES (first axis of the transforms T): column, rfe2_0, rfe2_1, rfe2_2, rfe2_3, rfe2_4, slider
 CONSTRAINTS (rows of the constraint terms): circle, height
 
 Every array is row-major and owned by the caller: an output of shape (r, c) is written
@@ -178,6 +179,13 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
    out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
 */
 void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
+
+/* Body transforms T = [R p; 0 1] from each body's frame to {0}.
+   q: (15,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_T: (7, 4, 4) T of each body in BODIES order (p in m), row-major
+*/
+void manipulator_nrfe5_transforms(const double *q, const double *p, double *out_T);
 
 
 /* qdd (15,) from the GPME at (t, q, qd, p), and the M (15, 15) and f (15,) it was solved

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1b58b861dc3efcba
+Input hash: c934fe68e97e3135
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -55,12 +55,14 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe5'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '1b58b861dc3efcba'
+INPUT_HASH = 'c934fe68e97e3135'
 N_DOF = 15
 COORDINATES = ('theta1', 'psi2', 'psi2_1', 'theta2_1', 'phi2_1', 'psi2_2', 'theta2_2', 'phi2_2', 'psi2_3', 'theta2_3', 'phi2_3', 'psi2_4', 'theta2_4', 'phi2_4', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
 DEFAULTS = (9.81, 10.0, 0.6, 0.05, 1.0, 0.04, 0.01, 2700.0, 70000000000.0, 26000000000.0, 1.124e-08, 0.0, 2.0, 0.5, 0.02, 1.0, 5.0, 0.5, 2.5, 1.06066017177982, 1.16066017177982, 100.0, 50.0, 100.0, 50.0)
 POINTS = ('E',)
+BODIES = ('column', 'rfe2_0', 'rfe2_1', 'rfe2_2', 'rfe2_3', 'rfe2_4', 'slider')
+TRANSFORMS = ('T',)
 CONSTRAINTS = ('circle', 'height')
 CONSTRAINT_ORDERS = (0, 0)
 DEPENDENT = ('psi2', 'x3')
@@ -4158,6 +4160,179 @@ def gpme_terms(t, q, qd, p):
         _x373, _x376, _x379, _x382, _x385, _x278], dtype=float).reshape(2, 15)
     gamma = np.array([_x882, _x888], dtype=float)
     return M, f, phi, phi_rate, jacobian, gamma
+
+
+
+def transforms(q, p):
+    """Body transforms T = [R p; 0 1] from each body's frame to {0}.
+
+    Arguments:
+        q: (15,) coordinates in COORDINATES order
+        p: (25,) parameter values in PARAMETERS order
+    Returns:
+        T: (7, 4, 4) T of each body in BODIES order (p in m), row-major
+    """
+    q = np.asarray(q, dtype=float).tolist()
+    p = np.asarray(p, dtype=float).tolist()
+    _q_theta1 = q[0]
+    _q_psi2 = q[1]
+    _q_psi2_1 = q[2]
+    _q_theta2_1 = q[3]
+    _q_phi2_1 = q[4]
+    _q_psi2_2 = q[5]
+    _q_theta2_2 = q[6]
+    _q_phi2_2 = q[7]
+    _q_psi2_3 = q[8]
+    _q_theta2_3 = q[9]
+    _q_phi2_3 = q[10]
+    _q_psi2_4 = q[11]
+    _q_theta2_4 = q[12]
+    _q_phi2_4 = q[13]
+    _q_x3 = q[14]
+    _p_h1 = p[2]
+    _p_L2 = p[4]
+    _x0 = math.cos(_q_theta1)
+    _x1 = math.sin(_q_theta1)
+    _x2 = math.cos(_q_psi2)
+    _x3 = math.sin(_q_psi2)
+    _x4 = _x0*_x2
+    _x5 = -_x0*_x3
+    _x6 = -_x1*_x2
+    _x7 = _x1*_x3
+    _x8 = (1/8)*_p_L2*_x4
+    _x9 = _p_h1 + (1/8)*_p_L2*_x3
+    _x10 = (1/8)*_p_L2*_x6
+    _x11 = math.cos(_q_psi2_1)
+    _x12 = math.sin(_q_psi2_1)
+    _x13 = _x11*_x4 + _x12*_x5
+    _x14 = _x11*_x5 - _x12*_x4
+    _x15 = _x11*_x3 + _x12*_x2
+    _x16 = _x11*_x2 - _x12*_x3
+    _x17 = _x11*_x6 + _x12*_x7
+    _x18 = _x11*_x7 - _x12*_x6
+    _x19 = math.cos(_q_theta2_1)
+    _x20 = math.sin(_q_theta2_1)
+    _x21 = _x13*_x19 - _x1*_x20
+    _x22 = _x1*_x19 + _x13*_x20
+    _x23 = _x15*_x19
+    _x24 = _x15*_x20
+    _x25 = _x17*_x19 - _x0*_x20
+    _x26 = _x0*_x19 + _x17*_x20
+    _x27 = math.cos(_q_phi2_1)
+    _x28 = math.sin(_q_phi2_1)
+    _x29 = _x14*_x27 + _x22*_x28
+    _x30 = _x22*_x27 - _x14*_x28
+    _x31 = _x16*_x27 + _x24*_x28
+    _x32 = _x24*_x27 - _x16*_x28
+    _x33 = _x18*_x27 + _x26*_x28
+    _x34 = _x26*_x27 - _x18*_x28
+    _x35 = _x8 + (1/4)*_p_L2*_x21
+    _x36 = _x9 + (1/4)*_p_L2*_x23
+    _x37 = _x10 + (1/4)*_p_L2*_x25
+    _x38 = math.cos(_q_psi2_2)
+    _x39 = math.sin(_q_psi2_2)
+    _x40 = _x21*_x38 + _x29*_x39
+    _x41 = _x29*_x38 - _x21*_x39
+    _x42 = _x23*_x38 + _x31*_x39
+    _x43 = _x31*_x38 - _x23*_x39
+    _x44 = _x25*_x38 + _x33*_x39
+    _x45 = _x33*_x38 - _x25*_x39
+    _x46 = math.cos(_q_theta2_2)
+    _x47 = math.sin(_q_theta2_2)
+    _x48 = _x40*_x46 - _x30*_x47
+    _x49 = _x30*_x46 + _x40*_x47
+    _x50 = _x42*_x46 - _x32*_x47
+    _x51 = _x32*_x46 + _x42*_x47
+    _x52 = _x44*_x46 - _x34*_x47
+    _x53 = _x34*_x46 + _x44*_x47
+    _x54 = math.cos(_q_phi2_2)
+    _x55 = math.sin(_q_phi2_2)
+    _x56 = _x41*_x54 + _x49*_x55
+    _x57 = _x49*_x54 - _x41*_x55
+    _x58 = _x43*_x54 + _x51*_x55
+    _x59 = _x51*_x54 - _x43*_x55
+    _x60 = _x45*_x54 + _x53*_x55
+    _x61 = _x53*_x54 - _x45*_x55
+    _x62 = _x35 + (1/4)*_p_L2*_x48
+    _x63 = _x36 + (1/4)*_p_L2*_x50
+    _x64 = _x37 + (1/4)*_p_L2*_x52
+    _x65 = math.cos(_q_psi2_3)
+    _x66 = math.sin(_q_psi2_3)
+    _x67 = _x48*_x65 + _x56*_x66
+    _x68 = _x56*_x65 - _x48*_x66
+    _x69 = _x50*_x65 + _x58*_x66
+    _x70 = _x58*_x65 - _x50*_x66
+    _x71 = _x52*_x65 + _x60*_x66
+    _x72 = _x60*_x65 - _x52*_x66
+    _x73 = math.cos(_q_theta2_3)
+    _x74 = math.sin(_q_theta2_3)
+    _x75 = _x67*_x73 - _x57*_x74
+    _x76 = _x57*_x73 + _x67*_x74
+    _x77 = _x69*_x73 - _x59*_x74
+    _x78 = _x59*_x73 + _x69*_x74
+    _x79 = _x71*_x73 - _x61*_x74
+    _x80 = _x61*_x73 + _x71*_x74
+    _x81 = math.cos(_q_phi2_3)
+    _x82 = math.sin(_q_phi2_3)
+    _x83 = _x68*_x81 + _x76*_x82
+    _x84 = _x76*_x81 - _x68*_x82
+    _x85 = _x70*_x81 + _x78*_x82
+    _x86 = _x78*_x81 - _x70*_x82
+    _x87 = _x72*_x81 + _x80*_x82
+    _x88 = _x80*_x81 - _x72*_x82
+    _x89 = _x62 + (1/4)*_p_L2*_x75
+    _x90 = _x63 + (1/4)*_p_L2*_x77
+    _x91 = _x64 + (1/4)*_p_L2*_x79
+    _x92 = math.cos(_q_psi2_4)
+    _x93 = math.sin(_q_psi2_4)
+    _x94 = _x75*_x92 + _x83*_x93
+    _x95 = _x83*_x92 - _x75*_x93
+    _x96 = _x77*_x92 + _x85*_x93
+    _x97 = _x85*_x92 - _x77*_x93
+    _x98 = _x79*_x92 + _x87*_x93
+    _x99 = _x87*_x92 - _x79*_x93
+    _x100 = math.cos(_q_theta2_4)
+    _x101 = math.sin(_q_theta2_4)
+    _x102 = _x100*_x94 - _x101*_x84
+    _x103 = _x100*_x84 + _x101*_x94
+    _x104 = _x100*_x96 - _x101*_x86
+    _x105 = _x100*_x86 + _x101*_x96
+    _x106 = _x100*_x98 - _x101*_x88
+    _x107 = _x100*_x88 + _x101*_x98
+    _x108 = math.cos(_q_phi2_4)
+    _x109 = math.sin(_q_phi2_4)
+    _x110 = _x103*_x109 + _x108*_x95
+    _x111 = _x103*_x108 - _x109*_x95
+    _x112 = _x105*_x109 + _x108*_x97
+    _x113 = _x105*_x108 - _x109*_x97
+    _x114 = _x107*_x109 + _x108*_x99
+    _x115 = _x107*_x108 - _x109*_x99
+    _x116 = _x89 + (1/8)*_p_L2*_x102
+    _x117 = _x90 + (1/8)*_p_L2*_x104
+    _x118 = _x91 + (1/8)*_p_L2*_x106
+    _x119 = _x116 + _q_x3*_x102
+    _x120 = _x117 + _q_x3*_x104
+    _x121 = _x118 + _q_x3*_x106
+    T = np.array([_x0, 0, _x1, 0, 0, 1,
+        0, 0, -_x1, 0, _x0, 0,
+        0, 0, 0, 1, _x4, _x5,
+        _x1, 0, _x3, _x2, 0, _p_h1,
+        _x6, _x7, _x0, 0, 0, 0,
+        0, 1, _x21, _x29, _x30, _x8,
+        _x23, _x31, _x32, _x9, _x25, _x33,
+        _x34, _x10, 0, 0, 0, 1,
+        _x48, _x56, _x57, _x35, _x50, _x58,
+        _x59, _x36, _x52, _x60, _x61, _x37,
+        0, 0, 0, 1, _x75, _x83,
+        _x84, _x62, _x77, _x85, _x86, _x63,
+        _x79, _x87, _x88, _x64, 0, 0,
+        0, 1, _x102, _x110, _x111, _x89,
+        _x104, _x112, _x113, _x90, _x106, _x114,
+        _x115, _x91, 0, 0, 0, 1,
+        _x102, _x110, _x111, _x119, _x104, _x112,
+        _x113, _x120, _x106, _x114, _x115, _x121,
+        0, 0, 0, 1], dtype=float).reshape(7, 4, 4)
+    return T
 
 
 

@@ -84,6 +84,11 @@ class Case:
         """Arrays added to a run's results (none by default)."""
         return {}
 
+    def locator(self) -> dict | None:
+        """Where a results file finds this case again (its ``model_source`` metadata, read by
+        :func:`case_of_source`); None: a model made in Python, which no file holds."""
+        return None
+
     def record_start(self, folder) -> None:
         """Keep in the built ``folder`` what a run from the folder alone needs to start as this
         case does (nothing by default)."""
@@ -183,6 +188,9 @@ class FileCase(ModelCase):
         """The file's ``[initial] q`` and ``qd``."""
         return self.file.initial_values(params), self.file.initial_velocities(params)
 
+    def locator(self) -> dict:
+        return {"file": str(Path(self.path).resolve()), "nrfe": self.nrfe}
+
     def record_start(self, folder) -> None:
         """The file's ``[initial]`` at the parameter defaults, for :class:`FolderCase`."""
         from ..folder import write_start
@@ -224,6 +232,9 @@ class FolderCase(ModelCase):
 
     def size(self) -> tuple[int, int]:
         return int(self.manifest["n_dof"]), len(self.manifest["constraints"])
+
+    def locator(self) -> dict:
+        return {"folder": str(self.folder.resolve())}
 
     def initial(self, params) -> tuple[dict, dict]:
         from ..folder import read_start
@@ -279,6 +290,23 @@ def _reference_case_of(manifest):
         return None
     case = ReferenceCase(int(match.group(1)))
     return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
+
+
+def case_of_source(source, what) -> Case:
+    """The case a results file's ``model_source`` metadata names (see :meth:`Case.locator`),
+    ModelError naming ``what`` (the results file) when it names none or one that is gone."""
+    from ..errors import ModelError
+    from .reference_case import ReferenceCase
+
+    if not source:
+        raise ModelError(f"{what}: the results do not say which model made them (a model made in Python, or "
+                         f"results of an older gpmegen); give its model file with --model")
+    if "reference" in source:
+        return ReferenceCase(int(source["reference"]))
+    path = Path(source.get("file") or source.get("folder"))
+    if not path.exists():
+        raise ModelError(f"{what}: the model the results name, {path}, is not there; give its model file with --model")
+    return case_of_path(path, source.get("nrfe"))
 
 
 def case_for(model_file, nrfe) -> Case:

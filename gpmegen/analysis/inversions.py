@@ -38,6 +38,6 @@ def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, prog
                     lead=inv.lead, lag=inv.lag, residual=inv.residual, start=start, backend="numpy",
                     actuators=[model.coordinates[k] for k in model.actuators])
     res = study.collect(model, inv.t, y, "complete", settings)
-    res = results_io.annotate(res, case.metadata(model), case.extras(model, res))
+    res = results_io.annotate(res, {**case.metadata(model), "model_source": case.locator()}, case.extras(model, res))
     res = driving.annotate(res, case.source, model)
     return res, inv, results_io.save(res, out)

@@ -129,6 +129,9 @@ class ReferenceCase(Case):
             "prescribed": {"axis": 1, "label": "prescribed y_E,a"},
         }
 
+    def locator(self) -> dict:
+        return {"reference": self.nrfe}
+
     def extras(self, model, results) -> dict:
         """The prescribed height of E (eq. 18) at the saved times, for the figures."""
         p = model.params

@@ -71,7 +71,8 @@ def metadata(results) -> dict:
     repartitions), ``params`` and, from the run's case (:mod:`gpmegen.analysis.cases`), what
     plots use: ``label``, ``joints``, ``joint_labels``, ``constraint_units``, ``figures``,
     ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``; ``start_moved``: how far the start
-    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`); and the units
+    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`); ``model_source``:
+    where the model is found again (:meth:`gpmegen.analysis.cases.Case.locator`); and the units
     of the driving functions (:func:`gpmegen.analysis.driving.annotate`): ``force_units``,
     ``lambda_units``, ``force_points``."""
     return json.loads(str(results["meta"]))

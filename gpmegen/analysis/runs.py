@@ -54,7 +54,8 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
                          repartition=repartition, notify=progress, qd0=begun.qd,
                          internal_dynamics=internal_dynamics)
     wall = time.perf_counter() - t0
-    res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta()}, case.extras(model, res))
+    res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),
+                                    "model_source": case.locator()}, case.extras(model, res))
     res = driving.annotate(res, case.source, model)
     return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
 

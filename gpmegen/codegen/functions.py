@@ -13,6 +13,7 @@ import sympy as sp
 
 from ..model.chain import TIME
 from ..symbolic import Derivation, names
+from ..symbolic import transforms as _transforms
 from .cse import eliminate
 
 
@@ -48,7 +49,7 @@ def arguments(fn: Function, n_dof: int, n_parameters: int) -> tuple:
     backends print: the NumPy docstring and the C comment."""
     sizes = {"t": 0, "q": n_dof, "qd": n_dof, "p": n_parameters}
     inputs = tuple((name, INPUT_DOCS[name].format(n=sizes[name])) for name in fn.inputs)
-    outputs = tuple((out.name, f"{out.shape} {out.doc}" + (", row-major" if len(out.shape) == 2 else ""))
+    outputs = tuple((out.name, f"{out.shape} {out.doc}" + (", row-major" if len(out.shape) >= 2 else ""))
                     for out in fn.outputs)
     return inputs + outputs
 
@@ -72,8 +73,40 @@ def _out(name, matrix, doc, vector=False):
     return Output(name, (m.shape[0],) if vector else tuple(m.shape), tuple(m), doc)
 
 
-def model_functions(d: Derivation) -> list[Function]:
-    """The generated functions of a derivation, in a fixed order."""
+def _nested(name, blocks, shape, doc):
+    """An output of nested lists of 4x4 matrices (``shape`` ends in 4, 4), flattened row-major."""
+    def flat(x):
+        return tuple(x) if isinstance(x, sp.MatrixBase) else tuple(v for part in x for v in flat(part))
+    return Output(name, shape, flat(blocks), doc)
+
+
+def transform_functions(d: Derivation, kinds) -> list[Function]:
+    """The functions of the body transforms ``kinds`` (of :data:`gpmegen.symbolic.transforms.KINDS`)."""
+    kin = d.kinematics
+    n_bodies, n = len(kin.bodies), len(kin.q)
+    fns = []
+    if "T" in kinds:
+        fns.append(Function("transforms", "Body transforms T = [R p; 0 1] from each body's frame to {0}.", ("q", "p"),
+                            (_nested("T", [_transforms.transform(b) for b in kin.bodies], (n_bodies, 4, 4),
+                                     "T of each body in BODIES order (p in m)"),)))
+    if "T_i" in kinds or "T_ij" in kinds:
+        first = _transforms.first_derivatives(kin)
+    if "T_i" in kinds:
+        fns.append(Function("transform_derivatives", "First derivatives T_i = dT/dq_i = Delta_i T of the body "
+                            "transforms.", ("q", "p"),
+                            (_nested("T_i", first, (n_bodies, n, 4, 4),
+                                     "T_i[b, i] = dT_b/dq_i, bodies in BODIES order, i in COORDINATES order"),)))
+    if "T_ij" in kinds:
+        fns.append(Function("transform_second_derivatives", "Second derivatives T_ij = d2T/dq_i dq_j = "
+                            "Delta_i Delta_j T (i <= j) of the body transforms.", ("q", "p"),
+                            (_nested("T_ij", _transforms.second_derivatives(kin, first), (n_bodies, n, n, 4, 4),
+                                     "T_ij[b, i, j] = d2T_b/dq_i dq_j, symmetric in i, j"),)))
+    return fns
+
+
+def model_functions(d: Derivation, transforms=_transforms.DEFAULT) -> list[Function]:
+    """The generated functions of a derivation, in a fixed order; ``transforms``: the body
+    transforms to generate (see :mod:`gpmegen.symbolic.transforms`)."""
     dyn, con, kin = d.dynamics, d.constraints, d.kinematics
     points = sp.Matrix([[*kin.points[name].position] for name in kin.points]) if kin.points else sp.zeros(0, 3)
     qd = sp.Matrix(kin.qd)
@@ -111,7 +144,7 @@ def model_functions(d: Derivation) -> list[Function]:
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
                  ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs, hot=True),
     ]
-    return fns
+    return fns + transform_functions(d, transforms)
 
 
 def prepare(fn: Function, d: Derivation):

@@ -19,6 +19,7 @@ from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover
 from ..model.chain import Model
 from ..status import SolveStatus
 from ..symbolic import derive
+from ..symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from ..version import __version__
 from .comments import comment_text
 from .functions import arguments, lower, model_functions, prepare
@@ -72,13 +73,14 @@ def generator_digest() -> bytes:
     return h.digest()
 
 
-def input_hash(model: Model, backends) -> str:
+def input_hash(model: Model, backends, transforms=DEFAULT_TRANSFORMS) -> str:
     """Hash of everything the generated code depends on: the model, the generator
-    (:func:`generator_digest`) and the backends asked for."""
+    (:func:`generator_digest`), the backends and the body transforms asked for."""
     h = hashlib.sha256()
     h.update(repr(model).encode())
     h.update(generator_digest())
     h.update(",".join(sorted(backends)).encode())
+    h.update(("transforms:" + ",".join(transforms)).encode())
     return h.hexdigest()[:16]
 
 
@@ -92,11 +94,13 @@ class BuildResult:
     files: dict  # file name -> size in bytes
 
 
-def render(model: Model, backends=("numpy",), progress=None, command=None, digest=None) -> dict[str, str]:
+def render(model: Model, backends=("numpy",), progress=None, command=None, digest=None,
+           transforms=DEFAULT_TRANSFORMS) -> dict[str, str]:
     """Derive ``model`` and render the requested backends; returns file name -> text.
-    ``digest``: its :func:`input_hash`, when the caller has it already."""
+    ``digest``: its :func:`input_hash`, when the caller has it already; ``transforms``: the body
+    transforms to generate (:data:`gpmegen.symbolic.transforms.KINDS`)."""
     say = progress or (lambda msg: None)
-    digest = digest or input_hash(model, backends)
+    digest = digest or input_hash(model, backends, transforms)
     t0 = time.perf_counter()
     n_dof = limits.model_coordinates(model)
     say(f"deriving the equations of motion of {n_dof} coordinates (deriving and printing estimated at "
@@ -106,7 +110,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         f"in {time.perf_counter() - t0:.1f} s")
     for warning in d.constraints.warnings:
         say(f"warning: {warning}")
-    fns = model_functions(d)
+    fns = model_functions(d, transforms)
     names = d.chain.model.parameter_names
     context = dict(
         model=model,
@@ -119,6 +123,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         parameter_names=names,
         defaults=tuple(float(p.default) for p in model.parameters),
         points=d.chain.points,
+        bodies=d.chain.bodies,
+        transforms=tuple(transforms),
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         dependent=tuple(model.dependent) if model.dependent is not None else None,
@@ -143,6 +149,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         "coordinates": list(d.chain.coordinates),
         "parameters": {p.name: float(p.default) for p in model.parameters},
         "points": list(d.chain.points),
+        "bodies": list(d.chain.bodies),
+        "transforms": list(transforms),
         "constraints": list(d.constraints.names),
         "dependent": list(model.dependent) if model.dependent is not None else None,
         "files": {name: hashlib.sha256(text.encode()).hexdigest() for name, text in sorted(files.items())},
@@ -152,17 +160,17 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
 
 
 def build(model: Model, out: Path, backends=("numpy",), force=False, progress=None, command=None,
-          digest=None) -> BuildResult:
+          digest=None, transforms=DEFAULT_TRANSFORMS) -> BuildResult:
     """Generate ``model`` into ``out/<model name>/`` unless an up-to-date build is there, its
     files as its manifest records them. ``digest``: the model's :func:`input_hash`, when the
-    caller has it already."""
+    caller has it already; ``transforms``: as :func:`render`."""
     folder = Path(out) / model.name
     with FolderLock(folder):
         return _build_locked(model, folder, backends, force, progress, command,
-                             digest or input_hash(model, backends))
+                             digest or input_hash(model, backends, transforms), transforms)
 
 
-def _build_locked(model, folder, backends, force, progress, command, digest) -> BuildResult:
+def _build_locked(model, folder, backends, force, progress, command, digest, transforms) -> BuildResult:
     recover_folder(folder)
     # Holding the lock, no other build writes here: temporary folders left by a killed build go.
     for stale in folder.parent.glob(f".{folder.name}.tmp-*"):
@@ -177,7 +185,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest) -> 
         if manifest is not None and progress is not None:
             progress(f"{reason}: building it again")
     limits.check_build(limits.model_coordinates(model), model.name)
-    texts = render(model, backends, progress, command, digest)
+    texts = render(model, backends, progress, command, digest, transforms)
     write_folder(folder, texts)
     return BuildResult(
         model.name, folder, json.loads(texts[MANIFEST])["n_dof"], False, time.perf_counter() - t0,

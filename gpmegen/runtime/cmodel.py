@@ -18,7 +18,7 @@ from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
 from . import ccompile, cprobe
-from .model import LoadedModel, vector
+from .model import TRANSFORM_FUNCTIONS, LoadedModel, vector
 
 
 class CModel(LoadedModel):
@@ -65,6 +65,7 @@ class CEvaluator:
         self.model_name = module.MODEL
         self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
         self.n_parameters = len(module.PARAMETERS)
+        self.n_bodies = len(getattr(module, "BODIES", ()))
         if self.lib.n_dof() != self.n or self.lib.n_parameters() != self.n_parameters:
             raise BuildError(f"{source} does not match {module_path}; rebuild with 'gpmegen build --force'")
         self.shape = (self.n,)
@@ -182,6 +183,13 @@ class CEvaluator:
         P = np.empty((max(1, self.n_points), 3))
         self.lib.points(self._ptr(q), self._params(p), self._ptr(P))
         return P[:self.n_points]
+
+    def transforms(self, q, p, kind):
+        q = self._vec(q, "q")
+        order = tuple(TRANSFORM_FUNCTIONS).index(kind)  # T, T_i, T_ij: one more coordinate axis each
+        T = np.empty((max(1, self.n_bodies),) + (self.n,) * order + (4, 4))  # one body at least: C has no empty arrays
+        getattr(self.lib, TRANSFORM_FUNCTIONS[kind])(self._ptr(q), self._params(p), self._ptr(T))
+        return T[:self.n_bodies]
 
     def constraint_terms(self, t, q, qd, p):
         _, q_c, qd_c = self._state(q, qd)

@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..errors import EvaluationError, ModelError, SimulationError
+from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
 from . import gpme, integrate
 from .batch import is_batch, rows, stacked, states
@@ -55,6 +55,9 @@ def call(module: ModuleType, function: str, *args):
             f"configuration") from None
 
 
+#: The generated function of each body transform (:data:`gpmegen.symbolic.transforms.KINDS`).
+TRANSFORM_FUNCTIONS = {"T": "transforms", "T_i": "transform_derivatives", "T_ij": "transform_second_derivatives"}
+
 # Above this condition number of D M⁻¹ S the actuated coordinates are refused at the start.
 UNCONTROLLABLE = 1e10
 
@@ -70,6 +73,7 @@ class Evaluator(Protocol):
     def stiffness_jacobian(self, q, p): ...
     def drive_forces(self, t, p): ...
     def points(self, q, p): ...
+    def transforms(self, q, p, kind): ...
     def constraint_terms(self, t, q, qd, p): ...
     def energies(self, q, qd, p): ...
     def gpme_terms(self, t, q, qd, p): ...
@@ -129,6 +133,9 @@ class NumpyEvaluator:
     def points(self, q, p):
         return call(self.module, "points", self._q(q), p)
 
+    def transforms(self, q, p, kind):
+        return call(self.module, TRANSFORM_FUNCTIONS[kind], self._q(q), p)
+
     def constraint_terms(self, t, q, qd, p):
         return call(self.module, "constraint_terms", t, self._q(q), self._qd(qd), p)
 
@@ -186,6 +193,9 @@ class LoadedModel:
         self.n_dof: int = len(self.coordinates)
         self.parameter_names: tuple = tuple(module.PARAMETERS)
         self.points: tuple = tuple(module.POINTS)
+        # folders generated before the transforms existed have neither constant: nothing was built
+        self.bodies: tuple = tuple(getattr(module, "BODIES", ()))
+        self.transforms_built: tuple = tuple(getattr(module, "TRANSFORMS", ()))
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
@@ -296,6 +306,21 @@ class LoadedModel:
     def point_positions(self, q):
         """Positions of the named points in {0}, (n_points, 3), m."""
         return self.evaluator.points(q, self.p)
+
+    def transforms(self, q, kind: str = "T"):
+        """The body transforms in BODIES order (:attr:`bodies`), built on request (``gpmegen build
+        --transforms``): ``kind`` "T" (n_bodies, 4, 4), ``T = [R p; 0 1]`` from each body's frame
+        to {0}, p in m; "T_i" (n_bodies, n, 4, 4), ``∂T/∂q_i``; "T_ij" (n_bodies, n, n, 4, 4),
+        ``∂²T/∂q_i∂q_j``."""
+        if kind not in TRANSFORM_FUNCTIONS:
+            raise ValueError(f"unknown transform {kind!r}; choose among {', '.join(TRANSFORM_FUNCTIONS)}")
+        if kind not in self.transforms_built:
+            built = ", ".join(self.transforms_built) or "none"
+            wanted = tuple(k for k in TRANSFORM_FUNCTIONS if k in self.transforms_built or k == kind)
+            raise BuildError(f"model {self.module.MODEL} was generated without the transforms {kind} (built: {built}); "
+                             f"build it with 'gpmegen build --transforms {','.join(wanted)}' (from Python: "
+                             f"gpmegen.load(..., transforms={wanted!r}))")
+        return self.evaluator.transforms(q, self.p, kind)
 
     def end_effector(self, q):
         """Position of the end-effector (the first named point) in {0}, (3,), m."""

@@ -1,0 +1,284 @@
+"""The arm moving in 3D (``gpmegen animate``): a GIF (Pillow) or an MP4 (ffmpeg) of a results
+file's motion, or a still figure of the deformed arm at chosen times, drawn from the geometry of
+:mod:`gpmegen.analysis.arm_geometry` with matplotlib.
+
+Frames are rendered by Agg and encoded here, so the bytes are the same for the same results and
+options (the GIF holds no date; the MP4 is written with ffmpeg's bit-exact flags). Every file is
+written atomically.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from ..errors import GpmegenError
+from ..fileio import atomic_write
+from . import arm_geometry as geometry
+from . import results as results_io
+from .plots import _FILE_METADATA, _SVG_SALT, _pyplot
+
+MOVIES = ("gif", "mp4")
+STILLS = ("png", "pdf", "svg")
+BODY, LINK, POINT, TRACE = "0.35", "C1", "C3", "C0"
+
+
+class AnimationError(GpmegenError):
+    """An animation or still figure that could not be made (the encoder failed)."""
+
+
+class RequestError(AnimationError):
+    """An animation or still figure asked for in a way that cannot be made (a usage error)."""
+
+
+def format_of(out, still: bool) -> str:
+    """The format of ``out`` by its suffix: a movie (gif, mp4) or, with ``still``, a figure."""
+    fmt = Path(out).suffix.lower().lstrip(".")
+    allowed = STILLS if still else MOVIES
+    if fmt not in allowed:
+        kind = "a still figure (--still)" if still else "an animation"
+        raise RequestError(f"--out {out}: {kind} is written as {', '.join('.' + f for f in allowed)}; choose one "
+                           f"of those suffixes")
+    if fmt == "mp4" and shutil.which("ffmpeg") is None:
+        raise RequestError(f"--out {out}: writing .mp4 needs ffmpeg, which is not on PATH; write a .gif instead, "
+                           f"or install ffmpeg")
+    return fmt
+
+
+@dataclass(frozen=True)
+class View:
+    """How the arm is shown: ``elev``, ``azim`` (degrees) of the camera, the ``vertical`` axis of
+    {0} drawn upwards (against gravity: "y", or "-y" when gravity points along +y), ``magnify`` the
+    factor on the deformation, ``label`` of the model."""
+
+    elev: float
+    azim: float
+    vertical: str
+    magnify: float
+    label: str
+
+    def title(self, text: str) -> str:
+        scale = "" if self.magnify == 1 else f"; elastic deformation magnified {self.magnify:g}×"
+        return f"{self.label}: {text}{scale}"
+
+
+def vertical_axis(model, params) -> str:
+    """The axis of {0} nearest to gravity, signed to point against it ("z" when there is none):
+    drawn upwards."""
+    values = {p.symbol: params[p.name] for p in model.parameters}
+    g = np.array([float(sp.sympify(v).subs(values)) for v in model.gravity])
+    if not np.any(g):
+        return "z"
+    k = int(np.argmax(np.abs(g)))
+    return ("-" if g[k] > 0 else "") + "xyz"[k]
+
+
+class Canvas:
+    """One 3D axes showing {0} with ``view.vertical`` upwards, with the artists of poses."""
+
+    def __init__(self, view: View, low, high, size=(6.4, 5.4), dpi=100):
+        plt = _pyplot()
+        self.plt = plt
+        # a cyclic permutation of x, y, z (it keeps the frame right-handed) puts the vertical axis last
+        self.order = {"x": (1, 2, 0), "y": (2, 0, 1), "z": (0, 1, 2)}[view.vertical.lstrip("-")]
+        self.fig = plt.figure(figsize=size, dpi=dpi)
+        ax = self.ax = self.fig.add_subplot(projection="3d")
+        low, high = np.asarray(low)[list(self.order)], np.asarray(high)[list(self.order)]
+        # one scale on all axes; a thin range is widened about its middle, so that its ticks fit
+        width = np.maximum(high - low, 0.3 * np.max(high - low)) + 0.1 * max(np.max(high - low), 1e-3)
+        low, high = (low + high - width) / 2, (low + high + width) / 2
+        labels = [f"{'xyz'[k]} [m]" for k in self.order]
+        ax.set(xlim=(low[0], high[0]), ylim=(low[1], high[1]), zlim=(low[2], high[2]),
+               xlabel=labels[0], ylabel=labels[1], zlabel=labels[2])
+        ax.set_box_aspect(high - low)
+        if view.vertical.startswith("-"):  # upside down: turned half a turn about the first axis
+            ax.set_ylim(high[1], low[1])
+            ax.set_zlim(high[2], low[2])
+        ax.view_init(elev=view.elev, azim=view.azim)
+        self.fig.subplots_adjust(left=0, right=1, bottom=0, top=0.92)
+
+    def _plot(self, xyz, **style):
+        """One line through the points ``xyz`` (k, 3) of {0}."""
+        return self.ax.plot(*np.asarray(xyz)[:, list(self.order)].T, **style)[0]
+
+    def draw(self, pose: geometry.Pose, colour=None):
+        """Add the artists of ``pose``, all in ``colour`` when given; returns them."""
+        artists = [self._plot(_with_breaks(pose.edges), color=colour or BODY, lw=0.8)]
+        for chain in pose.chains:
+            artists.append(self._plot(chain, color=colour or LINK, lw=2.2, marker="o", ms=2.5))
+        if len(pose.points):
+            artists.append(self._plot(pose.points, ls="", marker="o", ms=4, color=colour or POINT))
+        return artists
+
+    def trace(self, paths):
+        """Add the paths (k, n_traced, 3) of the traced points; returns their artists."""
+        return [self._plot(paths[:, j], color=TRACE, lw=0.8, ls="--") for j in range(paths.shape[1])]
+
+    def rgba(self) -> np.ndarray:
+        """The figure as it is drawn now, (h, w, 4) uint8."""
+        self.fig.canvas.draw()
+        return np.asarray(self.fig.canvas.buffer_rgba()).copy()
+
+    def close(self):
+        self.plt.close(self.fig)
+
+
+def _with_breaks(edges) -> np.ndarray:
+    """Segments (k, 2, 3) as one polyline with NaN rows between them (one artist for all)."""
+    if not len(edges):
+        return np.full((1, 3), np.nan)
+    gaps = np.full((len(edges), 1, 3), np.nan)
+    return np.concatenate([edges, gaps], axis=1).reshape(-1, 3)
+
+
+def frames(t, every: int) -> np.ndarray:
+    """The indices of the samples shown: every ``every``-th from the first."""
+    return np.arange(0, len(t), every)
+
+
+def traces(scene, loaded, q) -> np.ndarray:
+    """The positions (k, n_traced, 3) of the traced points at every sample ``q`` (k, n), as
+    computed (never magnified: the path the programmed constraints hold)."""
+    index = [scene.points.index(p) for p in scene.traced]
+    return np.array([loaded.point_positions(x)[index] for x in q]).reshape(len(q), len(index), 3)
+
+
+def movie(scene, loaded, t, q, view: View, out, fps: float, every: int, dpi: int = 100, progress=None) -> Path:
+    """Write the animation of the samples ``t`` (k,), ``q`` (k, n) to ``out`` (.gif or .mp4)."""
+    fmt = format_of(out, still=False)
+    shown = frames(t, every)
+    drawn = geometry.poses(scene, loaded, q[shown], view.magnify)
+    paths = traces(scene, loaded, q)
+    canvas = Canvas(view, *geometry.bounds(drawn, paths), dpi=dpi)
+    images, step = [], max(1, len(shown) // 10)
+    try:
+        for n, (k, pose) in enumerate(zip(shown, drawn)):
+            artists = canvas.draw(pose) + canvas.trace(paths[:k + 1])
+            title = canvas.ax.set_title(view.title(f"t = {t[k]:.2f} s"), fontsize=9)
+            images.append(canvas.rgba())
+            for artist in artists:
+                artist.remove()
+            title.set_text("")
+            if progress and ((n + 1) % step == 0 or n + 1 == len(shown)):
+                progress(f"frame {n + 1} / {len(shown)}")
+    finally:
+        canvas.close()
+    write = _gif(images, fps) if fmt == "gif" else _mp4(images, fps)
+    return atomic_write(out, write)
+
+
+def _gif(images, fps):
+    from PIL import Image
+
+    def write(fh):
+        # one palette for all frames, from frames spread over the run (the colours of the traces
+        # appear late): no flicker between frames, and the same bytes every time
+        sample = np.concatenate([images[k][:, :, :3] for k in np.linspace(0, len(images) - 1, 6).astype(int)])
+        palette = Image.fromarray(sample).quantize(colors=256, method=Image.Quantize.FASTOCTREE,
+                                                   dither=Image.Dither.NONE)
+        frames = [Image.fromarray(a[:, :, :3]).quantize(palette=palette, dither=Image.Dither.NONE) for a in images]
+        frames[0].save(fh, format="GIF", save_all=True, append_images=frames[1:], duration=round(1000 / fps), loop=0)
+
+    return write
+
+
+def _mp4(images, fps):
+    def write(fh):
+        h, w = images[0].shape[:2]
+        with tempfile.TemporaryDirectory(prefix="gpmegen-mp4-") as tmp:
+            target = Path(tmp) / "arm.mp4"
+            command = ["ffmpeg", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgba", "-s", f"{w}x{h}",
+                       "-r", f"{fps:g}", "-i", "-", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p",
+                       "-map_metadata", "-1", "-fflags", "+bitexact", "-flags:v", "+bitexact", str(target)]
+            done = subprocess.run(command, input=b"".join(a.tobytes() for a in images), capture_output=True)
+            if done.returncode:
+                why = done.stderr.decode(errors="replace").strip().splitlines()
+                raise AnimationError(f"ffmpeg could not write the MP4 ({why[-1] if why else done.returncode}); "
+                                     f"write a .gif instead")
+            with open(target, "rb") as made:
+                shutil.copyfileobj(made, fh)
+
+    return write
+
+
+def still(scene, loaded, t, q, view: View, times, out, dpi: int = 200) -> Path:
+    """A figure of the arm at the samples nearest to each of ``times`` (s), overlaid, one colour
+    each, with the traced points' path over the whole run; written to ``out`` (.png/.pdf/.svg)."""
+    fmt = format_of(out, still=True)
+    shown = [nearest(t, when) for when in times]
+    drawn = geometry.poses(scene, loaded, q[shown], view.magnify)
+    paths = traces(scene, loaded, q)
+    canvas = Canvas(view, *geometry.bounds(drawn, paths), dpi=dpi)
+    try:
+        plt = canvas.plt
+        colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(shown)))
+        handles = []
+        for k, pose, colour in zip(shown, drawn, colours):
+            handles.append(canvas.draw(pose, colour=tuple(colour))[0])
+            handles[-1].set_label(f"t = {t[k]:.3g} s")
+        canvas.trace(paths)
+        canvas.ax.legend(handles=handles, loc="upper left", fontsize=8, frameon=False)
+        canvas.ax.set_title(view.title("deformed arm"), fontsize=9)
+
+        def write(fh):
+            import matplotlib
+
+            with matplotlib.rc_context({"svg.hashsalt": _SVG_SALT}):
+                canvas.fig.savefig(fh, format=fmt, dpi=dpi, metadata=_FILE_METADATA[fmt])
+
+        return atomic_write(out, write)
+    finally:
+        canvas.close()
+
+
+def nearest(t, when: float) -> int:
+    """The index of the sample of ``t`` nearest to ``when`` (s); AnimationError outside the run."""
+    if not t[0] - 1e-9 <= when <= t[-1] + 1e-9:
+        raise RequestError(f"--still {when:g}: the results run from t = {t[0]:g} s to {t[-1]:g} s; choose times "
+                             f"within them")
+    return int(np.argmin(np.abs(np.asarray(t) - when)))
+
+
+
+@dataclass(frozen=True)
+class Subject:
+    """What a results file shows: its ``results``, the ``loaded`` model bound to the run's
+    parameter values, its ``scene`` and the symbolic ``model``."""
+
+    results: dict
+    loaded: object
+    scene: geometry.Scene
+    model: object
+
+    def view(self, elev: float, azim: float, magnify: float) -> View:
+        label = results_io.metadata(self.results).get("label") or self.loaded.module.MODEL
+        return View(elev, azim, vertical_axis(self.model, self.loaded.params), magnify, label)
+
+
+def subject(path, model_path=None, progress=None) -> Subject:
+    """The results file at ``path`` with the model that made it: the one its metadata names, or
+    ``model_path`` (a model file) when given. One-line errors when there is none to draw."""
+    from .cases import case_of_path, case_of_source
+
+    results = results_io.load(path)
+    meta = results_io.metadata(results)
+    case = case_of_path(model_path) if model_path else case_of_source(meta.get("model_source"), path)
+    model = case.model  # a built folder alone holds no model to draw: refused here in one line
+    loaded = case.load("numpy", {}, progress or (lambda line: None))
+    loaded = loaded.with_params(**{k: v for k, v in meta.get("params", {}).items() if k in loaded.params})
+    if loaded.coordinates != tuple(str(c) for c in results["coordinates"]):
+        raise RequestError(f"{path}: the results' coordinates are not those of model {loaded.module.MODEL}; give "
+                             f"the model file that made them with --model")
+    return Subject(results, loaded, geometry.scene(model, loaded), model)
+
+
+def real_time_every(t, fps: float) -> int:
+    """The sample step that plays the run in real time at ``fps`` frames per second."""
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    return max(1, int(round(1.0 / (fps * step)))) if step > 0 else 1

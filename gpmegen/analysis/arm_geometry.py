@@ -1,0 +1,136 @@
+"""What a picture of the arm shows, computed from the generated body transforms ``T``: each
+rigid body as the box of its inertia, the rfes of each flexible link as a chain of segments, the
+named points, with the elastic deformation optionally magnified. Pure NumPy; drawing is
+:mod:`gpmegen.analysis.animation`.
+
+A body's box is the uniform box with the body's mass, centre of mass and second moments (its
+pseudo-inertia ``H``): along each principal axis of the second moments ``σ²`` about the centre,
+the half-size ``√(3σ²)``. A bar is drawn as itself, a cylinder as the box around it (½√3 of its
+radius), a point mass as a point: one rule for every body, also those given by an inertia tensor
+alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from ..model.chain import Body, FlexibleLink, Model
+from ..model.expand import expand
+from ..model.rfem import discretize
+from ..runtime import statics
+from .driving import point_constraints
+
+# The 12 edges of a box, as pairs of its corners (corner k has signs from the bits of k).
+_CORNERS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)]) * 2.0 - 1.0
+_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+
+
+@dataclass(frozen=True)
+class Box:
+    """A body's box in its own frame: ``center`` (3,) m, ``axes`` (3, 3) unit columns,
+    ``half`` (3,) half-sizes in m along them."""
+
+    center: np.ndarray
+    axes: np.ndarray
+    half: np.ndarray
+
+
+def inertia_box(H) -> Box:
+    """The uniform box with the mass, centre and second moments of the pseudo-inertia ``H`` (4x4)."""
+    H = np.asarray(H, dtype=float)
+    mass = H[3, 3]
+    center = H[:3, 3] / mass
+    spread = H[:3, :3] / mass - np.outer(center, center)
+    variances, axes = np.linalg.eigh((spread + spread.T) / 2)
+    return Box(center, axes, np.sqrt(3.0 * np.clip(variances, 0.0, None)))
+
+
+@dataclass(frozen=True)
+class Scene:
+    """The drawn parts of a model: ``bodies`` in the order of the generated transforms, with
+    their ``boxes`` (None for an rfe: rfes are drawn as segments); ``links``: the indices of the
+    rfes of each flexible link, base first, and their far ends in their own frames (3,);
+    ``points`` named points; ``traced``: the points whose path is drawn (those the programmed
+    constraints hold, see :func:`gpmegen.analysis.driving.point_constraints`); ``elastic``:
+    indices of the coordinates that carry a spring (the deformation)."""
+
+    bodies: tuple
+    boxes: tuple
+    links: tuple
+    ends: dict
+    points: tuple
+    traced: tuple
+    elastic: np.ndarray
+
+
+def scene(model: Model, loaded) -> Scene:
+    """The scene of the symbolic ``model`` as ``loaded`` (its generated code bound to parameter
+    values, whose transforms and points are drawn)."""
+    values = {p.symbol: loaded.params[p.name] for p in model.parameters}
+    inertias = {e.name: e.pseudo_inertia for e in expand(model).elements if isinstance(e, Body)}
+    rfes = [[part.name for part in discretize(link) if isinstance(part, Body)]
+            for link in model.chain if isinstance(link, FlexibleLink)]
+    flexible = {name for link in rfes for name in link}
+    boxes, ends = [], {}
+    for name in loaded.bodies:
+        box = inertia_box(sp.Matrix(inertias[name]).subs(values).evalf())
+        if name in flexible:  # an rfe is uniform along its x from its origin: its far end is twice its centre
+            ends[loaded.bodies.index(name)] = 2.0 * box.center
+            boxes.append(None)
+        else:
+            boxes.append(box)
+    links = tuple(tuple(loaded.bodies.index(name) for name in link) for link in rfes)
+    traced = tuple(point for point in loaded.points if point in point_constraints(model))
+    elastic = statics.spring_coordinates(loaded, np.zeros(loaded.n_dof))
+    return Scene(tuple(loaded.bodies), tuple(boxes), links, ends, tuple(loaded.points), traced, elastic)
+
+
+def magnified(q, elastic, factor: float) -> np.ndarray:
+    """``q`` (k, n) with the ``elastic`` coordinates scaled by ``factor`` about zero (the rigid arm
+    at the same joint coordinates): ``factor`` 1 the motion itself, 0 the rigid arm."""
+    q = np.array(q, dtype=float)
+    q[..., elastic] *= factor
+    return q
+
+
+@dataclass(frozen=True)
+class Pose:
+    """The drawn geometry at one state, in {0} (m): ``edges`` (n_edges, 2, 3) of the bodies'
+    boxes; ``chains`` one (n_rfe + 1, 3) polyline per flexible link, through the rfes' origins to
+    the link's far end; ``points`` (n_points, 3)."""
+
+    edges: np.ndarray
+    chains: tuple
+    points: np.ndarray
+
+
+def pose(s: Scene, loaded, q) -> Pose:
+    """The geometry of the scene at the coordinates ``q`` (n,), as drawn (magnify first)."""
+    T = loaded.transforms(q)
+    edges = []
+    for b, box in enumerate(s.boxes):
+        if box is None:
+            continue
+        corners = box.center + (_CORNERS * box.half) @ box.axes.T  # (8, 3) in the body frame
+        world = corners @ T[b, :3, :3].T + T[b, :3, 3]
+        edges += [(world[i], world[j]) for i, j in _EDGES]
+    chains = tuple(np.vstack([T[link, :3, 3], T[link[-1], :3, :3] @ s.ends[link[-1]] + T[link[-1], :3, 3]])
+                   for link in s.links)
+    edges = np.array(edges).reshape(-1, 2, 3)
+    return Pose(edges, chains, loaded.point_positions(q).reshape(-1, 3))
+
+
+def poses(s: Scene, loaded, q, factor: float = 1.0) -> list[Pose]:
+    """The poses at the samples ``q`` (k, n) with the deformation magnified by ``factor``."""
+    return [pose(s, loaded, x) for x in magnified(q, s.elastic, factor)]
+
+
+def bounds(drawn: list[Pose], paths) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest x, y, z (m) of everything in ``drawn`` and of the ``paths`` (k, j,
+    3) of traced points: fixed axes for all frames."""
+    every = np.vstack([np.vstack([p.edges.reshape(-1, 3), *p.chains, p.points]) for p in drawn]
+                      + [np.asarray(paths).reshape(-1, 3)])
+    return every.min(axis=0), every.max(axis=0)

@@ -1,0 +1,208 @@
+"""``gpmegen animate``: the GIF has one frame per shown sample, the still figure is written (the
+same bytes twice), the magnification scales the drawn deformation about the rigid arm (on the
+computed geometry, not on pixels), the rigid arm's rfes lie on a straight line, results name
+the model that made them (a model file from any folder), and bad input gets one line each."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import gpmegen
+from gpmegen.analysis import animation
+from gpmegen.analysis import arm_geometry as geometry
+from gpmegen.analysis import results as results_io
+from gpmegen.cli import main
+
+# A hub about y, a rigid block, a flexible strip (3 rfes) with a tip mass and its point, gravity.
+ARM = """\
+schema = 1
+name = "animated_arm"
+nrfe = 3
+gravity = [0, "-g", 0]
+
+[parameters]
+g = { value = 9.81, unit = "m/s^2" }
+L = { value = 0.8, unit = "m" }
+
+[[chain]]
+joint = "hub"
+type = "revolute"
+axis = "y"
+
+[[chain]]
+body = "block"
+shape = { type = "bar", mass = 2.0, length = 0.2, width = 0.1, thickness = 0.05 }
+
+[[chain]]
+flexible = "1"
+length = "L"
+section = { type = "rectangular", width = 0.04, thickness = 0.01 }
+density = 2700.0
+young_modulus = 7.0e10
+shear_modulus = 2.6e10
+
+[[chain]]
+body = "tip_mass"
+shape = { type = "point_mass", mass = 0.5 }
+
+[[chain]]
+point = "tip"
+"""
+
+
+@pytest.fixture(scope="module")
+def arm_run(env, tmp_path_factory):
+    """A short run of the model file: (its results path, the file's path)."""
+    folder = tmp_path_factory.mktemp("arm")
+    model_file = folder / "arm.toml"
+    model_file.write_text(ARM)
+    out = folder / "arm.npz"
+    assert main(["simulate", str(model_file), "--backend", "numpy", "--t-end", "0.06", "--dt", "1e-3",
+                 "--save-every", "2", "--out", str(out)]) == 0
+    return out, model_file
+
+
+@pytest.fixture(scope="module")
+def shown(arm_run):
+    return animation.subject(arm_run[0])
+
+
+def test_results_name_the_model_file_that_made_them(arm_run, shown):
+    meta = results_io.metadata(results_io.load(arm_run[0]))
+    assert meta["model_source"] == {"file": str(arm_run[1].resolve()), "nrfe": None}
+    assert shown.loaded.module.MODEL == "animated_arm"
+    assert shown.scene.bodies == ("block", "rfe1_0", "rfe1_1", "rfe1_2", "tip_mass")
+    assert shown.scene.links == ((1, 2, 3),)
+    assert [shown.loaded.coordinates[k] for k in shown.scene.elastic] == [
+        f"{name}1_{r}" for r in (1, 2) for name in ("psi", "theta", "phi")]
+
+
+def test_the_gif_has_one_frame_per_shown_sample(arm_run, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # the results find their model file from any folder
+    gif = tmp_path / "arm.gif"
+    assert main(["animate", str(arm_run[0]), "--out", str(gif), "--every", "4", "--fps", "10", "--dpi", "40"]) == 0
+    samples = len(results_io.load(arm_run[0])["t"])
+    frames = len(range(0, samples, 4))
+    with Image.open(gif) as image:
+        assert image.n_frames == frames and frames > 3
+        assert image.info["duration"] == 100
+    assert f"frame {frames} / {frames}" in capsys.readouterr().err  # progress, to the last frame
+    assert [p.name for p in tmp_path.iterdir()] == ["arm.gif"]  # no temporary file left beside it
+    again = tmp_path / "again.gif"
+    assert main(["animate", str(arm_run[0]), "--out", str(again), "--every", "4", "--fps", "10", "--dpi", "40"]) == 0
+    assert again.read_bytes() == gif.read_bytes()
+
+
+def test_the_still_figure_is_written_the_same_twice(arm_run, tmp_path):
+    figures = [tmp_path / "a.png", tmp_path / "b.png"]
+    for figure in figures:
+        assert main(["animate", str(arm_run[0]), "--still", "0,0.03,0.06", "--magnify", "20", "--dpi", "50",
+                     "--out", str(figure)]) == 0
+    with Image.open(figures[0]) as image:
+        assert image.size == (320, 270)
+    assert figures[0].read_bytes() == figures[1].read_bytes()
+
+
+def small_deformation(shown):
+    """A state with the joint at 0.7 rad and small elastic coordinates (1e-4 rad)."""
+    q = np.zeros(shown.loaded.n_dof)
+    q[shown.loaded.index("hub")] = 0.7
+    q[shown.scene.elastic] = 1e-4 * np.array([1.0, -2.0, 0.5, 1.5, 1.0, -1.0])
+    return q
+
+
+def test_magnifying_scales_the_drawn_deflection_from_the_rigid_arm(shown):
+    q = small_deformation(shown)
+    rigid, once, ten = (geometry.poses(shown.scene, shown.loaded, q[None], k)[0] for k in (0.0, 1.0, 10.0))
+    deflection = once.chains[0] - rigid.chains[0]
+    assert np.abs(deflection).max() > 1e-5
+    # linear in the elastic coordinates up to O(K θ) = 1e-3 relative
+    np.testing.assert_allclose(ten.chains[0] - rigid.chains[0], 10 * deflection, rtol=0,
+                               atol=2e-3 * np.abs(10 * deflection).max())
+    np.testing.assert_allclose(ten.points - rigid.points, 10 * (once.points - rigid.points), rtol=0,
+                               atol=2e-3 * np.abs(10 * (once.points - rigid.points)).max())
+    assert np.array_equal(geometry.magnified(q, shown.scene.elastic, 10.0)[0], q[0])  # the joint itself is kept
+
+
+def test_the_rigid_arm_is_straight_and_as_long_as_its_link(shown):
+    chain = geometry.poses(shown.scene, shown.loaded, small_deformation(shown)[None], 0.0)[0].chains[0]
+    direction = (chain[-1] - chain[0]) / np.linalg.norm(chain[-1] - chain[0])
+    off_line = (chain - chain[0]) - np.outer((chain - chain[0]) @ direction, direction)
+    assert np.abs(off_line).max() < 1e-12
+    assert np.linalg.norm(chain[-1] - chain[0]) == pytest.approx(0.8, rel=1e-12)
+
+
+def test_the_box_of_a_bar_is_the_bar():
+    from gpmegen.model import shapes
+
+    box = geometry.inertia_box(np.array(shapes.bar(2.0, 0.2, 0.1, 0.05), dtype=float))
+    order = np.argsort(np.abs(box.axes).argmax(axis=0))  # principal axes back to x, y, z
+    np.testing.assert_allclose(box.half[order], [0.1, 0.025, 0.05], rtol=1e-12)
+    np.testing.assert_allclose(box.center, [0.1, 0, 0], atol=1e-15)
+
+
+def test_the_title_states_the_magnification(shown):
+    assert "magnified 10×" in shown.view(20, -60, 10.0).title("t = 0 s")
+    assert "magnified" not in shown.view(20, -60, 1.0).title("t = 0 s")
+
+
+def one_line_error(capsys, argv) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    return err
+
+
+def test_bad_input_gets_one_line(arm_run, tmp_path, capsys, monkeypatch):
+    results = str(arm_run[0])
+    avi, gif, png, mp4 = (str(tmp_path / f"a.{suffix}") for suffix in ("avi", "gif", "png", "mp4"))
+    assert "choose one of those suffixes" in one_line_error(capsys, ["animate", results, "--out", avi])
+    assert ".png" in one_line_error(capsys, ["animate", results, "--still", "0", "--out", gif])
+    assert "within them" in one_line_error(capsys, ["animate", results, "--still", "9", "--out", png])
+    monkeypatch.setenv("PATH", str(tmp_path))  # no ffmpeg
+    assert "ffmpeg" in one_line_error(capsys, ["animate", results, "--out", mp4])
+    monkeypatch.undo()
+    data = dict(results_io.load(arm_run[0]))
+    meta = results_io.metadata(data)
+    del meta["model_source"]  # results that do not say which model made them
+    results_io.save(dict(data, meta=np.array(json.dumps(meta))), tmp_path / "anonymous.npz")
+    assert "--model" in one_line_error(capsys, ["animate", str(tmp_path / "anonymous.npz"), "--out",
+                                                str(tmp_path / "a.gif")])
+    # given with --model, they are drawn
+    assert main(["animate", str(tmp_path / "anonymous.npz"), "--model", str(arm_run[1]), "--every", "30", "--dpi",
+                 "30", "--out", str(tmp_path / "named.gif")]) == 0
+    assert main(["build", str(arm_run[1]), "--out", str(tmp_path / "built")]) == 0
+    capsys.readouterr()
+    assert "give the model file" in one_line_error(capsys, ["animate", results, "--model", str(tmp_path / "built"),
+                                                            "--out", str(tmp_path / "a.gif")])
+    assert not list(tmp_path.glob("a.*"))
+
+
+@pytest.mark.skipif(__import__("shutil").which("ffmpeg") is None, reason="needs ffmpeg")
+def test_an_mp4_is_written_with_ffmpeg(arm_run, tmp_path):
+    made = [tmp_path / "arm.mp4", tmp_path / "again.mp4"]
+    for out in made:
+        assert main(["animate", str(arm_run[0]), "--out", str(out), "--every", "10", "--dpi", "40"]) == 0
+    assert made[0].read_bytes()[4:8] == b"ftyp"  # an MP4 container
+    assert made[0].read_bytes() == made[1].read_bytes()
+
+
+def test_the_reference_arm_results_name_it(env):
+    run = gpmegen.simulate(nrfe=2, t_end=0.002, dt=1e-3, save_every=1, backend="numpy")
+    assert run.meta["model_source"] == {"reference": 2}
+
+
+@pytest.mark.parametrize("gravity, vertical", [(("0", "-g", "0"), "y"), (("0", "0", "g"), "-z"),
+                                               (("-3", "1", "0"), "x"), (("0", "0", "0"), "z")])
+def test_the_axis_against_gravity_is_drawn_upwards(gravity, vertical):
+    import sympy as sp
+
+    from gpmegen.model.chain import Model, Parameter, symbol
+
+    model = Model("m", (Parameter("g", 9.81),), (), gravity=tuple(sp.sympify(v, locals={"g": symbol("g")})
+                                                                    for v in gravity))
+    assert animation.vertical_axis(model, {"g": 9.81}) == vertical
