@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: 0e1617e37256947a
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

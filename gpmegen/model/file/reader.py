@@ -395,7 +395,10 @@ class Reader:
         self.table(item, path, keys, keys[:3], "joint")
         name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
         kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
-        axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
+        if isinstance(item["axis"], list):   # a unit vector of numbers, checked when the model is expanded
+            axis = self.read_vector(item["axis"], path + ("axis",), {})
+        else:
+            axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
         extra = {}
         for key in ("stiffness", "damping"):
             if key in item:
