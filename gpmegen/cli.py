@@ -520,7 +520,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = command("build", "generate the NumPy and C modules of the reference manipulator or a model file")
     b.add_argument("model_file", nargs="?", type=path_argument,
-                   help="a model description (.toml); default: the reference manipulator")
+                   help="a model description (.toml) or a robot description (.urdf); default: the reference "
+                        "manipulator")
     b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")

@@ -49,6 +49,8 @@ examples:
   gpmegen build --nrfe 5
   gpmegen build --nrfe 1 5 20 --force
   gpmegen build examples/planar_two_link.toml --out my_models
+  gpmegen build robot.urdf                         (a serial URDF, rigid, as it stands)
+  gpmegen build examples/panda_flexible.toml --nrfe 2   (a URDF with a link made flexible)
 
 files written:
   <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: generated/)""",
