@@ -180,6 +180,19 @@ def cmd_build(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .fileio import atomic_write_bytes
+    from .model.urdf_export import urdf_text
+
+    case = _case(args.model_file, args.nrfe)
+    text = case.located(functools.partial(urdf_text, case.model))
+    out = Path(args.out)
+    if out.is_dir():
+        raise UsageError(f"--out {out} is a folder; give the file to write, e.g. --out {out / 'arm.urdf'}")
+    print(f"wrote {atomic_write_bytes(out, text.encode('utf-8'))}: {case.model.name} as URDF")
+    return 0
+
+
 def _default_backend() -> str:
     """"c" when a C compiler is found, else "numpy" (and says so)."""
     from .runtime.ccompile import find_compiler
@@ -527,6 +540,15 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.set_defaults(func=cmd_build)
+
+    ex = command("export", "the discretized chain as a URDF robot")
+    ex.add_argument("model_file", nargs="?", type=path_argument,
+                    help="a model description (.toml or .urdf); default: the reference manipulator")
+    ex.add_argument("--format", choices=("urdf",), required=True, help="the format to write: urdf")
+    ex.add_argument("--nrfe", type=positive_int, default=None,
+                    help="number of rigid finite elements (1: rigid; default 5, or the file's)")
+    ex.add_argument("--out", type=path_argument, required=True, help="the file to write, e.g. arm.urdf")
+    ex.set_defaults(func=cmd_export)
 
     def study_options(p, levels=False):
         p.add_argument("model_file", nargs="?", type=path_argument,

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 76b6d23a849a1d6c
+Input hash: 92b18f131cae4e0f
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

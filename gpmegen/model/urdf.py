@@ -7,7 +7,8 @@ coordinates are the branch's revolute, continuous (as revolute) and prismatic jo
 first. Each moving link carries one body: its own inertial and those of every link fixed to it
 (fixed joints, and the joints of other branches held at their zero position), combined rigidly
 by adding pseudo-inertias. Every link's frame origin is a point named after the link. A joint's
-``<dynamics damping>`` is its viscous damper; limits, effort and friction are kept as data
+``<dynamics damping>`` is its viscous damper (``<gpmegen:spring stiffness damping>``, which
+``gpmegen export`` writes, gives a spring and damper); limits, effort and friction are kept as data
 (:class:`~gpmegen.model.urdf_tree.UrdfJoint`) and do not act. Gravity is ``-g`` along z of the
 base (``g`` a parameter, 9.81 m/s²), as URDF robots are described z up.
 
@@ -27,7 +28,7 @@ import sympy as sp
 from ..errors import ModelError
 from . import shapes
 from .chain import Body, FlexibleLink, Joint, Model, Offset, Parameter, Point, check_name
-from .urdf_tree import UrdfJoint, UrdfTree, read_tree
+from .urdf_tree import UrdfJoint, UrdfTree, read_tree, rpy
 
 GRAVITY = Parameter("g", 9.81, "m/s²", "gravitational acceleration, along -z of the base")
 BODY_SUFFIX = "_body"
@@ -142,7 +143,7 @@ def _chain(tree: UrdfTree, moving: list, flex: dict, extra: tuple) -> list:
         if joint is not None:
             chain += _offset(_frame(tree, head, held, joint.parent) @ joint.origin)
             kind = "prismatic" if joint.type == "prismatic" else "revolute"
-            chain.append(Joint(joint.name, kind, joint.axis, damping=joint.damping))
+            chain.append(Joint(joint.name, kind, joint.axis, stiffness=joint.stiffness, damping=joint.damping))
             head = joint.child
         chain += _group(tree, head, held, flex.get(head), [e for link, e in extra if link == head], joint)
     return chain
@@ -209,12 +210,7 @@ def _beam(flexible: FlexibleUrdfLink) -> list:
 def _offset(T: np.ndarray) -> list:
     """A 4x4 transform as an Offset: its translation, then rotations about z, y, x (the URDF's
     roll-pitch-yaw, ``R = Rz(yaw) Ry(pitch) Rx(roll)``); none for the identity."""
-    R = T[:3, :3]
-    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
-    if math.hypot(R[0, 0], R[1, 0]) > 1e-12:
-        yaw, roll = math.atan2(R[1, 0], R[0, 0]), math.atan2(R[2, 1], R[2, 2])
-    else:   # pitch ±π/2: only yaw ∓ roll is defined; yaw 0 keeps R
-        yaw, roll = 0.0, math.atan2(math.copysign(1.0, pitch) * R[0, 1], R[1, 1])
+    roll, pitch, yaw = rpy(T[:3, :3])
     rotations = tuple((axis, angle) for axis, angle in (("z", yaw), ("y", pitch), ("x", roll)) if angle != 0)
     translation = tuple(float(v) for v in T[:3, 3])
     if not any(translation) and not rotations:

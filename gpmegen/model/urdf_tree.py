@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 import io
 import logging
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +21,10 @@ import numpy as np
 from ..errors import ModelError
 
 SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
+# gpmegen's URDF extension: <gpmegen:spring stiffness="..." damping="..."/> in a <joint>, the
+# spring to q = 0 and the viscous damper that URDF cannot hold (gpmegen export writes it).
+NAMESPACE = "urn:gpmegen:urdf:1"
+SPRING = f"{{{NAMESPACE}}}spring"
 # Joints URDF knows that a chain fixed to the world cannot hold, with what to do instead.
 UNSUPPORTED = {
     "floating": "a floating base is not a chain fixed to the world; make the joint fixed (or remove it and "
@@ -44,7 +49,8 @@ class UrdfJoint:
     axis in the joint frame, and the data gpmegen keeps but does not use for the dynamics
     (``limit``: lower, upper (rad or m), effort (N·m or N), velocity (rad/s or m/s), None where
     the file gives none; ``friction``). ``damping`` (N·m·s/rad or N·s/m) acts as a viscous
-    damper on the coordinate."""
+    damper on the coordinate, ``stiffness`` (N·m/rad or N/m) as a spring to ``q = 0``; both come
+    from ``<gpmegen:spring>`` when the joint has one, the damping else from ``<dynamics>``."""
 
     name: str
     type: str
@@ -55,6 +61,7 @@ class UrdfJoint:
     limit: tuple
     damping: float
     friction: float
+    stiffness: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -75,6 +82,15 @@ class UrdfTree:
         return ModelError(f"{self.path}: {message}")
 
 
+def rpy(R) -> tuple[float, float, float]:
+    """URDF's roll, pitch, yaw of a rotation matrix, ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
+    pitch = math.atan2(-R[2, 0], math.hypot(R[0, 0], R[1, 0]))
+    if math.hypot(R[0, 0], R[1, 0]) > 1e-12:
+        return math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])
+    # pitch ±π/2: only yaw ∓ roll is defined; yaw 0 keeps R
+    return math.atan2(math.copysign(1.0, pitch) * R[0, 1], R[1, 1]), pitch, 0.0
+
+
 def read_tree(path) -> UrdfTree:
     """The URDF file at ``path`` as a checked tree; ModelError naming the element and the fix."""
     file = str(path)
@@ -82,13 +98,13 @@ def read_tree(path) -> UrdfTree:
         raw = Path(path).read_bytes()
     except OSError as exc:
         raise ModelError(f"{file}: cannot read the URDF file ({exc.strerror or exc}); check the path") from None
-    robot = _parse(file, raw)
+    robot, springs = _parse(file, raw)
     links = {}
     for link in robot.links:
         if link.name in links:
             raise ModelError(f"{file}: <link name=\"{link.name}\"> appears twice; give each link its own name")
         links[link.name] = _inertial(file, link)
-    joints = tuple(_joint(file, j, links) for j in robot.joints)
+    joints = tuple(_joint(file, j, links, springs.get(j.name)) for j in robot.joints)
     names = [j.name for j in joints]
     for k, name in enumerate(names):
         if name in names[:k]:
@@ -101,7 +117,7 @@ def _parse(file: str, raw: bytes):
     from lxml import etree
 
     try:
-        etree.fromstring(raw)
+        root = etree.fromstring(raw)
     except etree.XMLSyntaxError as exc:
         line = exc.lineno or 1
         raise ModelError(f"{file}:{line}: the URDF is not well-formed XML ({exc.msg}); fix the XML") from None
@@ -109,13 +125,15 @@ def _parse(file: str, raw: bytes):
     level = quiet.level
     quiet.setLevel(logging.CRITICAL)
     try:
-        return yourdfpy.URDF.load(io.BytesIO(raw), build_scene_graph=False, load_meshes=False,
-                                  build_collision_scene_graph=False, load_collision_meshes=False).robot
+        robot = yourdfpy.URDF.load(io.BytesIO(raw), build_scene_graph=False, load_meshes=False,
+                                   build_collision_scene_graph=False, load_collision_meshes=False).robot
     except Exception as exc:  # the parser's own errors have no common type
         raise ModelError(f"{file}: the URDF cannot be read ({type(exc).__name__}: {exc}); fix the element it "
                          f"names") from None
     finally:
         quiet.setLevel(level)
+    springs = {joint.get("name"): spring for joint in root.iter("joint") for spring in joint.findall(SPRING)}
+    return robot, springs
 
 
 def _number(file, value, what, default=0.0) -> float:
@@ -145,7 +163,7 @@ def _inertial(file, link) -> Inertial | None:
     return Inertial(mass, origin, inertia)
 
 
-def _joint(file, joint, links) -> UrdfJoint:
+def _joint(file, joint, links, spring) -> UrdfJoint:
     where = f"<joint name=\"{joint.name}\">"
     if joint.type in UNSUPPORTED:
         raise ModelError(f"{file}: {where} is {joint.type}: {UNSUPPORTED[joint.type]}")
@@ -169,7 +187,15 @@ def _joint(file, joint, links) -> UrdfJoint:
         raise ModelError(f"{file}: {where} <dynamics damping> is {damping:g}; give a damping of 0 or more")
     axis = (1.0, 0.0, 0.0) if joint.axis is None else tuple(float(a) for a in joint.axis)
     origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, float)
-    return UrdfJoint(joint.name, joint.type, joint.parent, joint.child, origin, axis, numbers, damping, friction)
+    stiffness = 0.0
+    if spring is not None:
+        here = f"{where} <gpmegen:spring"
+        stiffness = _number(file, spring.get("stiffness"), f"{here} stiffness>")
+        damping = _number(file, spring.get("damping"), f"{here} damping>")
+        if stiffness < 0 or damping < 0:
+            raise ModelError(f"{file}: {here}> has a negative stiffness or damping; give values of 0 or more")
+    return UrdfJoint(joint.name, joint.type, joint.parent, joint.child, origin, axis, numbers, damping, friction,
+                     stiffness)
 
 
 def _root(file, links, joints) -> str:
