@@ -186,13 +186,36 @@ def test_bad_urdf_one_line(case, tmp_path, capsys):
     assert message in err and len(err.splitlines()) == 1 and "Traceback" not in err
 
 
-def test_toml_link_missing_from_urdf(tmp_path):
-    path = tmp_path / "beam.toml"
-    path.write_text(FLEXIBLE.format(nrfe=2).replace('"panda_link4"', '"panda_link44"'))
+TOML_FAULTS = {
+    "missing link": (('"panda_link4"', '"panda_link44"'),
+                     r"beam.toml:8: chain\[0\].link: the URDF panda.urdf has no link 'panda_link44'"),
+    "missing tip": (('tip = "panda_hand"', 'tip = "hand"'), r"beam.toml:5: urdf.tip: the URDF panda.urdf has no link "
+                                                            r"'hand'"),
+    "not installed": (('package = "example-robot-data"', 'package = "no-such-distribution"'),
+                      r"beam.toml:5: urdf.package: .*'no-such-distribution', which is not installed; install it"),
+    "direction": (("along = [", "along = [1, 1, 0]  # ["), r"beam.toml:10: chain\[0\].along: .*not a unit vector"),
+    "twice": (("[[chain]]", '[[chain]]\nlink = "panda_link4"\nflexible = "x"\nalong = [1, 0, 0]\nlength = 0.1\n'
+                            'section = { type = "circular", radius = 0.01 }\ndensity = 1\nyoung_modulus = 1\n'
+                            'shear_modulus = 1\n[[chain]]'),
+              r"chain\[1\].link: link 'panda_link4' is made flexible twice"),
+}
+
+
+@pytest.mark.parametrize("fault", list(TOML_FAULTS))
+def test_model_file_urdf_faults(fault, tmp_path, capsys):
+    """A model file's faults about its URDF, at their line, from the API and the command line."""
     panda_urdf()
-    with pytest.raises(ModelError, match=r"beam.toml:\d+: chain\[0\].link: the URDF panda.urdf has no link "
-                                         r"'panda_link44'"):
+    (old, new), message = TOML_FAULTS[fault]
+    text = FLEXIBLE.format(nrfe=2)
+    assert old in text
+    path = tmp_path / "beam.toml"
+    path.write_text(text.replace(old, new, 1))
+    with pytest.raises(ModelError, match=message) as info:
         load_model_file(path)
+    assert "\n" not in str(info.value)
+    assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
 
 
 def test_serial_urdf_builds_from_the_command_line(tmp_path, env, capsys):

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1fb16ca1a0f3ebe7
+Input hash: 43517938120c94f0
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

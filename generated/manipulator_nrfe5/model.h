@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 92b18f131cae4e0f
+Input hash: 2c5674f28f7a0401
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -19,6 +19,7 @@ direction of that frame; whatever is fixed to the link, and the next joint, foll
 
 from __future__ import annotations
 
+import difflib
 import math
 from dataclasses import dataclass
 
@@ -28,6 +29,7 @@ import sympy as sp
 from ..errors import ModelError
 from . import shapes
 from .chain import Body, FlexibleLink, Joint, Model, Offset, Parameter, Point, check_name
+from .expand import AXIS_TOLERANCE
 from .urdf_tree import UrdfJoint, UrdfTree, read_tree, rpy
 
 GRAVITY = Parameter("g", 9.81, "m/s²", "gravitational acceleration, along -z of the base")
@@ -114,8 +116,6 @@ def _moves(tree: UrdfTree, joint: UrdfJoint) -> bool:
 
 def _check_link_named(tree: UrdfTree, link: str):
     if link not in tree.links:
-        import difflib
-
         close = difflib.get_close_matches(str(link), list(tree.links), 1)
         hint = f"did you mean {close[0]!r}? " if close else ""
         raise tree.error(f"there is no <link name=\"{link}\">; {hint}the links are {', '.join(tree.links)}")
@@ -192,15 +192,21 @@ def _pseudo_inertia(inertial) -> np.ndarray:
                     dtype=float)
 
 
+def unit_direction(along, what: str) -> np.ndarray:
+    """``along`` as a unit 3-vector; ModelError naming ``what`` when it is not one (to 1e-6, the
+    rule of joint axes)."""
+    a = np.asarray(along, float)
+    norm = float(np.linalg.norm(a)) if a.shape == (3,) else float("nan")
+    if not np.isfinite(norm) or abs(norm - 1) > AXIS_TOLERANCE:
+        raise ModelError(f"{what}: the direction {list(along)} is not a unit vector; give a unit vector of the "
+                         f"link's frame")
+    return a / norm
+
+
 def _beam(flexible: FlexibleUrdfLink) -> list:
     """The flexible link turned from the link's x axis to ``along``, and the offset from its tip
     back to the link's frame as it is when undeformed."""
-    a = np.asarray(flexible.along, float)
-    norm = np.linalg.norm(a)
-    if not np.isfinite(norm) or abs(norm - 1) > 1e-6:
-        raise ModelError(f"flexible link {flexible.beam.label!r} on URDF link {flexible.link!r}: the direction "
-                         f"{list(a)} is not a unit vector; give a unit vector of the link's frame")
-    a = a / norm
+    a = unit_direction(flexible.along, f"flexible link {flexible.beam.label!r} on URDF link {flexible.link!r}")
     yaw, pitch = math.atan2(a[1], a[0]), math.atan2(-a[2], math.hypot(a[0], a[1]))
     turn = tuple((axis, angle) for axis, angle in (("z", yaw), ("y", pitch)) if angle != 0)
     back = tuple((axis, -angle) for axis, angle in reversed(turn))

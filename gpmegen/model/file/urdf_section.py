@@ -9,7 +9,7 @@ from pathlib import Path
 from ...errors import ModelError
 from ..chain import FlexibleLink, Joint, Point
 from ..rfem import discretize
-from ..urdf import GRAVITY, FlexibleUrdfLink, import_urdf
+from ..urdf import GRAVITY, FlexibleUrdfLink, import_urdf, unit_direction
 from ..urdf_tree import read_tree
 
 URDF_KEYS = ("file", "package", "tip")
@@ -72,6 +72,12 @@ def read_urdf_chain(reader, data, parameters: tuple) -> tuple[tuple, tuple]:
             reader.fail(where, "a flexible URDF link needs the direction it extends along in the link's frame; "
                                "add along = [1, 0, 0] (a unit vector)")
         along = tuple(float(v) for v in reader.read_vector(item["along"], where + ("along",), {}))
+        try:
+            unit_direction(along, f"flexible link on {link!r}")
+        except ModelError as exc:
+            reader.fail(where + ("along",), str(exc))
+        if link in [f.link for f in flexible]:
+            reader.fail(where + ("link",), f"link {link!r} is made flexible twice; keep one of the two tables")
         flexible.append(FlexibleUrdfLink(link, along, reader.read_flexible(rest, where)))
     if "gravity" not in data and "g" not in reader.params:
         parameters += (GRAVITY,)
