@@ -100,6 +100,14 @@ section = {{{{ type = "tube", outer_diameter = {TUBE['D']}, inner_diameter = {TU
 density = {TUBE['rho']}
 young_modulus = 7e10
 shear_modulus = 2.6e10
+
+[[chain]]
+link = "panda_hand"
+point = "C"
+position = [0, 0, "h"]
+
+[parameters]
+h = 0.1
 """
 
 
@@ -117,7 +125,8 @@ def tube_inertia():
 def test_flexible_link_replaces_the_link(panda, env, rng, tmp_path):
     """panda_link4 made a tube at n_rfe 1 (one rigid rfe): M, f and every frame are Pinocchio's
     with link 4's inertial replaced by the tube's, so the beam starts at the link's frame, runs
-    along the given direction, and the rest of the arm hangs at its tip."""
+    along the given direction, and the rest of the arm hangs at its tip. A point attached to
+    panda_hand (fixed to link 7, so no body of its own) sits in the hand's frame."""
     path = tmp_path / "beam.toml"
     path.write_text(FLEXIBLE.format(nrfe=1))
     flexible = gpmegen.load(model=load_model_file(path), directory=env[0])
@@ -133,7 +142,9 @@ def test_flexible_link_replaces_the_link(panda, env, rng, tmp_path):
         nle = pin.rnea(model, data, q, qd, np.zeros(7)) + model.damping * qd
         np.testing.assert_allclose(flexible.forces(0.0, q, qd), -nle, rtol=0, atol=1e-10 * np.abs(nle).max())
         pin.framesForwardKinematics(model, data, q)
-        expected = [data.oMf[model.getFrameId(name)].translation for name in flexible.points]
+        expected = [data.oMf[model.getFrameId(name)].translation if name != "C"
+                    else data.oMf[model.getFrameId("panda_hand")].act(np.array([0, 0, 0.1])) for name in flexible.points]
+        assert "C" in flexible.points
         np.testing.assert_allclose(flexible.point_positions(q), expected, rtol=0, atol=1e-12)
 
 

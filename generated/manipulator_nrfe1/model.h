@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 43517938120c94f0
+Input hash: 5c7f7adeefa463b4
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

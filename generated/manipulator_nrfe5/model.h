@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 2c5674f28f7a0401
+Input hash: 1ff997de99e77a1c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -145,7 +145,7 @@ def _chain(tree: UrdfTree, moving: list, flex: dict, extra: tuple) -> list:
             kind = "prismatic" if joint.type == "prismatic" else "revolute"
             chain.append(Joint(joint.name, kind, joint.axis, stiffness=joint.stiffness, damping=joint.damping))
             head = joint.child
-        chain += _group(tree, head, held, flex.get(head), [e for link, e in extra if link == head], joint)
+        chain += _group(tree, head, held, flex.get(head), extra, joint)
     return chain
 
 
@@ -166,13 +166,15 @@ def _frame(tree, head, held, link) -> np.ndarray:
 
 def _group(tree, head, held, flexible, attached, joint) -> list:
     """The elements of the links moving with ``head``: one body of their combined inertials (or
-    the beam of a flexible link), a point at each link's frame, then the attached elements."""
+    the beam of a flexible link, after which the links fixed to it follow its tip), a point at
+    each link's frame, then the points ``attached`` (``(link, Point)`` pairs) to any of them."""
     members = _members(tree, head, held)
     out = [Point(head, (0, 0, 0))]
+    weighed = members
     if flexible is not None:
         out += _beam(flexible)
-        members = members[1:] + [(head, None)]   # the link's own inertial gives way to the beam
-    with_inertial = [(tree.links[link], T) for link, T in members if T is not None and tree.links[link]]
+        weighed = members[1:]   # the link's own inertial gives way to the beam
+    with_inertial = [(tree.links[link], T) for link, T in weighed if tree.links[link]]
     if joint is not None and flexible is None and not with_inertial:
         raise tree.error(f"<link name=\"{head}\">, moved by <joint name=\"{joint.name}\">, has no <inertial> (nor "
                          f"has any link fixed to it); add <inertial> with its mass, origin and inertia (a mass of 0 "
@@ -181,8 +183,19 @@ def _group(tree, head, held, flexible, attached, joint) -> list:
     if H[3, 3] > 0:
         H = (H + H.T) / 2   # exactly symmetric, as a pseudo-inertia must be
         out.append(Body(head + BODY_SUFFIX, sp.ImmutableMatrix(H.tolist())))
-    out += [Point(link, tuple(float(v) for v in T[:3, 3])) for link, T in members if T is not None and link != head]
-    return out + list(attached)
+    out += [Point(link, tuple(float(v) for v in T[:3, 3])) for link, T in members[1:]]
+    frames = dict(members)
+    return out + [Point(point.name, _placed(frames[link], point.position)) for link, point in attached
+                  if link in frames]
+
+
+def _placed(T: np.ndarray, position) -> tuple:
+    """``position`` (m, numbers or expressions) given in a link's frame, in the frame ``T`` holds
+    that link in."""
+    if np.array_equal(T, np.eye(4)):
+        return tuple(position)
+    r = sp.Matrix([sp.sympify(v) for v in position])
+    return tuple(sp.Matrix(T[:3, :3].tolist()) * r + sp.Matrix(T[:3, 3].tolist()))
 
 
 def _pseudo_inertia(inertial) -> np.ndarray:

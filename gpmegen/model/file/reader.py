@@ -296,7 +296,7 @@ class Reader:
 
         parameters = self.read_parameters(data.get("parameters", {}))
         if "urdf" in data:
-            chain, parameters = read_urdf_chain(self, data, parameters)
+            chain, parameters = read_urdf_chain(self, data, parameters, name)
         else:
             if "chain" not in data:
                 self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")

@@ -39,10 +39,10 @@ def urdf_path(reader, value) -> Path:
     return Path(found[0].locate())
 
 
-def read_urdf_chain(reader, data, parameters: tuple) -> tuple[tuple, tuple]:
-    """The chain of a model file with a ``urdf`` key and its parameters (``g`` added, 9.81 m/s²,
-    when the file gives no gravity and declares no ``g``); the reader's coordinates and points
-    recorded as :meth:`Reader.read_chain` records them."""
+def read_urdf_chain(reader, data, parameters: tuple, name: str) -> tuple[tuple, tuple]:
+    """The chain of the model file's model ``name`` with a ``urdf`` key, and its parameters
+    (``g`` added, 9.81 m/s², when the file gives no gravity and declares no ``g``); the reader's
+    coordinates and points recorded as :meth:`Reader.read_chain` records them."""
     path = urdf_path(reader, data["urdf"])
     tree = read_tree(path)
     tip = data["urdf"].get("tip") if isinstance(data["urdf"], dict) else None
@@ -82,7 +82,8 @@ def read_urdf_chain(reader, data, parameters: tuple) -> tuple[tuple, tuple]:
     if "gravity" not in data and "g" not in reader.params:
         parameters += (GRAVITY,)
         reader.params["g"] = GRAVITY.symbol
-    robot = import_urdf(tree, tip=tip, flexible=tuple(flexible), extra=tuple(extra), parameters=parameters)
+    robot = import_urdf(tree, tip=tip, flexible=tuple(flexible), extra=tuple(extra), parameters=parameters,
+                        name=name)
     _record(reader, robot.model.chain)
     return robot.model.chain, parameters
 
