@@ -142,8 +142,9 @@ def test_flexible_link_replaces_the_link(panda, env, rng, tmp_path):
         nle = pin.rnea(model, data, q, qd, np.zeros(7)) + model.damping * qd
         np.testing.assert_allclose(flexible.forces(0.0, q, qd), -nle, rtol=0, atol=1e-10 * np.abs(nle).max())
         pin.framesForwardKinematics(model, data, q)
-        expected = [data.oMf[model.getFrameId(name)].translation if name != "C"
-                    else data.oMf[model.getFrameId("panda_hand")].act(np.array([0, 0, 0.1])) for name in flexible.points]
+        hand = data.oMf[model.getFrameId("panda_hand")]
+        expected = [data.oMf[model.getFrameId(name)].translation if name != "C" else hand.act(np.array([0, 0, 0.1]))
+                    for name in flexible.points]
         assert "C" in flexible.points
         np.testing.assert_allclose(flexible.point_positions(q), expected, rtol=0, atol=1e-12)
 
