@@ -4,7 +4,8 @@
   into generated code when missing or stale, opened on the NumPy or the C backend;
 - :func:`statics`, :func:`simulate`: a model's consistent start and its constrained motion (as
   ``gpmegen statics`` and ``gpmegen simulate``), the latter as :class:`Results`;
-- :func:`load_model_file`, :func:`read_model_file`: models from TOML files;
+- :func:`load_model_file`, :func:`read_model_file`: models from TOML files (and URDF files);
+  :func:`import_urdf`: a URDF with its joints' limits as data; :func:`urdf_text`: a model as URDF;
 - the model's elements (:class:`Model`, :class:`Joint`, :class:`FlexibleLink`, ...) and the
   reference case (:func:`reference_model`);
 - :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
@@ -45,6 +46,8 @@ from .model import (
 from .model.requirements import requirements
 from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
+from .model.urdf import import_urdf
+from .model.urdf_export import urdf_text
 from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
 from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from .symbolic.transforms import check_kinds
@@ -169,4 +172,5 @@ __all__ = [
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
+    "import_urdf", "urdf_text",
 ]

@@ -217,6 +217,19 @@ def cmd_build(args) -> int:
     return 0
 
 
+def cmd_export(args) -> int:
+    from .fileio import atomic_write_bytes
+    from .model.urdf_export import urdf_text
+
+    case = _case(args.model_file, args.nrfe)
+    text = case.located(functools.partial(urdf_text, case.model))
+    out = Path(args.out)
+    if out.is_dir():
+        raise UsageError(f"--out {out} is a folder; give the file to write, e.g. --out {out / 'arm.urdf'}")
+    print(f"wrote {atomic_write_bytes(out, text.encode('utf-8'))}: {case.model.name} as URDF")
+    return 0
+
+
 def _default_backend() -> str:
     """"c" when a C compiler is found, else "numpy" (and says so)."""
     from .runtime.ccompile import find_compiler
@@ -578,7 +591,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = command("build", "generate the NumPy and C modules of the reference manipulator or a model file")
     b.add_argument("model_file", nargs="?", type=path_argument,
-                   help="a model description (.toml); default: the reference manipulator")
+                   help="a model description (.toml) or a robot description (.urdf); default: the reference "
+                        "manipulator")
     b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
@@ -587,6 +601,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="body transforms to generate: T (4x4 per body, the default), its first derivatives T_i and "
                         "second derivatives T_ij (large: O(n_dof²) matrices per body), or none")
     b.set_defaults(func=cmd_build)
+
+    ex = command("export", "the discretized chain as a URDF robot")
+    ex.add_argument("model_file", nargs="?", type=path_argument,
+                    help="a model description (.toml or .urdf); default: the reference manipulator")
+    ex.add_argument("--format", choices=("urdf",), required=True, help="the format to write: urdf")
+    ex.add_argument("--nrfe", type=positive_int, default=None,
+                    help="number of rigid finite elements (1: rigid; default 5, or the file's)")
+    ex.add_argument("--out", type=path_argument, required=True, help="the file to write, e.g. arm.urdf")
+    ex.set_defaults(func=cmd_export)
 
     def study_options(p, levels=False):
         p.add_argument("model_file", nargs="?", type=path_argument,

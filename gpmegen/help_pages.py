@@ -39,6 +39,12 @@ samples (Latin hypercube or uniform) within given ranges. Each run is a simulate
 code, the same results file); the runs go to all local cores by default, or to a Dask cluster
 with --scheduler. A failed run is recorded with its message and the others go on; run the same
 sweep again after an interruption and the runs already complete are kept.""",
+    "export": """\
+Write the model's discretized chain as a URDF robot at the parameter defaults: rfes as links with
+their inertials and a box of the same mass and principal moments as visual, each sde as
+consecutive revolute joints with massless links between, named points as fixed links. Springs and
+dampers, which URDF cannot hold, are in the extension element <gpmegen:spring stiffness damping>
+(namespace urn:gpmegen:urdf:1) of each joint; gravity and constraints are not exported.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
@@ -57,6 +63,8 @@ examples:
   gpmegen build --nrfe 1 5 20 --force
   gpmegen build examples/planar_two_link.toml --out my_models
   gpmegen build --nrfe 3 --transforms T,T_i,T_ij
+  gpmegen build robot.urdf                         (a serial URDF, rigid, as it stands)
+  gpmegen build examples/panda_flexible.toml --nrfe 2   (a URDF with a link made flexible)
 
 files written:
   <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: generated/)""",
@@ -130,6 +138,13 @@ examples:
 files written:
   <out>/sweep.json (the sweep's arguments), <out>/runs/<run id>.npz and .csv (one results file per
   run), <out>/summary.csv and summary.parquet (per-run inputs and scalar outcomes)""",
+    "export": """\
+examples:
+  gpmegen export --format urdf --nrfe 5 --out arm.urdf
+  gpmegen export examples/planar_two_link.toml --format urdf --out planar.urdf
+
+files written:
+  --out (written whole or not at all)""",
     "demo": """\
 examples:
   gpmegen demo

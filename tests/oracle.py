@@ -9,7 +9,8 @@ A chain is a list of steps, applied left to right from the inertial frame {0}:
 
 * ``Fixed(T)``                      a constant 4x4 homogeneous transform;
 * ``Joint(kind, axis, index, c, d)`` an elementary transform ``Rx/Ry/Rz(q[index])`` (``kind``
-  ``"revolute"``) or ``Tr`` along ``axis`` by ``q[index]`` (``"prismatic"``), with an optional
+  ``"revolute"``; about a unit vector ``axis``: Rodrigues' rotation) or ``Tr`` along ``axis`` by
+  ``q[index]`` (``"prismatic"``), with an optional
   linear spring ``c`` and damper ``d`` acting on that coordinate (generalized force
   ``-c q - d qd``);
 * ``Body(name, H)``                 a body with the numeric 4x4 pseudo-inertia ``H`` attached to
@@ -86,8 +87,11 @@ def rotation(axis: str, angle: float) -> np.ndarray:
     return elementary("revolute", axis, angle, 0)
 
 
-def elementary(kind: str, axis: str, value: float, order: int) -> np.ndarray:
-    """The joint's elementary matrix (order 0) or its ``order``-th derivative w.r.t. ``value``."""
+def elementary(kind: str, axis, value: float, order: int) -> np.ndarray:
+    """The joint's elementary matrix (order 0) or its ``order``-th derivative w.r.t. ``value``;
+    ``axis`` is "x", "y", "z" or a unit 3-vector."""
+    if not isinstance(axis, str):
+        return _about_vector(kind, np.asarray(axis, float), value, order)
     if kind == "revolute":
         c, s = np.cos(value), np.sin(value)
         # d/da (cos, sin) = (-sin, cos); d2/da2 (cos, sin) = (-cos, -sin)
@@ -116,6 +120,24 @@ def elementary(kind: str, axis: str, value: float, order: int) -> np.ndarray:
     raise ValueError(f"unknown joint kind {kind!r}")
 
 
+def _about_vector(kind: str, n: np.ndarray, value: float, order: int) -> np.ndarray:
+    """Rotation about (Rodrigues: ``c·1 + s·[n]x + (1 - c)·n nᵀ``) or translation along the unit
+    vector ``n``, or its ``order``-th derivative."""
+    T = np.zeros((4, 4))
+    if kind == "prismatic":
+        T[:3, 3] = n * {0: value, 1: 1.0, 2: 0.0}[order]
+        if order == 0:
+            T[:3, :3] = np.eye(3)
+            T[3, 3] = 1.0
+        return T
+    c, s = np.cos(value), np.sin(value)
+    cc, ss = {0: (c, s), 1: (-s, c), 2: (-c, -s)}[order]
+    cross = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+    T[:3, :3] = cc * np.eye(3) + ss * cross + ((order == 0) - cc) * np.outer(n, n)
+    T[3, 3] = float(order == 0)
+    return T
+
+
 # --------------------------------------------------------------------------------------------
 # Chain description
 # --------------------------------------------------------------------------------------------
@@ -129,7 +151,7 @@ class Fixed:
 @dataclass(frozen=True)
 class Joint:
     kind: str  # "revolute" | "prismatic"
-    axis: str  # "x" | "y" | "z"
+    axis: object  # "x" | "y" | "z" | a unit 3-vector
     index: int  # coordinate index in q
     c: float = 0.0  # linear spring constant
     d: float = 0.0  # linear damper constant

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 5f6fec4d5a0f8902
+Input hash: 4fd29358c435d85e
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c934fe68e97e3135
+Input hash: d272f42883d65d2f
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -30,7 +30,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "c934fe68e97e3135"; }
+const char *manipulator_nrfe5_input_hash(void) { return "d272f42883d65d2f"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }

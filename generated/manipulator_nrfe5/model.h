@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c934fe68e97e3135
+Input hash: d272f42883d65d2f
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -124,17 +124,17 @@ _NAME_KEY = {Joint: "joint", Body: "body", Point: "point"}
 
 
 def _check_element(element, path, names: _Names, constant: set):
-    """Names, kinds, axes and expressions of one expanded chain element at ``path``."""
+    """Names, kinds, axes and expressions of one expanded chain element at ``path``; the element
+    as the derivation takes it (a joint's axis in its one form: :func:`joint_axis`)."""
     table = path[:-1] if isinstance(element, (Joint, Body, Point)) else path
     if isinstance(element, Joint):
         names.claim(element.name, "coordinate", path)
         if element.kind not in JOINT_KINDS:
             raise ModelError(f"joint {element.name!r}: unknown kind {element.kind!r}; use one of "
                              f"{', '.join(JOINT_KINDS)}", table + ("type",))
-        if element.axis not in AXES:
-            raise ModelError(f"joint {element.name!r}: unknown axis {element.axis!r}; use x, y or z", table + ("axis",))
         for key in ("stiffness", "damping"):
             _check_expression(getattr(element, key), constant, f"joint {element.name!r} {key}", table + (key,))
+        return dataclasses.replace(element, axis=joint_axis(element, table + ("axis",)))
     elif isinstance(element, Body):
         names.claim(element.name, "body", path)
         h = sp.ImmutableMatrix(element.pseudo_inertia)
@@ -154,6 +154,40 @@ def _check_element(element, path, names: _Names, constant: set):
                 raise ModelError(f"offset rotation about unknown axis {axis!r}; use x, y or z",
                                  table + ("rotations", i, 0))
             _check_expression(angle, constant, "offset rotation angle", table + ("rotations", i, 1))
+    return element
+
+
+# URDF files and hand-typed vectors round unit axes to a few digits; a longer or shorter vector is
+# a mistake rather than rounding.
+AXIS_TOLERANCE = 1e-6
+
+
+def joint_axis(joint: Joint, subject: tuple):
+    """``joint.axis`` as the letter of a principal axis (a unit vector along +x, +y or +z becomes
+    its letter, so that such a joint derives exactly as one given by letter) or else as a unit
+    vector of three SymPy Floats; ModelError naming the joint when it is neither."""
+    axis = joint.axis
+    if isinstance(axis, str):
+        if axis not in AXES:
+            raise ModelError(f"joint {joint.name!r}: unknown axis {axis!r}; use x, y, z or a unit vector "
+                             f"[ax, ay, az]", subject)
+        return axis
+    try:
+        vector = [float(a) for a in axis] if len(axis) == 3 else None
+    except (TypeError, ValueError):
+        vector = None
+    if vector is None or not all(map(math.isfinite, vector)):
+        raise ModelError(f"joint {joint.name!r}: the axis {axis!r} is neither x, y, z nor three numbers; write a "
+                         f"unit vector such as [0, 0.6, 0.8]", subject)
+    norm = math.sqrt(sum(a * a for a in vector))
+    if abs(norm - 1) > AXIS_TOLERANCE:
+        raise ModelError(f"joint {joint.name!r}: the axis {vector} has length {norm:.6g}, not 1; give a unit "
+                         f"vector (each component divided by {norm:.6g})", subject)
+    unit = tuple(a / norm for a in vector)
+    for k, letter in enumerate(AXES):
+        if unit == tuple(float(i == k) for i in range(3)):
+            return letter
+    return tuple(sp.Float(a) for a in unit)
 
 
 def _check_derived_names(flat, names: _Names):
@@ -275,9 +309,7 @@ def expand(model: Model) -> FlatChain:
             raise ModelError(f"parameter {p.name!r} has the default {p.default}, not a finite number; give a "
                              f"value below 1e308 in size", ("parameters", p.name))
     constant = {p.symbol for p in model.parameters}   # expressions of the chain may use parameters only
-    flat = _flatten(model)
-    for path, element in flat:
-        _check_element(element, path, names, constant)
+    flat = [(path, _check_element(element, path, names, constant)) for path, element in _flatten(model)]
     coordinates = [e.name for _, e in flat if isinstance(e, Joint)]
     if not coordinates:
         raise ModelError(f"model {model.name!r} has no joints: add at least one joint", ("chain",))

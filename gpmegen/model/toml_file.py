@@ -92,9 +92,11 @@ from pathlib import Path
 
 from ..errors import GpmegenError, ModelError
 from .chain import Model
+from .expand import expand
 from .file.model_file import ModelFile
 from .file.reader import SCHEMA, Reader
 from .rfem import check_nrfe
+from .urdf import import_urdf
 
 __all__ = ["ModelFile", "SCHEMA", "load_model_file", "locate", "read_initial", "read_model_file"]
 
@@ -128,18 +130,32 @@ def _parse(path, nrfe):
 
 
 def read_model_file(path, nrfe: int | None = None) -> ModelFile:
-    """The model of a schema-1 TOML file with its ``[initial]`` configuration.
+    """The model of a schema-1 TOML file with its ``[initial]`` configuration (a file whose
+    name ends in ``.urdf``: :func:`read_urdf_file`).
 
     ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
     and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
     <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing."""
+    if Path(path).suffix.lower() == ".urdf":
+        return read_urdf_file(path)
     reader, data = _parse(path, nrfe)
     return reader.read(data)
 
 
+def read_urdf_file(path) -> ModelFile:
+    """The rigid model of the URDF file at ``path`` (:func:`gpmegen.model.urdf.import_urdf`:
+    its one branch of moving joints, gravity ``-g`` along z), starting at ``q = 0``."""
+    model = import_urdf(path).model
+    try:
+        expand(model)
+    except ModelError as exc:
+        raise ModelError(f"{path}: {exc}") from None
+    return ModelFile(str(path), model)
+
+
 def load_model_file(path, nrfe: int | None = None) -> Model:
     """The :class:`~gpmegen.model.Model` described by the TOML file at ``path`` (see
-    :func:`read_model_file`)."""
+    :func:`read_model_file`), or by the URDF file at ``path`` when its name ends in ``.urdf``."""
     return read_model_file(path, nrfe).model
 
 

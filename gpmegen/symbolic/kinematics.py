@@ -29,6 +29,16 @@ def rotation(axis: str, c, s) -> sp.Matrix:
     return sp.Matrix([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
 
+def rotation_about(axis, c, s) -> sp.Matrix:
+    """Rotation about a joint axis (a principal axis' letter or a unit vector ``n``), given its
+    cosine and sine: Rodrigues' ``c·1 + s·[n]× + (1 - c)·n nᵀ`` for a vector."""
+    if isinstance(axis, str):
+        return rotation(axis, c, s)
+    n = sp.Matrix(axis)
+    cross = sp.Matrix([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+    return c * sp.eye(3) + s * cross + (1 - c) * n * n.T
+
+
 @dataclass
 class JointTwist:
     """Joint ``index`` of the chain: its world twist ``(ω, v)`` and spring/damper."""
@@ -111,17 +121,21 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
                     R = define_all(R * rotation(axis, define(sp.cos(angle)), define(sp.sin(angle))))
         elif isinstance(element, Joint):
             j = len(joints)
-            k = AXES.index(element.axis)
+            # the joint's axis in {0}: a column of R for a principal axis, else R n
+            if isinstance(element.axis, str):
+                axis = R[:, AXES.index(element.axis)]
+            else:
+                axis = define_all(R * sp.Matrix(element.axis))
             if element.kind == "revolute":
                 c, s = define(sp.cos(q[j])), define(sp.sin(q[j]))
-                omega = R[:, k]  # the rotation leaves its own axis in place
-                R = define_all(R * rotation(element.axis, c, s))
+                omega = axis  # the rotation leaves its own axis in place
+                R = define_all(R * rotation_about(element.axis, c, s))
                 v = define_all(p.cross(omega))
                 # [Ω, Δ_j] for Δ_j = (ω_j, v_j): motion cross product (w, u) × (ω, v)
                 d_alpha, d_a = w.cross(omega), w.cross(v) + u.cross(omega)
             else:
                 omega = zero
-                v = R[:, k]
+                v = axis
                 p = define_all(p + v * q[j])
                 d_alpha, d_a = zero, w.cross(v)
             joints.append(JointTwist(j, element.name, element.kind, omega, v,

@@ -50,6 +50,7 @@ from ..rfem import check_freedoms, check_link, check_nrfe, discretize, link_coor
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
 from .locator import Locator, field_text, located
 from .model_file import ModelFile
+from .urdf_section import chain_error, read_urdf_chain
 
 SCHEMA = 1
 
@@ -61,7 +62,7 @@ _RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "initial", "actuators")
+            "chain", "drives", "constraints", "initial", "actuators", "urdf")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
 SHAPE_KEYS = {
     "cylinder": ("type", "mass", "radius", "length", "axis"),
@@ -294,11 +295,15 @@ class Reader:
         description = self.text(data.get("description", ""), ("description",), multiline=True)
 
         parameters = self.read_parameters(data.get("parameters", {}))
-        if "chain" not in data:
-            self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
-        self.check_chain_size(data["chain"])
-        chain = self.read_chain(data["chain"])
-        gravity = self.read_vector(data.get("gravity", [0, 0, 0]), ("gravity",), self.params)
+        if "urdf" in data:
+            chain, parameters = read_urdf_chain(self, data, parameters, name)
+        else:
+            if "chain" not in data:
+                self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
+            self.check_chain_size(data["chain"])
+            chain = self.read_chain(data["chain"])
+        up = [0, 0, "-g"] if "urdf" in data else [0, 0, 0]   # URDF robots are described z up
+        gravity = self.read_vector(data.get("gravity", up), ("gravity",), self.params)
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
         dependent = self.read_dependent(data.get("dependent", "auto"))
@@ -313,6 +318,8 @@ class Reader:
         try:
             expand(model)
         except ModelError as exc:
+            if "urdf" in data and exc.subject[:1] == ("chain",):
+                raise chain_error(self, exc) from None
             raise located(exc, self.file, self.locator) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators)
@@ -395,7 +402,10 @@ class Reader:
         self.table(item, path, keys, keys[:3], "joint")
         name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
         kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
-        axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
+        if isinstance(item["axis"], list):   # a unit vector of numbers, checked when the model is expanded
+            axis = self.read_vector(item["axis"], path + ("axis",), {})
+        else:
+            axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
         extra = {}
         for key in ("stiffness", "damping"):
             if key in item:
