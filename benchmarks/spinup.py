@@ -58,9 +58,10 @@ def in_hub_frame(t, points, omega):
 def gpmegen_runs(model_file, omega, nrfe, dt):
     """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds)."""
     from gpmegen.analysis import extrapolate
+    from gpmegen.analysis.levels import simulate_levels
 
-    levels = extrapolate.simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
-                                         backend="c", params={"Omega": omega})
+    levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
+                             backend="c", params={"Omega": omega})
     seconds = [level.seconds for level in levels]
     data = extrapolate.extrapolate(levels, ["points"])
     t = data["t"]

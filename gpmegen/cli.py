@@ -299,6 +299,7 @@ def cmd_invert(args) -> int:
 def cmd_extrapolate(args) -> int:
     """``simulate --extrapolate``: the run at each --nrfe, then the outputs' limit and errors."""
     from .analysis import extrapolate, extrapolate_plots
+    from .analysis.levels import run_levels
     from .errors import ExtrapolationError
 
     nrfe = sorted(set(args.nrfe or ()))
@@ -314,8 +315,8 @@ def cmd_extrapolate(args) -> int:
     out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
     _check_results_path(out)
     backend = args.backend or _default_backend()
-    levels, _ = extrapolate.run_levels(cases, start, args.t_end, args.dt, args.save_every, args.method, backend,
-                                       dict(args.param or []), out, progress)
+    levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method, backend,
+                        dict(args.param or []), out, progress, args.workers)
     data = extrapolate.extrapolate(levels)  # a level that stopped early: ExtrapolationError, exit status 1
     print("\n".join(extrapolate.summary(data)))
     print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
@@ -571,6 +572,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--extrapolate", action="store_true",
                    help="run every --nrfe (at least two) and extrapolate the outputs to the continuum limit, "
                         "with the discretization error of each run and of the limit")
+    s.add_argument("--workers", type=positive_int, default=None,
+                   help="with --extrapolate: local processes running the levels at once (default: one per core, "
+                        "at most one per level; 1 runs them in this process)")
     s.set_defaults(func=cmd_simulate)
 
     inv = command("invert", "stable inversion: bounded inputs of the actuated realization, with pre- and "

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from gpmegen.analysis import beam, convergence, extrapolate, richardson
+from gpmegen.analysis.levels import simulate_levels
 from gpmegen.cli import main
 from gpmegen.errors import ExtrapolationError
 
@@ -80,7 +81,7 @@ def test_clamped_arm_tip_deflection_extrapolates_to_beam_theory(env):
 
 
 def spinup_levels(nrfe, t_end, dt, backend="c", omega=4.0):
-    return extrapolate.simulate_levels(SPINUP, nrfe, t_end, dt, save_every=10, backend=backend,
+    return simulate_levels(SPINUP, nrfe, t_end, dt, save_every=10, backend=backend,
                                        params={"Omega": omega})
 
 
@@ -116,7 +117,7 @@ def test_point_velocities_and_hub_torque_agree_with_positions_and_energy(env):
     """The outputs of one run against independent quantities of the same run: point velocities
     against the time derivative of the positions, the hub's reaction torque against the power
     that the energies take in (no gravity, no damping: τ θ̇ = d(T + V)/dt)."""
-    (level,) = extrapolate.simulate_levels(SPINUP, [3], t_end=2.0, dt=1e-3, save_every=1,
+    (level,) = simulate_levels(SPINUP, [3], t_end=2.0, dt=1e-3, save_every=1,
                                            params={"Omega": 6.0})
     out, res = extrapolate.outputs(level), level.results
     t = res["t"]
@@ -151,3 +152,19 @@ def test_a_model_without_flexible_link_is_refused_before_any_run(tmp_path, capsy
     assert main(["simulate", str(model), "--nrfe", "2", "3", "--extrapolate", "--out", str(out)]) == 2
     assert "no flexible link, so nothing changes with n_rfe" in capsys.readouterr().err
     assert not list(tmp_path.glob("p*.npz"))
+
+
+@pytest.mark.requires_cc
+def test_levels_run_on_a_pool_of_processes_give_the_bytes_of_levels_run_one_after_the_other(env):
+    """The levels are independent runs of the same generated code: on two processes they give
+    the results, and so the extrapolation, that they give in this process, bit for bit."""
+    serial, pooled = (simulate_levels(SPINUP, (2, 3, 4), t_end=0.5, dt=1e-3, save_every=10, backend="c",
+                                      params={"Omega": 6.0}, workers=workers) for workers in (1, 2))
+    assert [level.nrfe for level in pooled] == [2, 3, 4]
+    for one, other in zip(serial, pooled):
+        for key in ("t", "q", "qd", "drive_forces", "constraint_forces"):
+            assert np.array_equal(one.results[key], other.results[key]), (one.nrfe, key)
+    a, b = extrapolate.extrapolate(serial), extrapolate.extrapolate(pooled)
+    assert a.keys() == b.keys()
+    for key in a:
+        assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f"), key

@@ -13,7 +13,6 @@ the joints.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,22 +20,11 @@ import numpy as np
 from ..errors import ExtrapolationError
 from ..fileio import atomic_write
 from . import richardson
+from .levels import Level
 
 FORMAT = "gpmegen-extrapolation-1"
 OUTPUTS = ("joints", "joint_velocities", "points", "point_velocities", "deflections", "drive_forces",
            "constraint_forces")
-
-
-@dataclass
-class Level:
-    """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
-    ``loaded`` model its run ended with, the run's ``results`` dict and its wall ``seconds``."""
-
-    nrfe: int
-    model: object
-    loaded: object
-    results: dict
-    seconds: float = float("nan")
 
 
 def joint_names(model) -> list[str]:
@@ -159,50 +147,6 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> 
     return data
 
 
-def level_path(out, nrfe) -> Path:
-    """Where the run of one level is written beside the extrapolation ``out`` (.npz)."""
-    out = Path(out)
-    return out.with_name(f"{out.stem}_nrfe{nrfe}{out.suffix}")
-
-
-def run_levels(cases, start, t_end, dt, save_every, method, backend, overrides, out, progress) -> list:
-    """Run each case (one model at one n_rfe, :mod:`gpmegen.analysis.cases`, with ``nrfe``) with
-    the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path`;
-    returns the :class:`Level` of each and the :class:`~gpmegen.analysis.runs.Run` of each."""
-    from . import runs
-
-    levels, done = [], []
-    for case in cases:
-        run = runs.run(case, start, t_end, dt, save_every, method, backend, overrides,
-                       level_path(out, case.nrfe), progress)
-        progress(f"n_rfe = {case.nrfe}: t = {run.results['t'][-1]:.6g} s in {run.wall:.1f} s; "
-                 f"wrote {', '.join(map(str, run.written))}")
-        levels.append(Level(case.nrfe, case.model, run.model, run.results, run.wall))
-        done.append(run)
-    return levels, done
-
-
-def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", backend="numpy", params=None,
-                    start="none") -> list[Level]:
-    """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
-    started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
-    overrides ``params``, integrated by :func:`gpmegen.analysis.study.simulate`. Pass the levels
-    to :func:`extrapolate`."""
-    import time
-
-    from . import study
-    from .cases import FileCase
-
-    levels = []
-    for n in sorted(set(nrfe)):
-        case = FileCase(model_file, n)
-        begun = case.started(backend, start, dict(params or {}), lambda message: None)
-        begin = time.perf_counter()
-        res = study.simulate(begun.model, begun.q, t_end, dt, save_every, method, start=start, qd0=begun.qd)
-        levels.append(Level(n, case.model, begun.model, res, time.perf_counter() - begin))
-    return levels
-
-
 def save(data: dict, path) -> Path:
     """Write an extrapolation (:func:`extrapolate`) to ``path`` (.npz) atomically, marked with
     :data:`FORMAT`; an existing file is replaced only by a complete one."""
@@ -244,6 +188,6 @@ def summary(data: dict) -> list[str]:
 
 
 __all__ = [
-    "OUTPUTS", "FORMAT", "Level", "extrapolate", "outputs", "save", "load", "summary", "run_levels", "simulate_levels",
-    "level_path", "check_requested", "check_flexible", "common_grid", "joint_names",
+    "OUTPUTS", "FORMAT", "extrapolate", "outputs", "save", "load", "summary", "check_requested", "check_flexible",
+    "common_grid", "joint_names",
 ]
