@@ -401,13 +401,20 @@ def cmd_modes(args) -> int:
     return 0
 
 
+CLAMPED_LEVELS = (2, 3, 5, 8, 10, 15, 20)  # convergence's n_rfe against beam theory
+OUTPUT_LEVELS = (3, 5, 9)  # convergence --output's n_rfe: n_sde 2, 4, 8
+
+
 def cmd_convergence(args) -> int:
     """Tip deflection and first frequencies of a clamped link against n_rfe, beside beam theory:
-    the reference arm, or each flexible link of a model file."""
+    the reference arm, or each flexible link of a model file; with --output, the discretization
+    error of any comparable output of a run (or of the start) of the model."""
     import tempfile
 
     from .analysis import convergence, modes_output
 
+    if args.output:
+        return cmd_convergence_of_outputs(args)
     out = Path(args.out)
     _writable_folder(out)
     studies = {"convergence": convergence.Clamped()}
@@ -422,11 +429,41 @@ def cmd_convergence(args) -> int:
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
         for stem, clamped in studies.items():
-            table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
+            table = convergence.convergence_table(args.nrfe or CLAMPED_LEVELS, directory=directory, static=args.static,
                                                   params=dict(args.param or []), clamped=clamped,
                                                   progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
             print(table.format())
             print(modes_output.plot_convergence(table, out / f"{stem}.png"))
+    return 0
+
+
+def cmd_convergence_of_outputs(args) -> int:
+    """``convergence --output``: the model at each --nrfe (a run, or its start at --t-end 0), and
+    per output the estimated discretization error of each level, of the limit, and the order."""
+    from .analysis import extrapolate
+    from .analysis.levels import run_levels
+    from .errors import ExtrapolationError
+
+    nrfe = sorted(set(args.nrfe or OUTPUT_LEVELS))
+    if len(nrfe) < 2 or nrfe[0] < 2:
+        raise UsageError("--output needs at least two distinct --nrfe of 2 or more (e.g. --nrfe 4 8 16)")
+    case = _case(args.model_file, nrfe[0])
+    try:
+        extrapolate.check_flexible(case.model)
+        extrapolate.select(args.output, extrapolate.joint_names(case.model), extrapolate.point_names(case.model))
+    except ExtrapolationError as exc:
+        raise UsageError(str(exc)) from None
+    at_start = args.t_end == 0
+    start = _start(case, args.statics or ("locked" if at_start and "locked" in case.starts else None))
+    levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method,
+                        args.backend or _default_backend(), dict(args.param or []), None, progress, args.workers)
+    selections = extrapolate.select(args.output, extrapolate.joint_names(levels[0].model),
+                                    list(levels[0].loaded.points))
+    data = extrapolate.extrapolate(levels, [o for o in extrapolate.OUTPUTS if o in {c.output for c in selections}])
+    where = f"at the start ({start})" if at_start else f"over {args.t_end:g} s from the start ({start})"
+    grid = "" if str(data["grid"]) == "common" else f"; the levels' samples {data['grid']}"
+    print(f"{case.name}, n_rfe {', '.join(map(str, nrfe))}, {where}{grid}; per output, its discretization error:")
+    print("\n".join(extrapolate.report(data, selections)))
     return 0
 
 
@@ -620,8 +657,26 @@ def build_parser() -> argparse.ArgumentParser:
     c = command("convergence", "clamped flexible links against n_rfe, beside Euler–Bernoulli and Saint-Venant")
     c.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
-    c.add_argument("--nrfe", type=positive_int, nargs="+", default=[2, 3, 5, 8, 10, 15, 20],
-                   help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
+    c.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+                   help="n_rfe values (default 2 3 5 8 10 15 20, up to 40 takes minutes; with --output 3 5 9)")
+    c.add_argument("--output", nargs="+", metavar="OUTPUT", default=None,
+                   help="instead of the clamped links against beam theory: the discretization error of these "
+                        "outputs of the model: points, joints, deflection, velocities, forces, or a joint or "
+                        "point by name")
+    c.add_argument("--t-end", type=end_time, default=0.0,
+                   help="with --output: over a run of this many s (default 0: at the start, the statics)")
+    c.add_argument("--dt", type=positive_float, default=1e-4, help="with --output: RK4 step in s (default 1e-4)")
+    c.add_argument("--save-every", type=positive_int, default=10, help="with --output: keep every k-th step "
+                                                                         "(default 10)")
+    c.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
+                   help="with --output: integrator, as for simulate")
+    c.add_argument("--backend", choices=("numpy", "c"), default=None,
+                   help="with --output: generated code to run (default: c when a compiler is present)")
+    c.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
+                   help="with --output: the start, as for simulate (default at --t-end 0: locked, where the model "
+                        "takes it)")
+    c.add_argument("--workers", type=positive_int, default=None,
+                   help="with --output: local processes running the levels at once (default: one per core)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
                    help="static deflection from the linear stiffness solve or full Newton–Raphson")
     c.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",

@@ -4,6 +4,7 @@ beam's motion against a finer run, and the refusal of what cannot be compared.""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -168,3 +169,56 @@ def test_levels_run_on_a_pool_of_processes_give_the_bytes_of_levels_run_one_afte
     assert a.keys() == b.keys()
     for key in a:
         assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f"), key
+
+
+CANTILEVER = """schema = 1
+name = "cantilever_nrfe{nrfe}"
+gravity = [0, "-g", 0]
+[parameters]
+g = 9.81
+L = 2.0
+EI = 5.0e5
+rhoA = 3.0
+[[chain]]
+joint = "theta1"
+type = "revolute"
+axis = "z"
+[[chain]]
+flexible = "1"
+length = "L"
+section = { type = "stiffness", EIz = "EI", EIy = "EI", GJ = "EI", rhoA = "rhoA" }
+freedoms = ["psi"]
+[[chain]]
+point = "tip"
+"""
+
+
+def test_convergence_of_a_named_point_at_the_statics_finds_beam_theory(env, tmp_path, capsys):
+    """``convergence MODEL --output tip``: a link held horizontal by its locked joint sags under
+    its weight by wL⁴/8EI·(1 - 1/(2 n_sde²)) (deflection / L = 6e-5: linear to 1e-8); the limit
+    printed is wL⁴/8EI, each level's error its n_sde⁻² part, the limit's error nil, the order 2."""
+    model = tmp_path / "cantilever.toml"
+    model.write_text(CANTILEVER)
+    assert main(["convergence", str(model), "--nrfe", "3", "5", "9", "--output", "tip", "theta1",
+                 "--backend", "numpy", "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    sag = 3.0 * 9.81 * 2.0**4 / (8 * 5.0e5)
+    line = next(text for text in out.splitlines() if text.startswith("tip "))
+    limit = [float(x) for x in re.search(r"limit \(([^)]*)\) ±", line).group(1).split(",")]
+    assert limit[0] == pytest.approx(2.0, abs=1e-7) and limit[1] == pytest.approx(-sag, rel=1e-6)
+    errors = [float(x) for x in re.findall(r"n_rfe \d+: ([0-9.e+-]+)", line)]
+    assert errors == pytest.approx([sag / (2 * n**2) / 2.0 for n in (2, 4, 8)], rel=2e-2)  # relative to |x| = L
+    assert float(re.search(r"limit: ([0-9.e+-]+);", line).group(1)) < 1e-6 * sag
+    assert float(re.search(r"observed order ([0-9.]+)", line).group(1)) == pytest.approx(2.0, abs=0.01)
+    assert "theta1 (limit 0 ± 0)" in out or "theta1: zero at every level" in out
+
+
+@pytest.mark.parametrize("output", ["psi1_1", "q", "tipp"])
+def test_convergence_refuses_outputs_not_comparable_across_discretizations_before_any_run(env, tmp_path, capsys,
+                                                                                         output):
+    model = tmp_path / "cantilever.toml"
+    model.write_text(CANTILEVER)
+    assert main(["convergence", str(model), "--output", "tip", output]) == 2
+    err = capsys.readouterr().err
+    assert f"output {output!r} is not comparable across discretizations" in err and "joint or point" in err
+    assert len(err.strip().splitlines()) == 1 and "n_rfe =" not in err  # one line, no level run

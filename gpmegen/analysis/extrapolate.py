@@ -13,6 +13,7 @@ the joints.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,26 @@ def joint_names(model) -> list[str]:
     return [element.name for element in model.chain if isinstance(element, Joint)]
 
 
+#: Words for groups of outputs (``gpmegen convergence --output``).
+GROUPS = {"points": ("points",), "joints": ("joints",), "deflection": ("deflections",),
+          "velocities": ("joint_velocities", "point_velocities"), "forces": ("drive_forces", "constraint_forces")}
+
+
+def _refusal(name, named=()) -> ExtrapolationError:
+    """The one-line refusal of an output ``name`` that is not comparable across discretizations."""
+    also = f", or a joint or point of the model ({', '.join(named)})" if named else ""
+    return ExtrapolationError(f"output {name!r} is not comparable across discretizations (the elastic coordinates, "
+                              f"and so q, change in number and meaning with n_rfe); ask for outputs that mean the "
+                              f"same at every n_rfe: {', '.join(OUTPUTS)}{also}")
+
+
+def point_names(model) -> list[str]:
+    """The named points of a symbolic model, in chain order."""
+    from ..model.chain import Point
+
+    return [element.name for element in model.chain if isinstance(element, Point)]
+
+
 def check_requested(requested) -> list[str]:
     """``requested`` output names (None: all of :data:`OUTPUTS`), refused with the reason when
     one is not comparable across discretizations (an elastic coordinate, ``q``...)."""
@@ -41,10 +62,39 @@ def check_requested(requested) -> list[str]:
         return list(OUTPUTS)
     refused = [name for name in requested if name not in OUTPUTS]
     if refused:
-        raise ExtrapolationError(f"output {refused[0]!r} is not comparable across discretizations (the elastic "
-                                 f"coordinates, and so q, change in number and meaning with n_rfe); extrapolate "
-                                 f"outputs that mean the same at every n_rfe: {', '.join(OUTPUTS)}")
+        raise _refusal(refused[0])
     return list(requested)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """One reported output: ``label``, the output of :data:`OUTPUTS` it is taken from and the
+    ``index`` of a joint or point in it (None: all of it)."""
+
+    label: str
+    output: str
+    index: int | None = None
+
+    def of(self, values):
+        """The selected part of ``values`` (k, N, ...) of :attr:`output`."""
+        return values if self.index is None else values[:, :, self.index]
+
+
+def select(requested, joints, points) -> list[Selection]:
+    """The outputs ``requested`` by name: one of :data:`OUTPUTS`, a group of :data:`GROUPS`, a
+    joint of ``joints`` (its coordinate) or a point of ``points`` (its position); anything else,
+    an elastic coordinate say, is refused in one line."""
+    chosen = []
+    for name in requested:
+        if name in GROUPS or name in OUTPUTS:
+            chosen += [Selection(output, output) for output in GROUPS.get(name, (name,))]
+        elif name in points:
+            chosen.append(Selection(name, "points", list(points).index(name)))
+        elif name in joints:
+            chosen.append(Selection(name, "joints", list(joints).index(name)))
+        else:
+            raise _refusal(name, [*joints, *points])
+    return list(dict.fromkeys(chosen))
 
 
 def _velocities(loaded, q, qd):
@@ -166,28 +216,42 @@ def load(path) -> dict:
     return data
 
 
-def summary(data: dict) -> list[str]:
-    """One line per output: the largest estimated error of each level and of the limit, relative
-    to the output's largest magnitude, and the observed order."""
+def report(data: dict, selections) -> list[str]:
+    """One line per :class:`Selection` of an extrapolation ``data``: the largest estimated error
+    of each level and of the limit, relative to the largest magnitude of the limit, and the
+    observed order (of the selection alone)."""
     lines = []
-    for name in OUTPUTS:
-        if f"{name}_limit" not in data:
-            continue
-        scale = float(np.max(np.abs(data[f"{name}_limit"]), initial=0.0))
+    for chosen in selections:
+        values = chosen.of(data[chosen.output])
+        estimate = richardson.richardson(data["n_sde"], values, float(data["assumed_order"]))
+        scale = float(np.max(np.abs(estimate.limit), initial=0.0))
         if scale == 0.0:
+            lines.append(f"{chosen.label}: zero at every level")
             continue
-        levels = ", ".join(f"n_rfe {n}: {np.max(np.abs(e)) / scale:.2e}" for n, e in zip(data["nrfe"],
-                                                                                          data[f"{name}_error"]))
-        limit_error = data[f"{name}_limit_error"]
-        limit = (f"limit: {np.max(np.abs(limit_error)) / scale:.2e}" if np.all(np.isfinite(limit_error))
-                 else "limit: unknown with two levels")
-        order = float(data[f"{name}_order"])
-        lines.append(f"{name}: max error / max |value|: {levels}; {limit}; observed order "
-                     + (f"{order:.2f}" if np.isfinite(order) else "-"))
+        levels = ", ".join(f"n_rfe {n}: {np.max(np.abs(e)) / scale:.2e}" for n, e in zip(data["nrfe"], estimate.errors))
+        limit = (f"limit: {np.max(np.abs(estimate.limit_error)) / scale:.2e}"
+                 if np.all(np.isfinite(estimate.limit_error)) else "limit: unknown with two levels")
+        order = estimate.order
+        value = f"max |limit| {scale:.6g}"
+        if estimate.limit.size <= 3:  # a point or a joint at one instant: the limit itself
+            value = f"limit {_numbers(estimate.limit)} ± {_numbers(np.abs(estimate.limit_error))}"
+        lines.append(f"{chosen.label} ({value}): max error / max |limit|: {levels}; {limit}; "
+                     f"observed order " + (f"{order:.2f}" if np.isfinite(order) else "-"))
     return lines
 
 
+def _numbers(values) -> str:
+    """One number, or several in parentheses."""
+    text = ", ".join(f"{v:.10g}" for v in np.ravel(values))
+    return text if np.size(values) == 1 else f"({text})"
+
+
+def summary(data: dict) -> list[str]:
+    """:func:`report` of every output that ``data`` holds."""
+    return report(data, [Selection(name, name) for name in OUTPUTS if name in data])
+
+
 __all__ = [
-    "OUTPUTS", "FORMAT", "extrapolate", "outputs", "save", "load", "summary", "check_requested", "check_flexible",
-    "common_grid", "joint_names",
+    "OUTPUTS", "GROUPS", "FORMAT", "Selection", "extrapolate", "outputs", "save", "load", "select", "report", "summary",
+    "check_requested", "check_flexible", "common_grid", "joint_names", "point_names",
 ]
