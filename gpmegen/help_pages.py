@@ -67,8 +67,8 @@ examples:
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
   gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
-  gpmegen simulate examples/spinup.toml --nrfe 5 10 20 --extrapolate --t-end 20 --dt 1e-4   (levels at once
-                                                   on the cores; --workers 1: one after the other)
+  gpmegen simulate examples/spinup.toml --nrfe 5 10 20 --extrapolate --t-end 20 --dt 1e-4
+  gpmegen simulate examples/spinup.toml --nrfe 5 10 --extrapolate --workers 1   (levels one after the other)
 
 files written:
   results/<run_nrfe<N> or the model file's name>_<start>_<method>[_actuated-<coordinates>].npz
