@@ -306,6 +306,7 @@ def cmd_extrapolate(args) -> int:
     if not args.extrapolate or len(nrfe) < 2 or nrfe[0] < 2:
         raise UsageError("several --nrfe need --extrapolate, and --extrapolate needs at least two distinct --nrfe "
                          "of 2 or more (e.g. --nrfe 5 10 20 --extrapolate)")
+    _check_terms(nrfe, args.terms)
     cases = [_case(args.model_file, n) for n in nrfe]
     try:
         extrapolate.check_flexible(cases[0].model)
@@ -317,10 +318,17 @@ def cmd_extrapolate(args) -> int:
     backend = args.backend or _default_backend()
     levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method, backend,
                         dict(args.param or []), out, progress, args.workers)
-    data = extrapolate.extrapolate(levels)  # a level that stopped early: ExtrapolationError, exit status 1
+    data = extrapolate.extrapolate(levels, terms=args.terms)  # a level that stopped early: ExtrapolationError
     print("\n".join(extrapolate.summary(data)))
     print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
     return 0
+
+
+def _check_terms(nrfe, terms) -> None:
+    """--terms 2 needs three levels: refused before any run."""
+    if len(nrfe) < terms + 1:
+        raise UsageError(f"--terms {terms} removes {terms} terms of the discretization error and needs {terms + 1} "
+                         f"distinct --nrfe or more (e.g. --nrfe 10 20 40)")
 
 
 def cmd_statics(args) -> int:
@@ -447,6 +455,7 @@ def cmd_convergence_of_outputs(args) -> int:
     nrfe = sorted(set(args.nrfe or OUTPUT_LEVELS))
     if len(nrfe) < 2 or nrfe[0] < 2:
         raise UsageError("--output needs at least two distinct --nrfe of 2 or more (e.g. --nrfe 4 8 16)")
+    _check_terms(nrfe, args.terms)
     case = _case(args.model_file, nrfe[0])
     try:
         extrapolate.check_flexible(case.model)
@@ -459,7 +468,8 @@ def cmd_convergence_of_outputs(args) -> int:
                         args.backend or _default_backend(), dict(args.param or []), None, progress, args.workers)
     selections = extrapolate.select(args.output, extrapolate.joint_names(levels[0].model),
                                     list(levels[0].loaded.points))
-    data = extrapolate.extrapolate(levels, [o for o in extrapolate.OUTPUTS if o in {c.output for c in selections}])
+    data = extrapolate.extrapolate(levels, [o for o in extrapolate.OUTPUTS if o in {c.output for c in selections}],
+                                   terms=args.terms)
     where = f"at the start ({start})" if at_start else f"over {args.t_end:g} s from the start ({start})"
     grid = "" if str(data["grid"]) == "common" else f"; the levels' samples {data['grid']}"
     print(f"{case.name}, n_rfe {', '.join(map(str, nrfe))}, {where}{grid}; per output, its discretization error:")
@@ -609,6 +619,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--extrapolate", action="store_true",
                    help="run every --nrfe (at least two) and extrapolate the outputs to the continuum limit, "
                         "with the discretization error of each run and of the limit")
+    s.add_argument("--terms", type=int, choices=(1, 2), default=1,
+                   help="terms of the discretization error removed: 1 (C/n_sde^2, default) or 2 (C/n_sde^2 + "
+                        "D/n_sde^4, from three levels or more; for motions whose phase error is large at the coarser "
+                        "levels)")
     s.add_argument("--workers", type=positive_int, default=None,
                    help="with --extrapolate: local processes running the levels at once (default: one per core, "
                         "at most one per level; 1 runs them in this process)")
@@ -675,6 +689,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
                    help="with --output: the start, as for simulate (default at --t-end 0: locked, where the model "
                         "takes it)")
+    c.add_argument("--terms", type=int, choices=(1, 2), default=1,
+                   help="with --output: terms of the discretization error removed, as for simulate --extrapolate")
     c.add_argument("--workers", type=positive_int, default=None,
                    help="with --output: local processes running the levels at once (default: one per core)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",

@@ -169,8 +169,9 @@ def on_grid(t_level, values, t):
         (len(t),) + values.shape[1:])
 
 
-def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> dict:
-    """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe) for each ``requested`` output
+def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER, terms=1) -> dict:
+    """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe, ≥ 3 with ``terms = 2``: see
+    :func:`gpmegen.analysis.richardson.richardson`) for each ``requested`` output
     (default: all of :data:`OUTPUTS`). Returns the arrays of the file :func:`save` writes:
     ``t`` (N,), ``nrfe``, ``n_sde`` (k,) and for each output X: ``X`` (k, N, ...) its values,
     ``X_error`` (k, N, ...) the estimated discretization error of each level, ``X_limit``
@@ -179,8 +180,9 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> 
     levels = sorted(levels, key=lambda level: level.nrfe)
     try:
         n_sde = richardson.check_levels([level.nrfe - 1 for level in levels])
+        richardson.check_terms(n_sde, terms)
     except richardson.LevelsError as exc:
-        raise ExtrapolationError(f"n_rfe = {[level.nrfe for level in levels]}: {exc}, e.g. --nrfe 5 10") from None
+        raise ExtrapolationError(f"n_rfe = {[level.nrfe for level in levels]}: {exc}, e.g. --nrfe 5 10 20") from None
     names = check_requested(requested)
     check_comparable(levels)
     t, grid = common_grid(levels)
@@ -190,10 +192,11 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> 
     for name in names:
         values = np.stack([on_grid(np.asarray(level.results["t"], dtype=float), out[name], t)
                            for level, out in zip(levels, per_level)])
-        estimate = richardson.richardson(n_sde, values, order)
+        estimate = richardson.richardson(n_sde, values, order, terms)
         data.update({name: values, f"{name}_error": estimate.errors, f"{name}_limit": estimate.limit,
                      f"{name}_limit_error": estimate.limit_error, f"{name}_order": np.array(estimate.order)})
     data["assumed_order"] = np.array(float(order))
+    data["terms"] = np.array(int(terms))
     return data
 
 
@@ -223,7 +226,8 @@ def report(data: dict, selections) -> list[str]:
     lines = []
     for chosen in selections:
         values = chosen.of(data[chosen.output])
-        estimate = richardson.richardson(data["n_sde"], values, float(data["assumed_order"]))
+        estimate = richardson.richardson(data["n_sde"], values, float(data["assumed_order"]),
+                                         int(data.get("terms", 1)))
         scale = float(np.max(np.abs(estimate.limit), initial=0.0))
         if scale == 0.0:
             lines.append(f"{chosen.label}: zero at every level")
