@@ -131,8 +131,9 @@ def spinup_levels(nrfe, t_end, dt, backend="c", omega=4.0):
 @pytest.mark.requires_cc
 def test_spinup_limit_from_coarse_runs_is_closer_to_a_fine_run_than_any_of_them(env):
     """The tip's deflection during the spin-up: extrapolated from n_rfe 3, 5, 7 it is far nearer
-    the limit from n_rfe 7 and 13 than the runs themselves, and the estimated error of the n_rfe 7
-    run is its distance from that limit."""
+    the limit from n_rfe 7 and 13 than the runs themselves, the estimated error of the n_rfe 7
+    run is its distance from that limit, and the limit's estimated error is within a factor 3
+    of its own distance."""
     levels = spinup_levels((3, 5, 7, 13), t_end=6.0, dt=1e-3)
     data = extrapolate.extrapolate(levels[:3], ["deflections", "point_velocities"])
     fine = extrapolate.extrapolate(levels[2:], ["deflections"])["deflections_limit"]
@@ -140,6 +141,9 @@ def test_spinup_limit_from_coarse_runs_is_closer_to_a_fine_run_than_any_of_them(
     assert np.max(np.abs(data["deflections_limit"] - fine)) < 0.05 * np.max(np.abs(run - fine))
     assert np.max(np.abs(data["deflections_error"][-1] - (run - fine))) < 0.05 * np.max(np.abs(run - fine))
     assert 1.7 < float(data["deflections_order"]) < 2.3
+    # the limit's own estimated error against its distance from the finer limit: 2.0 times it
+    ratio = np.max(np.abs(data["deflections_limit_error"])) / np.max(np.abs(data["deflections_limit"] - fine))
+    assert 1 / 3 < ratio < 3
     assert data["point_velocities_limit"].shape == (len(data["t"]), 1, 3)
 
 
