@@ -187,6 +187,10 @@ def test_simulate_extrapolate_writes_limits_errors_and_the_figure(env, tmp_path)
     assert out.with_suffix(".png").stat().st_size > 0
     assert (tmp_path / "spin_nrfe2.npz").exists() and (tmp_path / "spin_nrfe3.npz").exists()
     assert main(["simulate", str(SPINUP), "--nrfe", "3", "5", "--t-end", "0.05", "--out", str(out)]) == 2
+    # two terms of the error need three levels: refused before any run
+    assert main(["simulate", str(SPINUP), "--nrfe", "3", "5", "--extrapolate", "--terms", "2", "--t-end", "0.05",
+                 "--out", str(tmp_path / "two.npz")]) == 2
+    assert not list(tmp_path.glob("two*"))
 
 
 def test_a_model_without_flexible_link_is_refused_before_any_run(tmp_path, capsys):
