@@ -14,8 +14,11 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 - the conventional linear modal model (clamped-free modes in the hub frame, no geometric
   stiffening), which loses stability once the hub turns faster than the first bending frequency.
 
-Prints, per Ωs, the error of each gpmegen level and of the limit relative to the reference's peak,
-the estimated error beside the true one, wall times; writes figures/spinup.png.
+Prints the load average, then per Ωs: the reference's own convergence (how much it changes with half
+its elements and with half its step), the error of each gpmegen level and of the limit relative to
+the reference's peak, the estimated error beside the true one, the wall times of both engines (the
+levels run at once on the cores; compiled before the clock starts) and of the cheapest Exudyn run
+as accurate as gpmegen's limit; writes figures/spinup.png.
 
     .venv/bin/python -m pip install exudyn      # the reference engine: a benchmark dependency only
     .venv/bin/python benchmarks/spinup.py                        # Ωs = 4, 6, 10
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -56,15 +60,28 @@ def in_hub_frame(t, points, omega):
 
 
 def gpmegen_runs(model_file, omega, nrfe, dt):
-    """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds)."""
+    """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds of
+    each level's integration, wall seconds of all, the levels run at once on the cores)."""
     from gpmegen.analysis import extrapolate
+    from gpmegen.analysis.levels import simulate_levels
 
-    levels = extrapolate.simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
-                                         backend="c", params={"Omega": omega})
+    simulate_levels(model_file, nrfe, 0.0, dt, backend="c")  # built and compiled before the clock starts
+    start = time.perf_counter()
+    levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
+                             backend="c", params={"Omega": omega})
+    wall = time.perf_counter() - start
     seconds = [level.seconds for level in levels]
-    data = extrapolate.extrapolate(levels, ["points"])
+    tip = in_hub(extrapolate.extrapolate(levels, ["points"]), omega)
+    if len(levels) >= 3:
+        tip["even"] = in_hub(extrapolate.extrapolate(levels, ["points"], terms=2), omega)
+    return tip["t"], tip, seconds, wall
+
+
+def in_hub(data, omega):
+    """The tip's deflection in the hub frame from an extrapolation of the points: ``levels``,
+    ``errors``, ``limit``, ``limit_error``, ``order``, ``t``."""
     t = data["t"]
-    tip = {"levels": np.array([in_hub_frame(t, p[:, 0], omega) for p in data["points"]])}
+    tip = {"t": t, "levels": np.array([in_hub_frame(t, p[:, 0], omega) for p in data["points"]])}
     # θ is prescribed, so the rotation into the hub frame is exact and linear in the point: the
     # limit and the errors rotate like the values
     theta = hub_angle(t, omega)[0]
@@ -73,12 +90,12 @@ def gpmegen_runs(model_file, omega, nrfe, dt):
     tip["limit"] = np.einsum("nk,nk->n", rotate, data["points_limit"][:, 0, :2])
     tip["limit_error"] = np.einsum("nk,nk->n", rotate, data["points_limit_error"][:, 0, :2])
     tip["order"] = float(data["points_order"])
-    return t, tip, seconds
+    return tip
 
 
 def exudyn_run(omega, elements, step, t):
     """The tip's deflection in the hub frame by Exudyn's ANCF cable elements, at the instants
-    ``t``; returns (values, wall seconds)."""
+    ``t``; returns (values, wall seconds); values None when its solver gave up."""
     import exudyn
     from exudyn import utilities as xu
     from exudyn.beams import GenerateStraightLineANCFCable2D
@@ -116,7 +133,10 @@ def exudyn_run(omega, elements, step, t):
     settings.solutionSettings.sensorsWritePeriod = step  # every step: interpolated onto t below
     settings.linearSolverType = exudyn.LinearSolverType.EigenSparse
     start = time.perf_counter()
-    mbs.SolveDynamic(settings)
+    try:
+        mbs.SolveDynamic(settings)
+    except exudyn.SolverError:  # its Newton iteration stalls on finer meshes and steps
+        return None, time.perf_counter() - start
     wall = time.perf_counter() - start
     stored = mbs.GetSensorStoredData(sensor)
     y = in_hub_frame(stored[:, 0], stored[:, 1:4], omega)
@@ -187,37 +207,69 @@ def figure(cases, path):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--omega", type=float, nargs="+", default=[4.0, 6.0, 10.0], help="final hub speeds (rad/s)")
-    parser.add_argument("--nrfe", type=int, nargs="+", default=[5, 10, 20], help="gpmegen's levels")
+    parser.add_argument("--nrfe", type=int, nargs="+", default=[5, 10, 20, 30], help="gpmegen's levels")
     parser.add_argument("--model", choices=tuple(MODELS), default="axial",
                         help="gpmegen's beam: stretching and bending like the reference (default), or bending only")
     parser.add_argument("--dt", type=float, default=1e-4, help="gpmegen's RK4 step (s); 5e-4 will do for bending")
     parser.add_argument("--elements", type=int, default=32, help="ANCF elements of the reference")
     parser.add_argument("--step", type=float, default=5e-4, help="the reference's step (s)")
-    parser.add_argument("--coarse", type=int, nargs="*", default=[4, 8], help="coarser Exudyn runs, for their cost")
+    parser.add_argument("--coarse", type=int, nargs="*", default=[2, 4, 8, 16],
+                        help="coarser Exudyn runs (elements, ascending), for their cost")
     parser.add_argument("--figure", type=Path, default=ROOT / "figures" / "spinup.png")
     args = parser.parse_args(argv)
 
+    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
     cases = {}
     for omega in args.omega:
-        t, tip, seconds = gpmegen_runs(MODELS[args.model], omega, args.nrfe, args.dt)
-        reference, wall = exudyn_run(omega, args.elements, args.step, t)
+        t, tip, seconds, wall_levels = gpmegen_runs(MODELS[args.model], omega, args.nrfe, args.dt)
+        runs = {}
+
+        def exudyn(elements, step):  # each Exudyn run once per Ωs: (values, seconds)
+            if (elements, step) not in runs:
+                runs[elements, step] = exudyn_run(omega, elements, step, t)
+            return runs[elements, step]
+
+        reference, wall = exudyn(args.elements, args.step)
         scale = np.max(np.abs(reference))
         print(f"\nΩs = {omega:g} rad/s: reference peak {scale:.6f} m (Exudyn, {args.elements} ANCF elements, "
               f"step {args.step:g} s, {wall:.1f} s)")
+        for label, (elements, step) in (("half the elements", (args.elements // 2, args.step)),
+                                        ("half the step", (args.elements, args.step / 2))):
+            other, seconds_other = exudyn(elements, step)
+            change = "its solver gave up" if other is None else f"{np.max(np.abs(other - reference)) / scale:.2e}"
+            print(f"  reference with {label} ({elements} elements, step {step:g} s): changes by {change} "
+                  f"({seconds_other:.1f} s)")
         for n, values, estimated, s in zip(args.nrfe, tip["levels"], tip["errors"], seconds):
             print(f"  n_rfe {n:3d}: error {np.max(np.abs(values - reference)) / scale:.2e}, estimated "
                   f"{np.max(np.abs(estimated)) / scale:.2e}  ({s:.2f} s)")
         true = np.max(np.abs(tip["limit"] - reference)) / scale
         estimate = np.max(np.abs(tip["limit_error"])) / scale
         print(f"  limit:      error {true:.2e}, estimated {estimate:.2e} (ratio {estimate / true:.2f}); observed "
-              f"order {tip['order']:.2f}; gpmegen total {sum(seconds):.2f} s")
+              f"order {tip['order']:.2f}; gpmegen: {sum(seconds):.2f} s of runs, {wall_levels:.2f} s wall on "
+              f"{min(len(args.nrfe), os.cpu_count() or 1)} processes")
+        if "even" in tip:
+            even = np.max(np.abs(tip["even"]["limit"] - reference)) / scale
+            bound = np.max(np.abs(tip["even"]["limit_error"])) / scale
+            print(f"  limit, terms n^-2 and n^-4: error {even:.2e}, estimated {bound:.2e} (ratio {bound / even:.2f}; "
+                  f"{'from the fourth level' if len(args.nrfe) > 3 else 'a bound with three levels'})")
+            true = min(true, even)
+        matched = None
         for elements in args.coarse:
-            coarse, seconds_coarse = exudyn_run(omega, elements, args.step, t)
-            print(f"  Exudyn {elements:3d} elements: error {np.max(np.abs(coarse - reference)) / scale:.2e} "
-                  f"({seconds_coarse:.1f} s)")
+            coarse, seconds_coarse = exudyn(elements, args.step)
+            if coarse is None:
+                print(f"  Exudyn {elements:3d} elements: its solver gave up ({seconds_coarse:.1f} s)")
+                continue
+            error = np.max(np.abs(coarse - reference)) / scale
+            print(f"  Exudyn {elements:3d} elements: error {error:.2e} ({seconds_coarse:.1f} s)")
+            if error <= true and matched is None:
+                matched = (elements, seconds_coarse)
+        if matched:
+            print(f"  same error: Exudyn {matched[0]} elements {matched[1]:.1f} s, gpmegen's limit {wall_levels:.1f} s "
+                  f"wall ({sum(seconds):.1f} s of runs)")
         linear = modal_run(omega, t)
         print(f"  linear modal model: peak |tip| {np.nanmax(np.abs(linear)):.3g} m")
         cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": args.nrfe}
+    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print(f"\nfigure: {figure(cases, args.figure)}")
     return 0
 

@@ -349,12 +349,14 @@ def cmd_invert(args) -> int:
 def cmd_extrapolate(args) -> int:
     """``simulate --extrapolate``: the run at each --nrfe, then the outputs' limit and errors."""
     from .analysis import extrapolate, extrapolate_plots
+    from .analysis.levels import run_levels
     from .errors import ExtrapolationError
 
     nrfe = sorted(set(args.nrfe or ()))
     if not args.extrapolate or len(nrfe) < 2 or nrfe[0] < 2:
         raise UsageError("several --nrfe need --extrapolate, and --extrapolate needs at least two distinct --nrfe "
                          "of 2 or more (e.g. --nrfe 5 10 20 --extrapolate)")
+    _check_terms(nrfe, args.terms)
     cases = [_case(args.model_file, n) for n in nrfe]
     try:
         extrapolate.check_flexible(cases[0].model)
@@ -364,12 +366,19 @@ def cmd_extrapolate(args) -> int:
     out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
     _check_results_path(out)
     backend = args.backend or _default_backend()
-    levels, _ = extrapolate.run_levels(cases, start, args.t_end, args.dt, args.save_every, args.method, backend,
-                                       dict(args.param or []), out, progress)
-    data = extrapolate.extrapolate(levels)  # a level that stopped early: ExtrapolationError, exit status 1
+    levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method, backend,
+                        dict(args.param or []), out, progress, args.workers)
+    data = extrapolate.extrapolate(levels, terms=args.terms)  # a level that stopped early: ExtrapolationError
     print("\n".join(extrapolate.summary(data)))
     print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
     return 0
+
+
+def _check_terms(nrfe, terms) -> None:
+    """--terms 2 needs three levels: refused before any run."""
+    if len(nrfe) < terms + 1:
+        raise UsageError(f"--terms {terms} removes {terms} terms of the discretization error and needs {terms + 1} "
+                         f"distinct --nrfe or more (e.g. --nrfe 10 20 40)")
 
 
 def cmd_statics(args) -> int:
@@ -450,13 +459,20 @@ def cmd_modes(args) -> int:
     return 0
 
 
+CLAMPED_LEVELS = (2, 3, 5, 8, 10, 15, 20)  # convergence's n_rfe against beam theory
+OUTPUT_LEVELS = (3, 5, 9)  # convergence --output's n_rfe: n_sde 2, 4, 8
+
+
 def cmd_convergence(args) -> int:
     """Tip deflection and first frequencies of a clamped link against n_rfe, beside beam theory:
-    the reference arm, or each flexible link of a model file."""
+    the reference arm, or each flexible link of a model file; with --output, the discretization
+    error of any comparable output of a run (or of the start) of the model."""
     import tempfile
 
     from .analysis import convergence, modes_output
 
+    if args.output:
+        return cmd_convergence_of_outputs(args)
     out = Path(args.out)
     _writable_folder(out)
     studies = {"convergence": convergence.Clamped()}
@@ -471,7 +487,7 @@ def cmd_convergence(args) -> int:
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
         for stem, clamped in studies.items():
-            table = convergence.convergence_table(args.nrfe, directory=directory, static=args.static,
+            table = convergence.convergence_table(args.nrfe or CLAMPED_LEVELS, directory=directory, static=args.static,
                                                   params=dict(args.param or []), clamped=clamped,
                                                   progress=lambda n, s: progress(f"n_rfe = {n} built in {s:.1f} s"))
             print(table.format())
@@ -497,6 +513,38 @@ def cmd_animate(args) -> int:
                               dpi=args.dpi or 100, progress=progress))
     except animation.RequestError as exc:
         raise UsageError(str(exc)) from None
+    return 0
+
+
+def cmd_convergence_of_outputs(args) -> int:
+    """``convergence --output``: the model at each --nrfe (a run, or its start at --t-end 0), and
+    per output the estimated discretization error of each level, of the limit, and the order."""
+    from .analysis import extrapolate
+    from .analysis.levels import run_levels
+    from .errors import ExtrapolationError
+
+    nrfe = sorted(set(args.nrfe or OUTPUT_LEVELS))
+    if len(nrfe) < 2 or nrfe[0] < 2:
+        raise UsageError("--output needs at least two distinct --nrfe of 2 or more (e.g. --nrfe 4 8 16)")
+    _check_terms(nrfe, args.terms)
+    case = _case(args.model_file, nrfe[0])
+    try:
+        extrapolate.check_flexible(case.model)
+        extrapolate.select(args.output, extrapolate.joint_names(case.model), extrapolate.point_names(case.model))
+    except ExtrapolationError as exc:
+        raise UsageError(str(exc)) from None
+    at_start = args.t_end == 0
+    start = _start(case, args.statics or ("locked" if at_start and "locked" in case.starts else None))
+    levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method,
+                        args.backend or _default_backend(), dict(args.param or []), None, progress, args.workers)
+    selections = extrapolate.select(args.output, extrapolate.joint_names(levels[0].model),
+                                    list(levels[0].loaded.points))
+    data = extrapolate.extrapolate(levels, [o for o in extrapolate.OUTPUTS if o in {c.output for c in selections}],
+                                   terms=args.terms)
+    where = f"at the start ({start})" if at_start else f"over {args.t_end:g} s from the start ({start})"
+    grid = "" if str(data["grid"]) == "common" else f"; the levels' samples {data['grid']}"
+    print(f"{case.name}, n_rfe {', '.join(map(str, nrfe))}, {where}{grid}; per output, its discretization error:")
+    print("\n".join(extrapolate.report(data, selections)))
     return 0
 
 
@@ -655,6 +703,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--extrapolate", action="store_true",
                    help="run every --nrfe (at least two) and extrapolate the outputs to the continuum limit, "
                         "with the discretization error of each run and of the limit")
+    s.add_argument("--terms", type=int, choices=(1, 2), default=1,
+                   help="terms of the discretization error removed: 1 (C/n_sde^2, default) or 2 (C/n_sde^2 + "
+                        "D/n_sde^4, from three levels or more; for motions whose phase error is large at the coarser "
+                        "levels)")
+    s.add_argument("--workers", type=positive_int, default=None,
+                   help="with --extrapolate: local processes running the levels at once (default: one per core, "
+                        "at most one per level; 1 runs them in this process)")
     s.set_defaults(func=cmd_simulate)
 
     inv = command("invert", "stable inversion: bounded inputs of the actuated realization, with pre- and "
@@ -700,8 +755,28 @@ def build_parser() -> argparse.ArgumentParser:
     c = command("convergence", "clamped flexible links against n_rfe, beside Euler–Bernoulli and Saint-Venant")
     c.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
-    c.add_argument("--nrfe", type=positive_int, nargs="+", default=[2, 3, 5, 8, 10, 15, 20],
-                   help="n_rfe values (default 2 3 5 8 10 15 20; up to 40 takes minutes)")
+    c.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+                   help="n_rfe values (default 2 3 5 8 10 15 20, up to 40 takes minutes; with --output 3 5 9)")
+    c.add_argument("--output", nargs="+", metavar="OUTPUT", default=None,
+                   help="instead of the clamped links against beam theory: the discretization error of these "
+                        "outputs of the model: points, joints, deflection, velocities, forces, or a joint or "
+                        "point by name")
+    c.add_argument("--t-end", type=end_time, default=0.0,
+                   help="with --output: over a run of this many s (default 0: at the start, the statics)")
+    c.add_argument("--dt", type=positive_float, default=1e-4, help="with --output: RK4 step in s (default 1e-4)")
+    c.add_argument("--save-every", type=positive_int, default=10, help="with --output: keep every k-th step "
+                                                                         "(default 10)")
+    c.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
+                   help="with --output: integrator, as for simulate")
+    c.add_argument("--backend", choices=("numpy", "c"), default=None,
+                   help="with --output: generated code to run (default: c when a compiler is present)")
+    c.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
+                   help="with --output: the start, as for simulate (default at --t-end 0: locked, where the model "
+                        "takes it)")
+    c.add_argument("--terms", type=int, choices=(1, 2), default=1,
+                   help="with --output: terms of the discretization error removed, as for simulate --extrapolate")
+    c.add_argument("--workers", type=positive_int, default=None,
+                   help="with --output: local processes running the levels at once (default: one per core)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
                    help="static deflection from the linear stiffness solve or full Newton–Raphson")
     c.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",

@@ -25,9 +25,15 @@ Natural frequencies and mode shapes about the static equilibrium of the referenc
 a model file or a folder made by 'build --out', with the joints locked or with the programmed
 constraints holding.""",
     "convergence": """\
-Clamp the arm (or each flexible link of a model file, alone) at its root and compare its static
-tip deflection and first frequencies against the number of rfes with Euler-Bernoulli and
-Saint-Venant beam theory.""",
+Without --output: clamp the arm (or each flexible link of a model file, alone) at its root and
+compare its static tip deflection and first frequencies against the number of rfes with
+Euler-Bernoulli and Saint-Venant beam theory. With --output: the model itself at each --nrfe, at
+its start (the statics, --t-end 0, the default) or over a run (--t-end, --dt as for simulate), and
+for each output asked for its estimated discretization error at each n_rfe, its limit as n_rfe
+grows (Richardson extrapolation in n_sde = n_rfe - 1, error ~ n_sde^-2) with the limit's own error
+(three levels or more) and the observed order. Outputs: points, joints, deflection, velocities,
+forces, or a joint or point by name; the elastic coordinates (and q) change in number and meaning
+with n_rfe and are refused.""",
     "invert": """\
 Stable inversion of the actuated realization: the bounded inputs that realize a programmed
 motion resting before t0 and after t1 when the internal dynamics are unstable (non-minimum
@@ -78,6 +84,7 @@ examples:
   gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
   gpmegen simulate examples/spinup.toml --nrfe 5 10 20 --extrapolate --t-end 20 --dt 1e-4
+  gpmegen simulate examples/spinup.toml --nrfe 5 10 --extrapolate --workers 1   (levels one after the other)
 
 files written:
   results/<run_nrfe<N> or the model file's name>_<start>_<method>[_actuated-<coordinates>].npz
@@ -116,11 +123,12 @@ examples:
   gpmegen convergence
   gpmegen convergence --nrfe 2 3 5 10 --static nonlinear --directory built/
   gpmegen convergence examples/planar_two_link.toml --param E_al=6.9e10
+  gpmegen convergence examples/spinup.toml --nrfe 4 8 16 --output tip forces --t-end 5 --dt 5e-4
 
 files written:
   <out>/convergence.png, or convergence_<model>_link<label>.png per flexible link of a model
   file (default out: figures/); with --directory, the clamped-arm models built
-  there""",
+  there; with --output none (the levels run in memory, at once on the cores; the lines are printed)""",
     "invert": """\
 examples:
   gpmegen invert tests/models/flexible_link.toml --nrfe 3 --t1 0.2

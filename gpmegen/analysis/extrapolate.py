@@ -21,22 +21,11 @@ import numpy as np
 from ..errors import ExtrapolationError
 from ..fileio import atomic_write
 from . import richardson
+from .levels import Level
 
 FORMAT = "gpmegen-extrapolation-1"
 OUTPUTS = ("joints", "joint_velocities", "points", "point_velocities", "deflections", "drive_forces",
            "constraint_forces")
-
-
-@dataclass
-class Level:
-    """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
-    ``loaded`` model its run ended with, the run's ``results`` dict and its wall ``seconds``."""
-
-    nrfe: int
-    model: object
-    loaded: object
-    results: dict
-    seconds: float = float("nan")
 
 
 def joint_names(model) -> list[str]:
@@ -46,6 +35,26 @@ def joint_names(model) -> list[str]:
     return [element.name for element in model.chain if isinstance(element, Joint)]
 
 
+#: Words for groups of outputs (``gpmegen convergence --output``).
+GROUPS = {"points": ("points",), "joints": ("joints",), "deflection": ("deflections",),
+          "velocities": ("joint_velocities", "point_velocities"), "forces": ("drive_forces", "constraint_forces")}
+
+
+def _refusal(name, named=()) -> ExtrapolationError:
+    """The one-line refusal of an output ``name`` that is not comparable across discretizations."""
+    also = f", or a joint or point of the model ({', '.join(named)})" if named else ""
+    return ExtrapolationError(f"output {name!r} is not comparable across discretizations (the elastic coordinates, "
+                              f"and so q, change in number and meaning with n_rfe); ask for outputs that mean the "
+                              f"same at every n_rfe: {', '.join(OUTPUTS)}{also}")
+
+
+def point_names(model) -> list[str]:
+    """The named points of a symbolic model, in chain order."""
+    from ..model.chain import Point
+
+    return [element.name for element in model.chain if isinstance(element, Point)]
+
+
 def check_requested(requested) -> list[str]:
     """``requested`` output names (None: all of :data:`OUTPUTS`), refused with the reason when
     one is not comparable across discretizations (an elastic coordinate, ``q``...)."""
@@ -53,10 +62,39 @@ def check_requested(requested) -> list[str]:
         return list(OUTPUTS)
     refused = [name for name in requested if name not in OUTPUTS]
     if refused:
-        raise ExtrapolationError(f"output {refused[0]!r} is not comparable across discretizations (the elastic "
-                                 f"coordinates, and so q, change in number and meaning with n_rfe); extrapolate "
-                                 f"outputs that mean the same at every n_rfe: {', '.join(OUTPUTS)}")
+        raise _refusal(refused[0])
     return list(requested)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """One reported output: ``label``, the output of :data:`OUTPUTS` it is taken from and the
+    ``index`` of a joint or point in it (None: all of it)."""
+
+    label: str
+    output: str
+    index: int | None = None
+
+    def of(self, values):
+        """The selected part of ``values`` (k, N, ...) of :attr:`output`."""
+        return values if self.index is None else values[:, :, self.index]
+
+
+def select(requested, joints, points) -> list[Selection]:
+    """The outputs ``requested`` by name: one of :data:`OUTPUTS`, a group of :data:`GROUPS`, a
+    joint of ``joints`` (its coordinate) or a point of ``points`` (its position); anything else,
+    an elastic coordinate say, is refused in one line."""
+    chosen = []
+    for name in requested:
+        if name in GROUPS or name in OUTPUTS:
+            chosen += [Selection(output, output) for output in GROUPS.get(name, (name,))]
+        elif name in points:
+            chosen.append(Selection(name, "points", list(points).index(name)))
+        elif name in joints:
+            chosen.append(Selection(name, "joints", list(joints).index(name)))
+        else:
+            raise _refusal(name, [*joints, *points])
+    return list(dict.fromkeys(chosen))
 
 
 def _velocities(loaded, q, qd):
@@ -131,8 +169,9 @@ def on_grid(t_level, values, t):
         (len(t),) + values.shape[1:])
 
 
-def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> dict:
-    """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe) for each ``requested`` output
+def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER, terms=1) -> dict:
+    """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe, ≥ 3 with ``terms = 2``: see
+    :func:`gpmegen.analysis.richardson.richardson`) for each ``requested`` output
     (default: all of :data:`OUTPUTS`). Returns the arrays of the file :func:`save` writes:
     ``t`` (N,), ``nrfe``, ``n_sde`` (k,) and for each output X: ``X`` (k, N, ...) its values,
     ``X_error`` (k, N, ...) the estimated discretization error of each level, ``X_limit``
@@ -141,8 +180,9 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> 
     levels = sorted(levels, key=lambda level: level.nrfe)
     try:
         n_sde = richardson.check_levels([level.nrfe - 1 for level in levels])
+        richardson.check_terms(n_sde, terms)
     except richardson.LevelsError as exc:
-        raise ExtrapolationError(f"n_rfe = {[level.nrfe for level in levels]}: {exc}, e.g. --nrfe 5 10") from None
+        raise ExtrapolationError(f"n_rfe = {[level.nrfe for level in levels]}: {exc}, e.g. --nrfe 5 10 20") from None
     names = check_requested(requested)
     check_comparable(levels)
     t, grid = common_grid(levels)
@@ -152,55 +192,12 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER) -> 
     for name in names:
         values = np.stack([on_grid(np.asarray(level.results["t"], dtype=float), out[name], t)
                            for level, out in zip(levels, per_level)])
-        estimate = richardson.richardson(n_sde, values, order)
+        estimate = richardson.richardson(n_sde, values, order, terms)
         data.update({name: values, f"{name}_error": estimate.errors, f"{name}_limit": estimate.limit,
                      f"{name}_limit_error": estimate.limit_error, f"{name}_order": np.array(estimate.order)})
     data["assumed_order"] = np.array(float(order))
+    data["terms"] = np.array(int(terms))
     return data
-
-
-def level_path(out, nrfe) -> Path:
-    """Where the run of one level is written beside the extrapolation ``out`` (.npz)."""
-    out = Path(out)
-    return out.with_name(f"{out.stem}_nrfe{nrfe}{out.suffix}")
-
-
-def run_levels(cases, start, t_end, dt, save_every, method, backend, overrides, out, progress) -> list:
-    """Run each case (one model at one n_rfe, :mod:`gpmegen.analysis.cases`, with ``nrfe``) with
-    the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path`;
-    returns the :class:`Level` of each and the :class:`~gpmegen.analysis.runs.Run` of each."""
-    from . import runs
-
-    levels, done = [], []
-    for case in cases:
-        run = runs.run(case, start, t_end, dt, save_every, method, backend, overrides,
-                       level_path(out, case.nrfe), progress)
-        progress(f"n_rfe = {case.nrfe}: t = {run.results['t'][-1]:.6g} s in {run.wall:.1f} s; "
-                 f"wrote {', '.join(map(str, run.written))}")
-        levels.append(Level(case.nrfe, case.model, run.model, run.results, run.wall))
-        done.append(run)
-    return levels, done
-
-
-def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", backend="numpy", params=None,
-                    start="none") -> list[Level]:
-    """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
-    started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
-    overrides ``params``, integrated by :func:`gpmegen.analysis.study.simulate`. Pass the levels
-    to :func:`extrapolate`."""
-    import time
-
-    from . import study
-    from .cases import FileCase
-
-    levels = []
-    for n in sorted(set(nrfe)):
-        case = FileCase(model_file, n)
-        begun = case.started(backend, start, dict(params or {}), lambda message: None)
-        begin = time.perf_counter()
-        res = study.simulate(begun.model, begun.q, t_end, dt, save_every, method, start=start, qd0=begun.qd)
-        levels.append(Level(n, case.model, begun.model, res, time.perf_counter() - begin))
-    return levels
 
 
 def save(data: dict, path) -> Path:
@@ -222,28 +219,43 @@ def load(path) -> dict:
     return data
 
 
-def summary(data: dict) -> list[str]:
-    """One line per output: the largest estimated error of each level and of the limit, relative
-    to the output's largest magnitude, and the observed order."""
+def report(data: dict, selections) -> list[str]:
+    """One line per :class:`Selection` of an extrapolation ``data``: the largest estimated error
+    of each level and of the limit, relative to the largest magnitude of the limit, and the
+    observed order (of the selection alone)."""
     lines = []
-    for name in OUTPUTS:
-        if f"{name}_limit" not in data:
-            continue
-        scale = float(np.max(np.abs(data[f"{name}_limit"]), initial=0.0))
+    for chosen in selections:
+        values = chosen.of(data[chosen.output])
+        estimate = richardson.richardson(data["n_sde"], values, float(data["assumed_order"]),
+                                         int(data.get("terms", 1)))
+        scale = float(np.max(np.abs(estimate.limit), initial=0.0))
         if scale == 0.0:
+            lines.append(f"{chosen.label}: zero at every level")
             continue
-        levels = ", ".join(f"n_rfe {n}: {np.max(np.abs(e)) / scale:.2e}" for n, e in zip(data["nrfe"],
-                                                                                          data[f"{name}_error"]))
-        limit_error = data[f"{name}_limit_error"]
-        limit = (f"limit: {np.max(np.abs(limit_error)) / scale:.2e}" if np.all(np.isfinite(limit_error))
-                 else "limit: unknown with two levels")
-        order = float(data[f"{name}_order"])
-        lines.append(f"{name}: max error / max |value|: {levels}; {limit}; observed order "
-                     + (f"{order:.2f}" if np.isfinite(order) else "-"))
+        levels = ", ".join(f"n_rfe {n}: {np.max(np.abs(e)) / scale:.2e}" for n, e in zip(data["nrfe"], estimate.errors))
+        limit = (f"limit: {np.max(np.abs(estimate.limit_error)) / scale:.2e}"
+                 if np.all(np.isfinite(estimate.limit_error)) else "limit: unknown with two levels")
+        order = estimate.order
+        value = f"max |limit| {scale:.6g}"
+        if estimate.limit.size <= 3:  # a point or a joint at one instant: the limit itself
+            value = f"limit {_numbers(estimate.limit)} ± {_numbers(np.abs(estimate.limit_error))}"
+        lines.append(f"{chosen.label} ({value}): max error / max |limit|: {levels}; {limit}; "
+                     f"observed order " + (f"{order:.2f}" if np.isfinite(order) else "-"))
     return lines
 
 
+def _numbers(values) -> str:
+    """One number, or several in parentheses."""
+    text = ", ".join(f"{v:.10g}" for v in np.ravel(values))
+    return text if np.size(values) == 1 else f"({text})"
+
+
+def summary(data: dict) -> list[str]:
+    """:func:`report` of every output that ``data`` holds."""
+    return report(data, [Selection(name, name) for name in OUTPUTS if name in data])
+
+
 __all__ = [
-    "OUTPUTS", "FORMAT", "Level", "extrapolate", "outputs", "save", "load", "summary", "run_levels", "simulate_levels",
-    "level_path", "check_requested", "check_flexible", "common_grid", "joint_names",
+    "OUTPUTS", "GROUPS", "FORMAT", "Selection", "extrapolate", "outputs", "save", "load", "select", "report", "summary",
+    "check_requested", "check_flexible", "common_grid", "joint_names", "point_names",
 ]

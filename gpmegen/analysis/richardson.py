@@ -49,6 +49,13 @@ def check_levels(n_sde) -> np.ndarray:
     return n
 
 
+def check_terms(n_sde, terms) -> None:
+    """LevelsError unless ``terms`` (1 or 2) terms of the error can be removed from the levels."""
+    if terms not in (1, 2) or len(n_sde) < terms + 1:
+        raise LevelsError(f"{terms} terms of the error need {terms + 1} levels or more (terms 1 or 2), "
+                          f"levels n_sde = {list(map(int, n_sde))}")
+
+
 def pair_limit(n_a, n_b, v_a, v_b, order=ORDER):
     """The limit from two levels ``n_a < n_b`` whose error is ``C/n^order``."""
     return v_b + (v_b - v_a) / ((n_b / n_a) ** order - 1.0)
@@ -82,36 +89,56 @@ def observed_order(n_sde, values) -> float:
     return 0.5 * (lo + hi)
 
 
-def richardson(n_sde, values, order=ORDER) -> Estimate:
+def fit_limit(n, values, powers):
+    """The limit ``c₀`` of ``values`` (len(powers) + 1, ...) at the levels ``n`` that
+    ``c₀ + Σ cⱼ/n^powers[j]`` passes through exactly (with one power: :func:`pair_limit`)."""
+    n = np.asarray(n, dtype=float)
+    basis = np.stack([np.ones_like(n)] + [n ** -float(p) for p in powers], axis=1)
+    v = np.asarray(values, dtype=float)
+    return np.linalg.solve(basis, v.reshape(len(n), -1))[0].reshape(v.shape[1:])
+
+
+def richardson(n_sde, values, order=ORDER, terms=1) -> Estimate:
     """Extrapolate ``values`` (k, ...) of one output at the levels ``n_sde`` (k,) assuming the
-    error ``C/n_sde^order`` (:data:`ORDER`). The limit comes from the two finest levels. With
-    three or more, its error is estimated from the next term: the error left by the finest pair
-    is taken to fall as ``D/n^(order+1)``, which fixes D from how the limit moves between the
-    two finest pairs (a limit that a pure ``C/n^order`` error leaves unmoved has error 0)."""
+    error ``C/n_sde^order`` (:data:`ORDER`), or with ``terms = 2`` the even expansion
+    ``C/n^order + D/n^(2·order)`` (the RFEM's, where the first term alone leaves too much: a
+    free vibration whose phase error ``∝ t/n²`` is large at the coarser levels). The limit comes
+    from the ``terms + 1`` finest levels. With one level more, its error is estimated from the
+    next term (``E/n^(order+1)`` for one term, ``E/n^(3·order)`` for two), fixed by how the limit
+    moves between the finest and the next-coarser set of levels (a limit that the assumed terms
+    alone leave unmoved has error 0); with ``terms = 2`` and three levels, it is bounded by how
+    far the limit of one term lies from it."""
     n = check_levels(n_sde)
     v = np.asarray(values, dtype=float)
     if v.shape[0] != len(n):
         raise LevelsError(f"{v.shape[0]} values for {len(n)} levels")
+    check_terms(n, terms)
     ranking = np.argsort(n)
     n, v = n[ranking], v[ranking]
-    limit = pair_limit(n[-2], n[-1], v[-2], v[-1], order)
+    powers = [order * (j + 1) for j in range(terms)]
+    size = terms + 1
+    limit = fit_limit(n[-size:], v[-size:], powers)
     limit_error = np.full(limit.shape, np.nan)
-    observed = float("nan")
-    if len(n) >= 3:
-        observed = observed_order(n, v)
-        coarser = pair_limit(n[-3], n[-2], v[-3], v[-2], order)
-        # A residual D/n^q (q = order + 1) in the values leaves the limit of the pair (a, b) the
-        # error D·r(a, b) (_residual): the two finest pairs' limits differ by D·(r_fine - r_coarse).
-        q = order + 1.0
-        r_fine = _residual(n[-2], n[-1], order, q)
-        r_coarse = _residual(n[-3], n[-2], order, q)
+    observed = observed_order(n, v) if len(n) >= 3 else float("nan")
+    if len(n) > size:
+        coarser = fit_limit(n[-size - 1:-1], v[-size - 1:-1], powers)
+        # A residual E/n^q in the values leaves the limit of a set of levels the error E·r(levels)
+        # (_residual): the finest and next-coarser sets' limits differ by E·(r_fine - r_coarse).
+        q = order + 1.0 if terms == 1 else 3.0 * order
+        r_fine = _residual(n[-size:], powers, q)
+        r_coarse = _residual(n[-size - 1:-1], powers, q)
         limit_error = (limit - coarser) * r_fine / (r_fine - r_coarse)
+    elif terms == 2:
+        limit_error = pair_limit(n[-2], n[-1], v[-2], v[-1], order) - limit
     return Estimate(n, v, v - limit, limit, limit_error, observed, float(order))
 
 
-def _residual(n_a, n_b, p, q):
-    """The error that the pair limit of order p leaves of a term ``1/n^q``."""
-    return float(pair_limit(n_a, n_b, float(n_a) ** -q, float(n_b) ** -q, p))
+def _residual(n, powers, q):
+    """The error that the limit of the levels ``n`` with the error terms ``powers`` leaves of a
+    term ``1/n^q``."""
+    n = np.asarray(n, dtype=float)
+    return float(fit_limit(n, n ** -q, powers))
 
 
-__all__ = ["ORDER", "Estimate", "LevelsError", "check_levels", "pair_limit", "observed_order", "richardson"]
+__all__ = ["ORDER", "Estimate", "LevelsError", "check_levels", "check_terms", "pair_limit", "fit_limit",
+           "observed_order", "richardson"]

@@ -37,19 +37,20 @@ def in_process(tasks, record, progress) -> None:
         sys.stderr = stderr
 
 
-def local_pool(tasks, record, n_workers: int) -> None:
+def local_pool(tasks, record, n_workers: int, prepare=workers.prepare, perform=workers.perform) -> None:
     """The runs on ``n_workers`` processes of this machine. The processes are spawned (not
     forked): each starts clean and loads the C library itself, with the environment of now. Each
-    model is first loaded by one of them alone, so that one process builds and compiles it when
-    it is missing (the others start up meanwhile)."""
+    model is first loaded by one of them alone (``prepare(task)``), so that one process builds and
+    compiles it when it is missing (the others start up meanwhile); then ``perform(task)`` makes
+    each run and returns its row. Both are functions of a module, so that the processes find them."""
     context = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
                                initializer=workers.initialize_pool_process)
     futures = {}
     try:
         for task in models(tasks):
-            pool.submit(workers.prepare, task).result()
-        futures = {pool.submit(workers.perform, task): task for task in tasks}
+            pool.submit(prepare, task).result()
+        futures = {pool.submit(perform, task): task for task in tasks}
         for future in as_completed(futures):
             try:
                 row = future.result()

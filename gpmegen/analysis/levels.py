@@ -1,0 +1,138 @@
+"""The same motion of one model at several discretizations (*levels*, one per ``n_rfe``), run with
+the same settings, one after the other or at once on a pool of local processes (the levels are
+independent runs; :func:`gpmegen.analysis.sweep.pools.local_pool`). A level's results are the
+same bytes either way: the same run (:func:`gpmegen.analysis.runs.run`) of the same generated code.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from .. import limits
+from ..errors import ExtrapolationError
+from . import cases, runs
+
+
+@dataclass
+class Level:
+    """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
+    ``loaded`` model its run ended with, the run's ``results`` dict and its wall ``seconds``."""
+
+    nrfe: int
+    model: object
+    loaded: object
+    results: dict
+    seconds: float = float("nan")
+
+
+@dataclass(frozen=True)
+class LevelTask:
+    """What a pool's process needs to make one level's run: the case (``model_file``, None for
+    the reference manipulator, and ``nrfe``), the run's settings and where it is written
+    (``out``, None: nowhere); ``no_limits``: the levels were started within
+    :func:`gpmegen.limits.lifted`, which another process does not see."""
+
+    model_file: str | None
+    nrfe: int
+    start: str
+    t_end: float
+    dt: float
+    save_every: int
+    method: str
+    backend: str
+    params: tuple
+    out: str | None
+    no_limits: bool = False
+
+    @property
+    def digest(self) -> str:
+        """Which generated model the task runs (one per level)."""
+        return f"{self.model_file}:{self.nrfe}"
+
+    def inputs(self) -> dict:
+        return {"nrfe": self.nrfe}
+
+
+def _quiet(message: str) -> None:
+    """Progress of a run in a pool's process: dropped (the levels report as they end)."""
+
+
+def prepare(task: LevelTask) -> None:
+    """Load the level's model in this process, building and compiling it when missing."""
+    with limits.lifted() if task.no_limits else contextlib.nullcontext():
+        cases.case_for(task.model_file, task.nrfe).load(task.backend, dict(task.params), _quiet)
+
+
+def perform(task: LevelTask) -> dict:
+    """Make the level's run (and write it to ``task.out``); returns its ``results``, wall
+    ``seconds`` and the files ``written``."""
+    with limits.lifted() if task.no_limits else contextlib.nullcontext():
+        run = runs.run(cases.case_for(task.model_file, task.nrfe), task.start, task.t_end, task.dt,
+                       task.save_every, task.method, task.backend, dict(task.params), task.out, _quiet)
+    return {"status": str(run.results["status"]), "results": run.results, "seconds": run.wall,
+            "written": [str(path) for path in run.written]}
+
+
+def level_path(out, nrfe) -> Path | None:
+    """Where the run of one level is written beside the extrapolation ``out`` (.npz; None: nowhere)."""
+    if out is None:
+        return None
+    out = Path(out)
+    return out.with_name(f"{out.stem}_nrfe{nrfe}{out.suffix}")
+
+
+def pool_size(levels: int, workers: int | None = None) -> int:
+    """Processes for ``levels`` runs: ``workers``, else one per core, never more than the levels."""
+    return max(1, min(levels, workers or os.cpu_count() or 1))
+
+
+def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, overrides, out, progress,
+               workers=None) -> list[Level]:
+    """The run of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` with
+    the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path` of
+    ``out`` (None: kept in memory only), on :func:`pool_size` processes (1: in this process).
+    Returns the :class:`Level` of each, by ascending ``nrfe``."""
+    from .sweep import pools
+
+    tasks = [LevelTask(None if model_file is None else str(model_file), n, start, t_end, dt, save_every, method,
+                       backend, tuple(sorted(overrides.items())),
+                       None if out is None else str(level_path(out, n)), limits.are_lifted())
+             for n in sorted(set(nrfe))]
+    done = {}
+
+    def record(task, row):
+        if row["status"] == "failed":  # only a process that died: the others' errors are raised
+            raise ExtrapolationError(f"n_rfe = {task.nrfe}: {row['message']}")
+        done[task.nrfe] = row
+        written = f"; wrote {', '.join(row['written'])}" if row["written"] else ""
+        progress(f"n_rfe = {task.nrfe}: t = {row['results']['t'][-1]:.6g} s in {row['seconds']:.1f} s{written}")
+
+    size = pool_size(len(tasks), workers)
+    if size == 1:
+        for task in tasks:
+            record(task, perform(task))
+    else:
+        progress(f"{len(tasks)} levels on {size} processes")
+        pools.local_pool(tasks, record, size, prepare=prepare, perform=perform)
+    levels = []
+    for task in tasks:
+        case = cases.case_for(task.model_file, task.nrfe)
+        loaded = case.started(backend, start, dict(overrides), _quiet).model  # built by the run: loads at once
+        levels.append(Level(task.nrfe, case.model, loaded, done[task.nrfe]["results"], done[task.nrfe]["seconds"]))
+    return levels
+
+
+def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", backend="numpy", params=None,
+                    start="none", workers=None) -> list[Level]:
+    """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
+    started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
+    overrides ``params``, on ``workers`` processes (default: one per core, at most one per
+    level). Pass the levels to :func:`gpmegen.analysis.extrapolate.extrapolate`."""
+    return run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
+                      _quiet, workers)
+
+
+__all__ = ["Level", "LevelTask", "level_path", "pool_size", "run_levels", "simulate_levels"]
