@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: 8052308f307f0a8c
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -29,8 +29,16 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define COLD_PART 1
 #endif
 
+/* A function too long for one block is split into blocks (gpmegen.codegen.blocks), each kept a
+   function of its own: inlined back, the compiler would see one huge block again. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "135893fdc036d146"; }
+const char *manipulator_nrfe1_input_hash(void) { return "8052308f307f0a8c"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -39,6 +47,7 @@ int manipulator_nrfe1_n_points(void) { return N_POINTS; }
 
 
 #ifdef COLD_PART
+
 /* Mass matrix M(q).
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -169,6 +178,7 @@ void manipulator_nrfe1_mass_matrix_batch(long n, const double *q, const double *
 
 
 #ifdef COLD_PART
+
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -322,6 +332,7 @@ void manipulator_nrfe1_forces_batch(long n, const double *t, const double *q, co
 
 
 #ifdef COLD_PART
+
 /* Gravity and spring terms g(q) + C q.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -369,6 +380,7 @@ void manipulator_nrfe1_static_residual(const double *q, const double *p, double 
 
 
 #ifdef COLD_PART
+
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -424,6 +436,7 @@ void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, doub
 
 
 #ifdef HOT_PART
+
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -442,6 +455,7 @@ void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q)
 
 
 #ifdef COLD_PART
+
 /* Positions of the named points in {0}.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -478,6 +492,7 @@ void manipulator_nrfe1_points(const double *q, const double *p, double *out_P)
 
 
 #ifdef COLD_PART
+
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -583,6 +598,7 @@ void manipulator_nrfe1_constraint_terms_batch(long n, const double *t, const dou
 
 
 #ifdef HOT_PART
+
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -603,6 +619,7 @@ void manipulator_nrfe1_baumgarte_gains(const double *p, double *out_alpha, doubl
 
 
 #ifdef COLD_PART
+
 /* Kinetic, gravity potential and spring energy.
    q: (3,) coordinates in COORDINATES order
    qd: (3,) velocities in COORDINATES order
@@ -721,6 +738,7 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
 
 
 #ifdef HOT_PART
+
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -970,12 +988,7 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
 #endif
 /* The factorization and its solve stay functions of their own: inlined into gpme_solve, the
    unrolled code tripled it (10 -> 30 KiB) and an RK4 step at n_rfe = 5 took 18% longer, the
-   loop's code no longer fitting the instruction cache beside gpme_terms. */
-#if defined(__GNUC__)
-#define NOINLINE __attribute__((noinline))
-#else
-#define NOINLINE
-#endif
+   loop's code no longer fitting the instruction cache beside gpme_terms (NOINLINE: above). */
 
 
 /* |x| as the integer of its bits with the sign cleared (IEEE 754 doubles): these integers order

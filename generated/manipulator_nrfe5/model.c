@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1b58b861dc3efcba
+Input hash: 525019ae3fd17bb2
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -29,8 +29,16 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define COLD_PART 1
 #endif
 
+/* A function too long for one block is split into blocks (gpmegen.codegen.blocks), each kept a
+   function of its own: inlined back, the compiler would see one huge block again. */
+#if defined(__GNUC__)
+#define NOINLINE __attribute__((noinline))
+#else
+#define NOINLINE
+#endif
+
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "1b58b861dc3efcba"; }
+const char *manipulator_nrfe5_input_hash(void) { return "525019ae3fd17bb2"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -39,13 +47,11 @@ int manipulator_nrfe5_n_points(void) { return N_POINTS; }
 
 
 #ifdef COLD_PART
-/* Mass matrix M(q).
-   q: (15,) coordinates in COORDINATES order
-   p: (25,) parameter values in PARAMETERS order
-   out_M: (15, 15) mass matrix M(q), symmetric, row-major
-*/
-void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out_M)
+
+/* mass_matrix, block 1 of 3: w holds the values passed between blocks. */
+NOINLINE static void mass_matrix_block1(const double *q, const double *p, double *w, double *out_M)
 {
+    (void)out_M;
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
     const double _q_psi2_1 = q[2];
@@ -371,6 +377,266 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
     const double _x297 = _x203 + _x287;
     const double _x298 = _x288 - _x198;
     const double _x299 = _x204 + _x289;
+    w[0] = _x0;
+    w[1] = _x1;
+    w[2] = _x9;
+    w[3] = _x10;
+    w[4] = _x19;
+    w[5] = _x26;
+    w[6] = _x28;
+    w[7] = _x30;
+    w[8] = _x31;
+    w[9] = _x32;
+    w[10] = _x33;
+    w[11] = _x36;
+    w[12] = _x38;
+    w[13] = _x40;
+    w[14] = _x42;
+    w[15] = _x43;
+    w[16] = _x44;
+    w[17] = _x48;
+    w[18] = _x50;
+    w[19] = _x52;
+    w[20] = _x53;
+    w[21] = _x54;
+    w[22] = _x55;
+    w[23] = _x67;
+    w[24] = _x69;
+    w[25] = _x71;
+    w[26] = _x72;
+    w[27] = _x73;
+    w[28] = _x74;
+    w[29] = _x77;
+    w[30] = _x79;
+    w[31] = _x81;
+    w[32] = _x83;
+    w[33] = _x84;
+    w[34] = _x85;
+    w[35] = _x89;
+    w[36] = _x91;
+    w[37] = _x93;
+    w[38] = _x94;
+    w[39] = _x95;
+    w[40] = _x96;
+    w[41] = _x103;
+    w[42] = _x105;
+    w[43] = _x107;
+    w[44] = _x108;
+    w[45] = _x109;
+    w[46] = _x110;
+    w[47] = _x113;
+    w[48] = _x115;
+    w[49] = _x117;
+    w[50] = _x119;
+    w[51] = _x120;
+    w[52] = _x121;
+    w[53] = _x125;
+    w[54] = _x127;
+    w[55] = _x129;
+    w[56] = _x130;
+    w[57] = _x131;
+    w[58] = _x132;
+    w[59] = _x139;
+    w[60] = _x141;
+    w[61] = _x143;
+    w[62] = _x144;
+    w[63] = _x145;
+    w[64] = _x146;
+    w[65] = _x149;
+    w[66] = _x151;
+    w[67] = _x153;
+    w[68] = _x155;
+    w[69] = _x156;
+    w[70] = _x157;
+    w[71] = _x166;
+    w[72] = _x167;
+    w[73] = _x168;
+    w[74] = _x181;
+    w[75] = _x182;
+    w[76] = _x183;
+    w[77] = _x184;
+    w[78] = _x186;
+    w[79] = _x188;
+    w[80] = _x189;
+    w[81] = _x191;
+    w[82] = _x192;
+    w[83] = _x193;
+    w[84] = _x200;
+    w[85] = _x201;
+    w[86] = _x205;
+    w[87] = _x251;
+    w[88] = _x252;
+    w[89] = _x253;
+    w[90] = _x263;
+    w[91] = _x264;
+    w[92] = _x265;
+    w[93] = _x266;
+    w[94] = _x267;
+    w[95] = _x268;
+    w[96] = _x269;
+    w[97] = _x270;
+    w[98] = _x271;
+    w[99] = _x272;
+    w[100] = _x273;
+    w[101] = _x274;
+    w[102] = _x275;
+    w[103] = _x276;
+    w[104] = _x277;
+    w[105] = _x278;
+    w[106] = _x279;
+    w[107] = _x280;
+    w[108] = _x281;
+    w[109] = _x282;
+    w[110] = _x283;
+    w[111] = _x284;
+    w[112] = _x285;
+    w[113] = _x286;
+    w[114] = _x287;
+    w[115] = _x288;
+    w[116] = _x289;
+    w[117] = _x290;
+    w[118] = _x291;
+    w[119] = _x292;
+    w[120] = _x293;
+    w[121] = _x294;
+    w[122] = _x295;
+    w[123] = _x296;
+    w[124] = _x297;
+    w[125] = _x298;
+    w[126] = _x299;
+}
+/* mass_matrix, block 2 of 3: w holds the values passed between blocks. */
+NOINLINE static void mass_matrix_block2(const double *q, const double *p, double *w, double *out_M)
+{
+    (void)q;
+    const double _p_m3 = p[12];
+    const double _x0 = w[0];
+    const double _x1 = w[1];
+    const double _x9 = w[2];
+    const double _x10 = w[3];
+    const double _x19 = w[4];
+    const double _x26 = w[5];
+    const double _x28 = w[6];
+    const double _x30 = w[7];
+    const double _x31 = w[8];
+    const double _x32 = w[9];
+    const double _x33 = w[10];
+    const double _x36 = w[11];
+    const double _x38 = w[12];
+    const double _x40 = w[13];
+    const double _x42 = w[14];
+    const double _x43 = w[15];
+    const double _x44 = w[16];
+    const double _x48 = w[17];
+    const double _x50 = w[18];
+    const double _x52 = w[19];
+    const double _x53 = w[20];
+    const double _x54 = w[21];
+    const double _x55 = w[22];
+    const double _x67 = w[23];
+    const double _x69 = w[24];
+    const double _x71 = w[25];
+    const double _x72 = w[26];
+    const double _x73 = w[27];
+    const double _x74 = w[28];
+    const double _x77 = w[29];
+    const double _x79 = w[30];
+    const double _x81 = w[31];
+    const double _x83 = w[32];
+    const double _x84 = w[33];
+    const double _x85 = w[34];
+    const double _x89 = w[35];
+    const double _x91 = w[36];
+    const double _x93 = w[37];
+    const double _x94 = w[38];
+    const double _x95 = w[39];
+    const double _x96 = w[40];
+    const double _x103 = w[41];
+    const double _x105 = w[42];
+    const double _x107 = w[43];
+    const double _x108 = w[44];
+    const double _x109 = w[45];
+    const double _x110 = w[46];
+    const double _x113 = w[47];
+    const double _x115 = w[48];
+    const double _x117 = w[49];
+    const double _x119 = w[50];
+    const double _x120 = w[51];
+    const double _x121 = w[52];
+    const double _x125 = w[53];
+    const double _x127 = w[54];
+    const double _x129 = w[55];
+    const double _x130 = w[56];
+    const double _x131 = w[57];
+    const double _x132 = w[58];
+    const double _x139 = w[59];
+    const double _x141 = w[60];
+    const double _x143 = w[61];
+    const double _x144 = w[62];
+    const double _x145 = w[63];
+    const double _x146 = w[64];
+    const double _x149 = w[65];
+    const double _x151 = w[66];
+    const double _x153 = w[67];
+    const double _x155 = w[68];
+    const double _x156 = w[69];
+    const double _x157 = w[70];
+    const double _x166 = w[71];
+    const double _x167 = w[72];
+    const double _x168 = w[73];
+    const double _x181 = w[74];
+    const double _x182 = w[75];
+    const double _x183 = w[76];
+    const double _x184 = w[77];
+    const double _x186 = w[78];
+    const double _x188 = w[79];
+    const double _x189 = w[80];
+    const double _x191 = w[81];
+    const double _x192 = w[82];
+    const double _x193 = w[83];
+    const double _x200 = w[84];
+    const double _x201 = w[85];
+    const double _x205 = w[86];
+    const double _x251 = w[87];
+    const double _x252 = w[88];
+    const double _x253 = w[89];
+    const double _x263 = w[90];
+    const double _x264 = w[91];
+    const double _x265 = w[92];
+    const double _x266 = w[93];
+    const double _x267 = w[94];
+    const double _x268 = w[95];
+    const double _x269 = w[96];
+    const double _x270 = w[97];
+    const double _x271 = w[98];
+    const double _x272 = w[99];
+    const double _x273 = w[100];
+    const double _x274 = w[101];
+    const double _x275 = w[102];
+    const double _x276 = w[103];
+    const double _x277 = w[104];
+    const double _x278 = w[105];
+    const double _x279 = w[106];
+    const double _x280 = w[107];
+    const double _x281 = w[108];
+    const double _x282 = w[109];
+    const double _x283 = w[110];
+    const double _x284 = w[111];
+    const double _x285 = w[112];
+    const double _x286 = w[113];
+    const double _x287 = w[114];
+    const double _x288 = w[115];
+    const double _x289 = w[116];
+    const double _x290 = w[117];
+    const double _x291 = w[118];
+    const double _x292 = w[119];
+    const double _x293 = w[120];
+    const double _x294 = w[121];
+    const double _x295 = w[122];
+    const double _x296 = w[123];
+    const double _x297 = w[124];
+    const double _x298 = w[125];
+    const double _x299 = w[126];
     const double _x300 = _x290 - _x200;
     const double _x301 = _x291 - _x201;
     const double _x302 = _x205 + _x292;
@@ -599,6 +865,111 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
     const double _x525 = _x139*_x391 + _x141*_x392 + _x143*_x393 + _x155*_x394 + _x156*_x395 + _x157*_x396;
     const double _x526 = _x149*_x391 + _x151*_x392 + _x153*_x393 + _x166*_x394 + _x167*_x395 + _x168*_x396;
     const double _x527 = _x149*_x394 + _x151*_x395 + _x153*_x396;
+    w[127] = _x338;
+    w[128] = _x344;
+    w[129] = _x350;
+    w[130] = _x356;
+    w[131] = _x362;
+    w[132] = _x368;
+    w[133] = _x374;
+    w[134] = _x380;
+    w[135] = _x386;
+    w[136] = _x392;
+    w[137] = _x415;
+    w[138] = _x416;
+    w[139] = _x417;
+    w[140] = _x418;
+    w[141] = _x419;
+    w[142] = _x422;
+    w[143] = _x423;
+    w[144] = _x424;
+    w[145] = _x425;
+    w[146] = _x426;
+    w[147] = _x427;
+    w[148] = _x430;
+    w[149] = _x431;
+    w[150] = _x432;
+    w[151] = _x433;
+    w[152] = _x434;
+    w[153] = _x435;
+    w[154] = _x436;
+    w[155] = _x439;
+    w[156] = _x440;
+    w[157] = _x441;
+    w[158] = _x442;
+    w[159] = _x443;
+    w[160] = _x444;
+    w[161] = _x445;
+    w[162] = _x446;
+    w[163] = _x449;
+    w[164] = _x450;
+    w[165] = _x451;
+    w[166] = _x452;
+    w[167] = _x453;
+    w[168] = _x454;
+    w[169] = _x455;
+    w[170] = _x456;
+    w[171] = _x457;
+    w[172] = _x460;
+    w[173] = _x461;
+    w[174] = _x462;
+    w[175] = _x463;
+    w[176] = _x464;
+    w[177] = _x465;
+    w[178] = _x466;
+    w[179] = _x467;
+    w[180] = _x468;
+    w[181] = _x469;
+    w[182] = _x472;
+    w[183] = _x473;
+    w[184] = _x474;
+    w[185] = _x475;
+    w[186] = _x476;
+    w[187] = _x477;
+    w[188] = _x478;
+    w[189] = _x479;
+    w[190] = _x480;
+    w[191] = _x481;
+    w[192] = _x482;
+    w[193] = _x485;
+    w[194] = _x486;
+    w[195] = _x487;
+    w[196] = _x488;
+    w[197] = _x489;
+    w[198] = _x490;
+    w[199] = _x491;
+    w[200] = _x492;
+    w[201] = _x493;
+    w[202] = _x494;
+    w[203] = _x495;
+    w[204] = _x496;
+    w[205] = _x499;
+    w[206] = _x500;
+    w[207] = _x501;
+    w[208] = _x502;
+    w[209] = _x503;
+    w[210] = _x504;
+    w[211] = _x505;
+    w[212] = _x506;
+    w[213] = _x507;
+    w[214] = _x508;
+    w[215] = _x509;
+    w[216] = _x510;
+    w[217] = _x511;
+    w[218] = _x514;
+    w[219] = _x515;
+    w[220] = _x516;
+    w[221] = _x517;
+    w[222] = _x518;
+    w[223] = _x519;
+    w[224] = _x520;
+    w[225] = _x521;
+    w[226] = _x522;
+    w[227] = _x523;
+    w[228] = _x524;
+    w[229] = _x525;
+    w[230] = _x526;
+    w[231] = _x527;
     out_M[0] = _x313;
     out_M[1] = _x315;
     out_M[2] = _x320;
@@ -671,6 +1042,117 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
     out_M[69] = _x452;
     out_M[70] = _x463;
     out_M[71] = _x475;
+}
+/* mass_matrix, block 3 of 3: w holds the values passed between blocks. */
+NOINLINE static void mass_matrix_block3(const double *q, const double *p, double *w, double *out_M)
+{
+    (void)q;
+    (void)p;
+    const double _x338 = w[127];
+    const double _x344 = w[128];
+    const double _x350 = w[129];
+    const double _x356 = w[130];
+    const double _x362 = w[131];
+    const double _x368 = w[132];
+    const double _x374 = w[133];
+    const double _x380 = w[134];
+    const double _x386 = w[135];
+    const double _x392 = w[136];
+    const double _x415 = w[137];
+    const double _x416 = w[138];
+    const double _x417 = w[139];
+    const double _x418 = w[140];
+    const double _x419 = w[141];
+    const double _x422 = w[142];
+    const double _x423 = w[143];
+    const double _x424 = w[144];
+    const double _x425 = w[145];
+    const double _x426 = w[146];
+    const double _x427 = w[147];
+    const double _x430 = w[148];
+    const double _x431 = w[149];
+    const double _x432 = w[150];
+    const double _x433 = w[151];
+    const double _x434 = w[152];
+    const double _x435 = w[153];
+    const double _x436 = w[154];
+    const double _x439 = w[155];
+    const double _x440 = w[156];
+    const double _x441 = w[157];
+    const double _x442 = w[158];
+    const double _x443 = w[159];
+    const double _x444 = w[160];
+    const double _x445 = w[161];
+    const double _x446 = w[162];
+    const double _x449 = w[163];
+    const double _x450 = w[164];
+    const double _x451 = w[165];
+    const double _x452 = w[166];
+    const double _x453 = w[167];
+    const double _x454 = w[168];
+    const double _x455 = w[169];
+    const double _x456 = w[170];
+    const double _x457 = w[171];
+    const double _x460 = w[172];
+    const double _x461 = w[173];
+    const double _x462 = w[174];
+    const double _x463 = w[175];
+    const double _x464 = w[176];
+    const double _x465 = w[177];
+    const double _x466 = w[178];
+    const double _x467 = w[179];
+    const double _x468 = w[180];
+    const double _x469 = w[181];
+    const double _x472 = w[182];
+    const double _x473 = w[183];
+    const double _x474 = w[184];
+    const double _x475 = w[185];
+    const double _x476 = w[186];
+    const double _x477 = w[187];
+    const double _x478 = w[188];
+    const double _x479 = w[189];
+    const double _x480 = w[190];
+    const double _x481 = w[191];
+    const double _x482 = w[192];
+    const double _x485 = w[193];
+    const double _x486 = w[194];
+    const double _x487 = w[195];
+    const double _x488 = w[196];
+    const double _x489 = w[197];
+    const double _x490 = w[198];
+    const double _x491 = w[199];
+    const double _x492 = w[200];
+    const double _x493 = w[201];
+    const double _x494 = w[202];
+    const double _x495 = w[203];
+    const double _x496 = w[204];
+    const double _x499 = w[205];
+    const double _x500 = w[206];
+    const double _x501 = w[207];
+    const double _x502 = w[208];
+    const double _x503 = w[209];
+    const double _x504 = w[210];
+    const double _x505 = w[211];
+    const double _x506 = w[212];
+    const double _x507 = w[213];
+    const double _x508 = w[214];
+    const double _x509 = w[215];
+    const double _x510 = w[216];
+    const double _x511 = w[217];
+    const double _x514 = w[218];
+    const double _x515 = w[219];
+    const double _x516 = w[220];
+    const double _x517 = w[221];
+    const double _x518 = w[222];
+    const double _x519 = w[223];
+    const double _x520 = w[224];
+    const double _x521 = w[225];
+    const double _x522 = w[226];
+    const double _x523 = w[227];
+    const double _x524 = w[228];
+    const double _x525 = w[229];
+    const double _x526 = w[230];
+    const double _x527 = w[231];
     out_M[72] = _x488;
     out_M[73] = _x502;
     out_M[74] = _x517;
@@ -826,6 +1308,19 @@ void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out
     out_M[224] = _x527;
 }
 
+/* Mass matrix M(q).
+   q: (15,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_M: (15, 15) mass matrix M(q), symmetric, row-major
+*/
+void manipulator_nrfe5_mass_matrix(const double *q, const double *p, double *out_M)
+{
+    double w[232];
+    mass_matrix_block1(q, p, w, out_M);
+    mass_matrix_block2(q, p, w, out_M);
+    mass_matrix_block3(q, p, w, out_M);
+}
+
 
 /* mass_matrix at n states, one after the other, the same arithmetic state by state:
    q hold n of the single call's inputs one after the other (row-major), p is
@@ -841,15 +1336,12 @@ void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *
 
 
 #ifdef COLD_PART
-/* Generalized forces: drive, velocity, gravity, spring and damping terms.
-   t: time (s)
-   q: (15,) coordinates in COORDINATES order
-   qd: (15,) velocities in COORDINATES order
-   p: (25,) parameter values in PARAMETERS order
-   out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
-*/
-void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const double *p, double *out_f)
+
+/* forces, block 1 of 2: w holds the values passed between blocks. */
+NOINLINE static void forces_block1(double t, const double *q, const double *qd, const double *p, double *w, double *out_f)
 {
+    (void)t;
+    (void)out_f;
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
     const double _q_psi2_1 = q[2];
@@ -864,7 +1356,6 @@ void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const
     const double _q_psi2_4 = q[11];
     const double _q_theta2_4 = q[12];
     const double _q_phi2_4 = q[13];
-    const double _q_x3 = q[14];
     const double _qd_theta1 = qd[0];
     const double _qd_psi2 = qd[1];
     const double _qd_psi2_1 = qd[2];
@@ -878,23 +1369,11 @@ void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const
     const double _qd_phi2_3 = qd[10];
     const double _qd_psi2_4 = qd[11];
     const double _qd_theta2_4 = qd[12];
-    const double _qd_phi2_4 = qd[13];
-    const double _qd_x3 = qd[14];
-    const double _p_g = p[0];
     const double _p_h1 = p[2];
     const double _p_L2 = p[4];
     const double _p_b2 = p[5];
     const double _p_t2 = p[6];
     const double _p_rho2 = p[7];
-    const double _p_E2 = p[8];
-    const double _p_G2 = p[9];
-    const double _p_J2 = p[10];
-    const double _p_d2 = p[11];
-    const double _p_m3 = p[12];
-    const double _p_L3 = p[13];
-    const double _p_R3 = p[14];
-    const double _p_tdr0 = p[15];
-    const double _p_t0 = p[16];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
     const double _x2 = cos(_q_psi2);
@@ -1195,6 +1674,393 @@ void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const
     const double _x297 = sin(_q_phi2_4);
     const double _x298 = _x253*_x296 + _x276*_x297;
     const double _x299 = _x276*_x296 - _x253*_x297;
+    w[0] = _x0;
+    w[1] = _x1;
+    w[2] = _x2;
+    w[3] = _x3;
+    w[4] = _x4;
+    w[5] = _x5;
+    w[6] = _x6;
+    w[7] = _x7;
+    w[8] = _x8;
+    w[9] = _x9;
+    w[10] = _x10;
+    w[11] = _x11;
+    w[12] = _x12;
+    w[13] = _x13;
+    w[14] = _x14;
+    w[15] = _x15;
+    w[16] = _x16;
+    w[17] = _x17;
+    w[18] = _x19;
+    w[19] = _x20;
+    w[20] = _x21;
+    w[21] = _x22;
+    w[22] = _x23;
+    w[23] = _x25;
+    w[24] = _x26;
+    w[25] = _x27;
+    w[26] = _x28;
+    w[27] = _x29;
+    w[28] = _x33;
+    w[29] = _x35;
+    w[30] = _x37;
+    w[31] = _x38;
+    w[32] = _x39;
+    w[33] = _x40;
+    w[34] = _x54;
+    w[35] = _x56;
+    w[36] = _x58;
+    w[37] = _x60;
+    w[38] = _x61;
+    w[39] = _x62;
+    w[40] = _x77;
+    w[41] = _x78;
+    w[42] = _x79;
+    w[43] = _x80;
+    w[44] = _x81;
+    w[45] = _x82;
+    w[46] = _x83;
+    w[47] = _x84;
+    w[48] = _x85;
+    w[49] = _x86;
+    w[50] = _x87;
+    w[51] = _x88;
+    w[52] = _x89;
+    w[53] = _x90;
+    w[54] = _x91;
+    w[55] = _x92;
+    w[56] = _x93;
+    w[57] = _x94;
+    w[58] = _x95;
+    w[59] = _x96;
+    w[60] = _x97;
+    w[61] = _x98;
+    w[62] = _x99;
+    w[63] = _x100;
+    w[64] = _x101;
+    w[65] = _x102;
+    w[66] = _x103;
+    w[67] = _x104;
+    w[68] = _x105;
+    w[69] = _x109;
+    w[70] = _x111;
+    w[71] = _x113;
+    w[72] = _x114;
+    w[73] = _x115;
+    w[74] = _x116;
+    w[75] = _x131;
+    w[76] = _x133;
+    w[77] = _x135;
+    w[78] = _x137;
+    w[79] = _x138;
+    w[80] = _x139;
+    w[81] = _x154;
+    w[82] = _x155;
+    w[83] = _x156;
+    w[84] = _x157;
+    w[85] = _x158;
+    w[86] = _x159;
+    w[87] = _x160;
+    w[88] = _x161;
+    w[89] = _x162;
+    w[90] = _x163;
+    w[91] = _x164;
+    w[92] = _x165;
+    w[93] = _x166;
+    w[94] = _x167;
+    w[95] = _x168;
+    w[96] = _x169;
+    w[97] = _x170;
+    w[98] = _x171;
+    w[99] = _x172;
+    w[100] = _x173;
+    w[101] = _x174;
+    w[102] = _x175;
+    w[103] = _x176;
+    w[104] = _x177;
+    w[105] = _x181;
+    w[106] = _x183;
+    w[107] = _x185;
+    w[108] = _x186;
+    w[109] = _x187;
+    w[110] = _x188;
+    w[111] = _x203;
+    w[112] = _x205;
+    w[113] = _x207;
+    w[114] = _x209;
+    w[115] = _x210;
+    w[116] = _x211;
+    w[117] = _x226;
+    w[118] = _x227;
+    w[119] = _x228;
+    w[120] = _x229;
+    w[121] = _x230;
+    w[122] = _x231;
+    w[123] = _x232;
+    w[124] = _x233;
+    w[125] = _x234;
+    w[126] = _x235;
+    w[127] = _x236;
+    w[128] = _x237;
+    w[129] = _x238;
+    w[130] = _x239;
+    w[131] = _x240;
+    w[132] = _x241;
+    w[133] = _x242;
+    w[134] = _x243;
+    w[135] = _x244;
+    w[136] = _x245;
+    w[137] = _x246;
+    w[138] = _x247;
+    w[139] = _x248;
+    w[140] = _x249;
+    w[141] = _x253;
+    w[142] = _x255;
+    w[143] = _x257;
+    w[144] = _x258;
+    w[145] = _x259;
+    w[146] = _x260;
+    w[147] = _x275;
+    w[148] = _x277;
+    w[149] = _x278;
+    w[150] = _x279;
+    w[151] = _x280;
+    w[152] = _x281;
+    w[153] = _x282;
+    w[154] = _x283;
+    w[155] = _x284;
+    w[156] = _x285;
+    w[157] = _x286;
+    w[158] = _x287;
+    w[159] = _x288;
+    w[160] = _x289;
+    w[161] = _x290;
+    w[162] = _x291;
+    w[163] = _x292;
+    w[164] = _x293;
+    w[165] = _x294;
+    w[166] = _x295;
+    w[167] = _x296;
+    w[168] = _x297;
+    w[169] = _x298;
+    w[170] = _x299;
+}
+/* forces, block 2 of 2: w holds the values passed between blocks. */
+NOINLINE static void forces_block2(double t, const double *q, const double *qd, const double *p, double *w, double *out_f)
+{
+    const double _q_psi2_1 = q[2];
+    const double _q_theta2_1 = q[3];
+    const double _q_phi2_1 = q[4];
+    const double _q_psi2_2 = q[5];
+    const double _q_theta2_2 = q[6];
+    const double _q_phi2_2 = q[7];
+    const double _q_psi2_3 = q[8];
+    const double _q_theta2_3 = q[9];
+    const double _q_phi2_3 = q[10];
+    const double _q_psi2_4 = q[11];
+    const double _q_theta2_4 = q[12];
+    const double _q_phi2_4 = q[13];
+    const double _q_x3 = q[14];
+    const double _qd_theta1 = qd[0];
+    const double _qd_psi2_1 = qd[2];
+    const double _qd_theta2_1 = qd[3];
+    const double _qd_phi2_1 = qd[4];
+    const double _qd_psi2_2 = qd[5];
+    const double _qd_theta2_2 = qd[6];
+    const double _qd_phi2_2 = qd[7];
+    const double _qd_psi2_3 = qd[8];
+    const double _qd_theta2_3 = qd[9];
+    const double _qd_phi2_3 = qd[10];
+    const double _qd_psi2_4 = qd[11];
+    const double _qd_theta2_4 = qd[12];
+    const double _qd_phi2_4 = qd[13];
+    const double _qd_x3 = qd[14];
+    const double _p_g = p[0];
+    const double _p_h1 = p[2];
+    const double _p_L2 = p[4];
+    const double _p_b2 = p[5];
+    const double _p_t2 = p[6];
+    const double _p_E2 = p[8];
+    const double _p_G2 = p[9];
+    const double _p_J2 = p[10];
+    const double _p_d2 = p[11];
+    const double _p_m3 = p[12];
+    const double _p_L3 = p[13];
+    const double _p_R3 = p[14];
+    const double _p_tdr0 = p[15];
+    const double _p_t0 = p[16];
+    const double _x0 = w[0];
+    const double _x1 = w[1];
+    const double _x2 = w[2];
+    const double _x3 = w[3];
+    const double _x4 = w[4];
+    const double _x5 = w[5];
+    const double _x6 = w[6];
+    const double _x7 = w[7];
+    const double _x8 = w[8];
+    const double _x9 = w[9];
+    const double _x10 = w[10];
+    const double _x11 = w[11];
+    const double _x12 = w[12];
+    const double _x13 = w[13];
+    const double _x14 = w[14];
+    const double _x15 = w[15];
+    const double _x16 = w[16];
+    const double _x17 = w[17];
+    const double _x19 = w[18];
+    const double _x20 = w[19];
+    const double _x21 = w[20];
+    const double _x22 = w[21];
+    const double _x23 = w[22];
+    const double _x25 = w[23];
+    const double _x26 = w[24];
+    const double _x27 = w[25];
+    const double _x28 = w[26];
+    const double _x29 = w[27];
+    const double _x33 = w[28];
+    const double _x35 = w[29];
+    const double _x37 = w[30];
+    const double _x38 = w[31];
+    const double _x39 = w[32];
+    const double _x40 = w[33];
+    const double _x54 = w[34];
+    const double _x56 = w[35];
+    const double _x58 = w[36];
+    const double _x60 = w[37];
+    const double _x61 = w[38];
+    const double _x62 = w[39];
+    const double _x77 = w[40];
+    const double _x78 = w[41];
+    const double _x79 = w[42];
+    const double _x80 = w[43];
+    const double _x81 = w[44];
+    const double _x82 = w[45];
+    const double _x83 = w[46];
+    const double _x84 = w[47];
+    const double _x85 = w[48];
+    const double _x86 = w[49];
+    const double _x87 = w[50];
+    const double _x88 = w[51];
+    const double _x89 = w[52];
+    const double _x90 = w[53];
+    const double _x91 = w[54];
+    const double _x92 = w[55];
+    const double _x93 = w[56];
+    const double _x94 = w[57];
+    const double _x95 = w[58];
+    const double _x96 = w[59];
+    const double _x97 = w[60];
+    const double _x98 = w[61];
+    const double _x99 = w[62];
+    const double _x100 = w[63];
+    const double _x101 = w[64];
+    const double _x102 = w[65];
+    const double _x103 = w[66];
+    const double _x104 = w[67];
+    const double _x105 = w[68];
+    const double _x109 = w[69];
+    const double _x111 = w[70];
+    const double _x113 = w[71];
+    const double _x114 = w[72];
+    const double _x115 = w[73];
+    const double _x116 = w[74];
+    const double _x131 = w[75];
+    const double _x133 = w[76];
+    const double _x135 = w[77];
+    const double _x137 = w[78];
+    const double _x138 = w[79];
+    const double _x139 = w[80];
+    const double _x154 = w[81];
+    const double _x155 = w[82];
+    const double _x156 = w[83];
+    const double _x157 = w[84];
+    const double _x158 = w[85];
+    const double _x159 = w[86];
+    const double _x160 = w[87];
+    const double _x161 = w[88];
+    const double _x162 = w[89];
+    const double _x163 = w[90];
+    const double _x164 = w[91];
+    const double _x165 = w[92];
+    const double _x166 = w[93];
+    const double _x167 = w[94];
+    const double _x168 = w[95];
+    const double _x169 = w[96];
+    const double _x170 = w[97];
+    const double _x171 = w[98];
+    const double _x172 = w[99];
+    const double _x173 = w[100];
+    const double _x174 = w[101];
+    const double _x175 = w[102];
+    const double _x176 = w[103];
+    const double _x177 = w[104];
+    const double _x181 = w[105];
+    const double _x183 = w[106];
+    const double _x185 = w[107];
+    const double _x186 = w[108];
+    const double _x187 = w[109];
+    const double _x188 = w[110];
+    const double _x203 = w[111];
+    const double _x205 = w[112];
+    const double _x207 = w[113];
+    const double _x209 = w[114];
+    const double _x210 = w[115];
+    const double _x211 = w[116];
+    const double _x226 = w[117];
+    const double _x227 = w[118];
+    const double _x228 = w[119];
+    const double _x229 = w[120];
+    const double _x230 = w[121];
+    const double _x231 = w[122];
+    const double _x232 = w[123];
+    const double _x233 = w[124];
+    const double _x234 = w[125];
+    const double _x235 = w[126];
+    const double _x236 = w[127];
+    const double _x237 = w[128];
+    const double _x238 = w[129];
+    const double _x239 = w[130];
+    const double _x240 = w[131];
+    const double _x241 = w[132];
+    const double _x242 = w[133];
+    const double _x243 = w[134];
+    const double _x244 = w[135];
+    const double _x245 = w[136];
+    const double _x246 = w[137];
+    const double _x247 = w[138];
+    const double _x248 = w[139];
+    const double _x249 = w[140];
+    const double _x253 = w[141];
+    const double _x255 = w[142];
+    const double _x257 = w[143];
+    const double _x258 = w[144];
+    const double _x259 = w[145];
+    const double _x260 = w[146];
+    const double _x275 = w[147];
+    const double _x277 = w[148];
+    const double _x278 = w[149];
+    const double _x279 = w[150];
+    const double _x280 = w[151];
+    const double _x281 = w[152];
+    const double _x282 = w[153];
+    const double _x283 = w[154];
+    const double _x284 = w[155];
+    const double _x285 = w[156];
+    const double _x286 = w[157];
+    const double _x287 = w[158];
+    const double _x288 = w[159];
+    const double _x289 = w[160];
+    const double _x290 = w[161];
+    const double _x291 = w[162];
+    const double _x292 = w[163];
+    const double _x293 = w[164];
+    const double _x294 = w[165];
+    const double _x295 = w[166];
+    const double _x296 = w[167];
+    const double _x297 = w[168];
+    const double _x298 = w[169];
+    const double _x299 = w[170];
     const double _x300 = _x255*_x296 + _x278*_x297;
     const double _x301 = _x278*_x296 - _x255*_x297;
     const double _x302 = _x257*_x296 + _x280*_x297;
@@ -1485,6 +2351,20 @@ void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const
     out_f[14] = _x569 - _x570;
 }
 
+/* Generalized forces: drive, velocity, gravity, spring and damping terms.
+   t: time (s)
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+*/
+void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const double *p, double *out_f)
+{
+    double w[171];
+    forces_block1(t, q, qd, p, w, out_f);
+    forces_block2(t, q, qd, p, w, out_f);
+}
+
 
 /* forces at n states, one after the other, the same arithmetic state by state:
    t, q, qd hold n of the single call's inputs one after the other (row-major), p is
@@ -1500,6 +2380,7 @@ void manipulator_nrfe5_forces_batch(long n, const double *t, const double *q, co
 
 
 #ifdef COLD_PART
+
 /* Gravity and spring terms g(q) + C q.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -1731,13 +2612,11 @@ void manipulator_nrfe5_static_residual(const double *q, const double *p, double 
 
 
 #ifdef COLD_PART
-/* Tangent stiffness K = d(g + C q)/dq, from T_ij.
-   q: (15,) coordinates in COORDINATES order
-   p: (25,) parameter values in PARAMETERS order
-   out_K: (15, 15) K[i, j] = d(g + C q)_i / dq_j, row-major
-*/
-void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, double *out_K)
+
+/* stiffness_jacobian, block 1 of 2: w holds the values passed between blocks. */
+NOINLINE static void stiffness_jacobian_block1(const double *q, const double *p, double *w, double *out_K)
 {
+    (void)out_K;
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
     const double _q_psi2_1 = q[2];
@@ -1758,9 +2637,6 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
     const double _p_b2 = p[5];
     const double _p_t2 = p[6];
     const double _p_rho2 = p[7];
-    const double _p_E2 = p[8];
-    const double _p_G2 = p[9];
-    const double _p_J2 = p[10];
     const double _p_m3 = p[12];
     const double _p_L3 = p[13];
     const double _x0 = cos(_q_theta1);
@@ -2063,6 +2939,222 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
     const double _x297 = _x296*_p_g;
     const double _x298 = _p_g*(_x203*_x23 - _x19*_x204);
     const double _x299 = _p_g*(_x203*_x32 - _x204*_x28);
+    w[0] = _x39;
+    w[1] = _x43;
+    w[2] = _x54;
+    w[3] = _x58;
+    w[4] = _x63;
+    w[5] = _x67;
+    w[6] = _x74;
+    w[7] = _x78;
+    w[8] = _x87;
+    w[9] = _x91;
+    w[10] = _x96;
+    w[11] = _x100;
+    w[12] = _x107;
+    w[13] = _x111;
+    w[14] = _x120;
+    w[15] = _x124;
+    w[16] = _x129;
+    w[17] = _x131;
+    w[18] = _x203;
+    w[19] = _x204;
+    w[20] = _x205;
+    w[21] = _x207;
+    w[22] = _x209;
+    w[23] = _x210;
+    w[24] = _x212;
+    w[25] = _x213;
+    w[26] = _x214;
+    w[27] = _x216;
+    w[28] = _x217;
+    w[29] = _x218;
+    w[30] = _x219;
+    w[31] = _x221;
+    w[32] = _x222;
+    w[33] = _x223;
+    w[34] = _x224;
+    w[35] = _x225;
+    w[36] = _x227;
+    w[37] = _x228;
+    w[38] = _x229;
+    w[39] = _x230;
+    w[40] = _x231;
+    w[41] = _x232;
+    w[42] = _x234;
+    w[43] = _x235;
+    w[44] = _x236;
+    w[45] = _x237;
+    w[46] = _x238;
+    w[47] = _x239;
+    w[48] = _x240;
+    w[49] = _x242;
+    w[50] = _x243;
+    w[51] = _x244;
+    w[52] = _x245;
+    w[53] = _x246;
+    w[54] = _x247;
+    w[55] = _x248;
+    w[56] = _x249;
+    w[57] = _x251;
+    w[58] = _x252;
+    w[59] = _x253;
+    w[60] = _x254;
+    w[61] = _x255;
+    w[62] = _x256;
+    w[63] = _x257;
+    w[64] = _x258;
+    w[65] = _x259;
+    w[66] = _x261;
+    w[67] = _x262;
+    w[68] = _x263;
+    w[69] = _x264;
+    w[70] = _x265;
+    w[71] = _x266;
+    w[72] = _x267;
+    w[73] = _x268;
+    w[74] = _x269;
+    w[75] = _x270;
+    w[76] = _x272;
+    w[77] = _x273;
+    w[78] = _x274;
+    w[79] = _x275;
+    w[80] = _x276;
+    w[81] = _x277;
+    w[82] = _x278;
+    w[83] = _x279;
+    w[84] = _x280;
+    w[85] = _x281;
+    w[86] = _x282;
+    w[87] = _x284;
+    w[88] = _x285;
+    w[89] = _x286;
+    w[90] = _x287;
+    w[91] = _x288;
+    w[92] = _x289;
+    w[93] = _x290;
+    w[94] = _x291;
+    w[95] = _x292;
+    w[96] = _x293;
+    w[97] = _x294;
+    w[98] = _x295;
+    w[99] = _x297;
+    w[100] = _x298;
+    w[101] = _x299;
+}
+/* stiffness_jacobian, block 2 of 2: w holds the values passed between blocks. */
+NOINLINE static void stiffness_jacobian_block2(const double *q, const double *p, double *w, double *out_K)
+{
+    (void)q;
+    const double _p_g = p[0];
+    const double _p_L2 = p[4];
+    const double _p_b2 = p[5];
+    const double _p_t2 = p[6];
+    const double _p_E2 = p[8];
+    const double _p_G2 = p[9];
+    const double _p_J2 = p[10];
+    const double _x39 = w[0];
+    const double _x43 = w[1];
+    const double _x54 = w[2];
+    const double _x58 = w[3];
+    const double _x63 = w[4];
+    const double _x67 = w[5];
+    const double _x74 = w[6];
+    const double _x78 = w[7];
+    const double _x87 = w[8];
+    const double _x91 = w[9];
+    const double _x96 = w[10];
+    const double _x100 = w[11];
+    const double _x107 = w[12];
+    const double _x111 = w[13];
+    const double _x120 = w[14];
+    const double _x124 = w[15];
+    const double _x129 = w[16];
+    const double _x131 = w[17];
+    const double _x203 = w[18];
+    const double _x204 = w[19];
+    const double _x205 = w[20];
+    const double _x207 = w[21];
+    const double _x209 = w[22];
+    const double _x210 = w[23];
+    const double _x212 = w[24];
+    const double _x213 = w[25];
+    const double _x214 = w[26];
+    const double _x216 = w[27];
+    const double _x217 = w[28];
+    const double _x218 = w[29];
+    const double _x219 = w[30];
+    const double _x221 = w[31];
+    const double _x222 = w[32];
+    const double _x223 = w[33];
+    const double _x224 = w[34];
+    const double _x225 = w[35];
+    const double _x227 = w[36];
+    const double _x228 = w[37];
+    const double _x229 = w[38];
+    const double _x230 = w[39];
+    const double _x231 = w[40];
+    const double _x232 = w[41];
+    const double _x234 = w[42];
+    const double _x235 = w[43];
+    const double _x236 = w[44];
+    const double _x237 = w[45];
+    const double _x238 = w[46];
+    const double _x239 = w[47];
+    const double _x240 = w[48];
+    const double _x242 = w[49];
+    const double _x243 = w[50];
+    const double _x244 = w[51];
+    const double _x245 = w[52];
+    const double _x246 = w[53];
+    const double _x247 = w[54];
+    const double _x248 = w[55];
+    const double _x249 = w[56];
+    const double _x251 = w[57];
+    const double _x252 = w[58];
+    const double _x253 = w[59];
+    const double _x254 = w[60];
+    const double _x255 = w[61];
+    const double _x256 = w[62];
+    const double _x257 = w[63];
+    const double _x258 = w[64];
+    const double _x259 = w[65];
+    const double _x261 = w[66];
+    const double _x262 = w[67];
+    const double _x263 = w[68];
+    const double _x264 = w[69];
+    const double _x265 = w[70];
+    const double _x266 = w[71];
+    const double _x267 = w[72];
+    const double _x268 = w[73];
+    const double _x269 = w[74];
+    const double _x270 = w[75];
+    const double _x272 = w[76];
+    const double _x273 = w[77];
+    const double _x274 = w[78];
+    const double _x275 = w[79];
+    const double _x276 = w[80];
+    const double _x277 = w[81];
+    const double _x278 = w[82];
+    const double _x279 = w[83];
+    const double _x280 = w[84];
+    const double _x281 = w[85];
+    const double _x282 = w[86];
+    const double _x284 = w[87];
+    const double _x285 = w[88];
+    const double _x286 = w[89];
+    const double _x287 = w[90];
+    const double _x288 = w[91];
+    const double _x289 = w[92];
+    const double _x290 = w[93];
+    const double _x291 = w[94];
+    const double _x292 = w[95];
+    const double _x293 = w[96];
+    const double _x294 = w[97];
+    const double _x295 = w[98];
+    const double _x297 = w[99];
+    const double _x298 = w[100];
+    const double _x299 = w[101];
     const double _x300 = _p_g*(_x203*_x43 - _x204*_x39);
     const double _x301 = _p_g*(_x203*_x58 - _x204*_x54);
     const double _x302 = _p_g*(_x203*_x67 - _x204*_x63);
@@ -2302,10 +3394,23 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
     out_K[223] = _x308;
     out_K[224] = 0.0;
 }
+
+/* Tangent stiffness K = d(g + C q)/dq, from T_ij.
+   q: (15,) coordinates in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_K: (15, 15) K[i, j] = d(g + C q)_i / dq_j, row-major
+*/
+void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, double *out_K)
+{
+    double w[102];
+    stiffness_jacobian_block1(q, p, w, out_K);
+    stiffness_jacobian_block2(q, p, w, out_K);
+}
 #endif
 
 
 #ifdef HOT_PART
+
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -2336,6 +3441,7 @@ void manipulator_nrfe5_drive_forces(double t, const double *p, double *out_Q)
 
 
 #ifdef COLD_PART
+
 /* Positions of the named points in {0}.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2479,18 +3585,15 @@ void manipulator_nrfe5_points(const double *q, const double *p, double *out_P)
 
 
 #ifdef COLD_PART
-/* phi, phi_rate, D, gamma of the programmed constraints.
-   t: time (s)
-   q: (15,) coordinates in COORDINATES order
-   qd: (15,) velocities in COORDINATES order
-   p: (25,) parameter values in PARAMETERS order
-   out_phi: (2,) constraint values phi in CONSTRAINTS order
-   out_phi_rate: (2,) their rates d(phi)/dt
-   out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
-   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
-*/
-void manipulator_nrfe5_constraint_terms(double t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+
+/* constraint_terms, block 1 of 2: w holds the values passed between blocks. */
+NOINLINE static void constraint_terms_block1(double t, const double *q, const double *qd, const double *p, double *w, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
 {
+    (void)t;
+    (void)out_phi;
+    (void)out_phi_rate;
+    (void)out_jacobian;
+    (void)out_gamma;
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
     const double _q_psi2_1 = q[2];
@@ -2519,14 +3622,8 @@ void manipulator_nrfe5_constraint_terms(double t, const double *q, const double 
     const double _qd_psi2_4 = qd[11];
     const double _qd_theta2_4 = qd[12];
     const double _qd_phi2_4 = qd[13];
-    const double _qd_x3 = qd[14];
     const double _p_h1 = p[2];
     const double _p_L2 = p[4];
-    const double _p_L3 = p[13];
-    const double _p_A = p[17];
-    const double _p_T = p[18];
-    const double _p_r_Ea = p[19];
-    const double _p_y_c = p[20];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
     const double _x2 = cos(_q_psi2);
@@ -2827,6 +3924,193 @@ void manipulator_nrfe5_constraint_terms(double t, const double *q, const double 
     const double _x297 = _x294 + _q_x3*_x261;
     const double _x298 = _x295 + _q_x3*_x262;
     const double _x299 = _x296 + _q_x3*_x263;
+    w[0] = _x0;
+    w[1] = _x1;
+    w[2] = _x8;
+    w[3] = _x9;
+    w[4] = _x24;
+    w[5] = _x26;
+    w[6] = _x28;
+    w[7] = _x29;
+    w[8] = _x30;
+    w[9] = _x31;
+    w[10] = _x45;
+    w[11] = _x47;
+    w[12] = _x49;
+    w[13] = _x51;
+    w[14] = _x52;
+    w[15] = _x53;
+    w[16] = _x69;
+    w[17] = _x71;
+    w[18] = _x73;
+    w[19] = _x74;
+    w[20] = _x75;
+    w[21] = _x76;
+    w[22] = _x95;
+    w[23] = _x97;
+    w[24] = _x99;
+    w[25] = _x100;
+    w[26] = _x101;
+    w[27] = _x102;
+    w[28] = _x117;
+    w[29] = _x119;
+    w[30] = _x121;
+    w[31] = _x123;
+    w[32] = _x124;
+    w[33] = _x125;
+    w[34] = _x141;
+    w[35] = _x143;
+    w[36] = _x145;
+    w[37] = _x146;
+    w[38] = _x147;
+    w[39] = _x148;
+    w[40] = _x167;
+    w[41] = _x169;
+    w[42] = _x171;
+    w[43] = _x172;
+    w[44] = _x173;
+    w[45] = _x174;
+    w[46] = _x189;
+    w[47] = _x191;
+    w[48] = _x193;
+    w[49] = _x195;
+    w[50] = _x196;
+    w[51] = _x197;
+    w[52] = _x213;
+    w[53] = _x215;
+    w[54] = _x217;
+    w[55] = _x218;
+    w[56] = _x219;
+    w[57] = _x220;
+    w[58] = _x239;
+    w[59] = _x241;
+    w[60] = _x243;
+    w[61] = _x244;
+    w[62] = _x245;
+    w[63] = _x246;
+    w[64] = _x261;
+    w[65] = _x262;
+    w[66] = _x263;
+    w[67] = _x264;
+    w[68] = _x265;
+    w[69] = _x266;
+    w[70] = _x279;
+    w[71] = _x280;
+    w[72] = _x281;
+    w[73] = _x282;
+    w[74] = _x283;
+    w[75] = _x284;
+    w[76] = _x285;
+    w[77] = _x286;
+    w[78] = _x287;
+    w[79] = _x288;
+    w[80] = _x289;
+    w[81] = _x290;
+    w[82] = _x291;
+    w[83] = _x292;
+    w[84] = _x293;
+    w[85] = _x297;
+    w[86] = _x298;
+    w[87] = _x299;
+}
+/* constraint_terms, block 2 of 2: w holds the values passed between blocks. */
+NOINLINE static void constraint_terms_block2(double t, const double *q, const double *qd, const double *p, double *w, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    (void)q;
+    const double _qd_x3 = qd[14];
+    const double _p_L3 = p[13];
+    const double _p_A = p[17];
+    const double _p_T = p[18];
+    const double _p_r_Ea = p[19];
+    const double _p_y_c = p[20];
+    const double _x0 = w[0];
+    const double _x1 = w[1];
+    const double _x8 = w[2];
+    const double _x9 = w[3];
+    const double _x24 = w[4];
+    const double _x26 = w[5];
+    const double _x28 = w[6];
+    const double _x29 = w[7];
+    const double _x30 = w[8];
+    const double _x31 = w[9];
+    const double _x45 = w[10];
+    const double _x47 = w[11];
+    const double _x49 = w[12];
+    const double _x51 = w[13];
+    const double _x52 = w[14];
+    const double _x53 = w[15];
+    const double _x69 = w[16];
+    const double _x71 = w[17];
+    const double _x73 = w[18];
+    const double _x74 = w[19];
+    const double _x75 = w[20];
+    const double _x76 = w[21];
+    const double _x95 = w[22];
+    const double _x97 = w[23];
+    const double _x99 = w[24];
+    const double _x100 = w[25];
+    const double _x101 = w[26];
+    const double _x102 = w[27];
+    const double _x117 = w[28];
+    const double _x119 = w[29];
+    const double _x121 = w[30];
+    const double _x123 = w[31];
+    const double _x124 = w[32];
+    const double _x125 = w[33];
+    const double _x141 = w[34];
+    const double _x143 = w[35];
+    const double _x145 = w[36];
+    const double _x146 = w[37];
+    const double _x147 = w[38];
+    const double _x148 = w[39];
+    const double _x167 = w[40];
+    const double _x169 = w[41];
+    const double _x171 = w[42];
+    const double _x172 = w[43];
+    const double _x173 = w[44];
+    const double _x174 = w[45];
+    const double _x189 = w[46];
+    const double _x191 = w[47];
+    const double _x193 = w[48];
+    const double _x195 = w[49];
+    const double _x196 = w[50];
+    const double _x197 = w[51];
+    const double _x213 = w[52];
+    const double _x215 = w[53];
+    const double _x217 = w[54];
+    const double _x218 = w[55];
+    const double _x219 = w[56];
+    const double _x220 = w[57];
+    const double _x239 = w[58];
+    const double _x241 = w[59];
+    const double _x243 = w[60];
+    const double _x244 = w[61];
+    const double _x245 = w[62];
+    const double _x246 = w[63];
+    const double _x261 = w[64];
+    const double _x262 = w[65];
+    const double _x263 = w[66];
+    const double _x264 = w[67];
+    const double _x265 = w[68];
+    const double _x266 = w[69];
+    const double _x279 = w[70];
+    const double _x280 = w[71];
+    const double _x281 = w[72];
+    const double _x282 = w[73];
+    const double _x283 = w[74];
+    const double _x284 = w[75];
+    const double _x285 = w[76];
+    const double _x286 = w[77];
+    const double _x287 = w[78];
+    const double _x288 = w[79];
+    const double _x289 = w[80];
+    const double _x290 = w[81];
+    const double _x291 = w[82];
+    const double _x292 = w[83];
+    const double _x293 = w[84];
+    const double _x297 = w[85];
+    const double _x298 = w[86];
+    const double _x299 = w[87];
     const double _x300 = _x285 + _qd_x3*(_x263*_x289 - _x262*_x290);
     const double _x301 = _x286 + _qd_x3*(_x261*_x290 - _x263*_x288);
     const double _x302 = _x287 + _qd_x3*(_x262*_x288 - _x261*_x289);
@@ -2946,6 +4230,23 @@ void manipulator_nrfe5_constraint_terms(double t, const double *q, const double 
     out_gamma[1] = _x380;
 }
 
+/* phi, phi_rate, D, gamma of the programmed constraints.
+   t: time (s)
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_phi: (2,) constraint values phi in CONSTRAINTS order
+   out_phi_rate: (2,) their rates d(phi)/dt
+   out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
+   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+*/
+void manipulator_nrfe5_constraint_terms(double t, const double *q, const double *qd, const double *p, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    double w[88];
+    constraint_terms_block1(t, q, qd, p, w, out_phi, out_phi_rate, out_jacobian, out_gamma);
+    constraint_terms_block2(t, q, qd, p, w, out_phi, out_phi_rate, out_jacobian, out_gamma);
+}
+
 
 /* constraint_terms at n states, one after the other, the same arithmetic state by state:
    t, q, qd hold n of the single call's inputs one after the other (row-major), p is
@@ -2961,6 +4262,7 @@ void manipulator_nrfe5_constraint_terms_batch(long n, const double *t, const dou
 
 
 #ifdef HOT_PART
+
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -2981,14 +4283,12 @@ void manipulator_nrfe5_baumgarte_gains(const double *p, double *out_alpha, doubl
 
 
 #ifdef COLD_PART
-/* Kinetic, gravity potential and spring energy.
-   q: (15,) coordinates in COORDINATES order
-   qd: (15,) velocities in COORDINATES order
-   p: (25,) parameter values in PARAMETERS order
-   out_e: (3,) kinetic, gravity potential and spring energy (J)
-*/
-void manipulator_nrfe5_energies(const double *q, const double *qd, const double *p, double *out_e)
+
+/* energies, block 1 of 2: w holds the values passed between blocks. */
+NOINLINE static void energies_block1(const double *q, const double *qd, const double *p, double *w, double *out_e)
 {
+    (void)qd;
+    (void)out_e;
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
     const double _q_psi2_1 = q[2];
@@ -3004,22 +4304,6 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
     const double _q_theta2_4 = q[12];
     const double _q_phi2_4 = q[13];
     const double _q_x3 = q[14];
-    const double _qd_theta1 = qd[0];
-    const double _qd_psi2 = qd[1];
-    const double _qd_psi2_1 = qd[2];
-    const double _qd_theta2_1 = qd[3];
-    const double _qd_phi2_1 = qd[4];
-    const double _qd_psi2_2 = qd[5];
-    const double _qd_theta2_2 = qd[6];
-    const double _qd_phi2_2 = qd[7];
-    const double _qd_psi2_3 = qd[8];
-    const double _qd_theta2_3 = qd[9];
-    const double _qd_phi2_3 = qd[10];
-    const double _qd_psi2_4 = qd[11];
-    const double _qd_theta2_4 = qd[12];
-    const double _qd_phi2_4 = qd[13];
-    const double _qd_x3 = qd[14];
-    const double _p_g = p[0];
     const double _p_m1 = p[1];
     const double _p_h1 = p[2];
     const double _p_R1 = p[3];
@@ -3027,9 +4311,6 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
     const double _p_b2 = p[5];
     const double _p_t2 = p[6];
     const double _p_rho2 = p[7];
-    const double _p_E2 = p[8];
-    const double _p_G2 = p[9];
-    const double _p_J2 = p[10];
     const double _p_m3 = p[12];
     const double _p_L3 = p[13];
     const double _p_R3 = p[14];
@@ -3333,6 +4614,313 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
     const double _x297 = _x197 + _x287;
     const double _x298 = _x204 + _x288;
     const double _x299 = _x289 - _x199;
+    w[0] = _x0;
+    w[1] = _x1;
+    w[2] = _x3;
+    w[3] = _x10;
+    w[4] = _x11;
+    w[5] = _x14;
+    w[6] = _x16;
+    w[7] = _x20;
+    w[8] = _x27;
+    w[9] = _x29;
+    w[10] = _x31;
+    w[11] = _x32;
+    w[12] = _x33;
+    w[13] = _x34;
+    w[14] = _x37;
+    w[15] = _x39;
+    w[16] = _x41;
+    w[17] = _x43;
+    w[18] = _x44;
+    w[19] = _x45;
+    w[20] = _x49;
+    w[21] = _x51;
+    w[22] = _x53;
+    w[23] = _x54;
+    w[24] = _x55;
+    w[25] = _x56;
+    w[26] = _x68;
+    w[27] = _x70;
+    w[28] = _x72;
+    w[29] = _x73;
+    w[30] = _x74;
+    w[31] = _x75;
+    w[32] = _x78;
+    w[33] = _x80;
+    w[34] = _x82;
+    w[35] = _x84;
+    w[36] = _x85;
+    w[37] = _x86;
+    w[38] = _x90;
+    w[39] = _x92;
+    w[40] = _x94;
+    w[41] = _x95;
+    w[42] = _x96;
+    w[43] = _x97;
+    w[44] = _x104;
+    w[45] = _x106;
+    w[46] = _x108;
+    w[47] = _x109;
+    w[48] = _x110;
+    w[49] = _x111;
+    w[50] = _x114;
+    w[51] = _x116;
+    w[52] = _x118;
+    w[53] = _x120;
+    w[54] = _x121;
+    w[55] = _x122;
+    w[56] = _x126;
+    w[57] = _x128;
+    w[58] = _x130;
+    w[59] = _x131;
+    w[60] = _x132;
+    w[61] = _x133;
+    w[62] = _x140;
+    w[63] = _x142;
+    w[64] = _x144;
+    w[65] = _x145;
+    w[66] = _x146;
+    w[67] = _x147;
+    w[68] = _x150;
+    w[69] = _x152;
+    w[70] = _x154;
+    w[71] = _x156;
+    w[72] = _x157;
+    w[73] = _x158;
+    w[74] = _x167;
+    w[75] = _x168;
+    w[76] = _x169;
+    w[77] = _x182;
+    w[78] = _x183;
+    w[79] = _x184;
+    w[80] = _x185;
+    w[81] = _x187;
+    w[82] = _x189;
+    w[83] = _x190;
+    w[84] = _x192;
+    w[85] = _x193;
+    w[86] = _x194;
+    w[87] = _x196;
+    w[88] = _x201;
+    w[89] = _x202;
+    w[90] = _x205;
+    w[91] = _x206;
+    w[92] = _x208;
+    w[93] = _x220;
+    w[94] = _x232;
+    w[95] = _x252;
+    w[96] = _x253;
+    w[97] = _x254;
+    w[98] = _x264;
+    w[99] = _x265;
+    w[100] = _x266;
+    w[101] = _x267;
+    w[102] = _x268;
+    w[103] = _x269;
+    w[104] = _x270;
+    w[105] = _x271;
+    w[106] = _x272;
+    w[107] = _x273;
+    w[108] = _x274;
+    w[109] = _x275;
+    w[110] = _x276;
+    w[111] = _x277;
+    w[112] = _x278;
+    w[113] = _x279;
+    w[114] = _x280;
+    w[115] = _x281;
+    w[116] = _x282;
+    w[117] = _x283;
+    w[118] = _x284;
+    w[119] = _x285;
+    w[120] = _x286;
+    w[121] = _x287;
+    w[122] = _x288;
+    w[123] = _x289;
+    w[124] = _x290;
+    w[125] = _x291;
+    w[126] = _x292;
+    w[127] = _x293;
+    w[128] = _x294;
+    w[129] = _x295;
+    w[130] = _x296;
+    w[131] = _x297;
+    w[132] = _x298;
+    w[133] = _x299;
+}
+/* energies, block 2 of 2: w holds the values passed between blocks. */
+NOINLINE static void energies_block2(const double *q, const double *qd, const double *p, double *w, double *out_e)
+{
+    const double _q_psi2_1 = q[2];
+    const double _q_theta2_1 = q[3];
+    const double _q_phi2_1 = q[4];
+    const double _q_psi2_2 = q[5];
+    const double _q_theta2_2 = q[6];
+    const double _q_phi2_2 = q[7];
+    const double _q_psi2_3 = q[8];
+    const double _q_theta2_3 = q[9];
+    const double _q_phi2_3 = q[10];
+    const double _q_psi2_4 = q[11];
+    const double _q_theta2_4 = q[12];
+    const double _q_phi2_4 = q[13];
+    const double _qd_theta1 = qd[0];
+    const double _qd_psi2 = qd[1];
+    const double _qd_psi2_1 = qd[2];
+    const double _qd_theta2_1 = qd[3];
+    const double _qd_phi2_1 = qd[4];
+    const double _qd_psi2_2 = qd[5];
+    const double _qd_theta2_2 = qd[6];
+    const double _qd_phi2_2 = qd[7];
+    const double _qd_psi2_3 = qd[8];
+    const double _qd_theta2_3 = qd[9];
+    const double _qd_phi2_3 = qd[10];
+    const double _qd_psi2_4 = qd[11];
+    const double _qd_theta2_4 = qd[12];
+    const double _qd_phi2_4 = qd[13];
+    const double _qd_x3 = qd[14];
+    const double _p_g = p[0];
+    const double _p_L2 = p[4];
+    const double _p_b2 = p[5];
+    const double _p_t2 = p[6];
+    const double _p_E2 = p[8];
+    const double _p_G2 = p[9];
+    const double _p_J2 = p[10];
+    const double _p_m3 = p[12];
+    const double _x0 = w[0];
+    const double _x1 = w[1];
+    const double _x3 = w[2];
+    const double _x10 = w[3];
+    const double _x11 = w[4];
+    const double _x14 = w[5];
+    const double _x16 = w[6];
+    const double _x20 = w[7];
+    const double _x27 = w[8];
+    const double _x29 = w[9];
+    const double _x31 = w[10];
+    const double _x32 = w[11];
+    const double _x33 = w[12];
+    const double _x34 = w[13];
+    const double _x37 = w[14];
+    const double _x39 = w[15];
+    const double _x41 = w[16];
+    const double _x43 = w[17];
+    const double _x44 = w[18];
+    const double _x45 = w[19];
+    const double _x49 = w[20];
+    const double _x51 = w[21];
+    const double _x53 = w[22];
+    const double _x54 = w[23];
+    const double _x55 = w[24];
+    const double _x56 = w[25];
+    const double _x68 = w[26];
+    const double _x70 = w[27];
+    const double _x72 = w[28];
+    const double _x73 = w[29];
+    const double _x74 = w[30];
+    const double _x75 = w[31];
+    const double _x78 = w[32];
+    const double _x80 = w[33];
+    const double _x82 = w[34];
+    const double _x84 = w[35];
+    const double _x85 = w[36];
+    const double _x86 = w[37];
+    const double _x90 = w[38];
+    const double _x92 = w[39];
+    const double _x94 = w[40];
+    const double _x95 = w[41];
+    const double _x96 = w[42];
+    const double _x97 = w[43];
+    const double _x104 = w[44];
+    const double _x106 = w[45];
+    const double _x108 = w[46];
+    const double _x109 = w[47];
+    const double _x110 = w[48];
+    const double _x111 = w[49];
+    const double _x114 = w[50];
+    const double _x116 = w[51];
+    const double _x118 = w[52];
+    const double _x120 = w[53];
+    const double _x121 = w[54];
+    const double _x122 = w[55];
+    const double _x126 = w[56];
+    const double _x128 = w[57];
+    const double _x130 = w[58];
+    const double _x131 = w[59];
+    const double _x132 = w[60];
+    const double _x133 = w[61];
+    const double _x140 = w[62];
+    const double _x142 = w[63];
+    const double _x144 = w[64];
+    const double _x145 = w[65];
+    const double _x146 = w[66];
+    const double _x147 = w[67];
+    const double _x150 = w[68];
+    const double _x152 = w[69];
+    const double _x154 = w[70];
+    const double _x156 = w[71];
+    const double _x157 = w[72];
+    const double _x158 = w[73];
+    const double _x167 = w[74];
+    const double _x168 = w[75];
+    const double _x169 = w[76];
+    const double _x182 = w[77];
+    const double _x183 = w[78];
+    const double _x184 = w[79];
+    const double _x185 = w[80];
+    const double _x187 = w[81];
+    const double _x189 = w[82];
+    const double _x190 = w[83];
+    const double _x192 = w[84];
+    const double _x193 = w[85];
+    const double _x194 = w[86];
+    const double _x196 = w[87];
+    const double _x201 = w[88];
+    const double _x202 = w[89];
+    const double _x205 = w[90];
+    const double _x206 = w[91];
+    const double _x208 = w[92];
+    const double _x220 = w[93];
+    const double _x232 = w[94];
+    const double _x252 = w[95];
+    const double _x253 = w[96];
+    const double _x254 = w[97];
+    const double _x264 = w[98];
+    const double _x265 = w[99];
+    const double _x266 = w[100];
+    const double _x267 = w[101];
+    const double _x268 = w[102];
+    const double _x269 = w[103];
+    const double _x270 = w[104];
+    const double _x271 = w[105];
+    const double _x272 = w[106];
+    const double _x273 = w[107];
+    const double _x274 = w[108];
+    const double _x275 = w[109];
+    const double _x276 = w[110];
+    const double _x277 = w[111];
+    const double _x278 = w[112];
+    const double _x279 = w[113];
+    const double _x280 = w[114];
+    const double _x281 = w[115];
+    const double _x282 = w[116];
+    const double _x283 = w[117];
+    const double _x284 = w[118];
+    const double _x285 = w[119];
+    const double _x286 = w[120];
+    const double _x287 = w[121];
+    const double _x288 = w[122];
+    const double _x289 = w[123];
+    const double _x290 = w[124];
+    const double _x291 = w[125];
+    const double _x292 = w[126];
+    const double _x293 = w[127];
+    const double _x294 = w[128];
+    const double _x295 = w[129];
+    const double _x296 = w[130];
+    const double _x297 = w[131];
+    const double _x298 = w[132];
+    const double _x299 = w[133];
     const double _x300 = _x205 + _x290;
     const double _x301 = _x291 - _x201;
     const double _x302 = _x292 - _x202;
@@ -3567,24 +5155,34 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
     out_e[1] = _x184*_p_g + _x196*_p_g + _x208*_p_g + _x220*_p_g + _x232*_p_g + _x253*_p_g + _x3*_p_g;
     out_e[2] = 2.0*_p_G2*_p_J2*_x529*(_q_phi2_1*_q_phi2_1) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_2*_q_phi2_2) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_3*_q_phi2_3) + 2.0*_p_G2*_p_J2*_x529*(_q_phi2_4*_q_phi2_4) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_1*_q_psi2_1) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_2*_q_psi2_2) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_3*_q_psi2_3) + (1.0/6.0)*_p_E2*_x14*_x529*_p_b2*(_q_psi2_4*_q_psi2_4) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_1*_q_theta2_1) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_2*_q_theta2_2) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_3*_q_theta2_3) + (1.0/6.0)*_p_E2*_x16*_x529*_p_t2*(_q_theta2_4*_q_theta2_4);
 }
+
+/* Kinetic, gravity potential and spring energy.
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_e: (3,) kinetic, gravity potential and spring energy (J)
+*/
+void manipulator_nrfe5_energies(const double *q, const double *qd, const double *p, double *out_e)
+{
+    double w[134];
+    energies_block1(q, qd, p, w, out_e);
+    energies_block2(q, qd, p, w, out_e);
+}
 #endif
 
 
 #ifdef HOT_PART
-/* M, f and the constraint terms in one pass (shared kinematics).
-   t: time (s)
-   q: (15,) coordinates in COORDINATES order
-   qd: (15,) velocities in COORDINATES order
-   p: (25,) parameter values in PARAMETERS order
-   out_M: (15, 15) mass matrix M(q), symmetric, row-major
-   out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
-   out_phi: (2,) constraint values phi in CONSTRAINTS order
-   out_phi_rate: (2,) their rates d(phi)/dt
-   out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
-   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
-*/
-void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+
+/* gpme_terms, block 1 of 4: w holds the values passed between blocks. */
+NOINLINE static void gpme_terms_block1(double t, const double *q, const double *qd, const double *p, double *w, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
 {
+    (void)t;
+    (void)out_M;
+    (void)out_f;
+    (void)out_phi;
+    (void)out_phi_rate;
+    (void)out_jacobian;
+    (void)out_gamma;
     const double _q_theta1 = q[0];
     const double _q_psi2 = q[1];
     const double _q_psi2_1 = q[2];
@@ -3599,7 +5197,6 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     const double _q_psi2_4 = q[11];
     const double _q_theta2_4 = q[12];
     const double _q_phi2_4 = q[13];
-    const double _q_x3 = q[14];
     const double _qd_theta1 = qd[0];
     const double _qd_psi2 = qd[1];
     const double _qd_psi2_1 = qd[2];
@@ -3613,9 +5210,6 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     const double _qd_phi2_3 = qd[10];
     const double _qd_psi2_4 = qd[11];
     const double _qd_theta2_4 = qd[12];
-    const double _qd_phi2_4 = qd[13];
-    const double _qd_x3 = qd[14];
-    const double _p_g = p[0];
     const double _p_m1 = p[1];
     const double _p_h1 = p[2];
     const double _p_R1 = p[3];
@@ -3623,19 +5217,6 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     const double _p_b2 = p[5];
     const double _p_t2 = p[6];
     const double _p_rho2 = p[7];
-    const double _p_E2 = p[8];
-    const double _p_G2 = p[9];
-    const double _p_J2 = p[10];
-    const double _p_d2 = p[11];
-    const double _p_m3 = p[12];
-    const double _p_L3 = p[13];
-    const double _p_R3 = p[14];
-    const double _p_tdr0 = p[15];
-    const double _p_t0 = p[16];
-    const double _p_A = p[17];
-    const double _p_T = p[18];
-    const double _p_r_Ea = p[19];
-    const double _p_y_c = p[20];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
     const double _x2 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
@@ -3936,6 +5517,368 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     const double _x297 = cos(_q_phi2_4);
     const double _x298 = sin(_q_phi2_4);
     const double _x299 = _x254*_x297 + _x277*_x298;
+    w[0] = _x0;
+    w[1] = _x1;
+    w[2] = _x2;
+    w[3] = _x3;
+    w[4] = _x4;
+    w[5] = _x5;
+    w[6] = _x6;
+    w[7] = _x7;
+    w[8] = _x8;
+    w[9] = _x9;
+    w[10] = _x10;
+    w[11] = _x11;
+    w[12] = _x12;
+    w[13] = _x13;
+    w[14] = _x14;
+    w[15] = _x15;
+    w[16] = _x16;
+    w[17] = _x17;
+    w[18] = _x18;
+    w[19] = _x20;
+    w[20] = _x21;
+    w[21] = _x22;
+    w[22] = _x23;
+    w[23] = _x24;
+    w[24] = _x26;
+    w[25] = _x27;
+    w[26] = _x28;
+    w[27] = _x29;
+    w[28] = _x30;
+    w[29] = _x34;
+    w[30] = _x36;
+    w[31] = _x38;
+    w[32] = _x39;
+    w[33] = _x40;
+    w[34] = _x41;
+    w[35] = _x55;
+    w[36] = _x57;
+    w[37] = _x59;
+    w[38] = _x61;
+    w[39] = _x62;
+    w[40] = _x63;
+    w[41] = _x78;
+    w[42] = _x79;
+    w[43] = _x80;
+    w[44] = _x81;
+    w[45] = _x82;
+    w[46] = _x83;
+    w[47] = _x84;
+    w[48] = _x85;
+    w[49] = _x86;
+    w[50] = _x87;
+    w[51] = _x88;
+    w[52] = _x89;
+    w[53] = _x90;
+    w[54] = _x91;
+    w[55] = _x92;
+    w[56] = _x93;
+    w[57] = _x94;
+    w[58] = _x95;
+    w[59] = _x96;
+    w[60] = _x97;
+    w[61] = _x98;
+    w[62] = _x99;
+    w[63] = _x100;
+    w[64] = _x101;
+    w[65] = _x102;
+    w[66] = _x103;
+    w[67] = _x104;
+    w[68] = _x105;
+    w[69] = _x106;
+    w[70] = _x110;
+    w[71] = _x112;
+    w[72] = _x114;
+    w[73] = _x115;
+    w[74] = _x116;
+    w[75] = _x117;
+    w[76] = _x132;
+    w[77] = _x134;
+    w[78] = _x136;
+    w[79] = _x138;
+    w[80] = _x139;
+    w[81] = _x140;
+    w[82] = _x155;
+    w[83] = _x156;
+    w[84] = _x157;
+    w[85] = _x158;
+    w[86] = _x159;
+    w[87] = _x160;
+    w[88] = _x161;
+    w[89] = _x162;
+    w[90] = _x163;
+    w[91] = _x164;
+    w[92] = _x165;
+    w[93] = _x166;
+    w[94] = _x167;
+    w[95] = _x168;
+    w[96] = _x169;
+    w[97] = _x170;
+    w[98] = _x171;
+    w[99] = _x172;
+    w[100] = _x173;
+    w[101] = _x174;
+    w[102] = _x175;
+    w[103] = _x176;
+    w[104] = _x177;
+    w[105] = _x178;
+    w[106] = _x182;
+    w[107] = _x184;
+    w[108] = _x186;
+    w[109] = _x187;
+    w[110] = _x188;
+    w[111] = _x189;
+    w[112] = _x204;
+    w[113] = _x206;
+    w[114] = _x208;
+    w[115] = _x210;
+    w[116] = _x211;
+    w[117] = _x212;
+    w[118] = _x227;
+    w[119] = _x228;
+    w[120] = _x229;
+    w[121] = _x230;
+    w[122] = _x231;
+    w[123] = _x232;
+    w[124] = _x233;
+    w[125] = _x234;
+    w[126] = _x235;
+    w[127] = _x236;
+    w[128] = _x237;
+    w[129] = _x238;
+    w[130] = _x239;
+    w[131] = _x240;
+    w[132] = _x241;
+    w[133] = _x242;
+    w[134] = _x243;
+    w[135] = _x244;
+    w[136] = _x245;
+    w[137] = _x246;
+    w[138] = _x247;
+    w[139] = _x248;
+    w[140] = _x249;
+    w[141] = _x250;
+    w[142] = _x254;
+    w[143] = _x256;
+    w[144] = _x258;
+    w[145] = _x259;
+    w[146] = _x260;
+    w[147] = _x261;
+    w[148] = _x276;
+    w[149] = _x277;
+    w[150] = _x278;
+    w[151] = _x279;
+    w[152] = _x280;
+    w[153] = _x281;
+    w[154] = _x282;
+    w[155] = _x283;
+    w[156] = _x284;
+    w[157] = _x285;
+    w[158] = _x286;
+    w[159] = _x287;
+    w[160] = _x288;
+    w[161] = _x289;
+    w[162] = _x290;
+    w[163] = _x291;
+    w[164] = _x292;
+    w[165] = _x293;
+    w[166] = _x294;
+    w[167] = _x295;
+    w[168] = _x296;
+    w[169] = _x297;
+    w[170] = _x298;
+    w[171] = _x299;
+}
+/* gpme_terms, block 2 of 4: w holds the values passed between blocks. */
+NOINLINE static void gpme_terms_block2(double t, const double *q, const double *qd, const double *p, double *w, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    (void)t;
+    (void)out_M;
+    (void)out_f;
+    (void)out_phi;
+    (void)out_phi_rate;
+    (void)out_jacobian;
+    (void)out_gamma;
+    const double _q_x3 = q[14];
+    const double _qd_theta1 = qd[0];
+    const double _qd_phi2_4 = qd[13];
+    const double _qd_x3 = qd[14];
+    const double _p_h1 = p[2];
+    const double _p_L2 = p[4];
+    const double _p_m3 = p[12];
+    const double _p_L3 = p[13];
+    const double _p_R3 = p[14];
+    const double _x0 = w[0];
+    const double _x1 = w[1];
+    const double _x2 = w[2];
+    const double _x3 = w[3];
+    const double _x4 = w[4];
+    const double _x5 = w[5];
+    const double _x6 = w[6];
+    const double _x7 = w[7];
+    const double _x8 = w[8];
+    const double _x9 = w[9];
+    const double _x10 = w[10];
+    const double _x11 = w[11];
+    const double _x12 = w[12];
+    const double _x13 = w[13];
+    const double _x14 = w[14];
+    const double _x15 = w[15];
+    const double _x16 = w[16];
+    const double _x17 = w[17];
+    const double _x18 = w[18];
+    const double _x20 = w[19];
+    const double _x22 = w[21];
+    const double _x24 = w[23];
+    const double _x26 = w[24];
+    const double _x27 = w[25];
+    const double _x28 = w[26];
+    const double _x29 = w[27];
+    const double _x30 = w[28];
+    const double _x34 = w[29];
+    const double _x36 = w[30];
+    const double _x38 = w[31];
+    const double _x39 = w[32];
+    const double _x40 = w[33];
+    const double _x41 = w[34];
+    const double _x55 = w[35];
+    const double _x57 = w[36];
+    const double _x59 = w[37];
+    const double _x61 = w[38];
+    const double _x62 = w[39];
+    const double _x63 = w[40];
+    const double _x78 = w[41];
+    const double _x79 = w[42];
+    const double _x80 = w[43];
+    const double _x81 = w[44];
+    const double _x82 = w[45];
+    const double _x83 = w[46];
+    const double _x84 = w[47];
+    const double _x85 = w[48];
+    const double _x86 = w[49];
+    const double _x87 = w[50];
+    const double _x88 = w[51];
+    const double _x89 = w[52];
+    const double _x90 = w[53];
+    const double _x91 = w[54];
+    const double _x92 = w[55];
+    const double _x93 = w[56];
+    const double _x94 = w[57];
+    const double _x95 = w[58];
+    const double _x96 = w[59];
+    const double _x97 = w[60];
+    const double _x98 = w[61];
+    const double _x99 = w[62];
+    const double _x100 = w[63];
+    const double _x101 = w[64];
+    const double _x102 = w[65];
+    const double _x103 = w[66];
+    const double _x104 = w[67];
+    const double _x105 = w[68];
+    const double _x106 = w[69];
+    const double _x110 = w[70];
+    const double _x112 = w[71];
+    const double _x114 = w[72];
+    const double _x115 = w[73];
+    const double _x116 = w[74];
+    const double _x117 = w[75];
+    const double _x132 = w[76];
+    const double _x134 = w[77];
+    const double _x136 = w[78];
+    const double _x138 = w[79];
+    const double _x139 = w[80];
+    const double _x140 = w[81];
+    const double _x155 = w[82];
+    const double _x156 = w[83];
+    const double _x157 = w[84];
+    const double _x158 = w[85];
+    const double _x159 = w[86];
+    const double _x160 = w[87];
+    const double _x161 = w[88];
+    const double _x162 = w[89];
+    const double _x163 = w[90];
+    const double _x164 = w[91];
+    const double _x165 = w[92];
+    const double _x166 = w[93];
+    const double _x167 = w[94];
+    const double _x168 = w[95];
+    const double _x169 = w[96];
+    const double _x170 = w[97];
+    const double _x171 = w[98];
+    const double _x172 = w[99];
+    const double _x173 = w[100];
+    const double _x174 = w[101];
+    const double _x175 = w[102];
+    const double _x176 = w[103];
+    const double _x177 = w[104];
+    const double _x178 = w[105];
+    const double _x182 = w[106];
+    const double _x184 = w[107];
+    const double _x186 = w[108];
+    const double _x187 = w[109];
+    const double _x188 = w[110];
+    const double _x189 = w[111];
+    const double _x204 = w[112];
+    const double _x206 = w[113];
+    const double _x208 = w[114];
+    const double _x210 = w[115];
+    const double _x211 = w[116];
+    const double _x212 = w[117];
+    const double _x227 = w[118];
+    const double _x228 = w[119];
+    const double _x229 = w[120];
+    const double _x230 = w[121];
+    const double _x231 = w[122];
+    const double _x232 = w[123];
+    const double _x233 = w[124];
+    const double _x234 = w[125];
+    const double _x235 = w[126];
+    const double _x236 = w[127];
+    const double _x237 = w[128];
+    const double _x238 = w[129];
+    const double _x239 = w[130];
+    const double _x240 = w[131];
+    const double _x241 = w[132];
+    const double _x242 = w[133];
+    const double _x243 = w[134];
+    const double _x244 = w[135];
+    const double _x245 = w[136];
+    const double _x246 = w[137];
+    const double _x247 = w[138];
+    const double _x248 = w[139];
+    const double _x249 = w[140];
+    const double _x250 = w[141];
+    const double _x254 = w[142];
+    const double _x256 = w[143];
+    const double _x258 = w[144];
+    const double _x259 = w[145];
+    const double _x260 = w[146];
+    const double _x261 = w[147];
+    const double _x276 = w[148];
+    const double _x277 = w[149];
+    const double _x278 = w[150];
+    const double _x279 = w[151];
+    const double _x280 = w[152];
+    const double _x281 = w[153];
+    const double _x282 = w[154];
+    const double _x283 = w[155];
+    const double _x284 = w[156];
+    const double _x285 = w[157];
+    const double _x286 = w[158];
+    const double _x287 = w[159];
+    const double _x288 = w[160];
+    const double _x289 = w[161];
+    const double _x290 = w[162];
+    const double _x291 = w[163];
+    const double _x292 = w[164];
+    const double _x293 = w[165];
+    const double _x294 = w[166];
+    const double _x295 = w[167];
+    const double _x296 = w[168];
+    const double _x297 = w[169];
+    const double _x298 = w[170];
+    const double _x299 = w[171];
     const double _x300 = _x277*_x297 - _x254*_x298;
     const double _x301 = _x256*_x297 + _x279*_x298;
     const double _x302 = _x279*_x297 - _x256*_x298;
@@ -4236,6 +6179,355 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     const double _x597 = _x424 + _x581;
     const double _x598 = _x582 - _x420;
     const double _x599 = _x583 - _x421;
+    w[172] = _x305;
+    w[173] = _x306;
+    w[174] = _x307;
+    w[175] = _x335;
+    w[176] = _x336;
+    w[177] = _x337;
+    w[178] = _x338;
+    w[179] = _x339;
+    w[180] = _x340;
+    w[181] = _x341;
+    w[182] = _x342;
+    w[183] = _x343;
+    w[184] = _x345;
+    w[185] = _x348;
+    w[186] = _x350;
+    w[187] = _x351;
+    w[188] = _x352;
+    w[189] = _x353;
+    w[190] = _x354;
+    w[191] = _x355;
+    w[192] = _x356;
+    w[193] = _x357;
+    w[194] = _x358;
+    w[195] = _x359;
+    w[196] = _x360;
+    w[197] = _x361;
+    w[198] = _x362;
+    w[199] = _x363;
+    w[200] = _x364;
+    w[201] = _x365;
+    w[202] = _x366;
+    w[203] = _x367;
+    w[204] = _x368;
+    w[205] = _x369;
+    w[206] = _x370;
+    w[207] = _x371;
+    w[208] = _x372;
+    w[209] = _x373;
+    w[210] = _x374;
+    w[211] = _x375;
+    w[212] = _x376;
+    w[213] = _x377;
+    w[214] = _x378;
+    w[215] = _x379;
+    w[216] = _x380;
+    w[217] = _x381;
+    w[218] = _x382;
+    w[219] = _x383;
+    w[220] = _x384;
+    w[221] = _x385;
+    w[222] = _x386;
+    w[223] = _x390;
+    w[224] = _x391;
+    w[225] = _x392;
+    w[226] = _x393;
+    w[227] = _x395;
+    w[228] = _x397;
+    w[229] = _x398;
+    w[230] = _x400;
+    w[231] = _x401;
+    w[232] = _x402;
+    w[233] = _x409;
+    w[234] = _x410;
+    w[235] = _x411;
+    w[236] = _x412;
+    w[237] = _x413;
+    w[238] = _x425;
+    w[239] = _x432;
+    w[240] = _x433;
+    w[241] = _x434;
+    w[242] = _x435;
+    w[243] = _x436;
+    w[244] = _x437;
+    w[245] = _x519;
+    w[246] = _x520;
+    w[247] = _x521;
+    w[248] = _x540;
+    w[249] = _x541;
+    w[250] = _x542;
+    w[251] = _x543;
+    w[252] = _x544;
+    w[253] = _x545;
+    w[254] = _x546;
+    w[255] = _x547;
+    w[256] = _x548;
+    w[257] = _x549;
+    w[258] = _x550;
+    w[259] = _x551;
+    w[260] = _x552;
+    w[261] = _x553;
+    w[262] = _x554;
+    w[263] = _x555;
+    w[264] = _x556;
+    w[265] = _x557;
+    w[266] = _x558;
+    w[267] = _x559;
+    w[268] = _x560;
+    w[269] = _x561;
+    w[270] = _x562;
+    w[271] = _x563;
+    w[272] = _x564;
+    w[273] = _x565;
+    w[274] = _x566;
+    w[275] = _x567;
+    w[276] = _x568;
+    w[277] = _x569;
+    w[278] = _x570;
+    w[279] = _x571;
+    w[280] = _x572;
+    w[281] = _x573;
+    w[282] = _x574;
+    w[283] = _x575;
+    w[284] = _x576;
+    w[285] = _x577;
+    w[286] = _x578;
+    w[287] = _x579;
+    w[288] = _x580;
+    w[289] = _x581;
+    w[290] = _x582;
+    w[291] = _x583;
+    w[292] = _x584;
+    w[293] = _x585;
+    w[294] = _x586;
+    w[295] = _x587;
+    w[296] = _x588;
+    w[297] = _x589;
+    w[298] = _x590;
+    w[299] = _x591;
+    w[300] = _x592;
+    w[301] = _x593;
+    w[302] = _x594;
+    w[303] = _x595;
+    w[304] = _x596;
+    w[305] = _x597;
+    w[306] = _x598;
+    w[307] = _x599;
+}
+/* gpme_terms, block 3 of 4: w holds the values passed between blocks. */
+NOINLINE static void gpme_terms_block3(double t, const double *q, const double *qd, const double *p, double *w, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    (void)q;
+    (void)qd;
+    (void)out_f;
+    (void)out_phi;
+    (void)out_phi_rate;
+    (void)out_jacobian;
+    (void)out_gamma;
+    const double _p_g = p[0];
+    const double _p_L2 = p[4];
+    const double _p_m3 = p[12];
+    const double _p_t0 = p[16];
+    const double _p_A = p[17];
+    const double _p_T = p[18];
+    const double _p_r_Ea = p[19];
+    const double _p_y_c = p[20];
+    const double _x0 = w[0];
+    const double _x1 = w[1];
+    const double _x9 = w[9];
+    const double _x10 = w[10];
+    const double _x27 = w[25];
+    const double _x34 = w[29];
+    const double _x36 = w[30];
+    const double _x38 = w[31];
+    const double _x39 = w[32];
+    const double _x40 = w[33];
+    const double _x41 = w[34];
+    const double _x55 = w[35];
+    const double _x57 = w[36];
+    const double _x59 = w[37];
+    const double _x61 = w[38];
+    const double _x62 = w[39];
+    const double _x63 = w[40];
+    const double _x79 = w[42];
+    const double _x81 = w[44];
+    const double _x83 = w[46];
+    const double _x84 = w[47];
+    const double _x85 = w[48];
+    const double _x86 = w[49];
+    const double _x110 = w[70];
+    const double _x112 = w[71];
+    const double _x114 = w[72];
+    const double _x115 = w[73];
+    const double _x116 = w[74];
+    const double _x117 = w[75];
+    const double _x132 = w[76];
+    const double _x134 = w[77];
+    const double _x136 = w[78];
+    const double _x138 = w[79];
+    const double _x139 = w[80];
+    const double _x140 = w[81];
+    const double _x156 = w[83];
+    const double _x158 = w[85];
+    const double _x160 = w[87];
+    const double _x161 = w[88];
+    const double _x162 = w[89];
+    const double _x163 = w[90];
+    const double _x182 = w[106];
+    const double _x184 = w[107];
+    const double _x186 = w[108];
+    const double _x187 = w[109];
+    const double _x188 = w[110];
+    const double _x189 = w[111];
+    const double _x204 = w[112];
+    const double _x206 = w[113];
+    const double _x208 = w[114];
+    const double _x210 = w[115];
+    const double _x211 = w[116];
+    const double _x212 = w[117];
+    const double _x228 = w[119];
+    const double _x230 = w[121];
+    const double _x232 = w[123];
+    const double _x233 = w[124];
+    const double _x234 = w[125];
+    const double _x235 = w[126];
+    const double _x254 = w[142];
+    const double _x256 = w[143];
+    const double _x258 = w[144];
+    const double _x259 = w[145];
+    const double _x260 = w[146];
+    const double _x261 = w[147];
+    const double _x276 = w[148];
+    const double _x278 = w[150];
+    const double _x280 = w[152];
+    const double _x282 = w[154];
+    const double _x283 = w[155];
+    const double _x284 = w[156];
+    const double _x305 = w[172];
+    const double _x306 = w[173];
+    const double _x307 = w[174];
+    const double _x335 = w[175];
+    const double _x336 = w[176];
+    const double _x337 = w[177];
+    const double _x338 = w[178];
+    const double _x339 = w[179];
+    const double _x340 = w[180];
+    const double _x341 = w[181];
+    const double _x342 = w[182];
+    const double _x343 = w[183];
+    const double _x345 = w[184];
+    const double _x350 = w[186];
+    const double _x351 = w[187];
+    const double _x353 = w[189];
+    const double _x354 = w[190];
+    const double _x356 = w[192];
+    const double _x357 = w[193];
+    const double _x359 = w[195];
+    const double _x360 = w[196];
+    const double _x362 = w[198];
+    const double _x363 = w[199];
+    const double _x365 = w[201];
+    const double _x366 = w[202];
+    const double _x368 = w[204];
+    const double _x369 = w[205];
+    const double _x371 = w[207];
+    const double _x372 = w[208];
+    const double _x374 = w[210];
+    const double _x375 = w[211];
+    const double _x377 = w[213];
+    const double _x378 = w[214];
+    const double _x380 = w[216];
+    const double _x381 = w[217];
+    const double _x383 = w[219];
+    const double _x384 = w[220];
+    const double _x386 = w[222];
+    const double _x390 = w[223];
+    const double _x391 = w[224];
+    const double _x392 = w[225];
+    const double _x393 = w[226];
+    const double _x395 = w[227];
+    const double _x397 = w[228];
+    const double _x398 = w[229];
+    const double _x400 = w[230];
+    const double _x401 = w[231];
+    const double _x402 = w[232];
+    const double _x409 = w[233];
+    const double _x410 = w[234];
+    const double _x411 = w[235];
+    const double _x412 = w[236];
+    const double _x413 = w[237];
+    const double _x425 = w[238];
+    const double _x432 = w[239];
+    const double _x433 = w[240];
+    const double _x434 = w[241];
+    const double _x435 = w[242];
+    const double _x436 = w[243];
+    const double _x437 = w[244];
+    const double _x519 = w[245];
+    const double _x520 = w[246];
+    const double _x521 = w[247];
+    const double _x540 = w[248];
+    const double _x541 = w[249];
+    const double _x542 = w[250];
+    const double _x543 = w[251];
+    const double _x544 = w[252];
+    const double _x545 = w[253];
+    const double _x546 = w[254];
+    const double _x547 = w[255];
+    const double _x548 = w[256];
+    const double _x549 = w[257];
+    const double _x550 = w[258];
+    const double _x551 = w[259];
+    const double _x552 = w[260];
+    const double _x553 = w[261];
+    const double _x554 = w[262];
+    const double _x555 = w[263];
+    const double _x556 = w[264];
+    const double _x557 = w[265];
+    const double _x558 = w[266];
+    const double _x559 = w[267];
+    const double _x560 = w[268];
+    const double _x561 = w[269];
+    const double _x562 = w[270];
+    const double _x563 = w[271];
+    const double _x564 = w[272];
+    const double _x565 = w[273];
+    const double _x566 = w[274];
+    const double _x567 = w[275];
+    const double _x568 = w[276];
+    const double _x569 = w[277];
+    const double _x570 = w[278];
+    const double _x571 = w[279];
+    const double _x572 = w[280];
+    const double _x573 = w[281];
+    const double _x574 = w[282];
+    const double _x575 = w[283];
+    const double _x576 = w[284];
+    const double _x577 = w[285];
+    const double _x578 = w[286];
+    const double _x579 = w[287];
+    const double _x580 = w[288];
+    const double _x581 = w[289];
+    const double _x582 = w[290];
+    const double _x583 = w[291];
+    const double _x584 = w[292];
+    const double _x585 = w[293];
+    const double _x586 = w[294];
+    const double _x587 = w[295];
+    const double _x588 = w[296];
+    const double _x589 = w[297];
+    const double _x590 = w[298];
+    const double _x591 = w[299];
+    const double _x592 = w[300];
+    const double _x593 = w[301];
+    const double _x594 = w[302];
+    const double _x595 = w[303];
+    const double _x596 = w[304];
+    const double _x597 = w[305];
+    const double _x598 = w[306];
+    const double _x599 = w[307];
     const double _x600 = _x425 + _x584;
     const double _x601 = _x432 + _x585;
     const double _x602 = _x433 + _x586;
@@ -4527,6 +6819,176 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     const double _x888 = _x342 + 4.0*_p_A*_x885*pow(3.14159265358979323846, 2.0)/(_p_T*_p_T);
     const double _x889 = fmin(1.0, t/_p_t0);
     const double _x890 = 1.0/_p_L2;
+    w[308] = _x618;
+    w[309] = _x624;
+    w[310] = _x629;
+    w[311] = _x630;
+    w[312] = _x632;
+    w[313] = _x637;
+    w[314] = _x638;
+    w[315] = _x640;
+    w[316] = _x645;
+    w[317] = _x646;
+    w[318] = _x648;
+    w[319] = _x653;
+    w[320] = _x654;
+    w[321] = _x656;
+    w[322] = _x661;
+    w[323] = _x662;
+    w[324] = _x664;
+    w[325] = _x669;
+    w[326] = _x670;
+    w[327] = _x672;
+    w[328] = _x677;
+    w[329] = _x678;
+    w[330] = _x680;
+    w[331] = _x685;
+    w[332] = _x686;
+    w[333] = _x688;
+    w[334] = _x693;
+    w[335] = _x694;
+    w[336] = _x696;
+    w[337] = _x701;
+    w[338] = _x702;
+    w[339] = _x704;
+    w[340] = _x709;
+    w[341] = _x710;
+    w[342] = _x712;
+    w[343] = _x717;
+    w[344] = _x718;
+    w[345] = _x720;
+    w[346] = _x725;
+    w[347] = _x726;
+    w[348] = _x728;
+    w[349] = _x733;
+    w[350] = _x734;
+    w[351] = _x735;
+    w[352] = _x738;
+    w[353] = _x739;
+    w[354] = _x742;
+    w[355] = _x743;
+    w[356] = _x744;
+    w[357] = _x747;
+    w[358] = _x748;
+    w[359] = _x749;
+    w[360] = _x750;
+    w[361] = _x753;
+    w[362] = _x754;
+    w[363] = _x755;
+    w[364] = _x756;
+    w[365] = _x757;
+    w[366] = _x760;
+    w[367] = _x761;
+    w[368] = _x762;
+    w[369] = _x763;
+    w[370] = _x764;
+    w[371] = _x765;
+    w[372] = _x768;
+    w[373] = _x769;
+    w[374] = _x770;
+    w[375] = _x771;
+    w[376] = _x772;
+    w[377] = _x773;
+    w[378] = _x774;
+    w[379] = _x777;
+    w[380] = _x778;
+    w[381] = _x779;
+    w[382] = _x780;
+    w[383] = _x781;
+    w[384] = _x782;
+    w[385] = _x783;
+    w[386] = _x784;
+    w[387] = _x787;
+    w[388] = _x788;
+    w[389] = _x789;
+    w[390] = _x790;
+    w[391] = _x791;
+    w[392] = _x792;
+    w[393] = _x793;
+    w[394] = _x794;
+    w[395] = _x795;
+    w[396] = _x798;
+    w[397] = _x799;
+    w[398] = _x800;
+    w[399] = _x801;
+    w[400] = _x802;
+    w[401] = _x803;
+    w[402] = _x804;
+    w[403] = _x805;
+    w[404] = _x806;
+    w[405] = _x807;
+    w[406] = _x810;
+    w[407] = _x811;
+    w[408] = _x812;
+    w[409] = _x813;
+    w[410] = _x814;
+    w[411] = _x815;
+    w[412] = _x816;
+    w[413] = _x817;
+    w[414] = _x818;
+    w[415] = _x819;
+    w[416] = _x820;
+    w[417] = _x823;
+    w[418] = _x824;
+    w[419] = _x825;
+    w[420] = _x826;
+    w[421] = _x827;
+    w[422] = _x828;
+    w[423] = _x829;
+    w[424] = _x830;
+    w[425] = _x831;
+    w[426] = _x832;
+    w[427] = _x833;
+    w[428] = _x834;
+    w[429] = _x837;
+    w[430] = _x838;
+    w[431] = _x839;
+    w[432] = _x840;
+    w[433] = _x841;
+    w[434] = _x842;
+    w[435] = _x843;
+    w[436] = _x844;
+    w[437] = _x845;
+    w[438] = _x846;
+    w[439] = _x847;
+    w[440] = _x848;
+    w[441] = _x849;
+    w[442] = _x852;
+    w[443] = _x853;
+    w[444] = _x854;
+    w[445] = _x855;
+    w[446] = _x856;
+    w[447] = _x857;
+    w[448] = _x858;
+    w[449] = _x859;
+    w[450] = _x860;
+    w[451] = _x861;
+    w[452] = _x862;
+    w[453] = _x863;
+    w[454] = _x864;
+    w[455] = _x865;
+    w[456] = _x866;
+    w[457] = _x867;
+    w[458] = _x868;
+    w[459] = _x869;
+    w[460] = _x870;
+    w[461] = _x871;
+    w[462] = _x872;
+    w[463] = _x873;
+    w[464] = _x874;
+    w[465] = _x875;
+    w[466] = _x876;
+    w[467] = _x877;
+    w[468] = _x878;
+    w[469] = _x879;
+    w[470] = _x880;
+    w[471] = _x881;
+    w[472] = _x882;
+    w[473] = _x886;
+    w[474] = _x887;
+    w[475] = _x888;
+    w[476] = _x889;
+    w[477] = _x890;
     out_M[0] = _x622;
     out_M[1] = _x624;
     out_M[2] = _x632;
@@ -4536,6 +6998,228 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     out_M[6] = _x664;
     out_M[7] = _x672;
     out_M[8] = _x680;
+}
+/* gpme_terms, block 4 of 4: w holds the values passed between blocks. */
+NOINLINE static void gpme_terms_block4(double t, const double *q, const double *qd, const double *p, double *w, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    (void)t;
+    const double _q_psi2_1 = q[2];
+    const double _q_theta2_1 = q[3];
+    const double _q_phi2_1 = q[4];
+    const double _q_psi2_2 = q[5];
+    const double _q_theta2_2 = q[6];
+    const double _q_phi2_2 = q[7];
+    const double _q_psi2_3 = q[8];
+    const double _q_theta2_3 = q[9];
+    const double _q_phi2_3 = q[10];
+    const double _q_psi2_4 = q[11];
+    const double _q_theta2_4 = q[12];
+    const double _q_phi2_4 = q[13];
+    const double _qd_psi2_1 = qd[2];
+    const double _qd_theta2_1 = qd[3];
+    const double _qd_phi2_1 = qd[4];
+    const double _qd_psi2_2 = qd[5];
+    const double _qd_theta2_2 = qd[6];
+    const double _qd_phi2_2 = qd[7];
+    const double _qd_psi2_3 = qd[8];
+    const double _qd_theta2_3 = qd[9];
+    const double _qd_phi2_3 = qd[10];
+    const double _qd_psi2_4 = qd[11];
+    const double _qd_theta2_4 = qd[12];
+    const double _qd_phi2_4 = qd[13];
+    const double _p_b2 = p[5];
+    const double _p_t2 = p[6];
+    const double _p_E2 = p[8];
+    const double _p_G2 = p[9];
+    const double _p_J2 = p[10];
+    const double _p_d2 = p[11];
+    const double _p_tdr0 = p[15];
+    const double _x21 = w[20];
+    const double _x23 = w[22];
+    const double _x278 = w[150];
+    const double _x348 = w[185];
+    const double _x352 = w[188];
+    const double _x355 = w[191];
+    const double _x358 = w[194];
+    const double _x361 = w[197];
+    const double _x364 = w[200];
+    const double _x367 = w[203];
+    const double _x370 = w[206];
+    const double _x373 = w[209];
+    const double _x376 = w[212];
+    const double _x379 = w[215];
+    const double _x382 = w[218];
+    const double _x385 = w[221];
+    const double _x618 = w[308];
+    const double _x624 = w[309];
+    const double _x629 = w[310];
+    const double _x630 = w[311];
+    const double _x632 = w[312];
+    const double _x637 = w[313];
+    const double _x638 = w[314];
+    const double _x640 = w[315];
+    const double _x645 = w[316];
+    const double _x646 = w[317];
+    const double _x648 = w[318];
+    const double _x653 = w[319];
+    const double _x654 = w[320];
+    const double _x656 = w[321];
+    const double _x661 = w[322];
+    const double _x662 = w[323];
+    const double _x664 = w[324];
+    const double _x669 = w[325];
+    const double _x670 = w[326];
+    const double _x672 = w[327];
+    const double _x677 = w[328];
+    const double _x678 = w[329];
+    const double _x680 = w[330];
+    const double _x685 = w[331];
+    const double _x686 = w[332];
+    const double _x688 = w[333];
+    const double _x693 = w[334];
+    const double _x694 = w[335];
+    const double _x696 = w[336];
+    const double _x701 = w[337];
+    const double _x702 = w[338];
+    const double _x704 = w[339];
+    const double _x709 = w[340];
+    const double _x710 = w[341];
+    const double _x712 = w[342];
+    const double _x717 = w[343];
+    const double _x718 = w[344];
+    const double _x720 = w[345];
+    const double _x725 = w[346];
+    const double _x726 = w[347];
+    const double _x728 = w[348];
+    const double _x733 = w[349];
+    const double _x734 = w[350];
+    const double _x735 = w[351];
+    const double _x738 = w[352];
+    const double _x739 = w[353];
+    const double _x742 = w[354];
+    const double _x743 = w[355];
+    const double _x744 = w[356];
+    const double _x747 = w[357];
+    const double _x748 = w[358];
+    const double _x749 = w[359];
+    const double _x750 = w[360];
+    const double _x753 = w[361];
+    const double _x754 = w[362];
+    const double _x755 = w[363];
+    const double _x756 = w[364];
+    const double _x757 = w[365];
+    const double _x760 = w[366];
+    const double _x761 = w[367];
+    const double _x762 = w[368];
+    const double _x763 = w[369];
+    const double _x764 = w[370];
+    const double _x765 = w[371];
+    const double _x768 = w[372];
+    const double _x769 = w[373];
+    const double _x770 = w[374];
+    const double _x771 = w[375];
+    const double _x772 = w[376];
+    const double _x773 = w[377];
+    const double _x774 = w[378];
+    const double _x777 = w[379];
+    const double _x778 = w[380];
+    const double _x779 = w[381];
+    const double _x780 = w[382];
+    const double _x781 = w[383];
+    const double _x782 = w[384];
+    const double _x783 = w[385];
+    const double _x784 = w[386];
+    const double _x787 = w[387];
+    const double _x788 = w[388];
+    const double _x789 = w[389];
+    const double _x790 = w[390];
+    const double _x791 = w[391];
+    const double _x792 = w[392];
+    const double _x793 = w[393];
+    const double _x794 = w[394];
+    const double _x795 = w[395];
+    const double _x798 = w[396];
+    const double _x799 = w[397];
+    const double _x800 = w[398];
+    const double _x801 = w[399];
+    const double _x802 = w[400];
+    const double _x803 = w[401];
+    const double _x804 = w[402];
+    const double _x805 = w[403];
+    const double _x806 = w[404];
+    const double _x807 = w[405];
+    const double _x810 = w[406];
+    const double _x811 = w[407];
+    const double _x812 = w[408];
+    const double _x813 = w[409];
+    const double _x814 = w[410];
+    const double _x815 = w[411];
+    const double _x816 = w[412];
+    const double _x817 = w[413];
+    const double _x818 = w[414];
+    const double _x819 = w[415];
+    const double _x820 = w[416];
+    const double _x823 = w[417];
+    const double _x824 = w[418];
+    const double _x825 = w[419];
+    const double _x826 = w[420];
+    const double _x827 = w[421];
+    const double _x828 = w[422];
+    const double _x829 = w[423];
+    const double _x830 = w[424];
+    const double _x831 = w[425];
+    const double _x832 = w[426];
+    const double _x833 = w[427];
+    const double _x834 = w[428];
+    const double _x837 = w[429];
+    const double _x838 = w[430];
+    const double _x839 = w[431];
+    const double _x840 = w[432];
+    const double _x841 = w[433];
+    const double _x842 = w[434];
+    const double _x843 = w[435];
+    const double _x844 = w[436];
+    const double _x845 = w[437];
+    const double _x846 = w[438];
+    const double _x847 = w[439];
+    const double _x848 = w[440];
+    const double _x849 = w[441];
+    const double _x852 = w[442];
+    const double _x853 = w[443];
+    const double _x854 = w[444];
+    const double _x855 = w[445];
+    const double _x856 = w[446];
+    const double _x857 = w[447];
+    const double _x858 = w[448];
+    const double _x859 = w[449];
+    const double _x860 = w[450];
+    const double _x861 = w[451];
+    const double _x862 = w[452];
+    const double _x863 = w[453];
+    const double _x864 = w[454];
+    const double _x865 = w[455];
+    const double _x866 = w[456];
+    const double _x867 = w[457];
+    const double _x868 = w[458];
+    const double _x869 = w[459];
+    const double _x870 = w[460];
+    const double _x871 = w[461];
+    const double _x872 = w[462];
+    const double _x873 = w[463];
+    const double _x874 = w[464];
+    const double _x875 = w[465];
+    const double _x876 = w[466];
+    const double _x877 = w[467];
+    const double _x878 = w[468];
+    const double _x879 = w[469];
+    const double _x880 = w[470];
+    const double _x881 = w[471];
+    const double _x882 = w[472];
+    const double _x886 = w[473];
+    const double _x887 = w[474];
+    const double _x888 = w[475];
+    const double _x889 = w[476];
+    const double _x890 = w[477];
     out_M[9] = _x688;
     out_M[10] = _x696;
     out_M[11] = _x704;
@@ -4804,6 +7488,27 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
     out_gamma[0] = _x882;
     out_gamma[1] = _x888;
 }
+
+/* M, f and the constraint terms in one pass (shared kinematics).
+   t: time (s)
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_M: (15, 15) mass matrix M(q), symmetric, row-major
+   out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+   out_phi: (2,) constraint values phi in CONSTRAINTS order
+   out_phi_rate: (2,) their rates d(phi)/dt
+   out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
+   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+*/
+void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    double w[478];
+    gpme_terms_block1(t, q, qd, p, w, out_M, out_f, out_phi, out_phi_rate, out_jacobian, out_gamma);
+    gpme_terms_block2(t, q, qd, p, w, out_M, out_f, out_phi, out_phi_rate, out_jacobian, out_gamma);
+    gpme_terms_block3(t, q, qd, p, w, out_M, out_f, out_phi, out_phi_rate, out_jacobian, out_gamma);
+    gpme_terms_block4(t, q, qd, p, w, out_M, out_f, out_phi, out_phi_rate, out_jacobian, out_gamma);
+}
 #endif
 
 
@@ -4836,12 +7541,7 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
 #endif
 /* The factorization and its solve stay functions of their own: inlined into gpme_solve, the
    unrolled code tripled it (10 -> 30 KiB) and an RK4 step at n_rfe = 5 took 18% longer, the
-   loop's code no longer fitting the instruction cache beside gpme_terms. */
-#if defined(__GNUC__)
-#define NOINLINE __attribute__((noinline))
-#else
-#define NOINLINE
-#endif
+   loop's code no longer fitting the instruction cache beside gpme_terms (NOINLINE: above). */
 
 
 /* |x| as the integer of its bits with the sign cleared (IEEE 754 doubles): these integers order

@@ -13,6 +13,7 @@ import sympy as sp
 
 from ..model.chain import TIME
 from ..symbolic import Derivation, names
+from . import blocks as blocking
 from .cse import eliminate
 
 
@@ -64,6 +65,8 @@ class Lowered:
     p_used: tuple
     body: tuple     # (local name, code)
     outputs: tuple  # (Output, tuple of code strings)
+    blocks: tuple = ()  # the C backend's blocks (codegen/blocks.py); () when the function is one block
+    workspace: int = 0  # values passed between its blocks
 
 
 def _out(name, matrix, doc, vector=False):
@@ -121,8 +124,9 @@ def prepare(fn: Function, d: Derivation):
     return eliminate(d.program.closure(values), values)
 
 
-def lower(fn: Function, d: Derivation, printer, prepared=None) -> Lowered:
-    """Straight-line code of ``fn`` printed by ``printer``."""
+def lower(fn: Function, d: Derivation, printer, prepared=None, split=False) -> Lowered:
+    """Straight-line code of ``fn`` printed by ``printer``; ``split``: also cut into blocks of
+    bounded length (the C backend)."""
     body, outputs = prepared if prepared is not None else prepare(fn, d)
     free = set()
     for _, e in body:
@@ -140,4 +144,20 @@ def lower(fn: Function, d: Derivation, printer, prepared=None) -> Lowered:
         size = len(out.values)
         printed.append((out, tuple(printer.doprint(e) for e in outputs[k:k + size])))
         k += size
-    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed))
+    blocks, workspace = _blocks(body, outputs, lines, printed, d) if split else ((), 0)
+    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed), blocks, workspace)
+
+
+def _blocks(body, outputs, lines, printed, d):
+    """The C backend's blocks of a lowered function (:func:`gpmegen.codegen.blocks.split`)."""
+    kin = d.kinematics
+    inputs = {
+        "q": tuple((s, j, s.name) for j, s in enumerate(kin.q)),
+        "qd": tuple((s, j, s.name) for j, s in enumerate(kin.qd)),
+        "p": tuple((sp.Symbol(name, real=True), k, names.parameter_local(name))
+                   for k, name in enumerate(d.chain.model.parameter_names)),
+    }
+    definitions = tuple((s, name, code) for (s, _), (name, code) in zip(body, lines))
+    stores = tuple((out.name, i, code) for out, codes in printed for i, code in enumerate(codes))
+    uses = [e.free_symbols for _, e in body] + [sp.sympify(e).free_symbols for e in outputs]
+    return blocking.split(definitions, stores, uses, TIME, inputs)

@@ -132,7 +132,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     prepared = [prepare(fn, d) for fn in fns]
     for backend in backends:
         say(f"printing the {backend} backend")
-        lowered = [lower(fn, d, printers[backend], p) for fn, p in zip(fns, prepared)]
+        lowered = [lower(fn, d, printers[backend], p, split=backend == "c") for fn, p in zip(fns, prepared)]
         for name in BACKEND_FILES[backend]:
             files[name] = env.get_template(name + ".j2").render(functions=lowered, **context)
     manifest = {
