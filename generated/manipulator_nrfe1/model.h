@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 8052308f307f0a8c
+Input hash: d219f1ede5999870
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

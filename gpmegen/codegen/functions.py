@@ -13,6 +13,7 @@ import sympy as sp
 
 from ..model.chain import TIME
 from ..symbolic import Derivation, names
+from ..symbolic.program import Program
 from . import blocks as blocking
 from .cse import eliminate
 
@@ -120,13 +121,30 @@ def model_functions(d: Derivation) -> list[Function]:
 def prepare(fn: Function, d: Derivation):
     """The needed definitions of ``fn`` with common subexpressions hoisted, and its outputs;
     computed once and printed for every backend."""
-    values = [v for out in fn.outputs for v in out.values]
-    return eliminate(d.program.closure(values), values)
+    return prepare_all([fn], d)[0]
 
 
-def lower(fn: Function, d: Derivation, printer, prepared=None, split=False) -> Lowered:
+def prepare_all(fns, d: Derivation) -> list:
+    """:func:`prepare` of each of ``fns`` from one elimination over all their needs: an
+    intermediate several functions share is rewritten once and keeps one name, so it is printed
+    once per backend (:func:`lower`'s ``cache``); each function takes the definitions its
+    outputs need, in order."""
+    values = [v for fn in fns for out in fn.outputs for v in out.values]
+    definitions, outputs = eliminate(d.program.closure(values), values)
+    shared = Program()
+    shared.definitions = dict(definitions)
+    result, k = [], 0
+    for fn in fns:
+        size = sum(len(out.values) for out in fn.outputs)
+        result.append((shared.closure(outputs[k:k + size]), outputs[k:k + size]))
+        k += size
+    return result
+
+
+def lower(fn: Function, d: Derivation, printer, prepared=None, split=False, cache=None) -> Lowered:
     """Straight-line code of ``fn`` printed by ``printer``; ``split``: also cut into blocks of
-    bounded length (the C backend)."""
+    bounded length (the C backend); ``cache``: a dict of code already printed by this printer
+    for functions prepared together (:func:`prepare_all`)."""
     body, outputs = prepared if prepared is not None else prepare(fn, d)
     free = set()
     for _, e in body:
@@ -138,11 +156,18 @@ def lower(fn: Function, d: Derivation, printer, prepared=None, split=False) -> L
     qd_used = tuple((j, s.name) for j, s in enumerate(kin.qd) if s in free)
     p_used = tuple((k, names.parameter_local(name)) for k, name in enumerate(d.chain.model.parameter_names)
                    if sp.Symbol(name, real=True) in free)
-    lines = tuple((printer.doprint(s), printer.doprint(e)) for s, e in body)
+    cache = {} if cache is None else cache
+
+    def doprint(expr):
+        if expr not in cache:
+            cache[expr] = printer.doprint(expr)
+        return cache[expr]
+
+    lines = tuple((doprint(s), doprint(e)) for s, e in body)
     printed, k = [], 0
     for out in fn.outputs:
         size = len(out.values)
-        printed.append((out, tuple(printer.doprint(e) for e in outputs[k:k + size])))
+        printed.append((out, tuple(doprint(e) for e in outputs[k:k + size])))
         k += size
     blocks, workspace = _blocks(body, outputs, lines, printed, d) if split else ((), 0)
     return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed), blocks, workspace)
