@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: d219f1ede5999870
+Input hash: 24381de95768aa5e
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -38,7 +38,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "d219f1ede5999870"; }
+const char *manipulator_nrfe1_input_hash(void) { return "24381de95768aa5e"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: d219f1ede5999870
+Input hash: 24381de95768aa5e
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
