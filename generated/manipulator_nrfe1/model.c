@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 24381de95768aa5e
+Input hash: 696c89b5a9c6e870
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -38,7 +38,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "24381de95768aa5e"; }
+const char *manipulator_nrfe1_input_hash(void) { return "696c89b5a9c6e870"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -47,7 +47,6 @@ int manipulator_nrfe1_n_points(void) { return N_POINTS; }
 
 
 #ifdef COLD_PART
-
 /* Mass matrix M(q).
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -178,7 +177,6 @@ void manipulator_nrfe1_mass_matrix_batch(long n, const double *q, const double *
 
 
 #ifdef COLD_PART
-
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -335,7 +333,6 @@ void manipulator_nrfe1_forces_batch(long n, const double *t, const double *q, co
 
 
 #ifdef COLD_PART
-
 /* Gravity and spring terms g(q) + C q.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -383,7 +380,6 @@ void manipulator_nrfe1_static_residual(const double *q, const double *p, double 
 
 
 #ifdef COLD_PART
-
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -439,7 +435,6 @@ void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, doub
 
 
 #ifdef HOT_PART
-
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -461,7 +456,6 @@ void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q)
 
 
 #ifdef COLD_PART
-
 /* Positions of the named points in {0}.
    q: (3,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -498,7 +492,6 @@ void manipulator_nrfe1_points(const double *q, const double *p, double *out_P)
 
 
 #ifdef COLD_PART
-
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -604,7 +597,6 @@ void manipulator_nrfe1_constraint_terms_batch(long n, const double *t, const dou
 
 
 #ifdef HOT_PART
-
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -625,7 +617,6 @@ void manipulator_nrfe1_baumgarte_gains(const double *p, double *out_alpha, doubl
 
 
 #ifdef COLD_PART
-
 /* Kinetic, gravity potential and spring energy.
    q: (3,) coordinates in COORDINATES order
    qd: (3,) velocities in COORDINATES order
@@ -744,7 +735,6 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
 
 
 #ifdef HOT_PART
-
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (3,) coordinates in COORDINATES order

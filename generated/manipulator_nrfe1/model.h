@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 24381de95768aa5e
+Input hash: 696c89b5a9c6e870
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 4ca116ec664cb012
+Input hash: 1876999881685a94
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -38,7 +38,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "4ca116ec664cb012"; }
+const char *manipulator_nrfe5_input_hash(void) { return "1876999881685a94"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -47,7 +47,6 @@ int manipulator_nrfe5_n_points(void) { return N_POINTS; }
 
 
 #ifdef COLD_PART
-
 /* Mass matrix M(q).
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -850,7 +849,6 @@ void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *
 
 
 #ifdef COLD_PART
-
 /* Generalized forces: drive, velocity, gravity, spring and damping terms.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -1539,7 +1537,6 @@ void manipulator_nrfe5_forces_batch(long n, const double *t, const double *q, co
 
 
 #ifdef COLD_PART
-
 /* Gravity and spring terms g(q) + C q.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -1771,7 +1768,6 @@ void manipulator_nrfe5_static_residual(const double *q, const double *p, double 
 
 
 #ifdef COLD_PART
-
 /* Tangent stiffness K = d(g + C q)/dq, from T_ij.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2349,7 +2345,6 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
 
 
 #ifdef HOT_PART
-
 /* Drive forces Q(t).
    t: time (s)
    p: (25,) parameter values in PARAMETERS order
@@ -2383,7 +2378,6 @@ void manipulator_nrfe5_drive_forces(double t, const double *p, double *out_Q)
 
 
 #ifdef COLD_PART
-
 /* Positions of the named points in {0}.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -2527,7 +2521,6 @@ void manipulator_nrfe5_points(const double *q, const double *p, double *out_P)
 
 
 #ifdef COLD_PART
-
 /* phi, phi_rate, D, gamma of the programmed constraints.
    t: time (s)
    q: (15,) coordinates in COORDINATES order
@@ -3010,7 +3003,6 @@ void manipulator_nrfe5_constraint_terms_batch(long n, const double *t, const dou
 
 
 #ifdef HOT_PART
-
 /* Baumgarte gains alpha, beta of each constraint.
    p: (25,) parameter values in PARAMETERS order
    out_alpha: (2,) alpha per constraint, in CONSTRAINTS order
@@ -3031,7 +3023,6 @@ void manipulator_nrfe5_baumgarte_gains(const double *p, double *out_alpha, doubl
 
 
 #ifdef COLD_PART
-
 /* Kinetic, gravity potential and spring energy.
    q: (15,) coordinates in COORDINATES order
    qd: (15,) velocities in COORDINATES order
@@ -3622,7 +3613,6 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
 
 
 #ifdef HOT_PART
-
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (15,) coordinates in COORDINATES order
