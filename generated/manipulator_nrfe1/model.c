@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 696c89b5a9c6e870
+Input hash: 0bf4fa4e38af1c1d
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -29,6 +29,18 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #define COLD_PART 1
 #endif
 
+/* Every local array is declared 64-byte aligned. GCC 12.2 at -O3 with AVX-512 tuning
+   (-march=x86-64-v4, or -march=native -mprefer-vector-width=512) vectorizes stores into a local
+   array with aligned moves (vmovapd): its vectorizer "forces" the array's alignment, but the stack
+   slot it then gets is only 16-byte aligned, and the process dies with SIGSEGV (the 28-coordinate
+   beam of tests/test_c_crash.py did; tests/c/gcc_vectorizer_alignment.c is a reproducer with no
+   gpmegen code). Declared alignment makes the vectorizer's assumption true; no arithmetic changes (-DALIGNED= in the flags turns it off). */
+#if !defined(ALIGNED) && defined(__GNUC__)
+#define ALIGNED __attribute__((aligned(64)))
+#elif !defined(ALIGNED)
+#define ALIGNED
+#endif
+
 /* A function too long for one block is split into blocks (gpmegen.codegen.blocks), each kept a
    function of its own: inlined back, the compiler would see one huge block again. */
 #if defined(__GNUC__)
@@ -38,7 +50,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "696c89b5a9c6e870"; }
+const char *manipulator_nrfe1_input_hash(void) { return "0bf4fa4e38af1c1d"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -973,17 +985,6 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
 #define UNROLL _Pragma("GCC unroll 32")
 #else
 #define UNROLL
-#endif
-/* Every local array is declared 64-byte aligned. GCC 12.2 at -O3 with AVX-512 tuning
-   (-march=x86-64-v4, or -march=native -mprefer-vector-width=512) vectorizes stores into a local
-   array with aligned moves (vmovapd): its vectorizer "forces" the array's alignment, but the stack
-   slot it then gets is only 16-byte aligned, and the process dies with SIGSEGV (the 28-coordinate
-   beam of tests/test_c_crash.py did; tests/c/gcc_vectorizer_alignment.c is a reproducer with no
-   gpmegen code). Declared alignment makes the vectorizer's assumption true; no arithmetic changes (-DALIGNED= in the flags turns it off). */
-#if !defined(ALIGNED) && defined(__GNUC__)
-#define ALIGNED __attribute__((aligned(64)))
-#elif !defined(ALIGNED)
-#define ALIGNED
 #endif
 /* The factorization and its solve stay functions of their own: inlined into gpme_solve, the
    unrolled code tripled it (10 -> 30 KiB) and an RK4 step at n_rfe = 5 took 18% longer, the

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 696c89b5a9c6e870
+Input hash: 0bf4fa4e38af1c1d
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

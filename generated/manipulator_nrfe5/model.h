@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1876999881685a94
+Input hash: 78ef4ea52b227ca1
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
