@@ -5,9 +5,9 @@ in a fresh process (no warm SymPy caches) into a temporary generated folder and 
 C cache, and loaded on the C backend. Phases, from the progress lines of the build:
 
 - derive: the symbolic derivation; emit: common subexpressions, printing both backends and
-  writing the folder; compile: the compiler runs (wall time, and the compilers' CPU time, which a
-  busy machine does not inflate); load: the test run of the library in a child process and its
-  loading.
+  writing the folder (and the CPU time of both, beside them); compile: the compiler runs (wall
+  time, and the compilers' CPU time, which a busy machine does not inflate); load: the test run
+  of the library in a child process and its loading.
 - peak memory: of the building process, and of the largest child (a compiler, or the test run).
 
 ``--full`` runs n_rfe 1, 5, 10, 20, 30, 50 of the reference arm and
@@ -105,10 +105,11 @@ def main():
     args = ap.parse_args()
     values = [1, 5, 10, 20, 30, 50] if args.full else args.nrfe
     print(f"load average before: {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
-    header = (f"{'model':>26} {'n_dof':>5} {'derive':>7} {'emit':>7} {'compile':>8} {'(CPU)':>7} {'load':>6} "
+    header = (f"{'model':>26} {'n_dof':>5} {'derive':>7} {'emit':>7} {'(CPU)':>7} {'compile':>8} {'(CPU)':>7} "
+              f"{'load':>6} "
               f"{'total [s]':>9} {'model.c':>8} {'numpy':>7} {'build':>6} {'cc peak':>7}")
     print(header)
-    print(f"{'':>26} {'':>5} {'[s]':>7} {'[s]':>7} {'[s]':>8} {'[s]':>7} {'[s]':>6} {'':>9} {'[KiB]':>8} "
+    print(f"{'':>26} {'':>5} {'[s]':>7} {'[s]':>7} {'[s]':>7} {'[s]':>8} {'[s]':>7} {'[s]':>6} {'':>9} {'[KiB]':>8} "
           f"{'[KiB]':>7} {'[MB]':>6} {'[MB]':>7}")
     rows = []
     cases = [("nrfe", n) for n in values] + ([(str(SPATIAL), 10)] if args.full or args.spatial else [])
@@ -116,7 +117,8 @@ def main():
         r = measure(kind, n)
         if kind == "nrfe":
             rows.append(r)
-        print(f"{r['name']:>26} {r['n_dof']:>5} {r['derive']:>7.1f} {r['emit']:>7.1f} {r['compile']:>8.1f} "
+        print(f"{r['name']:>26} {r['n_dof']:>5} {r['derive']:>7.1f} {r['emit']:>7.1f} {r['build_cpu']:>7.1f} "
+              f"{r['compile']:>8.1f} "
               f"{r['compile_cpu']:>7.1f} {r['load']:>6.1f} {r['total']:>9.1f} {r['files']['model.c'] / 1024:>8.0f} "
               f"{r['files']['model_numpy.py'] / 1024:>7.0f} {r['self_peak'] / 1e6:>6.0f} {r['child_peak'] / 1e6:>7.0f}",
               flush=True)

@@ -33,15 +33,18 @@ MAX_COUNT = 2**62
 OVERRIDE = "pass --no-limits (in Python: with gpmegen.limits.lifted(): ...) to start it anyway"
 
 # --- calibration (2-core machine; seconds and bytes) -------------------------------------------
-#: Derivation and rendering of both backends against n_dof (the reference manipulator, CPU time).
-BUILD_SECONDS = ((3, 0.4), (15, 1.67), (30, 4.3), (60, 12.9), (150, 62.3), (240, 148.0))
-#: Peak resident memory of the build process against n_dof.
-BUILD_BYTES = ((3, 64e6), (15, 71e6), (30, 86e6), (60, 130e6), (90, 192e6), (150, 372e6), (240, 777e6))
+#: Derivation and rendering of both backends against n_dof (the reference manipulator, CPU time;
+#: n_rfe 1, 5, 10, 20, 30, 50).
+BUILD_SECONDS = ((3, 0.2), (15, 0.8), (30, 2.3), (60, 8.2), (90, 16.1), (150, 44.1))
+#: Peak resident memory of the build process against n_dof (benchmarks/build_time.py).
+BUILD_BYTES = ((3, 102e6), (15, 121e6), (30, 158e6), (60, 252e6), (90, 393e6), (150, 775e6))
 #: C compile (the hot part at -O3 and the rest at -O0, CPU time of both) against the size of
-#: model.c in bytes (n_rfe = 5, 10, 20; benchmarks/build_time.py).
-COMPILE_SECONDS = ((282e3, 1.5), (679e3, 7.2), (1.92e6, 63.4))
+#: model.c in bytes (n_rfe = 1, 5, 10, 20, 30, 50; benchmarks/build_time.py). Long functions are
+#: compiled in blocks (codegen/blocks.py), so the compile grows about as the file.
+COMPILE_SECONDS = ((64.5e3, 0.3), (287e3, 1.5), (884e3, 4.5), (3.19e6, 9.9), (6.46e6, 18.5), (17.08e6, 44.8))
 #: Peak resident memory of the largest compiler (the hot part's) against the size of model.c.
-COMPILE_BYTES = ((282e3, 101e6), (679e3, 346e6), (1.92e6, 1.32e9))
+COMPILE_BYTES = ((64.5e3, 102e6), (287e3, 121e6), (884e3, 280e6), (3.19e6, 331e6), (6.46e6, 393e6),
+                 (17.08e6, 826e6))
 #: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``.
 STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
                 "numpy": ((3, 207e-6), (15, 549e-6), (30, 1123e-6))}

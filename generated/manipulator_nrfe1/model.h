@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 4fd29358c435d85e
+Input hash: 65aab131b050e23f
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

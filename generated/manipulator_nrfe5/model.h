@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: d272f42883d65d2f
+Input hash: c11d4cb4f8149d7c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -14,6 +14,8 @@ import sympy as sp
 from ..model.chain import TIME
 from ..symbolic import Derivation, names
 from ..symbolic import transforms as _transforms
+from ..symbolic.program import Program
+from . import blocks as blocking
 from .cse import eliminate
 
 
@@ -65,6 +67,8 @@ class Lowered:
     p_used: tuple
     body: tuple     # (local name, code)
     outputs: tuple  # (Output, tuple of code strings)
+    blocks: tuple = ()  # the C backend's blocks (codegen/blocks.py); () when the function is one block
+    workspace: int = 0  # values passed between its blocks
 
 
 def _out(name, matrix, doc, vector=False):
@@ -150,12 +154,30 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT) -> list[Funct
 def prepare(fn: Function, d: Derivation):
     """The needed definitions of ``fn`` with common subexpressions hoisted, and its outputs;
     computed once and printed for every backend."""
-    values = [v for out in fn.outputs for v in out.values]
-    return eliminate(d.program.closure(values), values)
+    return prepare_all([fn], d)[0]
 
 
-def lower(fn: Function, d: Derivation, printer, prepared=None) -> Lowered:
-    """Straight-line code of ``fn`` printed by ``printer``."""
+def prepare_all(fns, d: Derivation) -> list:
+    """:func:`prepare` of each of ``fns`` from one elimination over all their needs: an
+    intermediate several functions share is rewritten once and keeps one name, so it is printed
+    once per backend (:func:`lower`'s ``cache``); each function takes the definitions its
+    outputs need, in order."""
+    values = [v for fn in fns for out in fn.outputs for v in out.values]
+    definitions, outputs = eliminate(d.program.closure(values), values)
+    shared = Program()
+    shared.definitions = dict(definitions)
+    result, k = [], 0
+    for fn in fns:
+        size = sum(len(out.values) for out in fn.outputs)
+        result.append((shared.closure(outputs[k:k + size]), outputs[k:k + size]))
+        k += size
+    return result
+
+
+def lower(fn: Function, d: Derivation, printer, prepared=None, split=False, cache=None) -> Lowered:
+    """Straight-line code of ``fn`` printed by ``printer``; ``split``: also cut into blocks of
+    bounded length (the C backend); ``cache``: a dict of code already printed by this printer
+    for functions prepared together (:func:`prepare_all`)."""
     body, outputs = prepared if prepared is not None else prepare(fn, d)
     free = set()
     for _, e in body:
@@ -167,10 +189,33 @@ def lower(fn: Function, d: Derivation, printer, prepared=None) -> Lowered:
     qd_used = tuple((j, s.name) for j, s in enumerate(kin.qd) if s in free)
     p_used = tuple((k, names.parameter_local(name)) for k, name in enumerate(d.chain.model.parameter_names)
                    if sp.Symbol(name, real=True) in free)
-    lines = tuple((printer.doprint(s), printer.doprint(e)) for s, e in body)
+    cache = {} if cache is None else cache
+
+    def doprint(expr):
+        if expr not in cache:
+            cache[expr] = printer.doprint(expr)
+        return cache[expr]
+
+    lines = tuple((doprint(s), doprint(e)) for s, e in body)
     printed, k = [], 0
     for out in fn.outputs:
         size = len(out.values)
-        printed.append((out, tuple(printer.doprint(e) for e in outputs[k:k + size])))
+        printed.append((out, tuple(doprint(e) for e in outputs[k:k + size])))
         k += size
-    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed))
+    blocks, workspace = _blocks(body, outputs, lines, printed, d) if split else ((), 0)
+    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed), blocks, workspace)
+
+
+def _blocks(body, outputs, lines, printed, d):
+    """The C backend's blocks of a lowered function (:func:`gpmegen.codegen.blocks.split`)."""
+    kin = d.kinematics
+    inputs = {
+        "q": tuple((s, j, s.name) for j, s in enumerate(kin.q)),
+        "qd": tuple((s, j, s.name) for j, s in enumerate(kin.qd)),
+        "p": tuple((sp.Symbol(name, real=True), k, names.parameter_local(name))
+                   for k, name in enumerate(d.chain.model.parameter_names)),
+    }
+    definitions = tuple((s, name, code) for (s, _), (name, code) in zip(body, lines))
+    stores = tuple((out.name, i, code) for out, codes in printed for i, code in enumerate(codes))
+    uses = [e.free_symbols for _, e in body] + [sp.sympify(e).free_symbols for e in outputs]
+    return blocking.split(definitions, stores, uses, TIME, inputs)

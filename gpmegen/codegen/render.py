@@ -22,7 +22,7 @@ from ..symbolic import derive
 from ..symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from ..version import __version__
 from .comments import comment_text
-from .functions import arguments, lower, model_functions, prepare
+from .functions import arguments, lower, model_functions, prepare_all
 from .printers import CPrinter, PythonPrinter
 
 
@@ -135,10 +135,12 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     files = {}
     printers = {"numpy": PythonPrinter(names), "c": CPrinter(names)}
     say(f"common subexpressions of {len(fns)} functions")
-    prepared = [prepare(fn, d) for fn in fns]
+    prepared = prepare_all(fns, d)
     for backend in backends:
         say(f"printing the {backend} backend")
-        lowered = [lower(fn, d, printers[backend], p) for fn, p in zip(fns, prepared)]
+        cache: dict = {}
+        lowered = [lower(fn, d, printers[backend], p, split=backend == "c", cache=cache)
+                   for fn, p in zip(fns, prepared)]
         for name in BACKEND_FILES[backend]:
             files[name] = env.get_template(name + ".j2").render(functions=lowered, **context)
     manifest = {
