@@ -33,11 +33,14 @@ snapshots: venv
 	$(BIN)/gpmegen build --nrfe 1 --force
 	$(BIN)/gpmegen build --nrfe 5 --force
 
-# The README's animation: the reference arm (n_rfe 5) over the paper's 10 s, its deformation
-# magnified 3 times, small in bytes (10 frames per second, 70 dpi).
+# The README's animations, small in bytes (10 frames per second, 70 dpi): the reference arm
+# (n_rfe 5) over the paper's 10 s, its deformation magnified 3 times; the flexible Panda (needs
+# example-robot-data) over two turns of its circle, from its constrained statics, magnified 100 times.
 animation: venv
 	$(BIN)/gpmegen simulate --nrfe 5 --t-end 10 --out results/animation_nrfe5.npz --overwrite
 	$(BIN)/gpmegen animate results/animation_nrfe5.npz --out docs/figures/arm_nrfe5.gif --magnify 3 --fps 10 --dpi 70
+	$(BIN)/gpmegen simulate examples/panda_flexible.toml --statics constrained --t-end 4 --out results/panda_flexible.npz --overwrite
+	$(BIN)/gpmegen animate results/panda_flexible.npz --out docs/figures/panda_flexible.gif --magnify 100 --fps 10 --dpi 70 --view 30,-40
 
 bench: venv
 	$(BIN)/python benchmarks/build_time.py

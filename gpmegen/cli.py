@@ -503,7 +503,7 @@ def cmd_animate(args) -> int:
         animation.format_of(args.out, still=args.still is not None)  # before anything is loaded
         _writable_folder(Path(args.out).parent)
         shown = animation.subject(args.results, args.model, progress)
-        view = shown.view(*args.view, args.magnify)
+        view = shown.view(*args.view, args.magnify, args.bodies)
         t, q = shown.results["t"], shown.results["q"]
         if args.still is not None:
             print(animation.still(shown.scene, shown.loaded, t, q, view, args.still, args.out, dpi=args.dpi or 200))
@@ -830,6 +830,9 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--view", type=camera, default=(20.0, -60.0), metavar="ELEV,AZIM",
                     help="camera elevation and azimuth in degrees (default 20,-60)")
     an.add_argument("--dpi", type=positive_int, default=None, help="resolution (default 100, 200 for --still)")
+    an.add_argument("--bodies", choices=("skeleton", "boxes", "both"), default="skeleton",
+                    help="rigid bodies as the skeleton through their frames (default), the boxes of their "
+                         "inertias, or both (the boxes light)")
     an.add_argument("--model", type=path_argument, default=None,
                     help="the model file that made the results (default: the one their metadata names)")
     an.set_defaults(func=cmd_animate)

@@ -1,7 +1,9 @@
 """``gpmegen animate``: the GIF has one frame per shown sample, the still figure is written (the
 same bytes twice), the magnification scales the drawn deformation about the rigid arm (on the
-computed geometry, not on pixels), the rigid arm's rfes lie on a straight line, results name
-the model that made them (a model file from any folder), and bad input gets one line each."""
+computed geometry, not on pixels), the rigid arm's rfes lie on a straight line, the skeleton runs
+from the base through every body's frame to the tool, the inertia boxes are drawn only on
+request, results name the model that made them (a model file from any folder), and bad input
+gets one line each."""
 
 from __future__ import annotations
 
@@ -136,6 +138,43 @@ def test_the_rigid_arm_is_straight_and_as_long_as_its_link(shown):
     assert np.linalg.norm(chain[-1] - chain[0]) == pytest.approx(0.8, rel=1e-12)
 
 
+def test_the_skeleton_runs_through_the_body_frames(shown, rng):
+    """At a random state the skeleton is the base, the origin of every body's frame (``T``) and
+    the tool; at zero deformation its vertices are where the hub's rotation puts the block (at
+    the hub), the rfes' origins along the strip (at the sdes, L/4 and 3L/4: the rfe method's
+    end pieces are half the inner ones) and the tip mass and tip (at L)."""
+    scene, loaded = shown.scene, shown.loaded
+    assert scene.points[scene.tool] == "tip"
+    q = rng.uniform(-1.0, 1.0, loaded.n_dof)
+    q[scene.elastic] *= 0.05
+    drawn = geometry.poses(scene, loaded, q[None], 3.0)[0]
+    bent = geometry.magnified(q, scene.elastic, 3.0)
+    origins = loaded.transforms(bent)[:, :3, 3]
+    tip = loaded.point_positions(bent).reshape(-1, 3)[scene.points.index("tip")]
+    np.testing.assert_array_equal(drawn.skeleton, np.vstack([np.zeros(3), origins, tip]))
+    hub = q[loaded.index("hub")]
+    along = np.array([np.cos(hub), 0.0, -np.sin(hub)])  # the strip's x turned by the hub about y
+    rigid = geometry.poses(scene, loaded, q[None], 0.0)[0].skeleton
+    expected = np.outer([0.0, 0.0, 0.0, 0.2, 0.6, 0.8, 0.8], along)  # base, block, rfes, tip mass, tip
+    np.testing.assert_allclose(rigid, expected, rtol=0, atol=1e-14)
+
+
+def test_the_boxes_are_drawn_on_request(shown, arm_run, tmp_path):
+    """The default drawing is the skeleton alone: no box edges, and the axes fit the skeleton;
+    ``--bodies boxes`` and ``both`` draw the block's box (12 edges) and make another figure."""
+    q = small_deformation(shown)[None]
+    plain = geometry.poses(shown.scene, shown.loaded, q)[0]
+    boxed = geometry.poses(shown.scene, shown.loaded, q, boxes=True)[0]
+    assert plain.edges.shape == (0, 2, 3) and len(boxed.edges) >= 12
+    np.testing.assert_array_equal(plain.skeleton, boxed.skeleton)
+    figures = {}
+    for bodies in ("skeleton", "boxes", "both"):
+        figures[bodies] = tmp_path / f"{bodies}.png"
+        assert main(["animate", str(arm_run[0]), "--still", "0.03", "--bodies", bodies, "--dpi", "40",
+                     "--out", str(figures[bodies])]) == 0
+    assert len({figure.read_bytes() for figure in figures.values()}) == 3
+
+
 def test_the_box_of_a_bar_is_the_bar():
     from gpmegen.model import shapes
 
@@ -162,6 +201,10 @@ def test_bad_input_gets_one_line(arm_run, tmp_path, capsys, monkeypatch):
     avi, gif, png, mp4 = (str(tmp_path / f"a.{suffix}") for suffix in ("avi", "gif", "png", "mp4"))
     assert "choose one of those suffixes" in one_line_error(capsys, ["animate", results, "--out", avi])
     assert ".png" in one_line_error(capsys, ["animate", results, "--still", "0", "--out", gif])
+    with pytest.raises(SystemExit) as exited:  # argparse's own refusal, in one line
+        main(["animate", results, "--bodies", "cubes", "--out", gif])
+    err = capsys.readouterr().err.strip()
+    assert exited.value.code == 2 and "--bodies" in err and "\n" not in err
     assert "within them" in one_line_error(capsys, ["animate", results, "--still", "9", "--out", png])
     monkeypatch.setenv("PATH", str(tmp_path))  # no ffmpeg
     assert "ffmpeg" in one_line_error(capsys, ["animate", results, "--out", mp4])

@@ -2,8 +2,9 @@
 real robot description from the package index, not copied here): M, the velocity terms, the
 gravity terms, the joint dampers and every link's frame at random states to 1e-10. Then a link
 made flexible from a model file (the beam lies where the link was), the refusals of URDFs a
-chain cannot hold, each in one line, from the API and the command line, and the flexible Panda
-example built and run with its flange held on its circle."""
+chain cannot hold, each in one line, from the API and the command line, the animation's skeleton
+through Pinocchio's frames, and the flexible Panda example built and run from its balanced start
+with its tool centre point held on its circle."""
 
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis import arm_geometry as geometry
+from gpmegen.analysis.driving import point_constraints
 from gpmegen.cli import main
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
@@ -69,6 +72,23 @@ def test_panda_agrees_with_pinocchio(panda, rng):
         pin.framesForwardKinematics(model, data, q)
         expected = np.array([data.oMf[frames[name]].translation for name in points])
         np.testing.assert_allclose(loaded.point_positions(q), expected, rtol=0, atol=1e-12)
+
+
+def test_panda_skeleton_runs_through_pinocchio_frames(panda, rng):
+    """The animation's skeleton of the imported Panda: the base, the frame of every moving link
+    (where its joint is) and the last point (a finger: no constraint names a tool), at random
+    states, from Pinocchio's frame placements."""
+    robot, loaded = panda
+    model = pinocchio_panda()
+    data = model.createData()
+    scene = geometry.scene(robot.model, loaded)
+    assert scene.points[scene.tool] == "panda_rightfinger"
+    links = ["panda_link0"] + [f"panda_link{k}" for k in range(1, 8)] + ["panda_rightfinger"]
+    for _ in range(3):
+        q = rng.uniform(-2.5, 2.5, 7)
+        pin.framesForwardKinematics(model, data, q)
+        expected = [np.zeros(3)] + [data.oMf[model.getFrameId(name)].translation for name in links]
+        np.testing.assert_allclose(geometry.pose(scene, loaded, q).skeleton, expected, rtol=0, atol=1e-12)
 
 
 def test_panda_limits_are_kept_as_data(panda):
@@ -267,12 +287,23 @@ def test_serial_urdf_builds_from_the_command_line(tmp_path, env, capsys):
 
 
 def test_flexible_panda_example_holds_its_circle(env, tmp_path):
-    """The example built at n_rfe 2 and run for 0.05 s: its tool centre point stays on the
-    circle the file prescribes (the constraint residuals of the results) and the arm moves."""
+    """The example built at n_rfe 2 and run for 0.05 s from its constrained statics: the start
+    is at rest and balanced (no acceleration of any coordinate), the tool centre point stays on
+    the circle and the wrist joints where they were held (the constraint residuals and the
+    coordinates), and the arm moves."""
     panda_urdf()
     out = tmp_path / "panda.npz"
     assert main(["simulate", str(ROOT / "examples" / "panda_flexible.toml"), "--nrfe", "2", "--t-end", "0.05",
-                 "--dt", "2e-4", "--save-every", "25", "--backend", "numpy", "--out", str(out)]) == 0
+                 "--dt", "1e-4", "--save-every", "25", "--statics", "constrained", "--backend", "numpy",
+                 "--out", str(out)]) == 0
     with np.load(out) as r:
-        assert np.abs(r["phi"]).max() < 1e-8
-        assert np.abs(r["q"][-1] - r["q"][0]).max() > 1e-4
+        coordinates = [str(c) for c in r["coordinates"]]
+        q, qd, qdd = r["q"], r["qd"], r["qdd"]
+        phi = r["phi"]
+    assert np.abs(phi).max() < 1e-8
+    assert np.abs(qd[0]).max() == 0.0 and np.abs(qdd[0]).max() < 1e-6
+    held = [coordinates.index(f"panda_joint{k}") for k in (3, 5, 6, 7)]
+    np.testing.assert_allclose(q[:, held], [[0.0, 0.0, 1.571, 0.785]] * len(q), rtol=0, atol=1e-12)
+    assert np.abs(q[-1] - q[0]).max() > 1e-4
+    model = load_model_file(ROOT / "examples" / "panda_flexible.toml")
+    assert geometry.tool_point(model, point_constraints(model)) == "panda_hand_tcp"  # where the skeleton ends

@@ -26,7 +26,8 @@ from .plots import _FILE_METADATA, _SVG_SALT, _pyplot
 
 MOVIES = ("gif", "mp4")
 STILLS = ("png", "pdf", "svg")
-BODY, LINK, POINT, TRACE = "0.35", "C1", "C3", "C0"
+BODIES = ("skeleton", "boxes", "both")  # how rigid bodies are drawn (--bodies); the first is the default
+BODY, LIGHT_BODY, SKELETON, LINK, POINT, TRACE = "0.35", "0.75", "0.1", "C1", "C3", "C0"
 
 
 class AnimationError(GpmegenError):
@@ -55,13 +56,20 @@ def format_of(out, still: bool) -> str:
 class View:
     """How the arm is shown: ``elev``, ``azim`` (degrees) of the camera, the ``vertical`` axis of
     {0} drawn upwards (against gravity: "y", or "-y" when gravity points along +y), ``magnify`` the
-    factor on the deformation, ``label`` of the model."""
+    factor on the deformation, ``label`` of the model, ``bodies`` one of :data:`BODIES`: the
+    skeleton through the body frames, the boxes of the bodies' inertias, or both (boxes light)."""
 
     elev: float
     azim: float
     vertical: str
     magnify: float
     label: str
+    bodies: str = BODIES[0]
+
+    @property
+    def boxes(self) -> bool:
+        """Whether the bodies' boxes are drawn."""
+        return self.bodies != "skeleton"
 
     def title(self, text: str) -> str:
         scale = "" if self.magnify == 1 else f"; elastic deformation magnified {self.magnify:g}×"
@@ -85,6 +93,7 @@ class Canvas:
     def __init__(self, view: View, low, high, size=(6.4, 5.4), dpi=100):
         plt = _pyplot()
         self.plt = plt
+        self.bodies = view.bodies
         # a cyclic permutation of x, y, z (it keeps the frame right-handed) puts the vertical axis last
         self.order = {"x": (1, 2, 0), "y": (2, 0, 1), "z": (0, 1, 2)}[view.vertical.lstrip("-")]
         self.fig = plt.figure(figsize=size, dpi=dpi)
@@ -109,7 +118,13 @@ class Canvas:
 
     def draw(self, pose: geometry.Pose, colour=None):
         """Add the artists of ``pose``, all in ``colour`` when given; returns them."""
-        artists = [self._plot(_with_breaks(pose.edges), color=colour or BODY, lw=0.8)]
+        artists = []
+        if self.bodies != "boxes":
+            artists.append(self._plot(pose.skeleton, color=colour or SKELETON, lw=1.8, marker="o", ms=3.5))
+        if self.bodies != "skeleton":
+            light = self.bodies == "both"
+            artists.append(self._plot(_with_breaks(pose.edges), color=colour or (LIGHT_BODY if light else BODY),
+                                      lw=0.6 if light else 0.8, alpha=0.4 if light and colour else 1.0))
         for chain in pose.chains:
             artists.append(self._plot(chain, color=colour or LINK, lw=2.2, marker="o", ms=2.5))
         if len(pose.points):
@@ -153,7 +168,7 @@ def movie(scene, loaded, t, q, view: View, out, fps: float, every: int, dpi: int
     """Write the animation of the samples ``t`` (k,), ``q`` (k, n) to ``out`` (.gif or .mp4)."""
     fmt = format_of(out, still=False)
     shown = frames(t, every)
-    drawn = geometry.poses(scene, loaded, q[shown], view.magnify)
+    drawn = geometry.poses(scene, loaded, q[shown], view.magnify, view.boxes)
     paths = traces(scene, loaded, q)
     canvas = Canvas(view, *geometry.bounds(drawn, paths), dpi=dpi)
     images, step = [], max(1, len(shown) // 10)
@@ -212,7 +227,7 @@ def still(scene, loaded, t, q, view: View, times, out, dpi: int = 200) -> Path:
     each, with the traced points' path over the whole run; written to ``out`` (.png/.pdf/.svg)."""
     fmt = format_of(out, still=True)
     shown = [nearest(t, when) for when in times]
-    drawn = geometry.poses(scene, loaded, q[shown], view.magnify)
+    drawn = geometry.poses(scene, loaded, q[shown], view.magnify, view.boxes)
     paths = traces(scene, loaded, q)
     canvas = Canvas(view, *geometry.bounds(drawn, paths), dpi=dpi)
     try:
@@ -256,9 +271,9 @@ class Subject:
     scene: geometry.Scene
     model: object
 
-    def view(self, elev: float, azim: float, magnify: float) -> View:
+    def view(self, elev: float, azim: float, magnify: float, bodies: str = BODIES[0]) -> View:
         label = results_io.metadata(self.results).get("label") or self.loaded.module.MODEL
-        return View(elev, azim, vertical_axis(self.model, self.loaded.params), magnify, label)
+        return View(elev, azim, vertical_axis(self.model, self.loaded.params), magnify, label, bodies)
 
 
 def subject(path, model_path=None, progress=None) -> Subject:

@@ -1,7 +1,12 @@
-"""What a picture of the arm shows, computed from the generated body transforms ``T``: each
-rigid body as the box of its inertia, the rfes of each flexible link as a chain of segments, the
-named points, with the elastic deformation optionally magnified. Pure NumPy; drawing is
-:mod:`gpmegen.analysis.animation`.
+"""What a picture of the arm shows, computed from the generated body transforms ``T``: the
+skeleton (a line from the base through the origin of every body's frame, in chain order, to the
+tool), each rigid body as the box of its inertia (on request), the rfes of each flexible link as
+a chain of segments, the named points, with the elastic deformation optionally magnified. Pure
+NumPy; drawing is :mod:`gpmegen.analysis.animation`.
+
+A body's frame is where the chain puts its joint (a URDF link's frame is its joint's), so the
+skeleton is the drawing robotics users read: it shows the joints and the links between them
+whatever the inertial data say.
 
 A body's box is the uniform box with the body's mass, centre of mass and second moments (its
 pseudo-inertia ``H``): along each principal axis of the second moments ``σ²`` about the centre,
@@ -17,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from ..model.chain import Body, FlexibleLink, Model
+from ..model.chain import Body, FlexibleLink, Model, Point
 from ..model.expand import expand
 from ..model.rfem import discretize
 from ..runtime import statics
@@ -55,7 +60,8 @@ class Scene:
     rfes of each flexible link, base first, and their far ends in their own frames (3,);
     ``points`` named points; ``traced``: the points whose path is drawn (those the programmed
     constraints hold, see :func:`gpmegen.analysis.driving.point_constraints`); ``elastic``:
-    indices of the coordinates that carry a spring (the deformation)."""
+    indices of the coordinates that carry a spring (the deformation); ``tool``: the index in
+    ``points`` of the point that ends the skeleton (None when no point lies beyond the last body)."""
 
     bodies: tuple
     boxes: tuple
@@ -64,6 +70,7 @@ class Scene:
     points: tuple
     traced: tuple
     elastic: np.ndarray
+    tool: int | None = None
 
 
 def scene(model: Model, loaded) -> Scene:
@@ -85,7 +92,20 @@ def scene(model: Model, loaded) -> Scene:
     links = tuple(tuple(loaded.bodies.index(name) for name in link) for link in rfes)
     traced = tuple(point for point in loaded.points if point in point_constraints(model))
     elastic = statics.spring_coordinates(loaded, np.zeros(loaded.n_dof))
-    return Scene(tuple(loaded.bodies), tuple(boxes), links, ends, tuple(loaded.points), traced, elastic)
+    tool = tool_point(model, traced)
+    return Scene(tuple(loaded.bodies), tuple(boxes), links, ends, tuple(loaded.points), traced, elastic,
+                 None if tool is None else loaded.points.index(tool))
+
+
+def tool_point(model: Model, traced) -> str | None:
+    """The point that ends the skeleton: of the points beyond the last body in chain order, the
+    last that the programmed constraints hold (the tool the task moves), else the last; None
+    when there is none."""
+    elements = expand(model).elements
+    last_body = max((k for k, e in enumerate(elements) if isinstance(e, Body)), default=-1)
+    beyond = [e.name for e in elements[last_body + 1:] if isinstance(e, Point)]
+    held = [name for name in beyond if name in traced]
+    return (held or beyond or [None])[-1]
 
 
 def magnified(q, elastic, factor: float) -> np.ndarray:
@@ -98,21 +118,28 @@ def magnified(q, elastic, factor: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Pose:
-    """The drawn geometry at one state, in {0} (m): ``edges`` (n_edges, 2, 3) of the bodies'
-    boxes; ``chains`` one (n_rfe + 1, 3) polyline per flexible link, through the rfes' origins to
-    the link's far end; ``points`` (n_points, 3)."""
+    """The drawn geometry at one state, in {0} (m): ``skeleton`` (n_bodies + 1 or + 2, 3) the
+    origin of {0}, of every body's frame in the order of the transforms and the tool point;
+    ``edges`` (n_edges, 2, 3) of the bodies' boxes (none when they are not drawn); ``chains``
+    one (n_rfe + 1, 3) polyline per flexible link, through the rfes' origins to the link's far
+    end; ``points`` (n_points, 3)."""
 
+    skeleton: np.ndarray
     edges: np.ndarray
     chains: tuple
     points: np.ndarray
 
 
-def pose(s: Scene, loaded, q) -> Pose:
-    """The geometry of the scene at the coordinates ``q`` (n,), as drawn (magnify first)."""
+def pose(s: Scene, loaded, q, boxes: bool = False) -> Pose:
+    """The geometry of the scene at the coordinates ``q`` (n,), as drawn (magnify first); the
+    bodies' boxes only with ``boxes``."""
     T = loaded.transforms(q)
+    points = loaded.point_positions(q).reshape(-1, 3)
+    tool = points[[s.tool]] if s.tool is not None else np.empty((0, 3))
+    skeleton = np.vstack([np.zeros((1, 3)), T[:, :3, 3], tool])
     edges = []
     for b, box in enumerate(s.boxes):
-        if box is None:
+        if box is None or not boxes:
             continue
         corners = box.center + (_CORNERS * box.half) @ box.axes.T  # (8, 3) in the body frame
         world = corners @ T[b, :3, :3].T + T[b, :3, 3]
@@ -120,17 +147,18 @@ def pose(s: Scene, loaded, q) -> Pose:
     chains = tuple(np.vstack([T[link, :3, 3], T[link[-1], :3, :3] @ s.ends[link[-1]] + T[link[-1], :3, 3]])
                    for link in s.links)
     edges = np.array(edges).reshape(-1, 2, 3)
-    return Pose(edges, chains, loaded.point_positions(q).reshape(-1, 3))
+    return Pose(skeleton, edges, chains, points)
 
 
-def poses(s: Scene, loaded, q, factor: float = 1.0) -> list[Pose]:
-    """The poses at the samples ``q`` (k, n) with the deformation magnified by ``factor``."""
-    return [pose(s, loaded, x) for x in magnified(q, s.elastic, factor)]
+def poses(s: Scene, loaded, q, factor: float = 1.0, boxes: bool = False) -> list[Pose]:
+    """The poses at the samples ``q`` (k, n) with the deformation magnified by ``factor``; the
+    bodies' boxes only with ``boxes``."""
+    return [pose(s, loaded, x, boxes) for x in magnified(q, s.elastic, factor)]
 
 
 def bounds(drawn: list[Pose], paths) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest x, y, z (m) of everything in ``drawn`` and of the ``paths`` (k, j,
     3) of traced points: fixed axes for all frames."""
-    every = np.vstack([np.vstack([p.edges.reshape(-1, 3), *p.chains, p.points]) for p in drawn]
+    every = np.vstack([np.vstack([p.skeleton, p.edges.reshape(-1, 3), *p.chains, p.points]) for p in drawn]
                       + [np.asarray(paths).reshape(-1, 3)])
     return every.min(axis=0), every.max(axis=0)
