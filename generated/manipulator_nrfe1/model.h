@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: 60570a7f0a92fb3e
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -53,7 +53,8 @@ enum gpmegen_status {
     GPMEGEN_OK = 0,
     GPMEGEN_SINGULAR = 1,
     GPMEGEN_NONFINITE = 2,
-    GPMEGEN_BAD_ARGUMENTS = 3
+    GPMEGEN_BAD_ARGUMENTS = 3,
+    GPMEGEN_STEP_TOO_SMALL = 4
 };
 #endif
 
@@ -191,5 +192,14 @@ long manipulator_nrfe1_gpme_accelerations_batch(long n, const double *t, const d
    GPMEGEN_OK, or the status of the first failed step (GPMEGEN_BAD_ARGUMENTS for invalid
    arguments); what was saved before is kept. */
 int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
+
+/* DOP853 (adaptive, order 8) from t_a and y_a = [q, qd, w] (8,) to t_save[n_save - 1], saving y at the
+   n_save increasing instants t_save (after t_a) into y_out (n_save, 8), by its dense output of order 7
+   where no step ends on one; the error of a step, as the root mean square over q and qd of
+   err / (atol + rtol |y|), below 1. *h: the step to try first (<= 0: chosen), then the one to try
+   next. Adds to counts (5,): steps, rejected steps, GPME solves, Jacobians, LU factorizations.
+   Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NONFINITE, GPMEGEN_STEP_TOO_SMALL or
+   GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
+int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
 #endif

@@ -282,3 +282,15 @@ class CEvaluator:
                               *(self._ptr(part) for part in y_out), n_saved)
         k = int(n_saved[0])
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
+
+    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        dep, ind = self._partition_pointers(model)
+        y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
+        if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8 or step.dtype != float:
+            raise TypeError("step must be float64 and counts int64 (a 64-bit C long)")
+        y_out = np.empty((len(t_save), len(y_a)))
+        n_saved = self.ffi.new("long *")
+        status = self.lib.dop853(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
+                                 self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
+                                 self.ffi.from_buffer("long[]", counts))
+        return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
