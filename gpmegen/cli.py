@@ -53,6 +53,7 @@ def _finite_number(accept, problem):
 
 
 positive_float = _finite_number(lambda v: v > 0, "must be a positive finite number")
+unit_interval = _finite_number(lambda v: 0 <= v <= 1, "must be a number from 0 to 1")
 end_time = _finite_number(lambda v: v >= 0, "is below zero or not finite; give the end time in seconds")
 
 
@@ -84,7 +85,7 @@ def parameter_override(text: str):
     return name, number
 
 
-METHODS = ("rk4", "dop853", "scipy-radau")
+METHODS = ("rk4", "genalpha", "dop853", "scipy-radau")
 
 
 def method_name(text: str) -> str:
@@ -201,7 +202,8 @@ def _start(case, start):
 
 
 def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
-                    overwrite=False, actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None):
+                    overwrite=False, actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None,
+                    rho_inf=None):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
@@ -219,7 +221,7 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
                          f"multiple of --dt, or use --save-every")
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
                     repartition=repartition, actuated=actuated, internal_dynamics=internal_dynamics,
-                    save_dt=save_dt, rtol=rtol, atol=atol)
+                    save_dt=save_dt, rtol=rtol, atol=atol, rho_inf=rho_inf)
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
@@ -245,6 +247,8 @@ def _integration(settings: dict) -> str:
 
     if settings["method"] == "rk4":
         how = f"rk4, dt = {settings['dt']:g} s"
+    elif settings["method"] == "genalpha":
+        how = f"genalpha, dt = {settings['dt']:g} s, rho_inf = {settings['rho_inf']:g}"
     else:
         how = f"{settings['method']}, rtol = {settings['rtol']:g}, atol = {settings['atol']:g}"
     return f"{how}, saved every {settings['save_dt']:g} s; {Effort(**settings['effort']).describe()}"
@@ -293,7 +297,7 @@ def cmd_simulate(args) -> int:
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
                     dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
                     actuated=actuated, internal_dynamics=args.internal_dynamics, save_dt=args.save_dt,
-                    rtol=args.rtol, atol=args.atol)
+                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf)
     return 0
 
 
@@ -573,8 +577,9 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--save-every", type=positive_int, default=100,
                        help="keep every k-th step of --dt (default 100)")
         p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
-                       help="integrator, in any case: fixed-step rk4 (the paper's, default), dop853 (adaptive, "
-                            "order 8, in C) or scipy-radau (implicit, SciPy on the model from Python)")
+                       help="integrator, in any case: fixed-step rk4 (the paper's, default), genalpha (implicit, "
+                            "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C) or "
+                            "scipy-radau (implicit, SciPy on the model from Python)")
         p.add_argument("--backend", choices=("numpy", "c"), default=None,
                        help="generated code to run (default: c when a compiler is present)")
         p.add_argument("--repartition", action="store_true",
@@ -589,6 +594,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="relative tolerance of the adaptive methods (default 1e-8)")
     s.add_argument("--atol", type=positive_float, default=None,
                    help="absolute tolerance of the adaptive methods, in the units of q and q' (default 1e-10)")
+    s.add_argument("--rho-inf", type=unit_interval, default=None,
+                   help="genalpha's numerical damping: its spectral radius at large steps, 0 (most damped) to 1 "
+                        "(none; default 0.9)")
     s.add_argument("--out", type=path_argument, default=None,
                    help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
     s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")

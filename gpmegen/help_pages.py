@@ -10,8 +10,12 @@ header. Both are always written; the NumPy module is the C one's oracle. Inputs 
 changed since the last build are skipped unless --force.""",
     "simulate": """\
 Find the start (statics, or a model file's [initial] configuration), then integrate the
-constrained motion with fixed-step RK4 (the paper's) or an adaptive SciPy method. The summary
-line names how the run ended: complete, diverged at t, or interrupted (Ctrl-C; exit status 130).""",
+constrained motion with fixed-step RK4 (the paper's), generalized-alpha (implicit, numerically
+damped, any step), DOP853 (adaptive, to --rtol/--atol) or SciPy's Radau. Every method saves every
+--dt x --save-every s (or --save-dt). An RK4 step above the stable one of the highest natural
+frequency at the start is refused, naming that step. The summary line names how the run ended
+(complete, diverged at t, or interrupted: Ctrl-C, exit status 130) and what it took: steps,
+rejections, GPME solves, Jacobians, LU factorizations.""",
     "statics": """\
 Print the static start configuration: every coordinate, the positions of the points and the
 constants the start sets (the reference case's r_Ea and y_c).""",
@@ -58,6 +62,8 @@ examples:
   gpmegen simulate --nrfe 5 --statics constrained --out results/constrained.npz
   gpmegen simulate generated/my_arm                (a folder made by 'build --out')
   gpmegen simulate --nrfe 1 --method dop853
+  gpmegen simulate --nrfe 5 --method dop853 --rtol 1e-9 --save-dt 1e-3
+  gpmegen simulate --nrfe 5 --method genalpha --dt 2e-4 --rho-inf 0.9
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
   gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz

@@ -129,7 +129,8 @@ def test_the_command_line_refuses_an_unstable_step_in_one_line(capsys, tmp_path,
     code, out, err = _run(["simulate", "--nrfe", "2", "--dt", "1e-2", "--t-end", "0.05"], capsys, tmp_path)
     lines = err.strip().splitlines()  # progress (statics, start), then the refusal
     assert code == 2 and not out and lines[-1].startswith("gpmegen simulate: error: --dt 0.01 s is above")
-    assert "stable step" in err and "Hz" in err and "--method dop853" in err and "--no-limits" in err
+    assert "stable step" in err and "Hz" in err and "--method genalpha" in err and "dop853" in err
+    assert "--no-limits" in err
     assert not (tmp_path / "run.npz").exists()
 
 
@@ -164,6 +165,102 @@ def test_dop853_on_the_numpy_backend_is_refused_with_the_fix(capsys, tmp_path, e
     assert code == 2 and len(err.strip().splitlines()) == 1 and "error: --method dop853" in err and "--backend c" in err
 
 
-@pytest.mark.parametrize("text, method", [("DOP853", "dop853"), ("Scipy-Radau", "scipy-radau"), ("RK4", "rk4")])
+@pytest.mark.parametrize("text, method", [("DOP853", "dop853"), ("Scipy-Radau", "scipy-radau"), ("RK4", "rk4"),
+                                          ("GENALPHA", "genalpha")])
 def test_methods_are_named_in_any_case(text, method):
     assert build_parser().parse_args(["simulate", "--method", text]).method == method
+
+
+# ---- generalized-α and the orders -------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def rigid_arm(env):
+    """The rigid reference arm in C, its locked start and q, q̇ at 0.5 s by SciPy's DOP853 at
+    rtol 1e-13: ``(model, q0, final)``."""
+    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="c"))
+    _, y, outcome = integrate.adaptive(model, q0, np.zeros(3), 0.5, rtol=1e-13, atol=1e-15)
+    assert outcome.complete
+    return model, q0, y[-1, :6]
+
+
+def _order(errors):
+    return [math.log2(a / b) for a, b in zip(errors, errors[1:])]
+
+
+def test_rk4_is_fourth_order_and_genalpha_second_by_step_halving(rigid_arm):
+    model, q0, final = rigid_arm
+    qd0 = np.zeros(3)
+    rk4 = [np.abs(integrate.rk4(model, q0, qd0, 0.5, dt)[1][-1, :6] - final).max() for dt in (4e-3, 2e-3, 1e-3)]
+    assert all(3.7 < p < 4.5 for p in _order(rk4)), rk4
+    for rho_inf in (1.0, 0.8):
+        errors = [np.abs(integrate.genalpha(model, q0, qd0, 0.5, dt, dt, rho_inf)[1][-1, :6] - final).max()
+                  for dt in (2e-3, 1e-3, 5e-4)]
+        assert all(1.9 < p < 2.1 for p in _order(errors)), errors
+        assert errors[-1] < 1e-6
+
+
+def test_genalpha_dense_output_lands_on_its_steps_and_is_as_good_between(rigid_arm):
+    model, q0, _ = rigid_arm
+    qd0 = np.zeros(3)
+    dt = 2.0 ** -10  # binary fractions: the finer save grid holds every step's instant exactly
+    ts, ys, _, es = integrate.genalpha(model, q0, qd0, 0.25, dt, dt)
+    tf, yf, _, ef = integrate.genalpha(model, q0, qd0, 0.25, dt, dt / 4)
+    assert es == ef  # the saves do not change the steps
+    on_steps = np.isin(tf, ts)
+    assert on_steps.sum() == len(ts) and np.array_equal(yf[on_steps], ys)
+    _, reference, _ = integrate.adaptive(model, q0, qd0, 0.25, rtol=1e-13, atol=1e-15, t_eval=tf)
+    error = np.abs(yf[:, :6] - reference[:, :6]).max(axis=1)
+    # cubic Hermite between the steps adds less than the method's own O(h²) error
+    assert error[~on_steps].max() < 1.5 * error[on_steps].max()
+
+
+@pytest.fixture(scope="module")
+def pendulum(env):
+    from pathlib import Path
+
+    path = Path(__file__).parent / "models" / "pendulum.toml"
+    return gpmegen.load(model=gpmegen.load_model_file(path), backend="c")
+
+
+def _energy(model, y):
+    n = model.n_dof
+    return np.array([sum(model.energies(row[:n], row[n:2 * n])) for row in y])
+
+
+def test_genalpha_without_damping_keeps_the_energy_to_second_order(pendulum):
+    drifts = []
+    for dt in (0.02, 0.01, 0.005):
+        _, y, outcome, _ = integrate.genalpha(pendulum, np.array([-0.5]), np.zeros(1), 10.0, dt, 0.1, rho_inf=1.0)
+        energy = _energy(pendulum, y)
+        drifts.append(np.abs(energy - energy[0]).max() / abs(energy[0]))
+        assert outcome.complete
+    assert all(1.9 < p < 2.1 for p in _order(drifts)), drifts
+
+
+@pytest.mark.parametrize("rho_inf", [0.5, 0.8])
+def test_genalpha_damps_an_unresolved_mode_by_rho_inf_a_step(pendulum, rho_inf):
+    """An undamped linear oscillator of ω = 100 rad/s stepped at ω h = 1000: its amplitude falls
+    by the spectral radius at infinity, ρ∞, each step (a triple root there, so the geometric mean
+    over many steps, within a few percent)."""
+    oscillator = pendulum.with_params(g=0.0, k=1e4)  # I = 1 kg m²: ω = 100 rad/s
+    h = 10.0
+    _, y, outcome, _ = integrate.genalpha(oscillator, np.array([0.1]), np.zeros(1), 400 * h, h, h, rho_inf)
+    energy = _energy(oscillator, y)
+    assert outcome.complete
+    assert (energy[-1] / energy[200]) ** (1 / 400) == pytest.approx(rho_inf, rel=0.03)
+
+
+def test_genalpha_from_the_command_line_records_its_newton_work(capsys, tmp_path, env):
+    code, out, err = _run(["simulate", "--nrfe", "2", "--method", "GenAlpha", "--t-end", "0.1", "--dt", "1e-3",
+                           "--save-every", "10", "--rho-inf", "0.7", "--backend", "c"], capsys, tmp_path)
+    assert code == 0, err
+    res = np.load(tmp_path / "run.npz")
+    settings = metadata(res)["settings"]
+    assert settings["rho_inf"] == 0.7 and len(res["t"]) == 11
+    effort = settings["effort"]
+    assert effort["steps"] == 100 and effort["jacobians"] >= 1 and effort["factorizations"] == effort["jacobians"]
+    assert "genalpha, dt = 0.001 s, rho_inf = 0.7" in out and f"{effort['jacobians']} Jacobians" in out
+    # above RK4's stable step of this arm (3.6 ms): genalpha takes it
+    code, out, err = _run(["simulate", "--nrfe", "2", "--method", "genalpha", "--t-end", "0.1", "--dt", "1e-2",
+                           "--backend", "c", "--overwrite"], capsys, tmp_path)
+    assert code == 0, err

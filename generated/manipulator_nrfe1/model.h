@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 60570a7f0a92fb3e
+Input hash: 52a944ec6d866ab2
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -54,7 +54,8 @@ enum gpmegen_status {
     GPMEGEN_SINGULAR = 1,
     GPMEGEN_NONFINITE = 2,
     GPMEGEN_BAD_ARGUMENTS = 3,
-    GPMEGEN_STEP_TOO_SMALL = 4
+    GPMEGEN_STEP_TOO_SMALL = 4,
+    GPMEGEN_NO_CONVERGENCE = 5
 };
 #endif
 
@@ -201,5 +202,14 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
    Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NONFINITE, GPMEGEN_STEP_TOO_SMALL or
    GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
 int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+
+/* Generalized-alpha (order 2, numerical damping rho_inf in [0, 1]) over steps k_from + 1 .. k_to of the grid of
+   manipulator_nrfe1_rk4, from y_io = [q, qd, w] (8,) and the method's acceleration a_io (3,; NaN at a run's
+   start), both replaced by their values at step k_to. Modified Newton on qdd with the matrix S (3, 3) and
+   pivot (3,) kept by the caller across calls (*have_matrix: they hold one). Saves y at the n_save increasing
+   instants t_save within the steps into y_out (n_save, 8) (cubic Hermite between step ends); adds to
+   counts (5,) as manipulator_nrfe1_dop853. Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NO_CONVERGENCE,
+   GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved. */
+int manipulator_nrfe1_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf, double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
 #endif

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5b499085b60eb893
+Input hash: 9a995270891dc500
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -30,7 +30,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "5b499085b60eb893"; }
+const char *manipulator_nrfe5_input_hash(void) { return "9a995270891dc500"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -5332,6 +5332,46 @@ int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+/* qdd (N_DOF) = gpme_solve's accelerations at (t, q, qd), and their Jacobians dqdd_dq and dqdd_dqd
+   (N_DOF x N_DOF, row-major: entry [i * N_DOF + j] is d qdd_i / d q_j). dependent: as for
+   gpme_solve (which chooses its own partition and reads none). Returns the status of gpme_solve.
+   PLACEHOLDER: central differences of gpme_solve with steps cbrt(DBL_EPSILON) max(1, |x_j|)
+   (about 1e-10 relative, 4 N_DOF + 1 solves), until the analytic Jacobians of the generated
+   derivatives take this body's place with the same signature and meaning. */
+static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
+                         double *qdd, double *dqdd_dq, double *dqdd_dqd)
+{
+    double x[2 * N_DOF] ALIGNED, up[N_DOF] ALIGNED, down[N_DOF] ALIGNED;
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    const double relative = cbrt(DBL_EPSILON);
+    int status;
+    /* gpme_solve reads neither partition argument: dependent stands in for both */
+    if ((status = gpme_solve(t, q, qd, p, dependent, dependent, qdd, M, f, &power)) != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        x[i] = q[i];
+        x[N_DOF + i] = qd[i];
+    }
+    for (int j = 0; j < 2 * N_DOF; ++j) {
+        const double h = relative * fmax(1.0, fabs(x[j])), saved = x[j];
+        x[j] = saved + h;
+        if ((status = gpme_solve(t, x, x + N_DOF, p, dependent, dependent, up, M, f, &power)) != GPMEGEN_OK) {
+            return status;
+        }
+        x[j] = saved - h;
+        if ((status = gpme_solve(t, x, x + N_DOF, p, dependent, dependent, down, M, f, &power)) != GPMEGEN_OK) {
+            return status;
+        }
+        x[j] = saved;
+        double *column = j < N_DOF ? dqdd_dq + j : dqdd_dqd + (j - N_DOF);
+        for (int i = 0; i < N_DOF; ++i) {
+            column[i * N_DOF] = (up[i] - down[i]) / (2.0 * h);
+        }
+    }
+    return GPMEGEN_OK;
+}
+
 /* ---- DOP853: Dormand-Prince 8(5,3), adaptive, with its dense output of order 7 ------------- */
 
 /* The state y = [q, qd, w] (N_Y): w the work of the drive and of the constraint forces (J),
@@ -5641,6 +5681,276 @@ int manipulator_nrfe5_dop853(double t_a, const double *y_a, long n_save, const d
             y[i] = y_new[i];
             K[0][i] = K[DOP_STAGES][i];
         }
+    }
+    return GPMEGEN_OK;
+}
+
+/* ---- Generalized-alpha (Chung and Hulbert 1993) for qdd = a(t, q, qd) ------------------------ */
+
+/* LU factorization with partial pivoting of the n x n row-major matrix a, in place; pivot (n)
+   the row taken at each column. Returns GPMEGEN_OK, GPMEGEN_SINGULAR on a zero pivot,
+   GPMEGEN_NONFINITE on a non-finite entry. */
+static int lu_factor(int n, double *a, int *pivot)
+{
+    for (int k = 0; k < n; ++k) {
+        int r = k;
+        for (int i = k + 1; i < n; ++i) {
+            if (fabs(a[i * n + k]) > fabs(a[r * n + k])) {
+                r = i;
+            }
+        }
+        if (!isfinite(a[r * n + k])) {
+            return GPMEGEN_NONFINITE;
+        }
+        if (a[r * n + k] == 0.0) {
+            return GPMEGEN_SINGULAR;
+        }
+        pivot[k] = r;
+        if (r != k) {
+            for (int j = 0; j < n; ++j) {
+                const double s = a[k * n + j];
+                a[k * n + j] = a[r * n + j];
+                a[r * n + j] = s;
+            }
+        }
+        for (int i = k + 1; i < n; ++i) {
+            const double l = a[i * n + k] / a[k * n + k];
+            a[i * n + k] = l;
+            for (int j = k + 1; j < n; ++j) {
+                a[i * n + j] -= l * a[k * n + j];
+            }
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* b (n) = A^-1 b with the factors of lu_factor. */
+static void lu_solve(int n, const double *a, const int *pivot, double *b)
+{
+    for (int k = 0; k < n; ++k) {
+        const double s = b[pivot[k]];
+        b[pivot[k]] = b[k];
+        b[k] = s;
+        for (int i = k + 1; i < n; ++i) {
+            b[i] -= a[i * n + k] * b[k];
+        }
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        b[k] /= a[k * n + k];
+        for (int i = 0; i < k; ++i) {
+            b[i] -= a[i * n + k] * b[k];
+        }
+    }
+}
+
+/* The parameters of the generalized-alpha method with spectral radius rho_inf at h omega -> inf
+   (Chung and Hulbert; Arnold and Bruls 2007 for qdd given): second order, unconditionally stable
+   for linear problems, the high frequencies damped to rho_inf, the low ones barely. */
+struct genalpha_parameters {
+    double alpha_m, alpha_f, gamma, beta;
+};
+
+static struct genalpha_parameters genalpha_parameters(double rho_inf)
+{
+    struct genalpha_parameters c;
+    c.alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0);
+    c.alpha_f = rho_inf / (rho_inf + 1.0);
+    c.gamma = 0.5 + c.alpha_f - c.alpha_m;
+    c.beta = 0.25 * (c.gamma + 0.5) * (c.gamma + 0.5);
+    return c;
+}
+
+/* Newton's iteration matrix S = I - (beta h^2 dq_dx) dqdd/dq - (gamma h dqd_dx) dqdd/dqd at the state
+   (t, q, qd), with c = (1 - alpha_f) / (1 - alpha_m) the change of a per change of qdd, factored
+   into S and pivot. Adds the solves, the Jacobian and the factorization to counts. */
+static int genalpha_matrix(double t, const double *q, const double *qd, double h, struct genalpha_parameters c,
+                           const double *p, const int *dependent, double *S, int *pivot, long *counts)
+{
+    double qdd[N_DOF] ALIGNED, J_qd[N_DOF * N_DOF] ALIGNED;
+    const double da = (1.0 - c.alpha_f) / (1.0 - c.alpha_m), dq = c.beta * h * h * da, dqd = c.gamma * h * da;
+    int status;
+    counts[2] += 4 * N_DOF + 1;
+    ++counts[3];
+    if ((status = gpme_jacobian(t, q, qd, p, dependent, qdd, S, J_qd)) != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF * N_DOF; ++i) {
+        S[i] = -dq * S[i] - dqd * J_qd[i];
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        S[i * N_DOF + i] += 1.0;
+    }
+    ++counts[4];
+    return lu_factor(N_DOF, S, pivot);
+}
+
+/* The state y = [q, qd, w] at t + x h within a step from y0 (rates: qd0, qdd0, powers P0) to y1
+   (qd1, qdd1, P1): each part the cubic Hermite interpolant of its values and rates at the ends,
+   exact for cubics, so its error O(h^4) stays below the method's O(h^2). */
+static void hermite_state(double x, double h, const double *y0, const double *r0, const double *y1,
+                          const double *r1, double *out)
+{
+    const double h00 = (1.0 + 2.0 * x) * (1.0 - x) * (1.0 - x), h10 = x * (1.0 - x) * (1.0 - x);
+    const double h01 = x * x * (3.0 - 2.0 * x), h11 = x * x * (x - 1.0);
+    for (int i = 0; i < N_Y; ++i) {
+        out[i] = h00 * y0[i] + h * h10 * r0[i] + h01 * y1[i] + h * h11 * r1[i];
+    }
+}
+
+/* Newton's iterations stop when max |dqdd| <= NEWTON_TOLERANCE max(1, |qdd|); the matrix is
+   refreshed when they have not converged after NEWTON_ITERATIONS or converge slower than
+   NEWTON_RATE a step, and the step fails when they do not converge with a fresh one. */
+static const double NEWTON_TOLERANCE = 1e-10, NEWTON_RATE = 0.5;
+enum { NEWTON_ITERATIONS = 6 };
+
+/* Generalized-alpha over steps k_from + 1 .. k_to of the grid of rk4 (n_steps steps of dt from
+   t0, the last ending at t_end), with numerical damping rho_inf (0..1), from y_io = [q, qd, w]
+   (N_Y) and a_io (N_DOF), the method's acceleration-like variable (NaN at the start of a run: it
+   starts as qdd there), both replaced by their values at the end of step k_to. Each step solves
+   qdd_{n+1} = a(t_{n+1}, q_{n+1}, qd_{n+1}) with
+       q_{n+1}  = q_n + h qd_n + h^2 ((1/2 - beta) a_n + beta a_{n+1}),
+       qd_{n+1} = qd_n + h ((1 - gamma) a_n + gamma a_{n+1}),
+       (1 - alpha_m) a_{n+1} + alpha_m a_n = (1 - alpha_f) qdd_{n+1} + alpha_f qdd_n
+   by modified Newton (S of genalpha_matrix, kept across steps and chunks while it converges,
+   *have_matrix says whether S and pivot hold one); w by the trapezoidal rule on the powers.
+   Saves y at the n_save increasing instants t_save within (t_{k_from}, t_{k_to}] into y_out
+   (n_save x N_Y): the step's own state where one ends on it, hermite_state between. counts (5)
+   are added to as for dop853. Returns GPMEGEN_OK, the status of a failed solve,
+   GPMEGEN_NO_CONVERGENCE, GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows
+   saved, also on a failure. */
+int manipulator_nrfe5_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf,
+    double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save,
+    const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts)
+{
+    const struct genalpha_parameters c = genalpha_parameters(rho_inf);
+    double y[N_Y] ALIGNED, y_new[N_Y] ALIGNED, r[N_Y] ALIGNED, r_new[N_Y] ALIGNED;
+    double a[N_DOF] ALIGNED, a_new[N_DOF] ALIGNED, x[N_DOF] ALIGNED, dx[N_DOF] ALIGNED, base_q[N_DOF] ALIGNED;
+    double base_qd[N_DOF] ALIGNED;
+    long j = 0;
+    int status;
+
+    *n_saved = 0;
+    if (k_from < 0 || k_to < k_from || n_steps < k_to || !isfinite(t0) || !(dt > 0.0) || !isfinite(t_end)
+        || !(rho_inf >= 0.0 && rho_inf <= 1.0) || n_save < 0) {
+        return GPMEGEN_BAD_ARGUMENTS;
+    }
+    for (int i = 0; i < N_Y; ++i) {
+        y[i] = y_io[i];
+    }
+    if (!all_finite(y, N_Y)) {
+        return GPMEGEN_NONFINITE;
+    }
+    ++counts[2];
+    if ((status = state_rate(grid_time(t0, dt, n_steps, t_end, k_from), y, p, dependent, independent, r))
+        != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        a[i] = isfinite(a_io[i]) ? a_io[i] : r[N_DOF + i];
+    }
+    for (long k = k_from + 1; k <= k_to; ++k) {
+        const double t = grid_time(t0, dt, n_steps, t_end, k - 1), t_new = grid_time(t0, dt, n_steps, t_end, k);
+        const double h = t_new - t, da = (1.0 - c.alpha_f) / (1.0 - c.alpha_m);
+        const double *qdd = r + N_DOF;
+        int fresh = 0, converged = 0;
+        /* the parts of q_{n+1} and qd_{n+1} known before the solve */
+        for (int i = 0; i < N_DOF; ++i) {
+            const double a_known = (c.alpha_f * qdd[i] - c.alpha_m * a[i]) / (1.0 - c.alpha_m);
+            base_q[i] = y[i] + h * y[N_DOF + i] + h * h * ((0.5 - c.beta) * a[i] + c.beta * a_known);
+            base_qd[i] = y[N_DOF + i] + h * ((1.0 - c.gamma) * a[i] + c.gamma * a_known);
+        }
+        while (!converged) {
+            if (!*have_matrix || fresh) {
+                for (int i = 0; i < N_DOF; ++i) {  /* the Jacobian at the predictor qdd_{n+1} = qdd_n */
+                    y_new[i] = base_q[i] + c.beta * h * h * da * qdd[i];
+                    y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * qdd[i];
+                }
+                *have_matrix = 0;
+                if ((status = genalpha_matrix(t_new, y_new, y_new + N_DOF, h, c, p, dependent, S, pivot, counts))
+                    != GPMEGEN_OK) {
+                    return status;
+                }
+                *have_matrix = 1;
+            }
+            for (int i = 0; i < N_DOF; ++i) {
+                x[i] = qdd[i];
+            }
+            double previous = INFINITY;
+            for (int iteration = 0; iteration < NEWTON_ITERATIONS; ++iteration) {
+                for (int i = 0; i < N_DOF; ++i) {
+                    y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
+                    y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+                }
+                ++counts[2];
+                if ((status = state_rate(t_new, y_new, p, dependent, independent, r_new)) != GPMEGEN_OK) {
+                    return status;
+                }
+                double size = 0.0, scale = 1.0;
+                for (int i = 0; i < N_DOF; ++i) {
+                    dx[i] = r_new[N_DOF + i] - x[i];
+                }
+                lu_solve(N_DOF, S, pivot, dx);
+                for (int i = 0; i < N_DOF; ++i) {
+                    x[i] += dx[i];
+                    size = fmax(size, fabs(dx[i]));
+                    scale = fmax(scale, fabs(x[i]));
+                }
+                if (!isfinite(size) || size > NEWTON_RATE * previous) {
+                    break;
+                }
+                previous = size;
+                if (size <= NEWTON_TOLERANCE * scale) {
+                    converged = 1;
+                    break;
+                }
+            }
+            if (!converged) {
+                if (fresh) {
+                    return GPMEGEN_NO_CONVERGENCE;
+                }
+                fresh = 1;
+            }
+        }
+        /* the state at the converged qdd_{n+1}, and its rates */
+        for (int i = 0; i < N_DOF; ++i) {
+            a_new[i] = (c.alpha_f * qdd[i] - c.alpha_m * a[i] + (1.0 - c.alpha_f) * x[i]) / (1.0 - c.alpha_m);
+            y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
+            y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+        }
+        ++counts[2];
+        if ((status = state_rate(t_new, y_new, p, dependent, independent, r_new)) != GPMEGEN_OK) {
+            return status;
+        }
+        for (int m = 0; m < 2; ++m) {
+            y_new[N_MOTION + m] = y[N_MOTION + m] + 0.5 * h * (r[N_MOTION + m] + r_new[N_MOTION + m]);
+        }
+        if (!all_finite(y_new, N_Y)) {
+            return GPMEGEN_NONFINITE;
+        }
+        ++counts[0];
+        for (; j < n_save && t_save[j] <= t_new; ++j) {
+            if (t_save[j] == t_new) {
+                for (int i = 0; i < N_Y; ++i) {
+                    y_out[j * N_Y + i] = y_new[i];
+                }
+            } else {
+                hermite_state((t_save[j] - t) / h, h, y, r, y_new, r_new, y_out + j * N_Y);
+            }
+        }
+        *n_saved = j;
+        for (int i = 0; i < N_Y; ++i) {
+            y[i] = y_new[i];
+            r[i] = r_new[i];
+        }
+        for (int i = 0; i < N_DOF; ++i) {
+            a[i] = a_new[i];
+        }
+    }
+    for (int i = 0; i < N_Y; ++i) {
+        y_io[i] = y[i];
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        a_io[i] = a[i];
     }
     return GPMEGEN_OK;
 }

@@ -165,13 +165,15 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
 
 def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
              start="locked", repartition=False, notify=None, qd0=None, internal_dynamics=False, save_dt=None,
-             rtol=None, atol=None):
+             rtol=None, atol=None, rho_inf=None):
     """The constrained motion from ``q0`` with velocities ``qd0`` (default rest); returns a results
     dict (see :mod:`gpmegen.analysis.results`). ``method``: "rk4" (step ``dt``, saving every
-    ``save_every``-th step, or every ``save_dt`` s when given, a whole number of steps), "dop853"
-    (compiled, adaptive) or a name of :data:`gpmegen.runtime.integrate.SCIPY`; the adaptive ones
-    save every ``save_dt`` s (default ``dt·save_every``: RK4's instants) to ``rtol``, ``atol``
-    (default :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``). The conditioning of the dependent
+    ``save_every``-th step, or every ``save_dt`` s when given, a whole number of steps),
+    "genalpha" (compiled, implicit, step ``dt``, numerical damping ``rho_inf``, default
+    :data:`gpmegen.runtime.integrate.RHO_INF`), "dop853" (compiled, adaptive) or a name of
+    :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every ``save_dt`` s (default
+    ``dt·save_every``: RK4's instants), the adaptive ones to ``rtol``, ``atol`` (default
+    :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``). The conditioning of the dependent
     block of ``D`` is watched: ``notify`` (a callable taking a message) is told when it degrades,
     and with ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that
     cannot finish, or whose step is above RK4's stable one at the start
@@ -189,6 +191,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     save_dt = dt * save_every if save_dt is None else save_dt
     rtol = integrate.RTOL if rtol is None else rtol
     atol = integrate.ATOL if atol is None else atol
+    rho_inf = integrate.RHO_INF if rho_inf is None else rho_inf
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop)
@@ -213,6 +216,9 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
         t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
                                       max_violation=max_violation, watch=watch)
         effort = integrate.rk4_effort(t, 0.0, dt)
+    elif method == "genalpha":
+        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
+                                                   max_violation=max_violation, watch=watch)
     elif method == "dop853":
         t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol,
                                                  progress=progress, max_violation=max_violation, watch=watch)
@@ -224,9 +230,10 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
         outcome = internal.explain(outcome, stability, actuated)
-    adaptive = method != "rk4"
+    adaptive = method not in ("rk4", "genalpha")
     settings = dict(method=method, dt=dt, save_every=save_every, save_dt=save_dt, rtol=rtol if adaptive else None,
-                    atol=atol if adaptive else None, effort=effort._asdict(), t_end=t_end, start=start,
+                    atol=atol if adaptive else None, rho_inf=rho_inf if method == "genalpha" else None,
+                    effort=effort._asdict(), t_end=t_end, start=start,
                     backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
                     repartitions=watch.events, actuators=actuated)
