@@ -285,6 +285,11 @@ class SimulationStopped(GpmegenError):
 
 def cmd_simulate(args) -> int:
     if args.extrapolate or len(args.nrfe or ()) > 1:
+        given = [option for option, value in (("--save-dt", args.save_dt), ("--rtol", args.rtol),
+                                              ("--atol", args.atol), ("--rho-inf", args.rho_inf)) if value is not None]
+        if given:
+            raise UsageError(f"{', '.join(given)}: not taken by runs at several --nrfe, which save every --dt x "
+                             f"--save-every with the methods' defaults; leave {'them' if len(given) > 1 else 'it'} out")
         return cmd_extrapolate(args)
     args.nrfe = args.nrfe[0] if args.nrfe else None
     from .analysis.results import default_name

@@ -264,3 +264,8 @@ def test_genalpha_from_the_command_line_records_its_newton_work(capsys, tmp_path
     code, out, err = _run(["simulate", "--nrfe", "2", "--method", "genalpha", "--t-end", "0.1", "--dt", "1e-2",
                            "--backend", "c", "--overwrite"], capsys, tmp_path)
     assert code == 0, err
+
+
+def test_options_that_runs_at_several_nrfe_would_ignore_are_refused(capsys, tmp_path):
+    code, out, err = _run(["simulate", "--nrfe", "1", "2", "--method", "dop853", "--rtol", "1e-6"], capsys, tmp_path)
+    assert code == 2 and not out and len(err.strip().splitlines()) == 1 and "--rtol: not taken" in err
