@@ -229,7 +229,7 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     final = _coordinate_values(names, [res["q"][-1, model.index(name)] for name in names])
     realization = f", actuated on {', '.join(model.coordinates[k] for k in model.actuators)}" if len(
         model.actuators) else ""
-    print(f"{case.label} ({model.backend}, {_integration(metadata(res)['settings'])}{realization}): "
+    print(f"{case.label} ({model.backend}, {_integration(metadata(res)['settings'], realization)}): "
           f"{_outcome(status, res['t'][-1])} in {done.wall:.1f} s; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; "
           f"wrote {', '.join(map(str, written))}; state at t = {res['t'][-1]:.6g} s:\n{final}")
     if status != "complete":
@@ -240,9 +240,10 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     return res
 
 
-def _integration(settings: dict) -> str:
+def _integration(settings: dict, realization: str = "") -> str:
     """How a run was integrated, as its summary says it: the method, its step or tolerances, the
-    save interval and what it took (``settings``: the results' meta settings)."""
+    ``realization`` (", actuated on …" or nothing), the save interval and what it took
+    (``settings``: the results' meta settings)."""
     from .runtime.integrate import Effort
 
     if settings["method"] == "rk4":
@@ -251,7 +252,7 @@ def _integration(settings: dict) -> str:
         how = f"genalpha, dt = {settings['dt']:g} s, rho_inf = {settings['rho_inf']:g}"
     else:
         how = f"{settings['method']}, rtol = {settings['rtol']:g}, atol = {settings['atol']:g}"
-    return f"{how}, saved every {settings['save_dt']:g} s; {Effort(**settings['effort']).describe()}"
+    return f"{how}{realization}; saved every {settings['save_dt']:g} s; {Effort(**settings['effort']).describe()}"
 
 
 def _outcome(status: str, t_last: float) -> str:
