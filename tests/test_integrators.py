@@ -269,3 +269,16 @@ def test_genalpha_from_the_command_line_records_its_newton_work(capsys, tmp_path
 def test_options_that_runs_at_several_nrfe_would_ignore_are_refused(capsys, tmp_path):
     code, out, err = _run(["simulate", "--nrfe", "1", "2", "--method", "dop853", "--rtol", "1e-6"], capsys, tmp_path)
     assert code == 2 and not out and len(err.strip().splitlines()) == 1 and "--rtol: not taken" in err
+
+
+def test_a_chain_the_constraints_hold_entirely_has_no_frequency_to_bound_rk4(env):
+    """The planar example at n_rfe = 1: two joints, two position constraints, no free coordinate."""
+    from pathlib import Path
+
+    from gpmegen.analysis.cases import FileCase
+
+    path = Path(__file__).resolve().parent.parent / "examples" / "planar_two_link.toml"
+    begun = FileCase(str(path), 1).started("numpy", "none", {}, lambda message: None)
+    assert modes.highest_frequency(begun.model, 0.0, begun.q) == 0.0
+    res = study.simulate(begun.model, begun.q, 0.01, dt=1e-3, save_every=5)
+    assert str(res["status"]) == "complete"

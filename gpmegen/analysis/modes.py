@@ -159,6 +159,8 @@ def highest_frequency(model, t, q) -> float:
     model = model.partitioned(t, q)
     D = model.constraint_terms(t, q, np.zeros(model.n_dof))[2]
     B = tangent_basis(D, model.dependent, model.independent) if len(D) else np.eye(model.n_dof)
+    if B.shape[1] == 0:  # the constraints hold every coordinate: nothing vibrates
+        return 0.0
     K, M = B.T @ model.stiffness_jacobian(q) @ B, B.T @ model.mass_matrix(q) @ B
     omega2 = scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
     return math.sqrt(max(float(omega2[-1]), 0.0))
