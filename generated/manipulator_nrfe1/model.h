@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 52a944ec6d866ab2
+Input hash: 6e4efc5c1bb99209
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 9a995270891dc500
+Input hash: 3337f5f9dd8f50da
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
