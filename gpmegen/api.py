@@ -153,17 +153,21 @@ def statics(model=None, *, nrfe=None, start=None, params=None, backend="numpy", 
 
 
 def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=100, method="rk4",
-             params=None, backend="numpy", repartition=False, directory=None, progress=None):
+             params=None, backend="numpy", repartition=False, directory=None, progress=None, save_dt=None,
+             rtol=None, atol=None, rho_inf=None):
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
     :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
-    and ``t_end``, ``dt`` (s), ``save_every`` (steps), ``method`` ("rk4" or a scipy method:
-    "DOP853", "RK45", "Radau", "LSODA"), ``repartition``. A run that stops early (diverges) is
-    returned with its ``status`` saying why."""
+    and ``t_end``, ``dt`` (s), ``save_every`` (steps), ``method`` ("rk4"; with ``backend="c"``
+    "genalpha", implicit with step ``dt`` and damping ``rho_inf``, or "dop853", adaptive;
+    "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
+    ``atol`` (adaptive methods), ``repartition``. A run that stops
+    early (diverges) is returned with its ``status`` saying why."""
     from .analysis import runs
 
     case, start = _started(model, nrfe, start, directory)
     done = runs.run(case, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
-                    _messages(progress), repartition=repartition)
+                    _messages(progress), repartition=repartition, save_dt=save_dt, rtol=rtol, atol=atol,
+                    rho_inf=rho_inf)
     return runs.Results(done.results)
 
 

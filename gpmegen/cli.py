@@ -54,6 +54,7 @@ def _finite_number(accept, problem):
 
 
 positive_float = _finite_number(lambda v: v > 0, "must be a positive finite number")
+unit_interval = _finite_number(lambda v: 0 <= v <= 1, "must be a number from 0 to 1")
 end_time = _finite_number(lambda v: v >= 0, "is below zero or not finite; give the end time in seconds")
 
 
@@ -85,11 +86,11 @@ def parameter_override(text: str):
     return name, number
 
 
-METHODS = ("rk4", "DOP853", "RK45", "Radau", "LSODA")
+METHODS = ("rk4", "genalpha", "dop853", "scipy-radau")
 
 
 def method_name(text: str) -> str:
-    """argparse type: an integrator's name in any case (``dop853`` → ``DOP853``)."""
+    """argparse type: an integrator's name in any case (``DOP853`` → ``dop853``)."""
     by_lower = {method.lower(): method for method in METHODS}
     if text.lower() in by_lower:
         return by_lower[text.lower()]
@@ -251,16 +252,26 @@ def _start(case, start):
 
 
 def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
-                    overwrite=False, actuated=None, internal_dynamics=False):
+                    overwrite=False, actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None,
+                    rho_inf=None):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
     C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
     from .analysis.cases import FileCase
+    from .analysis.results import metadata
+    from .runtime import integrate
 
     _check_results_path(out, overwrite)
     backend = backend or _default_backend()
+    refusal = integrate.compiled_only(method, backend, bool(actuated if actuated is not None else case.actuators))
+    if refusal:
+        raise UsageError(refusal)
+    if method == "rk4" and save_dt is not None and integrate.save_steps(dt, save_dt) is None:
+        raise UsageError(f"--save-dt {save_dt:g} s is not a whole number of RK4 steps --dt {dt:g} s; make it a "
+                         f"multiple of --dt, or use --save-every")
     done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
-                    repartition=repartition, actuated=actuated, internal_dynamics=internal_dynamics)
+                    repartition=repartition, actuated=actuated, internal_dynamics=internal_dynamics,
+                    save_dt=save_dt, rtol=rtol, atol=atol, rho_inf=rho_inf)
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
@@ -268,8 +279,8 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     final = _coordinate_values(names, [res["q"][-1, model.index(name)] for name in names])
     realization = f", actuated on {', '.join(model.coordinates[k] for k in model.actuators)}" if len(
         model.actuators) else ""
-    print(f"{case.label} ({model.backend}, {method}, dt = {dt:g} s{realization}): {_outcome(status, res['t'][-1])} "
-          f"in {done.wall:.1f} s; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; "
+    print(f"{case.label} ({model.backend}, {_integration(metadata(res)['settings'], realization)}): "
+          f"{_outcome(status, res['t'][-1])} in {done.wall:.1f} s; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; "
           f"wrote {', '.join(map(str, written))}; state at t = {res['t'][-1]:.6g} s:\n{final}")
     if status != "complete":
         kept = f"results up to t = {res['t'][-1]:.6g} s kept in {written[0]} (partial)"
@@ -277,6 +288,21 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
             kept += f"; {out} is left as it was"
         raise SimulationStopped(f"{status}; {kept}", interrupted=status == Ending.INTERRUPTED.value)
     return res
+
+
+def _integration(settings: dict, realization: str = "") -> str:
+    """How a run was integrated, as its summary says it: the method, its step or tolerances, the
+    ``realization`` (", actuated on …" or nothing), the save interval and what it took
+    (``settings``: the results' meta settings)."""
+    from .runtime.integrate import Effort
+
+    if settings["method"] == "rk4":
+        how = f"rk4, dt = {settings['dt']:g} s"
+    elif settings["method"] == "genalpha":
+        how = f"genalpha, dt = {settings['dt']:g} s, rho_inf = {settings['rho_inf']:g}"
+    else:
+        how = f"{settings['method']}, rtol = {settings['rtol']:g}, atol = {settings['atol']:g}"
+    return f"{how}{realization}; saved every {settings['save_dt']:g} s; {Effort(**settings['effort']).describe()}"
 
 
 def _outcome(status: str, t_last: float) -> str:
@@ -310,6 +336,11 @@ class SimulationStopped(GpmegenError):
 
 def cmd_simulate(args) -> int:
     if args.extrapolate or len(args.nrfe or ()) > 1:
+        given = [option for option, value in (("--save-dt", args.save_dt), ("--rtol", args.rtol),
+                                              ("--atol", args.atol), ("--rho-inf", args.rho_inf)) if value is not None]
+        if given:
+            raise UsageError(f"{', '.join(given)}: not taken by runs at several --nrfe, which save every --dt x "
+                             f"--save-every with the methods' defaults; leave {'them' if len(given) > 1 else 'it'} out")
         return cmd_extrapolate(args)
     args.nrfe = args.nrfe[0] if args.nrfe else None
     from .analysis.results import default_name
@@ -321,7 +352,8 @@ def cmd_simulate(args) -> int:
     out = Path(args.out if args.out is not None else f"results/{name}")
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
                     dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
-                    actuated=actuated, internal_dynamics=args.internal_dynamics)
+                    actuated=actuated, internal_dynamics=args.internal_dynamics, save_dt=args.save_dt,
+                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf)
     return 0
 
 
@@ -677,11 +709,15 @@ def build_parser() -> argparse.ArgumentParser:
     def run_options(p):
         """How a run integrates: simulate's options, which a sweep's runs take too."""
         p.add_argument("--t-end", type=end_time, default=10.0, help="end time in s (default 10)")
-        p.add_argument("--dt", type=positive_float, default=1e-5, help="RK4 step in s (default 1e-5, the paper's)")
-        p.add_argument("--save-every", type=positive_int, default=100, help="keep every k-th step (default 100)")
+        p.add_argument("--dt", type=positive_float, default=1e-5,
+                       help="RK4 step in s (default 1e-5, the paper's); with --save-every, the save interval of "
+                            "every method")
+        p.add_argument("--save-every", type=positive_int, default=100,
+                       help="keep every k-th step of --dt (default 100)")
         p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
-                       help="integrator, in any case: fixed-step rk4 (the paper's, default) or an adaptive SciPy "
-                            "method")
+                       help="integrator, in any case: fixed-step rk4 (the paper's, default), genalpha (implicit, "
+                            "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C) or "
+                            "scipy-radau (implicit, SciPy on the model from Python)")
         p.add_argument("--backend", choices=("numpy", "c"), default=None,
                        help="generated code to run (default: c when a compiler is present)")
         p.add_argument("--repartition", action="store_true",
@@ -690,6 +726,15 @@ def build_parser() -> argparse.ArgumentParser:
     s = command("simulate", "statics, then the constrained motion (RK4 or adaptive)")
     study_options(s, levels=True)
     run_options(s)
+    s.add_argument("--save-dt", type=positive_float, default=None,
+                   help="save interval in s (default --dt x --save-every); for rk4 a whole number of steps")
+    s.add_argument("--rtol", type=positive_float, default=None,
+                   help="relative tolerance of the adaptive methods (default 1e-8)")
+    s.add_argument("--atol", type=positive_float, default=None,
+                   help="absolute tolerance of the adaptive methods, in the units of q and q' (default 1e-10)")
+    s.add_argument("--rho-inf", type=unit_interval, default=None,
+                   help="genalpha's numerical damping: its spectral radius at large steps, 0 (most damped) to 1 "
+                        "(none; default 0.9)")
     s.add_argument("--out", type=path_argument, default=None,
                    help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
     s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")

@@ -18,6 +18,8 @@ class SolveStatus(IntEnum):
     SINGULAR = 1       # the GPME system is singular (D lost rank, or BᵀMB is not positive definite)
     NONFINITE = 2      # a state or a GPME term is not finite
     BAD_ARGUMENTS = 3  # the arguments of the call are invalid
+    STEP_TOO_SMALL = 4  # an adaptive step fell to the round-off of t
+    NO_CONVERGENCE = 5  # the Newton iterations of an implicit step did not converge
 
 
 #: What a failed solve or step means for a run, and the fix.
@@ -28,6 +30,10 @@ MESSAGES = {
     SolveStatus.NONFINITE: "non-finite state; try a smaller --dt (the flexible modes bound the RK4 step) or check "
                            "the parameters",
     SolveStatus.BAD_ARGUMENTS: "invalid arguments",
+    SolveStatus.STEP_TOO_SMALL: "the adaptive step fell to the round-off of t (the motion is singular there, or the "
+                                "tolerances cannot be met in double precision); try a larger --rtol/--atol",
+    SolveStatus.NO_CONVERGENCE: "the Newton iterations of an implicit step did not converge, even with a fresh "
+                                "Jacobian; try a smaller --dt",
 }
 
 

@@ -245,7 +245,7 @@ def test_an_actuated_run_keeps_its_own_default_results_and_says_so(tmp_path, mon
     assert "actuated" not in capsys.readouterr().out
     assert cli.main(common + ["--actuated", "psi2", "x3"]) == 0
     summary = capsys.readouterr().out
-    assert "(numpy, rk4, dt = 0.001 s, actuated on psi2, x3)" in summary
+    assert "(numpy, rk4, dt = 0.001 s, actuated on psi2, x3; saved every 0.005 s; 10 steps" in summary
     assert sorted(p.name for p in (tmp_path / "results").glob("*.npz")) == [
         "run_nrfe1_locked_rk4.npz", "run_nrfe1_locked_rk4_actuated-psi2-x3.npz"]
     assert "u" in results_io.load(tmp_path / "results" / "run_nrfe1_locked_rk4_actuated-psi2-x3.npz")

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 65aab131b050e23f
+Input hash: f7f5c9b1fdb181eb
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -50,7 +50,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "65aab131b050e23f"; }
+const char *manipulator_nrfe1_input_hash(void) { return "f7f5c9b1fdb181eb"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -1558,4 +1558,629 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+/* qdd (N_DOF) = gpme_solve's accelerations at (t, q, qd), and their Jacobians dqdd_dq and dqdd_dqd
+   (N_DOF x N_DOF, row-major: entry [i * N_DOF + j] is d qdd_i / d q_j). dependent: as for
+   gpme_solve (which chooses its own partition and reads none). Returns the status of gpme_solve.
+   PLACEHOLDER: central differences of gpme_solve with steps cbrt(DBL_EPSILON) max(1, |x_j|)
+   (about 1e-10 relative, 4 N_DOF + 1 solves), until the analytic Jacobians of the generated
+   derivatives take this body's place with the same signature and meaning. */
+static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
+                         double *qdd, double *dqdd_dq, double *dqdd_dqd)
+{
+    double x[2 * N_DOF] ALIGNED, up[N_DOF] ALIGNED, down[N_DOF] ALIGNED;
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    const double relative = cbrt(DBL_EPSILON);
+    int status;
+    /* gpme_solve reads neither partition argument: dependent stands in for both */
+    if ((status = gpme_solve(t, q, qd, p, dependent, dependent, qdd, M, f, &power)) != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        x[i] = q[i];
+        x[N_DOF + i] = qd[i];
+    }
+    for (int j = 0; j < 2 * N_DOF; ++j) {
+        const double h = relative * fmax(1.0, fabs(x[j])), saved = x[j];
+        x[j] = saved + h;
+        if ((status = gpme_solve(t, x, x + N_DOF, p, dependent, dependent, up, M, f, &power)) != GPMEGEN_OK) {
+            return status;
+        }
+        x[j] = saved - h;
+        if ((status = gpme_solve(t, x, x + N_DOF, p, dependent, dependent, down, M, f, &power)) != GPMEGEN_OK) {
+            return status;
+        }
+        x[j] = saved;
+        double *column = j < N_DOF ? dqdd_dq + j : dqdd_dqd + (j - N_DOF);
+        for (int i = 0; i < N_DOF; ++i) {
+            column[i * N_DOF] = (up[i] - down[i]) / (2.0 * h);
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* ---- DOP853: Dormand-Prince 8(5,3), adaptive, with its dense output of order 7 ------------- */
+
+/* The state y = [q, qd, w] (N_Y): w the work of the drive and of the constraint forces (J),
+   integrated with the motion but not part of the error estimate (it follows the motion). */
+#define N_Y (2 * N_DOF + 2)
+#define N_MOTION (2 * N_DOF)
+
+/* The tableau of Dormand and Prince's 8(5,3) pair (Hairer, Norsett and Wanner, Solving Ordinary
+   Differential Equations I, sec. II.10): nodes C, the 12 stages A of the step and the 3 extra
+   stages of the dense output (rows 13-15), the weights B of order 8, the error estimators E5
+   (order 5) and E3 (order 3) over the 13 stages (the 13th is f at the step's end), and D, the
+   dense output's coefficients of order 7. */
+static const double DOP_C[16] = {
+    0.0, 0.05260015195876773, 0.0789002279381516, 0.1183503419072274, 0.2816496580927726,
+    0.3333333333333333, 0.25, 0.3076923076923077, 0.6512820512820513, 0.6, 0.8571428571428571, 1.0,
+    1.0, 0.1, 0.2, 0.7777777777777778
+};
+static const double DOP_B[12] = {
+    0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003,
+    -5.801203960010585, 0.3111643669578199, -0.1521609496625161, 0.20136540080403034,
+    0.04471061572777259
+};
+static const double DOP_E3[13] = {
+    -0.18980075407240762, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003,
+    -5.801203960010585, -0.4226823213237919, -0.1521609496625161, 0.20136540080403034,
+    0.02265179219836082, 0.0
+};
+static const double DOP_E5[13] = {
+    0.01312004499419488, 0.0, 0.0, 0.0, 0.0, -1.2251564463762044, -0.4957589496572502,
+    1.6643771824549864, -0.35032884874997366, 0.3341791187130175, 0.08192320648511571,
+    -0.022355307863886294, 0.0
+};
+static const double DOP_A[16][16] = {
+    {0.0},
+    {0.05260015195876773},
+    {0.0197250569845379, 0.0591751709536137},
+    {0.02958758547680685, 0.0, 0.08876275643042054},
+    {0.2413651341592667, 0.0, -0.8845494793282861, 0.924834003261792},
+    {0.037037037037037035, 0.0, 0.0, 0.17082860872947386, 0.12546768756682242},
+    {0.037109375, 0.0, 0.0, 0.17025221101954405, 0.06021653898045596, -0.017578125},
+    {0.03709200011850479, 0.0, 0.0, 0.17038392571223998, 0.10726203044637328, -0.015319437748624402, 0.008273789163814023},
+    {0.6241109587160757, 0.0, 0.0, -3.3608926294469414, -0.868219346841726, 27.59209969944671, 20.154067550477894, -43.48988418106996},
+    {0.47766253643826434, 0.0, 0.0, -2.4881146199716677, -0.590290826836843, 21.230051448181193, 15.279233632882423, -33.28821096898486, -0.020331201708508627},
+    {-0.9371424300859873, 0.0, 0.0, 5.186372428844064, 1.0914373489967295, -8.149787010746927, -18.52006565999696, 22.739487099350505, 2.4936055526796523, -3.0467644718982196},
+    {2.273310147516538, 0.0, 0.0, -10.53449546673725, -2.0008720582248625, -17.9589318631188, 27.94888452941996, -2.8589982771350235, -8.87285693353063, 12.360567175794303, 0.6433927460157636},
+    {0.054293734116568765, 0.0, 0.0, 0.0, 0.0, 4.450312892752409, 1.8915178993145003, -5.801203960010585, 0.3111643669578199, -0.1521609496625161, 0.20136540080403034, 0.04471061572777259},
+    {0.056167502283047954, 0.0, 0.0, 0.0, 0.0, 0.0, 0.25350021021662483, -0.2462390374708025, -0.12419142326381637, 0.15329179827876568, 0.00820105229563469, 0.007567897660545699, -0.008298},
+    {0.03183464816350214, 0.0, 0.0, 0.0, 0.0, 0.028300909672366776, 0.053541988307438566, -0.05492374857139099, 0.0, 0.0, -0.00010834732869724932, 0.0003825710908356584, -0.00034046500868740456, 0.1413124436746325},
+    {-0.42889630158379194, 0.0, 0.0, 0.0, 0.0, -4.697621415361164, 7.683421196062599, 4.06898981839711, 0.3567271874552811, 0.0, 0.0, 0.0, -0.0013990241651590145, 2.9475147891527724, -9.15095847217987},
+};
+static const double DOP_D[4][16] = {
+    {
+        -8.428938276109013, 0.0, 0.0, 0.0, 0.0, 0.5667149535193777, -3.0689499459498917, 2.38466765651207,
+        2.117034582445028, -0.871391583777973, 2.2404374302607883, 0.6315787787694688,
+        -0.08899033645133331, 18.148505520854727, -9.194632392478356, -4.436036387594894},
+    {
+        10.427508642579134, 0.0, 0.0, 0.0, 0.0, 242.28349177525817, 165.20045171727028, -374.5467547226902,
+        -22.113666853125306, 7.733432668472264, -30.674084731089398, -9.332130526430229,
+        15.697238121770845, -31.139403219565178, -9.35292435884448, 35.81684148639408},
+    {
+        19.985053242002433, 0.0, 0.0, 0.0, 0.0, -387.0373087493518, -189.17813819516758, 527.8081592054236,
+        -11.57390253995963, 6.8812326946963, -1.0006050966910838, 0.7777137798053443, -2.778205752353508,
+        -60.19669523126412, 84.32040550667716, 11.99229113618279},
+    {
+        -25.69393346270375, 0.0, 0.0, 0.0, 0.0, -154.18974869023643, -231.5293791760455, 357.6391179106141,
+        93.40532418362432, -37.45832313645163, 104.0996495089623, 29.8402934266605, -43.53345659001114,
+        96.32455395918828, -39.17726167561544, -149.72683625798564},
+};
+
+enum { DOP_STAGES = 12, DOP_STAGES_DENSE = 16 };
+
+/* Step control: safety factor, the bounds of one change of the step, and -1/8, the exponent of
+   the error norm (the estimate is of order 7 in h). */
+static const double DOP_SAFETY = 0.9, DOP_MIN_FACTOR = 0.2, DOP_MAX_FACTOR = 10.0, DOP_EXPONENT = -1.0 / 8.0;
+
+/* dy/dt (N_Y) at (t, y): [qd, qdd, powers]; returns the status of the GPME solve. */
+static int state_rate(double t, const double *y, const double *p, const int *dependent, const int *independent,
+                      double *rate)
+{
+    for (int i = 0; i < N_DOF; ++i) {
+        rate[i] = y[N_DOF + i];
+    }
+    return stage(t, y, y + N_DOF, p, dependent, independent, rate + N_DOF, rate + N_MOTION);
+}
+
+/* The weight of component i in the error norm: atol + rtol max(|y_i|, |y_new_i|). */
+static double error_scale(double rtol, double atol, double a, double b)
+{
+    return atol + rtol * fmax(fabs(a), fabs(b));
+}
+
+/* The root mean square of x / scale over the motion (N_MOTION components). */
+static double rms_scaled(const double *x, const double *y, double rtol, double atol)
+{
+    double s = 0.0;
+    for (int i = 0; i < N_MOTION; ++i) {
+        const double r = x[i] / error_scale(rtol, atol, y[i], y[i]);
+        s += r * r;
+    }
+    return sqrt(s / N_MOTION);
+}
+
+/* The first step from (t, y) with rate f0, as Hairer's dop853 chooses it (Hairer, Norsett and
+   Wanner I, sec. II.4): 1e-2 |y| / |f| in the scaled norm, checked against a second rate one
+   such step ahead; *evaluations counts the rates taken. Returns GPMEGEN_OK or the status of that rate. */
+static int dop853_first_step(double t, const double *y, const double *f0, double rtol, double atol, double span,
+                             const double *p, const int *dependent, const int *independent, double *h, long *evaluations)
+{
+    double y1[N_Y] ALIGNED, f1[N_Y] ALIGNED, df[N_MOTION] ALIGNED;
+    const double d0 = rms_scaled(y, y, rtol, atol), d1 = rms_scaled(f0, y, rtol, atol);
+    double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    int status;
+    h0 = fmin(h0, span);
+    for (int i = 0; i < N_Y; ++i) {
+        y1[i] = y[i] + h0 * f0[i];
+    }
+    ++*evaluations;
+    if ((status = state_rate(t + h0, y1, p, dependent, independent, f1)) != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_MOTION; ++i) {
+        df[i] = f1[i] - f0[i];
+    }
+    const double d2 = rms_scaled(df, y, rtol, atol) / h0;
+    const double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? fmax(1e-6, h0 * 1e-3) : pow(0.01 / fmax(d1, d2), 1.0 / 8.0);
+    *h = fmin(fmin(100.0 * h0, h1), span);
+    return GPMEGEN_OK;
+}
+
+/* y_old + dy with dy = h sum_s a[s] K[s] over the first n_stages rates K (each N_Y). */
+static void stage_state(const double *y_old, double h, const double *a, int n_stages, const double K[][N_Y],
+                        double *out)
+{
+    for (int i = 0; i < N_Y; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < n_stages; ++j) {
+            s += a[j] * K[j][i];
+        }
+        out[i] = y_old[i] + h * s;
+    }
+}
+
+/* The dense output's polynomial of the step from (t, y_old) to y_new of length h: the 3 extra
+   stages into K[13..15] (so K holds 16 rates, K[12] the rate at the step's end), then the 7
+   coefficient vectors F (7 x N_Y) of y(t + x h) = y_old + sum over the nested form of
+   dense_value. Returns GPMEGEN_OK or the status of an extra stage's rate. */
+static int dop853_dense(double t, double h, const double *y_old, const double *y_new, double K[][N_Y],
+                        const double *p, const int *dependent, const int *independent, double F[][N_Y],
+                        long *evaluations)
+{
+    double ys[N_Y] ALIGNED;
+    int status;
+    for (int s = DOP_STAGES + 1; s < DOP_STAGES_DENSE; ++s) {
+        stage_state(y_old, h, DOP_A[s], s, (const double (*)[N_Y])K, ys);
+        ++*evaluations;
+        if ((status = state_rate(t + DOP_C[s] * h, ys, p, dependent, independent, K[s])) != GPMEGEN_OK) {
+            return status;
+        }
+    }
+    for (int i = 0; i < N_Y; ++i) {
+        const double delta = y_new[i] - y_old[i];
+        F[0][i] = delta;
+        F[1][i] = h * K[0][i] - delta;
+        F[2][i] = 2.0 * delta - h * (K[DOP_STAGES][i] + K[0][i]);
+        for (int r = 0; r < 4; ++r) {
+            double s = 0.0;
+            for (int j = 0; j < DOP_STAGES_DENSE; ++j) {
+                s += DOP_D[r][j] * K[j][i];
+            }
+            F[3 + r][i] = h * s;
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* y at t_old + x h (0 <= x <= 1) from the dense output's coefficients F of the step from y_old:
+   y_old + x (F0 + (1 - x) (F1 + x (F2 + (1 - x) (F3 + ...)))). */
+static void dense_value(double x, const double *y_old, const double F[][N_Y], double *out)
+{
+    for (int i = 0; i < N_Y; ++i) {
+        double s = 0.0;
+        for (int r = 6; r >= 0; --r) {
+            s += F[r][i];
+            s *= (r % 2 == 0) ? x : 1.0 - x;
+        }
+        out[i] = y_old[i] + s;
+    }
+}
+
+/* DOP853 from (t_a, y_a) (y = [q, qd, w], N_Y) to t_save[n_save - 1], saving y at each of the
+   n_save increasing instants t_save (all after t_a) into y_out (n_save x N_Y): the step's own
+   state where a step ends on one (always the last, where the last step is cut to end), the
+   dense output of order 7 between. The error of each step, in the root mean square over q and qd
+   of err / (atol + rtol |y|), is kept below 1. *h: in, the step to try first (<= 0: chosen
+   here); out, the step to try next. counts (5) are added to: steps accepted, steps rejected,
+   rates (GPME solves of the state), Jacobians and LU factorizations (none here). Returns
+   GPMEGEN_OK; the status of a failed rate; GPMEGEN_NONFINITE at a non-finite state;
+   GPMEGEN_STEP_TOO_SMALL when the step fell to round-off of t; GPMEGEN_BAD_ARGUMENTS. *n_saved
+   counts the saved rows, also on a failure. */
+int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol,
+    double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved,
+    long *counts)
+{
+    double K[DOP_STAGES_DENSE][N_Y] ALIGNED, F[7][N_Y] ALIGNED;
+    double y[N_Y] ALIGNED, y_new[N_Y] ALIGNED, err5[N_MOTION] ALIGNED, err3[N_MOTION] ALIGNED;
+    double t = t_a;
+    int status, rejected = 0;
+    long k = 0;
+
+    *n_saved = 0;
+    if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h)) {
+        return GPMEGEN_BAD_ARGUMENTS;
+    }
+    for (long j = 0; j < n_save; ++j) {
+        if (!isfinite(t_save[j]) || !(t_save[j] > (j ? t_save[j - 1] : t_a))) {
+            return GPMEGEN_BAD_ARGUMENTS;
+        }
+    }
+    const double t_b = t_save[n_save - 1];
+    for (int i = 0; i < N_Y; ++i) {
+        y[i] = y_a[i];
+    }
+    if (!all_finite(y, N_Y)) {
+        return GPMEGEN_NONFINITE;
+    }
+    ++counts[2];
+    if ((status = state_rate(t, y, p, dependent, independent, K[0])) != GPMEGEN_OK) {
+        return status;
+    }
+    if (!(*h > 0.0) && (status = dop853_first_step(t, y, K[0], rtol, atol, t_b - t_a, p, dependent, independent, h,
+                                                   &counts[2])) != GPMEGEN_OK) {
+        return status;
+    }
+    while (k < n_save) {
+        const int last = t + *h >= t_b;
+        const double step = last ? t_b - t : *h;
+        const double t_new = last ? t_b : t + step;
+        if (step <= 10.0 * (nextafter(t, INFINITY) - t)) {
+            return GPMEGEN_STEP_TOO_SMALL;
+        }
+        for (int s = 1; s < DOP_STAGES; ++s) {
+            stage_state(y, step, DOP_A[s], s, (const double (*)[N_Y])K, y_new);
+            ++counts[2];
+            if ((status = state_rate(t + DOP_C[s] * step, y_new, p, dependent, independent, K[s])) != GPMEGEN_OK) {
+                return status;
+            }
+        }
+        stage_state(y, step, DOP_B, DOP_STAGES, (const double (*)[N_Y])K, y_new);
+        ++counts[2];
+        if ((status = state_rate(t_new, y_new, p, dependent, independent, K[DOP_STAGES])) != GPMEGEN_OK) {
+            return status;
+        }
+        /* the error estimate of Hairer's dop853: the order-5 one, kept from growing where the
+           order-3 one is small compared with it */
+        double n5 = 0.0, n3 = 0.0;
+        for (int i = 0; i < N_MOTION; ++i) {
+            double e5 = 0.0, e3 = 0.0;
+            for (int s = 0; s <= DOP_STAGES; ++s) {
+                e5 += DOP_E5[s] * K[s][i];
+                e3 += DOP_E3[s] * K[s][i];
+            }
+            const double scale = error_scale(rtol, atol, y[i], y_new[i]);
+            err5[i] = e5 / scale;
+            err3[i] = e3 / scale;
+            n5 += err5[i] * err5[i];
+            n3 += err3[i] * err3[i];
+        }
+        const double denominator = n5 + 0.01 * n3;
+        const double error = denominator > 0.0 ? step * n5 / sqrt(denominator * N_MOTION) : 0.0;
+        if (!isfinite(error) || !all_finite(y_new, N_Y)) {
+            return GPMEGEN_NONFINITE;
+        }
+        if (error >= 1.0) {
+            *h = step * fmax(DOP_MIN_FACTOR, DOP_SAFETY * pow(error, DOP_EXPONENT));
+            ++counts[1];
+            rejected = 1;
+            continue;
+        }
+        double factor = error == 0.0 ? DOP_MAX_FACTOR : fmin(DOP_MAX_FACTOR, DOP_SAFETY * pow(error, DOP_EXPONENT));
+        if (rejected) {
+            factor = fmin(1.0, factor);
+        }
+        /* a step cut short to end on t_b says nothing against the longer one it replaced */
+        *h = last ? fmax(*h, step * factor) : step * factor;
+        rejected = 0;
+        ++counts[0];
+        int dense = 0;
+        for (; k < n_save && t_save[k] <= t_new; ++k) {
+            if (t_save[k] == t_new) {
+                for (int i = 0; i < N_Y; ++i) {
+                    y_out[k * N_Y + i] = y_new[i];
+                }
+                continue;
+            }
+            if (!dense) {
+                if ((status = dop853_dense(t, step, y, y_new, K, p, dependent, independent, F, &counts[2]))
+                    != GPMEGEN_OK) {
+                    return status;
+                }
+                dense = 1;
+            }
+            dense_value((t_save[k] - t) / step, y, (const double (*)[N_Y])F, y_out + k * N_Y);
+        }
+        *n_saved = k;
+        t = t_new;
+        for (int i = 0; i < N_Y; ++i) {
+            y[i] = y_new[i];
+            K[0][i] = K[DOP_STAGES][i];
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* ---- Generalized-alpha (Chung and Hulbert 1993) for qdd = a(t, q, qd) ------------------------ */
+
+/* LU factorization with partial pivoting of the n x n row-major matrix a, in place; pivot (n)
+   the row taken at each column. Returns GPMEGEN_OK, GPMEGEN_SINGULAR on a zero pivot,
+   GPMEGEN_NONFINITE on a non-finite entry. */
+static int lu_factor(int n, double *a, int *pivot)
+{
+    for (int k = 0; k < n; ++k) {
+        int r = k;
+        for (int i = k + 1; i < n; ++i) {
+            if (fabs(a[i * n + k]) > fabs(a[r * n + k])) {
+                r = i;
+            }
+        }
+        if (!isfinite(a[r * n + k])) {
+            return GPMEGEN_NONFINITE;
+        }
+        if (a[r * n + k] == 0.0) {
+            return GPMEGEN_SINGULAR;
+        }
+        pivot[k] = r;
+        if (r != k) {
+            for (int j = 0; j < n; ++j) {
+                const double s = a[k * n + j];
+                a[k * n + j] = a[r * n + j];
+                a[r * n + j] = s;
+            }
+        }
+        for (int i = k + 1; i < n; ++i) {
+            const double l = a[i * n + k] / a[k * n + k];
+            a[i * n + k] = l;
+            for (int j = k + 1; j < n; ++j) {
+                a[i * n + j] -= l * a[k * n + j];
+            }
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* b (n) = A^-1 b with the factors of lu_factor. */
+static void lu_solve(int n, const double *a, const int *pivot, double *b)
+{
+    for (int k = 0; k < n; ++k) {
+        const double s = b[pivot[k]];
+        b[pivot[k]] = b[k];
+        b[k] = s;
+        for (int i = k + 1; i < n; ++i) {
+            b[i] -= a[i * n + k] * b[k];
+        }
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        b[k] /= a[k * n + k];
+        for (int i = 0; i < k; ++i) {
+            b[i] -= a[i * n + k] * b[k];
+        }
+    }
+}
+
+/* The parameters of the generalized-alpha method with spectral radius rho_inf at h omega -> inf
+   (Chung and Hulbert; Arnold and Bruls 2007 for qdd given): second order, unconditionally stable
+   for linear problems, the high frequencies damped to rho_inf, the low ones barely. */
+struct genalpha_parameters {
+    double alpha_m, alpha_f, gamma, beta;
+};
+
+static struct genalpha_parameters genalpha_parameters(double rho_inf)
+{
+    struct genalpha_parameters c;
+    c.alpha_m = (2.0 * rho_inf - 1.0) / (rho_inf + 1.0);
+    c.alpha_f = rho_inf / (rho_inf + 1.0);
+    c.gamma = 0.5 + c.alpha_f - c.alpha_m;
+    c.beta = 0.25 * (c.gamma + 0.5) * (c.gamma + 0.5);
+    return c;
+}
+
+/* Newton's iteration matrix S = I - (beta h^2 dq_dx) dqdd/dq - (gamma h dqd_dx) dqdd/dqd at the state
+   (t, q, qd), with c = (1 - alpha_f) / (1 - alpha_m) the change of a per change of qdd, factored
+   into S and pivot. Adds the solves, the Jacobian and the factorization to counts. */
+static int genalpha_matrix(double t, const double *q, const double *qd, double h, struct genalpha_parameters c,
+                           const double *p, const int *dependent, double *S, int *pivot, long *counts)
+{
+    double qdd[N_DOF] ALIGNED, J_qd[N_DOF * N_DOF] ALIGNED;
+    const double da = (1.0 - c.alpha_f) / (1.0 - c.alpha_m), dq = c.beta * h * h * da, dqd = c.gamma * h * da;
+    int status;
+    counts[2] += 4 * N_DOF + 1;
+    ++counts[3];
+    if ((status = gpme_jacobian(t, q, qd, p, dependent, qdd, S, J_qd)) != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF * N_DOF; ++i) {
+        S[i] = -dq * S[i] - dqd * J_qd[i];
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        S[i * N_DOF + i] += 1.0;
+    }
+    ++counts[4];
+    return lu_factor(N_DOF, S, pivot);
+}
+
+/* The state y = [q, qd, w] at t + x h within a step from y0 (rates: qd0, qdd0, powers P0) to y1
+   (qd1, qdd1, P1): each part the cubic Hermite interpolant of its values and rates at the ends,
+   exact for cubics, so its error O(h^4) stays below the method's O(h^2). */
+static void hermite_state(double x, double h, const double *y0, const double *r0, const double *y1,
+                          const double *r1, double *out)
+{
+    const double h00 = (1.0 + 2.0 * x) * (1.0 - x) * (1.0 - x), h10 = x * (1.0 - x) * (1.0 - x);
+    const double h01 = x * x * (3.0 - 2.0 * x), h11 = x * x * (x - 1.0);
+    for (int i = 0; i < N_Y; ++i) {
+        out[i] = h00 * y0[i] + h * h10 * r0[i] + h01 * y1[i] + h * h11 * r1[i];
+    }
+}
+
+/* Newton's iterations stop when max |dqdd| <= NEWTON_TOLERANCE max(1, |qdd|); the matrix is
+   refreshed when they have not converged after NEWTON_ITERATIONS or converge slower than
+   NEWTON_RATE a step, and the step fails when they do not converge with a fresh one. The
+   tolerance stays above the round-off of the solve itself: qdd of the reference arm at
+   n_rfe = 20 moves by 1e-10 of max |qdd| when q moves by 1e-15, and 1e-10 failed there. */
+static const double NEWTON_TOLERANCE = 1e-8, NEWTON_RATE = 0.5;
+enum { NEWTON_ITERATIONS = 6 };
+
+/* Generalized-alpha over steps k_from + 1 .. k_to of the grid of rk4 (n_steps steps of dt from
+   t0, the last ending at t_end), with numerical damping rho_inf (0..1), from y_io = [q, qd, w]
+   (N_Y) and a_io (N_DOF), the method's acceleration-like variable (NaN at the start of a run: it
+   starts as qdd there), both replaced by their values at the end of step k_to. Each step solves
+   qdd_{n+1} = a(t_{n+1}, q_{n+1}, qd_{n+1}) with
+       q_{n+1}  = q_n + h qd_n + h^2 ((1/2 - beta) a_n + beta a_{n+1}),
+       qd_{n+1} = qd_n + h ((1 - gamma) a_n + gamma a_{n+1}),
+       (1 - alpha_m) a_{n+1} + alpha_m a_n = (1 - alpha_f) qdd_{n+1} + alpha_f qdd_n
+   by modified Newton (S of genalpha_matrix, kept across steps and chunks while it converges,
+   *have_matrix says whether S and pivot hold one); w by the trapezoidal rule on the powers.
+   Saves y at the n_save increasing instants t_save within (t_{k_from}, t_{k_to}] into y_out
+   (n_save x N_Y): the step's own state where one ends on it, hermite_state between. counts (5)
+   are added to as for dop853. Returns GPMEGEN_OK, the status of a failed solve,
+   GPMEGEN_NO_CONVERGENCE, GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows
+   saved, also on a failure. */
+int manipulator_nrfe1_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf,
+    double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save,
+    const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts)
+{
+    const struct genalpha_parameters c = genalpha_parameters(rho_inf);
+    double y[N_Y] ALIGNED, y_new[N_Y] ALIGNED, r[N_Y] ALIGNED, r_new[N_Y] ALIGNED;
+    double a[N_DOF] ALIGNED, a_new[N_DOF] ALIGNED, x[N_DOF] ALIGNED, dx[N_DOF] ALIGNED, base_q[N_DOF] ALIGNED;
+    double base_qd[N_DOF] ALIGNED;
+    long j = 0;
+    int status;
+
+    *n_saved = 0;
+    if (k_from < 0 || k_to < k_from || n_steps < k_to || !isfinite(t0) || !(dt > 0.0) || !isfinite(t_end)
+        || !(rho_inf >= 0.0 && rho_inf <= 1.0) || n_save < 0) {
+        return GPMEGEN_BAD_ARGUMENTS;
+    }
+    for (int i = 0; i < N_Y; ++i) {
+        y[i] = y_io[i];
+    }
+    if (!all_finite(y, N_Y)) {
+        return GPMEGEN_NONFINITE;
+    }
+    ++counts[2];
+    if ((status = state_rate(grid_time(t0, dt, n_steps, t_end, k_from), y, p, dependent, independent, r))
+        != GPMEGEN_OK) {
+        return status;
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        a[i] = isfinite(a_io[i]) ? a_io[i] : r[N_DOF + i];
+    }
+    for (long k = k_from + 1; k <= k_to; ++k) {
+        const double t = grid_time(t0, dt, n_steps, t_end, k - 1), t_new = grid_time(t0, dt, n_steps, t_end, k);
+        const double h = t_new - t, da = (1.0 - c.alpha_f) / (1.0 - c.alpha_m);
+        const double *qdd = r + N_DOF;
+        int fresh = 0, converged = 0;
+        /* the parts of q_{n+1} and qd_{n+1} known before the solve */
+        for (int i = 0; i < N_DOF; ++i) {
+            const double a_known = (c.alpha_f * qdd[i] - c.alpha_m * a[i]) / (1.0 - c.alpha_m);
+            base_q[i] = y[i] + h * y[N_DOF + i] + h * h * ((0.5 - c.beta) * a[i] + c.beta * a_known);
+            base_qd[i] = y[N_DOF + i] + h * ((1.0 - c.gamma) * a[i] + c.gamma * a_known);
+        }
+        while (!converged) {
+            if (!*have_matrix || fresh) {
+                for (int i = 0; i < N_DOF; ++i) {  /* the Jacobian at the predictor qdd_{n+1} = qdd_n */
+                    y_new[i] = base_q[i] + c.beta * h * h * da * qdd[i];
+                    y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * qdd[i];
+                }
+                *have_matrix = 0;
+                if ((status = genalpha_matrix(t_new, y_new, y_new + N_DOF, h, c, p, dependent, S, pivot, counts))
+                    != GPMEGEN_OK) {
+                    return status;
+                }
+                *have_matrix = 1;
+            }
+            for (int i = 0; i < N_DOF; ++i) {
+                x[i] = qdd[i];
+            }
+            double previous = INFINITY;
+            for (int iteration = 0; iteration < NEWTON_ITERATIONS; ++iteration) {
+                for (int i = 0; i < N_DOF; ++i) {
+                    y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
+                    y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+                }
+                ++counts[2];
+                if ((status = state_rate(t_new, y_new, p, dependent, independent, r_new)) != GPMEGEN_OK) {
+                    return status;
+                }
+                double size = 0.0, scale = 1.0;
+                for (int i = 0; i < N_DOF; ++i) {
+                    dx[i] = r_new[N_DOF + i] - x[i];
+                }
+                lu_solve(N_DOF, S, pivot, dx);
+                for (int i = 0; i < N_DOF; ++i) {
+                    x[i] += dx[i];
+                    size = fmax(size, fabs(dx[i]));
+                    scale = fmax(scale, fabs(x[i]));
+                }
+                if (!isfinite(size) || size > NEWTON_RATE * previous) {
+                    break;
+                }
+                previous = size;
+                if (size <= NEWTON_TOLERANCE * scale) {
+                    converged = 1;
+                    break;
+                }
+            }
+            if (!converged) {
+                if (fresh) {
+                    return GPMEGEN_NO_CONVERGENCE;
+                }
+                fresh = 1;
+            }
+        }
+        /* the state at the converged qdd_{n+1}, and its rates */
+        for (int i = 0; i < N_DOF; ++i) {
+            a_new[i] = (c.alpha_f * qdd[i] - c.alpha_m * a[i] + (1.0 - c.alpha_f) * x[i]) / (1.0 - c.alpha_m);
+            y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
+            y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+        }
+        ++counts[2];
+        if ((status = state_rate(t_new, y_new, p, dependent, independent, r_new)) != GPMEGEN_OK) {
+            return status;
+        }
+        for (int m = 0; m < 2; ++m) {
+            y_new[N_MOTION + m] = y[N_MOTION + m] + 0.5 * h * (r[N_MOTION + m] + r_new[N_MOTION + m]);
+        }
+        if (!all_finite(y_new, N_Y)) {
+            return GPMEGEN_NONFINITE;
+        }
+        ++counts[0];
+        for (; j < n_save && t_save[j] <= t_new; ++j) {
+            if (t_save[j] == t_new) {
+                for (int i = 0; i < N_Y; ++i) {
+                    y_out[j * N_Y + i] = y_new[i];
+                }
+            } else {
+                hermite_state((t_save[j] - t) / h, h, y, r, y_new, r_new, y_out + j * N_Y);
+            }
+        }
+        *n_saved = j;
+        for (int i = 0; i < N_Y; ++i) {
+            y[i] = y_new[i];
+            r[i] = r_new[i];
+        }
+        for (int i = 0; i < N_DOF; ++i) {
+            a[i] = a_new[i];
+        }
+    }
+    for (int i = 0; i < N_Y; ++i) {
+        y_io[i] = y[i];
+    }
+    for (int i = 0; i < N_DOF; ++i) {
+        a_io[i] = a[i];
+    }
+    return GPMEGEN_OK;
+}
+
 #endif

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c11d4cb4f8149d7c
+Input hash: b8f8d752b4415045
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -66,7 +66,9 @@ enum gpmegen_status {
     GPMEGEN_OK = 0,
     GPMEGEN_SINGULAR = 1,
     GPMEGEN_NONFINITE = 2,
-    GPMEGEN_BAD_ARGUMENTS = 3
+    GPMEGEN_BAD_ARGUMENTS = 3,
+    GPMEGEN_STEP_TOO_SMALL = 4,
+    GPMEGEN_NO_CONVERGENCE = 5
 };
 #endif
 
@@ -211,5 +213,23 @@ long manipulator_nrfe5_gpme_accelerations_batch(long n, const double *t, const d
    GPMEGEN_OK, or the status of the first failed step (GPMEGEN_BAD_ARGUMENTS for invalid
    arguments); what was saved before is kept. */
 int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
+
+/* DOP853 (adaptive, order 8) from t_a and y_a = [q, qd, w] (32,) to t_save[n_save - 1], saving y at the
+   n_save increasing instants t_save (after t_a) into y_out (n_save, 32), by its dense output of order 7
+   where no step ends on one; the error of a step, as the root mean square over q and qd of
+   err / (atol + rtol |y|), below 1. *h: the step to try first (<= 0: chosen), then the one to try
+   next. Adds to counts (5,): steps, rejected steps, GPME solves, Jacobians, LU factorizations.
+   Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NONFINITE, GPMEGEN_STEP_TOO_SMALL or
+   GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
+int manipulator_nrfe5_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+
+/* Generalized-alpha (order 2, numerical damping rho_inf in [0, 1]) over steps k_from + 1 .. k_to of the grid of
+   manipulator_nrfe5_rk4, from y_io = [q, qd, w] (32,) and the method's acceleration a_io (15,; NaN at a run's
+   start), both replaced by their values at step k_to. Modified Newton on qdd with the matrix S (15, 15) and
+   pivot (15,) kept by the caller across calls (*have_matrix: they hold one). Saves y at the n_save increasing
+   instants t_save within the steps into y_out (n_save, 32) (cubic Hermite between step ends); adds to
+   counts (5,) as manipulator_nrfe5_dop853. Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NO_CONVERGENCE,
+   GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved. */
+int manipulator_nrfe5_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf, double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
 #endif

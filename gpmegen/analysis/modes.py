@@ -147,4 +147,23 @@ def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
     return modes
 
 
-__all__ = ["Modes", "natural_frequencies", "locked_modes", "constrained_modes", "classify", "KINDS"]
+def highest_frequency(model, t, q) -> float:
+    """The highest natural frequency ω (rad/s) of the motion linearized at ``(t, q)`` (not
+    necessarily an equilibrium): ``K φ = ω² M φ`` with ``K`` the tangent stiffness (springs and
+    gravity) and ``M`` on the velocities the constraints allow (``B`` of their ``D`` at rest).
+    The constraints' curvature is left out: it shifts the low modes, not the sdes' stiff ones
+    that bound an explicit step."""
+    from ..runtime.gpme import tangent_basis
+
+    q = np.asarray(q, dtype=float)
+    model = model.partitioned(t, q)
+    D = model.constraint_terms(t, q, np.zeros(model.n_dof))[2]
+    B = tangent_basis(D, model.dependent, model.independent) if len(D) else np.eye(model.n_dof)
+    if B.shape[1] == 0:  # the constraints hold every coordinate: nothing vibrates
+        return 0.0
+    K, M = B.T @ model.stiffness_jacobian(q) @ B, B.T @ model.mass_matrix(q) @ B
+    omega2 = scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
+    return math.sqrt(max(float(omega2[-1]), 0.0))
+
+__all__ = ["Modes", "natural_frequencies", "highest_frequency", "locked_modes", "constrained_modes", "classify",
+           "KINDS"]

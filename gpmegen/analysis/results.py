@@ -67,14 +67,16 @@ def encode(meta: dict) -> np.ndarray:
 
 def metadata(results) -> dict:
     """The metadata of ``results``: ``model``, ``coordinates``, ``constraint_names``,
-    ``backend``, ``start``, ``settings`` (method, dt, save_every, t_end, dependent,
-    repartitions), ``params`` and, from the run's case (:mod:`gpmegen.analysis.cases`), what
-    plots use: ``label``, ``joints``, ``joint_labels``, ``constraint_units``, ``figures``,
-    ``start_tag``, ``colour``, ``tag_offset``, ``prescribed``; ``start_moved``: how far the start
-    was moved onto the constraints (see :meth:`gpmegen.analysis.study.Start.meta`); ``model_source``:
-    where the model is found again (:meth:`gpmegen.analysis.cases.Case.locator`); and the units
-    of the driving functions (:func:`gpmegen.analysis.driving.annotate`): ``force_units``,
-    ``lambda_units``, ``force_points``."""
+    ``backend``, ``start``, ``settings`` (method, dt, save_every, save_dt, the adaptive methods'
+    rtol and atol, effort: steps, rejected, solves, jacobians, factorizations as
+    :class:`gpmegen.runtime.integrate.Effort`, t_end, dependent, repartitions), ``params`` and,
+    from the run's case (:mod:`gpmegen.analysis.cases`), what plots use: ``label``, ``joints``,
+    ``joint_labels``, ``constraint_units``, ``figures``, ``start_tag``, ``colour``,
+    ``tag_offset``, ``prescribed``; ``start_moved``: how far the start was moved onto the
+    constraints (see :meth:`gpmegen.analysis.study.Start.meta`); ``model_source``: where the model
+    is found again (:meth:`gpmegen.analysis.cases.Case.locator`); and the units of the driving
+    functions (:func:`gpmegen.analysis.driving.annotate`): ``force_units``, ``lambda_units``,
+    ``force_points``."""
     return json.loads(str(results["meta"]))
 
 

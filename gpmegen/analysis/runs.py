@@ -29,11 +29,11 @@ def check(case, t_end, dt, save_every, method, backend) -> None:
 
 
 def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
-        actuated=None, internal_dynamics=False) -> Run:
+        actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None, rho_inf=None) -> Run:
     """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion (held
     by inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a
     model file's ``actuators``; ``()``: ideally; with ``internal_dynamics``, their eigenvalues saved
-    along the run) and
+    along the run; ``save_dt``, ``rtol``, ``atol``, ``rho_inf``: see :func:`gpmegen.analysis.study.simulate`) and
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`); nothing when ``out`` is None. ``progress`` takes
     one-line messages."""
@@ -46,13 +46,14 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
              + case.start_note(model))
     t0 = time.perf_counter()
     bar = None
-    if method == "rk4":
+    if method in ("rk4", "dop853", "genalpha"):  # the chunked loops
         from ..runtime.integrate import Progress
 
         bar = Progress(t_end, case.label, enabled=sys.stderr.isatty())
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
                          repartition=repartition, notify=progress, qd0=begun.qd,
-                         internal_dynamics=internal_dynamics)
+                         internal_dynamics=internal_dynamics, save_dt=save_dt, rtol=rtol, atol=atol,
+                         rho_inf=rho_inf)
     wall = time.perf_counter() - t0
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),
                                     "model_source": case.locator()}, case.extras(model, res))

@@ -12,6 +12,7 @@ import numpy as np
 from .. import limits
 from ..errors import ModelError, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
+from . import modes
 from . import results as results_io
 
 # Above this move (rad or m, rad/s or m/s) of a coordinate, making the start consistent is
@@ -163,17 +164,41 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
 
 
 def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
-             start="locked", repartition=False, notify=None, qd0=None, internal_dynamics=False):
+             start="locked", repartition=False, notify=None, qd0=None, internal_dynamics=False, save_dt=None,
+             rtol=None, atol=None, rho_inf=None):
     """The constrained motion from ``q0`` with velocities ``qd0`` (default rest); returns a results
-    dict (see :mod:`gpmegen.analysis.results`). The conditioning of the dependent block of ``D``
-    is watched: ``notify`` (a callable taking a message) is told when it degrades, and with
-    ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that cannot finish
-    is refused before it starts (:func:`gpmegen.limits.check_run`). An actuated run (``model``
+    dict (see :mod:`gpmegen.analysis.results`). ``method``: "rk4" (step ``dt``, saving every
+    ``save_every``-th step, or every ``save_dt`` s when given, a whole number of steps),
+    "genalpha" (compiled, implicit, step ``dt``, numerical damping ``rho_inf``, default
+    :data:`gpmegen.runtime.integrate.RHO_INF`), "dop853" (compiled, adaptive) or a name of
+    :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every ``save_dt`` s (default
+    ``dt·save_every``: RK4's instants), the adaptive ones to ``rtol``, ``atol`` (default
+    :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``). The conditioning of the dependent
+    block of ``D`` is watched: ``notify`` (a callable taking a message) is told when it degrades,
+    and with ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that
+    cannot finish, or whose step is above RK4's stable one at the start
+    (:func:`gpmegen.analysis.modes.highest_frequency`), is refused before it starts
+    (:class:`gpmegen.limits.LimitError`, unless the limits are lifted). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
+    refusal = integrate.compiled_only(method, model.backend, bool(len(model.actuators)))
+    if refusal:
+        raise SimulationError(refusal)
+    if method == "rk4" and save_dt is not None:
+        save_every = integrate.save_steps(dt, save_dt)
+        if save_every is None:
+            raise SimulationError(f"the save interval {save_dt:g} s is not a whole number of RK4 steps of {dt:g} s")
+    save_dt = dt * save_every if save_dt is None else save_dt
+    rtol = integrate.RTOL if rtol is None else rtol
+    atol = integrate.ATOL if atol is None else atol
+    rho_inf = integrate.RHO_INF if rho_inf is None else rho_inf
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop)
+    if method == "rk4" and not limits.are_lifted():
+        unstable = integrate.unstable_step(dt, modes.highest_frequency(model, 0.0, q0))
+        if unstable:
+            raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
     model.check_actuators(0.0, q0)
     actuated = [model.coordinates[k] for k in model.actuators]
@@ -190,12 +215,26 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     if method == "rk4":
         t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
                                       max_violation=max_violation, watch=watch)
+        effort = integrate.rk4_effort(t, 0.0, dt)
+    elif method == "genalpha":
+        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
+                                                   max_violation=max_violation, watch=watch)
+    elif method == "dop853":
+        t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol,
+                                                 progress=progress, max_violation=max_violation, watch=watch)
     else:
-        t, y, outcome = integrate.adaptive(model, q0, qd0, t_end, method=method)
+        times = integrate.grid(0.0, t_end, save_dt)
+        t, y, outcome, effort = integrate.scipy_solve(
+            model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=rtol, atol=atol,
+            t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
         outcome = internal.explain(outcome, stability, actuated)
-    settings = dict(method=method, dt=dt, save_every=save_every, t_end=t_end, start=start, backend=model.backend,
+    adaptive = method not in ("rk4", "genalpha")
+    settings = dict(method=method, dt=dt, save_every=save_every, save_dt=save_dt, rtol=rtol if adaptive else None,
+                    atol=atol if adaptive else None, rho_inf=rho_inf if method == "genalpha" else None,
+                    effort=effort._asdict(), t_end=t_end, start=start,
+                    backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
                     repartitions=watch.events, actuators=actuated)
     results = collect(model, t, y, str(outcome), settings)

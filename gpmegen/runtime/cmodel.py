@@ -290,3 +290,36 @@ class CEvaluator:
                               *(self._ptr(part) for part in y_out), n_saved)
         k = int(n_saved[0])
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
+
+    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        dep, ind = self._partition_pointers(model)
+        y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
+        self._check_counts(counts)
+        y_out = np.empty((len(t_save), len(y_a)))
+        n_saved = self.ffi.new("long *")
+        status = self.lib.dop853(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
+                                 self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
+                                 self.ffi.from_buffer("long[]", counts))
+        return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
+
+    def genalpha(self, model, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+        dep, ind = self._partition_pointers(model)
+        self._check_counts(counts)
+        t_save = np.ascontiguousarray(t_save, dtype=float)
+        y_out = np.empty((len(t_save), len(y)))
+        n_saved = self.ffi.new("long *")
+        S, pivot, have = memory["S"], memory["pivot"], memory["have"]
+        if not (y.flags.c_contiguous and y.dtype == float and S.flags.c_contiguous and pivot.dtype == np.intc
+                and have.dtype == np.intc):
+            raise TypeError("y and S must be contiguous float64, pivot and have intc")
+        status = self.lib.genalpha(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, rho_inf, self._ptr(y),
+                                   self._ptr(memory["a"]), self._ptr(S), self.ffi.from_buffer("int[]", pivot),
+                                   self.ffi.from_buffer("int[]", have), len(t_save),
+                                   self._ptr(t_save) if len(t_save) else self.ffi.new("double[]", 1),
+                                   self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
+                                   self.ffi.from_buffer("long[]", counts))
+        return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
+
+    def _check_counts(self, counts):
+        if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8:
+            raise TypeError("counts must be int64 (a 64-bit C long)")

@@ -190,42 +190,186 @@ def check_start(model, t0, q0, qd0):
 
 def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None):
     """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s), run by
-    ``model.rk4`` (in C or in Python) in chunks of about :data:`CHUNK_SECONDS`, so that progress
-    is shown, the constraint violation max|Φ| is checked against ``max_violation``, ``watch`` (a
-    :class:`gpmegen.runtime.partition.Watch`) looks at the partition, and Ctrl-C or SIGTERM keep
-    what was computed, at the same instants on both backends. Keeps the initial state, the state
-    after every ``save_every``-th step and the final state. Returns ``(t, y, outcome)``: ``y``
-    rows of the augmented state, ``outcome`` an :class:`Outcome`."""
+    ``model.rk4`` (in C or in Python) in chunks of about :data:`CHUNK_SECONDS` (see
+    :func:`chunked`). Keeps the initial state, the state after every ``save_every``-th step and
+    the final state. Returns ``(t, y, outcome)``: ``y`` rows of the augmented state, ``outcome``
+    an :class:`Outcome`."""
     check_start(model, t0, q0, qd0)
     g = grid(t0, t_end, dt)
     # a whole number of save intervals, so that the chunks' ends (always saved) are saved rows anyway
     chunk = max(save_every, int(round(CHUNK_SECONDS / dt / save_every)) * save_every)
     n = model.n_dof
-    y = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+
+    def advance(model, y, k_from, k_to):
+        t, q, qd, w, status = model.rk4(y[:n], y[n:2 * n], t_end, dt, save_every, t0, y[2 * n:], (k_from, k_to))
+        rows = np.column_stack([q, qd, w])[1:]
+        return t[1:], rows, status, rows[-1] if len(rows) else y
+
+    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    return chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
+
+
+def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation=None, watch=None):
+    """Drive an integrator over the instants of grid ``g`` from the augmented state ``y`` at its
+    start, ``chunk`` grid intervals per call of ``advance(model, y, k_from, k_to)``, which returns
+    the times and states of the saved rows after ``k_from`` up to ``k_to``, a :class:`SolveStatus`
+    and the state at ``g.time(k_to)`` to go on from. Between calls, progress is shown, the constraint
+    violation max|Φ| is checked against ``max_violation``, ``watch`` (a
+    :class:`gpmegen.runtime.partition.Watch`) looks at the partition, and Ctrl-C or SIGTERM keep
+    what was computed, at the same instants on both backends. Returns ``(t, y, outcome)``."""
+    n = model.n_dof
     ts, ys = [np.array([g.time(0)])], [y[None, :]]
     done, outcome = 0, None
-    bar = progress if progress is not None else Progress(t_end - t0, "RK4", enabled=False)
+    bar = progress if progress is not None else Progress(g.t_end - g.t0, "RK4", enabled=False)
     with interruptible():
         try:
             while done < g.n_steps and outcome is None:
                 end = min(done + chunk, g.n_steps)
-                t, q, qd, w, status = model.rk4(y[:n], y[n:2 * n], t_end, dt, save_every, t0, y[2 * n:], (done, end))
-                ts.append(t[1:])
-                ys.append(np.column_stack([q, qd, w])[1:])
+                t, rows, status, carry = advance(model, y, done, end)
+                ts.append(t)
+                ys.append(rows)
                 if status != SolveStatus.OK:
                     outcome = Outcome.failed(t[-1] if len(t) else g.time(done), status)
                     break
-                y, done = np.concatenate([q[-1], qd[-1], w[-1]]), end
+                y, done = carry, end
+                q, qd, now = y[:n], y[n:2 * n], g.time(end)
                 if max_violation is not None:
-                    outcome = violation(model, t[-1], q[-1], qd[-1], max_violation)
+                    outcome = violation(model, now, q, qd, max_violation)
                 if watch is not None and outcome is None:
-                    model = watch.check(t[-1], q[-1], qd[-1])  # with other dependent coordinates, maybe
-                bar.update(t[-1] - t0)
+                    model = watch.check(now, q, qd)  # with other dependent coordinates, maybe
+                bar.update(now - g.t0)
         except KeyboardInterrupt:
             outcome = Outcome(Ending.INTERRUPTED, g.time(done))
         finally:
             bar.close()
     return np.concatenate(ts), np.concatenate(ys), outcome or Outcome(Ending.COMPLETE, g.t_end)
+
+
+class Effort(NamedTuple):
+    """What an integration took: steps accepted and rejected (None: not reported, as by SciPy's
+    solve_ivp), GPME solves (right-hand sides), Jacobians and LU factorizations."""
+
+    steps: int | None
+    rejected: int | None
+    solves: int
+    jacobians: int
+    factorizations: int
+
+    def describe(self) -> str:
+        """One phrase for a run's summary."""
+        steps = "steps not reported" if self.steps is None else f"{self.steps} steps ({self.rejected} rejected)"
+        return (f"{steps}, {self.solves} GPME solves, {self.jacobians} Jacobians, "
+                f"{self.factorizations} LU factorizations")
+
+
+def rk4_effort(t, t0: float, dt: float) -> Effort:
+    """The :class:`Effort` of an RK4 run on :func:`grid` with step ``dt`` whose last saved state
+    is at ``t[-1]`` (s): four GPME solves a step."""
+    steps = math.ceil((float(t[-1]) - t0) / dt - STEP_ROUND_OFF) if len(t) else 0
+    return Effort(steps, 0, 4 * steps, 0, 0)
+
+
+#: Defaults of the adaptive methods' tolerances (relative, and absolute in the units of q and q̇):
+#: at these, DOP853 meets the reference case's q(10 s) to about 1e-7 (benchmarks/integrators.py).
+RTOL, ATOL = 1e-8, 1e-10
+
+
+def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progress=None, max_violation=None,
+           watch=None):
+    """DOP853 (Dormand–Prince 8(5,3), adaptive) in the compiled loop, from ``t0`` to ``t_end`` (s),
+    saving on :func:`grid` with interval ``save_dt`` (s) by its dense output of order 7, driven by
+    :func:`chunked`. ``rtol``, ``atol``: the tolerances of each step's error in ``q`` and ``q̇``.
+    Returns ``(t, y, outcome, effort)``, ``effort`` an :class:`Effort`."""
+    check_start(model, t0, q0, qd0)
+    if not (rtol > 0 and atol >= 0):
+        raise ValueError(f"need rtol > 0 and atol >= 0, got rtol = {rtol}, atol = {atol}")
+    g = grid(t0, t_end, save_dt)
+    chunk = max(1, int(round(CHUNK_SECONDS / save_dt)))
+    counts = np.zeros(5, dtype=np.int64)
+    step = np.zeros(1)  # the step to try next, carried across chunks (0: chosen at the start)
+
+    def advance(model, y, k_from, k_to):
+        t_save = np.array([g.time(k) for k in range(k_from + 1, k_to + 1)])
+        rows, status = model.dop853(g.time(k_from), y, t_save, rtol, atol, step, counts)
+        return t_save[:len(rows)], rows, status, rows[-1] if len(rows) else y
+
+    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
+    return t, y, outcome, Effort(*(int(c) for c in counts))
+
+
+#: Default numerical damping of generalized-α: the spectral radius at h ω → ∞. 0.9 damps what the
+#: step cannot resolve (the sdes' kHz modes at h = 1e-3 s lose 10 % a step) and leaves the motion
+#: below 0.1/h almost untouched, as flexible multibody codes default to (0.8-0.9).
+RHO_INF = 0.9
+
+
+def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progress=None, max_violation=None,
+             watch=None):
+    """Generalized-α (Chung–Hulbert, second order, numerical damping ``rho_inf``) in the compiled
+    loop with step ``dt`` (s) on :func:`grid`, modified Newton on q̈ with the GPME's Jacobians,
+    saving on the grid of interval ``save_dt`` (s) (cubic Hermite between steps), driven by
+    :func:`chunked`. Returns ``(t, y, outcome, effort)``."""
+    check_start(model, t0, q0, qd0)
+    if not 0.0 <= rho_inf <= 1.0:
+        raise ValueError(f"need 0 <= rho_inf <= 1, got {rho_inf}")
+    g, saves = grid(t0, t_end, dt), grid(t0, t_end, save_dt)
+    save_times = np.array([saves.time(k) for k in range(1, saves.n_steps + 1)])
+    chunk = max(1, int(round(CHUNK_SECONDS / dt)))
+    n = model.n_dof
+    counts = np.zeros(5, dtype=np.int64)
+    memory = {"a": np.full(n, np.nan), "S": np.zeros((n, n)), "pivot": np.zeros(n, dtype=np.intc),
+              "have": np.zeros(1, dtype=np.intc)}
+
+    def advance(model, y, k_from, k_to):
+        inside = save_times[(save_times > g.time(k_from)) & (save_times <= g.time(k_to))]
+        carry = np.array(y, dtype=float)
+        rows, status = model.genalpha(g, k_from, k_to, rho_inf, carry, memory, inside, counts)
+        return inside[:len(rows)], rows, status, carry
+
+    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
+    return t, y, outcome, Effort(*(int(c) for c in counts))
+
+
+def save_steps(dt: float, save_dt: float) -> int | None:
+    """The RK4 steps of ``dt`` (s) in a save interval ``save_dt`` (s), or None when it is not
+    a whole number of them (to a relative 1e-9)."""
+    k = round(save_dt / dt)
+    return k if k >= 1 and abs(k * dt - save_dt) <= 1e-9 * save_dt else None
+
+
+#: RK4's stability limit on the imaginary axis: an undamped mode of ω (rad/s) grows for h ω above it.
+RK4_STABILITY = 2.0 * math.sqrt(2.0)
+#: The methods that take steps above RK4's stable one: they choose their own.
+LONG_STEPS = "--method genalpha (implicit, in C), dop853 (adaptive, in C) or scipy-radau (implicit)"
+
+
+def unstable_step(dt: float, omega: float) -> str | None:
+    """Why RK4 at step ``dt`` (s) would blow up on a mode of ``omega`` (rad/s), with the stable
+    step and the methods that take the step asked for; None when ``dt`` is stable."""
+    stable = RK4_STABILITY / omega if omega > 0 else math.inf
+    if dt <= stable:
+        return None
+    return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (2√2/ω for the highest natural frequency "
+            f"{omega / (2 * math.pi):.4g} Hz at the start): use --dt {stable:.2g} or less, or {LONG_STEPS}")
+
+
+#: Integrators that run only in the generated C loops (not the NumPy backend, nor the actuated
+#: realization, which is integrated in Python).
+COMPILED = ("dop853", "genalpha")
+
+
+def compiled_only(method: str, backend: str, actuated: bool) -> str | None:
+    """Why ``method`` cannot run on ``backend`` ("c" or "numpy") with or without an
+    ``actuated`` realization (one line with the fix), or None when it can."""
+    if method not in COMPILED:
+        return None
+    if backend != "c":
+        return f"--method {method} runs in the compiled C loop: use --backend c (it needs a C compiler)"
+    if actuated:
+        return f"--method {method} integrates the ideal GPME only: use --method rk4 for an actuated realization"
+    return None
 
 
 IMPLICIT = ("Radau", "BDF", "LSODA")
@@ -247,13 +391,26 @@ def _difference_jacobian(rhs, relative=1e-7):
     return jac
 
 
+#: The SciPy methods still offered by name (``--method scipy-radau``): Radau IIA of order 5 with
+#: its collocation polynomial as dense output, on the model's right-hand side called from Python.
+SCIPY = {"scipy-radau": "Radau"}
+
+
 def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
-    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, outcome)``.
+    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, outcome)``; see
+    :func:`scipy_solve`."""
+    return scipy_solve(model, q0, qd0, t_end, t0, method, rtol, atol, t_eval)[:3]
+
+
+def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
+    """``scipy.integrate.solve_ivp`` on the same equations, saving at ``t_eval`` (s; None: at its
+    steps) by the method's dense output. Returns ``(t, y, outcome, effort)``.
 
     The implicit methods (Radau, BDF, LSODA) integrate ``(q, q̇)`` only (the work columns of ``y``
     are then NaN) and get a forward-difference Jacobian with a fixed relative step: scipy's own
     adapts its step per column and lets it grow without bound on a coordinate nothing depends on
-    (the column's rotation θ1, or the work states), until the state overflows."""
+    (the column's rotation θ1, or the work states), until the state overflows. Their Jacobians
+    count in ``effort`` as calls, each 2n + 1 GPME solves (among the solves counted)."""
     from scipy.integrate import solve_ivp
 
     check_start(model, t0, q0, qd0)
@@ -261,10 +418,17 @@ def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e
     with_work = method not in IMPLICIT
     y0 = np.concatenate([q0, qd0] + ([[0.0, 0.0]] if with_work else [])).astype(float)
     full = state_derivative(model)
-    rhs = full if with_work else (lambda t, y: full(t, np.concatenate([y, [0.0, 0.0]]))[:2 * n])
+    solves = [0]
+
+    def counted(t, y):
+        solves[0] += 1
+        return full(t, y)
+
+    rhs = counted if with_work else (lambda t, y: counted(t, np.concatenate([y, [0.0, 0.0]]))[:2 * n])
     options = {} if with_work else {"jac": _difference_jacobian(rhs)}
     sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
     y = sol.y.T if with_work else np.column_stack([sol.y.T, np.full((len(sol.t), 2), np.nan)])
     reached = float(sol.t[-1]) if len(sol.t) else float(t0)
     outcome = Outcome(Ending.COMPLETE, reached) if sol.success else Outcome.diverged(reached, sol.message)
-    return sol.t, y, outcome
+    effort = Effort(None, None, solves[0], int(sol.njev), int(sol.nlu))  # solve_ivp does not count its steps
+    return sol.t, y, outcome, effort

@@ -101,6 +101,12 @@ class Evaluator(Protocol):
         (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
         :func:`gpmegen.runtime.integrate.rk4_steps`."""
 
+    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        """See :meth:`LoadedModel.dop853` (compiled backends only)."""
+
+    def genalpha(self, model, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+        """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
+
 
 class NumpyEvaluator:
     """:class:`Evaluator` over a generated NumPy module; the GPME solved by :mod:`.gpme`."""
@@ -169,6 +175,12 @@ class NumpyEvaluator:
 
     def rk4(self, model, g, k_from, k_to, save_every, y0):
         return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
+
+    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        raise SimulationError(integrate.compiled_only("dop853", "numpy", False))
+
+    def genalpha(self, model, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+        raise SimulationError(integrate.compiled_only("genalpha", "numpy", False))
 
 
 class LoadedModel:
@@ -452,6 +464,26 @@ class LoadedModel:
             t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
         n = self.n_dof
         return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
+
+    def dop853(self, t_a, y_a, t_save, rtol, atol, step, counts):
+        """DOP853 of the GPME in the compiled loop from ``t_a`` (s) and the augmented state
+        ``y_a = [q, q̇, w]`` (2n + 2,) to ``t_save[-1]``, saving at the increasing instants
+        ``t_save`` (k,) s. ``step`` (1,): the step to try first (0: chosen), updated to the one to
+        try next; ``counts`` (5,) int64: steps, rejected, GPME solves, Jacobians and LU
+        factorizations, added to. Returns ``(y, status)``: ``y`` (j, 2n + 2) the rows saved (all
+        k when ``status`` is OK)."""
+        model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
+        return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts)
+
+    def genalpha(self, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+        """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
+        grid ``g`` from the augmented state ``y`` (2n + 2,), replaced in place by the state at the
+        end; ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the
+        Newton matrix "S" (n, n), "pivot" (n,) intc, "have" (1,) intc), ``counts`` as for
+        :meth:`dop853`. Saves at the increasing instants ``t_save`` (k,) within the steps.
+        Returns ``(rows, status)``."""
+        model = self.partitioned(g.time(k_from), np.asarray(y)[:self.n_dof])
+        return model.evaluator.genalpha(model, g, k_from, k_to, rho_inf, y, memory, t_save, counts)
 
     def constraint_forces(self, t, q, qd):
         """Generalized forces that realize the constraints, ``M q̈ - f`` (n,): ``Dᵀλ`` in the ideal

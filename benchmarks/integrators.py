@@ -1,0 +1,83 @@
+"""The integrators on the paper's study: wall time, the error of q(t_end) and the constraint
+violation of each, for the reference arm at several n_rfe.
+
+Run: ``.venv/bin/python benchmarks/integrators.py [t_end] [n_rfe ...]`` (default 10 s, n_rfe 5).
+Every method runs in C from the locked start through the same chunked driver a simulate run uses,
+saving every 1 ms; the wall time is that of the integration alone (the model is loaded, compiled
+and started before). The reference is the compiled DOP853 at rtol = atol = 1e-12 (the tests
+check it against SciPy's DOP853 to its tolerance; atol 1e-14 took 5.3 million steps at n_rfe 5,
+the round-off of the solve then bounding the error estimate); for each n_rfe its own q(t_end) is the
+converged run the others are measured against. max|Φ| is the largest constraint violation at the
+saved instants. The load of the machine is printed, since the wall times depend on it.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import numpy as np
+
+import gpmegen
+from gpmegen.analysis import reference_case
+from gpmegen.runtime import integrate
+
+SAVE_DT = 1e-3
+#: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at two steps.
+METHODS = (
+    ("rk4 dt 1e-5", "rk4", {"dt": 1e-5}),
+    ("dop853 rtol 1e-6", "dop853", {"rtol": 1e-6, "atol": 1e-8}),
+    ("dop853 rtol 1e-8", "dop853", {"rtol": 1e-8, "atol": 1e-10}),
+    ("genalpha dt 1e-4", "genalpha", {"dt": 1e-4}),
+    ("genalpha dt 2.5e-5", "genalpha", {"dt": 2.5e-5}),
+)
+
+
+def run(model, q0, t_end, method, options):
+    """``(wall s, t, y, effort)`` of one integration from ``q0`` at rest."""
+    qd0 = np.zeros(model.n_dof)
+    start = time.perf_counter()
+    if method == "rk4":
+        dt = options["dt"]
+        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every=round(SAVE_DT / dt))
+        effort = integrate.rk4_effort(t, 0.0, dt)
+    elif method == "dop853":
+        t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, SAVE_DT, **options)
+    else:
+        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT)
+    wall = time.perf_counter() - start
+    if not outcome.complete:
+        raise SystemExit(f"{method} {options}: {outcome}")
+    return wall, t, y, effort
+
+
+def violation(model, t, y) -> float:
+    """max|Φ| over the saved states ``y`` at ``t``."""
+    n = model.n_dof
+    return max(float(np.abs(model.constraint_terms(tk, yk[:n], yk[n:2 * n])[0]).max(initial=0.0))
+               for tk, yk in zip(t, y))
+
+
+def main(t_end=10.0, levels=(5,)):
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; t_end = {t_end:g} s, saved every "
+          f"{SAVE_DT:g} s")
+    for nrfe in levels:
+        model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
+        n = model.n_dof
+        wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": 1e-12, "atol": 1e-12})
+        reference = y[-1, :n]
+        print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = 1e-12 in {wall:.1f} s, "
+              f"{effort.describe()}, max|Φ| = {violation(model, t, y):.1e}")
+        print(f"{'method':>20} {'wall [s]':>9} {'max|Δq(t_end)|':>15} {'max|Φ|':>8} {'steps':>9} {'rejected':>8} "
+              f"{'solves':>10} {'Jacobians':>9}")
+        for label, method, options in METHODS:
+            wall, t, y, effort = run(model, q0, t_end, method, options)
+            error = np.abs(y[-1, :n] - reference).max()
+            print(f"{label:>20} {wall:>9.2f} {error:>15.2e} {violation(model, t, y):>8.1e} {effort.steps:>9} "
+                  f"{effort.rejected:>8} {effort.solves:>10} {effort.jacobians:>9}", flush=True)
+
+
+if __name__ == "__main__":
+    main(float(sys.argv[1]) if len(sys.argv) > 1 else 10.0,
+         tuple(int(a) for a in sys.argv[2:]) or (5,))
