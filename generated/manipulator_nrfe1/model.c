@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: f135277a14be2aa5
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -30,7 +30,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "135893fdc036d146"; }
+const char *manipulator_nrfe1_input_hash(void) { return "f135277a14be2aa5"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -941,6 +941,655 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
 #endif
 
 
+#ifdef COLD_PART
+/* Jacobians of F = f - M a + D^T lam and C = c - D a (c the constraint rows' right sides).
+   t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   a: (3,) accelerations in COORDINATES order
+   lam: (2,) constraint multipliers in CONSTRAINTS order, M qdd - f = D^T lam
+   p: (25,) parameter values in PARAMETERS order
+   out_F_q: (3, 3) dF/dq, row-major
+   out_F_qd: (3, 3) dF/dqd, row-major
+   out_C_q: (2, 3) dC/dq, one row per constraint, row-major
+   out_C_qd: (2, 3) dC/dqd, one row per constraint, row-major
+*/
+void manipulator_nrfe1_gpme_residual_jacobians(double t, const double *q, const double *qd, const double *a, const double *lam, const double *p, double *out_F_q, double *out_F_qd, double *out_C_q, double *out_C_qd)
+{
+    (void)t;
+    const double _q_theta1 = q[0];
+    const double _q_psi2 = q[1];
+    const double _q_x3 = q[2];
+    const double _qd_theta1 = qd[0];
+    const double _qd_psi2 = qd[1];
+    const double _qd_x3 = qd[2];
+    const double _qdd_theta1 = a[0];
+    const double _qdd_psi2 = a[1];
+    const double _qdd_x3 = a[2];
+    const double _lam_circle = lam[0];
+    const double _lam_height = lam[1];
+    const double _p_g = p[0];
+    const double _p_m1 = p[1];
+    const double _p_h1 = p[2];
+    const double _p_R1 = p[3];
+    const double _p_L2 = p[4];
+    const double _p_b2 = p[5];
+    const double _p_t2 = p[6];
+    const double _p_rho2 = p[7];
+    const double _p_m3 = p[12];
+    const double _p_L3 = p[13];
+    const double _p_R3 = p[14];
+    const double _p_alpha_circle = p[21];
+    const double _p_beta_circle = p[22];
+    const double _p_alpha_height = p[23];
+    const double _p_beta_height = p[24];
+    const double _x0 = cos(_q_theta1);
+    const double _x1 = sin(_q_theta1);
+    const double _x2 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
+    const double _x3 = cos(_q_psi2);
+    const double _x4 = sin(_q_psi2);
+    const double _x5 = _x0*_x3;
+    const double _x6 = -_x0*_x4;
+    const double _x7 = -_x1*_x3;
+    const double _x8 = _x1*_x4;
+    const double _x9 = _x0*_p_h1;
+    const double _x10 = -_x1*_p_h1;
+    const double _x11 = _qd_psi2*_qd_theta1*_x0;
+    const double _x12 = -_qd_psi2*_qd_theta1*_x1;
+    const double _x13 = _qd_psi2*_qd_theta1*_x10;
+    const double _x14 = -_qd_psi2*_qd_theta1*_x9;
+    const double _x15 = _qd_psi2*_x1;
+    const double _x16 = _qd_psi2*_x0;
+    const double _x17 = _qd_psi2*_x9;
+    const double _x18 = _qd_psi2*_x10;
+    const double _x19 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
+    const double _x20 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
+    const double _x21 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
+    const double _x22 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x23 = _p_L2*_p_b2*_p_rho2*_p_t2;
+    const double _x24 = _p_L2*_x5;
+    const double _x25 = _p_h1 + _p_L2*_x4;
+    const double _x26 = _p_L2*_x7;
+    const double _x27 = _x24 + _q_x3*_x5;
+    const double _x28 = _x25 + _q_x3*_x4;
+    const double _x29 = _x26 + _q_x3*_x7;
+    const double _x30 = _qd_theta1*_x7;
+    const double _x31 = -_x16*_x4;
+    const double _x32 = _x13 + _qd_x3*(_x30 + _x31);
+    const double _x33 = _x16*_x5;
+    const double _x34 = -_x15*_x7;
+    const double _x35 = _qd_x3*(_x33 + _x34);
+    const double _x36 = _x15*_x4;
+    const double _x37 = -_qd_theta1*_x5;
+    const double _x38 = _x14 + _qd_x3*(_x36 + _x37);
+    const double _x39 = _x17 + _qd_x3*_x5;
+    const double _x40 = _qd_x3*_x4;
+    const double _x41 = _qd_x3*_x7;
+    const double _x42 = _x18 + _x41;
+    const double _x43 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
+    const double _x44 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
+    const double _x45 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x46 = _x27 + _p_L3*_x5;
+    const double _x47 = _x28 + _p_L3*_x4;
+    const double _x48 = _x29 + _p_L3*_x7;
+    const double _x49 = _x39 + _qd_theta1*_x48 - _x16*_x47;
+    const double _x50 = _x40 + _x16*_x46 - _x15*_x48;
+    const double _x51 = -_qd_theta1*_x46;
+    const double _x52 = _x42 + _x51 + _x15*_x47;
+    const double _x53 = _x32 + _qd_theta1*_x52 - _x12*_x47 - _x16*_x50;
+    const double _x54 = _x38 + _x11*_x47 + _x15*_x50 - _qd_theta1*_x49;
+    const double _x55 = -_x0*_x47;
+    const double _x56 = _x55 + _x9;
+    const double _x57 = _x1*_x47;
+    const double _x58 = _x10 + _x57;
+    const double _x59 = _x22*_x5;
+    const double _x60 = _x22*_x4 + _x23*_p_h1;
+    const double _x61 = _x22*_x7;
+    const double _x62 = (_x5*_x5);
+    const double _x63 = (_x6*_x6);
+    const double _x64 = (_x1*_x1);
+    const double _x65 = _x19*_x62 + _x20*_x63 + _x21*_x64;
+    const double _x66 = _x19*_x4*_x5 + _x20*_x3*_x6 + _x22*_x5*_p_h1;
+    const double _x67 = (_x4*_x4);
+    const double _x68 = (_x3*_x3);
+    const double _x69 = _x19*_x67 + _x20*_x68 + _x23*(_p_h1*_p_h1) + 2.0*_x22*_x4*_p_h1;
+    const double _x70 = _x0*_x1*_x21 + _x19*_x5*_x7 + _x20*_x6*_x8;
+    const double _x71 = _x19*_x4*_x7 + _x20*_x3*_x8 + _x22*_x7*_p_h1;
+    const double _x72 = (_x7*_x7);
+    const double _x73 = (_x8*_x8);
+    const double _x74 = (_x0*_x0);
+    const double _x75 = _x19*_x72 + _x20*_x73 + _x21*_x74;
+    const double _x76 = _x69 + _x75;
+    const double _x77 = _x65 + _x75;
+    const double _x78 = _x65 + _x69;
+    const double _x79 = _x15*_x76 + _x18*_x60 - _qd_theta1*_x66 - _x16*_x70;
+    const double _x80 = _qd_theta1*_x77 + _x17*_x61 - _x15*_x66 - _x16*_x71 - _x18*_x59;
+    const double _x81 = -_qd_theta1*_x71;
+    const double _x82 = _x81 + _x16*_x78 - _x15*_x70 - _x17*_x60;
+    const double _x83 = _qd_theta1*_x61 + _x17*_x23 - _x16*_x60;
+    const double _x84 = _x16*_x59 - _x15*_x61;
+    const double _x85 = -_qd_theta1*_x59;
+    const double _x86 = _x85 + _x15*_x60 + _x18*_x23;
+    const double _x87 = _qd_theta1*_x82 + _x11*_x76 + _x14*_x60 - _x12*_x70 - _x16*_x80 - _x18*_x84;
+    const double _x88 = _x12*_x78 + _x15*_x80 + _x17*_x84 - _qd_theta1*_x79 - _x11*_x70 - _x13*_x60;
+    const double _x89 = _qd_theta1*_x86 + _x13*_x23 - _x12*_x60 - _x16*_x84;
+    const double _x90 = _x11*_x60 + _x14*_x23 + _x15*_x84 - _qd_theta1*_x83;
+    const double _x91 = _x27*_p_m3;
+    const double _x92 = _x45*_x5;
+    const double _x93 = _x91 + _x92;
+    const double _x94 = _x28*_p_m3;
+    const double _x95 = _x4*_x45;
+    const double _x96 = _x94 + _x95;
+    const double _x97 = _x45*_x7;
+    const double _x98 = _x29*_p_m3;
+    const double _x99 = _x97 + _x98;
+    const double _x100 = _x43*_x62 + _x44*_x63 + _x44*_x64 + _p_m3*(_x27*_x27) + 2.0*_x27*_x45*_x5;
+    const double _x101 = _x27*_x28*_p_m3 + _x27*_x4*_x45 + _x28*_x45*_x5 + _x3*_x44*_x6 + _x4*_x43*_x5;
+    const double _x102 = _x43*_x67 + _x44*_x68 + _p_m3*(_x28*_x28) + 2.0*_x28*_x4*_x45;
+    const double _x103 = _x0*_x1*_x44 + _x27*_x29*_p_m3 + _x27*_x45*_x7 + _x29*_x45*_x5 + _x43*_x5*_x7 + _x44*_x6*_x8;
+    const double _x104 = _x28*_x29*_p_m3 + _x28*_x45*_x7 + _x29*_x4*_x45 + _x3*_x44*_x8 + _x4*_x43*_x7;
+    const double _x105 = _x43*_x72 + _x44*_x73 + _x44*_x74 + _p_m3*(_x29*_x29) + 2.0*_x29*_x45*_x7;
+    const double _x106 = _x102 + _x105;
+    const double _x107 = _x100 + _x105;
+    const double _x108 = _x100 + _x102;
+    const double _x109 = -_x40*_x99;
+    const double _x110 = _x109 + _x106*_x15 + _x42*_x96 - _qd_theta1*_x101 - _x103*_x16;
+    const double _x111 = _qd_theta1*_x107 + _x39*_x99 - _x101*_x15 - _x104*_x16 - _x42*_x93;
+    const double _x112 = -_qd_theta1*_x104;
+    const double _x113 = _x112 + _x108*_x16 + _x40*_x93 - _x103*_x15 - _x39*_x96;
+    const double _x114 = _qd_theta1*_x99 + _x39*_p_m3 - _x16*_x96;
+    const double _x115 = _x16*_x93 + _x40*_p_m3 - _x15*_x99;
+    const double _x116 = -_qd_theta1*_x93;
+    const double _x117 = _x116 + _x15*_x96 + _x42*_p_m3;
+    const double _x118 = _qd_theta1*_x113 + _x106*_x11 + _x117*_x40 + _x38*_x96 - _x103*_x12 - _x111*_x16 - _x115*_x42 - _x35*_x99;
+    const double _x119 = _x108*_x12 + _x111*_x15 + _x115*_x39 + _x35*_x93 - _qd_theta1*_x110 - _x103*_x11 - _x114*_x40 - _x32*_x96;
+    const double _x120 = _qd_theta1*_x117 + _x32*_p_m3 - _x115*_x16 - _x12*_x96;
+    const double _x121 = _x114*_x16 + _x12*_x93 + _x35*_p_m3 - _x11*_x99 - _x117*_x15;
+    const double _x122 = _x11*_x96 + _x115*_x15 + _x38*_p_m3 - _qd_theta1*_x114;
+    const double _x123 = _x23 + _p_m3;
+    const double _x124 = _x59 + _x93;
+    const double _x125 = _x60 + _x96;
+    const double _x126 = _x61 + _x99;
+    const double _x127 = _x106 + _x76;
+    const double _x128 = -_x101 - _x66;
+    const double _x129 = -_x103 - _x70;
+    const double _x130 = -_x104 - _x71;
+    const double _x131 = _x108 + _x78;
+    const double _x132 = _x118 + _x87;
+    const double _x133 = _x119 + _x88;
+    const double _x134 = _x120 + _x89;
+    const double _x135 = _x122 + _x90;
+    const double _x136 = _x0*_x129 + _x1*_x127 + _x10*_x125;
+    const double _x137 = _x0*_x131 + _x1*_x129 - _x125*_x9;
+    const double _x138 = _x123*_x9 - _x0*_x125;
+    const double _x139 = _x1*_x125 + _x10*_x123;
+    const double _x140 = _x7*_x96;
+    const double _x141 = -_x4*_x99;
+    const double _x142 = _x140 + _x141;
+    const double _x143 = _x4*_x93;
+    const double _x144 = -_x5*_x96;
+    const double _x145 = _x143 + _x144;
+    const double _x146 = _x5*_p_m3;
+    const double _x147 = _x4*_p_m3;
+    const double _x148 = _x7*_p_m3;
+    const double _x149 = _qdd_x3*_x142;
+    const double _x150 = _qdd_x3*_x145;
+    const double _x151 = _qdd_x3*_x146;
+    const double _x152 = _qdd_x3*_x147;
+    const double _x153 = _qdd_x3*_x148;
+    const double _x154 = _x149 + _qdd_psi2*_x136;
+    const double _x155 = _x150 + _qdd_psi2*_x137;
+    const double _x156 = _x151 + _qdd_psi2*_x138;
+    const double _x157 = _x153 + _qdd_psi2*_x139;
+    const double _x158 = _qdd_psi2*_x1;
+    const double _x159 = _qdd_psi2*_x0;
+    const double _x160 = _qdd_psi2*_x9;
+    const double _x161 = _qdd_psi2*_x10;
+    const double _x162 = -sin(_q_theta1);
+    const double _x163 = -sin(_q_psi2);
+    const double _x164 = _x162*_x3;
+    const double _x165 = _x0*_x163;
+    const double _x166 = -_x162*_x4;
+    const double _x167 = -_x0*_x3;
+    const double _x168 = -_x1*_x163;
+    const double _x169 = _x0*_x4;
+    const double _x170 = _x1*_x3;
+    const double _x171 = _x162*_p_h1;
+    const double _x172 = -_x0*_p_h1;
+    const double _x173 = _qd_psi2*_qd_theta1*_x162;
+    const double _x174 = _qd_theta1*_x0;
+    const double _x175 = -_qd_psi2*_qd_theta1*_x0;
+    const double _x176 = -_qd_psi2*_x1;
+    const double _x177 = -_qd_theta1*_x1;
+    const double _x178 = _qd_psi2*_qd_theta1*_x172;
+    const double _x179 = _qd_theta1*_x10;
+    const double _x180 = -_qd_psi2*_qd_theta1*_x171;
+    const double _x181 = -_qd_psi2*_x9;
+    const double _x182 = -_qd_theta1*_x9;
+    const double _x183 = _qd_psi2*_x162;
+    const double _x184 = _qd_psi2*_x171;
+    const double _x185 = _qd_psi2*_x172;
+    const double _x186 = _p_L2*_x164;
+    const double _x187 = _p_L2*_x165;
+    const double _x188 = _p_L2*_x3;
+    const double _x189 = _p_L2*_x167;
+    const double _x190 = _p_L2*_x168;
+    const double _x191 = _x186 + _q_x3*_x164;
+    const double _x192 = _x187 + _q_x3*_x165;
+    const double _x193 = _x188 + _q_x3*_x3;
+    const double _x194 = _x189 + _q_x3*_x167;
+    const double _x195 = _x190 + _q_x3*_x168;
+    const double _x196 = _x178 + _qd_theta1*_qd_x3*_x167 - _qd_x3*_x183*_x4;
+    const double _x197 = _qd_theta1*_qd_x3*_x168 - _qd_x3*_x16*_x3;
+    const double _x198 = _x179 - _qd_x3*_x0*_x4;
+    const double _x199 = _x30 + _x31;
+    const double _x200 = _qd_x3*_x16*_x164 + _qd_x3*_x183*_x5 - _qd_x3*_x15*_x167 - _qd_x3*_x16*_x7;
+    const double _x201 = _qd_x3*_x16*_x165 - _qd_x3*_x15*_x168;
+    const double _x202 = _qd_x3*_x0*_x5 - _qd_x3*_x1*_x7;
+    const double _x203 = _x33 + _x34;
+    const double _x204 = _x180 + _qd_x3*_x16*_x4 - _qd_theta1*_qd_x3*_x164;
+    const double _x205 = _qd_x3*_x15*_x3 - _qd_theta1*_qd_x3*_x165;
+    const double _x206 = _x181 - _qd_x3*_x5;
+    const double _x207 = _x182 + _qd_x3*_x1*_x4;
+    const double _x208 = _x36 + _x37;
+    const double _x209 = _x184 + _qd_x3*_x164;
+    const double _x210 = _qd_x3*_x165;
+    const double _x211 = _qd_x3*_x3;
+    const double _x212 = _x185 + _qd_x3*_x167;
+    const double _x213 = _qd_x3*_x168;
+    const double _x214 = _x191 + _p_L3*_x164;
+    const double _x215 = _x192 + _p_L3*_x165;
+    const double _x216 = _x193 + _p_L3*_x3;
+    const double _x217 = _x194 + _p_L3*_x167;
+    const double _x218 = _x195 + _p_L3*_x168;
+    const double _x219 = _x171 - _x162*_x47;
+    const double _x220 = -_x0*_x216;
+    const double _x221 = _x0*_x214 + _x162*_x46 - _x0*_x48 - _x1*_x217;
+    const double _x222 = _x0*_x215 - _x1*_x218;
+    const double _x223 = _x0*_x5 - _x1*_x7;
+    const double _x224 = _x172 + _x0*_x47;
+    const double _x225 = _x1*_x216;
+    const double _x226 = 2.0*_x0*_x1*_x2 + 2.0*_x0*_x162*_x2;
+    const double _x227 = 2.0*_x226;
+    const double _x228 = _x164*_x22;
+    const double _x229 = _x165*_x22;
+    const double _x230 = _x22*_x3;
+    const double _x231 = _x167*_x22;
+    const double _x232 = _x168*_x22;
+    const double _x233 = 2.0*_x0*_x1*_x21 + 2.0*_x164*_x19*_x5 + 2.0*_x166*_x20*_x6;
+    const double _x234 = 2.0*_x165*_x19*_x5 + 2.0*_x167*_x20*_x6;
+    const double _x235 = _x19*_x4 + _x22*_p_h1;
+    const double _x236 = _x164*_x235 + _x166*_x20*_x3;
+    const double _x237 = _x165*_x235 + _x163*_x20*_x6 + _x167*_x20*_x3 + _x19*_x3*_x5;
+    const double _x238 = _x3*(2.0*_x19*_x4 + 2.0*_x22*_p_h1) + 2.0*_x163*_x20*_x3;
+    const double _x239 = _x21*(_x0*_x0) + _x1*_x162*_x21 + _x164*_x19*_x7 + _x166*_x20*_x8 + _x167*_x19*_x5 + _x169*_x20*_x6;
+    const double _x240 = _x165*_x19*_x7 + _x167*_x20*_x8 + _x168*_x19*_x5 + _x170*_x20*_x6;
+    const double _x241 = _x167*_x235 + _x169*_x20*_x3;
+    const double _x242 = _x168*_x235 + _x163*_x20*_x8 + _x170*_x20*_x3 + _x19*_x3*_x7;
+    const double _x243 = 2.0*_x0*_x162*_x21 + 2.0*_x167*_x19*_x7 + 2.0*_x169*_x20*_x8;
+    const double _x244 = 2.0*_x168*_x19*_x7 + 2.0*_x170*_x20*_x8;
+    const double _x245 = _x238 + _x244;
+    const double _x246 = _x233 + _x243;
+    const double _x247 = _x234 + _x244;
+    const double _x248 = _x234 + _x238;
+    const double _x249 = _x15*_x243 + _x16*_x76 + _x185*_x60 - _qd_theta1*_x236 - _x16*_x239 - _x183*_x70;
+    const double _x250 = _x15*_x245 + _x18*_x230 - _qd_theta1*_x237 - _x16*_x240;
+    const double _x251 = _x1*_x76 + _x10*_x60 - _x0*_x70;
+    const double _x252 = _qd_theta1*_x246 + _x17*_x231 + _x184*_x61 - _x15*_x236 - _x16*_x241 - _x16*_x66 - _x18*_x228 - _x183*_x71 - _x185*_x59;
+    const double _x253 = _qd_theta1*_x247 + _x17*_x232 - _x15*_x237 - _x16*_x242 - _x18*_x229;
+    const double _x254 = _x61*_x9 - _x0*_x71 - _x1*_x66 - _x10*_x59;
+    const double _x255 = _x16*_x233 + _x183*_x78 - _qd_theta1*_x241 - _x15*_x239 - _x16*_x70 - _x184*_x60;
+    const double _x256 = _x16*_x248 - _qd_theta1*_x242 - _x15*_x240 - _x17*_x230;
+    const double _x257 = _x0*_x78 - _x1*_x70 - _x60*_x9;
+    const double _x258 = _qd_theta1*_x231 + _x184*_x23 - _x183*_x60;
+    const double _x259 = _qd_theta1*_x232 - _x16*_x230;
+    const double _x260 = _x23*_x9 - _x0*_x60;
+    const double _x261 = _x16*_x228 + _x183*_x59 - _x15*_x231 - _x16*_x61;
+    const double _x262 = _x16*_x229 - _x15*_x232;
+    const double _x263 = _x0*_x59 - _x1*_x61;
+    const double _x264 = _x16*_x60 + _x185*_x23 - _qd_theta1*_x228;
+    const double _x265 = _x15*_x230 - _qd_theta1*_x229;
+    const double _x266 = _x1*_x60 + _x10*_x23;
+    const double _x267 = _qd_theta1*_x255 + _x11*_x243 + _x173*_x76 + _x180*_x60 - _x12*_x239 - _x16*_x252 - _x175*_x70 - _x18*_x261 - _x183*_x80 - _x185*_x84;
+    const double _x268 = _qd_theta1*_x256 + _x11*_x245 + _x14*_x230 - _x12*_x240 - _x16*_x253 - _x18*_x262;
+    const double _x269 = _x81 + _x82 + _x16*_x76 + _x181*_x60 - _x16*_x77 - _x176*_x70;
+    const double _x270 = _qd_theta1*_x257 + _x174*_x76 + _x182*_x60 - _x0*_x80 - _x10*_x84 - _x16*_x254 - _x177*_x70 - _x18*_x263;
+    const double _x271 = _x13*_x231 + _x16*_x249 + _x178*_x61 + _x18*_x258 + _x183*_x79 + _x185*_x83 - _x11*_x236 - _x12*_x241 - _x14*_x228 - _x15*_x255 - _x16*_x82 - _x17*_x264 - _x173*_x66 - _x175*_x71 - _x180*_x59 - _x184*_x86;
+    const double _x272 = _x13*_x232 + _x16*_x250 + _x18*_x259 - _x11*_x237 - _x12*_x242 - _x14*_x229 - _x15*_x256 - _x17*_x265;
+    const double _x273 = _x15*_x71 + _x17*_x59 - _x176*_x71 - _x181*_x59 - 2.0*_x16*_x66 + 2.0*_x18*_x61;
+    const double _x274 = _x0*_x79 + _x10*_x83 + _x16*_x251 + _x179*_x61 + _x18*_x260 - _x1*_x82 - _x15*_x257 - _x17*_x266 - _x174*_x66 - _x177*_x71 - _x182*_x59 - _x86*_x9;
+    const double _x275 = _x12*_x233 + _x15*_x252 + _x16*_x80 + _x17*_x261 + _x175*_x78 + _x184*_x84 - _qd_theta1*_x249 - _x11*_x239 - _x173*_x70 - _x178*_x60;
+    const double _x276 = _x12*_x248 + _x15*_x253 + _x17*_x262 - _qd_theta1*_x250 - _x11*_x240 - _x13*_x230;
+    const double _x277 = -_x79 + _qd_theta1*_x66 + _x15*_x77 + _x176*_x78 - _x16*_x70 - _x18*_x60;
+    const double _x278 = _x1*_x80 + _x15*_x254 + _x17*_x263 + _x177*_x78 + _x84*_x9 - _qd_theta1*_x251 - _x174*_x70 - _x179*_x60;
+    const double _x279 = _qd_theta1*_x264 + _x178*_x23 - _x16*_x261 - _x175*_x60 - _x183*_x84;
+    const double _x280 = _qd_theta1*_x265 - _x12*_x230 - _x16*_x262;
+    const double _x281 = _x85 + _x86 + _x18*_x23 - _x176*_x60;
+    const double _x282 = _qd_theta1*_x266 + _x179*_x23 - _x0*_x84 - _x16*_x263 - _x177*_x60;
+    const double _x283 = _x15*_x261 + _x16*_x84 + _x173*_x60 + _x180*_x23 - _qd_theta1*_x258;
+    const double _x284 = _x11*_x230 + _x15*_x262 - _qd_theta1*_x259;
+    const double _x285 = -_x83 + _x16*_x60 + _x181*_x23 - _qd_theta1*_x61;
+    const double _x286 = _x1*_x84 + _x15*_x263 + _x174*_x60 + _x182*_x23 - _qd_theta1*_x260;
+    const double _x287 = _x164*_x45 + _x191*_p_m3;
+    const double _x288 = _x165*_x45 + _x192*_p_m3;
+    const double _x289 = _x193*_p_m3 + _x3*_x45;
+    const double _x290 = _x167*_x45 + _x194*_p_m3;
+    const double _x291 = _x168*_x45 + _x195*_p_m3;
+    const double _x292 = 2.0*_x27*_x45 + 2.0*_x43*_x5;
+    const double _x293 = 2.0*_x27*_p_m3 + 2.0*_x45*_x5;
+    const double _x294 = _x164*_x292 + _x191*_x293 + 2.0*_x0*_x1*_x44 + 2.0*_x166*_x44*_x6;
+    const double _x295 = _x165*_x292 + _x192*_x293 + 2.0*_x167*_x44*_x6;
+    const double _x296 = _x293*_x5;
+    const double _x297 = _x28*_x45 + _x4*_x43;
+    const double _x298 = _x164*_x297 + _x191*_x96 + _x166*_x3*_x44;
+    const double _x299 = _x27*_x45 + _x43*_x5;
+    const double _x300 = _x165*_x297 + _x192*_x96 + _x193*_x93 + _x299*_x3 + _x163*_x44*_x6 + _x167*_x3*_x44;
+    const double _x301 = _x4*_x93 + _x5*_x96;
+    const double _x302 = 2.0*_x28*_p_m3 + 2.0*_x4*_x45;
+    const double _x303 = _x193*_x302 + _x3*(2.0*_x28*_x45 + 2.0*_x4*_x43) + 2.0*_x163*_x3*_x44;
+    const double _x304 = _x302*_x4;
+    const double _x305 = _x29*_x45 + _x43*_x7;
+    const double _x306 = _x164*_x305 + _x167*_x299 + _x191*_x99 + _x194*_x93 + _x44*(_x0*_x0) + _x1*_x162*_x44 + _x166*_x44*_x8 + _x169*_x44*_x6;
+    const double _x307 = _x165*_x305 + _x168*_x299 + _x192*_x99 + _x195*_x93 + _x167*_x44*_x8 + _x170*_x44*_x6;
+    const double _x308 = _x5*_x99 + _x7*_x93;
+    const double _x309 = _x167*_x297 + _x194*_x96 + _x169*_x3*_x44;
+    const double _x310 = _x168*_x297 + _x193*_x99 + _x195*_x96 + _x3*_x305 + _x163*_x44*_x8 + _x170*_x3*_x44;
+    const double _x311 = _x4*_x99 + _x7*_x96;
+    const double _x312 = 2.0*_x29*_x45 + 2.0*_x43*_x7;
+    const double _x313 = 2.0*_x29*_p_m3 + 2.0*_x45*_x7;
+    const double _x314 = _x167*_x312 + _x194*_x313 + 2.0*_x0*_x162*_x44 + 2.0*_x169*_x44*_x8;
+    const double _x315 = _x168*_x312 + _x195*_x313 + 2.0*_x170*_x44*_x8;
+    const double _x316 = _x313*_x7;
+    const double _x317 = _x303 + _x315;
+    const double _x318 = _x304 + _x316;
+    const double _x319 = _x294 + _x314;
+    const double _x320 = _x295 + _x315;
+    const double _x321 = _x296 + _x316;
+    const double _x322 = _x295 + _x303;
+    const double _x323 = _x296 + _x304;
+    const double _x324 = _x106*_x16 + _x15*_x314 + _x212*_x96 - _qd_theta1*_x298 - _x103*_x183 - _x16*_x306 - _x290*_x40;
+    const double _x325 = _x15*_x317 + _x213*_x96 + _x289*_x42 - _qd_theta1*_x300 - _x16*_x307 - _x211*_x99 - _x291*_x40;
+    const double _x326 = _x147*_x42 + _x15*_x318 - _qd_theta1*_x301 - _x148*_x40 - _x16*_x308;
+    const double _x327 = _x1*_x106 + _x10*_x96 - _x0*_x103;
+    const double _x328 = _qd_theta1*_x319 + _x209*_x99 + _x290*_x39 - _x101*_x16 - _x104*_x183 - _x15*_x298 - _x16*_x309 - _x212*_x93 - _x287*_x42;
+    const double _x329 = _qd_theta1*_x320 + _x210*_x99 + _x291*_x39 - _x15*_x300 - _x16*_x310 - _x213*_x93 - _x288*_x42;
+    const double _x330 = _qd_theta1*_x321 + _x148*_x39 - _x146*_x42 - _x15*_x301 - _x16*_x311;
+    const double _x331 = _x9*_x99 - _x0*_x104 - _x1*_x101 - _x10*_x93;
+    const double _x332 = _x5*_x99 - _x7*_x93;
+    const double _x333 = _x108*_x183 + _x16*_x294 + _x287*_x40 - _qd_theta1*_x309 - _x103*_x16 - _x15*_x306 - _x209*_x96;
+    const double _x334 = _x16*_x322 + _x211*_x93 + _x288*_x40 - _qd_theta1*_x310 - _x15*_x307 - _x210*_x96 - _x289*_x39;
+    const double _x335 = _x146*_x40 + _x16*_x323 - _qd_theta1*_x311 - _x147*_x39 - _x15*_x308;
+    const double _x336 = _x0*_x108 - _x1*_x103 - _x9*_x96;
+    const double _x337 = _qd_theta1*_x290 + _x209*_p_m3 - _x183*_x96;
+    const double _x338 = _qd_theta1*_x291 + _x210*_p_m3 - _x16*_x289;
+    const double _x339 = _qd_theta1*_x148 - _x147*_x16;
+    const double _x340 = _x9*_p_m3 - _x0*_x96;
+    const double _x341 = _x16*_x287 + _x183*_x93 - _x15*_x290 - _x16*_x99;
+    const double _x342 = _x16*_x288 + _x211*_p_m3 - _x15*_x291;
+    const double _x343 = _x146*_x16 - _x148*_x15;
+    const double _x344 = _x0*_x93 - _x1*_x99;
+    const double _x345 = _x16*_x96 + _x212*_p_m3 - _qd_theta1*_x287;
+    const double _x346 = _x15*_x289 + _x213*_p_m3 - _qd_theta1*_x288;
+    const double _x347 = _x147*_x15 - _qd_theta1*_x146;
+    const double _x348 = _x1*_x96 + _x10*_p_m3;
+    const double _x349 = _qd_theta1*_x333 + _x106*_x173 + _x11*_x314 + _x204*_x96 + _x345*_x40 - _x103*_x175 - _x111*_x183 - _x115*_x212 - _x12*_x306 - _x16*_x328 - _x200*_x99 - _x290*_x35 - _x341*_x42;
+    const double _x350 = _qd_theta1*_x334 + _x11*_x317 + _x117*_x211 + _x205*_x96 + _x289*_x38 + _x346*_x40 - _x115*_x213 - _x12*_x307 - _x16*_x329 - _x201*_x99 - _x291*_x35 - _x342*_x42;
+    const double _x351 = _qd_theta1*_x335 + _x11*_x318 + _x147*_x38 + _x347*_x40 - _x12*_x308 - _x148*_x35 - _x16*_x330 - _x343*_x42;
+    const double _x352 = _x112 + _x113 + _x106*_x16 + _x206*_x96 - _x103*_x176 - _x107*_x16 - _x40*_x93;
+    const double _x353 = _qd_theta1*_x336 + _x106*_x174 + _x207*_x96 + _x348*_x40 - _x0*_x111 - _x10*_x115 - _x103*_x177 - _x16*_x331 - _x202*_x99 - _x344*_x42;
+    const double _x354 = _qd_theta1*_x145 + _x117*_x4 + _x148*_x40 + _x208*_x96 - _x115*_x7 - _x147*_x42 - _x16*_x332 - _x203*_x99;
+    const double _x355 = _x110*_x183 + _x114*_x212 + _x16*_x324 + _x196*_x99 + _x290*_x32 + _x337*_x42 - _x101*_x173 - _x104*_x175 - _x11*_x298 - _x113*_x16 - _x117*_x209 - _x12*_x309 - _x15*_x333 - _x204*_x93 - _x287*_x38 - _x345*_x39;
+    const double _x356 = _x114*_x213 + _x16*_x325 + _x197*_x99 + _x291*_x32 + _x338*_x42 - _x11*_x300 - _x117*_x210 - _x12*_x310 - _x15*_x334 - _x205*_x93 - _x288*_x38 - _x346*_x39;
+    const double _x357 = _x148*_x32 + _x16*_x326 + _x339*_x42 - _x11*_x301 - _x12*_x311 - _x146*_x38 - _x15*_x335 - _x347*_x39;
+    const double _x358 = _x104*_x15 + _x39*_x93 - _x104*_x176 - _x206*_x93 - 2.0*_x101*_x16 + 2.0*_x42*_x99;
+    const double _x359 = _x0*_x110 + _x10*_x114 + _x16*_x327 + _x198*_x99 + _x340*_x42 - _x1*_x113 - _x101*_x174 - _x104*_x177 - _x117*_x9 - _x15*_x336 - _x207*_x93 - _x348*_x39;
+    const double _x360 = _x114*_x7 + _x142*_x16 + _x146*_x42 + _x199*_x99 - _x117*_x5 - _x145*_x15 - _x148*_x39 - _x208*_x93;
+    const double _x361 = _x108*_x175 + _x111*_x16 + _x115*_x209 + _x12*_x294 + _x15*_x328 + _x200*_x93 + _x287*_x35 + _x341*_x39 - _qd_theta1*_x324 - _x103*_x173 - _x11*_x306 - _x196*_x96 - _x337*_x40;
+    const double _x362 = _x115*_x210 + _x12*_x322 + _x15*_x329 + _x201*_x93 + _x288*_x35 + _x342*_x39 - _qd_theta1*_x325 - _x11*_x307 - _x114*_x211 - _x197*_x96 - _x289*_x32 - _x338*_x40;
+    const double _x363 = _x12*_x323 + _x146*_x35 + _x15*_x330 + _x343*_x39 - _qd_theta1*_x326 - _x11*_x308 - _x147*_x32 - _x339*_x40;
+    const double _x364 = _x109 - _x110 + _qd_theta1*_x101 + _x107*_x15 + _x108*_x176 - _x103*_x16 - _x42*_x96;
+    const double _x365 = _x1*_x111 + _x108*_x177 + _x115*_x9 + _x15*_x331 + _x202*_x93 + _x344*_x39 - _qd_theta1*_x327 - _x103*_x174 - _x198*_x96 - _x340*_x40;
+    const double _x366 = _x115*_x5 + _x147*_x39 + _x15*_x332 + _x203*_x93 - _qd_theta1*_x142 - _x114*_x4 - _x146*_x40 - _x199*_x96;
+    const double _x367 = _qd_theta1*_x345 + _x196*_p_m3 - _x115*_x183 - _x16*_x341 - _x175*_x96;
+    const double _x368 = _qd_theta1*_x346 + _x197*_p_m3 - _x12*_x289 - _x16*_x342;
+    const double _x369 = _qd_theta1*_x347 - _x12*_x147 - _x16*_x343;
+    const double _x370 = _x116 + _x117 + _x42*_p_m3 - _x176*_x96;
+    const double _x371 = _qd_theta1*_x348 + _x198*_p_m3 - _x0*_x115 - _x16*_x344 - _x177*_x96;
+    const double _x372 = _qd_theta1*_x148 + _x199*_p_m3 - _x147*_x16;
+    const double _x373 = _x114*_x183 + _x12*_x287 + _x16*_x337 + _x175*_x93 + _x200*_p_m3 - _x11*_x290 - _x117*_x16 - _x15*_x345 - _x173*_x99;
+    const double _x374 = _x12*_x288 + _x16*_x338 + _x201*_p_m3 - _x11*_x291 - _x15*_x346;
+    const double _x375 = _x12*_x146 + _x16*_x339 - _x11*_x148 - _x15*_x347;
+    const double _x376 = _x15*_x93 + _x176*_x93;
+    const double _x377 = _x0*_x114 + _x16*_x340 + _x177*_x93 + _x202*_p_m3 - _x1*_x117 - _x15*_x348 - _x174*_x99;
+    const double _x378 = _x146*_x16 + _x203*_p_m3 - _x148*_x15;
+    const double _x379 = _x115*_x16 + _x15*_x341 + _x173*_x96 + _x204*_p_m3 - _qd_theta1*_x337;
+    const double _x380 = _x11*_x289 + _x15*_x342 + _x205*_p_m3 - _qd_theta1*_x338;
+    const double _x381 = _x11*_x147 + _x15*_x343 - _qd_theta1*_x339;
+    const double _x382 = -_x114 + _x16*_x96 + _x206*_p_m3 - _qd_theta1*_x99;
+    const double _x383 = _x1*_x115 + _x15*_x344 + _x174*_x96 + _x207*_p_m3 - _qd_theta1*_x340;
+    const double _x384 = _x147*_x15 + _x208*_p_m3 - _qd_theta1*_x146;
+    const double _x385 = _x228 + _x287;
+    const double _x386 = _x229 + _x288;
+    const double _x387 = _x230 + _x289;
+    const double _x388 = _x231 + _x290;
+    const double _x389 = _x232 + _x291;
+    const double _x390 = _x243 + _x314;
+    const double _x391 = _x245 + _x317;
+    const double _x392 = -_x236 - _x298;
+    const double _x393 = -_x237 - _x300;
+    const double _x394 = _x246 + _x319;
+    const double _x395 = _x247 + _x320;
+    const double _x396 = -_x239 - _x306;
+    const double _x397 = -_x240 - _x307;
+    const double _x398 = -_x241 - _x309;
+    const double _x399 = -_x242 - _x310;
+    const double _x400 = _x233 + _x294;
+    const double _x401 = _x248 + _x322;
+    const double _x402 = _x267 + _x349;
+    const double _x403 = _x268 + _x350;
+    const double _x404 = _x269 + _x352;
+    const double _x405 = _x270 + _x353;
+    const double _x406 = _x271 + _x355;
+    const double _x407 = _x272 + _x356;
+    const double _x408 = _x273 + _x358;
+    const double _x409 = _x274 + _x359;
+    const double _x410 = _x275 + _x361;
+    const double _x411 = _x276 + _x362;
+    const double _x412 = _x277 + _x364;
+    const double _x413 = _x278 + _x365;
+    const double _x414 = _x279 + _x367;
+    const double _x415 = _x280 + _x368;
+    const double _x416 = _x281 + _x370;
+    const double _x417 = _x282 + _x371;
+    const double _x418 = _x283 + _x379;
+    const double _x419 = _x284 + _x380;
+    const double _x420 = _x285 + _x382;
+    const double _x421 = _x286 + _x383;
+    const double _x422 = _x227 + _x394;
+    const double _x423 = _x0*_x127 + _x0*_x396 + _x1*_x390 + _x125*_x172 + _x129*_x162;
+    const double _x424 = _x0*_x397 + _x1*_x391 + _x10*_x387;
+    const double _x425 = _x1*_x318 + _x10*_x147 - _x0*_x308;
+    const double _x426 = _x0*_x128 + _x0*_x398 + _x1*_x392 + _x126*_x171 + _x130*_x162 + _x388*_x9 - _x10*_x385 - _x124*_x172;
+    const double _x427 = _x0*_x399 + _x1*_x393 + _x389*_x9 - _x10*_x386;
+    const double _x428 = _x148*_x9 - _x0*_x311 - _x1*_x301 - _x10*_x146;
+    const double _x429 = _x0*_x129 + _x0*_x400 + _x1*_x396 + _x131*_x162 - _x125*_x171;
+    const double _x430 = _x0*_x401 + _x1*_x397 - _x387*_x9;
+    const double _x431 = _x0*_x323 - _x1*_x308 - _x147*_x9;
+    const double _x432 = _x123*_x171 - _x125*_x162;
+    const double _x433 = -_x0*_x387;
+    const double _x434 = -_x0*_x147;
+    const double _x435 = _x0*_x385 + _x124*_x162 - _x0*_x126 - _x1*_x388;
+    const double _x436 = _x0*_x386 - _x1*_x389;
+    const double _x437 = _x0*_x146 - _x1*_x148;
+    const double _x438 = _x0*_x125 + _x123*_x172;
+    const double _x439 = _x1*_x387;
+    const double _x440 = _x1*_x147;
+    const double _x441 = -_x0*_x132 - _x0*_x410 - _x1*_x402 - _x10*_x418 - _x133*_x162 - _x134*_x171 - _x135*_x172 - _x414*_x9;
+    const double _x442 = -_x0*_x411 - _x1*_x403 - _x10*_x419 - _x415*_x9;
+    const double _x443 = -_x0*_x363 - _x1*_x351 - _x10*_x381 - _x369*_x9;
+    const double _x444 = -_x0*_x412 - _x1*_x404 - _x10*_x420 - _x416*_x9;
+    const double _x445 = -_x0*_x413 - _x1*_x405 - _x10*_x421 - _x417*_x9;
+    const double _x446 = -_x0*_x366 - _x1*_x354 - _x10*_x384 - _x372*_x9;
+    const double _x447 = _x435*_p_g;
+    const double _x448 = _x436*_p_g;
+    const double _x449 = _x437*_p_g;
+    const double _x450 = _x167*_x96 - _x290*_x4;
+    const double _x451 = _x168*_x96 + _x289*_x7 - _x291*_x4 - _x3*_x99;
+    const double _x452 = _x147*_x7 - _x148*_x4;
+    const double _x453 = _x164*_x99 + _x290*_x5 - _x167*_x93 - _x287*_x7;
+    const double _x454 = _x165*_x99 + _x291*_x5 - _x168*_x93 - _x288*_x7;
+    const double _x455 = _x148*_x5 - _x146*_x7;
+    const double _x456 = _x287*_x4 - _x164*_x96;
+    const double _x457 = _x288*_x4 + _x3*_x93 - _x165*_x96 - _x289*_x5;
+    const double _x458 = _x146*_x4 - _x147*_x5;
+    const double _x459 = _x164*_p_m3;
+    const double _x460 = _x165*_p_m3;
+    const double _x461 = _x3*_p_m3;
+    const double _x462 = _x167*_p_m3;
+    const double _x463 = _x168*_p_m3;
+    const double _x464 = -_x120*_x164 - _x122*_x167 - _x367*_x5 - _x373*_x4 - _x379*_x7;
+    const double _x465 = -_x120*_x165 - _x121*_x3 - _x122*_x168 - _x368*_x5 - _x374*_x4 - _x380*_x7;
+    const double _x466 = -_x369*_x5 - _x375*_x4 - _x381*_x7;
+    const double _x467 = -_x370*_x5 - _x376*_x4 - _x382*_x7;
+    const double _x468 = -_x371*_x5 - _x377*_x4 - _x383*_x7;
+    const double _x469 = -_x372*_x5 - _x378*_x4 - _x384*_x7;
+    const double _x470 = _x461*_p_g;
+    const double _x471 = 2.0*_x214*_x56 + 2.0*_x217*_x58 + 2.0*_x219*_x46 + 2.0*_x224*_x48;
+    const double _x472 = 2.0*_x215*_x56 + 2.0*_x218*_x58 + 2.0*_x220*_x46 + 2.0*_x225*_x48;
+    const double _x473 = 2.0*_x46*_x6 + 2.0*_x48*_x8 + 2.0*_x5*_x56 + 2.0*_x58*_x7;
+    const double _x474 = 2.0*_x164*_x46 + 2.0*_x167*_x48 + 2.0*_x214*_x5 + 2.0*_x217*_x7;
+    const double _x475 = 2.0*_x165*_x46 + 2.0*_x168*_x48 + 2.0*_x215*_x5 + 2.0*_x218*_x7;
+    const double _x476 = 2.0*_x62 + 2.0*_x72;
+    const double _x477 = _qdd_x3*_x450;
+    const double _x478 = _qdd_x3*_x451;
+    const double _x479 = _qdd_x3*_x452;
+    const double _x480 = _qdd_x3*_x453;
+    const double _x481 = _qdd_x3*_x454;
+    const double _x482 = _qdd_x3*_x455;
+    const double _x483 = _qdd_x3*_x456;
+    const double _x484 = _qdd_x3*_x457;
+    const double _x485 = _qdd_x3*_x458;
+    const double _x486 = _qdd_x3*_x459;
+    const double _x487 = _qdd_x3*_x460;
+    const double _x488 = _qdd_x3*_x461;
+    const double _x489 = _qdd_x3*_x462;
+    const double _x490 = _qdd_x3*_x463;
+    const double _x491 = _x477 + _qdd_psi2*_x423;
+    const double _x492 = _x478 + _qdd_psi2*_x424;
+    const double _x493 = _x479 + _qdd_psi2*_x425;
+    const double _x494 = _x480 + _qdd_psi2*_x426;
+    const double _x495 = _x481 + _qdd_psi2*_x427;
+    const double _x496 = _x482 + _qdd_psi2*_x428;
+    const double _x497 = _x483 + _qdd_psi2*_x429;
+    const double _x498 = _x484 + _qdd_psi2*_x430;
+    const double _x499 = _x485 + _qdd_psi2*_x431;
+    const double _x500 = _x486 + _qdd_psi2*_x432;
+    const double _x501 = _x487 + _qdd_psi2*_x433;
+    const double _x502 = _qdd_psi2*_x434;
+    const double _x503 = _x489 + _qdd_psi2*_x438;
+    const double _x504 = _x490 + _qdd_psi2*_x439;
+    const double _x505 = _qdd_psi2*_x440;
+    const double _x506 = _x494 + _qdd_theta1*_x422;
+    const double _x507 = _x495 + _qdd_theta1*_x395;
+    const double _x508 = _x496 + _qdd_theta1*_x321;
+    const double _x509 = _qdd_psi2*_x162;
+    const double _x510 = _qdd_psi2*_x171;
+    const double _x511 = _qdd_psi2*_x172;
+    const double _x512 = -_x406 - _x506;
+    const double _x513 = -_x407 - _x507;
+    const double _x514 = -_x357 - _x508;
+    const double _x515 = _x441 - _x447 + _lam_circle*_x471 + _lam_height*_x221 - _qdd_theta1*_x426 - _x0*_x154 - _x0*_x497 - _x1*_x491 - _x10*_x503 - _x155*_x162 - _x156*_x171 - _x157*_x172 - _x500*_x9;
+    const double _x516 = _x442 - _x448 + _lam_circle*_x472 + _lam_height*_x222 - _qdd_theta1*_x427 - _x0*_x498 - _x1*_x492 - _x10*_x504 - _x501*_x9;
+    const double _x517 = _x443 - _x449 + _lam_circle*_x473 + _lam_height*_x223 - _qdd_theta1*_x428 - _x0*_x499 - _x1*_x493 - _x10*_x505 - _x502*_x9;
+    const double _x518 = _x464 + _lam_circle*_x474 - _qdd_theta1*_x453 - _x142*_x159 - _x145*_x509 - _x146*_x510 - _x148*_x511 - _x151*_x164 - _x153*_x167 - _x158*_x450 - _x159*_x456 - _x160*_x459 - _x161*_x462 - _x486*_x5 - _x489*_x7;
+    const double _x519 = _x465 - _x470 + _lam_circle*_x475 + _x3*(_lam_height - _x152) - _qdd_theta1*_x454 - _x151*_x165 - _x153*_x168 - _x158*_x451 - _x159*_x457 - _x160*_x460 - _x161*_x463 - _x4*_x488 - _x487*_x5 - _x490*_x7;
+    const double _x520 = _x466 + _lam_circle*_x476 - _qdd_theta1*_x455 - _x158*_x452 - _x159*_x458;
+    const double _x521 = _x209 + _qd_theta1*_x217 - _x183*_x47;
+    const double _x522 = _x210 + _qd_theta1*_x218 - _x16*_x216;
+    const double _x523 = _x16*_x214 + _x183*_x46 - _x15*_x217 - _x16*_x48;
+    const double _x524 = _x211 + _x16*_x215 - _x15*_x218;
+    const double _x525 = _x0*_x46 - _x1*_x48;
+    const double _x526 = _x212 + _x16*_x47 - _qd_theta1*_x214;
+    const double _x527 = _x213 + _x15*_x216 - _qd_theta1*_x215;
+    const double _x528 = _x196 + _qd_theta1*_x526 - _x16*_x523 - _x175*_x47 - _x183*_x50;
+    const double _x529 = _x197 + _qd_theta1*_x527 - _x12*_x216 - _x16*_x524;
+    const double _x530 = _qd_theta1*_x208 - _x12*_x4 - _x16*_x203;
+    const double _x531 = _x42 + _x51 + _x52 - _x176*_x47;
+    const double _x532 = _x198 + _qd_theta1*_x58 - _x0*_x50 - _x16*_x525 - _x177*_x47;
+    const double _x533 = _x199 + _x30 + _x31;
+    const double _x534 = _x200 + _x12*_x214 + _x16*_x521 + _x175*_x46 + _x183*_x49 - _x11*_x217 - _x15*_x526 - _x16*_x52 - _x173*_x48;
+    const double _x535 = _x201 + _x12*_x215 + _x16*_x522 - _x11*_x218 - _x15*_x527;
+    const double _x536 = _x12*_x5 + _x16*_x199 - _x11*_x7 - _x15*_x208;
+    const double _x537 = _x15*_x46 + _x176*_x46;
+    const double _x538 = _x202 + _x0*_x49 + _x16*_x56 + _x177*_x46 - _x1*_x52 - _x15*_x58 - _x174*_x48;
+    const double _x539 = _x203 + _x33 + _x34;
+    const double _x540 = _x204 + _x15*_x523 + _x16*_x50 + _x173*_x47 - _qd_theta1*_x521;
+    const double _x541 = _x205 + _x11*_x216 + _x15*_x524 - _qd_theta1*_x522;
+    const double _x542 = _x11*_x4 + _x15*_x203 - _qd_theta1*_x199;
+    const double _x543 = _x206 - _x49 + _x16*_x47 - _qd_theta1*_x48;
+    const double _x544 = _x207 + _x1*_x50 + _x15*_x525 + _x174*_x47 - _qd_theta1*_x56;
+    const double _x545 = _x208 + _x36 + _x37;
+    const double _x546 = 2.0*_x214*_x46 + 2.0*_x217*_x48;
+    const double _x547 = 2.0*_x215*_x46 + 2.0*_x218*_x48;
+    const double _x548 = 2.0*_x48*_x7;
+    const double _x549 = 2.0*_x46*_x5;
+    const double _x550 = _x548 + _x549;
+    const double _x551 = 2.0*_x214*_x49 + 2.0*_x217*_x52 + 2.0*_x46*_x521 + 2.0*_x48*_x526;
+    const double _x552 = 2.0*_x215*_x49 + 2.0*_x218*_x52 + 2.0*_x46*_x522 + 2.0*_x48*_x527;
+    const double _x553 = 2.0*_x199*_x46 + 2.0*_x208*_x48 + 2.0*_x49*_x5 + 2.0*_x52*_x7;
+    const double _x554 = 2.0*_x46*_x56 + 2.0*_x48*_x58;
+    const double _x555 = 2.0*_x214*_x53 + 2.0*_x217*_x54 + 2.0*_x46*_x528 + 2.0*_x48*_x540 + 4.0*_x49*_x521 + 4.0*_x52*_x526;
+    const double _x556 = 2.0*_x215*_x53 + 2.0*_x218*_x54 + 2.0*_x46*_x529 + 2.0*_x48*_x541 + 4.0*_x49*_x522 + 4.0*_x52*_x527;
+    const double _x557 = 2.0*_x46*_x530 + 2.0*_x48*_x542 + 2.0*_x5*_x53 + 2.0*_x54*_x7 + 4.0*_x199*_x49 + 4.0*_x208*_x52;
+    const double _x558 = -4.0*_x46*_x52 + 2.0*_x46*_x531 + 2.0*_x48*_x543 + 4.0*_x48*_x49;
+    const double _x559 = 2.0*_x46*_x532 + 2.0*_x48*_x544 + 4.0*_x49*_x56 + 4.0*_x52*_x58;
+    const double _x560 = 2.0*_x46*_x533 + 2.0*_x48*_x545 + 4.0*_x49*_x5 + 4.0*_x52*_x7;
+    const double _x561 = (_p_beta_circle*_p_beta_circle);
+    const double _x562 = -_x555 - _qdd_psi2*_x471 - _qdd_x3*_x474 - _x546*_x561 - 2.0*_x551*_p_alpha_circle;
+    const double _x563 = -_x556 - _qdd_psi2*_x472 - _qdd_x3*_x475 - _x547*_x561 - 2.0*_x552*_p_alpha_circle;
+    const double _x564 = -_x557 - _qdd_psi2*_x473 - _qdd_x3*_x476 - _x550*_x561 - 2.0*_x553*_p_alpha_circle;
+    const double _x565 = -_x559 - 2.0*_x554*_p_alpha_circle;
+    const double _x566 = -_x560 - 2.0*_x550*_p_alpha_circle;
+    const double _x567 = -_x534 - _qdd_psi2*_x221 - 2.0*_x523*_p_alpha_height;
+    const double _x568 = (_p_beta_height*_p_beta_height);
+    const double _x569 = -_x535 - _qdd_psi2*_x222 - _qdd_x3*_x3 - _x216*_x568 - 2.0*_x524*_p_alpha_height;
+    const double _x570 = -_x536 - _qdd_psi2*_x223 - _x4*_x568 - 2.0*_x203*_p_alpha_height;
+    const double _x571 = -_x538 - 2.0*_x525*_p_alpha_height;
+    const double _x572 = -_x539 - 2.0*_x4*_p_alpha_height;
+    out_F_q[0] = _x512;
+    out_F_q[1] = _x513;
+    out_F_q[2] = _x514;
+    out_F_q[3] = _x515;
+    out_F_q[4] = _x516;
+    out_F_q[5] = _x517;
+    out_F_q[6] = _x518;
+    out_F_q[7] = _x519;
+    out_F_q[8] = _x520;
+    out_F_qd[0] = -_x408;
+    out_F_qd[1] = -_x409;
+    out_F_qd[2] = -_x360;
+    out_F_qd[3] = _x444;
+    out_F_qd[4] = _x445;
+    out_F_qd[5] = _x446;
+    out_F_qd[6] = _x467;
+    out_F_qd[7] = _x468;
+    out_F_qd[8] = _x469;
+    out_C_q[0] = _x562;
+    out_C_q[1] = _x563;
+    out_C_q[2] = _x564;
+    out_C_q[3] = _x567;
+    out_C_q[4] = _x569;
+    out_C_q[5] = _x570;
+    out_C_qd[0] = -_x558;
+    out_C_qd[1] = _x565;
+    out_C_qd[2] = _x566;
+    out_C_qd[3] = -_x537;
+    out_C_qd[4] = _x571;
+    out_C_qd[5] = _x572;
+}
+#endif
+
+
 #ifdef HOT_PART
 /* ---- GPME (paper eqs. 12-16) ------------------------------------------------------------- */
 
@@ -1317,6 +1966,185 @@ long manipulator_nrfe1_gpme_accelerations_batch(long n, const double *t, const d
     *status = GPMEGEN_OK;
     return n;
 }
+
+/* ---- Acceleration Jacobians ---------------------------------------------------------------- */
+
+/* LU factorization with partial pivoting of the n x n row-major a, in place (unit lower L below
+   the diagonal, U on and above); piv[k] is the row swapped with row k at step k. Returns
+   GPMEGEN_NONFINITE when an entry is not finite, GPMEGEN_SINGULAR when a pivot is at or below
+   n * DBL_EPSILON times the largest entry, else GPMEGEN_OK. */
+static NOINLINE int lu_factor(int n, double *a, int *piv)
+{
+    double largest = 0.0;
+    for (int i = 0; i < n * n; ++i) {
+        if (!isfinite(a[i])) {
+            return GPMEGEN_NONFINITE;
+        }
+        largest = fabs(a[i]) > largest ? fabs(a[i]) : largest;
+    }
+    const double tiny = (double)n * DBL_EPSILON * largest;
+    for (int k = 0; k < n; ++k) {
+        int r = k;
+        for (int i = k + 1; i < n; ++i) {
+            r = fabs(a[i * n + k]) > fabs(a[r * n + k]) ? i : r;
+        }
+        if (!(fabs(a[r * n + k]) > tiny)) {
+            return GPMEGEN_SINGULAR;
+        }
+        piv[k] = r;
+        if (r != k) {
+            for (int j = 0; j < n; ++j) {
+                const double s = a[k * n + j];
+                a[k * n + j] = a[r * n + j];
+                a[r * n + j] = s;
+            }
+        }
+        const double inv = 1.0 / a[k * n + k];
+        for (int i = k + 1; i < n; ++i) {
+            const double l = a[i * n + k] * inv;
+            a[i * n + k] = l;
+            for (int j = k + 1; j < n; ++j) {
+                a[i * n + j] -= l * a[k * n + j];
+            }
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* Solves a x = b for the k columns of b (n x k row-major, overwritten by x), a and piv from
+   lu_factor. */
+static NOINLINE void lu_solve(int n, const double *a, const int *piv, int k, double *b)
+{
+    for (int i = 0; i < n; ++i) {
+        if (piv[i] != i) {
+            for (int c = 0; c < k; ++c) {
+                const double s = b[i * k + c];
+                b[i * k + c] = b[piv[i] * k + c];
+                b[piv[i] * k + c] = s;
+            }
+        }
+    }
+    for (int i = 1; i < n; ++i) {
+        for (int r = 0; r < i; ++r) {
+            const double l = a[i * n + r];
+            for (int c = 0; c < k; ++c) {
+                b[i * k + c] -= l * b[r * k + c];
+            }
+        }
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        for (int r = i + 1; r < n; ++r) {
+            const double u = a[i * n + r];
+            for (int c = 0; c < k; ++c) {
+                b[i * k + c] -= u * b[r * k + c];
+            }
+        }
+        const double inv = 1.0 / a[i * n + i];
+        for (int c = 0; c < k; ++c) {
+            b[i * k + c] *= inv;
+        }
+    }
+}
+
+/* qdd (N_DOF) from the GPME (gpme_solve) and its Jacobians dqdd_dq, dqdd_dqd (N_DOF x N_DOF
+   row-major, [i][j] = d qdd_i / d q_j): differentiating M qdd - f = D^T lam and D qdd = c,
+       [M  -D^T] [d qdd]   [dF]      F = f - M a + D^T lam,  C = c - D a  at a = qdd,
+       [D    0 ] [d lam] = [dC],     lam fixed (gpme_residual_jacobians),
+   with lam = (D D^T)^-1 D (M qdd - f), solved by LU with partial pivoting for the 2 N_DOF
+   columns of dq and dqd together. dependent is not read (the solve chooses its own, as
+   gpme_solve does). Returns the status of gpme_solve, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE
+   when the system above is singular or not finite. */
+static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
+                         double *qdd, double *dqdd_dq, double *dqdd_dqd)
+{
+    enum { NC = N_CONSTRAINTS, NK = N_DOF + N_CONSTRAINTS, NR = 2 * N_DOF };
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    double K[NK * NK] ALIGNED, rhs[NK * NR] ALIGNED;
+    double F_q[N_DOF * N_DOF] ALIGNED, F_qd[N_DOF * N_DOF] ALIGNED;
+    double C_q[NC > 0 ? NC * N_DOF : 1] ALIGNED, C_qd[NC > 0 ? NC * N_DOF : 1] ALIGNED;
+    double lam[NC > 0 ? NC : 1] ALIGNED = {0.0};
+    int piv[NK] ALIGNED;
+    int status;
+
+    if ((status = gpme_solve(t, q, qd, p, dependent, dependent, qdd, M, f, &power)) != GPMEGEN_OK) {
+        return status;
+    }
+
+    {
+        double M2[N_DOF * N_DOF] ALIGNED, f2[N_DOF] ALIGNED, phi[NC] ALIGNED, phi_rate[NC] ALIGNED, gam[NC] ALIGNED;
+        double D[NC * N_DOF] ALIGNED, DDt[NC * NC] ALIGNED, r[N_DOF] ALIGNED;
+        int piv_c[NC] ALIGNED;
+        manipulator_nrfe1_gpme_terms(t, q, qd, p, M2, f2, phi, phi_rate, D, gam);
+        for (int i = 0; i < N_DOF; ++i) {  /* M qdd - f */
+            double s = -f[i];
+            for (int j = 0; j < N_DOF; ++j) {
+                s += M[i * N_DOF + j] * qdd[j];
+            }
+            r[i] = s;
+        }
+        for (int a = 0; a < NC; ++a) {
+            double s = 0.0;
+            for (int j = 0; j < N_DOF; ++j) {
+                s += D[a * N_DOF + j] * r[j];
+            }
+            lam[a] = s;
+            for (int b = 0; b < NC; ++b) {
+                double v = 0.0;
+                for (int j = 0; j < N_DOF; ++j) {
+                    v += D[a * N_DOF + j] * D[b * N_DOF + j];
+                }
+                DDt[a * NC + b] = v;
+            }
+        }
+        if ((status = lu_factor(NC, DDt, piv_c)) != GPMEGEN_OK) {
+            return status;
+        }
+        lu_solve(NC, DDt, piv_c, 1, lam);
+        for (int a = 0; a < NC; ++a) {
+            for (int j = 0; j < N_DOF; ++j) {
+                K[j * NK + N_DOF + a] = -D[a * N_DOF + j];
+                K[(N_DOF + a) * NK + j] = D[a * N_DOF + j];
+            }
+            for (int b = 0; b < NC; ++b) {
+                K[(N_DOF + a) * NK + N_DOF + b] = 0.0;
+            }
+        }
+    }
+
+    manipulator_nrfe1_gpme_residual_jacobians(t, q, qd, qdd, lam, p, F_q, F_qd, C_q, C_qd);
+    for (int i = 0; i < N_DOF; ++i) {
+        for (int j = 0; j < N_DOF; ++j) {
+            K[i * NK + j] = M[i * N_DOF + j];
+            rhs[i * NR + j] = F_q[i * N_DOF + j];
+            rhs[i * NR + N_DOF + j] = F_qd[i * N_DOF + j];
+        }
+    }
+    for (int a = 0; a < NC; ++a) {
+        for (int j = 0; j < N_DOF; ++j) {
+            rhs[(N_DOF + a) * NR + j] = C_q[a * N_DOF + j];
+            rhs[(N_DOF + a) * NR + N_DOF + j] = C_qd[a * N_DOF + j];
+        }
+    }
+    if ((status = lu_factor(NK, K, piv)) != GPMEGEN_OK) {
+        return status;
+    }
+    lu_solve(NK, K, piv, NR, rhs);
+    for (int i = 0; i < N_DOF; ++i) {
+        for (int j = 0; j < N_DOF; ++j) {
+            dqdd_dq[i * N_DOF + j] = rhs[i * NR + j];
+            dqdd_dqd[i * N_DOF + j] = rhs[i * NR + N_DOF + j];
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* See gpme_jacobian and model.h. */
+int manipulator_nrfe1_gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
+    double *qdd, double *dqdd_dq, double *dqdd_dqd)
+{
+    return gpme_jacobian(t, q, qd, p, dependent, qdd, dqdd_dq, dqdd_dqd);
+}
+
 
 /* ---- Fixed-step RK4 (the integrator of the paper) ---------------------------------------- */
 

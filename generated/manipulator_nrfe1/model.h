@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 135893fdc036d146
+Input hash: f135277a14be2aa5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -167,6 +167,20 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
 */
 void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
 
+/* Jacobians of F = f - M a + D^T lam and C = c - D a (c the constraint rows' right sides).
+   t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   a: (3,) accelerations in COORDINATES order
+   lam: (2,) constraint multipliers in CONSTRAINTS order, M qdd - f = D^T lam
+   p: (25,) parameter values in PARAMETERS order
+   out_F_q: (3, 3) dF/dq, row-major
+   out_F_qd: (3, 3) dF/dqd, row-major
+   out_C_q: (2, 3) dC/dq, one row per constraint, row-major
+   out_C_qd: (2, 3) dC/dqd, one row per constraint, row-major
+*/
+void manipulator_nrfe1_gpme_residual_jacobians(double t, const double *q, const double *qd, const double *a, const double *lam, const double *p, double *out_F_q, double *out_F_qd, double *out_C_q, double *out_C_qd);
+
 
 /* qdd (3,) from the GPME at (t, q, qd, p), and the M (3, 3) and f (3,) it was solved
    from. dependent (2,) and independent (1,) are a partition of the
@@ -182,6 +196,12 @@ int manipulator_nrfe1_gpme_accelerations(double t, const double *q, const double
    one (the same arithmetic, so the same bits). Stops at the first state that fails, its status
    in *status (GPMEGEN_OK when none failed); returns the number of states solved. */
 long manipulator_nrfe1_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, int *status);
+
+/* qdd (3,) from the GPME at (t, q, qd, p), as manipulator_nrfe1_gpme_accelerations gives it, and its
+   Jacobians dqdd_dq, dqdd_dqd (3, 3), [i][j] = d qdd_i / d q_j and d qdd_i / d qd_j, from the
+   generated derivatives of the GPME's terms. dependent (2,) is not read. Returns the statuses
+   of manipulator_nrfe1_gpme_accelerations. */
+int manipulator_nrfe1_gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent, double *qdd, double *dqdd_dq, double *dqdd_dqd);
 
 /* Classical RK4 over steps k_from + 1 .. k_to of a grid of n_steps steps of dt from t0, the last
    ending at t_end, from q0, qd0 (3,) and the work w0 (2,) (J) of drive and constraint forces

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1b58b861dc3efcba
+Input hash: 3b50e567a649e82e
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -179,6 +179,20 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
 */
 void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
 
+/* Jacobians of F = f - M a + D^T lam and C = c - D a (c the constraint rows' right sides).
+   t: time (s)
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
+   a: (15,) accelerations in COORDINATES order
+   lam: (2,) constraint multipliers in CONSTRAINTS order, M qdd - f = D^T lam
+   p: (25,) parameter values in PARAMETERS order
+   out_F_q: (15, 15) dF/dq, row-major
+   out_F_qd: (15, 15) dF/dqd, row-major
+   out_C_q: (2, 15) dC/dq, one row per constraint, row-major
+   out_C_qd: (2, 15) dC/dqd, one row per constraint, row-major
+*/
+void manipulator_nrfe5_gpme_residual_jacobians(double t, const double *q, const double *qd, const double *a, const double *lam, const double *p, double *out_F_q, double *out_F_qd, double *out_C_q, double *out_C_qd);
+
 
 /* qdd (15,) from the GPME at (t, q, qd, p), and the M (15, 15) and f (15,) it was solved
    from. dependent (2,) and independent (13,) are a partition of the
@@ -194,6 +208,12 @@ int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double
    one (the same arithmetic, so the same bits). Stops at the first state that fails, its status
    in *status (GPMEGEN_OK when none failed); returns the number of states solved. */
 long manipulator_nrfe5_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, int *status);
+
+/* qdd (15,) from the GPME at (t, q, qd, p), as manipulator_nrfe5_gpme_accelerations gives it, and its
+   Jacobians dqdd_dq, dqdd_dqd (15, 15), [i][j] = d qdd_i / d q_j and d qdd_i / d qd_j, from the
+   generated derivatives of the GPME's terms. dependent (2,) is not read. Returns the statuses
+   of manipulator_nrfe5_gpme_accelerations. */
+int manipulator_nrfe5_gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent, double *qdd, double *dqdd_dq, double *dqdd_dqd);
 
 /* Classical RK4 over steps k_from + 1 .. k_to of a grid of n_steps steps of dt from t0, the last
    ending at t_end, from q0, qd0 (15,) and the work w0 (2,) (J) of drive and constraint forces

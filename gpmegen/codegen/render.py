@@ -123,7 +123,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         constraint_orders=d.constraints.orders,
         dependent=tuple(model.dependent) if model.dependent is not None else None,
         statuses=tuple(SolveStatus),
-        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names)),
+        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
+                                    n_constraints=len(d.constraints.names)),
     )
     env = template_environment()
     files = {}
