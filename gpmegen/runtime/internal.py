@@ -6,7 +6,7 @@ that of the unactuated coordinates along the constraints: the internal dynamics.
 a state ``(t, q, q̇)`` with its ``q̈`` frozen,
 
     M δq̈ + C δq̇ + K δq = S δu,   D δq = 0,
-    K = ∂(M(q) q̈ - f)/∂q,   C = -∂f/∂q̇        (central differences of the model's M and f),
+    K = ∂(M(q) q̈ - f)/∂q,   C = -∂f/∂q̇        (the generated derivatives of M q̈ and f),
 
 ``δq = N η`` with ``N`` a basis of the null space of ``D``, and the rows of the unactuated
 coordinates ``P`` (those ``S δu`` does not reach) give ``P M N η̈ + P C N η̇ + P K N η = 0``:
@@ -20,30 +20,15 @@ import numpy as np
 import scipy.linalg
 
 # A real part above this fraction of the largest eigenvalue counts as unstable (a neutral
-# coordinate's double zero, split by the differences' round-off, stays below it).
+# coordinate's double zero, split by round-off, stays below it).
 UNSTABLE = 1e-6
-# Relative step of the central differences.
-STEP = 1e-6
 
 
 def linearization(model, t, q, qd, qdd):
-    """(M, C, K) (n, n) of ``M q̈ - f`` about ``(t, q, qd)`` with ``q̈ = qdd`` frozen."""
-    n = model.n_dof
-    M = model.mass_matrix(q)
-
-    def residual(qq, vv):
-        return model.mass_matrix(qq) @ qdd - model.forces(t, qq, vv)
-
-    K, C = np.empty((n, n)), np.empty((n, n))
-    for j in range(n):
-        h = STEP * max(1.0, abs(q[j]))
-        e = np.zeros(n)
-        e[j] = h
-        K[:, j] = (residual(q + e, qd) - residual(q - e, qd)) / (2 * h)
-        h = STEP * max(1.0, abs(qd[j]))
-        e[j] = h
-        C[:, j] = (residual(q, qd + e) - residual(q, qd - e)) / (2 * h)
-    return M, C, K
+    """(M, C, K) (n, n) of ``M q̈ - f`` about ``(t, q, qd)`` with ``q̈ = qdd`` frozen, from the
+    generated derivatives of ``F = f - M a`` (:meth:`LoadedModel.residual_jacobians`, ``λ = 0``)."""
+    F_q, F_qd, _, _ = model.residual_jacobians(t, q, qd, qdd, np.zeros(len(model.constraint_names)))
+    return model.mass_matrix(q), -F_qd, -F_q
 
 
 def eigenvalues(model, t, q, qd):
