@@ -55,7 +55,8 @@ from .version import __version__
 
 
 def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,
-         directory=None, build: bool = True, progress=None, command=None, transforms=DEFAULT_TRANSFORMS):
+         directory=None, build: bool = True, progress=None, command=None, transforms=DEFAULT_TRANSFORMS,
+         jacobians: bool = False):
     """The generated model ready to evaluate.
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
@@ -71,7 +72,8 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
 
     ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
     ``transforms``: the body transforms to generate, of "T", "T_i", "T_ij"
-    (:meth:`LoadedModel.transforms`); a folder built with others is built again.
+    (:meth:`LoadedModel.transforms`); a folder built with others is built again. ``jacobians``:
+    with the generated derivatives of the GPME (:meth:`LoadedModel.acceleration_jacobians`).
     """
     check_backend(backend)
     if model is None:
@@ -80,21 +82,22 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         model = reference_model(check_nrfe(nrfe, "the reference arm"))
         free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
         loaded = load(backend=backend, params=free, model=model, directory=directory, build=build,
-                      progress=progress, command=f"gpmegen build --nrfe {nrfe}", transforms=transforms)
+                      progress=progress, command=f"gpmegen build --nrfe {nrfe}", transforms=transforms,
+                      jacobians=jacobians)
         return with_constants(loaded, params)[0]
     directory = Path(directory) if directory is not None else default_directory()
     folder = directory / model.name
     recover_folder(folder)
     rebuild = command or "gpmegen build"
     transforms = check_kinds(transforms)
-    digest = input_hash(model, BACKENDS, transforms)
+    digest = input_hash(model, BACKENDS, transforms, jacobians)
     used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
     reason = stale_reason(folder, read_manifest(folder), digest, used)
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest,
-                    transforms=transforms)
+                    transforms=transforms, jacobians=jacobians)
     return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
                        progress=progress)
 

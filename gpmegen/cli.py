@@ -205,10 +205,13 @@ def cmd_build(args) -> int:
     transforms, asked = DEFAULT_TRANSFORMS, ""
     if args.transforms is not None:
         transforms, asked = args.transforms, f" --transforms {','.join(args.transforms) or 'none'}"
+    if args.jacobians:
+        asked += " --jacobians"
     total = time.perf_counter()
     for case, model in zip(cases, models):
         result = case.located(functools.partial(build, model, out, backends, force=args.force, progress=progress,
-                                                command=case.command + asked, transforms=transforms))
+                                                command=case.command + asked, transforms=transforms,
+                                                jacobians=args.jacobians))
         case.record_start(result.folder)
         sizes = ", ".join(f"{name} {size / 1024:.0f} KiB" for name, size in result.files.items())
         state = "up to date, skipped (use --force to rebuild)" if result.skipped else f"built in {result.seconds:.2f} s"
@@ -680,6 +683,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--transforms", type=transform_kinds, default=None, metavar="T,T_i,T_ij",
                    help="body transforms to generate: T (4x4 per body, the default), its first derivatives T_i and "
                         "second derivatives T_ij (large: O(n_dof²) matrices per body), or none")
+    b.add_argument("--jacobians", action="store_true",
+                   help="also generate the derivatives of the GPME, so that the acceleration Jacobians "
+                        "dqdd/dq, dqdd/dqd are exact (large: O(n_dof²) values; without them the implicit "
+                        "integrators use central differences)")
     b.set_defaults(func=cmd_build)
 
     ex = command("export", "the discretized chain as a URDF robot")

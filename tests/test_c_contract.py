@@ -39,10 +39,11 @@ def test_every_function_documents_its_arguments_and_the_documented_shapes_hold(b
     folder = built[1]
     module = import_numpy_module(folder)
     header = (folder / "model.h").read_text()
-    n, n_p = len(module.COORDINATES), len(module.PARAMETERS)
-    values = {"t": 0.3, "q": np.full(n, 0.2), "qd": np.full(n, 0.1), "p": np.array(module.DEFAULTS)}
+    n, n_p, m = len(module.COORDINATES), len(module.PARAMETERS), len(module.CONSTRAINTS)
+    values = {"t": 0.3, "q": np.full(n, 0.2), "qd": np.full(n, 0.1), "a": np.full(n, 0.3), "lam": np.full(m, 0.5),
+              "p": np.array(module.DEFAULTS)}
     for fn in model_functions(derive(reference_model(1))):
-        described = list(arguments(fn, n, n_p))
+        described = list(arguments(fn, n, n_p, m))
         python = getattr(module, fn.name)
         assert _documented(python.__doc__, c=False) == described, fn.name
         comment = header[:header.index(f"{module.MODEL}_{fn.name}(")].rsplit("/*", 1)[1]
@@ -71,7 +72,7 @@ def test_the_cffi_declarations_are_the_header_without_preprocessor_lines(built):
     assert sorted(ccompile.short_names(re.findall(r"(\w+)\(", cdef))) == sorted(
         [fn.name for fn in functions] + [fn.name + "_batch" for fn in functions if fn.batched]
         + ["input_hash", "n_dof", "n_constraints", "n_parameters", "n_points", "gpme_motion",
-           "gpme_accelerations", "gpme_accelerations_batch", "rk4", "dop853", "genalpha"])
+           "gpme_accelerations", "gpme_accelerations_batch", "gpme_jacobian", "rk4", "dop853", "genalpha"])
 
 
 @pytest.mark.requires_cc

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: f7f5c9b1fdb181eb
+Input hash: fb2e9a56ab89f526
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -50,7 +50,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "f7f5c9b1fdb181eb"; }
+const char *manipulator_nrfe1_input_hash(void) { return "fb2e9a56ab89f526"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -1558,12 +1558,95 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
     }
     return GPMEGEN_OK;
 }
+/* ---- Dense LU (the Jacobians' linear system here, the Newton matrix of generalized-alpha) ---- */
+
+/* LU factorization with partial pivoting of the n x n row-major a, in place (unit lower L below
+   the diagonal, U on and above); piv[k] is the row swapped with row k at step k. Returns
+   GPMEGEN_NONFINITE when an entry is not finite, GPMEGEN_SINGULAR when a pivot is at or below
+   n * DBL_EPSILON times the largest entry, else GPMEGEN_OK. */
+static NOINLINE int lu_factor(int n, double *a, int *piv)
+{
+    double largest = 0.0;
+    for (int i = 0; i < n * n; ++i) {
+        if (!isfinite(a[i])) {
+            return GPMEGEN_NONFINITE;
+        }
+        largest = fabs(a[i]) > largest ? fabs(a[i]) : largest;
+    }
+    const double tiny = (double)n * DBL_EPSILON * largest;
+    for (int k = 0; k < n; ++k) {
+        int r = k;
+        for (int i = k + 1; i < n; ++i) {
+            r = fabs(a[i * n + k]) > fabs(a[r * n + k]) ? i : r;
+        }
+        if (!(fabs(a[r * n + k]) > tiny)) {
+            return GPMEGEN_SINGULAR;
+        }
+        piv[k] = r;
+        if (r != k) {
+            for (int j = 0; j < n; ++j) {
+                const double s = a[k * n + j];
+                a[k * n + j] = a[r * n + j];
+                a[r * n + j] = s;
+            }
+        }
+        const double inv = 1.0 / a[k * n + k];
+        for (int i = k + 1; i < n; ++i) {
+            const double l = a[i * n + k] * inv;
+            a[i * n + k] = l;
+            for (int j = k + 1; j < n; ++j) {
+                a[i * n + j] -= l * a[k * n + j];
+            }
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* Solves a x = b for the k columns of b (n x k row-major, overwritten by x), a and piv from
+   lu_factor. */
+static NOINLINE void lu_solve(int n, const double *a, const int *piv, int k, double *b)
+{
+    for (int i = 0; i < n; ++i) {
+        if (piv[i] != i) {
+            for (int c = 0; c < k; ++c) {
+                const double s = b[i * k + c];
+                b[i * k + c] = b[piv[i] * k + c];
+                b[piv[i] * k + c] = s;
+            }
+        }
+    }
+    for (int i = 1; i < n; ++i) {
+        for (int r = 0; r < i; ++r) {
+            const double l = a[i * n + r];
+            for (int c = 0; c < k; ++c) {
+                b[i * k + c] -= l * b[r * k + c];
+            }
+        }
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        for (int r = i + 1; r < n; ++r) {
+            const double u = a[i * n + r];
+            for (int c = 0; c < k; ++c) {
+                b[i * k + c] -= u * b[r * k + c];
+            }
+        }
+        const double inv = 1.0 / a[i * n + i];
+        for (int c = 0; c < k; ++c) {
+            b[i * k + c] *= inv;
+        }
+    }
+}
+
+
+/* ---- Acceleration Jacobians ---------------------------------------------------------------- */
+
 /* qdd (N_DOF) = gpme_solve's accelerations at (t, q, qd), and their Jacobians dqdd_dq and dqdd_dqd
    (N_DOF x N_DOF, row-major: entry [i * N_DOF + j] is d qdd_i / d q_j). dependent: as for
    gpme_solve (which chooses its own partition and reads none). Returns the status of gpme_solve.
-   PLACEHOLDER: central differences of gpme_solve with steps cbrt(DBL_EPSILON) max(1, |x_j|)
-   (about 1e-10 relative, 4 N_DOF + 1 solves), until the analytic Jacobians of the generated
-   derivatives take this body's place with the same signature and meaning. */
+   A model built without its Jacobians (gpmegen build --jacobians): central differences of
+   gpme_solve with steps cbrt(DBL_EPSILON) max(1, |x_j|) (about 1e-10 relative, 4 N_DOF + 1
+   solves). An implicit integrator refreshes its Jacobian rarely, so these cost little there; the
+   generated ones are exact, and cheaper to build without. */
 static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
                          double *qdd, double *dqdd_dq, double *dqdd_dqd)
 {
@@ -1596,6 +1679,14 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
         }
     }
     return GPMEGEN_OK;
+}
+
+
+/* See gpme_jacobian and model.h. */
+int manipulator_nrfe1_gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
+    double *qdd, double *dqdd_dq, double *dqdd_dqd)
+{
+    return gpme_jacobian(t, q, qd, p, dependent, qdd, dqdd_dq, dqdd_dqd);
 }
 
 /* ---- DOP853: Dormand-Prince 8(5,3), adaptive, with its dense output of order 7 ------------- */
@@ -1913,62 +2004,6 @@ int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const d
 
 /* ---- Generalized-alpha (Chung and Hulbert 1993) for qdd = a(t, q, qd) ------------------------ */
 
-/* LU factorization with partial pivoting of the n x n row-major matrix a, in place; pivot (n)
-   the row taken at each column. Returns GPMEGEN_OK, GPMEGEN_SINGULAR on a zero pivot,
-   GPMEGEN_NONFINITE on a non-finite entry. */
-static int lu_factor(int n, double *a, int *pivot)
-{
-    for (int k = 0; k < n; ++k) {
-        int r = k;
-        for (int i = k + 1; i < n; ++i) {
-            if (fabs(a[i * n + k]) > fabs(a[r * n + k])) {
-                r = i;
-            }
-        }
-        if (!isfinite(a[r * n + k])) {
-            return GPMEGEN_NONFINITE;
-        }
-        if (a[r * n + k] == 0.0) {
-            return GPMEGEN_SINGULAR;
-        }
-        pivot[k] = r;
-        if (r != k) {
-            for (int j = 0; j < n; ++j) {
-                const double s = a[k * n + j];
-                a[k * n + j] = a[r * n + j];
-                a[r * n + j] = s;
-            }
-        }
-        for (int i = k + 1; i < n; ++i) {
-            const double l = a[i * n + k] / a[k * n + k];
-            a[i * n + k] = l;
-            for (int j = k + 1; j < n; ++j) {
-                a[i * n + j] -= l * a[k * n + j];
-            }
-        }
-    }
-    return GPMEGEN_OK;
-}
-
-/* b (n) = A^-1 b with the factors of lu_factor. */
-static void lu_solve(int n, const double *a, const int *pivot, double *b)
-{
-    for (int k = 0; k < n; ++k) {
-        const double s = b[pivot[k]];
-        b[pivot[k]] = b[k];
-        b[k] = s;
-        for (int i = k + 1; i < n; ++i) {
-            b[i] -= a[i * n + k] * b[k];
-        }
-    }
-    for (int k = n - 1; k >= 0; --k) {
-        b[k] /= a[k * n + k];
-        for (int i = 0; i < k; ++i) {
-            b[i] -= a[i * n + k] * b[k];
-        }
-    }
-}
-
 /* The parameters of the generalized-alpha method with spectral radius rho_inf at h omega -> inf
    (Chung and Hulbert; Arnold and Bruls 2007 for qdd given): second order, unconditionally stable
    for linear problems, the high frequencies damped to rho_inf, the low ones barely. */
@@ -2117,7 +2152,7 @@ int manipulator_nrfe1_genalpha(double t0, double dt, long n_steps, double t_end,
                 for (int i = 0; i < N_DOF; ++i) {
                     dx[i] = r_new[N_DOF + i] - x[i];
                 }
-                lu_solve(N_DOF, S, pivot, dx);
+                lu_solve(N_DOF, S, pivot, 1, dx);
                 for (int i = 0; i < N_DOF; ++i) {
                     x[i] += dx[i];
                     size = fmax(size, fabs(dx[i]));

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: b8f8d752b4415045
+Input hash: 718b1aa1b6c7d196
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -204,6 +204,12 @@ int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double
    one (the same arithmetic, so the same bits). Stops at the first state that fails, its status
    in *status (GPMEGEN_OK when none failed); returns the number of states solved. */
 long manipulator_nrfe5_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, int *status);
+
+/* qdd (15,) from the GPME at (t, q, qd, p), as manipulator_nrfe5_gpme_accelerations gives it, and its
+   Jacobians dqdd_dq, dqdd_dqd (15, 15), [i][j] = d qdd_i / d q_j and d qdd_i / d qd_j, by central differences
+   of the solve (this model was built without its Jacobians: gpmegen build --jacobians). dependent (2,) is not read. Returns the statuses
+   of manipulator_nrfe5_gpme_accelerations. */
+int manipulator_nrfe5_gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent, double *qdd, double *dqdd_dq, double *dqdd_dqd);
 
 /* Classical RK4 over steps k_from + 1 .. k_to of a grid of n_steps steps of dt from t0, the last
    ending at t_end, from q0, qd0 (15,) and the work w0 (2,) (J) of drive and constraint forces

@@ -38,6 +38,8 @@ class Block:
     stores: tuple     # (workspace slot, local name)
     outputs: tuple    # (output name, index, code)
     outputs_written: tuple  # names of the outputs this block writes
+    a_used: tuple = ()  # given accelerations and multipliers read (functions with inputs a, lam)
+    lam_used: tuple = ()
 
 
 def split(definitions, outputs, uses, time_symbol, inputs, limit=None):
@@ -47,7 +49,8 @@ def split(definitions, outputs, uses, time_symbol, inputs, limit=None):
     ``definitions``: ``(symbol, local name, code)`` in order; ``outputs``: ``(output name,
     index, code)`` in order; ``uses``: for each definition and then each output, the set of
     symbols its expression reads; ``inputs``: ``{"q": ((symbol, index, local name), ...), "qd":
-    ..., "p": ...}``; ``limit``: statements per block (default :data:`MAX_STATEMENTS`).
+    ..., "p": ...}`` and, for functions that take them, ``"a"``, ``"lam"``; ``limit``:
+    statements per block (default :data:`MAX_STATEMENTS`).
     Returns ``(blocks, workspace size)``."""
     limit = limit or MAX_STATEMENTS
     statements = list(definitions) + list(outputs)
@@ -76,5 +79,6 @@ def split(definitions, outputs, uses, time_symbol, inputs, limit=None):
             *(tuple((j, name) for s, j, name in inputs[kind] if s in read) for kind in ("q", "qd", "p")),
             loads, tuple((name, code) for _, name, code in defined), stores, tuple(written),
             tuple(dict.fromkeys(name for name, _, _ in written)),
+            *(tuple((j, name) for s, j, name in inputs.get(kind, ()) if s in read) for kind in ("a", "lam")),
         ))
     return tuple(blocks), len(slot)

@@ -1,7 +1,8 @@
 """The functions every generated module holds, and their lowering to printable code.
 
 Each function takes some of ``t`` (s), ``q``, ``qd`` (coordinates and velocities in the model's
-order) and ``p`` (parameter values in the model's order) and returns arrays. The same list feeds
+order), ``a`` (given accelerations), ``lam`` (given constraint multipliers) and ``p`` (parameter
+values in the model's order) and returns arrays. The same list feeds
 the NumPy and the C templates, so both backends expose the same functions with the same shapes.
 """
 
@@ -14,6 +15,7 @@ import sympy as sp
 from ..model.chain import TIME
 from ..symbolic import Derivation, names
 from ..symbolic import transforms as _transforms
+from ..symbolic.derivatives import gpme_jacobians
 from ..symbolic.program import Program
 from . import blocks as blocking
 from .cse import eliminate
@@ -31,7 +33,7 @@ class Output:
 class Function:
     name: str
     doc: str
-    inputs: tuple  # subset of ("t", "q", "qd", "p"), in that order
+    inputs: tuple  # subset of ("t", "q", "qd", "a", "lam", "p"), in that order
     outputs: tuple
     batched: bool = False  # the C library also exports <name>_batch over many states
     hot: bool = False  # called by every GPME solve: compiled with the solve and RK4 (model.c.j2)
@@ -42,14 +44,16 @@ INPUT_DOCS = {
     "t": "time (s)",
     "q": "({n},) coordinates in COORDINATES order",
     "qd": "({n},) velocities in COORDINATES order",
+    "a": "({n},) accelerations in COORDINATES order",
+    "lam": "({n},) constraint multipliers in CONSTRAINTS order, M qdd - f = D^T lam",
     "p": "({n},) parameter values in PARAMETERS order",
 }
 
 
-def arguments(fn: Function, n_dof: int, n_parameters: int) -> tuple:
+def arguments(fn: Function, n_dof: int, n_parameters: int, n_constraints: int = 0) -> tuple:
     """``(name, description)`` of each input and then each output of ``fn``, the one text both
     backends print: the NumPy docstring and the C comment."""
-    sizes = {"t": 0, "q": n_dof, "qd": n_dof, "p": n_parameters}
+    sizes = {"t": 0, "q": n_dof, "qd": n_dof, "a": n_dof, "lam": n_constraints, "p": n_parameters}
     inputs = tuple((name, INPUT_DOCS[name].format(n=sizes[name])) for name in fn.inputs)
     outputs = tuple((out.name, f"{out.shape} {out.doc}" + (", row-major" if len(out.shape) >= 2 else ""))
                     for out in fn.outputs)
@@ -69,6 +73,8 @@ class Lowered:
     outputs: tuple  # (Output, tuple of code strings)
     blocks: tuple = ()  # the C backend's blocks (codegen/blocks.py); () when the function is one block
     workspace: int = 0  # values passed between its blocks
+    a_used: tuple = ()    # (index, local name), as q_used
+    lam_used: tuple = ()
 
 
 def _out(name, matrix, doc, vector=False):
@@ -108,9 +114,20 @@ def transform_functions(d: Derivation, kinds) -> list[Function]:
     return fns
 
 
-def model_functions(d: Derivation, transforms=_transforms.DEFAULT) -> list[Function]:
+def given_accelerations(d: Derivation) -> tuple:
+    """The symbols of input ``a`` (n,), in COORDINATES order."""
+    return tuple(names.acceleration(name) for name in d.chain.coordinates)
+
+
+def given_multipliers(d: Derivation) -> tuple:
+    """The symbols of input ``lam`` (m,), in CONSTRAINTS order."""
+    return tuple(names.multiplier(name) for name in d.constraints.names)
+
+
+def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bool = False) -> list[Function]:
     """The generated functions of a derivation, in a fixed order; ``transforms``: the body
-    transforms to generate (see :mod:`gpmegen.symbolic.transforms`)."""
+    transforms to generate (see :mod:`gpmegen.symbolic.transforms`); ``jacobians``: with the
+    derivatives of the GPME residuals (:func:`_jacobian_function`), built on request."""
     dyn, con, kin = d.dynamics, d.constraints, d.kinematics
     points = sp.Matrix([[*kin.points[name].position] for name in kin.points]) if kin.points else sp.zeros(0, 3)
     qd = sp.Matrix(kin.qd)
@@ -148,7 +165,23 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT) -> list[Funct
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
                  ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs, hot=True),
     ]
-    return fns + transform_functions(d, transforms)
+    return fns + ([_jacobian_function(d)] if jacobians else []) + transform_functions(d, transforms)
+
+
+def _jacobian_function(d: Derivation) -> Function:
+    """The derivatives of the GPME residuals F = f - M a + D^T lam and C = c - D a
+    (:func:`gpmegen.symbolic.derivatives.gpme_residuals`) that the acceleration Jacobians solve
+    for. In the cold part although implicit integrators call it: it is one straight-line block of
+    O(n²) values (12 400 lines at n_rfe = 5) that GCC at -O3 took over 5 min and 1 GB to compile,
+    at -O0 3 s; a Jacobian is evaluated far less often than the accelerations."""
+    F_q, F_qd, C_q, C_qd = gpme_jacobians(d, given_accelerations(d), given_multipliers(d))
+    return Function(
+        "gpme_residual_jacobians",
+        "Jacobians of F = f - M a + D^T lam and C = c - D a (c the constraint rows' right sides).",
+        ("t", "q", "qd", "a", "lam", "p"),
+        (_out("F_q", F_q, "dF/dq"), _out("F_qd", F_qd, "dF/dqd"),
+         Output("C_q", tuple(C_q.shape), tuple(C_q), "dC/dq, one row per constraint"),
+         Output("C_qd", tuple(C_qd.shape), tuple(C_qd), "dC/dqd, one row per constraint")))
 
 
 def prepare(fn: Function, d: Derivation):
@@ -196,6 +229,8 @@ def lower(fn: Function, d: Derivation, printer, prepared=None, split=False, cach
             cache[expr] = printer.doprint(expr)
         return cache[expr]
 
+    a_used = tuple((j, s.name) for j, s in enumerate(given_accelerations(d)) if s in free)
+    lam_used = tuple((k, s.name) for k, s in enumerate(given_multipliers(d)) if s in free)
     lines = tuple((doprint(s), doprint(e)) for s, e in body)
     printed, k = [], 0
     for out in fn.outputs:
@@ -203,7 +238,8 @@ def lower(fn: Function, d: Derivation, printer, prepared=None, split=False, cach
         printed.append((out, tuple(doprint(e) for e in outputs[k:k + size])))
         k += size
     blocks, workspace = _blocks(body, outputs, lines, printed, d) if split else ((), 0)
-    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed), blocks, workspace)
+    return Lowered(fn, TIME in free, q_used, qd_used, p_used, lines, tuple(printed), blocks, workspace,
+                   a_used, lam_used)
 
 
 def _blocks(body, outputs, lines, printed, d):
@@ -214,6 +250,8 @@ def _blocks(body, outputs, lines, printed, d):
         "qd": tuple((s, j, s.name) for j, s in enumerate(kin.qd)),
         "p": tuple((sp.Symbol(name, real=True), k, names.parameter_local(name))
                    for k, name in enumerate(d.chain.model.parameter_names)),
+        "a": tuple((s, j, s.name) for j, s in enumerate(given_accelerations(d))),
+        "lam": tuple((s, k, s.name) for k, s in enumerate(given_multipliers(d))),
     }
     definitions = tuple((s, name, code) for (s, _), (name, code) in zip(body, lines))
     stores = tuple((out.name, i, code) for out, codes in printed for i, code in enumerate(codes))

@@ -73,14 +73,16 @@ def generator_digest() -> bytes:
     return h.digest()
 
 
-def input_hash(model: Model, backends, transforms=DEFAULT_TRANSFORMS) -> str:
+def input_hash(model: Model, backends, transforms=DEFAULT_TRANSFORMS, jacobians: bool = False) -> str:
     """Hash of everything the generated code depends on: the model, the generator
-    (:func:`generator_digest`), the backends and the body transforms asked for."""
+    (:func:`generator_digest`), the backends, the body transforms and the Jacobians asked for."""
     h = hashlib.sha256()
     h.update(repr(model).encode())
     h.update(generator_digest())
     h.update(",".join(sorted(backends)).encode())
     h.update(("transforms:" + ",".join(transforms)).encode())
+    if jacobians:
+        h.update(b"jacobians")
     return h.hexdigest()[:16]
 
 
@@ -95,12 +97,13 @@ class BuildResult:
 
 
 def render(model: Model, backends=("numpy",), progress=None, command=None, digest=None,
-           transforms=DEFAULT_TRANSFORMS) -> dict[str, str]:
+           transforms=DEFAULT_TRANSFORMS, jacobians: bool = False) -> dict[str, str]:
     """Derive ``model`` and render the requested backends; returns file name -> text.
     ``digest``: its :func:`input_hash`, when the caller has it already; ``transforms``: the body
-    transforms to generate (:data:`gpmegen.symbolic.transforms.KINDS`)."""
+    transforms to generate (:data:`gpmegen.symbolic.transforms.KINDS`); ``jacobians``: with the
+    generated derivatives of the GPME residuals (else the C Jacobian is by differences)."""
     say = progress or (lambda msg: None)
-    digest = digest or input_hash(model, backends, transforms)
+    digest = digest or input_hash(model, backends, transforms, jacobians)
     t0 = time.perf_counter()
     n_dof = limits.model_coordinates(model)
     say(f"deriving the equations of motion of {n_dof} coordinates (deriving and printing estimated at "
@@ -110,7 +113,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         f"in {time.perf_counter() - t0:.1f} s")
     for warning in d.constraints.warnings:
         say(f"warning: {warning}")
-    fns = model_functions(d, transforms)
+    fns = model_functions(d, transforms, jacobians)
     names = d.chain.model.parameter_names
     context = dict(
         model=model,
@@ -125,11 +128,13 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         points=d.chain.points,
         bodies=d.chain.bodies,
         transforms=tuple(transforms),
+        jacobians=jacobians,
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         dependent=tuple(model.dependent) if model.dependent is not None else None,
         statuses=tuple(SolveStatus),
-        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names)),
+        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
+                                    n_constraints=len(d.constraints.names)),
     )
     env = template_environment()
     files = {}
@@ -153,6 +158,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         "points": list(d.chain.points),
         "bodies": list(d.chain.bodies),
         "transforms": list(transforms),
+        "jacobians": jacobians,
         "constraints": list(d.constraints.names),
         "dependent": list(model.dependent) if model.dependent is not None else None,
         "files": {name: hashlib.sha256(text.encode()).hexdigest() for name, text in sorted(files.items())},
@@ -162,17 +168,17 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
 
 
 def build(model: Model, out: Path, backends=("numpy",), force=False, progress=None, command=None,
-          digest=None, transforms=DEFAULT_TRANSFORMS) -> BuildResult:
+          digest=None, transforms=DEFAULT_TRANSFORMS, jacobians: bool = False) -> BuildResult:
     """Generate ``model`` into ``out/<model name>/`` unless an up-to-date build is there, its
     files as its manifest records them. ``digest``: the model's :func:`input_hash`, when the
-    caller has it already; ``transforms``: as :func:`render`."""
+    caller has it already; ``transforms``, ``jacobians``: as :func:`render`."""
     folder = Path(out) / model.name
     with FolderLock(folder):
         return _build_locked(model, folder, backends, force, progress, command,
-                             digest or input_hash(model, backends, transforms), transforms)
+                             digest or input_hash(model, backends, transforms, jacobians), transforms, jacobians)
 
 
-def _build_locked(model, folder, backends, force, progress, command, digest, transforms) -> BuildResult:
+def _build_locked(model, folder, backends, force, progress, command, digest, transforms, jacobians) -> BuildResult:
     recover_folder(folder)
     # Holding the lock, no other build writes here: temporary folders left by a killed build go.
     for stale in folder.parent.glob(f".{folder.name}.tmp-*"):
@@ -187,7 +193,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest, tra
         if manifest is not None and progress is not None:
             progress(f"{reason}: building it again")
     limits.check_build(limits.model_coordinates(model), model.name)
-    texts = render(model, backends, progress, command, digest, transforms)
+    texts = render(model, backends, progress, command, digest, transforms, jacobians)
     write_folder(folder, texts)
     return BuildResult(
         model.name, folder, json.loads(texts[MANIFEST])["n_dof"], False, time.perf_counter() - t0,

@@ -252,6 +252,25 @@ class CEvaluator:
     def accelerations(self, t, q, qd, model):
         return self._solve(t, q, qd, model)
 
+    def residual_jacobians(self, t, q, qd, a, lam, p):
+        q, qd, a = self._vec(q, "q"), self._vec(qd, "qd"), self._vec(a, "a")
+        n, m = self.n, self.m
+        lam = np.ascontiguousarray(lam, dtype=float) if m else np.zeros(1)
+        F_q, F_qd, C_q, C_qd = np.empty((n, n)), np.empty((n, n)), np.empty((max(1, m), n)), np.empty((max(1, m), n))
+        self.lib.gpme_residual_jacobians(float(t), self._ptr(q), self._ptr(qd), self._ptr(a), self._ptr(lam),
+                                         self._params(p), *map(self._ptr, (F_q, F_qd, C_q, C_qd)))
+        return F_q, F_qd, C_q[:m], C_qd[:m]
+
+    def acceleration_jacobians(self, t, q, qd, model):
+        scratch, q_c, qd_c = self._state(q, qd)
+        dep, _ = self._partition_pointers(model)
+        A_q, A_qd = np.empty((self.n, self.n)), np.empty((self.n, self.n))
+        status = self.lib.gpme_jacobian(float(t), q_c, qd_c, self._params(model.p), dep, scratch.qdd_c,
+                                        self._ptr(A_q), self._ptr(A_qd))
+        if status:
+            raise self._failure(status, t)
+        return scratch.qdd.copy(), A_q, A_qd
+
     # --- many states in one call (see gpmegen.runtime.batch) -----------------------------------
     def mass_matrix_batch(self, q, p):
         M = np.empty((len(q), self.n, self.n))

@@ -78,7 +78,7 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         return ffi.new("double[]", values.tolist()) if values.size else ffi.new("double[]", 1)
 
     for t, q, qd in states:
-        values = {"t": t, "q": q, "qd": qd, "p": p}
+        values = {"t": t, "q": q, "qd": qd, "a": qd[::-1].copy(), "lam": np.full(n_constraints, 0.5), "p": p}
         for c_name, arguments in functions:
             name = short[c_name]
             if name.endswith(BATCH):
@@ -112,6 +112,9 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
                         doubles(np.zeros(n * n)), doubles(np.zeros(n)))
         say("gpme_accelerations")
         lib.gpme_accelerations(t, doubles(q), doubles(qd), doubles(p), dep, ind, doubles(np.zeros(n)))
+        say("gpme_jacobian")
+        lib.gpme_jacobian(t, doubles(q), doubles(qd), doubles(p), dep, doubles(np.zeros(n)), doubles(np.zeros(n * n)),
+                          doubles(np.zeros(n * n)))
         say("rk4")
         steps, dt = 3, 1e-6
         n_save = steps + 2  # the start, every step, and the final state (see the C rk4)

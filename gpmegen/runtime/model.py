@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
-from . import gpme, integrate
+from . import gpme, integrate, jacobians
 from .batch import is_batch, rows, stacked, states
 
 # What a failing generated function did, by the exception Python's math raised.
@@ -96,6 +96,13 @@ class Evaluator(Protocol):
     def accelerations_batch(self, t, q, qd, model):
         """q̈ at each state: (N, n), bit for bit as N calls."""
 
+    def residual_jacobians(self, t, q, qd, a, lam, p):
+        """(∂F/∂q, ∂F/∂q̇ (n, n), ∂C/∂q, ∂C/∂q̇ (m, n)) of the GPME residuals at accelerations
+        ``a`` (n,) and multipliers ``lam`` (m,) (:mod:`gpmegen.runtime.jacobians`)."""
+
+    def acceleration_jacobians(self, t, q, qd, model):
+        """(q̈ (n,), ∂q̈/∂q, ∂q̈/∂q̇ (n, n)) of the GPME."""
+
     def rk4(self, model, g: integrate.Grid, k_from: int, k_to: int, save_every: int, y0):
         """Steps ``k_from + 1 … k_to`` of RK4 on ``g`` from the augmented state ``y0``
         (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
@@ -172,6 +179,15 @@ class NumpyEvaluator:
 
     def accelerations_batch(self, t, q, qd, model):
         return stacked([self.accelerations(*state, model) for state in zip(t.tolist(), q, qd)])
+
+    def residual_jacobians(self, t, q, qd, a, lam, p):
+        return call(self.module, "gpme_residual_jacobians", t, self._q(q), self._qd(qd), a, lam, p)
+
+    def acceleration_jacobians(self, t, q, qd, model):
+        qdd, M, f = self.motion(t, q, qd, model)
+        D = self.constraint_terms(t, q, qd, model.p)[2]
+        lam = gpme.multipliers(M, f, qdd, D)
+        return qdd, *jacobians.acceleration_jacobians(M, D.T, D, *self.residual_jacobians(t, q, qd, qdd, lam, model.p))
 
     def rk4(self, model, g, k_from, k_to, save_every, y0):
         return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
@@ -400,6 +416,41 @@ class LoadedModel:
             return self.actuation(t, q, qd)[0]
         model = self.partitioned(t, q)
         return model.evaluator.accelerations(t, q, qd, model)
+
+    def residual_jacobians(self, t, q, qd, a, lam):
+        """(∂F/∂q, ∂F/∂q̇ (n, n), ∂C/∂q, ∂C/∂q̇ (m, n)) of the GPME residuals ``F = f - M a + Dᵀλ``
+        and ``C = c - D a`` (``c`` the constraint rows' right sides) at given accelerations ``a``
+        (n,) and multipliers ``lam`` (m,) (:mod:`gpmegen.runtime.jacobians`); built on request."""
+        self._require_jacobians()
+        return self.evaluator.residual_jacobians(t, q, qd, a, lam, self.p)
+
+    @property
+    def jacobians_built(self) -> bool:
+        """Whether the model was generated with the derivatives of the GPME (``gpmegen build
+        --jacobians``)."""
+        return hasattr(self.module, "gpme_residual_jacobians")
+
+    def _require_jacobians(self):
+        if not self.jacobians_built:
+            raise BuildError(f"model {self.module.MODEL} was generated without its Jacobians; build it with "
+                             "'gpmegen build --jacobians' (from Python: gpmegen.load(..., jacobians=True))")
+
+    def acceleration_jacobians(self, t, q, qd):
+        """``(∂q̈/∂q, ∂q̈/∂q̇)``, each (n, n) (``[i, j] = ∂q̈_i/∂q_j``), of the GPME with Baumgarte
+        terms or of the actuated realization (:mod:`gpmegen.runtime.jacobians`); the partition as
+        :meth:`motion`. A batch (``q``, ``qd`` (N, n), ``t`` scalar or (N,)) gives two (N, n, n).
+        Exact, from the derivatives generated on request (``gpmegen build --jacobians``)."""
+        self._require_jacobians()
+        if is_batch(q):
+            t, q, qd = states(t, q, qd, self.n_dof)
+            return stacked([self.acceleration_jacobians(tk, qk, qdk) for tk, qk, qdk in zip(t, q, qd)])
+        if len(self.actuators):
+            qdd, _, M, _ = self.actuation(t, q, qd)
+            D = self.constraint_terms(t, q, qd)[2]
+            derivatives = self.residual_jacobians(t, q, qd, qdd, np.zeros(len(D)))
+            return jacobians.acceleration_jacobians(M, gpme.selection(self.n_dof, self.actuators), D, *derivatives)
+        model = self.partitioned(t, q)
+        return model.evaluator.acceleration_jacobians(t, q, qd, model)[1:]
 
     def actuation(self, t, q, qd):
         """(q̈ (n,), u (m,), M, f) of the actuated realization on :attr:`actuators`: the inputs

@@ -36,6 +36,26 @@ class Dynamics:
     stiffness_jacobian: sp.Matrix  # ∂(g + C q - Q)/∂q (n, n)
     potential_energy: sp.Expr     # gravity part, J
     spring_energy: sp.Expr        # J
+    columns: tuple = ()           # (n_j, l_j) per joint: m_ij = ω_i·n_j + v_i·l_j for i ≤ j
+
+    def mass_product(self, kin: Kinematics, a: sp.Matrix, define_all) -> sp.Matrix:
+        """``M a`` (n,) for a vector ``a`` (n,) of expressions, in O(n) intermediates:
+        ``(M a)_i = ω_i·Σ_{j≥i} a_j n_j + v_i·Σ_{j≥i} a_j l_j + n_i·Σ_{j<i} a_j ω_j + l_i·Σ_{j<i} a_j v_j``
+        (the upper triangle of M by columns, the lower one by symmetry)."""
+        n = len(self.columns)
+        after_n, after_l = [None] * n, [None] * n
+        sum_n, sum_l = sp.zeros(3, 1), sp.zeros(3, 1)
+        for j in reversed(range(n)):
+            n_j, l_j = self.columns[j]
+            sum_n, sum_l = define_all(sum_n + a[j] * n_j), define_all(sum_l + a[j] * l_j)
+            after_n[j], after_l[j] = sum_n, sum_l
+        product = []
+        sum_w, sum_v = sp.zeros(3, 1), sp.zeros(3, 1)
+        for i, ji in enumerate(kin.joints):
+            n_i, l_i = self.columns[i]
+            product.append(ji.omega.dot(after_n[i]) + ji.v.dot(after_l[i]) + n_i.dot(sum_w) + l_i.dot(sum_v))
+            sum_w, sum_v = define_all(sum_w + a[i] * ji.omega), define_all(sum_v + a[i] * ji.v)
+        return sp.Matrix(n, 1, product)
 
     @property
     def forces(self) -> sp.Matrix:
@@ -132,4 +152,4 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
 
     potential = -sum((gvec.dot(c) for _, _, c, *_ in per_body), sp.S.Zero)
     spring_energy = sum((jt.stiffness * kin.q[j] ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
-    return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy)
+    return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns))

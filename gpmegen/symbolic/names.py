@@ -30,6 +30,16 @@ def velocity(name: str) -> sp.Symbol:
     return sp.Symbol(f"{PREFIX}qd_{name}", real=True)
 
 
+def acceleration(name: str) -> sp.Symbol:
+    """The symbol and local of a given acceleration of coordinate ``name``: ``_qdd_<name>``."""
+    return sp.Symbol(f"{PREFIX}qdd_{name}", real=True)
+
+
+def multiplier(constraint: str) -> sp.Symbol:
+    """The symbol and local of the multiplier of constraint ``constraint``: ``_lam_<constraint>``."""
+    return sp.Symbol(f"{PREFIX}lam_{constraint}", real=True)
+
+
 def point_acceleration(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
     """Placeholders for the velocity-product part of a point's acceleration in {0}:
     ``_ax_<point>, _ay_<point>, _az_<point>``."""
