@@ -282,3 +282,26 @@ def test_a_chain_the_constraints_hold_entirely_has_no_frequency_to_bound_rk4(env
     assert modes.highest_frequency(begun.model, 0.0, begun.q) == 0.0
     res = study.simulate(begun.model, begun.q, 0.01, dt=1e-3, save_every=5)
     assert str(res["status"]) == "complete"
+
+
+def test_a_start_whose_second_order_rows_vanish_at_rest_gets_its_stable_step(env):
+    """The curvature example's rows vanish at rest (no partition can be chosen there): the frequency
+    comes from the null space of D at the start's own velocities, and the documented run starts."""
+    from pathlib import Path
+
+    from gpmegen.runtime.gpme import tangent_basis
+
+    path = Path(__file__).resolve().parent.parent / "examples" / "curvature_arm.toml"
+    file = gpmegen.model.toml_file.read_model_file(path)
+    model = gpmegen.load(model=file.model, backend="numpy")
+    begun = study.file_start(model, file.initial_values(model.params), "locked", file.initial_velocities(model.params))
+    omega = modes.highest_frequency(model, 0.0, begun.q, begun.qd)
+    # the same subspace as the partition's basis at that state, so the same frequency
+    moving = model.partitioned(0.0, begun.q)  # the file fixes its dependent coordinates
+    D = moving.constraint_terms(0.0, begun.q, begun.qd)[2]
+    B = tangent_basis(D, moving.dependent, moving.independent)
+    K, M = B.T @ model.stiffness_jacobian(begun.q) @ B, B.T @ model.mass_matrix(begun.q) @ B
+    import scipy.linalg
+    assert omega == pytest.approx(math.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[-1]), rel=1e-9)
+    res = study.simulate(model, begun.q, 0.002, dt=1e-5, save_every=100, qd0=begun.qd)
+    assert str(res["status"]) == "complete"

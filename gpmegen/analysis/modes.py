@@ -147,18 +147,18 @@ def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
     return modes
 
 
-def highest_frequency(model, t, q) -> float:
-    """The highest natural frequency ω (rad/s) of the motion linearized at ``(t, q)`` (not
-    necessarily an equilibrium): ``K φ = ω² M φ`` with ``K`` the tangent stiffness (springs and
-    gravity) and ``M`` on the velocities the constraints allow (``B`` of their ``D`` at rest).
-    The constraints' curvature is left out: it shifts the low modes, not the sdes' stiff ones
-    that bound an explicit step."""
-    from ..runtime.gpme import tangent_basis
-
+def highest_frequency(model, t, q, qd=None) -> float:
+    """The highest natural frequency ω (rad/s) of the motion linearized at ``(t, q, qd)`` (not
+    necessarily an equilibrium; ``qd`` default rest): ``K φ = ω² M φ`` with ``K`` the tangent
+    stiffness (springs and gravity) and ``M`` on the velocities the constraints allow (the null
+    space of their ``D`` at that state, by SVD: a row that vanishes there, as a second-order
+    constraint's does at rest, constrains nothing and leaves no partition to choose). The
+    constraints' curvature is left out: it shifts the low modes, not the sdes' stiff ones that
+    bound an explicit step."""
     q = np.asarray(q, dtype=float)
-    model = model.partitioned(t, q)
-    D = model.constraint_terms(t, q, np.zeros(model.n_dof))[2]
-    B = tangent_basis(D, model.dependent, model.independent) if len(D) else np.eye(model.n_dof)
+    qd = np.zeros(model.n_dof) if qd is None else np.asarray(qd, dtype=float)
+    D = model.constraint_terms(t, q, qd)[2]
+    B = scipy.linalg.null_space(D) if len(D) else np.eye(model.n_dof)
     if B.shape[1] == 0:  # the constraints hold every coordinate: nothing vibrates
         return 0.0
     K, M = B.T @ model.stiffness_jacobian(q) @ B, B.T @ model.mass_matrix(q) @ B

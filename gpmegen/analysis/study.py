@@ -195,11 +195,11 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop)
+    qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
     if method == "rk4" and t_end > 0 and not limits.are_lifted():  # t_end 0: the start alone, no step
-        unstable = integrate.unstable_step(dt, modes.highest_frequency(model, 0.0, q0))
+        unstable = integrate.unstable_step(dt, modes.highest_frequency(model, 0.0, q0, qd0))
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
-    qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
     model.check_actuators(0.0, q0)
     actuated = [model.coordinates[k] for k in model.actuators]
     if internal_dynamics and not actuated:
