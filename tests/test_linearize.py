@@ -1,0 +1,142 @@
+"""gpmegen linearize: the state-space model about the statics and along a run, against the
+nonlinear model, the natural modes, finite differences of the drive, and its files."""
+
+import numpy as np
+import pytest
+import scipy.io
+import scipy.linalg
+
+import gpmegen
+from gpmegen.analysis import linear, modes
+from gpmegen.cli import main
+from gpmegen.runtime.gpme import tangent_basis
+from gpmegen.status import SolveStatus
+
+# The reference arm at rest on its programmed constraints: the prescribed motion's amplitude A
+# off, so that the constrained statics is an equilibrium (the drive is zero at t = 0).
+REST = {"A": 0.0}
+
+
+@pytest.fixture(scope="module")
+def rest():
+    """(linear model about the constrained statics of the reference arm at n_rfe = 3, the model
+    with its Jacobians as that start binds it)."""
+    return (gpmegen.linearize(nrfe=3, start="constrained", params=REST),
+            gpmegen.load(nrfe=3, params=REST, jacobians=True))
+
+
+def nonlinear_deviation(model, lin, x0, eps, t_end, dt):
+    """States (δq_ind, δq̇_ind) of the nonlinear run from the equilibrium + ε x0 (on the
+    constraints to first order) minus those of the run from the equilibrium itself, at the saved
+    times; and those times."""
+    ind, dep = model.independent, model.dependent
+    D = model.constraint_terms(0.0, lin.q, lin.qd)[2]
+    N = tangent_basis(D, dep, ind)
+    k = len(ind)
+
+    def run(scale):
+        q0 = lin.q + scale * N @ x0[:k]
+        qd0 = lin.qd + scale * N @ x0[k:]
+        t, q, qd, _, status = model.rk4(q0, qd0, t_end, dt, save_every=20)
+        assert status == SolveStatus.OK
+        return t, np.hstack([q[:, ind], qd[:, ind]])
+
+    t, base = run(0.0)
+    return t, run(eps)[1] - base
+
+
+def test_small_perturbations_follow_the_linear_model_to_second_order(rest, rng):
+    lin, model = rest
+    model = model.partitioned(0.0, lin.q)
+    assert np.max(np.abs(lin.qdd)) < 1e-6  # an equilibrium
+    x0 = rng.standard_normal(len(lin.states))
+    errors, sizes = [], []
+    for eps in (1e-4, 2e-4):
+        t, deviation = nonlinear_deviation(model, lin, x0, eps, t_end=0.02, dt=1e-5)
+        predicted = np.array([scipy.linalg.expm(lin.A * tk) @ x0 * eps for tk in t])
+        errors.append(np.max(np.abs(deviation - predicted)))
+        sizes.append(np.max(np.abs(predicted)))
+    ratio = errors[1] / errors[0]
+    assert 3.0 < ratio < 5.0, (errors, ratio)  # the error is second order in the perturbation
+    assert errors[0] < 1e-2 * sizes[0]  # measured: 2e-3 of the response at ε = 1e-4
+
+
+def test_eigenvalues_are_the_constrained_modes(rest):
+    lin, model = rest
+    # nothing held: the column's rotation theta1 is a state, neutral (zero frequency)
+    expected = modes.constrained_modes(model, lin.q, hold=[]).frequencies
+    shown = lin.eigenvalues[lin.eigenvalues.imag >= 0]
+    f, _ = linear.frequencies(shown)
+    assert len(f) == len(expected)
+    np.testing.assert_allclose(np.sort(f)[1:], np.sort(np.abs(expected))[1:], rtol=1e-7)
+    assert np.all(np.abs(lin.eigenvalues.real) < 1e-8 * np.max(np.abs(lin.eigenvalues)))  # undamped
+
+
+def test_damping_makes_every_elastic_mode_decay():
+    lin = gpmegen.linearize(nrfe=3, start="constrained", params={**REST, "d2": 0.01})
+    moving = lin.eigenvalues[np.abs(lin.eigenvalues) > 1.0]
+    assert len(moving) == len(lin.eigenvalues) - 2  # all but the neutral column rotation
+    _, zeta = linear.frequencies(moving)
+    assert np.all(zeta > 0) and not np.any(linear.unstable(lin.eigenvalues))
+
+
+def test_input_matrix_is_the_derivative_of_the_accelerations_in_the_drive(rest):
+    start, model = rest
+    q, qd, t = start.q, start.qd, 6.0  # after t0 the drive's torque is tdr0 times a constant
+    lin = linear.linearize(model, t, q, qd, ("theta1",))
+    h = 1e-3
+    up, down = (model.with_params(tdr0=model.params["tdr0"] + s) for s in (h, -h))
+    dq = (up.accelerations(t, q, qd) - down.accelerations(t, q, qd)) / (2 * h)
+    dQ = (up.drive_forces(t) - down.drive_forces(t)) / (2 * h)
+    assert np.count_nonzero(dQ) == 1 and dQ[model.index("theta1")] != 0
+    ind = model.partitioned(t, q).independent
+    k = len(ind)
+    np.testing.assert_allclose(lin.B[k:, 0], dq[ind] / dQ[model.index("theta1")], rtol=1e-6, atol=1e-9)
+    np.testing.assert_array_equal(lin.B[:k], 0)
+
+
+def test_mat_and_npz_files_hold_the_model_with_its_names(tmp_path, capsys):
+    args = ["linearize", "--nrfe", "3", "--statics", "constrained", "--param", "A=0", "--backend", "numpy"]
+    assert main(args + ["--out", str(tmp_path / "lin.mat")]) == 0
+    out = capsys.readouterr().out
+    assert "frequency (Hz)" in out and "damping ratio" in out
+    assert main(args + ["--out", str(tmp_path / "lin.npz")]) == 0
+    mat = scipy.io.loadmat(tmp_path / "lin.mat")
+    with np.load(tmp_path / "lin.npz") as npz:
+        np.testing.assert_array_equal(mat["A"], npz["A"])
+        states = list(npz["state_names"])
+        assert [str(c[0][0]) for c in mat["state_names"]] == states
+        assert [str(c[0][0]) for c in mat["input_names"]] == list(npz["input_names"]) == ["theta1"]
+    assert states[0] == "theta1" and states[len(states) // 2] == "theta1_dot"
+
+
+@pytest.fixture(scope="module")
+def short_run(tmp_path_factory):
+    path = tmp_path_factory.mktemp("run") / "run.npz"
+    assert main(["simulate", "--nrfe", "3", "--t-end", "0.01", "--dt", "1e-4", "--save-every", "10",
+                 "--backend", "numpy", "--out", str(path)]) == 0
+    return path
+
+
+def test_at_a_run_takes_the_nearest_saved_state(short_run):
+    models = gpmegen.linearize(nrfe=3, at=short_run, times=[0.0041, 0.01])
+    run = gpmegen.Results(dict(np.load(short_run)))
+    assert [m.t for m in models] == pytest.approx([0.004, 0.01])
+    np.testing.assert_array_equal(models[1].q, np.asarray(run["q"])[-1])
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--nrfe", "3", "--times", "0.5"], "outside the run"),
+    (["--nrfe", "2", "--times", "0"], "not of 'manipulator_nrfe2'"),
+])
+def test_bad_runs_get_one_line(short_run, tmp_path, capsys, args, says):
+    assert main(["linearize", *args, "--at", str(short_run), "--out", str(tmp_path / "x.npz")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(err) == 1 and says in err[0] and err[0].startswith("gpmegen linearize: error: ")
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_a_model_without_its_jacobians_is_refused_with_the_build_command():
+    plain = gpmegen.load(nrfe=1)
+    with pytest.raises(gpmegen.BuildError, match="--jacobians"):
+        linear.linearize(plain, 0.0, np.zeros(3), np.zeros(3))
