@@ -140,3 +140,59 @@ def test_a_model_without_its_jacobians_is_refused_with_the_build_command():
     plain = gpmegen.load(nrfe=1)
     with pytest.raises(gpmegen.BuildError, match="--jacobians"):
         linear.linearize(plain, 0.0, np.zeros(3), np.zeros(3))
+
+
+def test_the_table_marks_growth_and_names_neutral_motion():
+    omega = 2 * np.pi * 10.0
+    values = np.array([0.0, 1e-15, 3.0, -3.0, -0.1 * omega + 1j * omega * np.sqrt(0.99),
+                       -0.1 * omega - 1j * omega * np.sqrt(0.99)])
+    lines = linear.format_eigenvalues(values).splitlines()[1:]
+    assert len(lines) == 5  # one line per pair
+    growing = [line for line in lines if "UNSTABLE" in line]
+    assert len(growing) == 1 and growing[0].split()[-3] == "3"  # the eigenvalue 3/s
+    assert sum("neutral" in line for line in lines) == 2
+    f, zeta = linear.frequencies(values[4:5])
+    assert f[0] == pytest.approx(10.0) and zeta[0] == pytest.approx(0.1)
+
+
+def on_constraints(model, t, q, qd_ind):
+    """``(q, q̇)`` with the dependent coordinates solved from ``Φ(t, q) = 0`` (Newton) and their
+    rates from ``Φ̇ = 0``, the independent ones as given."""
+    dep, ind = model.dependent, model.independent
+    q, qd = q.copy(), np.zeros(model.n_dof)
+    for _ in range(30):
+        phi, _, D, _ = model.constraint_terms(t, q, qd)
+        q[dep] -= np.linalg.solve(D[:, dep], phi)
+    qd[ind] = qd_ind
+    _, rate, D, _ = model.constraint_terms(t, q, qd)
+    qd[dep] = -np.linalg.solve(D[:, dep], rate)
+    return q, qd
+
+
+def test_state_matrix_is_the_derivative_of_the_reduced_motion_in_motion(rest, rng):
+    """Away from rest and with the programmed motion on (Φ depends on t), A against central
+    differences of x = (q_ind, q̇_ind) ↦ q̈_ind, the dependent coordinates and rates solved from
+    the constraints exactly: provokes the rates' dependence on q_ind through Φ̇ (V)."""
+    start, model = rest
+    model = model.with_params(A=0.5).partitioned(1.0, start.q)
+    ind, t = model.independent, 1.0
+    k = len(ind)
+    q, qd = on_constraints(model, t, start.q, 2.0 * rng.standard_normal(k))
+    lin = linear.linearize(model, t, q, qd)
+
+    def reduced(x):
+        qq = q.copy()
+        qq[ind] = x[:k]
+        return model.accelerations(t, *on_constraints(model, t, qq, x[k:]))[ind]
+
+    x = np.concatenate([q[ind], qd[ind]])
+    numeric = np.empty((k, 2 * k))
+    for j in range(2 * k):
+        h = 1e-6 * max(1.0, abs(x[j]))
+        e = np.zeros(2 * k)
+        e[j] = h
+        numeric[:, j] = (reduced(x + e) - reduced(x - e)) / (2 * h)
+    for block in (slice(0, k), slice(k, 2 * k)):  # in q_ind (1/s²) and in q̇_ind (1/s)
+        scale = np.max(np.abs(numeric[:, block]))
+        np.testing.assert_allclose(lin.A[k:, block] / scale, numeric[:, block] / scale, atol=1e-6)
+    np.testing.assert_array_equal(lin.A[:k], np.hstack([np.zeros((k, k)), np.eye(k)]))

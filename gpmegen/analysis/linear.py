@@ -36,6 +36,8 @@ from ..runtime.internal import UNSTABLE
 
 # Relative step of the central differences of Φ̇ in q (constraint terms only).
 STEP = 1e-7
+# Eigenvalues below this fraction of the largest modulus are zero to round-off.
+NEUTRAL = 1e-9
 
 
 @dataclass
@@ -129,13 +131,21 @@ def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
                        q, qd, qdd, tuple(model.coordinates), where)
 
 
+def neutral(values) -> np.ndarray:
+    """Mask of the eigenvalues that are zero to round-off (below :data:`NEUTRAL` times the
+    largest modulus): a coordinate with neither spring nor gravity moment, e.g. a free rotation."""
+    modulus = np.abs(np.asarray(values))
+    return modulus <= NEUTRAL * np.max(modulus, initial=0.0)
+
+
 def frequencies(values):
-    """``(f Hz, ζ)`` of eigenvalues ``values`` (1/s): ``f = |λ|/2π``, ``ζ = -Re λ/|λ|`` (1 for a
-    zero eigenvalue's neutral motion is not defined: NaN)."""
+    """``(f Hz, ζ)`` of eigenvalues ``values`` (1/s): ``f = |λ|/2π``, ``ζ = -Re λ/|λ|``; for the
+    :func:`neutral` ones ``f = 0`` and ``ζ`` NaN (not defined)."""
     values = np.asarray(values)
-    modulus = np.abs(values)
+    zero = neutral(values)
+    modulus = np.where(zero, 0.0, np.abs(values))
     with np.errstate(invalid="ignore", divide="ignore"):
-        zeta = np.where(modulus > 0, -values.real / modulus, np.nan)
+        zeta = np.where(zero, np.nan, -values.real / np.where(zero, 1.0, modulus))
     return modulus / (2 * math.pi), zeta
 
 
@@ -148,14 +158,16 @@ def unstable(values) -> np.ndarray:
 
 def format_eigenvalues(values) -> str:
     """The eigenvalues as a table, one line per real eigenvalue or complex pair (the one with
-    ``Im ≥ 0``), by frequency: Hz, damping ratio, the eigenvalue; the unstable ones marked."""
+    ``Im ≥ 0``), by frequency: Hz, damping ratio ("neutral" for a zero one), the eigenvalue; the
+    unstable ones marked."""
     values = np.asarray(values)
     shown = values[values.imag >= -1e-12 * max(1.0, float(np.max(np.abs(values), initial=0.0)))]
     f, zeta = frequencies(shown)
-    bad = unstable(shown)
+    bad = unstable(shown) & ~neutral(shown)
     lines = [f"{'frequency (Hz)':>15} {'damping ratio':>14}  {'eigenvalue (1/s)':>28}"]
     for fk, zk, v, b in zip(f, zeta, shown, bad):
-        lines.append(f"{fk:15.6g} {zk:14.6g}  {v.real:13.6g} {v.imag:+13.6g}j" + ("  UNSTABLE" if b else ""))
+        damping = "neutral" if np.isnan(zk) else f"{zk:.6g}"
+        lines.append(f"{fk:15.6g} {damping:>14}  {v.real:13.6g} {v.imag:+13.6g}j" + ("  UNSTABLE" if b else ""))
     return "\n".join(lines)
 
 
