@@ -196,3 +196,19 @@ def test_state_matrix_is_the_derivative_of_the_reduced_motion_in_motion(rest, rn
         scale = np.max(np.abs(numeric[:, block]))
         np.testing.assert_allclose(lin.A[k:, block] / scale, numeric[:, block] / scale, atol=1e-6)
     np.testing.assert_array_equal(lin.A[:k], np.hstack([np.zeros((k, k)), np.eye(k)]))
+
+
+def test_baumgarte_gains_leave_the_linear_model_unchanged_on_the_constraints(rest, rng):
+    """The gains act on δΦ and δΦ̇, which the states' perturbations keep zero to first order; what
+    is left is their terms' value times the change of the GPME's matrix, zero where Φ = Φ̇ = 0."""
+    start, model = rest
+    model = model.with_params(A=0.5).partitioned(1.0, start.q)
+    q, qd = on_constraints(model, 1.0, start.q, rng.standard_normal(len(model.independent)))
+    stiff = model.with_params(alpha_circle=1e3, beta_circle=5e2, alpha_height=1e3, beta_height=5e2)
+
+    def change(q):
+        A, A_stiff = linear.linearize(model, 1.0, q, qd).A, linear.linearize(stiff, 1.0, q, qd).A
+        return np.max(np.abs(A_stiff - A)) / np.max(np.abs(A))
+
+    assert change(q) < 1e-9
+    assert change(q + 1e-5) > 1e-6  # off the constraints the gains' terms act (the test can tell)

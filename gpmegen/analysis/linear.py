@@ -14,8 +14,10 @@ Jacobians ``A_q``, ``A_q̇``, the independent rows ``P`` of ``δq̈`` give
 Picking rows is exact, not a projection: ``q̈_ind`` is a component of ``q̈``, and the dependent
 accelerations are those the constraint rows then fix. The Baumgarte terms
 ``-2αΦ̇ - β²Φ`` of those rows vary by ``-2α δΦ̇ - β² δΦ``, zero for every perturbation of the
-states (``δΦ = D N δq_ind = 0``, ``δΦ̇ = 0`` by the choice of ``V``): ``A`` does not depend on the
-gains, at any state (on the constraints or not).
+states (``δΦ = D N δq_ind = 0``, ``δΦ̇ = 0`` by the choice of ``V``). What remains of them is their
+value times the change of the GPME's matrix with ``q``, zero on the constraints (``Φ = Φ̇ = 0``, as
+at the statics): there ``A`` does not depend on the gains. At a run's saved state, off the
+constraints by its drift, it does so by ``O(β²|Φ| + α|Φ̇|)``.
 
 Inputs ``u`` are generalized forces on chosen coordinates: ``f → f + S u``. The GPME are linear in
 ``f``, so ``B = [[0], [P q̈_u]]`` with ``q̈_u`` the GPME's solution for ``f = S`` (and the
