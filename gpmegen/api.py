@@ -192,9 +192,10 @@ def linearize(model=None, *, nrfe=None, start=None, params=None, backend="numpy"
         inputs = linear.default_inputs(case)
     if at is None:
         begun = case.started(backend, start, dict(params or {}), messages)
-        return linear.linearize(begun.model, 0.0, begun.q, begun.qd, inputs, where=f"{start} statics")
+        where = "start as given (no statics)" if start == "none" else f"{start} statics"
+        return linear.linearize(begun.model, 0.0, begun.q, begun.qd, inputs, where=where)
     if params:
-        raise ModelError("linearize: at a run the run's parameter values are used; leave params (--param) out")
+        raise ModelError("at a run the run's parameter values are used; leave params (--param) out")
     loaded = case.load(backend, {}, messages)
     return linear.along_run(loaded, at, times, inputs)
 

@@ -1,6 +1,8 @@
 """gpmegen linearize: the state-space model about the statics and along a run, against the
 nonlinear model, the natural modes, finite differences of the drive, and its files."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.io
@@ -136,6 +138,16 @@ def test_bad_runs_get_one_line(short_run, tmp_path, capsys, args, says):
     assert not (tmp_path / "x.npz").exists()
 
 
+def test_a_folder_built_without_jacobians_gets_one_line(tmp_path, capsys):
+    example = Path(__file__).resolve().parents[1] / "examples" / "planar_two_link.toml"
+    assert main(["build", str(example), "--nrfe", "2", "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "lin.npz"
+    assert main(["linearize", str(tmp_path / "planar_two_link_nrfe2"), "--backend", "numpy", "--out", str(out)]) == 1
+    err = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(err) == 1 and "gpmegen build --jacobians" in err[0] and not out.exists()
+
+
 def test_a_model_without_its_jacobians_is_refused_with_the_build_command():
     plain = gpmegen.load(nrfe=1)
     with pytest.raises(gpmegen.BuildError, match="--jacobians"):
@@ -212,3 +224,12 @@ def test_baumgarte_gains_leave_the_linear_model_unchanged_on_the_constraints(res
 
     assert change(q) < 1e-9
     assert change(q + 1e-5) > 1e-6  # off the constraints the gains' terms act (the test can tell)
+
+
+def test_velocity_constraints_are_refused_by_name():
+    from types import SimpleNamespace
+
+    model = SimpleNamespace(constraint_names=("circle", "heading", "push"), constraint_orders=np.array([0, 1, 2]))
+    with pytest.raises(gpmegen.ModelError, match="'heading', 'push' of first or second order"):
+        linear.refuse_velocity_constraints(model)
+    linear.refuse_velocity_constraints(SimpleNamespace(constraint_names=("circle",), constraint_orders=np.array([0])))

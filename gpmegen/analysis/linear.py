@@ -83,7 +83,7 @@ def refuse_velocity_constraints(model) -> None:
     not positions, so the dependent coordinates do not follow from the independent ones."""
     names = [name for name, order in zip(model.constraint_names, model.constraint_orders) if order != 0]
     if names:
-        raise ModelError(f"linearize: the constraint(s) {', '.join(map(repr, names))} of first or second order hold "
+        raise ModelError(f"the constraint(s) {', '.join(map(repr, names))} of first or second order hold "
                          f"velocities or accelerations, not positions, so the states cannot be the independent "
                          f"coordinates; linearize a model whose programmed constraints are all position constraints")
 
