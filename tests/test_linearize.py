@@ -127,6 +127,21 @@ def test_at_a_run_takes_the_nearest_saved_state(short_run):
     np.testing.assert_array_equal(models[1].q, np.asarray(run["q"])[-1])
 
 
+def test_several_times_write_one_file_each(short_run, tmp_path, capsys):
+    out = tmp_path / "lin.mat"
+    assert main(["linearize", "--nrfe", "3", "--backend", "numpy", "--at", str(short_run), "--times", "0,0.01",
+                 "--out", str(out)]) == 0
+    assert "nearest to 0.01 s" in capsys.readouterr().out
+    times = [float(scipy.io.loadmat(tmp_path / f"lin_{k}.mat")["t"][0, 0]) for k in (1, 2)]
+    assert times == pytest.approx([0.0, 0.01]) and not out.exists()
+
+
+def test_unknown_inputs_are_named(rest):
+    start, model = rest
+    with pytest.raises(gpmegen.ModelError, match="'psi9': not coordinates"):
+        linear.linearize(model, 0.0, start.q, start.qd, ("theta1", "psi9"))
+
+
 @pytest.mark.parametrize("args, says", [
     (["--nrfe", "3", "--times", "0.5"], "outside the run"),
     (["--nrfe", "2", "--times", "0"], "not of 'manipulator_nrfe2'"),

@@ -106,12 +106,16 @@ def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
     ``(t, q, qd)``, with inputs on the coordinates named in ``inputs``. The partition is chosen at
     the state (pivoted QR of ``D``) unless the model fixes it."""
     refuse_velocity_constraints(model)
+    unknown = [name for name in inputs if name not in model.coordinates]
+    if unknown:
+        raise ModelError(f"inputs {', '.join(map(repr, unknown))}: not coordinates of {model.module.MODEL}; name "
+                         f"among {', '.join(model.coordinates)}")
     q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
     model = model.with_actuators(()).partitioned(t, q)
     n = model.n_dof
     ind, dep = np.asarray(model.independent), np.asarray(model.dependent)
     A_q, A_qd = model.acceleration_jacobians(t, q, qd)
-    M, f, phi, phi_rate, D, gamma = model.gpme_terms(t, q, qd)
+    M, _, _, _, D, _ = model.gpme_terms(t, q, qd)
     qdd = model.accelerations(t, q, qd)
     S = gpme.selection(n, [model.index(name) for name in inputs])
     if len(D):
