@@ -2,7 +2,7 @@
 with flexible links, as generated NumPy and C code.
 
 What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.load``,
-``gpmegen.load_model_file``, ``gpmegen.statics``, ``gpmegen.simulate``, the model's elements and
+``gpmegen.load_model_file``, ``gpmegen.statics``, ``gpmegen.simulate``, ``gpmegen.linearize``, the model's elements and
 the errors.
 """
 
@@ -13,7 +13,7 @@ __all__ = [
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text",
+    "import_urdf", "urdf_text", "linearize",
 ]
 
 

@@ -8,6 +8,7 @@
   :func:`import_urdf`: a URDF with its joints' limits as data; :func:`urdf_text`: a model as URDF;
 - the model's elements (:class:`Model`, :class:`Joint`, :class:`FlexibleLink`, ...) and the
   reference case (:func:`reference_model`);
+- :func:`linearize`: the state-space model ``ẋ = A x + B u`` about the statics or at instants of a run;
 - :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
 - the errors, one type per failure family (:class:`GpmegenError` and its subclasses).
 """
@@ -174,10 +175,35 @@ def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_eve
     return runs.Results(done.results)
 
 
+def linearize(model=None, *, nrfe=None, start=None, params=None, backend="numpy", directory=None, progress=None,
+              at=None, times=None, inputs=None):
+    """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.linear.LinearModel`), as
+    ``gpmegen linearize`` makes it: about :func:`statics`'s start (arguments as there), or with
+    ``at`` (a results file of this model) and ``times`` (s), a list of them, one at the saved
+    state nearest each time. The model is loaded with its Jacobians (built when missing).
+    ``inputs``: the coordinates that take a generalized force (default: those the model drives,
+    and a model file's actuators)."""
+    from .analysis import linear
+
+    case, start = _started(model, nrfe, start, directory)
+    case.jacobians = True
+    messages = _messages(progress)
+    if inputs is None:
+        inputs = linear.default_inputs(case)
+    if at is None:
+        begun = case.started(backend, start, dict(params or {}), messages)
+        where = "start as given (no statics)" if start == "none" else f"{start} statics"
+        return linear.linearize(begun.model, 0.0, begun.q, begun.qd, inputs, where=where)
+    if params:
+        raise ModelError("at a run the run's parameter values are used; leave params (--param) out")
+    loaded = case.load(backend, {}, messages)
+    return linear.along_run(loaded, at, times, inputs)
+
+
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text",
+    "import_urdf", "urdf_text", "linearize",
 ]

@@ -1,5 +1,5 @@
-"""Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | animate | modes | convergence |
-demo``.
+"""Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | animate | modes | linearize |
+convergence | demo``.
 
 Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
@@ -494,6 +494,29 @@ def cmd_modes(args) -> int:
     return 0
 
 
+def cmd_linearize(args) -> int:
+    """The state-space model about the statics or at instants of a run, written as NPZ or .mat."""
+    from . import api
+    from .analysis import linear
+
+    out = Path(args.out)
+    if out.suffix not in (".npz", ".mat"):
+        raise UsageError(f"--out {out}: write the linear model as .npz or .mat (e.g. --out lin.mat)")
+    if (args.at is None) != (args.times is None):
+        raise UsageError("--at RESULTS.npz and --times t1,t2,... go together: the run and the instants in it")
+    _writable_folder(out.parent)
+    models = api.linearize(args.model_file, nrfe=args.nrfe, start=args.statics, params=dict(args.param or []),
+                           backend=args.backend or _default_backend(), progress=progress, at=args.at,
+                           times=args.times)
+    models = models if isinstance(models, list) else [models]
+    for k, lin in enumerate(models):
+        target = out if len(models) == 1 else out.with_name(f"{out.stem}_{k + 1}{out.suffix}")
+        print(lin.summary())
+        print(linear.format_eigenvalues(lin.eigenvalues))
+        print(f"wrote {linear.save(lin, target)}")
+    return 0
+
+
 CLAMPED_LEVELS = (2, 3, 5, 8, 10, 15, 20)  # convergence's n_rfe against beam theory
 OUTPUT_LEVELS = (3, 5, 9)  # convergence --output's n_rfe: n_sde 2, 4, 8
 
@@ -804,6 +827,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="folder for the CSV and the figure (default figures/)")
     m.set_defaults(func=cmd_modes)
 
+    li = command("linearize", "the state-space model x' = A x + B u about the statics or at instants of a run")
+    study_options(li)
+    li.add_argument("--at", type=path_argument, default=None, metavar="RESULTS.npz",
+                    help="instead: at saved states of this run of the model (with --times)")
+    li.add_argument("--times", type=number_list, default=None, metavar="T1,T2,...",
+                    help="with --at: the instants (s); each takes the saved state nearest to it")
+    li.add_argument("--backend", choices=("numpy", "c"), default=None,
+                    help="generated code to evaluate (default: c when a compiler is present)")
+    li.add_argument("--out", type=path_argument, required=True,
+                    help="lin.npz or lin.mat (MATLAB; names as cell arrays); several --times: lin_1.mat, ...")
+    li.set_defaults(func=cmd_linearize)
+
     c = command("convergence", "clamped flexible links against n_rfe, beside Euler–Bernoulli and Saint-Venant")
     c.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
@@ -888,7 +923,7 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--model", type=path_argument, default=None,
                     help="the model file that made the results (default: the one their metadata names)")
     an.set_defaults(func=cmd_animate)
-    for p in (b, s, inv, st, m, c, d, sw):
+    for p in (b, s, inv, st, m, li, c, d, sw):
         p.add_argument("--no-limits", action="store_true",
                        help="start even work estimated to take more than an hour or more memory than is available")
     return parser

@@ -28,6 +28,15 @@ refused before any figure is written: plot each group into its own folder.""",
 Natural frequencies and mode shapes about the static equilibrium of the reference manipulator,
 a model file or a folder made by 'build --out', with the joints locked or with the programmed
 constraints holding.""",
+    "linearize": """\
+The state-space model x' = A x + B u of the constrained motion about the statics (--statics, as
+'gpmegen statics' finds it) or at saved states of a run (--at, --times). States: the independent
+coordinates of the partition at that state and their rates; the dependent ones follow from the
+position constraints to first order. A from the model's exact acceleration Jacobians (the model
+is built with --jacobians when they are missing); inputs: generalized forces on the driven
+coordinates (and a model file's actuators), B exact from the same GPME solve. With --at the run's
+parameter values are used (--param is for the statics). Prints the eigenvalues as frequency and
+damping ratio, the unstable ones marked.""",
     "convergence": """\
 Without --output: clamp the arm (or each flexible link of a model file, alone) at its root and
 compare its static tip deflection and first frequencies against the number of rfes with
@@ -125,6 +134,15 @@ examples:
 files written:
   <out>/modes_nrfe<N>_<lock>.csv (frequencies and shapes) and .png (the first shapes along the
   arm)   (default out: figures/)""",
+    "linearize": """\
+examples:
+  gpmegen linearize --nrfe 3 --statics constrained --param A=0 --out lin.mat
+  gpmegen linearize --nrfe 3 --at results/run_nrfe3_locked_rk4.npz --times 0,2.5 --out lin.npz
+
+files written:
+  <out> (.npz or .mat): A, B, state_names, input_names, eigenvalues, t, q, qd, qdd (the state
+  and its accelerations: zero at an equilibrium), coordinates, where; with several --times one
+  file per time, <out>_1, <out>_2, ...""",
     "convergence": """\
 examples:
   gpmegen convergence

@@ -33,6 +33,7 @@ class Case:
         return self.model
 
     directory = None  # where generated models live (None: gpmegen.runtime.loader.default_directory)
+    jacobians = False  # load the model with the generated derivatives of the GPME (gpmegen build --jacobians)
 
     def load(self, backend, params, progress):
         """The generated model on ``backend`` ("c" falls back to "numpy" when it cannot be built)."""
@@ -48,7 +49,8 @@ class Case:
         import gpmegen
 
         return self.located(lambda: gpmegen.load(backend=backend, params=params, progress=progress, model=self.model,
-                                                 command=self.command, directory=self.directory))
+                                                 command=self.command, directory=self.directory,
+                                                 jacobians=self.jacobians))
 
     def started(self, backend, start, overrides, progress):
         """:meth:`start`, with its report and, when the start was off the constraints, its

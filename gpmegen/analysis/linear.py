@@ -1,0 +1,230 @@
+"""Linear state-space models ``ẋ = A x + B u`` of a model's constrained motion about a state.
+
+States are the independent coordinates of the partition at the state and their velocities,
+``x = (δq_ind, δq̇_ind)``; the dependent ones follow from the position constraints to first order:
+``δq = N δq_ind`` with ``N = [I; -D_dc⁻¹ D_ic]`` (the tangent basis of
+:func:`gpmegen.runtime.gpme.tangent_basis`), and from ``δΦ̇ = Φ̇_q δq + D δq̇ = 0``,
+``δq̇ = N δq̇_ind + V δq_ind`` with ``V`` zero on the independent rows and
+``-D_dc⁻¹ Φ̇_q N`` on the dependent ones (``Φ̇_q = ∂Φ̇/∂q``, zero at rest when ``Φ`` depends on
+time only through terms free of ``q``). With ``q̈ = a(t, q, q̇)`` of the GPME and its exact
+Jacobians ``A_q``, ``A_q̇``, the independent rows ``P`` of ``δq̈`` give
+
+    A = [[0, I], [P (A_q N + A_q̇ V), P A_q̇ N]].
+
+Picking rows is exact, not a projection: ``q̈_ind`` is a component of ``q̈``, and the dependent
+accelerations are those the constraint rows then fix. The Baumgarte terms
+``-2αΦ̇ - β²Φ`` of those rows vary by ``-2α δΦ̇ - β² δΦ``, zero for every perturbation of the
+states (``δΦ = D N δq_ind = 0``, ``δΦ̇ = 0`` by the choice of ``V``). What remains of them is their
+value times the change of the GPME's matrix with ``q``, zero on the constraints (``Φ = Φ̇ = 0``, as
+at the statics): there ``A`` does not depend on the gains. At a run's saved state, off the
+constraints by its drift, it does so by ``O(β²|Φ| + α|Φ̇|)``.
+
+Inputs ``u`` are generalized forces on chosen coordinates: ``f → f + S u``. The GPME are linear in
+``f``, so ``B = [[0], [P q̈_u]]`` with ``q̈_u`` the GPME's solution for ``f = S`` (and the
+constraint rows' right side zero): exact, one solve.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ModelError
+from ..runtime import gpme
+from ..runtime.internal import UNSTABLE
+
+# Relative step of the central differences of Φ̇ in q (constraint terms only).
+STEP = 1e-7
+# Eigenvalues below this fraction of the largest modulus are zero to round-off.
+NEUTRAL = 1e-9
+
+
+@dataclass
+class LinearModel:
+    """``ẋ = A x + B u`` about ``(t, q, qd)``: ``A`` (2k, 2k) 1/s and 1/s², ``B`` (2k, j),
+    ``states`` (2k,) names (``<coordinate>`` and ``<coordinate>_dot``), ``inputs`` (j,) names (a
+    generalized force on that coordinate, N·m or N), ``eigenvalues`` (2k,) 1/s of ``A`` sorted by
+    frequency, ``t`` s, ``q``, ``qd`` (n,) the state, ``qdd`` (n,) its accelerations (zero at an
+    equilibrium; else the linear model holds for the deviation from the motion through it, over
+    times short against its change), ``where`` how the state was chosen."""
+
+    A: np.ndarray
+    B: np.ndarray
+    states: tuple
+    inputs: tuple
+    eigenvalues: np.ndarray
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    coordinates: tuple
+    where: str = ""
+
+    def summary(self) -> str:
+        """One line: where, the states, the inputs and how far the state is from an equilibrium."""
+        coordinates = ", ".join(self.states[:len(self.states) // 2])
+        return (f"linear model about the {self.where}: {len(self.states)} states ({coordinates} and their rates), "
+                f"inputs {', '.join(self.inputs) or 'none'}; max|q''| there {np.max(np.abs(self.qdd)):.3g} "
+                f"(0 at an equilibrium)")
+
+    def arrays(self) -> dict:
+        """The arrays written to NPZ and .mat files."""
+        return {"A": self.A, "B": self.B, "state_names": np.array(self.states, dtype=object),
+                "input_names": np.array(self.inputs, dtype=object), "eigenvalues": self.eigenvalues,
+                "t": np.float64(self.t), "q": self.q, "qd": self.qd, "qdd": self.qdd,
+                "coordinates": np.array(self.coordinates, dtype=object), "where": self.where}
+
+
+def refuse_velocity_constraints(model) -> None:
+    """ModelError for constraints of first or second order: they hold velocities or accelerations,
+    not positions, so the dependent coordinates do not follow from the independent ones."""
+    names = [name for name, order in zip(model.constraint_names, model.constraint_orders) if order != 0]
+    if names:
+        raise ModelError(f"the constraint(s) {', '.join(map(repr, names))} of first or second order hold "
+                         f"velocities or accelerations, not positions, so the states cannot be the independent "
+                         f"coordinates; linearize a model whose programmed constraints are all position constraints")
+
+
+def rate_jacobian(model, t, q, qd) -> np.ndarray:
+    """``∂Φ̇/∂q`` (m, n) by central differences of the emitted ``Φ̇``."""
+    n = model.n_dof
+    out = np.zeros((len(model.constraint_names), n))
+    for j in range(n):
+        h = STEP * max(1.0, abs(q[j]))
+        up, down = q.copy(), q.copy()
+        up[j] += h
+        down[j] -= h
+        out[:, j] = (model.constraint_terms(t, up, qd)[1] - model.constraint_terms(t, down, qd)[1]) / (2 * h)
+    return out
+
+
+def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
+    """The linear model of ``model`` (loaded with its Jacobians, ideal realization) about
+    ``(t, q, qd)``, with inputs on the coordinates named in ``inputs``. The partition is chosen at
+    the state (pivoted QR of ``D``) unless the model fixes it."""
+    refuse_velocity_constraints(model)
+    unknown = [name for name in inputs if name not in model.coordinates]
+    if unknown:
+        raise ModelError(f"inputs {', '.join(map(repr, unknown))}: not coordinates of {model.module.MODEL}; name "
+                         f"among {', '.join(model.coordinates)}")
+    q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
+    model = model.with_actuators(()).partitioned(t, q)
+    n = model.n_dof
+    ind, dep = np.asarray(model.independent), np.asarray(model.dependent)
+    A_q, A_qd = model.acceleration_jacobians(t, q, qd)
+    M, _, _, _, D, _ = model.gpme_terms(t, q, qd)
+    qdd = model.accelerations(t, q, qd)
+    S = gpme.selection(n, [model.index(name) for name in inputs])
+    if len(D):
+        N = gpme.tangent_basis(D, dep, ind)
+        V = np.zeros((n, len(ind)))
+        V[dep] = -np.linalg.solve(D[:, dep], rate_jacobian(model, t, q, qd) @ N)
+        K = np.vstack([N.T @ M, D])
+        forced = np.linalg.solve(K, np.vstack([N.T @ S, np.zeros((len(D), S.shape[1]))]))
+    else:
+        N, V = np.eye(n), np.zeros((n, n))
+        forced = np.linalg.solve(M, S)
+    k = len(ind)
+    A = np.block([[np.zeros((k, k)), np.eye(k)], [(A_q @ N + A_qd @ V)[ind], (A_qd @ N)[ind]]])
+    B = np.vstack([np.zeros((k, S.shape[1])), forced[ind]])
+    names = [model.coordinates[j] for j in ind]
+    values = np.linalg.eigvals(A)
+    order = np.lexsort((values.imag, np.abs(values)))
+    return LinearModel(A, B, tuple(names + [f"{c}_dot" for c in names]), tuple(inputs), values[order], float(t),
+                       q, qd, qdd, tuple(model.coordinates), where)
+
+
+def neutral(values) -> np.ndarray:
+    """Mask of the eigenvalues that are zero to round-off (below :data:`NEUTRAL` times the
+    largest modulus): a coordinate with neither spring nor gravity moment, e.g. a free rotation."""
+    modulus = np.abs(np.asarray(values))
+    return modulus <= NEUTRAL * np.max(modulus, initial=0.0)
+
+
+def frequencies(values):
+    """``(f Hz, ζ)`` of eigenvalues ``values`` (1/s): ``f = |λ|/2π``, ``ζ = -Re λ/|λ|``; for the
+    :func:`neutral` ones ``f = 0`` and ``ζ`` NaN (not defined)."""
+    values = np.asarray(values)
+    zero = neutral(values)
+    modulus = np.where(zero, 0.0, np.abs(values))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        zeta = np.where(zero, np.nan, -values.real / np.where(zero, 1.0, modulus))
+    return modulus / (2 * math.pi), zeta
+
+
+def unstable(values) -> np.ndarray:
+    """Mask of the eigenvalues with a real part above :data:`gpmegen.runtime.internal.UNSTABLE`
+    times the largest modulus."""
+    values = np.asarray(values)
+    return values.real > UNSTABLE * np.max(np.abs(values), initial=0.0)
+
+
+def format_eigenvalues(values) -> str:
+    """The eigenvalues as a table, one line per real eigenvalue or complex pair (the one with
+    ``Im ≥ 0``), by frequency: Hz, damping ratio ("neutral" for a zero one), the eigenvalue; the
+    unstable ones marked."""
+    values = np.asarray(values)
+    shown = values[values.imag >= -1e-12 * max(1.0, float(np.max(np.abs(values), initial=0.0)))]
+    f, zeta = frequencies(shown)
+    bad = unstable(shown) & ~neutral(shown)
+    lines = [f"{'frequency (Hz)':>15} {'damping ratio':>14}  {'eigenvalue (1/s)':>28}"]
+    for fk, zk, v, b in zip(f, zeta, shown, bad):
+        damping = "neutral" if np.isnan(zk) else f"{zk:.6g}"
+        lines.append(f"{fk:15.6g} {damping:>14}  {v.real:13.6g} {v.imag:+13.6g}j" + ("  UNSTABLE" if b else ""))
+    return "\n".join(lines)
+
+
+def save(linear: LinearModel, path) -> Path:
+    """Write ``linear`` to ``path``, ``.npz`` (names as string arrays) or ``.mat`` (MATLAB 5,
+    names as cell arrays of strings), atomically."""
+    from ..fileio import atomic_write
+
+    path = Path(path)
+    data = linear.arrays()
+    if path.suffix == ".mat":
+        import scipy.io
+
+        cells = {k: (np.array([[s] for s in v], dtype=object) if isinstance(v, np.ndarray) and v.dtype == object else v)
+                 for k, v in data.items()}
+        return atomic_write(path, lambda fh: scipy.io.savemat(fh, cells, oned_as="column"))
+    if path.suffix == ".npz":
+        strings = {k: (v.astype(str) if isinstance(v, np.ndarray) and v.dtype == object else v)
+                   for k, v in data.items()}
+        return atomic_write(path, lambda fh: np.savez(fh, **strings))
+    raise ModelError(f"{path}: write the linear model as .npz or .mat")
+
+
+def default_inputs(case) -> tuple:
+    """The coordinates that take an input by default: those the case's model drives, then its
+    actuators (none for a built folder, whose drives are not recorded)."""
+    drives = [drive.coordinate for drive in getattr(case.source, "drives", ())]
+    return tuple(dict.fromkeys(drives + list(case.actuators)))
+
+
+def along_run(model, path, times, inputs=()) -> list:
+    """Linear models at the saved states of the results file ``path`` nearest each of ``times``
+    (s) (the saved state, not an interpolation: it lies on the run's motion), with the run's
+    parameter values. ModelError for a results file of another model or times outside the run."""
+    from . import results as results_io
+
+    run = results_io.load(path)
+    meta = results_io.metadata(run)
+    if meta.get("model") != model.module.MODEL or tuple(meta.get("coordinates", ())) != model.coordinates:
+        raise ModelError(f"{path}: results of model {meta.get('model')!r}, not of {model.module.MODEL!r}; give a "
+                         f"results file of this model (or the model file that made it)")
+    t = np.asarray(run["t"], dtype=float)
+    times = np.atleast_1d(np.asarray(times if times is not None else [t[0]], dtype=float))
+    outside = [f"{x:g}" for x in times if not t[0] <= x <= t[-1]]
+    if outside:
+        raise ModelError(f"--times {', '.join(outside)} s: outside the run of {path} ({t[0]:g} to {t[-1]:g} s); give "
+                         f"times within it")
+    model = model.with_params(**meta.get("params", {}))
+    out = []
+    for x in times:
+        k = int(np.argmin(np.abs(t - x)))
+        out.append(linearize(model, t[k], run["q"][k], run["qd"][k], inputs,
+                             where=f"saved state at t = {t[k]:.6g} s of {path} (nearest to {x:g} s)"))
+    return out
