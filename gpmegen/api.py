@@ -51,7 +51,7 @@ from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
 from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
 from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
-from .symbolic.transforms import check_kinds
+from .symbolic.transforms import KINDS, check_kinds
 from .version import __version__
 
 
@@ -73,8 +73,10 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
 
     ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
     ``transforms``: the body transforms to generate, of "T", "T_i", "T_ij"
-    (:meth:`LoadedModel.transforms`); a folder built with others is built again. ``jacobians``:
-    with the generated derivatives of the GPME (:meth:`LoadedModel.acceleration_jacobians`).
+    (:meth:`LoadedModel.transforms`); ``jacobians``: with the generated derivatives of the GPME
+    (:meth:`LoadedModel.acceleration_jacobians`). Both are what the model must have at least: a
+    folder built with more serves as it is, and one built with less is built again with both what
+    it had and what is asked (so that asking in turn never rebuilds back and forth).
     """
     check_backend(backend)
     if model is None:
@@ -90,10 +92,11 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     folder = directory / model.name
     recover_folder(folder)
     rebuild = command or "gpmegen build"
-    transforms = check_kinds(transforms)
+    manifest = read_manifest(folder)
+    transforms, jacobians = _at_least(manifest, check_kinds(transforms), jacobians)
     digest = input_hash(model, BACKENDS, transforms, jacobians)
     used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
-    reason = stale_reason(folder, read_manifest(folder), digest, used)
+    reason = stale_reason(folder, manifest, digest, used)
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
@@ -101,6 +104,14 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
                     transforms=transforms, jacobians=jacobians)
     return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
                        progress=progress)
+
+
+def _at_least(manifest, transforms, jacobians):
+    """The optional outputs a load builds or reuses: those asked and those the folder already
+    holds (its ``manifest``, None when there is none)."""
+    held = manifest or {}
+    kinds = tuple(k for k in KINDS if k in transforms or k in held.get("transforms", ()))
+    return kinds, bool(jacobians or held.get("jacobians", False))
 
 
 def _case(model, nrfe):
