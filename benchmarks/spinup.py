@@ -6,7 +6,8 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 Ωs = 4, 6 and 10 rad/s. Output: the tip's deflection in the hub frame.
 
 - gpmegen: examples/spinup_axial.toml (sdes that bend and stretch; --model bending:
-  examples/spinup.toml, inextensible) at several n_rfe (RK4), extrapolated to n_rfe → ∞
+  examples/spinup.toml, inextensible) at several n_rfe (RK4, or generalized-α with --method
+  genalpha), extrapolated to n_rfe → ∞
   (gpmegen.analysis.extrapolate);
 - reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
   generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed; coarser
@@ -23,6 +24,8 @@ as accurate as gpmegen's limit; writes figures/spinup.png.
     .venv/bin/python -m pip install exudyn      # the reference engine: a benchmark dependency only
     .venv/bin/python benchmarks/spinup.py                        # Ωs = 4, 6, 10
     .venv/bin/python benchmarks/spinup.py --omega 4 --nrfe 5 10 20 --elements 32
+    .venv/bin/python benchmarks/spinup.py --method genalpha --dt 1e-3              # within 2e-5 at Ωs 4, 6
+    .venv/bin/python benchmarks/spinup.py --method genalpha --dt 1e-3 --omega 10 --nrfe 10 20 30 40
 """
 
 from __future__ import annotations
@@ -59,7 +62,7 @@ def in_hub_frame(t, points, omega):
     return -np.sin(theta) * points[:, 0] + np.cos(theta) * points[:, 1]
 
 
-def gpmegen_runs(model_file, omega, nrfe, dt):
+def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4"):
     """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds of
     each level's integration, wall seconds of all, the levels run at once on the cores)."""
     from gpmegen.analysis import extrapolate
@@ -67,7 +70,7 @@ def gpmegen_runs(model_file, omega, nrfe, dt):
 
     simulate_levels(model_file, nrfe, 0.0, dt, backend="c")  # built and compiled before the clock starts
     start = time.perf_counter()
-    levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)),
+    levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)), method=method,
                              backend="c", params={"Omega": omega})
     wall = time.perf_counter() - start
     seconds = [level.seconds for level in levels]
@@ -210,7 +213,10 @@ def main(argv=None) -> int:
     parser.add_argument("--nrfe", type=int, nargs="+", default=[5, 10, 20, 30], help="gpmegen's levels")
     parser.add_argument("--model", choices=tuple(MODELS), default="axial",
                         help="gpmegen's beam: stretching and bending like the reference (default), or bending only")
-    parser.add_argument("--dt", type=float, default=1e-4, help="gpmegen's RK4 step (s); 5e-4 will do for bending")
+    parser.add_argument("--dt", type=float, default=1e-4, help="gpmegen's step (s); 5e-4 will do for bending")
+    parser.add_argument("--method", choices=("rk4", "genalpha"), default="rk4",
+                        help="gpmegen's integrator: RK4 (its step bound by the axial modes' stability) or "
+                             "generalized-α, whose step the first bending mode alone bounds (1e-3 s)")
     parser.add_argument("--elements", type=int, default=32, help="ANCF elements of the reference")
     parser.add_argument("--step", type=float, default=5e-4, help="the reference's step (s)")
     parser.add_argument("--coarse", type=int, nargs="*", default=[2, 4, 8, 16],
@@ -221,7 +227,7 @@ def main(argv=None) -> int:
     print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
     cases = {}
     for omega in args.omega:
-        t, tip, seconds, wall_levels = gpmegen_runs(MODELS[args.model], omega, args.nrfe, args.dt)
+        t, tip, seconds, wall_levels = gpmegen_runs(MODELS[args.model], omega, args.nrfe, args.dt, args.method)
         runs = {}
 
         def exudyn(elements, step):  # each Exudyn run once per Ωs: (values, seconds)
