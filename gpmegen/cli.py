@@ -753,7 +753,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--repartition", action="store_true",
                        help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
 
-    s = command("simulate", "statics, then the constrained motion (RK4 or adaptive)")
+    s = command("simulate", "statics, then the constrained motion (rk4, dop853, genalpha); "
+                                "at several --nrfe, extrapolated")
     study_options(s, levels=True)
     run_options(s)
     s.add_argument("--save-dt", type=positive_float, default=None,
@@ -839,7 +840,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="lin.npz or lin.mat (MATLAB; names as cell arrays); several --times: lin_1.mat, ...")
     li.set_defaults(func=cmd_linearize)
 
-    c = command("convergence", "clamped flexible links against n_rfe, beside Euler–Bernoulli and Saint-Venant")
+    c = command("convergence", "discretization error against n_rfe: clamped links beside beam theory, "
+                                   "or any output (--output)")
     c.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
     c.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
