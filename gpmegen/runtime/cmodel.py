@@ -85,9 +85,9 @@ class CEvaluator:
         # from_buffer is the cheapest way to hand cffi a contiguous float64 array (no copy).
         return self.ffi.from_buffer("double[]", a)
 
-    def _state(self, q, qd):
-        """The thread's C buffers holding q and qd (n,) (qd may be None), checked and converted:
-        (scratch, q pointer, qd pointer)."""
+    def _state(self, q, qd, velocities=True):
+        """The thread's C buffers holding q and qd (n,) (qd not read without ``velocities``),
+        checked and converted: (scratch, q pointer, qd pointer)."""
         scratch = self._scratch
         try:
             view = scratch.q
@@ -96,7 +96,7 @@ class CEvaluator:
         if type(q) is not np.ndarray or q.shape != self.shape:
             q = vector(q, self.n, "q")
         view[...] = q
-        if qd is not None:
+        if velocities:
             if type(qd) is not np.ndarray or qd.shape != self.shape:
                 qd = vector(qd, self.n, "qd")
             scratch.qd[...] = qd
@@ -150,7 +150,7 @@ class CEvaluator:
 
     # --- the generated functions -------------------------------------------------------------
     def mass_matrix(self, q, p):
-        _, q_c, _ = self._state(q, None)
+        _, q_c, _ = self._state(q, None, velocities=False)
         M = np.empty((self.n, self.n))
         self.lib.mass_matrix(q_c, self._params(p), self._ptr(M))
         return M
