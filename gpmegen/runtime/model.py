@@ -10,6 +10,7 @@ over the compiled C library (:class:`gpmegen.runtime.cmodel.CEvaluator`).
 from __future__ import annotations
 
 import copy
+from functools import cached_property
 from types import ModuleType
 from typing import Protocol
 
@@ -83,6 +84,10 @@ class Evaluator(Protocol):
 
     def accelerations(self, t, q, qd, model):
         """q̈ (n,) of the GPME."""
+
+    def accelerations_call(self, model, checked):
+        """A callable ``(t, q, qd) -> q̈`` of ``model`` cheaper than :meth:`accelerations` for one
+        state, handing every call it does not take itself to ``checked``; or None."""
 
     def mass_matrix_batch(self, q, p):
         """M at each of the N states q (N, n): (N, n, n), bit for bit as N calls."""
@@ -166,6 +171,9 @@ class NumpyEvaluator:
 
     def accelerations(self, t, q, qd, model):
         return self.motion(t, q, qd, model)[0]
+
+    def accelerations_call(self, model, checked):
+        return None  # a Python call costs little beside the NumPy evaluation
 
     # a loop over the states: the generated functions take one state (plain floats, like C)
     def mass_matrix_batch(self, q, p):
@@ -407,6 +415,26 @@ class LoadedModel:
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), or of the actuated realization; the
         partition as :meth:`motion`. A batch (``q``, ``qd`` (N, n), ``t`` scalar or (N,)) gives
         (N, n), in one call into C where the GPME alone is solved."""
+        return self._accelerations_call(t, q, qd)
+
+    @cached_property
+    def _accelerations_call(self):
+        """What :meth:`accelerations` calls: the backend's fast single-state call for this model
+        where it has one (it hands every other call to :meth:`_checked_accelerations`), else that."""
+        fast = None
+        if not len(self.actuators) and self.dependent is not None:
+            fast = self.evaluator.accelerations_call(self, self._checked_accelerations)
+        return self._checked_accelerations if fast is None else fast
+
+    def __getstate__(self):
+        # A copy (with_params, with_partition, ...) or a pickle leaves out the calls made for this
+        # model's own parameter values and partition: the copy makes its own when first asked.
+        state = dict(self.__dict__)
+        state.pop("_accelerations_call", None)
+        return state
+
+    def _checked_accelerations(self, t, q, qd):
+        """:meth:`accelerations` with its inputs checked and converted in Python."""
         if is_batch(q):
             t, q, qd = states(t, q, qd, self.n_dof)
             if len(self.actuators) or self.dependent is None:  # per state: the realization or partition
