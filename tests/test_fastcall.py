@@ -129,6 +129,23 @@ def test_each_model_of_a_library_uses_its_own_parameters(arm):
     assert not np.array_equal(heavy.accelerations(t, q, qd), own)
 
 
+def test_values_set_by_hand_are_followed(arm):
+    """A partition set after loading (tests/test_c_backend.py) or parameter values set by hand
+    make the fast call again."""
+    model = arm.with_params()
+    t, q, qd = _states(arm, 1, seed=9)[0]
+    model.accelerations(t, q, qd)
+    first = model._accelerations_call
+    model.p = arm.with_params(m3=3 * arm.params["m3"]).p
+    assert np.array_equal(model.accelerations(t, q, qd), _through_cffi(model, t, q, qd))
+    assert not np.array_equal(model.accelerations(t, q, qd), arm.accelerations(t, q, qd))
+    model.dependent, model.independent = np.array([1, 2]), np.array([0])
+    assert model._accelerations_call is not first and np.array_equal(model.accelerations(t, q, qd),
+                                                                      _through_cffi(model, t, q, qd))
+    model.dependent = None  # chosen at each state again: the checked path
+    assert model._accelerations_call == model._checked_accelerations
+
+
 @pytest.fixture
 def fresh(monkeypatch, tmp_path):
     """No extension loaded yet in this process, and an empty cache folder for it."""

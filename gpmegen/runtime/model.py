@@ -59,6 +59,9 @@ def call(module: ModuleType, function: str, *args):
 #: The generated function of each body transform (:data:`gpmegen.symbolic.transforms.KINDS`).
 TRANSFORM_FUNCTIONS = {"T": "transforms", "T_i": "transform_derivatives", "T_ij": "transform_second_derivatives"}
 
+#: What a model's fast call (:attr:`LoadedModel._accelerations_call`) is made from.
+MADE_FROM = frozenset({"evaluator", "p", "dependent", "independent", "actuators"})
+
 # Above this condition number of D M⁻¹ S the actuated coordinates are refused at the start.
 UNCONTROLLABLE = 1e10
 
@@ -426,12 +429,12 @@ class LoadedModel:
             fast = self.evaluator.accelerations_call(self, self._checked_accelerations)
         return self._checked_accelerations if fast is None else fast
 
-    def __getstate__(self):
-        # A copy (with_params, with_partition, ...) or a pickle leaves out the calls made for this
-        # model's own parameter values and partition: the copy makes its own when first asked.
-        state = dict(self.__dict__)
-        state.pop("_accelerations_call", None)
-        return state
+    def __setattr__(self, name, value):
+        # The calls made for this model's values are made again when one of them is set: by
+        # with_params, with_partition, with_actuators on their copy, or by hand.
+        if name in MADE_FROM:
+            self.__dict__.pop("_accelerations_call", None)
+        object.__setattr__(self, name, value)
 
     def _checked_accelerations(self, t, q, qd):
         """:meth:`accelerations` with its inputs checked and converted in Python."""
