@@ -13,8 +13,9 @@ is the one recorded when the library was built (a cache hit reports the original
 ``--versus 5 20`` then compares one ``accelerations`` call from Python with ``pinocchio.aba`` on a
 serial chain of as many revolute joints (the ``pin`` package; a plain chain of rods about
 alternating axes, not the flexible arm: the articulated-body algorithm's cost depends on the
-number and kind of joints, not on the inertias), in the same process and interleaved, and times
-batched evaluation: ``accelerations`` of N = 1000 states in one call, per state.
+number and kind of joints, not on the inertias), in the same process and interleaved, beside the
+same call through the checked cffi path and the bare C call, and times batched evaluation:
+``accelerations`` of N = 1000 states in one call, per state.
 
 For the reference case (n_rfe = 5) it then times the paper's run, 10 s at dt = 1e-5 (a million
 RK4 steps), entirely in C: for real when the per-step time says it takes under a minute, else
@@ -25,6 +26,7 @@ coordinates zero (not the static sag): the time per step does not depend on it.
 from __future__ import annotations
 
 import argparse
+import os
 import time
 import timeit
 
@@ -105,32 +107,53 @@ def pinocchio_chain(n_joints: int):
     return model, model.createData()
 
 
+def raw_call(model, q, qd):
+    """A call of the library's gpme_accelerations through cffi with every argument prepared:
+    about what the C costs (an empty cffi call takes about 0.1 µs)."""
+    ev = model.evaluator
+    dep, ind = ev._partition_pointers(model)
+    arguments = (0.1, ev.ffi.from_buffer("double[]", q), ev.ffi.from_buffer("double[]", qd), ev._params(model.p), dep,
+                 ind, ev.ffi.new("double[]", model.n_dof))
+    function = ev.lib.gpme_accelerations
+    return lambda: function(*arguments)
+
+
 def versus_pinocchio(values, rounds, batch=1000):
-    """One accelerations call against pinocchio.aba on as many joints, and batched evaluation."""
+    """One accelerations call against pinocchio.aba on as many joints, and batched evaluation.
+    The call from Python (through the fast-call extension where it is built) is set beside the
+    checked path through cffi (the call before the extension) and the bare C call."""
     import pinocchio as pin
 
-    print(f"\n{'n_rfe':>5} {'n_dof':>5} {'C q̈ [µs]':>9} {'aba [µs]':>9} {'ratio':>6} "
-          f"{'batched q̈ [µs/state]':>21} {'C step [µs]':>11}")
+    print(f"\n{'n_rfe':>5} {'n_dof':>5} {'C q̈ [µs]':>9} {'cffi q̈ [µs]':>11} {'raw C [µs]':>10} {'aba [µs]':>9} "
+          f"{'ratio':>6} {'batched q̈ [µs/state]':>21} {'C step [µs]':>11} {'load':>5}")
     for n in values:
         c_model = gpmegen.load(nrfe=n, backend="c")
+        if c_model.evaluator.fastcall_unavailable:
+            print(f"(single calls go through cffi: {c_model.evaluator.fastcall_unavailable})")
         q, qd = start_state(c_model)
         pin_model, pin_data = pinocchio_chain(c_model.n_dof)
         rng = np.random.default_rng(1)
         pq, pv, tau = (rng.standard_normal(c_model.n_dof) for _ in range(3))
         Q, QD = np.tile(q, (batch, 1)), np.tile(qd, (batch, 1))
         Q[:, 0] += np.linspace(0.0, 0.1, batch)  # distinct states
-        best = [float("inf")] * 4
+        raw = raw_call(c_model, q, qd)
+        best = [float("inf")] * 6
         for _ in range(rounds):
             figures = (per_call(lambda: c_model.accelerations(0.1, q, qd), 0.2),
+                       per_call(lambda: c_model._checked_accelerations(0.1, q, qd), 0.2),
+                       per_call(raw, 0.2),
                        per_call(lambda: pin.aba(pin_model, pin_data, pq, pv, tau), 0.2),
                        per_call(lambda: c_model.accelerations(0.1, Q, QD), 0.3) / batch,
                        c_rk4_per_step(c_model, q, qd, 2000))
             best = [min(a, b) for a, b in zip(best, figures)]
-        ours, aba, batched, step = best
-        print(f"{n:>5} {c_model.n_dof:>5} {ours * 1e6:>9.2f} {aba * 1e6:>9.2f} {ours / aba:>5.2f}× "
-              f"{batched * 1e6:>21.2f} {step * 1e6:>11.2f}", flush=True)
-    print(f"ratio: ours / aba, both called from Python (best of {rounds} interleaved rounds); batched: one call "
-          f"for {batch} states, per state; C step: one RK4 step inside the C loop.")
+        ours, checked, bare, aba, batched, step = best
+        print(f"{n:>5} {c_model.n_dof:>5} {ours * 1e6:>9.2f} {checked * 1e6:>11.2f} {bare * 1e6:>10.2f} "
+              f"{aba * 1e6:>9.2f} {ours / aba:>5.2f}× {batched * 1e6:>21.2f} {step * 1e6:>11.2f} "
+              f"{os.getloadavg()[0]:>5.1f}", flush=True)
+    print(f"C q̈: model.accelerations(t, q, qd); cffi q̈: the same through the checked cffi path; raw C: "
+          f"gpme_accelerations through cffi with its arguments prepared; ratio: C q̈ / aba, both called from Python "
+          f"(best of {rounds} interleaved rounds); batched: one call for {batch} states, per state; C step: one RK4 "
+          f"step inside the C loop; load: the 1-minute load average after the row.")
 
 
 def main():

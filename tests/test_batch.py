@@ -10,6 +10,7 @@ import pytest
 
 import gpmegen
 from gpmegen.errors import SimulationError
+from gpmegen.runtime import cmodel
 
 BACKENDS = ("numpy", pytest.param("c", marks=pytest.mark.requires_cc))
 
@@ -108,17 +109,21 @@ def test_a_failing_state_names_its_place_in_the_batch(models):
 
 
 @pytest.mark.requires_cc
-def test_threads_do_not_share_a_call_s_buffers(models):
-    """cffi releases the GIL during a C call: a single call's state lives in buffers of its
-    thread, so threads calling one model at once each get their own state's q̈."""
-    c = models("c")
+@pytest.mark.parametrize("path, release_from", [("fast", cmodel.RELEASE_GIL_FROM), ("fast", 0), ("checked", 0)])
+def test_threads_do_not_share_a_call_s_buffers(models, monkeypatch, path, release_from):
+    """Threads calling one model at once each get their own state's q̈: through the fast-call
+    extension with the GIL kept or released during the C, and through cffi (which releases it),
+    whose single calls keep the state in buffers of their thread."""
+    monkeypatch.setattr(cmodel, "RELEASE_GIL_FROM", release_from)
+    c = models("c").with_params()  # a copy: its fast call is made under this rule
+    call = c.accelerations if path == "fast" else c._checked_accelerations
     t, q, qd = _batch(c, 4, seed=4)
     expected = c.accelerations(t, q, qd)
     wrong = []
 
     def work(k):
-        for _ in range(300):
-            if not np.array_equal(c.accelerations(t[k], q[k], qd[k]), expected[k]):
+        for _ in range(1000):
+            if not np.array_equal(call(t[k], q[k], qd[k]), expected[k]):
                 wrong.append(k)
 
     threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]

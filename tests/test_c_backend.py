@@ -400,3 +400,18 @@ def test_unrolled_and_looped_solves_agree_bit_for_bit(pairs, key, env):
 def test_gcc_is_told_from_other_compilers(identity, gcc):
     """GCC-only flags (priority register allocation) go to GCC alone, whatever its name."""
     assert ccompile.is_gcc(identity) is gcc
+
+
+@pytest.mark.requires_cc
+def test_missing_velocities_are_refused_not_taken_from_an_earlier_call(pairs):
+    """Single calls keep q and q̇ in per-thread C buffers: a call without q̇ must not use the q̇
+    an earlier call left there (it did), but say what is missing, as the NumPy backend does."""
+    c, numpy_model = pairs("nrfe1")
+    t, q, qd = next(_states(c, 1, seed=8))
+    for name in ("forces", "constraint_terms", "accelerations"):
+        getattr(c, name)(t, q, qd)  # leaves qd in the buffers
+        with pytest.raises(ValueError) as expected:
+            getattr(numpy_model, name)(t, q, None)
+        with pytest.raises(ValueError) as got:
+            getattr(c, name)(t, q, None)
+        assert str(got.value) == str(expected.value), name

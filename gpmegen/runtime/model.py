@@ -10,6 +10,7 @@ over the compiled C library (:class:`gpmegen.runtime.cmodel.CEvaluator`).
 from __future__ import annotations
 
 import copy
+from functools import cached_property
 from types import ModuleType
 from typing import Protocol
 
@@ -58,6 +59,9 @@ def call(module: ModuleType, function: str, *args):
 #: The generated function of each body transform (:data:`gpmegen.symbolic.transforms.KINDS`).
 TRANSFORM_FUNCTIONS = {"T": "transforms", "T_i": "transform_derivatives", "T_ij": "transform_second_derivatives"}
 
+#: What a model's fast call (:attr:`LoadedModel._accelerations_call`) is made from.
+MADE_FROM = frozenset({"evaluator", "p", "dependent", "independent", "actuators"})
+
 # Above this condition number of D M⁻¹ S the actuated coordinates are refused at the start.
 UNCONTROLLABLE = 1e10
 
@@ -83,6 +87,10 @@ class Evaluator(Protocol):
 
     def accelerations(self, t, q, qd, model):
         """q̈ (n,) of the GPME."""
+
+    def accelerations_call(self, model, checked):
+        """A callable ``(t, q, qd) -> q̈`` of ``model`` cheaper than :meth:`accelerations` for one
+        state, handing every call it does not take itself to ``checked``; or None."""
 
     def mass_matrix_batch(self, q, p):
         """M at each of the N states q (N, n): (N, n, n), bit for bit as N calls."""
@@ -166,6 +174,9 @@ class NumpyEvaluator:
 
     def accelerations(self, t, q, qd, model):
         return self.motion(t, q, qd, model)[0]
+
+    def accelerations_call(self, model, checked):
+        return None  # a Python call costs little beside the NumPy evaluation
 
     # a loop over the states: the generated functions take one state (plain floats, like C)
     def mass_matrix_batch(self, q, p):
@@ -407,6 +418,26 @@ class LoadedModel:
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), or of the actuated realization; the
         partition as :meth:`motion`. A batch (``q``, ``qd`` (N, n), ``t`` scalar or (N,)) gives
         (N, n), in one call into C where the GPME alone is solved."""
+        return self._accelerations_call(t, q, qd)
+
+    @cached_property
+    def _accelerations_call(self):
+        """What :meth:`accelerations` calls: the backend's fast single-state call for this model
+        where it has one (it hands every other call to :meth:`_checked_accelerations`), else that."""
+        fast = None
+        if not len(self.actuators) and self.dependent is not None:
+            fast = self.evaluator.accelerations_call(self, self._checked_accelerations)
+        return self._checked_accelerations if fast is None else fast
+
+    def __setattr__(self, name, value):
+        # The calls made for this model's values are made again when one of them is set: by
+        # with_params, with_partition, with_actuators on their copy, or by hand.
+        if name in MADE_FROM:
+            self.__dict__.pop("_accelerations_call", None)
+        object.__setattr__(self, name, value)
+
+    def _checked_accelerations(self, t, q, qd):
+        """:meth:`accelerations` with its inputs checked and converted in Python."""
         if is_batch(q):
             t, q, qd = states(t, q, qd, self.n_dof)
             if len(self.actuators) or self.dependent is None:  # per state: the realization or partition
