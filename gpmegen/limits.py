@@ -48,8 +48,10 @@ COMPILE_SECONDS = ((64.5e3, 0.3), (287e3, 1.5), (884e3, 4.5), (3.19e6, 9.9), (6.
 #: Peak resident memory of the largest compiler (the hot part's) against the size of model.c.
 COMPILE_BYTES = ((64.5e3, 102e6), (287e3, 121e6), (884e3, 280e6), (3.19e6, 331e6), (6.46e6, 393e6),
                  (17.08e6, 826e6))
-#: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``.
-STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
+#: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``
+#: (at n_dof 60, four GPME solves of 16 µs: ``gpme_accelerations``, best of 400 rounds, README
+#: "Performance"; the extrapolation of 15-30 gave 44 µs, and 22 µs a solve was measured at load 3.6).
+STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6), (60, 64e-6)),
                 "numpy": ((3, 207e-6), (15, 549e-6), (30, 1123e-6))}
 #: GPME solves a generalized-α step takes against n_dof (its modified Newton's iterations and the
 #: rate at its end; the paper's study at dt 1e-4 from the locked start, benchmarks/run_estimates.py
