@@ -1,7 +1,10 @@
 """The integrators on the paper's study: wall time, the error of q(t_end) and the constraint
 violation of each, for the reference arm at several n_rfe.
 
-Run: ``.venv/bin/python benchmarks/integrators.py [t_end] [n_rfe ...]`` (default 10 s, n_rfe 5).
+Run: ``.venv/bin/python benchmarks/integrators.py [t_end] [n_rfe ...]`` (default 10 s, n_rfe 5);
+``--reference FILE.npz`` takes the converged run from a file holding its ``t`` and ``q`` (one
+n_rfe; e.g. a DOP853 run at rtol 1e-11 saved with numpy.savez) instead of running it, and
+``--only WORD`` keeps the methods whose label holds WORD.
 Every method runs in C from the locked start through the same chunked driver a simulate run uses,
 saving every 1 ms; the wall time is that of the integration alone (the model is loaded, compiled
 and started before). The reference is the compiled DOP853 at rtol = atol = 1e-12 (the tests
@@ -13,8 +16,8 @@ saved instants. The load of the machine is printed, since the wall times depend 
 
 from __future__ import annotations
 
+import argparse
 import os
-import sys
 import time
 
 import numpy as np
@@ -24,12 +27,15 @@ from gpmegen.analysis import reference_case
 from gpmegen.runtime import integrate
 
 SAVE_DT = 1e-3
-#: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at two steps.
+#: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at three
+#: steps (projected onto the constraints, as simulate runs it) and once without the projection.
 METHODS = (
     ("rk4 dt 1e-5", "rk4", {"dt": 1e-5}),
     ("dop853 rtol 1e-6", "dop853", {"rtol": 1e-6, "atol": 1e-8}),
     ("dop853 rtol 1e-8", "dop853", {"rtol": 1e-8, "atol": 1e-10}),
     ("genalpha dt 1e-4", "genalpha", {"dt": 1e-4}),
+    ("genalpha dt 1e-4 unprojected", "genalpha", {"dt": 1e-4, "project": False}),
+    ("genalpha dt 5e-5", "genalpha", {"dt": 5e-5}),
     ("genalpha dt 2.5e-5", "genalpha", {"dt": 2.5e-5}),
 )
 
@@ -45,7 +51,8 @@ def run(model, q0, t_end, method, options):
     elif method == "dop853":
         t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, SAVE_DT, **options)
     else:
-        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT)
+        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT,
+                                                   project=options.get("project", True))
     wall = time.perf_counter() - start
     if not outcome.complete:
         raise SystemExit(f"{method} {options}: {outcome}")
@@ -59,25 +66,42 @@ def violation(model, t, y) -> float:
                for tk, yk in zip(t, y))
 
 
-def main(t_end=10.0, levels=(5,)):
+def main(t_end=10.0, levels=(5,), reference_file=None, only=""):
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; t_end = {t_end:g} s, saved every "
           f"{SAVE_DT:g} s")
     for nrfe in levels:
         model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
         n = model.n_dof
-        wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": 1e-12, "atol": 1e-12})
-        reference = y[-1, :n]
-        print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = 1e-12 in {wall:.1f} s, "
-              f"{effort.describe()}, max|Φ| = {violation(model, t, y):.1e}")
-        print(f"{'method':>20} {'wall [s]':>9} {'max|Δq(t_end)|':>15} {'max|Φ|':>8} {'steps':>9} {'rejected':>8} "
-              f"{'solves':>10} {'Jacobians':>9}")
+        if reference_file:
+            stored = np.load(reference_file)
+            if not (len(stored["q"][-1]) == n and abs(float(stored["t"][-1]) - t_end) < 1e-12):
+                raise SystemExit(f"{reference_file} does not hold q({t_end:g} s) of n_dof = {n}")
+            reference = stored["q"][-1]
+            print(f"\nn_rfe = {nrfe} ({n} coordinates): reference q({t_end:g} s) from {reference_file}")
+        else:
+            wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": 1e-12, "atol": 1e-12})
+            reference = y[-1, :n]
+            print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = 1e-12 in {wall:.1f} s, "
+                  f"{effort.describe()}, max|Φ| = {violation(model, t, y):.1e}")
+        print(f"{'method':>28} {'wall [s]':>9} {'load':>5} {'max|Δq(t_end)|':>15} {'max|Φ|':>8} {'steps':>9} "
+              f"{'rejected':>8} {'solves':>10} {'Jacobians':>9} {'projecting':>10}")
         for label, method, options in METHODS:
+            if only not in label:
+                continue
             wall, t, y, effort = run(model, q0, t_end, method, options)
             error = np.abs(y[-1, :n] - reference).max()
-            print(f"{label:>20} {wall:>9.2f} {error:>15.2e} {violation(model, t, y):>8.1e} {effort.steps:>9} "
-                  f"{effort.rejected:>8} {effort.solves:>10} {effort.jacobians:>9}", flush=True)
+            print(f"{label:>28} {wall:>9.2f} {os.getloadavg()[0]:>5.2f} {error:>15.2e} {violation(model, t, y):>8.1e} "
+                  f"{effort.steps:>9} {effort.rejected:>8} {effort.solves:>10} {effort.jacobians:>9} "
+                  f"{effort.projections:>10}", flush=True)
 
 
 if __name__ == "__main__":
-    main(float(sys.argv[1]) if len(sys.argv) > 1 else 10.0,
-         tuple(int(a) for a in sys.argv[2:]) or (5,))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("t_end", nargs="?", type=float, default=10.0)
+    parser.add_argument("nrfe", nargs="*", type=int, default=[5])
+    parser.add_argument("--reference", help="a .npz with the converged run's t and q (one n_rfe)")
+    parser.add_argument("--only", default="", help="keep the methods whose label holds this")
+    args = parser.parse_args()
+    if args.reference and len(args.nrfe) != 1:
+        parser.error("--reference holds one n_rfe's run: give one n_rfe")
+    main(args.t_end, tuple(args.nrfe), args.reference, args.only)

@@ -6,7 +6,9 @@ The estimates interpolate measurements on the 2-core development machine linearl
 and extrapolate beyond them with the slope of the last two. Builds, compiles and saved samples
 are calibrated by their CPU time, the RK4 steps by README "Performance": times of a quiet
 machine, so a busy one only takes longer than estimated and nothing that could finish within
-the limit is refused. Work whose estimate exceeds :data:`MAX_SECONDS`, or the memory the
+the limit is refused. The other integrators' runs count in GPME solves of that cost (a quarter
+of an RK4 step): generalized-α's estimated, DOP853's bounded from below by its stable step (see
+:data:`ESTIMATORS`). Work whose estimate exceeds :data:`MAX_SECONDS`, or the memory the
 system reports available (``MemAvailable``), raises :class:`LimitError`: one line with the
 estimate, the limit and what to change. ``--no-limits`` on the command line, or in Python::
 
@@ -23,6 +25,7 @@ import contextlib
 import contextvars
 import math
 import os
+from typing import NamedTuple
 
 from .errors import GpmegenError
 
@@ -45,9 +48,29 @@ COMPILE_SECONDS = ((64.5e3, 0.3), (287e3, 1.5), (884e3, 4.5), (3.19e6, 9.9), (6.
 #: Peak resident memory of the largest compiler (the hot part's) against the size of model.c.
 COMPILE_BYTES = ((64.5e3, 102e6), (287e3, 121e6), (884e3, 280e6), (3.19e6, 331e6), (6.46e6, 393e6),
                  (17.08e6, 826e6))
-#: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``.
-STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6)),
+#: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``
+#: (at n_dof 60, four GPME solves of 16 µs: ``gpme_accelerations``, best of 400 rounds, README
+#: "Performance"; the extrapolation of 15-30 gave 44 µs, and 22 µs a solve was measured at load 3.6).
+STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6), (60, 64e-6)),
                 "numpy": ((3, 207e-6), (15, 549e-6), (30, 1123e-6))}
+#: GPME solves a generalized-α step takes against n_dof (its modified Newton's iterations and the
+#: rate at its end; the paper's study at dt 1e-4 from the locked start, benchmarks/run_estimates.py
+#: and benchmarks/integrators.py), and one more for its projection onto the constraints.
+GENALPHA_SOLVES_PER_STEP = ((3, 3.0 + 1), (15, 5.0 + 1), (60, 6.2 + 1))
+#: One Jacobian of the GPME with the LU factorization of Newton's matrix, in C, against n_dof
+#: (central differences of the compiled solve, 4 n + 1 solves, in a model built without
+#: --jacobians; benchmarks/run_estimates.py at load 3.5, the only term here not from a quiet
+#: machine: it is below 1 % of a run). Generalized-α takes one at its start and refreshes it
+#: rarely (1 to 3 in the paper's study): a run is estimated with :data:`JACOBIANS_PER_RUN`.
+JACOBIAN_SECONDS = ((3, 15e-6), (15, 70e-6), (30, 0.97e-3), (60, 8.1e-3))
+JACOBIANS_PER_RUN = 3
+#: The largest |h λ| in DOP853's region of absolute stability (the radius of the part about the
+#: origin, over the directions of the left half-plane: 6.79 at 116° from the real axis; 5.96 on
+#: the imaginary axis, 6.39 on the real one; from its stability polynomial, tests/test_limits_runs.py).
+#: A mode of |λ| = ω needs steps of at most this over ω, whatever its damping.
+DOP853_STABILITY_RADIUS = 6.79
+#: GPME solves of an accepted DOP853 step: 12 stages, the first the rate at the last one's end.
+DOP853_SOLVES_PER_STEP = 12
 #: One saved sample against n_dof: the derived quantities (E, Φ, drive, constraint forces,
 #: energies) evaluated after the run, and its share of the .npz and .csv writing.
 SAMPLE_SECONDS = {"c": ((3, 34e-6), (15, 54e-6)), "numpy": ((3, 80e-6), (15, 226e-6))}
@@ -123,10 +146,11 @@ def _gigabytes(n_bytes: float) -> str:
     return f"{n_bytes / 1e9:.3g} GB"
 
 
-def check(work: str, seconds: float, n_bytes: float, fix: str) -> None:
+def check(work: str, seconds: float, n_bytes: float, fix: str, at_least: bool = False) -> None:
     """Raise LimitError when ``work`` (what would run, e.g. "building n_dof = 1500") is estimated
-    to take more than :data:`MAX_SECONDS` or more memory than is available; ``fix`` says what
-    to change. Nothing is refused inside :func:`lifted`."""
+    to take more than :data:`MAX_SECONDS` (``at_least``: ``seconds`` is a lower bound) or more
+    memory than is available; ``fix`` says what to change. Nothing is refused inside
+    :func:`lifted`."""
     if _lifted.get():
         return
     available = available_memory()
@@ -136,7 +160,8 @@ def check(work: str, seconds: float, n_bytes: float, fix: str) -> None:
     if available is not None and n_bytes > available:
         beyond.append(f"the {_gigabytes(available)} of memory available")
     if beyond:
-        raise LimitError(f"{work} would take about {duration(seconds)} and need about {_gigabytes(n_bytes)} of "
+        bound = "at least" if at_least else "about"
+        raise LimitError(f"{work} would take {bound} {duration(seconds)} and need about {_gigabytes(n_bytes)} of "
                          f"memory, beyond {' and '.join(beyond)}; {fix}, or {OVERRIDE}")
 
 
@@ -151,6 +176,16 @@ def check_compile(source_bytes: int, source) -> None:
     """Refuse compiling a generated C file of ``source_bytes`` that cannot finish."""
     check(f"compiling {source} ({source_bytes / 1e6:.3g} MB of C)", interpolate(COMPILE_SECONDS, source_bytes),
           interpolate(COMPILE_BYTES, source_bytes), "use fewer rfes (nrfe) or the NumPy backend (--backend numpy)")
+
+
+def solve_seconds(n_dof: int, backend: str = "c") -> float:
+    """One GPME solve (s): a quarter of an RK4 step, whose four stages are four solves."""
+    return interpolate(STEP_SECONDS["c" if backend == "c" else "numpy"], n_dof) / 4
+
+
+def jacobian_seconds(n_dof: int) -> float:
+    """One Jacobian of the GPME and the LU factorization of an n_dof matrix, in C (s)."""
+    return interpolate(JACOBIAN_SECONDS, n_dof)
 
 
 def steps(t_end: float, dt: float) -> int:
@@ -171,30 +206,103 @@ def sample_bytes(n_dof: int, n_constraints: int, backend: str) -> float:
     return 8.0 * doubles + python_lists
 
 
-def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
-                 backend: str) -> tuple[str, float, float] | None:
-    """``(work, seconds, bytes)`` of a fixed-step run (``method`` "rk4"): ``t_end/dt`` steps of
-    ``backend`` ("c" or "numpy") keeping every ``save_every``-th state, and what it is in words;
-    None for adaptive methods, which choose their own steps (they cannot be known before)."""
-    if method != "rk4":
-        return None
-    n_steps = steps(t_end, dt)
-    samples = n_steps // max(1, int(save_every)) + 2
-    backend = "c" if backend == "c" else "numpy"
-    seconds = (n_steps * interpolate(STEP_SECONDS[backend], n_dof)
-               + samples * interpolate(SAMPLE_SECONDS[backend], n_dof))
-    n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
+class Integration(NamedTuple):
+    """What a run's integration will take, known before it starts: ``steps`` and ``seconds`` of
+    wall time on a quiet machine; ``at_least``: a lower bound (an adaptive method, whose steps
+    cannot be known before) rather than an estimate; ``what``: the steps in words."""
+
+    steps: float
+    seconds: float
+    at_least: bool
+    what: str
+
+
+def _rk4(n_dof, t_end, dt, omega, backend) -> Integration:
+    n = steps(t_end, dt)
     where = "in C" if backend == "c" else "in NumPy"
-    return f"{n_steps:.3g} RK4 steps of n_dof = {n_dof} {where}, saving {samples:.3g} samples,", seconds, n_bytes
+    return Integration(n, n * interpolate(STEP_SECONDS["c" if backend == "c" else "numpy"], n_dof), False,
+                       f"{n:.3g} RK4 steps of n_dof = {n_dof} {where}")
+
+
+def _genalpha(n_dof, t_end, dt, omega, backend) -> Integration:
+    n = steps(t_end, dt)
+    step = interpolate(GENALPHA_SOLVES_PER_STEP, n_dof) * solve_seconds(n_dof)
+    jacobian = jacobian_seconds(n_dof)
+    return Integration(n, n * step + JACOBIANS_PER_RUN * jacobian, False,
+                       f"{n:.3g} generalized-α steps of n_dof = {n_dof} ({step:.2g} s each, and "
+                       f"{JACOBIANS_PER_RUN} Jacobians with their LU of {jacobian:.2g} s)")
+
+
+def _dop853(n_dof, t_end, dt, omega, backend) -> Integration | None:
+    if omega is None or not omega > 0:
+        return None
+    stable = DOP853_STABILITY_RADIUS / omega
+    n = math.ceil(t_end / stable)
+    return Integration(n, n * DOP853_SOLVES_PER_STEP * solve_seconds(n_dof), True,
+                       f"at least {n:.3g} DOP853 steps of n_dof = {n_dof} (its stable step {stable:.2g} s for the "
+                       f"highest natural frequency {omega / (2 * math.pi):.4g} Hz at the start)")
+
+
+#: How each integrator's run is known before it starts: ``estimator(n_dof, t_end, dt, omega,
+#: backend)`` returns an :class:`Integration` or None (nothing can be said); ``dt`` the fixed step
+#: (for adaptive methods the save grid's unit), ``omega`` the highest natural frequency at the
+#: start (rad/s; None when not computed: see :data:`NEEDS_FREQUENCY`). A new integrator adds its
+#: own; an implicit adaptive one (no stable step bounds it) can bound its steps from below by
+#: its largest step, each costing its solves (:func:`solve_seconds`) and its Jacobians and
+#: factorizations (:func:`jacobian_seconds`).
+ESTIMATORS = {"rk4": _rk4, "genalpha": _genalpha, "dop853": _dop853}
+#: The integrators whose estimate needs the highest natural frequency at the start.
+NEEDS_FREQUENCY = {"rk4", "dop853"}
+#: The integrators whose steps the stiff modes do not bound, named when an explicit one is refused.
+STIFF_METHODS = ["genalpha"]
+
+
+def integration_estimate(n_dof: int, t_end: float, dt: float, method: str, backend: str,
+                         omega: float | None = None) -> Integration | None:
+    """What the integration alone of a run of ``method`` will take (see :data:`ESTIMATORS`), or
+    None when nothing can be said before it starts."""
+    estimator = ESTIMATORS.get(method)
+    return estimator(n_dof, t_end, dt, omega, backend) if estimator else None
+
+
+class RunEstimate(NamedTuple):
+    """A run before it starts: ``work`` in words, its ``seconds`` and memory ``n_bytes``, and
+    ``at_least``: the time a lower bound rather than an estimate."""
+
+    work: str
+    seconds: float
+    n_bytes: float
+    at_least: bool = False
+
+
+def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
+                 backend: str, omega: float | None = None, save_dt: float | None = None) -> RunEstimate | None:
+    """The :class:`RunEstimate` of a run of ``method`` (see :data:`ESTIMATORS`) on ``backend``
+    ("c" or "numpy") with step ``dt`` keeping every ``save_every``-th state, or every ``save_dt``
+    s when given; None when nothing can be said before it starts."""
+    integration = integration_estimate(n_dof, t_end, dt, method, backend, omega)
+    if integration is None:
+        return None
+    samples = (steps(t_end, save_dt) if save_dt else steps(t_end, dt) // max(1, int(save_every))) + 2
+    backend = "c" if backend == "c" else "numpy"
+    seconds = integration.seconds + samples * interpolate(SAMPLE_SECONDS[backend], n_dof)
+    n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
+    return RunEstimate(f"{integration.what}, saving {samples:.3g} samples,", seconds, n_bytes, integration.at_least)
 
 
 def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
-              backend: str) -> None:
-    """Refuse a fixed-step run that cannot finish (see :func:`run_estimate`)."""
-    estimate = run_estimate(n_dof, n_constraints, t_end, dt, save_every, method, backend)
-    if estimate is not None:
-        work, seconds, n_bytes = estimate
-        check(f"running {work}", seconds, n_bytes, "use a shorter --t-end, a larger --dt or a larger --save-every")
+              backend: str, omega: float | None = None, save_dt: float | None = None) -> None:
+    """Refuse a run that cannot finish (see :func:`run_estimate`): a fixed-step one by its
+    estimate, an adaptive one when even its lower bound is beyond the limits."""
+    estimate = run_estimate(n_dof, n_constraints, t_end, dt, save_every, method, backend, omega, save_dt)
+    if estimate is None:
+        return
+    if estimate.at_least:
+        others = " or ".join(m for m in STIFF_METHODS if m != method)
+        fix = f"use a shorter --t-end, fewer rfes, or --method {others} (its step not bound by the stiff modes)"
+    else:
+        fix = "use a shorter --t-end, a larger --dt or a larger --save-every"
+    check(f"running {estimate.work}", estimate.seconds, estimate.n_bytes, fix, at_least=estimate.at_least)
 
 
 def check_sweep(runs: list[tuple[int, tuple | None]], workers: int) -> None:

@@ -260,6 +260,8 @@ def test_genalpha_from_the_command_line_records_its_newton_work(capsys, tmp_path
     effort = settings["effort"]
     assert effort["steps"] == 100 and effort["jacobians"] >= 1 and effort["factorizations"] == effort["jacobians"]
     assert "genalpha, dt = 0.001 s, rho_inf = 0.7" in out and f"{effort['jacobians']} Jacobians" in out
+    # the projection onto the constraints: a position check and a velocity correction a step at least
+    assert effort["projections"] >= 200 and f"{effort['projections']} constraint evaluations projecting" in out
     # above RK4's stable step of this arm (3.6 ms): genalpha takes it
     code, out, err = _run(["simulate", "--nrfe", "2", "--method", "genalpha", "--t-end", "0.1", "--dt", "1e-2",
                            "--backend", "c", "--overwrite"], capsys, tmp_path)

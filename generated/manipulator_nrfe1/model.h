@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: fb2e9a56ab89f526
+Input hash: 00753bff7c2bde9e
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -224,6 +224,6 @@ int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const d
    instants t_save within the steps into y_out (n_save, 8) (cubic Hermite between step ends); adds to
    counts (5,) as manipulator_nrfe1_dop853. Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NO_CONVERGENCE,
    GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved. */
-int manipulator_nrfe1_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf, double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+int manipulator_nrfe1_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf, int project, double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
 #endif

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 718b1aa1b6c7d196
+Input hash: 5bf94374bfb015ac
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -50,7 +50,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "718b1aa1b6c7d196"; }
+const char *manipulator_nrfe5_input_hash(void) { return "5bf94374bfb015ac"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -5201,6 +5201,50 @@ static int largest_entry(const double *x, int n)
     return i;
 }
 
+/* Step k of Gaussian elimination with complete pivoting on the first m rows of D (row-major,
+   N_DOF columns) and their right side c: the entry of largest magnitude in rows k..m-1 is the
+   pivot, its row swapped into row k and taken out of the rows below (exact zeros left in its
+   column). *column: the pivot's column; *tiny: set at k = 0 to N_DOF * DBL_EPSILON times that
+   entry. Returns GPMEGEN_NONFINITE when an entry of D is not finite, GPMEGEN_SINGULAR when the
+   pivot is at or below *tiny (D has lost rank), else GPMEGEN_OK. */
+static int elimination_step(double *D, double *c, int m, int k, double *tiny, int *column)
+{
+    const int at = largest_entry(D + k * N_DOF, (m - k) * N_DOF);
+    if (at < 0) {
+        return GPMEGEN_NONFINITE;
+    }
+    const int pivot_row = k + at / N_DOF, pivot = at % N_DOF;
+    const double largest = fabs(D[k * N_DOF + at]);
+    if (k == 0) {
+        *tiny = (double)N_DOF * DBL_EPSILON * largest;
+    }
+    if (!(largest > *tiny)) {
+        return GPMEGEN_SINGULAR;
+    }
+    *column = pivot;
+    if (pivot_row != k) {
+        for (int j = 0; j < N_DOF; ++j) {
+            const double s = D[k * N_DOF + j];
+            D[k * N_DOF + j] = D[pivot_row * N_DOF + j];
+            D[pivot_row * N_DOF + j] = s;
+        }
+        const double s = c[k];
+        c[k] = c[pivot_row];
+        c[pivot_row] = s;
+    }
+    const double *row = D + k * N_DOF;
+    const double inv = 1.0 / row[pivot];
+    for (int a = k + 1; a < m; ++a) {
+        const double factor = D[a * N_DOF + pivot] * inv;
+        for (int j = 0; j < N_DOF; ++j) {
+            D[a * N_DOF + j] -= factor * row[j];
+        }
+        D[a * N_DOF + pivot] = 0.0;
+        c[a] -= factor * c[k];
+    }
+    return GPMEGEN_OK;
+}
+
 /* The constraint rows D qdd = c (D: N_CONSTRAINTS x N_DOF row-major, c: N_CONSTRAINTS) solved
    for the dependent accelerations, qdd_dc = x_c - X qdd_ic, by Gaussian elimination with
    complete pivoting: dependent[a] is the coordinate of the a-th pivot, independent the others in
@@ -5216,38 +5260,9 @@ static int constraint_basis(double *D, double *c, int *dependent, int *independe
     enum { NI = N_INDEPENDENT, NC = N_CONSTRAINTS, NX = N_INDEPENDENT + 1 };
     double tiny = 0.0;
     for (int k = 0; k < NC; ++k) {
-        const int at = largest_entry(D + k * N_DOF, (NC - k) * N_DOF);
-        if (at < 0) {
-            return GPMEGEN_NONFINITE;
-        }
-        const int pivot_row = k + at / N_DOF, pivot = at % N_DOF;
-        const double largest = fabs(D[k * N_DOF + at]);
-        if (k == 0) {
-            tiny = (double)N_DOF * DBL_EPSILON * largest;
-        }
-        if (!(largest > tiny)) {
-            return GPMEGEN_SINGULAR;
-        }
-        dependent[k] = pivot;
-        if (pivot_row != k) {
-            for (int j = 0; j < N_DOF; ++j) {
-                const double s = D[k * N_DOF + j];
-                D[k * N_DOF + j] = D[pivot_row * N_DOF + j];
-                D[pivot_row * N_DOF + j] = s;
-            }
-            const double s = c[k];
-            c[k] = c[pivot_row];
-            c[pivot_row] = s;
-        }
-        const double *row = D + k * N_DOF;
-        const double inv = 1.0 / row[pivot];
-        for (int a = k + 1; a < NC; ++a) {
-            const double factor = D[a * N_DOF + pivot] * inv;
-            for (int j = 0; j < N_DOF; ++j) {
-                D[a * N_DOF + j] -= factor * row[j];
-            }
-            D[a * N_DOF + pivot] = 0.0;
-            c[a] -= factor * c[k];
+        const int status = elimination_step(D, c, NC, k, &tiny, &dependent[k]);
+        if (status != GPMEGEN_OK) {
+            return status;
         }
     }
     int is_dependent[N_DOF] ALIGNED = {0};
@@ -6160,6 +6175,128 @@ static void hermite_state(double x, double h, const double *y0, const double *r0
     }
 }
 
+
+/* ---- Post-stabilization: a step's end put back onto the constraints ---------------------------- */
+
+/* The projection's Newton iterations on Phi stop when max |Phi| <= PROJECTION_TOLERANCE (m, m^2
+   or rad: the units of the reference arm's constraints, whose values are O(1); their round-off
+   is 1e-15) or when the correction is at the round-off of q; the step fails when they have not
+   after PROJECTION_ITERATIONS (one or two suffice from a step's O(h^3) violation). */
+static const double PROJECTION_TOLERANCE = 1e-12;
+enum { PROJECTION_ITERATIONS = 8 };
+
+/* The constraints held at position level (velocity 0: the order-0 rows, residual Phi) or at
+   velocity level (velocity 1: orders 0 and 1, residuals Phi_dot = D qd + Phi_t and Psi, both
+   linear in qd with the rows D) at (t, q, qd): their rows of D into D (m x N_DOF) and their
+   residuals into r (m). Second-order constraints bind the accelerations only: never here.
+   Returns m. */
+static int held_rows(double t, const double *q, const double *qd, const double *p, int velocity, double *D,
+                     double *r)
+{
+    double phi[N_CONSTRAINTS] ALIGNED, phi_rate[N_CONSTRAINTS] ALIGNED, gam[N_CONSTRAINTS] ALIGNED;
+    double all_rows[N_CONSTRAINTS * N_DOF] ALIGNED;
+    int m = 0;
+    manipulator_nrfe5_constraint_terms(t, q, qd, p, phi, phi_rate, all_rows, gam);
+    for (int a = 0; a < N_CONSTRAINTS; ++a) {
+        if (CONSTRAINT_ORDERS[a] == 0 || (velocity && CONSTRAINT_ORDERS[a] == 1)) {
+            for (int j = 0; j < N_DOF; ++j) {
+                D[m * N_DOF + j] = all_rows[a * N_DOF + j];
+            }
+            r[m++] = velocity && CONSTRAINT_ORDERS[a] == 0 ? phi_rate[a] : phi[a];
+        }
+    }
+    return m;
+}
+
+/* dx (N_DOF) with D dx = -r (D: m x N_DOF row-major, r: m; both overwritten) that moves only m
+   coordinates: the pivots of elimination_step(), as constraint_basis() chooses the dependent
+   coordinates of the GPME solve (the largest entry of the rows left), so the correction stays
+   well conditioned wherever the model's fixed partition would not. Returns the status of
+   elimination_step(). */
+static int pivot_correction(int m, double *D, double *r, double *dx)
+{
+    int column[N_CONSTRAINTS] ALIGNED;
+    double tiny = 0.0;
+    for (int k = 0; k < m; ++k) {
+        const int status = elimination_step(D, r, m, k, &tiny, &column[k]);
+        if (status != GPMEGEN_OK) {
+            return status;
+        }
+    }
+    for (int j = 0; j < N_DOF; ++j) {
+        dx[j] = 0.0;
+    }
+    for (int k = m - 1; k >= 0; --k) {
+        double s = -r[k];
+        for (int b = k + 1; b < m; ++b) {
+            s -= D[k * N_DOF + column[b]] * dx[column[b]];
+        }
+        dx[column[k]] = s / D[k * N_DOF + column[k]];
+    }
+    return GPMEGEN_OK;
+}
+
+/* Puts the state y = [q, qd, ...] at t back onto the constraints (Bauchau and Laulusa 2008,
+   post-stabilization): Newton on Phi(q, t) = 0 of the position constraints moving the pivot
+   coordinates of pivot_correction() (a fresh D each iteration), then qd corrected in the same
+   way so that D qd + Phi_t = 0 and, for the first-order constraints, Psi = 0 (linear in qd: one
+   solve). *evaluations counts the constraint evaluations. Returns GPMEGEN_OK, the status of
+   pivot_correction() or GPMEGEN_NO_CONVERGENCE. */
+static int project_state(double t, double *y, const double *p, long *evaluations)
+{
+    double D[N_CONSTRAINTS * N_DOF] ALIGNED, r[N_CONSTRAINTS] ALIGNED, dx[N_DOF] ALIGNED;
+    double *q = y, *qd = y + N_DOF;
+    int status, m, held = 0;
+    for (int a = 0; a < N_CONSTRAINTS; ++a) {
+        held |= CONSTRAINT_ORDERS[a] < 2;
+    }
+    if (!held) {  /* second-order constraints only: nothing to evaluate */
+        return GPMEGEN_OK;
+    }
+    for (int iteration = 0;; ++iteration) {
+        ++*evaluations;
+        if ((m = held_rows(t, q, qd, p, 0, D, r)) == 0) {
+            break;
+        }
+        double worst = 0.0;
+        for (int a = 0; a < m; ++a) {
+            if (!isfinite(r[a])) {
+                return GPMEGEN_NONFINITE;
+            }
+            worst = fmax(worst, fabs(r[a]));
+        }
+        if (worst <= PROJECTION_TOLERANCE) {
+            break;
+        }
+        if (iteration == PROJECTION_ITERATIONS) {
+            return GPMEGEN_NO_CONVERGENCE;
+        }
+        if ((status = pivot_correction(m, D, r, dx)) != GPMEGEN_OK) {
+            return status;
+        }
+        int moved = 0;
+        for (int j = 0; j < N_DOF; ++j) {
+            moved |= fabs(dx[j]) > 2.0 * DBL_EPSILON * fmax(1.0, fabs(q[j]));
+            q[j] += dx[j];
+        }
+        if (!moved) {  /* at the round-off of q: nothing more to gain */
+            break;
+        }
+    }
+    ++*evaluations;
+    if ((m = held_rows(t, q, qd, p, 1, D, r)) == 0) {
+        return GPMEGEN_OK;
+    }
+    if ((status = pivot_correction(m, D, r, dx)) != GPMEGEN_OK) {
+        return status;
+    }
+    for (int j = 0; j < N_DOF; ++j) {
+        qd[j] += dx[j];
+    }
+    return GPMEGEN_OK;
+}
+
+
 /* Newton's iterations stop when max |dqdd| <= NEWTON_TOLERANCE max(1, |qdd|); the matrix is
    refreshed when they have not converged after NEWTON_ITERATIONS or converge slower than
    NEWTON_RATE a step, and the step fails when they do not converge with a fresh one. The
@@ -6179,12 +6316,14 @@ enum { NEWTON_ITERATIONS = 6 };
    by modified Newton (S of genalpha_matrix, kept across steps and chunks while it converges,
    *have_matrix says whether S and pivot hold one); w by the trapezoidal rule on the powers.
    Saves y at the n_save increasing instants t_save within (t_{k_from}, t_{k_to}] into y_out
-   (n_save x N_Y): the step's own state where one ends on it, hermite_state between. counts (5)
-   are added to as for dop853. Returns GPMEGEN_OK, the status of a failed solve,
-   GPMEGEN_NO_CONVERGENCE, GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows
-   saved, also on a failure. */
+   (n_save x N_Y): the step's own state where one ends on it, hermite_state between. With
+   project (and constraints of order 0 or 1), each step's end is put back onto the constraints
+   by project_state() before its rates are taken. counts (6) are added to as for dop853, and
+   counts[5] the constraint evaluations of the projection. Returns GPMEGEN_OK, the status of a
+   failed solve or projection, GPMEGEN_NO_CONVERGENCE, GPMEGEN_NONFINITE or
+   GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
 int manipulator_nrfe5_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf,
-    double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save,
+    int project, double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save,
     const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts)
 {
     const struct genalpha_parameters c = genalpha_parameters(rho_inf);
@@ -6281,6 +6420,9 @@ int manipulator_nrfe5_genalpha(double t0, double dt, long n_steps, double t_end,
             a_new[i] = (c.alpha_f * qdd[i] - c.alpha_m * a[i] + (1.0 - c.alpha_f) * x[i]) / (1.0 - c.alpha_m);
             y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
             y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+        }
+        if (project && (status = project_state(t_new, y_new, p, &counts[5])) != GPMEGEN_OK) {
+            return status;
         }
         ++counts[2];
         if ((status = state_rate(t_new, y_new, p, dependent, independent, r_new)) != GPMEGEN_OK) {

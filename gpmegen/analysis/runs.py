@@ -23,9 +23,9 @@ class Run:
     wall: float
 
 
-def check(case, t_end, dt, save_every, method, backend) -> None:
+def check(case, t_end, dt, save_every, method, backend, save_dt=None) -> None:
     """Refuse, before anything is loaded or solved, a run that cannot finish (gpmegen.limits)."""
-    limits.check_run(*case.size(), t_end, dt, save_every, method, backend)
+    limits.check_run(*case.size(), t_end, dt, save_every, method, backend, save_dt=save_dt)
 
 
 def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
@@ -37,7 +37,7 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     write ``out`` (.npz and .csv), or beside it a partial run (see
     :func:`gpmegen.analysis.results.save`); nothing when ``out`` is None. ``progress`` takes
     one-line messages."""
-    check(case, t_end, dt, save_every, method, backend)
+    check(case, t_end, dt, save_every, method, backend, None if method == "rk4" else save_dt)
     begun = case.started(backend, start, overrides, progress)
     model = begun.model.with_actuators(case.actuators if actuated is None else actuated)
     q0 = begun.q

@@ -176,7 +176,8 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``). The conditioning of the dependent
     block of ``D`` is watched: ``notify`` (a callable taking a message) is told when it degrades,
     and with ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that
-    cannot finish, or whose step is above RK4's stable one at the start
+    cannot finish (for DOP853: whose steps, at most its stable step at the start, cannot), or whose
+    step is above RK4's stable one at the start
     (:func:`gpmegen.analysis.modes.highest_frequency`), is refused before it starts
     (:class:`gpmegen.limits.LimitError`, unless the limits are lifted). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
@@ -194,10 +195,14 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     rho_inf = integrate.RHO_INF if rho_inf is None else rho_inf
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
-    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop)
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
-    if method == "rk4" and t_end > 0 and not limits.are_lifted():  # t_end 0: the start alone, no step
-        unstable = integrate.unstable_step(dt, modes.highest_frequency(model, 0.0, q0, qd0))
+    omega = None  # the highest natural frequency, for the methods whose steps it bounds
+    if method in limits.NEEDS_FREQUENCY and t_end > 0 and not limits.are_lifted():  # t_end 0: no step
+        omega = modes.highest_frequency(model, 0.0, q0, qd0)
+    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop, omega,
+                     None if method == "rk4" else save_dt)
+    if method == "rk4" and omega is not None:
+        unstable = integrate.unstable_step(dt, omega)
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     model.check_actuators(0.0, q0)

@@ -332,7 +332,7 @@ class CEvaluator:
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
         dep, ind = self._partition_pointers(model)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
-        self._check_counts(counts)
+        self._check_counts(counts, 5)
         y_out = np.empty((len(t_save), len(y_a)))
         n_saved = self.ffi.new("long *")
         status = self.lib.dop853(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
@@ -340,9 +340,9 @@ class CEvaluator:
                                  self.ffi.from_buffer("long[]", counts))
         return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
 
-    def genalpha(self, model, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+    def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         dep, ind = self._partition_pointers(model)
-        self._check_counts(counts)
+        self._check_counts(counts, 6)
         t_save = np.ascontiguousarray(t_save, dtype=float)
         y_out = np.empty((len(t_save), len(y)))
         n_saved = self.ffi.new("long *")
@@ -350,7 +350,8 @@ class CEvaluator:
         if not (y.flags.c_contiguous and y.dtype == float and S.flags.c_contiguous and pivot.dtype == np.intc
                 and have.dtype == np.intc):
             raise TypeError("y and S must be contiguous float64, pivot and have intc")
-        status = self.lib.genalpha(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, rho_inf, self._ptr(y),
+        status = self.lib.genalpha(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, rho_inf, int(bool(project)),
+                                   self._ptr(y),
                                    self._ptr(memory["a"]), self._ptr(S), self.ffi.from_buffer("int[]", pivot),
                                    self.ffi.from_buffer("int[]", have), len(t_save),
                                    self._ptr(t_save) if len(t_save) else self.ffi.new("double[]", 1),
@@ -358,6 +359,6 @@ class CEvaluator:
                                    self.ffi.from_buffer("long[]", counts))
         return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
 
-    def _check_counts(self, counts):
-        if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8:
-            raise TypeError("counts must be int64 (a 64-bit C long)")
+    def _check_counts(self, counts, size):
+        if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8 or len(counts) < size:
+            raise TypeError(f"counts must be {size} or more int64 (a 64-bit C long)")

@@ -119,7 +119,7 @@ class Evaluator(Protocol):
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
         """See :meth:`LoadedModel.dop853` (compiled backends only)."""
 
-    def genalpha(self, model, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+    def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
 
 
@@ -206,7 +206,7 @@ class NumpyEvaluator:
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
         raise SimulationError(integrate.compiled_only("dop853", "numpy", False))
 
-    def genalpha(self, model, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+    def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         raise SimulationError(integrate.compiled_only("genalpha", "numpy", False))
 
 
@@ -557,15 +557,16 @@ class LoadedModel:
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
         return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts)
 
-    def genalpha(self, g, k_from, k_to, rho_inf, y, memory, t_save, counts):
+    def genalpha(self, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
         grid ``g`` from the augmented state ``y`` (2n + 2,), replaced in place by the state at the
-        end; ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the
+        end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
+        ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the
         Newton matrix "S" (n, n), "pivot" (n,) intc, "have" (1,) intc), ``counts`` as for
-        :meth:`dop853`. Saves at the increasing instants ``t_save`` (k,) within the steps.
-        Returns ``(rows, status)``."""
+        :meth:`dop853` and (6th) the constraint evaluations of the projection. Saves at the
+        increasing instants ``t_save`` (k,) within the steps. Returns ``(rows, status)``."""
         model = self.partitioned(g.time(k_from), np.asarray(y)[:self.n_dof])
-        return model.evaluator.genalpha(model, g, k_from, k_to, rho_inf, y, memory, t_save, counts)
+        return model.evaluator.genalpha(model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts)
 
     def constraint_forces(self, t, q, qd):
         """Generalized forces that realize the constraints, ``M q̈ - f`` (n,): ``Dᵀλ`` in the ideal
