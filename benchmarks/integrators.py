@@ -1,7 +1,11 @@
 """The integrators on the paper's study: wall time, the error of q(t_end) and the constraint
 violation of each, for the reference arm at several n_rfe.
 
-Run: ``.venv/bin/python benchmarks/integrators.py [t_end] [n_rfe ...]`` (default 10 s, n_rfe 5).
+Run: ``.venv/bin/python benchmarks/integrators.py [t_end] [n_rfe ...]`` (default 10 s, n_rfe 5);
+``--methods radau dop853`` runs only the rows whose label starts so, ``--reference-rtol 1e-10``
+makes the reference looser (for n_rfe 20, where 1e-12 takes long), ``--scipy 0.1`` adds the
+comparison of radau in C with scipy-radau (the model's right-hand side from Python, the Jacobian
+by its differences) over that many seconds, both at rtol 1e-6.
 Every method runs in C from the locked start through the same chunked driver a simulate run uses,
 saving every 1 ms; the wall time is that of the integration alone (the model is loaded, compiled
 and started before). The reference is the compiled DOP853 at rtol = atol = 1e-12 (the tests
@@ -13,8 +17,8 @@ saved instants. The load of the machine is printed, since the wall times depend 
 
 from __future__ import annotations
 
+import argparse
 import os
-import sys
 import time
 
 import numpy as np
@@ -24,13 +28,17 @@ from gpmegen.analysis import reference_case
 from gpmegen.runtime import integrate
 
 SAVE_DT = 1e-3
-#: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at two steps.
+#: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at two steps,
+#: Radau IIA at three tolerances.
 METHODS = (
     ("rk4 dt 1e-5", "rk4", {"dt": 1e-5}),
     ("dop853 rtol 1e-6", "dop853", {"rtol": 1e-6, "atol": 1e-8}),
     ("dop853 rtol 1e-8", "dop853", {"rtol": 1e-8, "atol": 1e-10}),
     ("genalpha dt 1e-4", "genalpha", {"dt": 1e-4}),
     ("genalpha dt 2.5e-5", "genalpha", {"dt": 2.5e-5}),
+    ("radau rtol 1e-4", "radau", {"rtol": 1e-4, "atol": 1e-6}),
+    ("radau rtol 1e-6", "radau", {"rtol": 1e-6, "atol": 1e-8}),
+    ("radau rtol 1e-8", "radau", {"rtol": 1e-8, "atol": 1e-10}),
 )
 
 
@@ -42,8 +50,13 @@ def run(model, q0, t_end, method, options):
         dt = options["dt"]
         t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every=round(SAVE_DT / dt))
         effort = integrate.rk4_effort(t, 0.0, dt)
-    elif method == "dop853":
-        t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, SAVE_DT, **options)
+    elif method in integrate.ADAPTIVE:
+        t, y, outcome, effort = integrate.ADAPTIVE[method](model, q0, qd0, t_end, SAVE_DT, **options)
+    elif method in integrate.SCIPY:
+        times = integrate.grid(0.0, t_end, SAVE_DT)
+        t_eval = np.array([times.time(k) for k in range(times.n_steps + 1)])
+        t, y, outcome, effort = integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method],
+                                                      t_eval=t_eval, **options)
     else:
         t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT)
     wall = time.perf_counter() - start
@@ -59,25 +72,48 @@ def violation(model, t, y) -> float:
                for tk, yk in zip(t, y))
 
 
-def main(t_end=10.0, levels=(5,)):
+def main(t_end=10.0, levels=(5,), methods=None, reference_rtol=1e-12, scipy_span=None):
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; t_end = {t_end:g} s, saved every "
           f"{SAVE_DT:g} s")
     for nrfe in levels:
         model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
         n = model.n_dof
-        wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": 1e-12, "atol": 1e-12})
+        wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": reference_rtol, "atol": reference_rtol})
         reference = y[-1, :n]
-        print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = 1e-12 in {wall:.1f} s, "
+        print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = {reference_rtol:g} in {wall:.1f} s, "
               f"{effort.describe()}, max|Φ| = {violation(model, t, y):.1e}")
-        print(f"{'method':>20} {'wall [s]':>9} {'max|Δq(t_end)|':>15} {'max|Φ|':>8} {'steps':>9} {'rejected':>8} "
-              f"{'solves':>10} {'Jacobians':>9}")
+        print(f"{'method':>20} {'wall [s]':>9} {'load':>5} {'max|Δq(t_end)|':>15} {'max|Φ|':>8} {'steps':>9} "
+              f"{'rejected':>8} {'solves':>10} {'Jacobians':>9} {'LUs':>8}")
         for label, method, options in METHODS:
+            if methods and not label.startswith(tuple(methods)):
+                continue
             wall, t, y, effort = run(model, q0, t_end, method, options)
             error = np.abs(y[-1, :n] - reference).max()
-            print(f"{label:>20} {wall:>9.2f} {error:>15.2e} {violation(model, t, y):>8.1e} {effort.steps:>9} "
-                  f"{effort.rejected:>8} {effort.solves:>10} {effort.jacobians:>9}", flush=True)
+            print(f"{label:>20} {wall:>9.2f} {os.getloadavg()[0]:>5.2f} {error:>15.2e} {violation(model, t, y):>8.1e} "
+                  f"{effort.steps:>9} {effort.rejected:>8} {effort.solves:>10} {effort.jacobians:>9} "
+                  f"{effort.factorizations:>8}", flush=True)
+        if scipy_span:
+            compare_scipy(model, q0, scipy_span)
+
+
+def compare_scipy(model, q0, span, rtol=1e-6):
+    """Radau IIA in C against SciPy's Radau on the same model over ``span`` s at ``rtol``: wall
+    times, their ratio and the largest difference of the saved ``q``, ``q̇``."""
+    n = model.n_dof
+    options = {"rtol": rtol, "atol": rtol * 1e-2}
+    wall_c, _, y_c, effort_c = run(model, q0, span, "radau", options)
+    wall_s, _, y_s, effort_s = run(model, q0, span, "scipy-radau", options)
+    print(f"over {span:g} s at rtol {rtol:g}: radau (C) {wall_c:.3f} s ({effort_c.describe()}); scipy-radau "
+          f"{wall_s:.2f} s ({effort_s.describe()}); {wall_s / wall_c:.0f} times faster in C; they differ by "
+          f"{np.abs(y_c[:, :2 * n] - y_s[:, :2 * n]).max():.1e} (load {os.getloadavg()[0]:.2f})", flush=True)
 
 
 if __name__ == "__main__":
-    main(float(sys.argv[1]) if len(sys.argv) > 1 else 10.0,
-         tuple(int(a) for a in sys.argv[2:]) or (5,))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("t_end", type=float, nargs="?", default=10.0)
+    parser.add_argument("levels", type=int, nargs="*", default=[5])
+    parser.add_argument("--methods", nargs="+", default=None, help="labels' beginnings (rk4, dop853, radau, ...)")
+    parser.add_argument("--reference-rtol", type=float, default=1e-12)
+    parser.add_argument("--scipy", type=float, default=None, metavar="SECONDS")
+    args = parser.parse_args()
+    main(args.t_end, tuple(args.levels), args.methods, args.reference_rtol, args.scipy)
