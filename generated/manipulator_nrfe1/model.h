@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 70ad36f5ad5d6f1d
+Input hash: 348202dbe506abcf
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c190f3ab2b111e58
+Input hash: 0dd5bb9af356e2b7
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -50,7 +50,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "c190f3ab2b111e58"; }
+const char *manipulator_nrfe5_input_hash(void) { return "0dd5bb9af356e2b7"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -6573,12 +6573,12 @@ static void radau_dense_value(double x, double h, const double *y0, const double
 enum radau_newton { RADAU_CONVERGED, RADAU_DIVERGED, RADAU_SLOW };
 
 /* Simplified Newton for the stage increments z (3 x N_Y) of the step (t, y) -> t + h, from their
-   starting values in z (w, 3 x N_Y, the increments transformed by TI, must match), with the
-   factored matrices m; rates are the rates at the stages (3 x N_Y) on convergence. scale (N_MOTION):
-   the error weights; tolerance: the iterations' stopping tolerance. *theta: the last contraction
-   rate (RADAU_KEEP_JACOBIAN when one iteration sufficed), *faccon: Hairer's theta / (1 - theta),
-   carried from step to step; *iterations: the iterations done. On RADAU_SLOW, *shrink: the
-   step's factor Hairer's predicts for convergence. *status: the status of a failed rate. */
+   starting values in z and w = TI z (3 x N_Y each, both updated), with the factored matrices m;
+   rates: room for the stages' rates (3 x N_Y). scale (N_MOTION): the error weights; tolerance:
+   the iterations' stopping tolerance. *theta: the last contraction rate (RADAU_KEEP_JACOBIAN when
+   one iteration sufficed), *faccon: Hairer's theta / (1 - theta), carried from step to step;
+   *iterations: the iterations done. On RADAU_SLOW, *shrink: the step's factor Hairer's estimate
+   predicts convergence at. *status: the status of a failed rate (else left as it was). */
 static enum radau_newton radau_newton(double t, double h, const double *y, double z[][N_Y], double w[][N_Y],
                                       const struct radau_matrices *m, const double *scale, double tolerance,
                                       const double *p, const int *dependent, const int *independent,
