@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 348202dbe506abcf
+Input hash: 1a087ef6b67b8a97
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

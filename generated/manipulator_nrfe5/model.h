@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 0dd5bb9af356e2b7
+Input hash: 8b6a3daaaaffe09a
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
