@@ -3,8 +3,11 @@ violation of each, for the reference arm at several n_rfe.
 
 Run: ``.venv/bin/python benchmarks/integrators.py [t_end] [n_rfe ...]`` (default 10 s, n_rfe 5);
 ``--reference FILE.npz`` takes the converged run from a file holding its ``t`` and ``q`` (one
-n_rfe; e.g. a DOP853 run at rtol 1e-11 saved with numpy.savez) instead of running it, and
-``--only WORD`` keeps the methods whose label holds WORD.
+n_rfe; e.g. a DOP853 run at rtol 1e-11 saved with numpy.savez) instead of running it, or
+``--reference-rtol 1e-10`` makes the one it runs looser (for n_rfe 20, where 1e-12 takes long);
+``--methods radau dop853`` runs only the rows whose label starts so, and ``--scipy 0.1`` adds the
+comparison of radau in C with scipy-radau (the model's right-hand side from Python, the Jacobian
+by its differences) over that many seconds, both at rtol 1e-6.
 Every method runs in C from the locked start through the same chunked driver a simulate run uses,
 saving every 1 ms; the wall time is that of the integration alone (the model is loaded, compiled
 and started before). The reference is the compiled DOP853 at rtol = atol = 1e-12 (the tests
@@ -28,7 +31,8 @@ from gpmegen.runtime import integrate
 
 SAVE_DT = 1e-3
 #: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at three
-#: steps (projected onto the constraints, as simulate runs it) and once without the projection.
+#: steps (projected onto the constraints, as simulate runs it) and once without the projection,
+#: Radau IIA at three tolerances.
 METHODS = (
     ("rk4 dt 1e-5", "rk4", {"dt": 1e-5}),
     ("dop853 rtol 1e-6", "dop853", {"rtol": 1e-6, "atol": 1e-8}),
@@ -37,6 +41,9 @@ METHODS = (
     ("genalpha dt 1e-4 unprojected", "genalpha", {"dt": 1e-4, "project": False}),
     ("genalpha dt 5e-5", "genalpha", {"dt": 5e-5}),
     ("genalpha dt 2.5e-5", "genalpha", {"dt": 2.5e-5}),
+    ("radau rtol 1e-4", "radau", {"rtol": 1e-4, "atol": 1e-6}),
+    ("radau rtol 1e-6", "radau", {"rtol": 1e-6, "atol": 1e-8}),
+    ("radau rtol 1e-8", "radau", {"rtol": 1e-8, "atol": 1e-10}),
 )
 
 
@@ -48,8 +55,13 @@ def run(model, q0, t_end, method, options):
         dt = options["dt"]
         t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every=round(SAVE_DT / dt))
         effort = integrate.rk4_effort(t, 0.0, dt)
-    elif method == "dop853":
-        t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, SAVE_DT, **options)
+    elif method in integrate.ADAPTIVE:
+        t, y, outcome, effort = integrate.ADAPTIVE[method](model, q0, qd0, t_end, SAVE_DT, **options)
+    elif method in integrate.SCIPY:
+        times = integrate.grid(0.0, t_end, SAVE_DT)
+        t_eval = np.array([times.time(k) for k in range(times.n_steps + 1)])
+        t, y, outcome, effort = integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method],
+                                                      t_eval=t_eval, **options)
     else:
         t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT,
                                                    project=options.get("project", True))
@@ -66,7 +78,7 @@ def violation(model, t, y) -> float:
                for tk, yk in zip(t, y))
 
 
-def main(t_end=10.0, levels=(5,), reference_file=None, only=""):
+def main(t_end=10.0, levels=(5,), methods=None, reference_rtol=1e-12, reference_file=None, scipy_span=None):
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; t_end = {t_end:g} s, saved every "
           f"{SAVE_DT:g} s")
     for nrfe in levels:
@@ -79,29 +91,33 @@ def main(t_end=10.0, levels=(5,), reference_file=None, only=""):
             reference = stored["q"][-1]
             print(f"\nn_rfe = {nrfe} ({n} coordinates): reference q({t_end:g} s) from {reference_file}")
         else:
-            wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": 1e-12, "atol": 1e-12})
+            wall, t, y, effort = run(model, q0, t_end, "dop853", {"rtol": reference_rtol, "atol": reference_rtol})
             reference = y[-1, :n]
-            print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = 1e-12 in {wall:.1f} s, "
-                  f"{effort.describe()}, max|Φ| = {violation(model, t, y):.1e}")
+            print(f"\nn_rfe = {nrfe} ({n} coordinates): reference dop853 rtol = atol = {reference_rtol:g} in "
+                  f"{wall:.1f} s, {effort.describe()}, max|Φ| = {violation(model, t, y):.1e}")
         print(f"{'method':>28} {'wall [s]':>9} {'load':>5} {'max|Δq(t_end)|':>15} {'max|Φ|':>8} {'steps':>9} "
-              f"{'rejected':>8} {'solves':>10} {'Jacobians':>9} {'projecting':>10}")
+              f"{'rejected':>8} {'solves':>10} {'Jacobians':>9} {'LUs':>8} {'projecting':>10}")
         for label, method, options in METHODS:
-            if only not in label:
+            if methods and not label.startswith(tuple(methods)):
                 continue
             wall, t, y, effort = run(model, q0, t_end, method, options)
             error = np.abs(y[-1, :n] - reference).max()
             print(f"{label:>28} {wall:>9.2f} {os.getloadavg()[0]:>5.2f} {error:>15.2e} {violation(model, t, y):>8.1e} "
                   f"{effort.steps:>9} {effort.rejected:>8} {effort.solves:>10} {effort.jacobians:>9} "
-                  f"{effort.projections:>10}", flush=True)
+                  f"{effort.factorizations:>8} {effort.projections:>10}", flush=True)
+        if scipy_span:
+            compare_scipy(model, q0, scipy_span)
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("t_end", nargs="?", type=float, default=10.0)
-    parser.add_argument("nrfe", nargs="*", type=int, default=[5])
+    parser.add_argument("t_end", type=float, nargs="?", default=10.0)
+    parser.add_argument("levels", type=int, nargs="*", default=[5])
+    parser.add_argument("--methods", nargs="+", default=None, help="labels' beginnings (rk4, dop853, radau, ...)")
     parser.add_argument("--reference", help="a .npz with the converged run's t and q (one n_rfe)")
-    parser.add_argument("--only", default="", help="keep the methods whose label holds this")
+    parser.add_argument("--reference-rtol", type=float, default=1e-12)
+    parser.add_argument("--scipy", type=float, default=None, metavar="SECONDS")
     args = parser.parse_args()
-    if args.reference and len(args.nrfe) != 1:
+    if args.reference and len(args.levels) != 1:
         parser.error("--reference holds one n_rfe's run: give one n_rfe")
-    main(args.t_end, tuple(args.nrfe), args.reference, args.only)
+    main(args.t_end, tuple(args.levels), args.methods, args.reference_rtol, args.reference, args.scipy)

@@ -173,8 +173,8 @@ def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_eve
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
     :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
     and ``t_end``, ``dt`` (s), ``save_every`` (steps), ``method`` ("rk4"; with ``backend="c"``
-    "genalpha", implicit with step ``dt`` and damping ``rho_inf``, or "dop853", adaptive;
-    "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
+    "genalpha", implicit with step ``dt`` and damping ``rho_inf``, "dop853", adaptive, or "radau",
+    implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
     ``atol`` (adaptive methods), ``repartition``. A run that stops
     early (diverges) is returned with its ``status`` saying why."""
     from .analysis import runs

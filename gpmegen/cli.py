@@ -86,7 +86,7 @@ def parameter_override(text: str):
     return name, number
 
 
-METHODS = ("rk4", "genalpha", "dop853", "scipy-radau")
+METHODS = ("rk4", "genalpha", "dop853", "radau", "scipy-radau")
 
 
 def method_name(text: str) -> str:
@@ -746,14 +746,15 @@ def build_parser() -> argparse.ArgumentParser:
                        help="keep every k-th step of --dt (default 100)")
         p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
                        help="integrator, in any case: fixed-step rk4 (the paper's, default), genalpha (implicit, "
-                            "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C) or "
-                            "scipy-radau (implicit, SciPy on the model from Python)")
+                            "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C), radau "
+                            "(implicit, adaptive, order 5, in C: for stiff, finely divided links) or scipy-radau "
+                            "(implicit, SciPy on the model from Python)")
         p.add_argument("--backend", choices=("numpy", "c"), default=None,
                        help="generated code to run (default: c when a compiler is present)")
         p.add_argument("--repartition", action="store_true",
                        help="choose the dependent coordinates anew when their block of D becomes ill-conditioned")
 
-    s = command("simulate", "statics, then the constrained motion (rk4, dop853, genalpha); "
+    s = command("simulate", "statics, then the constrained motion (rk4, dop853, radau, genalpha); "
                                 "at several --nrfe, extrapolated")
     study_options(s, levels=True)
     run_options(s)

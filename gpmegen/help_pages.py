@@ -96,6 +96,7 @@ examples:
   gpmegen simulate --nrfe 1 --method dop853
   gpmegen simulate --nrfe 5 --method dop853 --rtol 1e-9 --save-dt 1e-3
   gpmegen simulate --nrfe 5 --method genalpha --dt 2e-4 --rho-inf 0.9
+  gpmegen simulate --nrfe 2 --method radau --rtol 1e-6 --param E2=7e14 --param G2=2.6e14 --param d2=100   (stiff links)
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
   gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz

@@ -254,7 +254,7 @@ ESTIMATORS = {"rk4": _rk4, "genalpha": _genalpha, "dop853": _dop853}
 #: The integrators whose estimate needs the highest natural frequency at the start.
 NEEDS_FREQUENCY = {"rk4", "dop853"}
 #: The integrators whose steps the stiff modes do not bound, named when an explicit one is refused.
-STIFF_METHODS = ["genalpha"]
+STIFF_METHODS = ["genalpha", "radau"]
 
 
 def integration_estimate(n_dof: int, t_end: float, dt: float, method: str, backend: str,
@@ -299,7 +299,7 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
         return
     if estimate.at_least:
         others = " or ".join(m for m in STIFF_METHODS if m != method)
-        fix = f"use a shorter --t-end, fewer rfes, or --method {others} (its step not bound by the stiff modes)"
+        fix = f"use a shorter --t-end, fewer rfes, or --method {others} (steps the stiff modes do not bound)"
     else:
         fix = "use a shorter --t-end, a larger --dt or a larger --save-every"
     check(f"running {estimate.work}", estimate.seconds, estimate.n_bytes, fix, at_least=estimate.at_least)

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5bf94374bfb015ac
+Input hash: de2201b83cec4f11
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -228,6 +228,12 @@ int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long
    Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NONFINITE, GPMEGEN_STEP_TOO_SMALL or
    GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
 int manipulator_nrfe5_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+
+/* Radau IIA (implicit, order 5, Hairer's RADAU5) with the arguments, saves, counts and statuses of
+   manipulator_nrfe5_dop853, its collocation polynomial saving between steps, and GPMEGEN_NO_CONVERGENCE when Newton's
+   iterations fail on steps down to round-off; the LU factorizations counted are the real and the complex
+   (15 x 15) ones of its Newton matrices. */
+int manipulator_nrfe5_radau(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
 /* Generalized-alpha (order 2, numerical damping rho_inf in [0, 1]) over steps k_from + 1 .. k_to of the grid of
    manipulator_nrfe5_rk4, from y_io = [q, qd, w] (32,) and the method's acceleration a_io (15,; NaN at a run's

@@ -46,10 +46,10 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
              + case.start_note(model))
     t0 = time.perf_counter()
     bar = None
-    if method in ("rk4", "dop853", "genalpha"):  # the chunked loops
-        from ..runtime.integrate import Progress
+    from ..runtime import integrate
 
-        bar = Progress(t_end, case.label, enabled=sys.stderr.isatty())
+    if method in ("rk4", *integrate.COMPILED):  # the chunked loops
+        bar = integrate.Progress(t_end, case.label, enabled=sys.stderr.isatty())
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
                          repartition=repartition, notify=progress, qd0=begun.qd,
                          internal_dynamics=internal_dynamics, save_dt=save_dt, rtol=rtol, atol=atol,

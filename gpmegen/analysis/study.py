@@ -170,7 +170,8 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     dict (see :mod:`gpmegen.analysis.results`). ``method``: "rk4" (step ``dt``, saving every
     ``save_every``-th step, or every ``save_dt`` s when given, a whole number of steps),
     "genalpha" (compiled, implicit, step ``dt``, numerical damping ``rho_inf``, default
-    :data:`gpmegen.runtime.integrate.RHO_INF`), "dop853" (compiled, adaptive) or a name of
+    :data:`gpmegen.runtime.integrate.RHO_INF`), "dop853" (compiled, adaptive), "radau"
+    (compiled, implicit and adaptive) or a name of
     :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every ``save_dt`` s (default
     ``dt·save_every``: RK4's instants), the adaptive ones to ``rtol``, ``atol`` (default
     :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``). The conditioning of the dependent
@@ -224,9 +225,10 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     elif method == "genalpha":
         t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
                                                    max_violation=max_violation, watch=watch)
-    elif method == "dop853":
-        t, y, outcome, effort = integrate.dop853(model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol,
-                                                 progress=progress, max_violation=max_violation, watch=watch)
+    elif method in integrate.ADAPTIVE:
+        t, y, outcome, effort = integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol,
+                                                           progress=progress, max_violation=max_violation,
+                                                           watch=watch)
     else:
         times = integrate.grid(0.0, t_end, save_dt)
         t, y, outcome, effort = integrate.scipy_solve(

@@ -330,14 +330,21 @@ class CEvaluator:
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
 
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        return self._adaptive(self.lib.dop853, model, t_a, y_a, t_save, rtol, atol, step, counts)
+
+    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        return self._adaptive(self.lib.radau, model, t_a, y_a, t_save, rtol, atol, step, counts)
+
+    def _adaptive(self, function, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        """A call of the adaptive C loop ``function`` (dop853 or radau: one interface)."""
         dep, ind = self._partition_pointers(model)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
         self._check_counts(counts, 5)
         y_out = np.empty((len(t_save), len(y_a)))
         n_saved = self.ffi.new("long *")
-        status = self.lib.dop853(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
-                                 self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
-                                 self.ffi.from_buffer("long[]", counts))
+        status = function(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
+                          self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
+                          self.ffi.from_buffer("long[]", counts))
         return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
 
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):

@@ -122,10 +122,11 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         lib.rk4(t, dt, steps, t + steps * dt, 0, steps, 1, doubles(q), doubles(qd), doubles([0.0, 0.0]),
                 doubles(p), dep, ind, doubles(np.zeros(n_save)), doubles(np.zeros(n_save * n)),
                 doubles(np.zeros(n_save * n)), doubles(np.zeros(n_save * 2)), n_saved)
-        say("dop853")
-        lib.dop853(t, doubles(np.concatenate([q, qd, [0.0, 0.0]])), 2, doubles([t + 1e-4, t + 2e-4]), 1e-6, 1e-8,
-                   doubles([0.0]), doubles(p), dep, ind, doubles(np.zeros(2 * (2 * n + 2))), n_saved,
-                   ffi.new("long[]", 5))
+        for name in ("dop853", "radau"):  # one interface
+            say(name)
+            getattr(lib, name)(t, doubles(np.concatenate([q, qd, [0.0, 0.0]])), 2, doubles([t + 1e-4, t + 2e-4]),
+                               1e-6, 1e-8, doubles([0.0]), doubles(p), dep, ind, doubles(np.zeros(2 * (2 * n + 2))),
+                               n_saved, ffi.new("long[]", 5))
         say("genalpha")
         lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, [0.0, 0.0]])),
                      doubles(np.full(n, np.nan)), doubles(np.zeros(n * n)), ffi.new("int[]", n), ffi.new("int[]", 1),

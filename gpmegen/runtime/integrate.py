@@ -289,6 +289,23 @@ def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progres
     saving on :func:`grid` with interval ``save_dt`` (s) by its dense output of order 7, driven by
     :func:`chunked`. ``rtol``, ``atol``: the tolerances of each step's error in ``q`` and ``q̇``.
     Returns ``(t, y, outcome, effort)``, ``effort`` an :class:`Effort`."""
+    return _compiled_adaptive("dop853", model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation,
+                              watch)
+
+
+def radau(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progress=None, max_violation=None,
+          watch=None):
+    """Radau IIA of order 5 (implicit, Hairer's RADAU5, with the GPME's Jacobians) in the compiled
+    loop, as :func:`dop853` (same arguments and results), saving between steps by its collocation
+    polynomial. Its steps are not bound by the stiff modes."""
+    return _compiled_adaptive("radau", model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation,
+                              watch)
+
+
+def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation, watch):
+    """The adaptive compiled loop ``method`` ("dop853" or "radau", a method of the model with
+    :meth:`gpmegen.runtime.model.LoadedModel.dop853`'s interface) driven by :func:`chunked` on the
+    save grid, its step carried across the chunks. Returns ``(t, y, outcome, effort)``."""
     check_start(model, t0, q0, qd0)
     if not (rtol > 0 and atol >= 0):
         raise ValueError(f"need rtol > 0 and atol >= 0, got rtol = {rtol}, atol = {atol}")
@@ -299,12 +316,16 @@ def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progres
 
     def advance(model, y, k_from, k_to):
         t_save = np.array([g.time(k) for k in range(k_from + 1, k_to + 1)])
-        rows, status = model.dop853(g.time(k_from), y, t_save, rtol, atol, step, counts)
+        rows, status = getattr(model, method)(g.time(k_from), y, t_save, rtol, atol, step, counts)
         return t_save[:len(rows)], rows, status, rows[-1] if len(rows) else y
 
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
     t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
     return t, y, outcome, Effort(*(int(c) for c in counts))
+
+
+#: The adaptive methods in the compiled loop, by name.
+ADAPTIVE = {"dop853": dop853, "radau": radau}
 
 
 #: Default numerical damping of generalized-α: the spectral radius at h ω → ∞. 0.9 damps what the
@@ -354,7 +375,8 @@ def save_steps(dt: float, save_dt: float) -> int | None:
 #: RK4's stability limit on the imaginary axis: an undamped mode of ω (rad/s) grows for h ω above it.
 RK4_STABILITY = 2.0 * math.sqrt(2.0)
 #: The methods that take steps above RK4's stable one: they choose their own.
-LONG_STEPS = "--method genalpha (implicit, in C), dop853 (adaptive, in C) or scipy-radau (implicit)"
+LONG_STEPS = ("--method genalpha (implicit, in C), radau (implicit, adaptive, in C), dop853 (adaptive, in C) or "
+              "scipy-radau (implicit)")
 
 
 def unstable_step(dt: float, omega: float) -> str | None:
@@ -369,7 +391,7 @@ def unstable_step(dt: float, omega: float) -> str | None:
 
 #: Integrators that run only in the generated C loops (not the NumPy backend, nor the actuated
 #: realization, which is integrated in Python).
-COMPILED = ("dop853", "genalpha")
+COMPILED = ("dop853", "genalpha", "radau")
 
 
 def compiled_only(method: str, backend: str, actuated: bool) -> str | None:

@@ -119,6 +119,9 @@ class Evaluator(Protocol):
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
         """See :meth:`LoadedModel.dop853` (compiled backends only)."""
 
+    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        """See :meth:`LoadedModel.radau` (compiled backends only)."""
+
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
 
@@ -205,6 +208,9 @@ class NumpyEvaluator:
 
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
         raise SimulationError(integrate.compiled_only("dop853", "numpy", False))
+
+    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+        raise SimulationError(integrate.compiled_only("radau", "numpy", False))
 
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         raise SimulationError(integrate.compiled_only("genalpha", "numpy", False))
@@ -556,6 +562,13 @@ class LoadedModel:
         k when ``status`` is OK)."""
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
         return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts)
+
+    def radau(self, t_a, y_a, t_save, rtol, atol, step, counts):
+        """Radau IIA of order 5 (implicit, Hairer's RADAU5) of the GPME in the compiled loop, with
+        the arguments and results of :meth:`dop853`; its LU factorizations counted are the real
+        and the complex (n, n) ones of its Newton matrices."""
+        model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
+        return model.evaluator.radau(model, t_a, y_a, t_save, rtol, atol, step, counts)
 
     def genalpha(self, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
