@@ -118,8 +118,11 @@ def test_accelerations_agree_with_numpy(pairs, key):
         backward = np.linalg.norm(A @ qdd_c - b) / (np.linalg.norm(A) * np.linalg.norm(qdd_c) + np.linalg.norm(b))
         assert backward <= 1e-14
         assert _rel(qdd_c, qdd_n) <= max(1e-12, 4 * np.linalg.cond(A) * EPS)
+        # motion solves the dense GPME from M and f, accelerations by the O(n) recursion: two
+        # stable solvers, so agreeing as the NumPy solve does
         qdd_m, M_c, f_c = c.motion(t, q, qd)
-        assert np.array_equal(qdd_m, qdd_c) and _rel(M_c, M) <= 1e-12 and _rel(f_c, f) <= 1e-12
+        assert _rel(qdd_m, qdd_c) <= max(1e-12, 4 * np.linalg.cond(A) * EPS)
+        assert _rel(M_c, M) <= 1e-12 and _rel(f_c, f) <= 1e-12
     if key in ("nrfe1", "nrfe2", "unconstrained", "first_order"):  # well-conditioned: 1e-12 outright
         for t, q, qd in _states(c, 5, seed=3):
             assert _rel(c.accelerations(t, q, qd), n.accelerations(t, q, qd)) <= 1e-12

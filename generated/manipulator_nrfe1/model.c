@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 339f7ade6f943c13
+Input hash: 85e29d03f9d93824
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -50,7 +50,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "339f7ade6f943c13"; }
+const char *manipulator_nrfe1_input_hash(void) { return "85e29d03f9d93824"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -81,97 +81,98 @@ void manipulator_nrfe1_mass_matrix(const double *q, const double *p, double *out
     const double _p_R3 = p[14];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x2 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x7 = -_x0*_x5;
-    const double _x8 = -_x1*_x4;
-    const double _x9 = _x1*_x5;
-    const double _x10 = _x0*_p_h1;
-    const double _x11 = -_x1*_p_h1;
-    const double _x20 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
-    const double _x21 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
-    const double _x22 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
-    const double _x23 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
-    const double _x24 = _p_L2*_p_b2*_p_rho2*_p_t2;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x2 = (_p_h1*_p_h1);
+    const double _x4 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x9 = -_x0*_x7;
+    const double _x10 = -_x1*_x6;
+    const double _x11 = _x1*_x7;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x22 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
+    const double _x23 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
+    const double _x24 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x26 = _p_L2*_p_b2*_p_rho2*_p_t2;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x37 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
-    const double _x38 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
-    const double _x39 = (1.0/2.0)*_p_L3*_p_m3;
-    const double _x52 = (_x0*_x0);
-    const double _x53 = (_x1*_x1);
-    const double _x54 = _x2*_x52 + _x2*_x53;
-    const double _x55 = 2.0*_x54;
-    const double _x56 = _x23*_x6;
-    const double _x57 = _x23*_x5 + _x24*_p_h1;
-    const double _x58 = _x23*_x8;
-    const double _x59 = (_x6*_x6);
-    const double _x60 = (_x7*_x7);
-    const double _x61 = _x20*_x59 + _x21*_x60 + _x22*_x53;
-    const double _x62 = _x20*_x5*_x6 + _x21*_x4*_x7 + _x23*_x6*_p_h1;
-    const double _x63 = (_x5*_x5);
-    const double _x64 = (_x4*_x4);
-    const double _x65 = _x20*_x63 + _x21*_x64 + _x24*(_p_h1*_p_h1) + 2.0*_x23*_x5*_p_h1;
-    const double _x66 = _x0*_x1*_x22 + _x20*_x6*_x8 + _x21*_x7*_x9;
-    const double _x67 = _x20*_x5*_x8 + _x21*_x4*_x9 + _x23*_x8*_p_h1;
-    const double _x68 = (_x8*_x8);
-    const double _x69 = (_x9*_x9);
-    const double _x70 = _x20*_x68 + _x21*_x69 + _x22*_x52;
-    const double _x71 = _x65 + _x70;
-    const double _x72 = _x61 + _x70;
-    const double _x73 = _x61 + _x65;
-    const double _x85 = _x28*_p_m3 + _x39*_x6;
-    const double _x86 = _x29*_p_m3 + _x39*_x5;
-    const double _x87 = _x30*_p_m3 + _x39*_x8;
-    const double _x88 = _x37*_x59 + _x38*_x53 + _x38*_x60 + _p_m3*(_x28*_x28) + 2.0*_x28*_x39*_x6;
-    const double _x89 = _x28*_x29*_p_m3 + _x28*_x39*_x5 + _x29*_x39*_x6 + _x37*_x5*_x6 + _x38*_x4*_x7;
-    const double _x90 = _x37*_x63 + _x38*_x64 + _p_m3*(_x29*_x29) + 2.0*_x29*_x39*_x5;
-    const double _x91 = _x0*_x1*_x38 + _x28*_x30*_p_m3 + _x28*_x39*_x8 + _x30*_x39*_x6 + _x37*_x6*_x8 + _x38*_x7*_x9;
-    const double _x92 = _x29*_x30*_p_m3 + _x29*_x39*_x8 + _x30*_x39*_x5 + _x37*_x5*_x8 + _x38*_x4*_x9;
-    const double _x93 = _x37*_x68 + _x38*_x52 + _x38*_x69 + _p_m3*(_x30*_x30) + 2.0*_x30*_x39*_x8;
-    const double _x94 = _x90 + _x93;
-    const double _x95 = _x88 + _x93;
-    const double _x96 = _x88 + _x90;
-    const double _x109 = _x24 + _p_m3;
-    const double _x110 = _x56 + _x85;
-    const double _x111 = _x57 + _x86;
-    const double _x112 = _x58 + _x87;
-    const double _x113 = _x71 + _x94;
-    const double _x114 = -_x62 - _x89;
-    const double _x115 = _x72 + _x95;
-    const double _x116 = -_x66 - _x91;
-    const double _x117 = -_x67 - _x92;
-    const double _x118 = _x73 + _x96;
-    const double _x124 = _x115 + _x55;
-    const double _x125 = _x0*_x116 + _x1*_x113 + _x11*_x111;
-    const double _x126 = _x0*_x117 + _x1*_x114 + _x10*_x112 - _x11*_x110;
-    const double _x127 = _x0*_x118 + _x1*_x116 - _x10*_x111;
-    const double _x128 = _x10*_x109 - _x0*_x111;
-    const double _x130 = _x1*_x111 + _x109*_x11;
-    const double _x133 = _x8*_x86 - _x5*_x87;
-    const double _x134 = _x6*_x87 - _x8*_x85;
-    const double _x135 = _x5*_x85 - _x6*_x86;
-    const double _x136 = _x6*_p_m3;
-    const double _x137 = _x5*_p_m3;
-    const double _x138 = _x8*_p_m3;
-    const double _x141 = _x0*_x127 + _x1*_x125 + _x10*_x128 + _x11*_x130;
-    const double _x143 = _x0*_x135 + _x1*_x133 + _x10*_x136 + _x11*_x138;
-    const double _x145 = _x136*_x6 + _x137*_x5 + _x138*_x8;
-    out_M[0] = _x124;
-    out_M[1] = _x126;
-    out_M[2] = _x134;
-    out_M[3] = _x126;
-    out_M[4] = _x141;
-    out_M[5] = _x143;
-    out_M[6] = _x134;
-    out_M[7] = _x143;
-    out_M[8] = _x145;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x39 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
+    const double _x40 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x54 = (_x0*_x0);
+    const double _x55 = (_x1*_x1);
+    const double _x56 = _x4*_x54 + _x4*_x55;
+    const double _x57 = 2.0*_x56;
+    const double _x59 = _x25*_x8;
+    const double _x60 = _x25*_x7 + _x26*_p_h1;
+    const double _x61 = _x10*_x25;
+    const double _x62 = (_x8*_x8);
+    const double _x63 = (_x9*_x9);
+    const double _x64 = _x22*_x62 + _x23*_x63 + _x24*_x55;
+    const double _x65 = _x22*_x7*_x8 + _x23*_x6*_x9 + _x25*_x8*_p_h1;
+    const double _x66 = (_x7*_x7);
+    const double _x67 = (_x6*_x6);
+    const double _x68 = _x2*_x26 + _x22*_x66 + _x23*_x67 + 2.0*_x25*_x7*_p_h1;
+    const double _x69 = _x0*_x1*_x24 + _x10*_x22*_x8 + _x11*_x23*_x9;
+    const double _x70 = _x10*_x22*_x7 + _x10*_x25*_p_h1 + _x11*_x23*_x6;
+    const double _x71 = (_x10*_x10);
+    const double _x72 = (_x11*_x11);
+    const double _x73 = _x22*_x71 + _x23*_x72 + _x24*_x54;
+    const double _x74 = _x68 + _x73;
+    const double _x75 = _x64 + _x73;
+    const double _x76 = _x64 + _x68;
+    const double _x89 = _x30*_p_m3 + _x41*_x8;
+    const double _x90 = _x31*_p_m3 + _x41*_x7;
+    const double _x91 = _x10*_x41 + _x32*_p_m3;
+    const double _x92 = _x39*_x62 + _x40*_x55 + _x40*_x63 + _p_m3*(_x30*_x30) + 2.0*_x30*_x41*_x8;
+    const double _x93 = _x30*_x31*_p_m3 + _x30*_x41*_x7 + _x31*_x41*_x8 + _x39*_x7*_x8 + _x40*_x6*_x9;
+    const double _x94 = _x39*_x66 + _x40*_x67 + _p_m3*(_x31*_x31) + 2.0*_x31*_x41*_x7;
+    const double _x95 = _x0*_x1*_x40 + _x10*_x30*_x41 + _x10*_x39*_x8 + _x11*_x40*_x9 + _x30*_x32*_p_m3 + _x32*_x41*_x8;
+    const double _x96 = _x10*_x31*_x41 + _x10*_x39*_x7 + _x11*_x40*_x6 + _x31*_x32*_p_m3 + _x32*_x41*_x7;
+    const double _x97 = _x39*_x71 + _x40*_x54 + _x40*_x72 + _p_m3*(_x32*_x32) + 2.0*_x10*_x32*_x41;
+    const double _x98 = _x94 + _x97;
+    const double _x99 = _x92 + _x97;
+    const double _x100 = _x92 + _x94;
+    const double _x113 = _x26 + _p_m3;
+    const double _x114 = _x59 + _x89;
+    const double _x115 = _x60 + _x90;
+    const double _x116 = _x61 + _x91;
+    const double _x117 = _x74 + _x98;
+    const double _x118 = -_x65 - _x93;
+    const double _x119 = _x75 + _x99;
+    const double _x120 = -_x69 - _x95;
+    const double _x121 = -_x70 - _x96;
+    const double _x122 = _x100 + _x76;
+    const double _x128 = _x119 + _x57;
+    const double _x129 = _x0*_x120 + _x1*_x117 + _x115*_x13;
+    const double _x130 = _x0*_x121 + _x1*_x118 + _x116*_x12 - _x114*_x13;
+    const double _x131 = _x0*_x122 + _x1*_x120 - _x115*_x12;
+    const double _x132 = _x113*_x12 - _x0*_x115;
+    const double _x134 = _x1*_x115 + _x113*_x13;
+    const double _x137 = _x10*_x90 - _x7*_x91;
+    const double _x138 = _x8*_x91 - _x10*_x89;
+    const double _x139 = _x7*_x89 - _x8*_x90;
+    const double _x140 = _x8*_p_m3;
+    const double _x141 = _x7*_p_m3;
+    const double _x142 = _x10*_p_m3;
+    const double _x145 = _x0*_x131 + _x1*_x129 + _x12*_x132 + _x13*_x134;
+    const double _x147 = _x0*_x139 + _x1*_x137 + _x12*_x140 + _x13*_x142;
+    const double _x149 = _x10*_x142 + _x140*_x8 + _x141*_x7;
+    out_M[0] = _x128;
+    out_M[1] = _x130;
+    out_M[2] = _x138;
+    out_M[3] = _x130;
+    out_M[4] = _x145;
+    out_M[5] = _x147;
+    out_M[6] = _x138;
+    out_M[7] = _x147;
+    out_M[8] = _x149;
 }
 
 
@@ -217,117 +218,118 @@ void manipulator_nrfe1_forces(double t, const double *q, const double *qd, const
     const double _p_t0 = p[16];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x7 = -_x0*_x5;
-    const double _x8 = -_x1*_x4;
-    const double _x9 = _x1*_x5;
-    const double _x10 = _x0*_p_h1;
-    const double _x11 = -_x1*_p_h1;
-    const double _x12 = _qd_psi2*_qd_theta1*_x0;
-    const double _x13 = -_qd_psi2*_qd_theta1*_x1;
-    const double _x14 = _qd_psi2*_qd_theta1*_x11;
-    const double _x15 = -_qd_psi2*_qd_theta1*_x10;
-    const double _x16 = _qd_psi2*_x1;
-    const double _x17 = _qd_psi2*_x0;
-    const double _x18 = _qd_psi2*_x10;
-    const double _x19 = _qd_psi2*_x11;
-    const double _x20 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
-    const double _x21 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
-    const double _x22 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
-    const double _x23 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
-    const double _x24 = _p_L2*_p_b2*_p_rho2*_p_t2;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x2 = (_p_h1*_p_h1);
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x9 = -_x0*_x7;
+    const double _x10 = -_x1*_x6;
+    const double _x11 = _x1*_x7;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x14 = _qd_psi2*_qd_theta1*_x0;
+    const double _x15 = -_qd_psi2*_qd_theta1*_x1;
+    const double _x16 = _qd_psi2*_qd_theta1*_x13;
+    const double _x17 = -_qd_psi2*_qd_theta1*_x12;
+    const double _x18 = _qd_psi2*_x1;
+    const double _x19 = _qd_psi2*_x0;
+    const double _x20 = _qd_psi2*_x12;
+    const double _x21 = _qd_psi2*_x13;
+    const double _x22 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
+    const double _x23 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
+    const double _x24 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x26 = _p_L2*_p_b2*_p_rho2*_p_t2;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x31 = _x14 + _qd_x3*(_qd_theta1*_x8 - _x17*_x5);
-    const double _x32 = _qd_x3*(_x17*_x6 - _x16*_x8);
-    const double _x33 = _x15 + _qd_x3*(_x16*_x5 - _qd_theta1*_x6);
-    const double _x34 = _x18 + _qd_x3*_x6;
-    const double _x35 = _qd_x3*_x5;
-    const double _x36 = _x19 + _qd_x3*_x8;
-    const double _x37 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
-    const double _x38 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
-    const double _x39 = (1.0/2.0)*_p_L3*_p_m3;
-    const double _x52 = (_x0*_x0);
-    const double _x53 = (_x1*_x1);
-    const double _x56 = _x23*_x6;
-    const double _x57 = _x23*_x5 + _x24*_p_h1;
-    const double _x58 = _x23*_x8;
-    const double _x59 = (_x6*_x6);
-    const double _x60 = (_x7*_x7);
-    const double _x61 = _x20*_x59 + _x21*_x60 + _x22*_x53;
-    const double _x62 = _x20*_x5*_x6 + _x21*_x4*_x7 + _x23*_x6*_p_h1;
-    const double _x63 = (_x5*_x5);
-    const double _x64 = (_x4*_x4);
-    const double _x65 = _x20*_x63 + _x21*_x64 + _x24*(_p_h1*_p_h1) + 2.0*_x23*_x5*_p_h1;
-    const double _x66 = _x0*_x1*_x22 + _x20*_x6*_x8 + _x21*_x7*_x9;
-    const double _x67 = _x20*_x5*_x8 + _x21*_x4*_x9 + _x23*_x8*_p_h1;
-    const double _x68 = (_x8*_x8);
-    const double _x69 = (_x9*_x9);
-    const double _x70 = _x20*_x68 + _x21*_x69 + _x22*_x52;
-    const double _x71 = _x65 + _x70;
-    const double _x72 = _x61 + _x70;
-    const double _x73 = _x61 + _x65;
-    const double _x74 = _x16*_x71 + _x19*_x57 - _qd_theta1*_x62 - _x17*_x66;
-    const double _x75 = _qd_theta1*_x72 + _x18*_x58 - _x16*_x62 - _x17*_x67 - _x19*_x56;
-    const double _x76 = _x17*_x73 - _qd_theta1*_x67 - _x16*_x66 - _x18*_x57;
-    const double _x77 = _qd_theta1*_x58 + _x18*_x24 - _x17*_x57;
-    const double _x78 = _x17*_x56 - _x16*_x58;
-    const double _x79 = _x16*_x57 + _x19*_x24 - _qd_theta1*_x56;
-    const double _x80 = _qd_theta1*_x76 + _x12*_x71 + _x15*_x57 - _x13*_x66 - _x17*_x75 - _x19*_x78;
-    const double _x81 = _x14*_x58 + _x17*_x74 + _x19*_x77 - _x12*_x62 - _x13*_x67 - _x15*_x56 - _x16*_x76 - _x18*_x79;
-    const double _x82 = _x13*_x73 + _x16*_x75 + _x18*_x78 - _qd_theta1*_x74 - _x12*_x66 - _x14*_x57;
-    const double _x83 = _qd_theta1*_x79 + _x14*_x24 - _x13*_x57 - _x17*_x78;
-    const double _x84 = _x12*_x57 + _x15*_x24 + _x16*_x78 - _qd_theta1*_x77;
-    const double _x85 = _x28*_p_m3 + _x39*_x6;
-    const double _x86 = _x29*_p_m3 + _x39*_x5;
-    const double _x87 = _x30*_p_m3 + _x39*_x8;
-    const double _x88 = _x37*_x59 + _x38*_x53 + _x38*_x60 + _p_m3*(_x28*_x28) + 2.0*_x28*_x39*_x6;
-    const double _x89 = _x28*_x29*_p_m3 + _x28*_x39*_x5 + _x29*_x39*_x6 + _x37*_x5*_x6 + _x38*_x4*_x7;
-    const double _x90 = _x37*_x63 + _x38*_x64 + _p_m3*(_x29*_x29) + 2.0*_x29*_x39*_x5;
-    const double _x91 = _x0*_x1*_x38 + _x28*_x30*_p_m3 + _x28*_x39*_x8 + _x30*_x39*_x6 + _x37*_x6*_x8 + _x38*_x7*_x9;
-    const double _x92 = _x29*_x30*_p_m3 + _x29*_x39*_x8 + _x30*_x39*_x5 + _x37*_x5*_x8 + _x38*_x4*_x9;
-    const double _x93 = _x37*_x68 + _x38*_x52 + _x38*_x69 + _p_m3*(_x30*_x30) + 2.0*_x30*_x39*_x8;
-    const double _x94 = _x90 + _x93;
-    const double _x95 = _x88 + _x93;
-    const double _x96 = _x88 + _x90;
-    const double _x97 = _x16*_x94 + _x36*_x86 - _qd_theta1*_x89 - _x17*_x91 - _x35*_x87;
-    const double _x98 = _qd_theta1*_x95 + _x34*_x87 - _x16*_x89 - _x17*_x92 - _x36*_x85;
-    const double _x99 = _x17*_x96 + _x35*_x85 - _qd_theta1*_x92 - _x16*_x91 - _x34*_x86;
-    const double _x100 = _qd_theta1*_x87 + _x34*_p_m3 - _x17*_x86;
-    const double _x101 = _x17*_x85 + _x35*_p_m3 - _x16*_x87;
-    const double _x102 = _x16*_x86 + _x36*_p_m3 - _qd_theta1*_x85;
-    const double _x103 = _qd_theta1*_x99 + _x102*_x35 + _x12*_x94 + _x33*_x86 - _x101*_x36 - _x13*_x91 - _x17*_x98 - _x32*_x87;
-    const double _x104 = _x100*_x36 + _x17*_x97 + _x31*_x87 - _x102*_x34 - _x12*_x89 - _x13*_x92 - _x16*_x99 - _x33*_x85;
-    const double _x105 = _x101*_x34 + _x13*_x96 + _x16*_x98 + _x32*_x85 - _qd_theta1*_x97 - _x100*_x35 - _x12*_x91 - _x31*_x86;
-    const double _x106 = _qd_theta1*_x102 + _x31*_p_m3 - _x101*_x17 - _x13*_x86;
-    const double _x107 = _x100*_x17 + _x13*_x85 + _x32*_p_m3 - _x102*_x16 - _x12*_x87;
-    const double _x108 = _x101*_x16 + _x12*_x86 + _x33*_p_m3 - _qd_theta1*_x100;
-    const double _x110 = _x56 + _x85;
-    const double _x112 = _x58 + _x87;
-    const double _x119 = _x103 + _x80;
-    const double _x120 = _x104 + _x81;
-    const double _x121 = _x105 + _x82;
-    const double _x122 = _x106 + _x83;
-    const double _x123 = _x108 + _x84;
-    const double _x129 = _x0*_x110 - _x1*_x112;
-    const double _x131 = -_x0*_x121 - _x1*_x119 - _x10*_x122 - _x11*_x123;
-    const double _x132 = _x129*_p_g;
-    const double _x137 = _x5*_p_m3;
-    const double _x139 = -_x106*_x6 - _x107*_x5 - _x108*_x8;
-    const double _x140 = _x137*_p_g;
-    const double _x157 = fmin(1.0, t/_p_t0);
-    const double _x158 = (_x157*_x157*_x157);
-    const double _x159 = 10.0 - 15.0*_x157 + 6.0*(_x157*_x157);
-    const double _x160 = _x158*_x159*_p_tdr0;
-    out_f[0] = _x160 - _x120;
-    out_f[1] = _x131 - _x132;
-    out_f[2] = _x139 - _x140;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x33 = _x16 + _qd_x3*(_qd_theta1*_x10 - _x19*_x7);
+    const double _x34 = _qd_x3*(_x19*_x8 - _x10*_x18);
+    const double _x35 = _x17 + _qd_x3*(_x18*_x7 - _qd_theta1*_x8);
+    const double _x36 = _x20 + _qd_x3*_x8;
+    const double _x37 = _qd_x3*_x7;
+    const double _x38 = _x21 + _qd_x3*_x10;
+    const double _x39 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
+    const double _x40 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x54 = (_x0*_x0);
+    const double _x55 = (_x1*_x1);
+    const double _x59 = _x25*_x8;
+    const double _x60 = _x25*_x7 + _x26*_p_h1;
+    const double _x61 = _x10*_x25;
+    const double _x62 = (_x8*_x8);
+    const double _x63 = (_x9*_x9);
+    const double _x64 = _x22*_x62 + _x23*_x63 + _x24*_x55;
+    const double _x65 = _x22*_x7*_x8 + _x23*_x6*_x9 + _x25*_x8*_p_h1;
+    const double _x66 = (_x7*_x7);
+    const double _x67 = (_x6*_x6);
+    const double _x68 = _x2*_x26 + _x22*_x66 + _x23*_x67 + 2.0*_x25*_x7*_p_h1;
+    const double _x69 = _x0*_x1*_x24 + _x10*_x22*_x8 + _x11*_x23*_x9;
+    const double _x70 = _x10*_x22*_x7 + _x10*_x25*_p_h1 + _x11*_x23*_x6;
+    const double _x71 = (_x10*_x10);
+    const double _x72 = (_x11*_x11);
+    const double _x73 = _x22*_x71 + _x23*_x72 + _x24*_x54;
+    const double _x74 = _x68 + _x73;
+    const double _x75 = _x64 + _x73;
+    const double _x76 = _x64 + _x68;
+    const double _x77 = _x18*_x74 + _x21*_x60 - _qd_theta1*_x65 - _x19*_x69;
+    const double _x78 = _qd_theta1*_x75 + _x20*_x61 - _x18*_x65 - _x19*_x70 - _x21*_x59;
+    const double _x79 = _x19*_x76 - _qd_theta1*_x70 - _x18*_x69 - _x20*_x60;
+    const double _x80 = _qd_theta1*_x61 + _x20*_x26 - _x19*_x60;
+    const double _x81 = _x19*_x59 - _x18*_x61;
+    const double _x82 = _x18*_x60 + _x21*_x26 - _qd_theta1*_x59;
+    const double _x83 = _qd_theta1*_x79 + _x14*_x74 + _x17*_x60 - _x15*_x69 - _x19*_x78 - _x21*_x81;
+    const double _x84 = _x16*_x61 + _x19*_x77 + _x21*_x80 - _x14*_x65 - _x15*_x70 - _x17*_x59 - _x18*_x79 - _x20*_x82;
+    const double _x85 = _x15*_x76 + _x18*_x78 + _x20*_x81 - _qd_theta1*_x77 - _x14*_x69 - _x16*_x60;
+    const double _x86 = _qd_theta1*_x82 + _x16*_x26 - _x15*_x60 - _x19*_x81;
+    const double _x88 = _x14*_x60 + _x17*_x26 + _x18*_x81 - _qd_theta1*_x80;
+    const double _x89 = _x30*_p_m3 + _x41*_x8;
+    const double _x90 = _x31*_p_m3 + _x41*_x7;
+    const double _x91 = _x10*_x41 + _x32*_p_m3;
+    const double _x92 = _x39*_x62 + _x40*_x55 + _x40*_x63 + _p_m3*(_x30*_x30) + 2.0*_x30*_x41*_x8;
+    const double _x93 = _x30*_x31*_p_m3 + _x30*_x41*_x7 + _x31*_x41*_x8 + _x39*_x7*_x8 + _x40*_x6*_x9;
+    const double _x94 = _x39*_x66 + _x40*_x67 + _p_m3*(_x31*_x31) + 2.0*_x31*_x41*_x7;
+    const double _x95 = _x0*_x1*_x40 + _x10*_x30*_x41 + _x10*_x39*_x8 + _x11*_x40*_x9 + _x30*_x32*_p_m3 + _x32*_x41*_x8;
+    const double _x96 = _x10*_x31*_x41 + _x10*_x39*_x7 + _x11*_x40*_x6 + _x31*_x32*_p_m3 + _x32*_x41*_x7;
+    const double _x97 = _x39*_x71 + _x40*_x54 + _x40*_x72 + _p_m3*(_x32*_x32) + 2.0*_x10*_x32*_x41;
+    const double _x98 = _x94 + _x97;
+    const double _x99 = _x92 + _x97;
+    const double _x100 = _x92 + _x94;
+    const double _x101 = _x18*_x98 + _x38*_x90 - _qd_theta1*_x93 - _x19*_x95 - _x37*_x91;
+    const double _x102 = _qd_theta1*_x99 + _x36*_x91 - _x18*_x93 - _x19*_x96 - _x38*_x89;
+    const double _x103 = _x100*_x19 + _x37*_x89 - _qd_theta1*_x96 - _x18*_x95 - _x36*_x90;
+    const double _x104 = _qd_theta1*_x91 + _x36*_p_m3 - _x19*_x90;
+    const double _x105 = _x19*_x89 + _x37*_p_m3 - _x18*_x91;
+    const double _x106 = _x18*_x90 + _x38*_p_m3 - _qd_theta1*_x89;
+    const double _x107 = _qd_theta1*_x103 + _x106*_x37 + _x14*_x98 + _x35*_x90 - _x102*_x19 - _x105*_x38 - _x15*_x95 - _x34*_x91;
+    const double _x108 = _x101*_x19 + _x104*_x38 + _x33*_x91 - _x103*_x18 - _x106*_x36 - _x14*_x93 - _x15*_x96 - _x35*_x89;
+    const double _x109 = _x100*_x15 + _x102*_x18 + _x105*_x36 + _x34*_x89 - _qd_theta1*_x101 - _x104*_x37 - _x14*_x95 - _x33*_x90;
+    const double _x110 = _qd_theta1*_x106 + _x33*_p_m3 - _x105*_x19 - _x15*_x90;
+    const double _x111 = _x104*_x19 + _x15*_x89 + _x34*_p_m3 - _x106*_x18 - _x14*_x91;
+    const double _x112 = _x105*_x18 + _x14*_x90 + _x35*_p_m3 - _qd_theta1*_x104;
+    const double _x114 = _x59 + _x89;
+    const double _x116 = _x61 + _x91;
+    const double _x123 = _x107 + _x83;
+    const double _x124 = _x108 + _x84;
+    const double _x125 = _x109 + _x85;
+    const double _x126 = _x110 + _x86;
+    const double _x127 = _x112 + _x88;
+    const double _x133 = _x0*_x114 - _x1*_x116;
+    const double _x135 = -_x0*_x125 - _x1*_x123 - _x12*_x126 - _x127*_x13;
+    const double _x136 = _x133*_p_g;
+    const double _x141 = _x7*_p_m3;
+    const double _x143 = -_x10*_x112 - _x110*_x8 - _x111*_x7;
+    const double _x144 = _x141*_p_g;
+    const double _x168 = fmin(1.0, t/_p_t0);
+    const double _x169 = (_x168*_x168*_x168);
+    const double _x170 = 10.0 - 15.0*_x168 + 6.0*(_x168*_x168);
+    const double _x171 = _x169*_x170*_p_tdr0;
+    out_f[0] = _x171 - _x124;
+    out_f[1] = _x135 - _x136;
+    out_f[2] = _x143 - _x144;
 }
 
 
@@ -364,29 +366,29 @@ void manipulator_nrfe1_static_residual(const double *q, const double *p, double 
     const double _p_L3 = p[13];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x8 = -_x1*_x4;
-    const double _x23 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
-    const double _x25 = _p_L2*_x6;
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x10 = -_x1*_x6;
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x39 = (1.0/2.0)*_p_L3*_p_m3;
-    const double _x56 = _x23*_x6;
-    const double _x58 = _x23*_x8;
-    const double _x85 = _x28*_p_m3 + _x39*_x6;
-    const double _x87 = _x30*_p_m3 + _x39*_x8;
-    const double _x110 = _x56 + _x85;
-    const double _x112 = _x58 + _x87;
-    const double _x129 = _x0*_x110 - _x1*_x112;
-    const double _x132 = _x129*_p_g;
-    const double _x137 = _x5*_p_m3;
-    const double _x140 = _x137*_p_g;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x59 = _x25*_x8;
+    const double _x61 = _x10*_x25;
+    const double _x89 = _x30*_p_m3 + _x41*_x8;
+    const double _x91 = _x10*_x41 + _x32*_p_m3;
+    const double _x114 = _x59 + _x89;
+    const double _x116 = _x61 + _x91;
+    const double _x133 = _x0*_x114 - _x1*_x116;
+    const double _x136 = _x133*_p_g;
+    const double _x141 = _x7*_p_m3;
+    const double _x144 = _x141*_p_g;
     out_r[0] = 0.0;
-    out_r[1] = _x132;
-    out_r[2] = _x140;
+    out_r[1] = _x136;
+    out_r[2] = _x144;
 }
 #endif
 
@@ -412,35 +414,35 @@ void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, doub
     const double _p_L3 = p[13];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x8 = -_x1*_x4;
-    const double _x10 = _x0*_p_h1;
-    const double _x11 = -_x1*_p_h1;
-    const double _x23 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
-    const double _x24 = _p_L2*_p_b2*_p_rho2*_p_t2;
-    const double _x26 = _p_h1 + _p_L2*_x5;
-    const double _x29 = _x26 + _q_x3*_x5;
-    const double _x39 = (1.0/2.0)*_p_L3*_p_m3;
-    const double _x57 = _x23*_x5 + _x24*_p_h1;
-    const double _x86 = _x29*_p_m3 + _x39*_x5;
-    const double _x109 = _x24 + _p_m3;
-    const double _x111 = _x57 + _x86;
-    const double _x128 = _x10*_x109 - _x0*_x111;
-    const double _x130 = _x1*_x111 + _x109*_x11;
-    const double _x136 = _x6*_p_m3;
-    const double _x138 = _x8*_p_m3;
-    const double _x142 = _p_g*(_x0*_x128 - _x1*_x130);
-    const double _x144 = _p_g*(_x0*_x136 - _x1*_x138);
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x10 = -_x1*_x6;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x26 = _p_L2*_p_b2*_p_rho2*_p_t2;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x60 = _x25*_x7 + _x26*_p_h1;
+    const double _x90 = _x31*_p_m3 + _x41*_x7;
+    const double _x113 = _x26 + _p_m3;
+    const double _x115 = _x60 + _x90;
+    const double _x132 = _x113*_x12 - _x0*_x115;
+    const double _x134 = _x1*_x115 + _x113*_x13;
+    const double _x140 = _x8*_p_m3;
+    const double _x142 = _x10*_p_m3;
+    const double _x146 = _p_g*(_x0*_x132 - _x1*_x134);
+    const double _x148 = _p_g*(_x0*_x140 - _x1*_x142);
     out_K[0] = 0.0;
     out_K[1] = 0.0;
     out_K[2] = 0.0;
     out_K[3] = 0.0;
-    out_K[4] = _x142;
-    out_K[5] = _x144;
+    out_K[4] = _x146;
+    out_K[5] = _x148;
     out_K[6] = 0.0;
-    out_K[7] = _x144;
+    out_K[7] = _x148;
     out_K[8] = 0.0;
 }
 #endif
@@ -456,11 +458,11 @@ void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q)
 {
     const double _p_tdr0 = p[15];
     const double _p_t0 = p[16];
-    const double _x157 = fmin(1.0, t/_p_t0);
-    const double _x158 = (_x157*_x157*_x157);
-    const double _x159 = 10.0 - 15.0*_x157 + 6.0*(_x157*_x157);
-    const double _x160 = _x158*_x159*_p_tdr0;
-    out_Q[0] = _x160;
+    const double _x168 = fmin(1.0, t/_p_t0);
+    const double _x169 = (_x168*_x168*_x168);
+    const double _x170 = 10.0 - 15.0*_x168 + 6.0*(_x168*_x168);
+    const double _x171 = _x169*_x170*_p_tdr0;
+    out_Q[0] = _x171;
     out_Q[1] = 0.0;
     out_Q[2] = 0.0;
 }
@@ -483,22 +485,22 @@ void manipulator_nrfe1_points(const double *q, const double *p, double *out_P)
     const double _p_L3 = p[13];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x8 = -_x1*_x4;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x10 = -_x1*_x6;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x40 = _x28 + _p_L3*_x6;
-    const double _x41 = _x29 + _p_L3*_x5;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
     const double _x42 = _x30 + _p_L3*_x8;
-    out_P[0] = _x40;
-    out_P[1] = _x41;
-    out_P[2] = _x42;
+    const double _x43 = _x31 + _p_L3*_x7;
+    const double _x44 = _x32 + _p_L3*_x10;
+    out_P[0] = _x42;
+    out_P[1] = _x43;
+    out_P[2] = _x44;
 }
 #endif
 
@@ -531,67 +533,67 @@ void manipulator_nrfe1_constraint_terms(double t, const double *q, const double 
     const double _p_y_c = p[20];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x8 = -_x1*_x4;
-    const double _x10 = _x0*_p_h1;
-    const double _x11 = -_x1*_p_h1;
-    const double _x12 = _qd_psi2*_qd_theta1*_x0;
-    const double _x13 = -_qd_psi2*_qd_theta1*_x1;
-    const double _x14 = _qd_psi2*_qd_theta1*_x11;
-    const double _x15 = -_qd_psi2*_qd_theta1*_x10;
-    const double _x16 = _qd_psi2*_x1;
-    const double _x17 = _qd_psi2*_x0;
-    const double _x18 = _qd_psi2*_x10;
-    const double _x19 = _qd_psi2*_x11;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x10 = -_x1*_x6;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x14 = _qd_psi2*_qd_theta1*_x0;
+    const double _x15 = -_qd_psi2*_qd_theta1*_x1;
+    const double _x16 = _qd_psi2*_qd_theta1*_x13;
+    const double _x17 = -_qd_psi2*_qd_theta1*_x12;
+    const double _x18 = _qd_psi2*_x1;
+    const double _x19 = _qd_psi2*_x0;
+    const double _x20 = _qd_psi2*_x12;
+    const double _x21 = _qd_psi2*_x13;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x31 = _x14 + _qd_x3*(_qd_theta1*_x8 - _x17*_x5);
-    const double _x32 = _qd_x3*(_x17*_x6 - _x16*_x8);
-    const double _x33 = _x15 + _qd_x3*(_x16*_x5 - _qd_theta1*_x6);
-    const double _x34 = _x18 + _qd_x3*_x6;
-    const double _x35 = _qd_x3*_x5;
-    const double _x36 = _x19 + _qd_x3*_x8;
-    const double _x40 = _x28 + _p_L3*_x6;
-    const double _x41 = _x29 + _p_L3*_x5;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x33 = _x16 + _qd_x3*(_qd_theta1*_x10 - _x19*_x7);
+    const double _x34 = _qd_x3*(_x19*_x8 - _x10*_x18);
+    const double _x35 = _x17 + _qd_x3*(_x18*_x7 - _qd_theta1*_x8);
+    const double _x36 = _x20 + _qd_x3*_x8;
+    const double _x37 = _qd_x3*_x7;
+    const double _x38 = _x21 + _qd_x3*_x10;
     const double _x42 = _x30 + _p_L3*_x8;
-    const double _x43 = _x34 + _qd_theta1*_x42 - _x17*_x41;
-    const double _x44 = _x35 + _x17*_x40 - _x16*_x42;
-    const double _x45 = _x36 + _x16*_x41 - _qd_theta1*_x40;
-    const double _x46 = _x31 + _qd_theta1*_x45 - _x13*_x41 - _x17*_x44;
-    const double _x47 = _x32 + _x13*_x40 + _x17*_x43 - _x12*_x42 - _x16*_x45;
-    const double _x48 = _x33 + _x12*_x41 + _x16*_x44 - _qd_theta1*_x43;
-    const double _x49 = _x10 - _x0*_x41;
-    const double _x50 = _x0*_x40 - _x1*_x42;
-    const double _x51 = _x11 + _x1*_x41;
-    const double _x146 = (_x40*_x40) + (_x42*_x42) - (_p_r_Ea*_p_r_Ea);
-    const double _x147 = 2.0*_x40*_x43 + 2.0*_x42*_x45;
-    const double _x148 = 2.0*_x40*_x49 + 2.0*_x42*_x51;
-    const double _x149 = 2.0*_x40*_x6 + 2.0*_x42*_x8;
-    const double _x150 = 2.0*(_x43*_x43) + 2.0*(_x45*_x45) + 2.0*_x40*_x46 + 2.0*_x42*_x48;
-    const double _x151 = 1.0/_p_T;
-    const double _x152 = 2.0*3.14159265358979323846*_x151*t;
-    const double _x153 = cos(_x152);
-    const double _x154 = _x41 - _p_y_c - _p_A*_x153;
-    const double _x155 = _x44 + 2.0*3.14159265358979323846*_p_A*_x151*sin(_x152);
-    const double _x156 = _x47 + 4.0*_p_A*_x153*pow(3.14159265358979323846, 2.0)/(_p_T*_p_T);
-    out_phi[0] = _x146;
-    out_phi[1] = _x154;
-    out_phi_rate[0] = _x147;
-    out_phi_rate[1] = _x155;
+    const double _x43 = _x31 + _p_L3*_x7;
+    const double _x44 = _x32 + _p_L3*_x10;
+    const double _x45 = _x36 + _qd_theta1*_x44 - _x19*_x43;
+    const double _x46 = _x37 + _x19*_x42 - _x18*_x44;
+    const double _x47 = _x38 + _x18*_x43 - _qd_theta1*_x42;
+    const double _x48 = _x33 + _qd_theta1*_x47 - _x15*_x43 - _x19*_x46;
+    const double _x49 = _x34 + _x15*_x42 + _x19*_x45 - _x14*_x44 - _x18*_x47;
+    const double _x50 = _x35 + _x14*_x43 + _x18*_x46 - _qd_theta1*_x45;
+    const double _x51 = _x12 - _x0*_x43;
+    const double _x52 = _x0*_x42 - _x1*_x44;
+    const double _x53 = _x13 + _x1*_x43;
+    const double _x150 = (_x42*_x42) + (_x44*_x44) - (_p_r_Ea*_p_r_Ea);
+    const double _x151 = 2.0*_x42*_x45 + 2.0*_x44*_x47;
+    const double _x152 = 2.0*_x42*_x51 + 2.0*_x44*_x53;
+    const double _x153 = 2.0*_x10*_x44 + 2.0*_x42*_x8;
+    const double _x154 = 2.0*(_x45*_x45) + 2.0*(_x47*_x47) + 2.0*_x42*_x48 + 2.0*_x44*_x50;
+    const double _x155 = 1.0/_p_T;
+    const double _x156 = 2.0*3.14159265358979323846*_x155*t;
+    const double _x157 = cos(_x156);
+    const double _x158 = _x43 - _p_y_c - _p_A*_x157;
+    const double _x159 = _x46 + 2.0*3.14159265358979323846*_p_A*_x155*sin(_x156);
+    const double _x160 = _x49 + 4.0*_p_A*_x157*pow(3.14159265358979323846, 2.0)/(_p_T*_p_T);
+    out_phi[0] = _x150;
+    out_phi[1] = _x158;
+    out_phi_rate[0] = _x151;
+    out_phi_rate[1] = _x159;
     out_jacobian[0] = 0.0;
-    out_jacobian[1] = _x148;
-    out_jacobian[2] = _x149;
+    out_jacobian[1] = _x152;
+    out_jacobian[2] = _x153;
     out_jacobian[3] = 0.0;
-    out_jacobian[4] = _x50;
-    out_jacobian[5] = _x5;
-    out_gamma[0] = _x150;
-    out_gamma[1] = _x156;
+    out_jacobian[4] = _x52;
+    out_jacobian[5] = _x7;
+    out_gamma[0] = _x154;
+    out_gamma[1] = _x160;
 }
 
 
@@ -656,97 +658,98 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
     const double _p_R3 = p[14];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x2 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
-    const double _x3 = (1.0/2.0)*_p_h1*_p_m1;
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x7 = -_x0*_x5;
-    const double _x8 = -_x1*_x4;
-    const double _x9 = _x1*_x5;
-    const double _x10 = _x0*_p_h1;
-    const double _x11 = -_x1*_p_h1;
-    const double _x20 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
-    const double _x21 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
-    const double _x22 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
-    const double _x23 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
-    const double _x24 = _p_L2*_p_b2*_p_rho2*_p_t2;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x2 = (_p_h1*_p_h1);
+    const double _x4 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
+    const double _x5 = (1.0/2.0)*_p_h1*_p_m1;
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x9 = -_x0*_x7;
+    const double _x10 = -_x1*_x6;
+    const double _x11 = _x1*_x7;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x22 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
+    const double _x23 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
+    const double _x24 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x26 = _p_L2*_p_b2*_p_rho2*_p_t2;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x37 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
-    const double _x38 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
-    const double _x39 = (1.0/2.0)*_p_L3*_p_m3;
-    const double _x52 = (_x0*_x0);
-    const double _x53 = (_x1*_x1);
-    const double _x54 = _x2*_x52 + _x2*_x53;
-    const double _x55 = 2.0*_x54;
-    const double _x56 = _x23*_x6;
-    const double _x57 = _x23*_x5 + _x24*_p_h1;
-    const double _x58 = _x23*_x8;
-    const double _x59 = (_x6*_x6);
-    const double _x60 = (_x7*_x7);
-    const double _x61 = _x20*_x59 + _x21*_x60 + _x22*_x53;
-    const double _x62 = _x20*_x5*_x6 + _x21*_x4*_x7 + _x23*_x6*_p_h1;
-    const double _x63 = (_x5*_x5);
-    const double _x64 = (_x4*_x4);
-    const double _x65 = _x20*_x63 + _x21*_x64 + _x24*(_p_h1*_p_h1) + 2.0*_x23*_x5*_p_h1;
-    const double _x66 = _x0*_x1*_x22 + _x20*_x6*_x8 + _x21*_x7*_x9;
-    const double _x67 = _x20*_x5*_x8 + _x21*_x4*_x9 + _x23*_x8*_p_h1;
-    const double _x68 = (_x8*_x8);
-    const double _x69 = (_x9*_x9);
-    const double _x70 = _x20*_x68 + _x21*_x69 + _x22*_x52;
-    const double _x71 = _x65 + _x70;
-    const double _x72 = _x61 + _x70;
-    const double _x73 = _x61 + _x65;
-    const double _x85 = _x28*_p_m3 + _x39*_x6;
-    const double _x86 = _x29*_p_m3 + _x39*_x5;
-    const double _x87 = _x30*_p_m3 + _x39*_x8;
-    const double _x88 = _x37*_x59 + _x38*_x53 + _x38*_x60 + _p_m3*(_x28*_x28) + 2.0*_x28*_x39*_x6;
-    const double _x89 = _x28*_x29*_p_m3 + _x28*_x39*_x5 + _x29*_x39*_x6 + _x37*_x5*_x6 + _x38*_x4*_x7;
-    const double _x90 = _x37*_x63 + _x38*_x64 + _p_m3*(_x29*_x29) + 2.0*_x29*_x39*_x5;
-    const double _x91 = _x0*_x1*_x38 + _x28*_x30*_p_m3 + _x28*_x39*_x8 + _x30*_x39*_x6 + _x37*_x6*_x8 + _x38*_x7*_x9;
-    const double _x92 = _x29*_x30*_p_m3 + _x29*_x39*_x8 + _x30*_x39*_x5 + _x37*_x5*_x8 + _x38*_x4*_x9;
-    const double _x93 = _x37*_x68 + _x38*_x52 + _x38*_x69 + _p_m3*(_x30*_x30) + 2.0*_x30*_x39*_x8;
-    const double _x94 = _x90 + _x93;
-    const double _x95 = _x88 + _x93;
-    const double _x96 = _x88 + _x90;
-    const double _x109 = _x24 + _p_m3;
-    const double _x110 = _x56 + _x85;
-    const double _x111 = _x57 + _x86;
-    const double _x112 = _x58 + _x87;
-    const double _x113 = _x71 + _x94;
-    const double _x114 = -_x62 - _x89;
-    const double _x115 = _x72 + _x95;
-    const double _x116 = -_x66 - _x91;
-    const double _x117 = -_x67 - _x92;
-    const double _x118 = _x73 + _x96;
-    const double _x124 = _x115 + _x55;
-    const double _x125 = _x0*_x116 + _x1*_x113 + _x11*_x111;
-    const double _x126 = _x0*_x117 + _x1*_x114 + _x10*_x112 - _x11*_x110;
-    const double _x127 = _x0*_x118 + _x1*_x116 - _x10*_x111;
-    const double _x128 = _x10*_x109 - _x0*_x111;
-    const double _x130 = _x1*_x111 + _x109*_x11;
-    const double _x133 = _x8*_x86 - _x5*_x87;
-    const double _x134 = _x6*_x87 - _x8*_x85;
-    const double _x135 = _x5*_x85 - _x6*_x86;
-    const double _x136 = _x6*_p_m3;
-    const double _x137 = _x5*_p_m3;
-    const double _x138 = _x8*_p_m3;
-    const double _x141 = _x0*_x127 + _x1*_x125 + _x10*_x128 + _x11*_x130;
-    const double _x143 = _x0*_x135 + _x1*_x133 + _x10*_x136 + _x11*_x138;
-    const double _x145 = _x136*_x6 + _x137*_x5 + _x138*_x8;
-    out_e[0] = (1.0/2.0)*_qd_psi2*(_qd_psi2*_x141 + _qd_theta1*_x126 + _qd_x3*_x143) + (1.0/2.0)*_qd_theta1*(_qd_psi2*_x126 + _qd_theta1*_x124 + _qd_x3*_x134) + (1.0/2.0)*_qd_x3*(_qd_psi2*_x143 + _qd_theta1*_x134 + _qd_x3*_x145);
-    out_e[1] = _x3*_p_g + _x57*_p_g + _x86*_p_g;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x39 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
+    const double _x40 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x54 = (_x0*_x0);
+    const double _x55 = (_x1*_x1);
+    const double _x56 = _x4*_x54 + _x4*_x55;
+    const double _x57 = 2.0*_x56;
+    const double _x59 = _x25*_x8;
+    const double _x60 = _x25*_x7 + _x26*_p_h1;
+    const double _x61 = _x10*_x25;
+    const double _x62 = (_x8*_x8);
+    const double _x63 = (_x9*_x9);
+    const double _x64 = _x22*_x62 + _x23*_x63 + _x24*_x55;
+    const double _x65 = _x22*_x7*_x8 + _x23*_x6*_x9 + _x25*_x8*_p_h1;
+    const double _x66 = (_x7*_x7);
+    const double _x67 = (_x6*_x6);
+    const double _x68 = _x2*_x26 + _x22*_x66 + _x23*_x67 + 2.0*_x25*_x7*_p_h1;
+    const double _x69 = _x0*_x1*_x24 + _x10*_x22*_x8 + _x11*_x23*_x9;
+    const double _x70 = _x10*_x22*_x7 + _x10*_x25*_p_h1 + _x11*_x23*_x6;
+    const double _x71 = (_x10*_x10);
+    const double _x72 = (_x11*_x11);
+    const double _x73 = _x22*_x71 + _x23*_x72 + _x24*_x54;
+    const double _x74 = _x68 + _x73;
+    const double _x75 = _x64 + _x73;
+    const double _x76 = _x64 + _x68;
+    const double _x89 = _x30*_p_m3 + _x41*_x8;
+    const double _x90 = _x31*_p_m3 + _x41*_x7;
+    const double _x91 = _x10*_x41 + _x32*_p_m3;
+    const double _x92 = _x39*_x62 + _x40*_x55 + _x40*_x63 + _p_m3*(_x30*_x30) + 2.0*_x30*_x41*_x8;
+    const double _x93 = _x30*_x31*_p_m3 + _x30*_x41*_x7 + _x31*_x41*_x8 + _x39*_x7*_x8 + _x40*_x6*_x9;
+    const double _x94 = _x39*_x66 + _x40*_x67 + _p_m3*(_x31*_x31) + 2.0*_x31*_x41*_x7;
+    const double _x95 = _x0*_x1*_x40 + _x10*_x30*_x41 + _x10*_x39*_x8 + _x11*_x40*_x9 + _x30*_x32*_p_m3 + _x32*_x41*_x8;
+    const double _x96 = _x10*_x31*_x41 + _x10*_x39*_x7 + _x11*_x40*_x6 + _x31*_x32*_p_m3 + _x32*_x41*_x7;
+    const double _x97 = _x39*_x71 + _x40*_x54 + _x40*_x72 + _p_m3*(_x32*_x32) + 2.0*_x10*_x32*_x41;
+    const double _x98 = _x94 + _x97;
+    const double _x99 = _x92 + _x97;
+    const double _x100 = _x92 + _x94;
+    const double _x113 = _x26 + _p_m3;
+    const double _x114 = _x59 + _x89;
+    const double _x115 = _x60 + _x90;
+    const double _x116 = _x61 + _x91;
+    const double _x117 = _x74 + _x98;
+    const double _x118 = -_x65 - _x93;
+    const double _x119 = _x75 + _x99;
+    const double _x120 = -_x69 - _x95;
+    const double _x121 = -_x70 - _x96;
+    const double _x122 = _x100 + _x76;
+    const double _x128 = _x119 + _x57;
+    const double _x129 = _x0*_x120 + _x1*_x117 + _x115*_x13;
+    const double _x130 = _x0*_x121 + _x1*_x118 + _x116*_x12 - _x114*_x13;
+    const double _x131 = _x0*_x122 + _x1*_x120 - _x115*_x12;
+    const double _x132 = _x113*_x12 - _x0*_x115;
+    const double _x134 = _x1*_x115 + _x113*_x13;
+    const double _x137 = _x10*_x90 - _x7*_x91;
+    const double _x138 = _x8*_x91 - _x10*_x89;
+    const double _x139 = _x7*_x89 - _x8*_x90;
+    const double _x140 = _x8*_p_m3;
+    const double _x141 = _x7*_p_m3;
+    const double _x142 = _x10*_p_m3;
+    const double _x145 = _x0*_x131 + _x1*_x129 + _x12*_x132 + _x13*_x134;
+    const double _x147 = _x0*_x139 + _x1*_x137 + _x12*_x140 + _x13*_x142;
+    const double _x149 = _x10*_x142 + _x140*_x8 + _x141*_x7;
+    out_e[0] = (1.0/2.0)*_qd_psi2*(_qd_psi2*_x145 + _qd_theta1*_x130 + _qd_x3*_x147) + (1.0/2.0)*_qd_theta1*(_qd_psi2*_x130 + _qd_theta1*_x128 + _qd_x3*_x138) + (1.0/2.0)*_qd_x3*(_qd_psi2*_x147 + _qd_theta1*_x138 + _qd_x3*_x149);
+    out_e[1] = _x5*_p_g + _x60*_p_g + _x90*_p_g;
     out_e[2] = 0.0;
 }
 #endif
 
 
-#ifdef HOT_PART
+#ifdef COLD_PART
 /* M, f and the constraint terms in one pass (shared kinematics).
    t: time (s)
    q: (3,) coordinates in COORDINATES order
@@ -786,186 +789,447 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
     const double _p_y_c = p[20];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x2 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x7 = -_x0*_x5;
-    const double _x8 = -_x1*_x4;
-    const double _x9 = _x1*_x5;
-    const double _x10 = _x0*_p_h1;
-    const double _x11 = -_x1*_p_h1;
-    const double _x12 = _qd_psi2*_qd_theta1*_x0;
-    const double _x13 = -_qd_psi2*_qd_theta1*_x1;
-    const double _x14 = _qd_psi2*_qd_theta1*_x11;
-    const double _x15 = -_qd_psi2*_qd_theta1*_x10;
-    const double _x16 = _qd_psi2*_x1;
-    const double _x17 = _qd_psi2*_x0;
-    const double _x18 = _qd_psi2*_x10;
-    const double _x19 = _qd_psi2*_x11;
-    const double _x20 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
-    const double _x21 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
-    const double _x22 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
-    const double _x23 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
-    const double _x24 = _p_L2*_p_b2*_p_rho2*_p_t2;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x2 = (_p_h1*_p_h1);
+    const double _x4 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x9 = -_x0*_x7;
+    const double _x10 = -_x1*_x6;
+    const double _x11 = _x1*_x7;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x14 = _qd_psi2*_qd_theta1*_x0;
+    const double _x15 = -_qd_psi2*_qd_theta1*_x1;
+    const double _x16 = _qd_psi2*_qd_theta1*_x13;
+    const double _x17 = -_qd_psi2*_qd_theta1*_x12;
+    const double _x18 = _qd_psi2*_x1;
+    const double _x19 = _qd_psi2*_x0;
+    const double _x20 = _qd_psi2*_x12;
+    const double _x21 = _qd_psi2*_x13;
+    const double _x22 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
+    const double _x23 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
+    const double _x24 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x26 = _p_L2*_p_b2*_p_rho2*_p_t2;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
-    const double _x31 = _x14 + _qd_x3*(_qd_theta1*_x8 - _x17*_x5);
-    const double _x32 = _qd_x3*(_x17*_x6 - _x16*_x8);
-    const double _x33 = _x15 + _qd_x3*(_x16*_x5 - _qd_theta1*_x6);
-    const double _x34 = _x18 + _qd_x3*_x6;
-    const double _x35 = _qd_x3*_x5;
-    const double _x36 = _x19 + _qd_x3*_x8;
-    const double _x37 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
-    const double _x38 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
-    const double _x39 = (1.0/2.0)*_p_L3*_p_m3;
-    const double _x40 = _x28 + _p_L3*_x6;
-    const double _x41 = _x29 + _p_L3*_x5;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x33 = _x16 + _qd_x3*(_qd_theta1*_x10 - _x19*_x7);
+    const double _x34 = _qd_x3*(_x19*_x8 - _x10*_x18);
+    const double _x35 = _x17 + _qd_x3*(_x18*_x7 - _qd_theta1*_x8);
+    const double _x36 = _x20 + _qd_x3*_x8;
+    const double _x37 = _qd_x3*_x7;
+    const double _x38 = _x21 + _qd_x3*_x10;
+    const double _x39 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
+    const double _x40 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
     const double _x42 = _x30 + _p_L3*_x8;
-    const double _x43 = _x34 + _qd_theta1*_x42 - _x17*_x41;
-    const double _x44 = _x35 + _x17*_x40 - _x16*_x42;
-    const double _x45 = _x36 + _x16*_x41 - _qd_theta1*_x40;
-    const double _x46 = _x31 + _qd_theta1*_x45 - _x13*_x41 - _x17*_x44;
-    const double _x47 = _x32 + _x13*_x40 + _x17*_x43 - _x12*_x42 - _x16*_x45;
-    const double _x48 = _x33 + _x12*_x41 + _x16*_x44 - _qd_theta1*_x43;
-    const double _x49 = _x10 - _x0*_x41;
-    const double _x50 = _x0*_x40 - _x1*_x42;
-    const double _x51 = _x11 + _x1*_x41;
-    const double _x52 = (_x0*_x0);
-    const double _x53 = (_x1*_x1);
-    const double _x54 = _x2*_x52 + _x2*_x53;
-    const double _x55 = 2.0*_x54;
-    const double _x56 = _x23*_x6;
-    const double _x57 = _x23*_x5 + _x24*_p_h1;
-    const double _x58 = _x23*_x8;
-    const double _x59 = (_x6*_x6);
-    const double _x60 = (_x7*_x7);
-    const double _x61 = _x20*_x59 + _x21*_x60 + _x22*_x53;
-    const double _x62 = _x20*_x5*_x6 + _x21*_x4*_x7 + _x23*_x6*_p_h1;
-    const double _x63 = (_x5*_x5);
-    const double _x64 = (_x4*_x4);
-    const double _x65 = _x20*_x63 + _x21*_x64 + _x24*(_p_h1*_p_h1) + 2.0*_x23*_x5*_p_h1;
-    const double _x66 = _x0*_x1*_x22 + _x20*_x6*_x8 + _x21*_x7*_x9;
-    const double _x67 = _x20*_x5*_x8 + _x21*_x4*_x9 + _x23*_x8*_p_h1;
-    const double _x68 = (_x8*_x8);
-    const double _x69 = (_x9*_x9);
-    const double _x70 = _x20*_x68 + _x21*_x69 + _x22*_x52;
-    const double _x71 = _x65 + _x70;
-    const double _x72 = _x61 + _x70;
-    const double _x73 = _x61 + _x65;
-    const double _x74 = _x16*_x71 + _x19*_x57 - _qd_theta1*_x62 - _x17*_x66;
-    const double _x75 = _qd_theta1*_x72 + _x18*_x58 - _x16*_x62 - _x17*_x67 - _x19*_x56;
-    const double _x76 = _x17*_x73 - _qd_theta1*_x67 - _x16*_x66 - _x18*_x57;
-    const double _x77 = _qd_theta1*_x58 + _x18*_x24 - _x17*_x57;
-    const double _x78 = _x17*_x56 - _x16*_x58;
-    const double _x79 = _x16*_x57 + _x19*_x24 - _qd_theta1*_x56;
-    const double _x80 = _qd_theta1*_x76 + _x12*_x71 + _x15*_x57 - _x13*_x66 - _x17*_x75 - _x19*_x78;
-    const double _x81 = _x14*_x58 + _x17*_x74 + _x19*_x77 - _x12*_x62 - _x13*_x67 - _x15*_x56 - _x16*_x76 - _x18*_x79;
-    const double _x82 = _x13*_x73 + _x16*_x75 + _x18*_x78 - _qd_theta1*_x74 - _x12*_x66 - _x14*_x57;
-    const double _x83 = _qd_theta1*_x79 + _x14*_x24 - _x13*_x57 - _x17*_x78;
-    const double _x84 = _x12*_x57 + _x15*_x24 + _x16*_x78 - _qd_theta1*_x77;
-    const double _x85 = _x28*_p_m3 + _x39*_x6;
-    const double _x86 = _x29*_p_m3 + _x39*_x5;
-    const double _x87 = _x30*_p_m3 + _x39*_x8;
-    const double _x88 = _x37*_x59 + _x38*_x53 + _x38*_x60 + _p_m3*(_x28*_x28) + 2.0*_x28*_x39*_x6;
-    const double _x89 = _x28*_x29*_p_m3 + _x28*_x39*_x5 + _x29*_x39*_x6 + _x37*_x5*_x6 + _x38*_x4*_x7;
-    const double _x90 = _x37*_x63 + _x38*_x64 + _p_m3*(_x29*_x29) + 2.0*_x29*_x39*_x5;
-    const double _x91 = _x0*_x1*_x38 + _x28*_x30*_p_m3 + _x28*_x39*_x8 + _x30*_x39*_x6 + _x37*_x6*_x8 + _x38*_x7*_x9;
-    const double _x92 = _x29*_x30*_p_m3 + _x29*_x39*_x8 + _x30*_x39*_x5 + _x37*_x5*_x8 + _x38*_x4*_x9;
-    const double _x93 = _x37*_x68 + _x38*_x52 + _x38*_x69 + _p_m3*(_x30*_x30) + 2.0*_x30*_x39*_x8;
-    const double _x94 = _x90 + _x93;
-    const double _x95 = _x88 + _x93;
-    const double _x96 = _x88 + _x90;
-    const double _x97 = _x16*_x94 + _x36*_x86 - _qd_theta1*_x89 - _x17*_x91 - _x35*_x87;
-    const double _x98 = _qd_theta1*_x95 + _x34*_x87 - _x16*_x89 - _x17*_x92 - _x36*_x85;
-    const double _x99 = _x17*_x96 + _x35*_x85 - _qd_theta1*_x92 - _x16*_x91 - _x34*_x86;
-    const double _x100 = _qd_theta1*_x87 + _x34*_p_m3 - _x17*_x86;
-    const double _x101 = _x17*_x85 + _x35*_p_m3 - _x16*_x87;
-    const double _x102 = _x16*_x86 + _x36*_p_m3 - _qd_theta1*_x85;
-    const double _x103 = _qd_theta1*_x99 + _x102*_x35 + _x12*_x94 + _x33*_x86 - _x101*_x36 - _x13*_x91 - _x17*_x98 - _x32*_x87;
-    const double _x104 = _x100*_x36 + _x17*_x97 + _x31*_x87 - _x102*_x34 - _x12*_x89 - _x13*_x92 - _x16*_x99 - _x33*_x85;
-    const double _x105 = _x101*_x34 + _x13*_x96 + _x16*_x98 + _x32*_x85 - _qd_theta1*_x97 - _x100*_x35 - _x12*_x91 - _x31*_x86;
-    const double _x106 = _qd_theta1*_x102 + _x31*_p_m3 - _x101*_x17 - _x13*_x86;
-    const double _x107 = _x100*_x17 + _x13*_x85 + _x32*_p_m3 - _x102*_x16 - _x12*_x87;
-    const double _x108 = _x101*_x16 + _x12*_x86 + _x33*_p_m3 - _qd_theta1*_x100;
-    const double _x109 = _x24 + _p_m3;
-    const double _x110 = _x56 + _x85;
-    const double _x111 = _x57 + _x86;
-    const double _x112 = _x58 + _x87;
-    const double _x113 = _x71 + _x94;
-    const double _x114 = -_x62 - _x89;
-    const double _x115 = _x72 + _x95;
-    const double _x116 = -_x66 - _x91;
-    const double _x117 = -_x67 - _x92;
-    const double _x118 = _x73 + _x96;
-    const double _x119 = _x103 + _x80;
-    const double _x120 = _x104 + _x81;
-    const double _x121 = _x105 + _x82;
-    const double _x122 = _x106 + _x83;
-    const double _x123 = _x108 + _x84;
-    const double _x124 = _x115 + _x55;
-    const double _x125 = _x0*_x116 + _x1*_x113 + _x11*_x111;
-    const double _x126 = _x0*_x117 + _x1*_x114 + _x10*_x112 - _x11*_x110;
-    const double _x127 = _x0*_x118 + _x1*_x116 - _x10*_x111;
-    const double _x128 = _x10*_x109 - _x0*_x111;
-    const double _x129 = _x0*_x110 - _x1*_x112;
-    const double _x130 = _x1*_x111 + _x109*_x11;
-    const double _x131 = -_x0*_x121 - _x1*_x119 - _x10*_x122 - _x11*_x123;
-    const double _x132 = _x129*_p_g;
-    const double _x133 = _x8*_x86 - _x5*_x87;
-    const double _x134 = _x6*_x87 - _x8*_x85;
-    const double _x135 = _x5*_x85 - _x6*_x86;
-    const double _x136 = _x6*_p_m3;
-    const double _x137 = _x5*_p_m3;
-    const double _x138 = _x8*_p_m3;
-    const double _x139 = -_x106*_x6 - _x107*_x5 - _x108*_x8;
-    const double _x140 = _x137*_p_g;
-    const double _x141 = _x0*_x127 + _x1*_x125 + _x10*_x128 + _x11*_x130;
-    const double _x143 = _x0*_x135 + _x1*_x133 + _x10*_x136 + _x11*_x138;
-    const double _x145 = _x136*_x6 + _x137*_x5 + _x138*_x8;
-    const double _x146 = (_x40*_x40) + (_x42*_x42) - (_p_r_Ea*_p_r_Ea);
-    const double _x147 = 2.0*_x40*_x43 + 2.0*_x42*_x45;
-    const double _x148 = 2.0*_x40*_x49 + 2.0*_x42*_x51;
-    const double _x149 = 2.0*_x40*_x6 + 2.0*_x42*_x8;
-    const double _x150 = 2.0*(_x43*_x43) + 2.0*(_x45*_x45) + 2.0*_x40*_x46 + 2.0*_x42*_x48;
-    const double _x151 = 1.0/_p_T;
-    const double _x152 = 2.0*3.14159265358979323846*_x151*t;
-    const double _x153 = cos(_x152);
-    const double _x154 = _x41 - _p_y_c - _p_A*_x153;
-    const double _x155 = _x44 + 2.0*3.14159265358979323846*_p_A*_x151*sin(_x152);
-    const double _x156 = _x47 + 4.0*_p_A*_x153*pow(3.14159265358979323846, 2.0)/(_p_T*_p_T);
-    const double _x157 = fmin(1.0, t/_p_t0);
-    const double _x158 = (_x157*_x157*_x157);
-    const double _x159 = 10.0 - 15.0*_x157 + 6.0*(_x157*_x157);
-    const double _x160 = _x158*_x159*_p_tdr0;
-    out_M[0] = _x124;
-    out_M[1] = _x126;
-    out_M[2] = _x134;
-    out_M[3] = _x126;
-    out_M[4] = _x141;
-    out_M[5] = _x143;
-    out_M[6] = _x134;
-    out_M[7] = _x143;
-    out_M[8] = _x145;
-    out_f[0] = _x160 - _x120;
-    out_f[1] = _x131 - _x132;
-    out_f[2] = _x139 - _x140;
-    out_phi[0] = _x146;
-    out_phi[1] = _x154;
-    out_phi_rate[0] = _x147;
-    out_phi_rate[1] = _x155;
+    const double _x43 = _x31 + _p_L3*_x7;
+    const double _x44 = _x32 + _p_L3*_x10;
+    const double _x45 = _x36 + _qd_theta1*_x44 - _x19*_x43;
+    const double _x46 = _x37 + _x19*_x42 - _x18*_x44;
+    const double _x47 = _x38 + _x18*_x43 - _qd_theta1*_x42;
+    const double _x48 = _x33 + _qd_theta1*_x47 - _x15*_x43 - _x19*_x46;
+    const double _x49 = _x34 + _x15*_x42 + _x19*_x45 - _x14*_x44 - _x18*_x47;
+    const double _x50 = _x35 + _x14*_x43 + _x18*_x46 - _qd_theta1*_x45;
+    const double _x51 = _x12 - _x0*_x43;
+    const double _x52 = _x0*_x42 - _x1*_x44;
+    const double _x53 = _x13 + _x1*_x43;
+    const double _x54 = (_x0*_x0);
+    const double _x55 = (_x1*_x1);
+    const double _x56 = _x4*_x54 + _x4*_x55;
+    const double _x57 = 2.0*_x56;
+    const double _x59 = _x25*_x8;
+    const double _x60 = _x25*_x7 + _x26*_p_h1;
+    const double _x61 = _x10*_x25;
+    const double _x62 = (_x8*_x8);
+    const double _x63 = (_x9*_x9);
+    const double _x64 = _x22*_x62 + _x23*_x63 + _x24*_x55;
+    const double _x65 = _x22*_x7*_x8 + _x23*_x6*_x9 + _x25*_x8*_p_h1;
+    const double _x66 = (_x7*_x7);
+    const double _x67 = (_x6*_x6);
+    const double _x68 = _x2*_x26 + _x22*_x66 + _x23*_x67 + 2.0*_x25*_x7*_p_h1;
+    const double _x69 = _x0*_x1*_x24 + _x10*_x22*_x8 + _x11*_x23*_x9;
+    const double _x70 = _x10*_x22*_x7 + _x10*_x25*_p_h1 + _x11*_x23*_x6;
+    const double _x71 = (_x10*_x10);
+    const double _x72 = (_x11*_x11);
+    const double _x73 = _x22*_x71 + _x23*_x72 + _x24*_x54;
+    const double _x74 = _x68 + _x73;
+    const double _x75 = _x64 + _x73;
+    const double _x76 = _x64 + _x68;
+    const double _x77 = _x18*_x74 + _x21*_x60 - _qd_theta1*_x65 - _x19*_x69;
+    const double _x78 = _qd_theta1*_x75 + _x20*_x61 - _x18*_x65 - _x19*_x70 - _x21*_x59;
+    const double _x79 = _x19*_x76 - _qd_theta1*_x70 - _x18*_x69 - _x20*_x60;
+    const double _x80 = _qd_theta1*_x61 + _x20*_x26 - _x19*_x60;
+    const double _x81 = _x19*_x59 - _x18*_x61;
+    const double _x82 = _x18*_x60 + _x21*_x26 - _qd_theta1*_x59;
+    const double _x83 = _qd_theta1*_x79 + _x14*_x74 + _x17*_x60 - _x15*_x69 - _x19*_x78 - _x21*_x81;
+    const double _x84 = _x16*_x61 + _x19*_x77 + _x21*_x80 - _x14*_x65 - _x15*_x70 - _x17*_x59 - _x18*_x79 - _x20*_x82;
+    const double _x85 = _x15*_x76 + _x18*_x78 + _x20*_x81 - _qd_theta1*_x77 - _x14*_x69 - _x16*_x60;
+    const double _x86 = _qd_theta1*_x82 + _x16*_x26 - _x15*_x60 - _x19*_x81;
+    const double _x88 = _x14*_x60 + _x17*_x26 + _x18*_x81 - _qd_theta1*_x80;
+    const double _x89 = _x30*_p_m3 + _x41*_x8;
+    const double _x90 = _x31*_p_m3 + _x41*_x7;
+    const double _x91 = _x10*_x41 + _x32*_p_m3;
+    const double _x92 = _x39*_x62 + _x40*_x55 + _x40*_x63 + _p_m3*(_x30*_x30) + 2.0*_x30*_x41*_x8;
+    const double _x93 = _x30*_x31*_p_m3 + _x30*_x41*_x7 + _x31*_x41*_x8 + _x39*_x7*_x8 + _x40*_x6*_x9;
+    const double _x94 = _x39*_x66 + _x40*_x67 + _p_m3*(_x31*_x31) + 2.0*_x31*_x41*_x7;
+    const double _x95 = _x0*_x1*_x40 + _x10*_x30*_x41 + _x10*_x39*_x8 + _x11*_x40*_x9 + _x30*_x32*_p_m3 + _x32*_x41*_x8;
+    const double _x96 = _x10*_x31*_x41 + _x10*_x39*_x7 + _x11*_x40*_x6 + _x31*_x32*_p_m3 + _x32*_x41*_x7;
+    const double _x97 = _x39*_x71 + _x40*_x54 + _x40*_x72 + _p_m3*(_x32*_x32) + 2.0*_x10*_x32*_x41;
+    const double _x98 = _x94 + _x97;
+    const double _x99 = _x92 + _x97;
+    const double _x100 = _x92 + _x94;
+    const double _x101 = _x18*_x98 + _x38*_x90 - _qd_theta1*_x93 - _x19*_x95 - _x37*_x91;
+    const double _x102 = _qd_theta1*_x99 + _x36*_x91 - _x18*_x93 - _x19*_x96 - _x38*_x89;
+    const double _x103 = _x100*_x19 + _x37*_x89 - _qd_theta1*_x96 - _x18*_x95 - _x36*_x90;
+    const double _x104 = _qd_theta1*_x91 + _x36*_p_m3 - _x19*_x90;
+    const double _x105 = _x19*_x89 + _x37*_p_m3 - _x18*_x91;
+    const double _x106 = _x18*_x90 + _x38*_p_m3 - _qd_theta1*_x89;
+    const double _x107 = _qd_theta1*_x103 + _x106*_x37 + _x14*_x98 + _x35*_x90 - _x102*_x19 - _x105*_x38 - _x15*_x95 - _x34*_x91;
+    const double _x108 = _x101*_x19 + _x104*_x38 + _x33*_x91 - _x103*_x18 - _x106*_x36 - _x14*_x93 - _x15*_x96 - _x35*_x89;
+    const double _x109 = _x100*_x15 + _x102*_x18 + _x105*_x36 + _x34*_x89 - _qd_theta1*_x101 - _x104*_x37 - _x14*_x95 - _x33*_x90;
+    const double _x110 = _qd_theta1*_x106 + _x33*_p_m3 - _x105*_x19 - _x15*_x90;
+    const double _x111 = _x104*_x19 + _x15*_x89 + _x34*_p_m3 - _x106*_x18 - _x14*_x91;
+    const double _x112 = _x105*_x18 + _x14*_x90 + _x35*_p_m3 - _qd_theta1*_x104;
+    const double _x113 = _x26 + _p_m3;
+    const double _x114 = _x59 + _x89;
+    const double _x115 = _x60 + _x90;
+    const double _x116 = _x61 + _x91;
+    const double _x117 = _x74 + _x98;
+    const double _x118 = -_x65 - _x93;
+    const double _x119 = _x75 + _x99;
+    const double _x120 = -_x69 - _x95;
+    const double _x121 = -_x70 - _x96;
+    const double _x122 = _x100 + _x76;
+    const double _x123 = _x107 + _x83;
+    const double _x124 = _x108 + _x84;
+    const double _x125 = _x109 + _x85;
+    const double _x126 = _x110 + _x86;
+    const double _x127 = _x112 + _x88;
+    const double _x128 = _x119 + _x57;
+    const double _x129 = _x0*_x120 + _x1*_x117 + _x115*_x13;
+    const double _x130 = _x0*_x121 + _x1*_x118 + _x116*_x12 - _x114*_x13;
+    const double _x131 = _x0*_x122 + _x1*_x120 - _x115*_x12;
+    const double _x132 = _x113*_x12 - _x0*_x115;
+    const double _x133 = _x0*_x114 - _x1*_x116;
+    const double _x134 = _x1*_x115 + _x113*_x13;
+    const double _x135 = -_x0*_x125 - _x1*_x123 - _x12*_x126 - _x127*_x13;
+    const double _x136 = _x133*_p_g;
+    const double _x137 = _x10*_x90 - _x7*_x91;
+    const double _x138 = _x8*_x91 - _x10*_x89;
+    const double _x139 = _x7*_x89 - _x8*_x90;
+    const double _x140 = _x8*_p_m3;
+    const double _x141 = _x7*_p_m3;
+    const double _x142 = _x10*_p_m3;
+    const double _x143 = -_x10*_x112 - _x110*_x8 - _x111*_x7;
+    const double _x144 = _x141*_p_g;
+    const double _x145 = _x0*_x131 + _x1*_x129 + _x12*_x132 + _x13*_x134;
+    const double _x147 = _x0*_x139 + _x1*_x137 + _x12*_x140 + _x13*_x142;
+    const double _x149 = _x10*_x142 + _x140*_x8 + _x141*_x7;
+    const double _x150 = (_x42*_x42) + (_x44*_x44) - (_p_r_Ea*_p_r_Ea);
+    const double _x151 = 2.0*_x42*_x45 + 2.0*_x44*_x47;
+    const double _x152 = 2.0*_x42*_x51 + 2.0*_x44*_x53;
+    const double _x153 = 2.0*_x10*_x44 + 2.0*_x42*_x8;
+    const double _x154 = 2.0*(_x45*_x45) + 2.0*(_x47*_x47) + 2.0*_x42*_x48 + 2.0*_x44*_x50;
+    const double _x155 = 1.0/_p_T;
+    const double _x156 = 2.0*3.14159265358979323846*_x155*t;
+    const double _x157 = cos(_x156);
+    const double _x158 = _x43 - _p_y_c - _p_A*_x157;
+    const double _x159 = _x46 + 2.0*3.14159265358979323846*_p_A*_x155*sin(_x156);
+    const double _x160 = _x49 + 4.0*_p_A*_x157*pow(3.14159265358979323846, 2.0)/(_p_T*_p_T);
+    const double _x168 = fmin(1.0, t/_p_t0);
+    const double _x169 = (_x168*_x168*_x168);
+    const double _x170 = 10.0 - 15.0*_x168 + 6.0*(_x168*_x168);
+    const double _x171 = _x169*_x170*_p_tdr0;
+    out_M[0] = _x128;
+    out_M[1] = _x130;
+    out_M[2] = _x138;
+    out_M[3] = _x130;
+    out_M[4] = _x145;
+    out_M[5] = _x147;
+    out_M[6] = _x138;
+    out_M[7] = _x147;
+    out_M[8] = _x149;
+    out_f[0] = _x171 - _x124;
+    out_f[1] = _x135 - _x136;
+    out_f[2] = _x143 - _x144;
+    out_phi[0] = _x150;
+    out_phi[1] = _x158;
+    out_phi_rate[0] = _x151;
+    out_phi_rate[1] = _x159;
     out_jacobian[0] = 0.0;
-    out_jacobian[1] = _x148;
-    out_jacobian[2] = _x149;
+    out_jacobian[1] = _x152;
+    out_jacobian[2] = _x153;
     out_jacobian[3] = 0.0;
-    out_jacobian[4] = _x50;
-    out_jacobian[5] = _x5;
-    out_gamma[0] = _x150;
-    out_gamma[1] = _x156;
+    out_jacobian[4] = _x52;
+    out_jacobian[5] = _x7;
+    out_gamma[0] = _x154;
+    out_gamma[1] = _x160;
+}
+#endif
+
+
+#ifdef HOT_PART
+/* Joint axes, link inertias, bias and joint forces in {0} for the articulated-body solve, and the constraint terms.
+   t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_S: (3, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
+   out_I: (3, 10) spatial inertia of each link (the bodies joint j moves and joint j + 1 does not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
+   out_b: (3, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
+   out_tau: (3,) joint forces Q(t) - C q - damping
+   out_phi: (2,) constraint values phi in CONSTRAINTS order
+   out_phi_rate: (2,) their rates d(phi)/dt
+   out_jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
+   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+*/
+void manipulator_nrfe1_recursive_terms(double t, const double *q, const double *qd, const double *p, double *out_S, double *out_I, double *out_b, double *out_tau, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma)
+{
+    const double _q_theta1 = q[0];
+    const double _q_psi2 = q[1];
+    const double _q_x3 = q[2];
+    const double _qd_theta1 = qd[0];
+    const double _qd_psi2 = qd[1];
+    const double _qd_x3 = qd[2];
+    const double _p_g = p[0];
+    const double _p_m1 = p[1];
+    const double _p_h1 = p[2];
+    const double _p_R1 = p[3];
+    const double _p_L2 = p[4];
+    const double _p_b2 = p[5];
+    const double _p_t2 = p[6];
+    const double _p_rho2 = p[7];
+    const double _p_m3 = p[12];
+    const double _p_L3 = p[13];
+    const double _p_R3 = p[14];
+    const double _p_tdr0 = p[15];
+    const double _p_t0 = p[16];
+    const double _p_A = p[17];
+    const double _p_T = p[18];
+    const double _p_r_Ea = p[19];
+    const double _p_y_c = p[20];
+    const double _x0 = cos(_q_theta1);
+    const double _x1 = sin(_q_theta1);
+    const double _x2 = (_p_h1*_p_h1);
+    const double _x3 = (1.0/3.0)*_x2*_p_m1;
+    const double _x4 = (1.0/4.0)*_p_m1*(_p_R1*_p_R1);
+    const double _x5 = (1.0/2.0)*_p_h1*_p_m1;
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x9 = -_x0*_x7;
+    const double _x10 = -_x1*_x6;
+    const double _x11 = _x1*_x7;
+    const double _x12 = _x0*_p_h1;
+    const double _x13 = -_x1*_p_h1;
+    const double _x14 = _qd_psi2*_qd_theta1*_x0;
+    const double _x15 = -_qd_psi2*_qd_theta1*_x1;
+    const double _x16 = _qd_psi2*_qd_theta1*_x13;
+    const double _x17 = -_qd_psi2*_qd_theta1*_x12;
+    const double _x18 = _qd_psi2*_x1;
+    const double _x19 = _qd_psi2*_x0;
+    const double _x20 = _qd_psi2*_x12;
+    const double _x21 = _qd_psi2*_x13;
+    const double _x22 = (1.0/3.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2*_p_L2);
+    const double _x23 = (1.0/12.0)*_p_L2*_p_b2*_p_rho2*(_p_t2*_p_t2*_p_t2);
+    const double _x24 = (1.0/12.0)*_p_L2*_p_rho2*_p_t2*(_p_b2*_p_b2*_p_b2);
+    const double _x25 = (1.0/2.0)*_p_b2*_p_rho2*_p_t2*(_p_L2*_p_L2);
+    const double _x26 = _p_L2*_p_b2*_p_rho2*_p_t2;
+    const double _x27 = _p_L2*_x8;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
+    const double _x30 = _x27 + _q_x3*_x8;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
+    const double _x33 = _x16 + _qd_x3*(_qd_theta1*_x10 - _x19*_x7);
+    const double _x34 = _qd_x3*(_x19*_x8 - _x10*_x18);
+    const double _x35 = _x17 + _qd_x3*(_x18*_x7 - _qd_theta1*_x8);
+    const double _x36 = _x20 + _qd_x3*_x8;
+    const double _x37 = _qd_x3*_x7;
+    const double _x38 = _x21 + _qd_x3*_x10;
+    const double _x39 = (1.0/3.0)*_p_m3*(_p_L3*_p_L3);
+    const double _x40 = (1.0/4.0)*_p_m3*(_p_R3*_p_R3);
+    const double _x41 = (1.0/2.0)*_p_L3*_p_m3;
+    const double _x42 = _x30 + _p_L3*_x8;
+    const double _x43 = _x31 + _p_L3*_x7;
+    const double _x44 = _x32 + _p_L3*_x10;
+    const double _x45 = _x36 + _qd_theta1*_x44 - _x19*_x43;
+    const double _x46 = _x37 + _x19*_x42 - _x18*_x44;
+    const double _x47 = _x38 + _x18*_x43 - _qd_theta1*_x42;
+    const double _x48 = _x33 + _qd_theta1*_x47 - _x15*_x43 - _x19*_x46;
+    const double _x49 = _x34 + _x15*_x42 + _x19*_x45 - _x14*_x44 - _x18*_x47;
+    const double _x50 = _x35 + _x14*_x43 + _x18*_x46 - _qd_theta1*_x45;
+    const double _x51 = _x12 - _x0*_x43;
+    const double _x52 = _x0*_x42 - _x1*_x44;
+    const double _x53 = _x13 + _x1*_x43;
+    const double _x54 = (_x0*_x0);
+    const double _x55 = (_x1*_x1);
+    const double _x56 = _x4*_x54 + _x4*_x55;
+    const double _x57 = 2.0*_x56;
+    const double _x58 = _x3 + _x56;
+    const double _x59 = _x25*_x8;
+    const double _x60 = _x25*_x7 + _x26*_p_h1;
+    const double _x61 = _x10*_x25;
+    const double _x62 = (_x8*_x8);
+    const double _x63 = (_x9*_x9);
+    const double _x64 = _x22*_x62 + _x23*_x63 + _x24*_x55;
+    const double _x65 = _x22*_x7*_x8 + _x23*_x6*_x9 + _x25*_x8*_p_h1;
+    const double _x66 = (_x7*_x7);
+    const double _x67 = (_x6*_x6);
+    const double _x68 = _x2*_x26 + _x22*_x66 + _x23*_x67 + 2.0*_x25*_x7*_p_h1;
+    const double _x69 = _x0*_x1*_x24 + _x10*_x22*_x8 + _x11*_x23*_x9;
+    const double _x70 = _x10*_x22*_x7 + _x10*_x25*_p_h1 + _x11*_x23*_x6;
+    const double _x71 = (_x10*_x10);
+    const double _x72 = (_x11*_x11);
+    const double _x73 = _x22*_x71 + _x23*_x72 + _x24*_x54;
+    const double _x74 = _x68 + _x73;
+    const double _x75 = _x64 + _x73;
+    const double _x76 = _x64 + _x68;
+    const double _x77 = _x18*_x74 + _x21*_x60 - _qd_theta1*_x65 - _x19*_x69;
+    const double _x78 = _qd_theta1*_x75 + _x20*_x61 - _x18*_x65 - _x19*_x70 - _x21*_x59;
+    const double _x79 = _x19*_x76 - _qd_theta1*_x70 - _x18*_x69 - _x20*_x60;
+    const double _x80 = _qd_theta1*_x61 + _x20*_x26 - _x19*_x60;
+    const double _x81 = _x19*_x59 - _x18*_x61;
+    const double _x82 = _x18*_x60 + _x21*_x26 - _qd_theta1*_x59;
+    const double _x83 = _qd_theta1*_x79 + _x14*_x74 + _x17*_x60 - _x15*_x69 - _x19*_x78 - _x21*_x81;
+    const double _x84 = _x16*_x61 + _x19*_x77 + _x21*_x80 - _x14*_x65 - _x15*_x70 - _x17*_x59 - _x18*_x79 - _x20*_x82;
+    const double _x85 = _x15*_x76 + _x18*_x78 + _x20*_x81 - _qd_theta1*_x77 - _x14*_x69 - _x16*_x60;
+    const double _x86 = _qd_theta1*_x82 + _x16*_x26 - _x15*_x60 - _x19*_x81;
+    const double _x87 = _x15*_x59 + _x19*_x80 - _x14*_x61 - _x18*_x82;
+    const double _x88 = _x14*_x60 + _x17*_x26 + _x18*_x81 - _qd_theta1*_x80;
+    const double _x89 = _x30*_p_m3 + _x41*_x8;
+    const double _x90 = _x31*_p_m3 + _x41*_x7;
+    const double _x91 = _x10*_x41 + _x32*_p_m3;
+    const double _x92 = _x39*_x62 + _x40*_x55 + _x40*_x63 + _p_m3*(_x30*_x30) + 2.0*_x30*_x41*_x8;
+    const double _x93 = _x30*_x31*_p_m3 + _x30*_x41*_x7 + _x31*_x41*_x8 + _x39*_x7*_x8 + _x40*_x6*_x9;
+    const double _x94 = _x39*_x66 + _x40*_x67 + _p_m3*(_x31*_x31) + 2.0*_x31*_x41*_x7;
+    const double _x95 = _x0*_x1*_x40 + _x10*_x30*_x41 + _x10*_x39*_x8 + _x11*_x40*_x9 + _x30*_x32*_p_m3 + _x32*_x41*_x8;
+    const double _x96 = _x10*_x31*_x41 + _x10*_x39*_x7 + _x11*_x40*_x6 + _x31*_x32*_p_m3 + _x32*_x41*_x7;
+    const double _x97 = _x39*_x71 + _x40*_x54 + _x40*_x72 + _p_m3*(_x32*_x32) + 2.0*_x10*_x32*_x41;
+    const double _x98 = _x94 + _x97;
+    const double _x99 = _x92 + _x97;
+    const double _x100 = _x92 + _x94;
+    const double _x101 = _x18*_x98 + _x38*_x90 - _qd_theta1*_x93 - _x19*_x95 - _x37*_x91;
+    const double _x102 = _qd_theta1*_x99 + _x36*_x91 - _x18*_x93 - _x19*_x96 - _x38*_x89;
+    const double _x103 = _x100*_x19 + _x37*_x89 - _qd_theta1*_x96 - _x18*_x95 - _x36*_x90;
+    const double _x104 = _qd_theta1*_x91 + _x36*_p_m3 - _x19*_x90;
+    const double _x105 = _x19*_x89 + _x37*_p_m3 - _x18*_x91;
+    const double _x106 = _x18*_x90 + _x38*_p_m3 - _qd_theta1*_x89;
+    const double _x107 = _qd_theta1*_x103 + _x106*_x37 + _x14*_x98 + _x35*_x90 - _x102*_x19 - _x105*_x38 - _x15*_x95 - _x34*_x91;
+    const double _x108 = _x101*_x19 + _x104*_x38 + _x33*_x91 - _x103*_x18 - _x106*_x36 - _x14*_x93 - _x15*_x96 - _x35*_x89;
+    const double _x109 = _x100*_x15 + _x102*_x18 + _x105*_x36 + _x34*_x89 - _qd_theta1*_x101 - _x104*_x37 - _x14*_x95 - _x33*_x90;
+    const double _x110 = _qd_theta1*_x106 + _x33*_p_m3 - _x105*_x19 - _x15*_x90;
+    const double _x111 = _x104*_x19 + _x15*_x89 + _x34*_p_m3 - _x106*_x18 - _x14*_x91;
+    const double _x112 = _x105*_x18 + _x14*_x90 + _x35*_p_m3 - _qd_theta1*_x104;
+    const double _x150 = (_x42*_x42) + (_x44*_x44) - (_p_r_Ea*_p_r_Ea);
+    const double _x151 = 2.0*_x42*_x45 + 2.0*_x44*_x47;
+    const double _x152 = 2.0*_x42*_x51 + 2.0*_x44*_x53;
+    const double _x153 = 2.0*_x10*_x44 + 2.0*_x42*_x8;
+    const double _x154 = 2.0*(_x45*_x45) + 2.0*(_x47*_x47) + 2.0*_x42*_x48 + 2.0*_x44*_x50;
+    const double _x155 = 1.0/_p_T;
+    const double _x156 = 2.0*3.14159265358979323846*_x155*t;
+    const double _x157 = cos(_x156);
+    const double _x158 = _x43 - _p_y_c - _p_A*_x157;
+    const double _x159 = _x46 + 2.0*3.14159265358979323846*_p_A*_x155*sin(_x156);
+    const double _x160 = _x49 + 4.0*_p_A*_x157*pow(3.14159265358979323846, 2.0)/(_p_T*_p_T);
+    const double _x161 = _p_g*_p_m1;
+    const double _x162 = _x83 - _x61*_p_g;
+    const double _x163 = _x85 + _x59*_p_g;
+    const double _x164 = _x87 + _x26*_p_g;
+    const double _x165 = _x107 - _x91*_p_g;
+    const double _x166 = _x109 + _x89*_p_g;
+    const double _x167 = _x111 + _p_g*_p_m3;
+    const double _x168 = fmin(1.0, t/_p_t0);
+    const double _x169 = (_x168*_x168*_x168);
+    const double _x170 = 10.0 - 15.0*_x168 + 6.0*(_x168*_x168);
+    const double _x171 = _x169*_x170*_p_tdr0;
+    out_S[0] = 0.0;
+    out_S[1] = 1.0;
+    out_S[2] = 0.0;
+    out_S[3] = 0.0;
+    out_S[4] = 0.0;
+    out_S[5] = 0.0;
+    out_S[6] = _x1;
+    out_S[7] = 0.0;
+    out_S[8] = _x0;
+    out_S[9] = _x12;
+    out_S[10] = 0.0;
+    out_S[11] = _x13;
+    out_S[12] = 0.0;
+    out_S[13] = 0.0;
+    out_S[14] = 0.0;
+    out_S[15] = _x8;
+    out_S[16] = _x7;
+    out_S[17] = _x10;
+    out_I[0] = _p_m1;
+    out_I[1] = 0.0;
+    out_I[2] = _x5;
+    out_I[3] = 0.0;
+    out_I[4] = _x58;
+    out_I[5] = 0.0;
+    out_I[6] = 0.0;
+    out_I[7] = _x57;
+    out_I[8] = 0.0;
+    out_I[9] = _x58;
+    out_I[10] = _x26;
+    out_I[11] = _x59;
+    out_I[12] = _x60;
+    out_I[13] = _x61;
+    out_I[14] = _x74;
+    out_I[15] = -_x65;
+    out_I[16] = -_x69;
+    out_I[17] = _x75;
+    out_I[18] = -_x70;
+    out_I[19] = _x76;
+    out_I[20] = _p_m3;
+    out_I[21] = _x89;
+    out_I[22] = _x90;
+    out_I[23] = _x91;
+    out_I[24] = _x98;
+    out_I[25] = -_x93;
+    out_I[26] = -_x95;
+    out_I[27] = _x99;
+    out_I[28] = -_x96;
+    out_I[29] = _x100;
+    out_b[0] = 0.0;
+    out_b[1] = 0.0;
+    out_b[2] = 0.0;
+    out_b[3] = 0.0;
+    out_b[4] = _x161;
+    out_b[5] = 0.0;
+    out_b[6] = _x162;
+    out_b[7] = _x84;
+    out_b[8] = _x163;
+    out_b[9] = _x86;
+    out_b[10] = _x164;
+    out_b[11] = _x88;
+    out_b[12] = _x165;
+    out_b[13] = _x108;
+    out_b[14] = _x166;
+    out_b[15] = _x110;
+    out_b[16] = _x167;
+    out_b[17] = _x112;
+    out_tau[0] = _x171;
+    out_tau[1] = 0.0;
+    out_tau[2] = 0.0;
+    out_phi[0] = _x150;
+    out_phi[1] = _x158;
+    out_phi_rate[0] = _x151;
+    out_phi_rate[1] = _x159;
+    out_jacobian[0] = 0.0;
+    out_jacobian[1] = _x152;
+    out_jacobian[2] = _x153;
+    out_jacobian[3] = 0.0;
+    out_jacobian[4] = _x52;
+    out_jacobian[5] = _x7;
+    out_gamma[0] = _x154;
+    out_gamma[1] = _x160;
 }
 #endif
 
@@ -985,18 +1249,18 @@ void manipulator_nrfe1_transforms(const double *q, const double *p, double *out_
     const double _p_L2 = p[4];
     const double _x0 = cos(_q_theta1);
     const double _x1 = sin(_q_theta1);
-    const double _x4 = cos(_q_psi2);
-    const double _x5 = sin(_q_psi2);
-    const double _x6 = _x0*_x4;
-    const double _x7 = -_x0*_x5;
-    const double _x8 = -_x1*_x4;
-    const double _x9 = _x1*_x5;
-    const double _x25 = _p_L2*_x6;
-    const double _x26 = _p_h1 + _p_L2*_x5;
+    const double _x6 = cos(_q_psi2);
+    const double _x7 = sin(_q_psi2);
+    const double _x8 = _x0*_x6;
+    const double _x9 = -_x0*_x7;
+    const double _x10 = -_x1*_x6;
+    const double _x11 = _x1*_x7;
     const double _x27 = _p_L2*_x8;
-    const double _x28 = _x25 + _q_x3*_x6;
-    const double _x29 = _x26 + _q_x3*_x5;
+    const double _x28 = _p_h1 + _p_L2*_x7;
+    const double _x29 = _p_L2*_x10;
     const double _x30 = _x27 + _q_x3*_x8;
+    const double _x31 = _x28 + _q_x3*_x7;
+    const double _x32 = _x29 + _q_x3*_x10;
     out_T[0] = _x0;
     out_T[1] = 0.0;
     out_T[2] = _x1;
@@ -1013,34 +1277,34 @@ void manipulator_nrfe1_transforms(const double *q, const double *p, double *out_
     out_T[13] = 0.0;
     out_T[14] = 0.0;
     out_T[15] = 1.0;
-    out_T[16] = _x6;
-    out_T[17] = _x7;
+    out_T[16] = _x8;
+    out_T[17] = _x9;
     out_T[18] = _x1;
     out_T[19] = 0.0;
-    out_T[20] = _x5;
-    out_T[21] = _x4;
+    out_T[20] = _x7;
+    out_T[21] = _x6;
     out_T[22] = 0.0;
     out_T[23] = _p_h1;
-    out_T[24] = _x8;
-    out_T[25] = _x9;
+    out_T[24] = _x10;
+    out_T[25] = _x11;
     out_T[26] = _x0;
     out_T[27] = 0.0;
     out_T[28] = 0.0;
     out_T[29] = 0.0;
     out_T[30] = 0.0;
     out_T[31] = 1.0;
-    out_T[32] = _x6;
-    out_T[33] = _x7;
+    out_T[32] = _x8;
+    out_T[33] = _x9;
     out_T[34] = _x1;
-    out_T[35] = _x28;
-    out_T[36] = _x5;
-    out_T[37] = _x4;
+    out_T[35] = _x30;
+    out_T[36] = _x7;
+    out_T[37] = _x6;
     out_T[38] = 0.0;
-    out_T[39] = _x29;
-    out_T[40] = _x8;
-    out_T[41] = _x9;
+    out_T[39] = _x31;
+    out_T[40] = _x10;
+    out_T[41] = _x11;
     out_T[42] = _x0;
-    out_T[43] = _x30;
+    out_T[43] = _x32;
     out_T[44] = 0.0;
     out_T[45] = 0.0;
     out_T[46] = 0.0;
@@ -1267,6 +1531,18 @@ NOINLINE static void ldlt_solve(int n, const double *a, const double *inv_d, dou
    (alpha), 2 second order (no gains). */
 static const int CONSTRAINT_ORDERS[N_CONSTRAINTS] = {0, 0};
 
+/* The right sides c (N_CONSTRAINTS) of the constraint rows D qdd = c from their terms phi,
+   phi_rate, gam and Baumgarte gains alpha, beta (see gpme_solve). */
+static void constraint_rhs(const double *phi, const double *phi_rate, const double *gam, const double *alpha,
+                           const double *beta, double *c)
+{
+    for (int a = 0; a < N_CONSTRAINTS; ++a) {
+        c[a] = CONSTRAINT_ORDERS[a] == 0 ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
+             : CONSTRAINT_ORDERS[a] == 1 ? -gam[a] - alpha[a] * phi[a]
+             : -gam[a];
+    }
+}
+
 /* The GPME with Baumgarte terms (paper eqs. 12-16):
        B^T (M qdd - f) = 0                             one row per independent coordinate,
        D qdd = c,  c = -gamma - 2 alpha phi_rate - beta^2 phi   (position constraints)
@@ -1321,11 +1597,7 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
             m_qd[i] += row[i] * v;
         }
     }
-    for (int a = 0; a < NC; ++a) {
-        c[a] = CONSTRAINT_ORDERS[a] == 0 ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
-             : CONSTRAINT_ORDERS[a] == 1 ? -gam[a] - alpha[a] * phi[a]
-             : -gam[a];
-    }
+    constraint_rhs(phi, phi_rate, gam, alpha, beta, c);
     if ((status = constraint_basis(D, c, dependent, independent, X)) != GPMEGEN_OK) {
         return status;
     }
@@ -1392,6 +1664,235 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
 }
 
 
+/* ---- GPME by the articulated-body recursion ------------------------------------------------ */
+
+/* The GPME rows B^T (M qdd - f) = 0 say that M qdd - f lies in null(B^T) = range(D^T): with the
+   constraint rows D qdd = c they are
+       M qdd = f + D^T lam,   D qdd = c,
+   so qdd = qdd0 + Y lam with qdd0 = M^-1 f, Y = M^-1 D^T (N_DOF x N_CONSTRAINTS), and
+   (D Y) lam = c - D qdd0, D Y symmetric positive definite when D has full rank. M^-1 is applied
+   by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, ch. 7) on the
+   serial chain, every quantity in {0}: no M is formed, and the velocity-product and gravity terms
+   of f come out of the recursion too (recursive_terms holds the joint axes S_j, the link
+   inertias, the joint forces tau = Q - C q - damping and g).
+   Spatial vectors hold 6 doubles, angular part first, the linear part taken at the origin of {0};
+   a symmetric 6 x 6 matrix holds the 21 entries of its upper triangle row by row (SYM6). */
+
+#if defined(__GNUC__)
+#define UNROLL6 _Pragma("GCC unroll 6")
+#else
+#define UNROLL6
+#endif
+
+/* Position of entry (i, k) of a symmetric 6 x 6 matrix in its 21 upper-triangle entries. */
+static const unsigned char SYM6[6][6] = {
+    {0, 1, 2, 3, 4, 5},
+    {1, 6, 7, 8, 9, 10},
+    {2, 7, 11, 12, 13, 14},
+    {3, 8, 12, 15, 16, 17},
+    {4, 9, 13, 16, 18, 19},
+    {5, 10, 14, 17, 19, 20},
+};
+
+/* x . y for 6-vectors, summed in pairs: the recursion is a chain of dependent steps, and a sum
+   in sequence would make each wait for five additions in a row. */
+static inline double dot6(const double *x, const double *y)
+{
+    return ((x[0] * y[0] + x[1] * y[1]) + (x[2] * y[2] + x[3] * y[3])) + (x[4] * y[4] + x[5] * y[5]);
+}
+
+/* y (6) = A x for A symmetric 6 x 6 (21 entries), summed as dot6(). */
+static inline void sym6_apply(const double *a, const double *x, double *y)
+{
+    UNROLL6 for (int i = 0; i < 6; ++i) {
+        const unsigned char *r = SYM6[i];
+        y[i] = ((a[r[0]] * x[0] + a[r[1]] * x[1]) + (a[r[2]] * x[2] + a[r[3]] * x[3]))
+               + (a[r[4]] * x[4] + a[r[5]] * x[5]);
+    }
+}
+
+/* A link's spatial inertia [[I_O, [c]x], [[c]x^T, m 1]] from its 10 numbers (recursive_terms):
+   m, c (3), I_O xx, xy, xz, yy, yz, zz. */
+enum { LINK_M, LINK_CX, LINK_CY, LINK_CZ, LINK_XX, LINK_XY, LINK_XZ, LINK_YY, LINK_YZ, LINK_ZZ, LINK_SIZE };
+
+/* a (21 entries) += the link inertia l. */
+static inline void link_add(const double *l, double *a)
+{
+    a[0] += l[LINK_XX];
+    a[1] += l[LINK_XY];
+    a[2] += l[LINK_XZ];
+    a[4] -= l[LINK_CZ];
+    a[5] += l[LINK_CY];
+    a[6] += l[LINK_YY];
+    a[7] += l[LINK_YZ];
+    a[8] += l[LINK_CZ];
+    a[10] -= l[LINK_CX];
+    a[11] += l[LINK_ZZ];
+    a[12] -= l[LINK_CY];
+    a[13] += l[LINK_CX];
+    a[15] += l[LINK_M];
+    a[18] += l[LINK_M];
+    a[20] += l[LINK_M];
+}
+
+
+/* Whether link j holds a body: the frames between joints of a flexible link's spring-damping
+   elements hold none, and the passes skip them (known when the code is generated). */
+static const unsigned char MASSIVE[N_DOF] = {1, 1, 1};
+
+/* The articulated-body algorithm's pass from the tip, from the joint axes S (N_DOF x 6), link
+   inertias I (N_DOF x LINK_SIZE), link bias forces b (N_DOF x 6) and joint forces tau (N_DOF)
+   (recursive_terms): with the bias forces holding the velocity products and gravity, the base
+   is at rest and the passes run on qdd alone. Link j holds the bodies that joint j moves and
+   joint j + 1 does not, so the parent of link j is link j - 1 and the articulated inertia IA and
+   bias force P of the links after j are running sums.
+   The pass factors M = K^T diag(d) K (K unit lower triangular, K_jk = U_j . S_k / d_j for k < j,
+   U_j = IA_j S_j, d_j = S_j . U_j) and leaves u = K^-T f: then M^-1 f = K^-1 (u / d), which
+   articulated_forward() forms. The same pass without bias forces and with tau = row a of D
+   (N_CONSTRAINTS x N_DOF row-major) leaves uy[a * N_DOF ..] = K^-T D_a^T, needing only the
+   factors of the state: it runs in the same loop, whose chain of dependent steps it does not
+   lengthen. Returns GPMEGEN_NONFINITE when a pivot d_j is not finite, GPMEGEN_SINGULAR when one
+   is at or below N_DOF * DBL_EPSILON times the largest (M is not numerically positive definite:
+   ldlt's rule, on the pivots of this factorization), else GPMEGEN_OK. */
+static int articulated_backward(const double *S, const double *I, const double *b, const double *tau,
+                                const double *D, double *U, double *inv_d, double *u, double *uy)
+{
+    double d[N_DOF] ALIGNED, IA[21] ALIGNED = {0.0}, P[6] ALIGNED = {0.0}, largest = 0.0;
+
+    double PY[N_CONSTRAINTS * 6] ALIGNED = {0.0};  /* P of each row of D */
+
+    for (int j = N_DOF - 1; j >= 0; --j) {
+        const double *s = S + 6 * j;
+        double *Uj = U + 6 * j;
+        if (MASSIVE[j]) {
+            link_add(I + LINK_SIZE * j, IA);
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                P[i] += b[6 * j + i];
+            }
+        }
+        sym6_apply(IA, s, Uj);
+        d[j] = dot6(s, Uj);
+        if (!(d[j] > 0.0)) {
+            return isfinite(d[j]) ? GPMEGEN_SINGULAR : GPMEGEN_NONFINITE;
+        }
+        largest = d[j] > largest ? d[j] : largest;
+        const double inv = 1.0 / d[j];
+        inv_d[j] = inv;
+        u[j] = tau[j] - dot6(s, P);
+        /* what link j - 1 receives: IA - U U^T / d and P + U u_j / d */
+        double scaled[6] ALIGNED;
+        UNROLL6 for (int i = 0; i < 6; ++i) {
+            scaled[i] = Uj[i] * inv;
+        }
+        UNROLL6 for (int i = 0; i < 6; ++i) {
+            UNROLL6 for (int k = 0; k < 6; ++k) {
+                if (k >= i) {  /* the upper triangle; constant once the loops are unrolled */
+                    IA[SYM6[i][k]] -= scaled[i] * Uj[k];
+                }
+            }
+        }
+        UNROLL6 for (int i = 0; i < 6; ++i) {
+            P[i] += scaled[i] * u[j];
+        }
+
+        for (int a = 0; a < N_CONSTRAINTS; ++a) {
+            double *pa = PY + 6 * a;
+            const double ua = D[a * N_DOF + j] - dot6(s, pa);
+            uy[a * N_DOF + j] = ua;
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                pa[i] += scaled[i] * ua;
+            }
+        }
+
+    }
+    if (!(largest <= DBL_MAX)) {
+        return GPMEGEN_NONFINITE;
+    }
+    const double tiny = (double)N_DOF * DBL_EPSILON * largest;
+    for (int j = 0; j < N_DOF; ++j) {
+        if (!(d[j] > tiny)) {
+            return GPMEGEN_SINGULAR;
+        }
+    }
+    return GPMEGEN_OK;
+}
+
+/* qdd (N_DOF) = K^-1 (u / d), the articulated-body algorithm's pass from the base with the
+   factors of articulated_backward(): link accelerations A_j = A_j-1 + S_j qdd_j (less the
+   velocity products and gravity, which the bias forces hold). */
+static void articulated_forward(const double *S, const double *U, const double *inv_d, const double *u, double *qdd)
+{
+    double A[6] ALIGNED = {0.0};
+    for (int j = 0; j < N_DOF; ++j) {
+        const double *s = S + 6 * j;
+        qdd[j] = (u[j] - dot6(U + 6 * j, A)) * inv_d[j];
+        UNROLL6 for (int i = 0; i < 6; ++i) {
+            A[i] += s[i] * qdd[j];
+        }
+    }
+}
+
+/* qdd (N_DOF) from the GPME with Baumgarte terms (as gpme_solve defines it) by the recursion
+   above, and *power, the power of the constraint forces qd . D^T lam = lam . (D qd). With
+   u = K^-T f and uy_a = K^-T D_a^T from articulated_backward(), D M^-1 D^T = uy diag(1/d) uy^T
+   and D M^-1 f = uy diag(1/d) u, so lam solves (uy diag(1/d) uy^T) lam = c - uy diag(1/d) u, and
+   qdd = M^-1 (f + D^T lam) = K^-1 ((u + uy^T lam) / d) takes one pass from the base. Returns
+   GPMEGEN_OK; GPMEGEN_SINGULAR when M or D M^-1 D^T is not numerically positive definite (D has
+   lost rank); GPMEGEN_NONFINITE when a pivot is not finite. */
+static int gpme_recursive(double t, const double *q, const double *qd, const double *p, double *qdd, double *power)
+{
+    enum { NC = N_CONSTRAINTS > 0 ? N_CONSTRAINTS : 1 };
+    double S[N_DOF * 6] ALIGNED, I[N_DOF * LINK_SIZE] ALIGNED, b[N_DOF * 6] ALIGNED, tau[N_DOF] ALIGNED;
+    double phi[NC] ALIGNED, phi_rate[NC] ALIGNED, D[NC * N_DOF] ALIGNED, gam[NC] ALIGNED;
+    double U[N_DOF * 6] ALIGNED, inv_d[N_DOF] ALIGNED, u[N_DOF] ALIGNED, uy[NC * N_DOF] ALIGNED;
+    int status;
+
+    manipulator_nrfe1_recursive_terms(t, q, qd, p, S, I, b, tau, phi, phi_rate, D, gam);
+    if ((status = articulated_backward(S, I, b, tau, D, U, inv_d, u, uy)) != GPMEGEN_OK) {
+        return status;
+    }
+
+    double alpha[NC] ALIGNED, beta[NC] ALIGNED, lam[NC] ALIGNED, G[NC * NC] ALIGNED, inv_g[NC] ALIGNED;
+    manipulator_nrfe1_baumgarte_gains(p, alpha, beta);
+    constraint_rhs(phi, phi_rate, gam, alpha, beta, lam);
+    /* G = D M^-1 D^T (upper triangle) and the right side c - D M^-1 f */
+    for (int a = 0; a < NC; ++a) {
+        const double *ya = uy + a * N_DOF;
+        double s = lam[a];
+        for (int j = 0; j < N_DOF; ++j) {
+            s -= ya[j] * inv_d[j] * u[j];
+        }
+        lam[a] = s;
+        for (int c = a; c < NC; ++c) {
+            const double *yc = uy + c * N_DOF;
+            double v = 0.0;
+            for (int j = 0; j < N_DOF; ++j) {
+                v += ya[j] * inv_d[j] * yc[j];
+            }
+            G[a * NC + c] = v;
+        }
+    }
+    if ((status = ldlt(NC, G, inv_g)) != GPMEGEN_OK) {
+        return status;
+    }
+    ldlt_solve(NC, G, inv_g, lam);
+    double s = 0.0;
+    for (int a = 0; a < NC; ++a) {
+        const double *row = D + a * N_DOF, *ya = uy + a * N_DOF;
+        double rate = 0.0;
+        for (int j = 0; j < N_DOF; ++j) {
+            u[j] += ya[j] * lam[a];
+            rate += row[j] * qd[j];
+        }
+        s += lam[a] * rate;
+    }
+    *power = s;
+
+    articulated_forward(S, U, inv_d, u, qdd);
+    return GPMEGEN_OK;
+}
+
+
 /* qdd (N_DOF) from the GPME, and the M (N_DOF x N_DOF) and f (N_DOF) it was solved from (see
    gpme_solve and model.h). */
 int manipulator_nrfe1_gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent,
@@ -1401,22 +1902,25 @@ int manipulator_nrfe1_gpme_motion(double t, const double *q, const double *qd, c
     return gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power);
 }
 
-/* qdd (N_DOF) alone; see manipulator_nrfe1_gpme_motion. */
+/* qdd (N_DOF) alone, by the recursion (gpme_recursive); see manipulator_nrfe1_gpme_motion. */
 int manipulator_nrfe1_gpme_accelerations(double t, const double *q, const double *qd, const double *p,
     const int *dependent, const int *independent, double *qdd)
 {
-    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
-    return manipulator_nrfe1_gpme_motion(t, q, qd, p, dependent, independent, qdd, M, f);
+    double power;
+    (void)dependent;
+    (void)independent;
+    return gpme_recursive(t, q, qd, p, qdd, &power);
 }
 
 /* qdd (n x N_DOF) at n states, each as manipulator_nrfe1_gpme_accelerations (see model.h). */
 long manipulator_nrfe1_gpme_accelerations_batch(long n, const double *t, const double *q, const double *qd, const double *p,
     const int *dependent, const int *independent, double *qdd, int *status)
 {
-    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    double power;
+    (void)dependent;
+    (void)independent;
     for (long k = 0; k < n; ++k) {
-        *status = gpme_solve(t[k], q + k * N_DOF, qd + k * N_DOF, p, dependent, independent, qdd + k * N_DOF, M, f,
-                             &power);
+        *status = gpme_recursive(t[k], q + k * N_DOF, qd + k * N_DOF, p, qdd + k * N_DOF, &power);
         if (*status != GPMEGEN_OK) {
             return k;
         }
@@ -1454,8 +1958,10 @@ static void save_state(long k, double t, const double *q, const double *qd, cons
 static int stage(double t, const double *q, const double *qd, const double *p,
                  const int *dependent, const int *independent, double *qdd, double *power)
 {
-    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, Q[N_DOF] ALIGNED;
-    const int status = gpme_solve(t, q, qd, p, dependent, independent, qdd, M, f, &power[1]);
+    double Q[N_DOF] ALIGNED;
+    const int status = gpme_recursive(t, q, qd, p, qdd, &power[1]);
+    (void)dependent;
+    (void)independent;
     if (status != GPMEGEN_OK) {
         return status;
     }
@@ -1657,22 +2163,22 @@ static NOINLINE void lu_solve(int n, const double *a, const int *piv, int k, dou
 /* GPME solves one gpme_jacobian takes (as an integrator counts them). */
 #define JACOBIAN_SOLVES (4 * N_DOF + 1)
 
-/* qdd (N_DOF) = gpme_solve's accelerations at (t, q, qd), and their Jacobians dqdd_dq and dqdd_dqd
-   (N_DOF x N_DOF, row-major: entry [i * N_DOF + j] is d qdd_i / d q_j). dependent: as for
-   gpme_solve (which chooses its own partition and reads none). Returns the status of gpme_solve.
+/* qdd (N_DOF) = gpme_recursive's accelerations at (t, q, qd), and their Jacobians dqdd_dq and dqdd_dqd
+   (N_DOF x N_DOF, row-major: entry [i * N_DOF + j] is d qdd_i / d q_j). dependent: not read.
+   Returns the status of gpme_recursive.
    A model built without its Jacobians (gpmegen build --jacobians): central differences of
-   gpme_solve with steps cbrt(DBL_EPSILON) max(1, |x_j|) (about 1e-10 relative, 4 N_DOF + 1
+   gpme_recursive with steps cbrt(DBL_EPSILON) max(1, |x_j|) (about 1e-10 relative, 4 N_DOF + 1
    solves). An implicit integrator refreshes its Jacobian rarely, so these cost little there; the
    generated ones are exact, and cheaper to build without. */
 static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
                          double *qdd, double *dqdd_dq, double *dqdd_dqd)
 {
     double x[2 * N_DOF] ALIGNED, up[N_DOF] ALIGNED, down[N_DOF] ALIGNED;
-    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
+    double power;
     const double relative = cbrt(DBL_EPSILON);
     int status;
-    /* gpme_solve reads neither partition argument: dependent stands in for both */
-    if ((status = gpme_solve(t, q, qd, p, dependent, dependent, qdd, M, f, &power)) != GPMEGEN_OK) {
+    (void)dependent;  /* the solve reads no partition */
+    if ((status = gpme_recursive(t, q, qd, p, qdd, &power)) != GPMEGEN_OK) {
         return status;
     }
     for (int i = 0; i < N_DOF; ++i) {
@@ -1682,11 +2188,11 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
     for (int j = 0; j < 2 * N_DOF; ++j) {
         const double h = relative * fmax(1.0, fabs(x[j])), saved = x[j];
         x[j] = saved + h;
-        if ((status = gpme_solve(t, x, x + N_DOF, p, dependent, dependent, up, M, f, &power)) != GPMEGEN_OK) {
+        if ((status = gpme_recursive(t, x, x + N_DOF, p, up, &power)) != GPMEGEN_OK) {
             return status;
         }
         x[j] = saved - h;
-        if ((status = gpme_solve(t, x, x + N_DOF, p, dependent, dependent, down, M, f, &power)) != GPMEGEN_OK) {
+        if ((status = gpme_recursive(t, x, x + N_DOF, p, down, &power)) != GPMEGEN_OK) {
             return status;
         }
         x[j] = saved;

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: de2201b83cec4f11
+Input hash: fb471fc20b5e91a0
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -182,6 +182,22 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
 */
 void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, const double *p, double *out_M, double *out_f, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
 
+/* Joint axes, link inertias, bias and joint forces in {0} for the articulated-body solve, and the constraint terms.
+   t: time (s)
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
+   p: (25,) parameter values in PARAMETERS order
+   out_S: (15, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
+   out_I: (15, 10) spatial inertia of each link (the bodies joint j moves and joint j + 1 does not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
+   out_b: (15, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
+   out_tau: (15,) joint forces Q(t) - C q - damping
+   out_phi: (2,) constraint values phi in CONSTRAINTS order
+   out_phi_rate: (2,) their rates d(phi)/dt
+   out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
+   out_gamma: (2,) the rows' terms free of qdd: D qdd + gamma = 0 on the constraints
+*/
+void manipulator_nrfe5_recursive_terms(double t, const double *q, const double *qd, const double *p, double *out_S, double *out_I, double *out_b, double *out_tau, double *out_phi, double *out_phi_rate, double *out_jacobian, double *out_gamma);
+
 /* Body transforms T = [R p; 0 1] from each body's frame to {0}.
    q: (15,) coordinates in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
@@ -197,7 +213,9 @@ void manipulator_nrfe5_transforms(const double *q, const double *p, double *out_
    GPMEGEN_NONFINITE (a term is not finite). */
 int manipulator_nrfe5_gpme_motion(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd, double *M, double *f);
 
-/* qdd (15,) alone; see manipulator_nrfe5_gpme_motion. */
+/* qdd (15,) alone, solved in O(n_dof) by the articulated-body recursion without forming M (the
+   same qdd as manipulator_nrfe5_gpme_motion's up to rounding; statuses as there). The RK4 loop, the
+   other integrators and the batch solve this way. */
 int manipulator_nrfe5_gpme_accelerations(double t, const double *q, const double *qd, const double *p, const int *dependent, const int *independent, double *qdd);
 
 /* qdd (n, 15) at n states t (n,), q, qd (n, 15), each solved as manipulator_nrfe5_gpme_accelerations solves

@@ -162,10 +162,28 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bo
         Function("energies", "Kinetic, gravity potential and spring energy.", ("q", "qd", "p"),
                  (Output("e", (3,), (kinetic, dyn.potential_energy, dyn.spring_energy),
                          "kinetic, gravity potential and spring energy (J)"),)),
+        # the dense solve's terms: gpme_motion and the analytic Jacobians, no longer the hot path
         Function("gpme_terms", "M, f and the constraint terms in one pass (shared kinematics).",
-                 ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs, hot=True),
+                 ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs),
+        _recursive_function(d, constraint_outputs),
     ]
     return fns + ([_jacobian_function(d)] if jacobians else []) + transform_functions(d, transforms)
+
+
+def _recursive_function(d: Derivation, constraint_outputs) -> Function:
+    """What the articulated-body solve of the C backend reads (:mod:`gpmegen.symbolic.recursive`):
+    O(n) numbers in place of gpme_terms' M."""
+    rec = d.recursive
+    return Function(
+        "recursive_terms", "Joint axes, link inertias, bias and joint forces in {0} for the articulated-body "
+        "solve, and the constraint terms.", ("t", "q", "qd", "p"),
+        (_out("S", rec.axes, "world twist (omega, v at the origin) of each joint's axis, in COORDINATES order"),
+         _out("I", rec.links, "spatial inertia of each link (the bodies joint j moves and joint j + 1 does "
+              "not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2)"),
+         _out("b", rec.bias, "bias force of each link (torque about the origin, N m; force, N): its rate of "
+              "momentum at qdd = 0 plus its weight"),
+         _out("tau", rec.joint_forces, "joint forces Q(t) - C q - damping", vector=True))
+        + constraint_outputs, hot=True)
 
 
 def _jacobian_function(d: Derivation) -> Function:

@@ -44,7 +44,12 @@ DEFAULT_FLAGS = ("-O3", "-march=native", "-std=c99", "-ffp-contract=off", "-fno-
 #: long block of straight-line code with hundreds of values live at once, where GCC's default
 #: colouring spills more: with this flag gpme_terms has 5% fewer instructions and an RK4 step
 #: takes 5-8% less at n_rfe = 5 (3% at 10). Register allocation changes no rounding.
-GCC_FLAGS = ("-fira-algorithm=priority",)
+#: No vectorization of straight-line code: GCC 12's SLP vectorizer packs ``a*b - c*d`` beside
+#: ``a*b + c*d`` into one fused ``vfmsubadd`` despite ``-ffp-contract=off`` (in ``gpme_terms``,
+#: ``forces`` and ``recursive_terms`` of the reference arm at n_rfe = 2), a rounding the NumPy
+#: backend does not make and that differed between a function cut into blocks and kept whole
+#: (tests/test_c_blocks.py); without it the O(n) GPME solve at n_rfe = 5 takes 4-7% less.
+GCC_FLAGS = ("-fira-algorithm=priority", "-fno-tree-slp-vectorize")
 #: ``-Bsymbolic``: calls between the library's own functions (rk4 → gpme_terms) bind inside the
 #: library, never to a same-named symbol of another loaded model or library.
 LINK_FLAGS = ("-shared", "-fPIC") + (("-Wl,-Bsymbolic",) if sys.platform.startswith("linux") else ())

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from ..model.expand import FlatChain, expand
 from . import constraints as _constraints
 from . import dynamics as _dynamics
+from . import recursive as _recursive
 from .kinematics import Kinematics, forward
 from .program import Program
 
@@ -24,6 +25,7 @@ class Derivation:
     kinematics: Kinematics
     dynamics: _dynamics.Dynamics
     constraints: _constraints.ConstraintTerms
+    recursive: _recursive.RecursiveTerms
 
 
 def derive(model) -> Derivation:
@@ -33,7 +35,8 @@ def derive(model) -> Derivation:
     kin = forward(chain, program)
     dyn = _dynamics.derive(kin, model.gravity, model.drives)
     con = _constraints.derive(kin, model.constraints)
-    return Derivation(chain, program, kin, dyn, con)
+    rec = _recursive.derive(kin, dyn, model.gravity)
+    return Derivation(chain, program, kin, dyn, con, rec)
 
 
 __all__ = ["Derivation", "derive"]

@@ -37,6 +37,8 @@ class Dynamics:
     potential_energy: sp.Expr     # gravity part, J
     spring_energy: sp.Expr        # J
     columns: tuple = ()           # (n_j, l_j) per joint: m_ij = ω_i·n_j + v_i·l_j for i ≤ j
+    bodies: tuple = ()            # (level, m, c, I, n, l) per body: mass, first moment and inertia about {0}'s
+                                  # origin, rate of momentum at q̈ = 0 (torque n about the origin, force l)
 
     def mass_product(self, kin: Kinematics, a: sp.Matrix, define_all) -> sp.Matrix:
         """``M a`` (n,) for a vector ``a`` (n,) of expressions, in O(n) intermediates:
@@ -152,4 +154,4 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
 
     potential = -sum((gvec.dot(c) for _, _, c, *_ in per_body), sp.S.Zero)
     spring_energy = sum((jt.stiffness * kin.q[j] ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
-    return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns))
+    return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body))
