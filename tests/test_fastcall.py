@@ -225,3 +225,13 @@ def test_a_caller_refuses_a_partition_that_cannot_hold_n_indices(arm):
         module.Caller(address, 3, np.zeros(1), np.array([0]), np.array([1, 2]), print, print, None)
     with pytest.raises(TypeError, match="float64"):
         module.Caller(address, 3, [0.0], np.array([0], np.intc), np.array([1, 2], np.intc), print, print, None)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_missing_velocities_are_refused_for_one_coordinate(env, backend):
+    """NumPy turns None into [nan], of shape (1,): for a model of one coordinate it passed the
+    shape check and gave nan accelerations once q̇ entered them."""
+    model = gpmegen.load(model=gpmegen.load_model_file(PENDULUM), backend=backend)
+    for call in (model.accelerations, model.forces):
+        with pytest.raises(ValueError, match="qd is missing"):
+            call(0.3, np.array([-0.3]), None)

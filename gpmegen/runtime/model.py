@@ -28,6 +28,8 @@ ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a 
 
 def vector(x, n: int, what: str) -> np.ndarray:
     """``x`` as a contiguous float array of shape (n,), else ValueError naming ``what``."""
+    if x is None:  # NumPy would make it [nan], of shape (1,): a state of one coordinate
+        raise ValueError(f"{what} is missing: give an array of shape ({n},), or (N, {n}) for N states")
     a = np.ascontiguousarray(x, dtype=float)
     if a.shape != (n,):
         raise ValueError(f"{what} must have shape ({n},), or (N, {n}) for N states, got {a.shape}")
