@@ -48,21 +48,21 @@ COMPILE_SECONDS = ((64.5e3, 0.3), (287e3, 1.5), (884e3, 4.5), (3.19e6, 9.9), (6.
 #: Peak resident memory of the largest compiler (the hot part's) against the size of model.c.
 COMPILE_BYTES = ((64.5e3, 102e6), (287e3, 121e6), (884e3, 280e6), (3.19e6, 331e6), (6.46e6, 393e6),
                  (17.08e6, 826e6))
-#: One RK4 step against n_dof: the C loop, and the NumPy loop of ``gpmegen simulate --backend numpy``
-#: (at n_dof 60, four GPME solves of 16 µs: ``gpme_accelerations``, best of 400 rounds, README
-#: "Performance"; the extrapolation of 15-30 gave 44 µs, and 22 µs a solve was measured at load 3.6).
-STEP_SECONDS = {"c": ((3, 0.67e-6), (15, 4.87e-6), (30, 14.6e-6), (60, 64e-6)),
-                "numpy": ((3, 207e-6), (15, 549e-6), (30, 1123e-6))}
+#: One RK4 step against n_dof: the C loop (its GPME solves by the O(n) recursion), and the NumPy
+#: loop of ``gpmegen simulate --backend numpy`` (benchmarks/runtime.py --nrfe 1 5 10 and --versus
+#: 20, quiet machine).
+STEP_SECONDS = {"c": ((3, 0.80e-6), (15, 3.70e-6), (30, 7.05e-6), (60, 21.2e-6)),
+                "numpy": ((3, 241e-6), (15, 531e-6), (30, 1032e-6))}
 #: GPME solves a generalized-α step takes against n_dof (its modified Newton's iterations and the
 #: rate at its end; the paper's study at dt 1e-4 from the locked start, benchmarks/run_estimates.py
 #: and benchmarks/integrators.py), and one more for its projection onto the constraints.
 GENALPHA_SOLVES_PER_STEP = ((3, 3.0 + 1), (15, 5.0 + 1), (60, 6.2 + 1))
 #: One Jacobian of the GPME with the LU factorization of Newton's matrix, in C, against n_dof
 #: (central differences of the compiled solve, 4 n + 1 solves, in a model built without
-#: --jacobians; benchmarks/run_estimates.py at load 3.5, the only term here not from a quiet
-#: machine: it is below 1 % of a run). Generalized-α takes one at its start and refreshes it
-#: rarely (1 to 3 in the paper's study): a run is estimated with :data:`JACOBIANS_PER_RUN`.
-JACOBIAN_SECONDS = ((3, 15e-6), (15, 70e-6), (30, 0.97e-3), (60, 8.1e-3))
+#: --jacobians; benchmarks/run_estimates.py, quiet machine). Generalized-α takes one at its start
+#: and refreshes it rarely (1 to 3 in the paper's study): a run is estimated with
+#: :data:`JACOBIANS_PER_RUN`.
+JACOBIAN_SECONDS = ((3, 15e-6), (15, 74e-6), (30, 0.25e-3), (60, 1.38e-3))
 JACOBIANS_PER_RUN = 3
 #: The largest |h λ| in DOP853's region of absolute stability (the radius of the part about the
 #: origin, over the directions of the left half-plane: 6.79 at 116° from the real axis; 5.96 on
