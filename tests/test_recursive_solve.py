@@ -160,3 +160,71 @@ def test_a_link_without_mass_at_the_tip_is_singular(env):
                   lambda: c_model.motion(0.0, np.zeros(2), np.zeros(2))):
         with pytest.raises(SimulationError, match="singular"):
             solve()
+
+
+MASSLESS_HELD = """
+schema = 1
+name = "massless_held"
+description = "joint b moves no mass; a constraint holds its angle"
+gravity = [0, -9.81, 0]
+dependent = ["b"]
+
+[parameters]
+gain = { value = 10.0, unit = "1/s", doc = "Baumgarte gains" }
+
+[[chain]]
+joint = "a"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "bob"
+shape = { type = "point_mass", mass = 1.0, position = [1.0, 0, 0] }
+
+[[chain]]
+joint = "b"
+type = "revolute"
+axis = "z"
+
+[[constraints]]
+name = "hold_b"
+expression = "b - 0.1*t"
+alpha = "gain"
+beta = "gain"
+"""
+
+
+def test_a_joint_without_mass_that_the_constraints_hold_is_solved(env, tmp_path):
+    """M singular, BᵀMB not: the GPME has one answer, which the dense solve finds. The
+    recursion's pivot of that joint is zero, so it hands the state to the dense solve rather
+    than calling the system singular (it did, for every compiled integrator): the reference
+    arm with a slider of no mass, and a joint that moves nothing, held by a constraint."""
+    path = tmp_path / "massless_held.toml"
+    path.write_text(MASSLESS_HELD)
+    held = load_model_file(path)
+    cases = [(gpmegen.load(nrfe=1, backend=backend).with_params(m3=0.0) for backend in ("c", "numpy")),
+             (gpmegen.load(model=held, directory=env[0], backend=backend) for backend in ("c", "numpy"))]
+    for c_model, numpy_model in cases:
+        start = np.zeros(c_model.n_dof)
+        if "psi2" in c_model.coordinates:
+            start[c_model.index("psi2")] = np.pi / 4
+        states = list(_states(c_model, 5, seed=12, start=start))
+        for t, q, qd in states:
+            assert np.array_equal(c_model.accelerations(t, q, qd), c_model.motion(t, q, qd)[0])
+        _check_states(c_model, numpy_model, states)
+        t, q, qd = states[0]
+        runs = [model.rk4(q, qd, t + 100 * 1e-4, 1e-4, save_every=100, t0=t) for model in (c_model, numpy_model)]
+        assert runs[0][-1] == runs[1][-1] == 0
+        np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-9)
+
+
+def test_constraints_near_a_loss_of_rank_are_solved_as_the_dense_solve_does(env):
+    """The pivots of D M⁻¹ Dᵀ fall as cond(D)², those of the dense solve's basis as cond(D): with
+    the arm stretched vertically (ψ2 = -π/2 + 1e-9, cond(D) ~ 2e8) the recursion stops and the
+    dense solve, which still has an answer, gives it, bit for bit as ``motion``."""
+    c_model = gpmegen.load(nrfe=1, backend="c")
+    q, qd = np.zeros(c_model.n_dof), np.zeros(c_model.n_dof)
+    q[c_model.index("psi2")] = -np.pi / 2 + 1e-9
+    D = c_model.constraint_terms(0.0, q, qd)[2]
+    assert np.linalg.cond(D) > 1e8
+    np.testing.assert_array_equal(c_model.accelerations(0.0, q, qd), c_model.motion(0.0, q, qd)[0])

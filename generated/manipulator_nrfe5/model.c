@@ -3,12 +3,13 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: fb471fc20b5e91a0
+Input hash: 86ea9b247e885c22
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
 #include <float.h>
 #include <math.h>
+#include <stddef.h>
 
 #include "model.h"
 
@@ -50,7 +51,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "fb471fc20b5e91a0"; }
+const char *manipulator_nrfe5_input_hash(void) { return "86ea9b247e885c22"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -6763,9 +6764,11 @@ static void articulated_forward(const double *S, const double *U, const double *
    u = K^-T f and uy_a = K^-T D_a^T from articulated_backward(), D M^-1 D^T = uy diag(1/d) uy^T
    and D M^-1 f = uy diag(1/d) u, so lam solves (uy diag(1/d) uy^T) lam = c - uy diag(1/d) u, and
    qdd = M^-1 (f + D^T lam) = K^-1 ((u + uy^T lam) / d) takes one pass from the base. Returns
-   GPMEGEN_OK; GPMEGEN_SINGULAR when M or D M^-1 D^T is not numerically positive definite (D has
-   lost rank); GPMEGEN_NONFINITE when a pivot is not finite. */
-static int gpme_recursive(double t, const double *q, const double *qd, const double *p, double *qdd, double *power)
+   GPMEGEN_OK; GPMEGEN_SINGULAR when M or D M^-1 D^T is not numerically positive definite (a joint
+   moves no mass, or D has lost rank or nearly: the pivots of D M^-1 D^T go as cond(D)^2);
+   GPMEGEN_NONFINITE when a pivot is not finite. */
+static int gpme_articulated(double t, const double *q, const double *qd, const double *p, double *qdd,
+                            double *power)
 {
     enum { NC = N_CONSTRAINTS > 0 ? N_CONSTRAINTS : 1 };
     double S[N_DOF * 6] ALIGNED, I[N_DOF * LINK_SIZE] ALIGNED, b[N_DOF * 6] ALIGNED, tau[N_DOF] ALIGNED;
@@ -6816,6 +6819,28 @@ static int gpme_recursive(double t, const double *q, const double *qd, const dou
 
     articulated_forward(S, U, inv_d, u, qdd);
     return GPMEGEN_OK;
+}
+
+/* The dense solve where the recursion stopped: M and f on this function's stack, not on that of
+   every caller of gpme_recursive(). */
+NOINLINE static int gpme_dense(double t, const double *q, const double *qd, const double *p, double *qdd,
+                               double *power)
+{
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED;
+    return gpme_solve(t, q, qd, p, NULL, NULL, qdd, M, f, power);
+}
+
+/* qdd (N_DOF) and *power of the GPME for every caller that needs the accelerations alone: by the
+   recursion (gpme_articulated), which needs M itself positive definite; where it finds a pivot
+   of M or of D M^-1 D^T at or below its threshold, by the dense solve (gpme_solve), which needs
+   only B^T M B positive definite and decides whether the system is singular. That covers a
+   joint that moves no mass but whose motion the constraints fix (a massless slider: M singular,
+   B^T M B not), and constraints near a loss of rank, where the recursion's pivots fall as
+   cond(D)^2 and the dense solve's as cond(D). Returns the status of the solve that answered. */
+static int gpme_recursive(double t, const double *q, const double *qd, const double *p, double *qdd, double *power)
+{
+    const int status = gpme_articulated(t, q, qd, p, qdd, power);
+    return status == GPMEGEN_SINGULAR ? gpme_dense(t, q, qd, p, qdd, power) : status;
 }
 
 

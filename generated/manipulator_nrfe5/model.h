@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: fb471fc20b5e91a0
+Input hash: 86ea9b247e885c22
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -248,7 +248,8 @@ int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long
 int manipulator_nrfe5_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
 /* Radau IIA (implicit, order 5, Hairer's RADAU5) with the arguments, saves, counts and statuses of
-   manipulator_nrfe5_dop853, its collocation polynomial saving between steps, and GPMEGEN_NO_CONVERGENCE when Newton's
+   manipulator_nrfe5_dop853, saving between steps by the polynomial of degree 4 whose derivative passes through the rates
+   at the step's start and its three stages, and GPMEGEN_NO_CONVERGENCE when Newton's
    iterations fail on steps down to round-off; the LU factorizations counted are the real and the complex
    (15 x 15) ones of its Newton matrices. */
 int manipulator_nrfe5_radau(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
@@ -257,8 +258,10 @@ int manipulator_nrfe5_radau(double t_a, const double *y_a, long n_save, const do
    manipulator_nrfe5_rk4, from y_io = [q, qd, w] (32,) and the method's acceleration a_io (15,; NaN at a run's
    start), both replaced by their values at step k_to. Modified Newton on qdd with the matrix S (15, 15) and
    pivot (15,) kept by the caller across calls (*have_matrix: they hold one). Saves y at the n_save increasing
-   instants t_save within the steps into y_out (n_save, 32) (cubic Hermite between step ends); adds to
-   counts (5,) as manipulator_nrfe5_dop853. Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NO_CONVERGENCE,
+   instants t_save within the steps into y_out (n_save, 32) (cubic Hermite between step ends). With project
+   non-zero, each step's end is put back onto the constraints of orders 0 and 1 (Newton on the positions, then the
+   velocities), the constraint evaluations that takes added to counts[5]: counts has 6 entries here, the first 5 as
+   manipulator_nrfe5_dop853's. Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NO_CONVERGENCE,
    GPMEGEN_NONFINITE or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved. */
 int manipulator_nrfe5_genalpha(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, double rho_inf, int project, double *y_io, double *a_io, double *S, int *pivot, int *have_matrix, long n_save, const double *t_save, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 
