@@ -266,28 +266,34 @@ def integration_estimate(n_dof: int, t_end: float, dt: float, method: str, backe
 
 
 class RunEstimate(NamedTuple):
-    """A run before it starts: ``work`` in words, its ``seconds`` and memory ``n_bytes``, and
-    ``at_least``: the time a lower bound rather than an estimate."""
+    """A run before it starts: ``work`` in words, its ``seconds`` and memory ``n_bytes``,
+    ``at_least``: the time a lower bound rather than an estimate, and ``stiff``: that bound the
+    stable step of an explicit method (which the stiff methods do not have)."""
 
     work: str
     seconds: float
     n_bytes: float
     at_least: bool = False
+    stiff: bool = False
 
 
 def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
-                 backend: str, omega: float | None = None, save_dt: float | None = None) -> RunEstimate | None:
+                 backend: str, omega: float | None = None, save_dt: float | None = None) -> RunEstimate:
     """The :class:`RunEstimate` of a run of ``method`` (see :data:`ESTIMATORS`) on ``backend``
     ("c" or "numpy") with step ``dt`` keeping every ``save_every``-th state, or every ``save_dt``
-    s when given; None when nothing can be said before it starts."""
+    s when given. An integrator whose work cannot be said before it starts (no estimator, or no
+    frequency to bound its steps) is taken at zero seconds, a lower bound: what its saved samples
+    take is still known."""
     integration = integration_estimate(n_dof, t_end, dt, method, backend, omega)
+    stiff = integration is not None and integration.at_least
     if integration is None:
-        return None
+        integration = Integration(0, 0.0, True, f"a {method} run of n_dof = {n_dof}")
     samples = (steps(t_end, save_dt) if save_dt else steps(t_end, dt) // max(1, int(save_every))) + 2
     backend = "c" if backend == "c" else "numpy"
     seconds = integration.seconds + samples * interpolate(SAMPLE_SECONDS[backend], n_dof)
     n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
-    return RunEstimate(f"{integration.what}, saving {samples:.3g} samples,", seconds, n_bytes, integration.at_least)
+    return RunEstimate(f"{integration.what}, saving {samples:.3g} samples,", seconds, n_bytes, integration.at_least,
+                       stiff)
 
 
 def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
@@ -295,27 +301,25 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
     """Refuse a run that cannot finish (see :func:`run_estimate`): a fixed-step one by its
     estimate, an adaptive one when even its lower bound is beyond the limits."""
     estimate = run_estimate(n_dof, n_constraints, t_end, dt, save_every, method, backend, omega, save_dt)
-    if estimate is None:
-        return
-    if estimate.at_least:
+    if estimate.stiff:
         others = " or ".join(m for m in STIFF_METHODS if m != method)
         fix = f"use a shorter --t-end, fewer rfes, or --method {others} (steps the stiff modes do not bound)"
     else:
-        fix = "use a shorter --t-end, a larger --dt or a larger --save-every"
+        fix = "use a shorter --t-end, a larger --dt or a larger --save-every (or --save-dt)"
     check(f"running {estimate.work}", estimate.seconds, estimate.n_bytes, fix, at_least=estimate.at_least)
 
 
-def check_sweep(runs: list[tuple[int, tuple | None]], workers: int) -> None:
+def check_sweep(runs: list[tuple[int, RunEstimate]], workers: int) -> None:
     """Refuse a sweep that cannot finish: ``runs`` lists ``(count, estimate)`` of each of its
-    models (``estimate`` of one run, from :func:`run_estimate`; None: not known), made ``workers``
+    models (``estimate`` of one run, from :func:`run_estimate`), made ``workers``
     at a time, each run taking :data:`RUN_SECONDS` beyond its integration; its memory is that of
     ``workers`` runs at once. A count beyond :data:`MAX_COUNT` is refused always."""
     total = sum(n for n, _ in runs)
     if total > MAX_COUNT:
         raise LimitError(f"a sweep of {total:.3g} runs is more than can be counted ({MAX_COUNT:.3g}); give fewer "
                          f"values or --samples")
-    seconds = sum(n * (RUN_SECONDS + (estimate[1] if estimate else 0.0)) for n, estimate in runs) / workers
-    n_bytes = workers * max((estimate[2] if estimate else BASE_BYTES) for _, estimate in runs)
+    seconds = sum(n * (RUN_SECONDS + estimate.seconds) for n, estimate in runs) / workers
+    n_bytes = workers * max(estimate.n_bytes for _, estimate in runs)
     check(f"a sweep of {total} runs on {workers} worker{'s' if workers > 1 else ''}", seconds, n_bytes,
           "give fewer values or --samples, a shorter --t-end, a larger --dt or --save-every, or more workers")
 

@@ -132,6 +132,22 @@ def test_simulation_of_1e14_saved_steps_filled_the_memory(tmp_path, capsys, monk
     assert _no_files(empty) and not out.exists()
 
 
+@pytest.mark.parametrize("method", ["radau", "scipy-radau"])
+def test_simulation_of_1e15_saved_samples_by_a_method_without_an_estimate_ran_until_killed(tmp_path, capsys,
+                                                                                         monkeypatch, method):
+    """A method whose steps cannot be known before (no estimator) skipped every limit, even what
+    its saved samples need; they are known from the save grid alone."""
+    empty = tmp_path / "generated"
+    empty.mkdir()
+    monkeypatch.setenv("GPMEGEN_GENERATED", str(empty))
+    out = tmp_path / "run.npz"
+    assert main(["simulate", "--method", method, "--t-end", "1e12", "--save-dt", "1e-3", "--out", str(out)]) == 2
+    line = _one_line_error(capsys)
+    assert f"a {method} run of n_dof = 15, saving 1e+15 samples" in line
+    assert "at least" in line and "GB of memory" in line and "--save-every (or --save-dt)" in line
+    assert _no_files(empty) and not out.exists()
+
+
 def test_simulation_at_a_step_of_1e_300_ran_forever_even_without_limits(tmp_path, capsys):
     out = tmp_path / "run.npz"
     for extra in ([], ["--no-limits"]):

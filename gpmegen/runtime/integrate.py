@@ -296,8 +296,9 @@ def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progres
 def radau(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progress=None, max_violation=None,
           watch=None):
     """Radau IIA of order 5 (implicit, Hairer's RADAU5, with the GPME's Jacobians) in the compiled
-    loop, as :func:`dop853` (same arguments and results), saving between steps by its collocation
-    polynomial. Its steps are not bound by the stiff modes."""
+    loop, as :func:`dop853` (same arguments and results), saving between steps by the polynomial of
+    degree 4 whose derivative passes through the rates at the step's start and its three stages.
+    Its steps are not bound by the stiff modes."""
     return _compiled_adaptive("radau", model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation,
                               watch)
 
