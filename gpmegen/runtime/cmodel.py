@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
-from . import ccompile, cprobe, fastcall
+from . import ccompile, cprobe, fastcall, integrate
 from .model import TRANSFORM_FUNCTIONS, LoadedModel, vector
 
 #: The number of coordinates from which a single fast call lets other threads run while its C
@@ -339,7 +339,7 @@ class CEvaluator:
         """A call of the adaptive C loop ``function`` (dop853 or radau: one interface)."""
         dep, ind = self._partition_pointers(model)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
-        self._check_counts(counts, 5)
+        self._check_counts(counts, integrate.ADAPTIVE_COUNTS)
         y_out = np.empty((len(t_save), len(y_a)))
         n_saved = self.ffi.new("long *")
         status = function(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
@@ -349,7 +349,7 @@ class CEvaluator:
 
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         dep, ind = self._partition_pointers(model)
-        self._check_counts(counts, 6)
+        self._check_counts(counts, integrate.COUNTS)
         t_save = np.ascontiguousarray(t_save, dtype=float)
         y_out = np.empty((len(t_save), len(y)))
         n_saved = self.ffi.new("long *")

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BuildError
+from .integrate import ADAPTIVE_COUNTS, COUNTS
 
 #: Seconds the child may take: it calls each function a few times, so anything longer is a hang.
 TIMEOUT = 120.0
@@ -126,12 +127,12 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
             say(name)
             getattr(lib, name)(t, doubles(np.concatenate([q, qd, [0.0, 0.0]])), 2, doubles([t + 1e-4, t + 2e-4]),
                                1e-6, 1e-8, doubles([0.0]), doubles(p), dep, ind, doubles(np.zeros(2 * (2 * n + 2))),
-                               n_saved, ffi.new("long[]", 5))
+                               n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
         say("genalpha")
         lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, [0.0, 0.0]])),
                      doubles(np.full(n, np.nan)), doubles(np.zeros(n * n)), ffi.new("int[]", n), ffi.new("int[]", 1),
                      1, doubles([t + 1.5e-4]), doubles(p), dep, ind, doubles(np.zeros(2 * n + 2)), n_saved,
-                     ffi.new("long[]", 6))
+                     ffi.new("long[]", COUNTS))
     batch = {"t": [t for t, _, _ in states], "q": [q for _, q, _ in states], "qd": [qd for _, _, qd in states],
              "p": p}
     for c_name, arguments in functions:

@@ -267,8 +267,10 @@ class Effort(NamedTuple):
                 f"{self.factorizations} LU factorizations{projected}")
 
 
-#: Entries of the counts array the compiled loops add to (see :class:`Effort`).
+#: Entries of the counts array the compiled loops add to (see :class:`Effort`): generalized-α
+#: all of them, the adaptive loops (dop853, radau) all but the projection's.
 COUNTS = len(Effort._fields)
+ADAPTIVE_COUNTS = Effort._fields.index("projections")
 
 
 def rk4_effort(t, t0: float, dt: float) -> Effort:
