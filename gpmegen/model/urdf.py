@@ -9,8 +9,11 @@ first. Each moving link carries one body: its own inertial and those of every li
 by adding pseudo-inertias. Every link's frame origin is a point named after the link. A joint's
 ``<dynamics damping>`` is its viscous damper (``<gpmegen:spring stiffness damping>``, which
 ``gpmegen export`` writes, gives a spring and damper); limits, effort and friction are kept as data
-(:class:`~gpmegen.model.urdf_tree.UrdfJoint`) and do not act. Gravity is ``-g`` along z of the
-base (``g`` a parameter, 9.81 m/s²), as URDF robots are described z up.
+(:class:`~gpmegen.model.urdf_tree.UrdfJoint`) and do not act (runs are checked against them
+afterwards: :mod:`gpmegen.analysis.joint_limits`). A ``<mimic>`` joint of the chain follows its
+leader by a position constraint. Inertias no body has are refused; names that cannot be code are
+renamed, with a warning. Gravity is ``-g`` along z of the base (``g`` a parameter, 9.81 m/s²), as
+URDF robots are described z up.
 
 A model file may name a URDF and make links flexible (:class:`FlexibleUrdfLink`): the link's own
 inertial gives way to the beam, which starts at the link's frame and extends ``along`` a
