@@ -482,3 +482,15 @@ def test_a_model_file_keeps_the_urdf_limits(tmp_path):
         name = f"panda_joint{k + 1}"
         assert limits[name] == (model.lowerPositionLimit[k], model.upperPositionLimit[k], model.velocityLimit[k],
                                 "rad")
+
+
+def test_a_model_file_adds_the_mimic_constraints_after_its_own(tmp_path):
+    """A model file naming a URDF with a mimic joint: its own constraints first, then the mimic's,
+    and the mimic joint added to the dependent coordinates it lists."""
+    (tmp_path / "pair.urdf").write_text(MIMIC)
+    path = tmp_path / "pair.toml"
+    path.write_text('schema = 1\nname = "pair_file"\nurdf = "pair.urdf"\ndependent = ["shoulder"]\n\n[[constraints]]\n'
+                    'name = "hold"\nexpression = "z_b - 0.1"\n')
+    model = read_model_file(path).model
+    assert [c.name for c in model.constraints] == ["hold", "mimic_elbow"]
+    assert model.dependent == ("shoulder", "elbow")
