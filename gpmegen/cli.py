@@ -15,13 +15,14 @@ import os
 import re
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
 from . import limits
 from .analysis.plots import IncompatibleResults
-from .errors import BuildError, DerivationError, GpmegenError, ModelError
+from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning
 from .status import Ending
 
 
@@ -137,6 +138,23 @@ class UsageError(GpmegenError):
 
 def progress(message: str) -> None:
     print(f"gpmegen: {message}", file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """A :class:`ModelWarning` printed as one line, as the command line's other warnings are
+    (Python's own format adds the source line it was raised at)."""
+    with warnings.catch_warnings():
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, ModelWarning):
+                progress(f"warning: {message}")
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
 
 
 def _writable_folder(path: Path) -> None:
@@ -936,7 +954,8 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext():
+        with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext(), \
+                _warnings_as_lines():
             return args.func(args)
     except SimulationStopped as exc:
         print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)

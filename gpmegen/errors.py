@@ -61,3 +61,8 @@ class EvaluationError(SimulationError):
 class ExtrapolationError(GpmegenError):
     """Runs that cannot be extrapolated across discretizations: outputs not comparable between
     them, different models, fewer than two levels, a level that did not finish."""
+
+
+class ModelWarning(UserWarning):
+    """A model was read, but not as its file says (e.g. a URDF name renamed); the command line
+    prints it as one line."""

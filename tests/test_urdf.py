@@ -192,10 +192,6 @@ BAD = {
     "unknown link": ("""<robot name="r"><link name="a"/>
 <joint name="j" type="revolute"><parent link="a"/><child link="arm"/></joint></robot>""",
                      "<joint name=\"j\"> names the child link 'arm', which the file does not define"),
-    "bad name": ("""<robot name="r"><link name="a"/><link name="b-2"><inertial><mass value="1"/>
-<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<joint name="j" type="revolute"><parent link="a"/><child link="b-2"/><axis xyz="0 0 1"/></joint></robot>""",
-                 "<link name=\"b-2\">: point 'b-2' is not a valid name"),
     "branching": ("""<robot name="r"><link name="a"/><link name="b"><inertial><mass value="1"/>
 <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link><link name="c"><inertial>
 <mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
@@ -203,6 +199,47 @@ BAD = {
 <joint name="j2" type="revolute"><parent link="a"/><child link="c"/></joint></robot>""",
                   '<link name="a"> branches into the moving joints \'j1\' and \'j2\''),
 }
+
+
+def one_joint(inertia="1 1 1 0 0 0", mass="1", origin='xyz="0 0 0.1" rpy="0 0 0"', axis="0 0 1", inertial_origin="",
+              extra=""):
+    """A URDF of one revolute joint moving link b, with the values given (inertia: ixx iyy izz ixy
+    ixz iyz)."""
+    tensor = " ".join(f'{key}="{value}"' for key, value in zip(("ixx", "iyy", "izz", "ixy", "ixz", "iyz"),
+                                                                inertia.split()))
+    return (f'<robot name="r"><link name="a"/><link name="b"><inertial>{inertial_origin}<mass value="{mass}"/>'
+            f'<inertia {tensor}/></inertial></link><joint name="j" type="revolute"><parent link="a"/>'
+            f'<child link="b"/><origin {origin}/><axis xyz="{axis}"/>{extra}</joint></robot>')
+
+
+# Values no body has and values that are no numbers: refused when the URDF is read (they were
+# built, and ran silently or ended in "internal error: LinAlgError" or "ValueError").
+BAD.update({
+    "indefinite inertia": (one_joint("1 1 1 2 0 0"), '<link name="b"> <inertia> is not positive semi-definite: '
+                                                     'its principal moments are -1, 1, 3 kg·m²'),
+    "negative principal inertia": (one_joint("-1 1 1 0 0 0"), '<link name="b"> <inertia> is not positive '
+                                                              'semi-definite: its principal moments are -1, 1, 1'),
+    "triangle inequality": (one_joint("1 1 3 0 0 0"), '<link name="b"> <inertia> breaks the triangle inequality of '
+                                                      'principal moments: 1 + 1 < 3 kg·m²'),
+    "every link massless": (one_joint("0 0 0 0 0 0", mass="0"), "every link of the chain is massless"),
+    "nan in origin xyz": (one_joint(origin='xyz="0 nan 0.1"'), '<joint name="j"> <origin xyz> is \'0 nan 0.1\', '
+                                                               'not three finite numbers'),
+    "inf in origin rpy": (one_joint(origin='xyz="0 0 0" rpy="0 inf 0"'), '<joint name="j"> <origin rpy> is '
+                                                                         '\'0 inf 0\', not three finite numbers'),
+    "nan in axis": (one_joint(axis="0 nan 1"), '<joint name="j"> <axis xyz> is \'0 nan 1\', not three finite numbers'),
+    "nan in inertial origin": (one_joint(inertial_origin='<origin xyz="nan 0 0"/>'),
+                               '<link name="b"> <inertial> <origin xyz> is \'nan 0 0\', not three finite numbers'),
+    "inf mass": (one_joint(mass="inf"), '<link name="b"> <inertial> <mass value> is inf, not a finite number'),
+    "nan inertia": (one_joint("nan 1 1 0 0 0"), '<link name="b"> <inertial> <inertia> holds a value that is not a '
+                                                'finite number'),
+    "nan limit": (one_joint(extra='<limit lower="-1" upper="1" effort="1" velocity="nan"/>'),
+                  '<joint name="j"> <limit velocity> is nan, not a finite number'),
+    "nan mimic": (one_joint(extra='<mimic joint="j" multiplier="nan"/>'),
+                  '<joint name="j"> <mimic multiplier> is \'nan\', not a finite number'),
+    "mimic of no joint": (one_joint(extra='<mimic joint="k"/>'),
+                          '<joint name="j"> <mimic joint="k"> names a joint the file does not define'),
+    "mimic loop": (one_joint(extra='<mimic joint="j"/>'), 'the joints j -> j mimic each other round a loop'),
+})
 
 
 @pytest.mark.parametrize("case", list(BAD))
@@ -307,3 +344,153 @@ def test_flexible_panda_example_holds_its_circle(env, tmp_path):
     assert np.abs(q[-1] - q[0]).max() > 1e-4
     model = load_model_file(ROOT / "examples" / "panda_flexible.toml")
     assert geometry.tool_point(model, point_constraints(model)) == "panda_hand_tcp"  # where the skeleton ends
+
+
+def test_a_chain_of_1500_fixed_joints_is_read(tmp_path):
+    """1,500 fixed joints in a row before the one revolute joint (it ended in "internal error:
+    RecursionError"): read without recursion, every link a point, the joint where the fixed
+    joints put it (1 mm each), and one after it."""
+    n = 1500
+    links = "".join(f'<link name="l{k}"/>' for k in range(n + 1))
+    fixed = "".join(f'<joint name="f{k}" type="fixed"><parent link="l{k}"/><child link="l{k + 1}"/>'
+                    f'<origin xyz="0 0 0.001"/></joint>' for k in range(n))
+    path = tmp_path / "tall.urdf"
+    path.write_text(f'<robot name="tall">{links}<link name="arm"><inertial><mass value="1"/><inertia ixx="1" iyy="1" '
+                    f'izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>{fixed}<joint name="j" type="revolute">'
+                    f'<parent link="l{n}"/><child link="arm"/><axis xyz="0 1 0"/></joint></robot>')
+    flat = expand(load_model_file(path))
+    assert flat.coordinates == ("j",)
+    assert flat.points == tuple(f"l{k}" for k in range(n + 1)) + ("arm",)
+    robot = import_urdf(path)
+    offsets = [e for e in robot.model.chain if type(e).__name__ == "Offset"]
+    assert len(offsets) == 1 and offsets[0].translation == pytest.approx((0, 0, n * 0.001), abs=1e-12)
+
+
+RENAMED = """<robot name="2dof_planar"><link name="base"/>
+<link name="b-2"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<link name="c"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<link name="d"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="joint_0.0" type="revolute"><parent link="base"/><child link="b-2"/><axis xyz="0 0 1"/></joint>
+<joint name="joint_0_0" type="revolute"><parent link="b-2"/><child link="c"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>
+</joint>
+<joint name="lambda" type="revolute"><parent link="c"/><child link="d"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>
+<limit lower="-1" upper="1" effort="1" velocity="2"/></joint></robot>"""
+
+
+def test_names_that_cannot_be_code_are_renamed_with_one_warning(tmp_path, capsys):
+    """Names that were refused with no way to map them (the Allegro hand's joint_0.0, a robot
+    named 2dof_planar) are renamed, deterministically and without meeting another name: the
+    characters outside names become _, a name that does not start with a letter or is reserved
+    gets its kind in front, a clash gets _2. One warning lists them; the URDF names stay as data."""
+    path = tmp_path / "planar.urdf"
+    path.write_text(RENAMED)
+    expected = (("robot", "2dof_planar", "robot_2dof_planar"), ("joint", "joint_0.0", "joint_0_0_2"),
+                ("joint", "lambda", "joint_lambda"), ("link", "b-2", "b_2"))
+    with pytest.warns(UserWarning, match="names that cannot stand in generated code renamed: robot '2dof_planar' -> "
+                                         "robot_2dof_planar, joint 'joint_0.0' -> joint_0_0_2") as caught:
+        robot = import_urdf(path)
+    assert len(caught) == 1
+    assert robot.renamed == expected
+    assert robot.model.name == "robot_2dof_planar"
+    assert robot.coordinates == ("joint_0_0_2", "joint_0_0", "joint_lambda")
+    assert [j.name for j in robot.joints] == ["joint_0.0", "joint_0_0", "lambda"]
+    assert robot.limits["joint_lambda"] == (-1, 1, 2, "rad")
+    flat = expand(robot.model)
+    assert flat.coordinates == robot.coordinates and flat.points == ("base", "b_2", "c", "d")
+    with pytest.warns(UserWarning):
+        assert import_urdf(path).renamed == expected   # the same file, the same names
+    assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(warned) == 1 and warned[0].startswith("gpmegen: warning: ") and "'b-2' -> b_2" in warned[0]
+
+
+MIMIC = """<robot name="pair"><link name="base"/>
+<link name="a"><inertial><origin xyz="0.2 0 0"/><mass value="1"/>
+<inertia ixx="0.01" iyy="0.02" izz="0.02" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<link name="b"><inertial><origin xyz="0.15 0 0.02"/><mass value="0.5"/>
+<inertia ixx="0.005" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="shoulder" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 1 0"/>
+<limit lower="-0.5" upper="0.5" effort="10" velocity="1"/></joint>
+<joint name="elbow" type="revolute"><parent link="a"/><child link="b"/><origin xyz="0.4 0 0"/><axis xyz="0 1 0"/>
+<mimic joint="shoulder" multiplier="-2" offset="0.1"/></joint></robot>"""
+
+
+@pytest.fixture(scope="module")
+def mimic_pair(env, tmp_path_factory):
+    path = tmp_path_factory.mktemp("mimic") / "pair.urdf"
+    path.write_text(MIMIC)
+    return path, gpmegen.load(model=load_model_file(path), directory=env[0])
+
+
+def test_a_mimic_joint_follows_its_leader(mimic_pair, rng, tmp_path):
+    """<mimic> (imported as an independent joint before): the constraint elbow = -2·shoulder + 0.1,
+    held ideally. On it, q̈ is the motion of the one free coordinate, q̈ = B (BᵀMB)⁻¹ Bᵀ f with
+    B = (1, -2); a run keeps elbow on its leader's law from the start the file gives."""
+    path, loaded = mimic_pair
+    model = load_model_file(path)
+    assert [(c.name, str(c.expression)) for c in model.constraints] == [("mimic_elbow", "elbow + 2.0*shoulder - 0.1")]
+    B = np.array([1.0, -2.0])
+    for _ in range(3):
+        s, sd = rng.uniform(-1, 1, 2)
+        q, qd = np.array([s, -2 * s + 0.1]), B * sd
+        M, f = loaded.mass_matrix(q), loaded.forces(0.0, q, qd)
+        expected = B * (B @ f) / (B @ M @ B)
+        np.testing.assert_allclose(loaded.accelerations(0.0, q, qd), expected, rtol=0,
+                                   atol=1e-12 * np.abs(expected).max())
+    out = tmp_path / "pair.npz"
+    assert main(["simulate", str(path), "--t-end", "0.3", "--dt", "1e-3", "--save-every", "10", "--backend", "numpy",
+                 "--out", str(out)]) == 0
+    with np.load(out) as r:
+        q = r["q"]
+    np.testing.assert_allclose(q[:, 1], -2 * q[:, 0] + 0.1, rtol=0, atol=1e-12)
+    assert q[0, 1] == pytest.approx(0.1) and np.abs(q[-1, 0]) > 0.1   # it started on the law, and it moved
+
+
+def test_a_run_past_the_urdf_limits_warns(mimic_pair, tmp_path, capsys):
+    """The limits of a URDF do not act, and a run went past them silently (a falling Panda at
+    107 rad/s): after the run, one line for each joint and limit exceeded by a saved sample,
+    with the limit, the farthest value and its time, and when it first went past."""
+    from gpmegen.analysis.joint_limits import exceeded
+
+    path, _ = mimic_pair
+    out = tmp_path / "fall.npz"
+    assert main(["simulate", str(path), "--t-end", "0.5", "--dt", "1e-3", "--save-every", "50", "--backend", "numpy",
+                 "--out", str(out)]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "limit" in line]
+    with np.load(out) as r:
+        t, q, qd = r["t"], r["q"], r["qd"]
+    far = np.argmax(np.abs(qd[:, 0]))
+    assert np.abs(qd[far, 0]) > 1 and np.abs(q[:, 0]).max() > 0.5
+    assert len(warned) == 2, warned
+    assert all(line.startswith("gpmegen: warning: shoulder went past its URDF ") for line in warned)
+    assert f"velocity limit 1 rad/s: {qd[far, 0]:.6g} rad/s at t = {t[far]:.6g} s" in warned[1]
+    first = np.flatnonzero(np.abs(q[:, 0]) > 0.5)[0]
+    assert "position limit [-0.5, 0.5] rad" in warned[0] and f"first past it at t = {t[first]:.6g} s" in warned[0]
+    # within the limits, or without any, nothing is said
+    assert exceeded({"shoulder": (-10.0, 10.0, 100.0, "rad")}, ["shoulder", "elbow"], t, q, qd) == []
+    assert exceeded({"shoulder": (None, None, None, "rad")}, ["shoulder", "elbow"], t, q, qd) == []
+
+
+def test_a_model_file_keeps_the_urdf_limits(tmp_path):
+    """A model file naming the Panda's URDF carries its joints' limits to the runs' check."""
+    panda_urdf()
+    path = tmp_path / "beam.toml"
+    path.write_text(FLEXIBLE.format(nrfe=1))
+    limits = read_model_file(path).limits
+    model = pin.buildModelFromUrdf(str(panda_urdf()))
+    for k in range(7):
+        name = f"panda_joint{k + 1}"
+        assert limits[name] == (model.lowerPositionLimit[k], model.upperPositionLimit[k], model.velocityLimit[k],
+                                "rad")
+
+
+def test_a_model_file_adds_the_mimic_constraints_after_its_own(tmp_path):
+    """A model file naming a URDF with a mimic joint: its own constraints first, then the mimic's,
+    and the mimic joint added to the dependent coordinates it lists."""
+    (tmp_path / "pair.urdf").write_text(MIMIC)
+    path = tmp_path / "pair.toml"
+    path.write_text('schema = 1\nname = "pair_file"\nurdf = "pair.urdf"\ndependent = ["shoulder"]\n\n[[constraints]]\n'
+                    'name = "hold"\nexpression = "z_b - 0.1"\n')
+    model = read_model_file(path).model
+    assert [c.name for c in model.constraints] == ["hold", "mimic_elbow"]
+    assert model.dependent == ("shoulder", "elbow")

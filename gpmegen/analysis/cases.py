@@ -86,6 +86,11 @@ class Case:
         """Arrays added to a run's results (none by default)."""
         return {}
 
+    def joint_limits(self) -> dict:
+        """Coordinate -> (lower, upper, velocity, unit) limits a run is checked against after
+        it ends (:mod:`gpmegen.analysis.joint_limits`); none by default."""
+        return {}
+
     def locator(self) -> dict | None:
         """Where a results file finds this case again (its ``model_source`` metadata, read by
         :func:`case_of_source`); None: a model made in Python, which no file holds."""
@@ -189,6 +194,10 @@ class FileCase(ModelCase):
     def initial(self, params) -> tuple[dict, dict]:
         """The file's ``[initial] q`` and ``qd``."""
         return self.file.initial_values(params), self.file.initial_velocities(params)
+
+    def joint_limits(self) -> dict:
+        """The limits of the URDF the file names (none without one)."""
+        return self.file.limits
 
     def locator(self) -> dict:
         return {"file": str(Path(self.path).resolve()), "nrfe": self.nrfe}

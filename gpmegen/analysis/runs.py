@@ -8,7 +8,7 @@ import time
 from dataclasses import dataclass
 
 from .. import limits
-from . import driving, study
+from . import driving, joint_limits, study
 from . import results as results_io
 
 
@@ -58,6 +58,8 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),
                                     "model_source": case.locator()}, case.extras(model, res))
     res = driving.annotate(res, case.source, model)
+    for line in joint_limits.exceeded(case.joint_limits(), model.coordinates, res["t"], res["q"], res["qd"]):
+        progress(line)
     return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
 
 

@@ -144,13 +144,14 @@ def read_model_file(path, nrfe: int | None = None) -> ModelFile:
 
 def read_urdf_file(path) -> ModelFile:
     """The rigid model of the URDF file at ``path`` (:func:`gpmegen.model.urdf.import_urdf`:
-    its one branch of moving joints, gravity ``-g`` along z), starting at ``q = 0``."""
-    model = import_urdf(path).model
+    its one branch of moving joints, gravity ``-g`` along z, its mimic joints following their
+    leaders), starting at ``q = 0``, with its joints' limits."""
+    robot = import_urdf(path)
     try:
-        expand(model)
+        expand(robot.model)
     except ModelError as exc:
         raise ModelError(f"{path}: {exc}") from None
-    return ModelFile(str(path), model)
+    return ModelFile(str(path), robot.model, initial=robot.start, limits=robot.limits)
 
 
 def load_model_file(path, nrfe: int | None = None) -> Model:

@@ -10,6 +10,7 @@ reads the elements. Meshes and visuals are never loaded: the dynamics does not n
 from __future__ import annotations
 
 import difflib
+import functools
 import io
 import logging
 import math
@@ -62,6 +63,7 @@ class UrdfJoint:
     damping: float
     friction: float
     stiffness: float = 0.0
+    mimic: tuple | None = None   # <mimic>: (leader joint, multiplier, offset), q = multiplier·q_leader + offset
 
 
 @dataclass(frozen=True)
@@ -76,7 +78,15 @@ class UrdfTree:
 
     def children(self, link: str) -> list[UrdfJoint]:
         """The joints whose parent is ``link``, in file order."""
-        return [j for j in self.joints if j.parent == link]
+        return self._children.get(link, [])
+
+    @functools.cached_property
+    def _children(self) -> dict:
+        # indexed once: a scan of every joint per link made long chains quadratic
+        out: dict[str, list] = {}
+        for j in self.joints:
+            out.setdefault(j.parent, []).append(j)
+        return out
 
     def error(self, message: str) -> ModelError:
         return ModelError(f"{self.path}: {message}")
@@ -98,13 +108,14 @@ def read_tree(path) -> UrdfTree:
         raw = Path(path).read_bytes()
     except OSError as exc:
         raise ModelError(f"{file}: cannot read the URDF file ({exc.strerror or exc}); check the path") from None
-    robot, springs = _parse(file, raw)
+    robot, root = _parse(file, raw)
+    elements = {kind: {e.get("name"): e for e in root.findall(kind)} for kind in ("link", "joint")}
     links = {}
     for link in robot.links:
         if link.name in links:
             raise ModelError(f"{file}: <link name=\"{link.name}\"> appears twice; give each link its own name")
-        links[link.name] = _inertial(file, link)
-    joints = tuple(_joint(file, j, links, springs.get(j.name)) for j in robot.joints)
+        links[link.name] = _inertial(file, link, elements["link"].get(link.name))
+    joints = tuple(_joint(file, j, links, elements["joint"].get(j.name)) for j in robot.joints)
     names = [j.name for j in joints]
     for k, name in enumerate(names):
         if name in names[:k]:
@@ -125,15 +136,15 @@ def _parse(file: str, raw: bytes):
     level = quiet.level
     quiet.setLevel(logging.CRITICAL)
     try:
-        robot = yourdfpy.URDF.load(io.BytesIO(raw), build_scene_graph=False, load_meshes=False,
-                                   build_collision_scene_graph=False, load_collision_meshes=False).robot
+        with np.errstate(invalid="ignore"):   # an inf angle: its transform is checked after
+            robot = yourdfpy.URDF.load(io.BytesIO(raw), build_scene_graph=False, load_meshes=False,
+                                       build_collision_scene_graph=False, load_collision_meshes=False).robot
     except Exception as exc:  # the parser's own errors have no common type
         raise ModelError(f"{file}: the URDF cannot be read ({type(exc).__name__}: {exc}); fix the element it "
                          f"names") from None
     finally:
         quiet.setLevel(level)
-    springs = {joint.get("name"): spring for joint in root.iter("joint") for spring in joint.findall(SPRING)}
-    return robot, springs
+    return robot, root
 
 
 def _number(file, value, what, default=0.0) -> float:
@@ -148,7 +159,32 @@ def _number(file, value, what, default=0.0) -> float:
     return number
 
 
-def _inertial(file, link) -> Inertial | None:
+def _floats(text) -> list[float]:
+    """The numbers of an attribute such as ``xyz="0 0 1"``, nan for any that is not one."""
+    out = []
+    for word in str(text).split():
+        try:
+            out.append(float(word))
+        except ValueError:
+            out.append(float("nan"))
+    return out
+
+
+def _finite_origin(file, where, element, matrix) -> np.ndarray:
+    """``matrix`` (the parser's transform of ``element``'s ``<origin>``) when finite; else
+    ModelError naming the attribute that is not, with its text."""
+    if np.all(np.isfinite(matrix)):
+        return matrix
+    origin = element.find("origin") if element is not None else None
+    for key in ("xyz", "rpy"):
+        text = origin.get(key) if origin is not None else None
+        if text is not None and not np.all(np.isfinite(_floats(text))):
+            raise ModelError(f"{file}: {where} <origin {key}> is {text!r}, not three finite numbers; write numbers "
+                             f"({'m' if key == 'xyz' else 'rad'})")
+    raise ModelError(f"{file}: {where} <origin> is not a finite transform; write finite numbers in its xyz and rpy")
+
+
+def _inertial(file, link, element) -> Inertial | None:
     inertial = link.inertial
     if inertial is None:
         return None
@@ -160,10 +196,11 @@ def _inertial(file, link) -> Inertial | None:
     if not np.all(np.isfinite(inertia)):
         raise ModelError(f"{file}: {where} <inertia> holds a value that is not a finite number; write numbers")
     origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, float)
+    origin = _finite_origin(file, where, element.find("inertial") if element is not None else None, origin)
     return Inertial(mass, origin, inertia)
 
 
-def _joint(file, joint, links, spring) -> UrdfJoint:
+def _joint(file, joint, links, element) -> UrdfJoint:
     where = f"<joint name=\"{joint.name}\">"
     if joint.type in UNSUPPORTED:
         raise ModelError(f"{file}: {where} is {joint.type}: {UNSUPPORTED[joint.type]}")
@@ -186,7 +223,12 @@ def _joint(file, joint, links, spring) -> UrdfJoint:
     if damping < 0:
         raise ModelError(f"{file}: {where} <dynamics damping> is {damping:g}; give a damping of 0 or more")
     axis = (1.0, 0.0, 0.0) if joint.axis is None else tuple(float(a) for a in joint.axis)
+    if not np.all(np.isfinite(axis)):
+        text = element.find("axis").get("xyz") if element is not None and element.find("axis") is not None else axis
+        raise ModelError(f"{file}: {where} <axis xyz> is {text!r}, not three finite numbers; write a unit vector")
     origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, float)
+    origin = _finite_origin(file, where, element, origin)
+    spring = element.find(SPRING) if element is not None else None
     stiffness = 0.0
     if spring is not None:
         here = f"{where} <gpmegen:spring"
@@ -194,8 +236,15 @@ def _joint(file, joint, links, spring) -> UrdfJoint:
         damping = _number(file, spring.get("damping"), f"{here} damping>")
         if stiffness < 0 or damping < 0:
             raise ModelError(f"{file}: {here}> has a negative stiffness or damping; give values of 0 or more")
+    mimic = None
+    if joint.mimic is not None:
+        raw = element.find("mimic") if element is not None else None
+        mimic = (joint.mimic.joint,) + tuple(
+            _number(file, raw.get(key) if raw is not None else value, f"{where} <mimic {key}>", default)
+            for key, value, default in (("multiplier", joint.mimic.multiplier, 1.0),
+                                        ("offset", joint.mimic.offset, 0.0)))
     return UrdfJoint(joint.name, joint.type, joint.parent, joint.child, origin, axis, numbers, damping, friction,
-                     stiffness)
+                     stiffness, mimic)
 
 
 def _root(file, links, joints) -> str:

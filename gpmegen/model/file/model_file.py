@@ -22,7 +22,9 @@ class ModelFile:
     ``[initial] q`` and ``[initial] qd``; coordinates not named start at 0. ``prescribed``:
     coordinate name -> its law (SymPy expression of ``t`` and parameters) for the joints given
     ``prescribed = "law(t)"``, whose constraints the model holds. ``actuators``: the coordinates
-    whose inputs realize the constraints (empty: ideally)."""
+    whose inputs realize the constraints (empty: ideally). ``limits``: coordinate -> (lower,
+    upper, velocity, unit) of the URDF's joints (:attr:`gpmegen.model.urdf.ImportedRobot.limits`),
+    which runs are checked against afterwards."""
 
     path: str
     model: Model
@@ -31,6 +33,7 @@ class ModelFile:
     initial_qd: dict = field(default_factory=dict)
     prescribed: dict = field(default_factory=dict)
     actuators: tuple = ()
+    limits: dict = field(default_factory=dict, compare=False)
 
     @functools.cached_property
     def _locator(self) -> Locator:

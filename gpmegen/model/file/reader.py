@@ -295,8 +295,9 @@ class Reader:
         description = self.text(data.get("description", ""), ("description",), multiline=True)
 
         parameters = self.read_parameters(data.get("parameters", {}))
+        robot = None
         if "urdf" in data:
-            chain, parameters = read_urdf_chain(self, data, parameters, name)
+            chain, parameters, robot = read_urdf_chain(self, data, parameters, name)
         else:
             if "chain" not in data:
                 self.fail(("chain",), "missing chain; add [[chain]] elements (joints, bodies, ...)")
@@ -308,6 +309,9 @@ class Reader:
         constraints = self.read_constraints(data.get("constraints", []))
         dependent = self.read_dependent(data.get("dependent", "auto"))
         constraints, dependent = self.prescribe(constraints, dependent)
+        if robot is not None and robot.constraints:   # the URDF's mimic joints follow their leaders
+            constraints += robot.constraints
+            dependent = None if dependent is None else tuple(dependent) + robot.dependent
         initial, initial_qd = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
         model = Model(
@@ -322,7 +326,8 @@ class Reader:
                 raise chain_error(self, exc) from None
             raise located(exc, self.file, self.locator) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
-        return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators)
+        return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
+                         limits=robot.limits if robot is not None else {})
 
     def check_chain_size(self, items):
         """Refuse, before reading it element by element, a chain whose build cannot finish

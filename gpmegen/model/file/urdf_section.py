@@ -39,9 +39,10 @@ def urdf_path(reader, value) -> Path:
     return Path(found[0].locate())
 
 
-def read_urdf_chain(reader, data, parameters: tuple, name: str) -> tuple[tuple, tuple]:
-    """The chain of the model file's model ``name`` with a ``urdf`` key, and its parameters
-    (``g`` added, 9.81 m/s², when the file gives no gravity and declares no ``g``); the reader's
+def read_urdf_chain(reader, data, parameters: tuple, name: str) -> tuple:
+    """The chain of the model file's model ``name`` with a ``urdf`` key, its parameters (``g``
+    added, 9.81 m/s², when the file gives no gravity and declares no ``g``) and the
+    :class:`~gpmegen.model.urdf.ImportedRobot` (its mimic constraints and limits); the reader's
     coordinates and points recorded as :meth:`Reader.read_chain` records them."""
     path = urdf_path(reader, data["urdf"])
     tree = read_tree(path)
@@ -85,7 +86,7 @@ def read_urdf_chain(reader, data, parameters: tuple, name: str) -> tuple[tuple, 
     robot = import_urdf(tree, tip=tip, flexible=tuple(flexible), extra=tuple(extra), parameters=parameters,
                         name=name)
     _record(reader, robot.model.chain)
-    return robot.model.chain, parameters
+    return robot.model.chain, parameters, robot
 
 
 def _record(reader, chain):
