@@ -96,7 +96,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     transforms, jacobians = _at_least(manifest, check_kinds(transforms), jacobians)
     digest = input_hash(model, BACKENDS, transforms, jacobians)
     used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
-    reason = stale_reason(folder, manifest, digest, used)
+    reason = stale_reason(folder, manifest, digest, used, jacobians, transforms)
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
@@ -194,9 +194,12 @@ def linearize(model=None, *, nrfe=None, start=None, params=None, backend="numpy"
     state nearest each time. The model is loaded with its Jacobians (built when missing).
     ``inputs``: the coordinates that take a generalized force (default: those the model drives,
     and a model file's actuators)."""
-    from .analysis import linear
+    from .analysis import cases, linear
 
     case, start = _started(model, nrfe, start, directory)
+    if not isinstance(case, cases.FolderCase):  # refused before a build (a folder's model is refused once open)
+        constraints = case.model.constraints
+        linear.refuse_velocity_constraints([c.name for c in constraints], [c.order for c in constraints])
     case.jacobians = True
     messages = _messages(progress)
     if inputs is None:

@@ -187,7 +187,8 @@ def _build_locked(model, folder, backends, force, progress, command, digest, tra
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
     if not force:
-        reason = stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]])
+        reason = stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]],
+                              jacobians, transforms)
         if reason is None:
             files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
