@@ -22,6 +22,7 @@ import numpy as np
 from . import limits
 from .analysis.plots import IncompatibleResults
 from .errors import BuildError, DerivationError, GpmegenError, ModelError
+from .runtime import integrate
 from .status import Ending
 
 
@@ -455,7 +456,7 @@ def cmd_demo(args) -> int:
     _writable_folder(Path(args.figures))
     backend = _default_backend()
     dt = 1e-5 if backend == "c" else 1e-4
-    save_every = max(1, int(round(1e-3 / dt)))
+    save_every = integrate.default_save_every(dt)
     if backend != "c":
         progress("no C compiler found: the demo runs the NumPy backend with dt = 1e-4 s (the paper's 1e-5 s "
                  "would take hours in Python)")
@@ -742,8 +743,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--dt", type=positive_float, default=1e-5,
                        help="RK4 step in s (default 1e-5, the paper's); with --save-every, the save interval of "
                             "every method")
-        p.add_argument("--save-every", type=positive_int, default=100,
-                       help="keep every k-th step of --dt (default 100)")
+        p.add_argument("--save-every", type=positive_int, default=None,
+                       help="keep every k-th step of --dt (default: the steps in 1 ms, at least 1)")
         p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
                        help="integrator, in any case: fixed-step rk4 (the paper's, default), genalpha (implicit, "
                             "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C), radau "
@@ -854,8 +855,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--t-end", type=end_time, default=0.0,
                    help="with --output: over a run of this many s (default 0: at the start, the statics)")
     c.add_argument("--dt", type=positive_float, default=1e-4, help="with --output: RK4 step in s (default 1e-4)")
-    c.add_argument("--save-every", type=positive_int, default=10, help="with --output: keep every k-th step "
-                                                                         "(default 10)")
+    c.add_argument("--save-every", type=positive_int, default=None, help="with --output: keep every k-th step "
+                                                                           "(default: the steps in 1 ms, at least 1)")
     c.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
                    help="with --output: integrator, as for simulate")
     c.add_argument("--backend", choices=("numpy", "c"), default=None,
@@ -935,6 +936,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "save_every", 0) is None:  # one default interval, whatever the method and step
+        args.save_every = integrate.default_save_every(args.dt)
     try:
         with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext():
             return args.func(args)

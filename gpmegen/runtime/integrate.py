@@ -368,6 +368,16 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     return t, y, outcome, Effort(*(int(c) for c in counts))
 
 
+# The save interval when none is asked (s): that of the paper's run (1e-5 s steps, every 100th).
+SAVE_INTERVAL = 1e-3
+
+
+def default_save_every(dt: float) -> int:
+    """The steps of ``dt`` (s) saved once when the user asks for no interval: about
+    :data:`SAVE_INTERVAL`, whatever the step (every step when it is longer)."""
+    return max(1, int(round(SAVE_INTERVAL / dt)))
+
+
 def save_steps(dt: float, save_dt: float) -> int | None:
     """The RK4 steps of ``dt`` (s) in a save interval ``save_dt`` (s), or None when it is not
     a whole number of them (to a relative 1e-9)."""
