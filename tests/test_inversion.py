@@ -118,3 +118,15 @@ def test_invert_refuses_a_law_that_moves_before_or_after_the_motion(env, tmp_pat
     moving = float(err.split("change at t = ")[1].split(" s")[0])
     assert moving == pytest.approx(t_moving, abs=0.01)  # the windows are sampled every 0.5 ms
     assert not out.exists()
+
+
+def test_the_boundary_value_solve_says_how_far_it_is(env, monkeypatch):
+    """The solve printed nothing for 79 s: it now says the mesh it works on, at most every
+    PROGRESS_LINES s (0 here, so every evaluation, without waiting on the clock)."""
+    monkeypatch.setattr(inversion, "PROGRESS_LINES", 0.0)
+    lines = []
+    model = link(2, **MOVE)
+    inversion.stable_inversion(model, np.zeros(model.n_dof), 0.0, MOVE["T"], 0.1, 0.1, nodes=80,
+                               progress=lines.append)
+    assert lines and all(line.startswith("stable inversion: solving on a mesh of ") for line in lines)
+    assert {int(line.split("mesh of ")[1].split()[0]) for line in lines} >= {80}

@@ -15,6 +15,7 @@ neutral coordinate left to the internal dynamics).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ from scipy.integrate import solve_bvp
 
 from ..errors import SimulationError
 from . import internal
+from .integrate import PROGRESS_LINES
 
 # Relative step of the differences of the actuated equations.
 STEP = 1e-7
@@ -142,11 +144,12 @@ def check_at_rest_outside(model, q, t0, t1, pre, post) -> None:
                 f"rest)")
 
 
-def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6) -> Inversion:
+def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6, progress=None) -> Inversion:
     """The bounded solution of ``model``'s actuated realization (actuators set) for a programmed
     motion at rest before ``t0`` and after ``t1`` (s), on ``[t0 - pre, t1 + post]`` with
     ``nodes`` mesh points at first and the BVP's relative residual ``tol``; ``q_guess`` (n,)
-    starts the Newton search of the rest states."""
+    starts the Newton search of the rest states. ``progress`` (a callable taking one line) is
+    told the mesh the solver works on, every :data:`gpmegen.runtime.integrate.PROGRESS_LINES` s."""
     n = model.n_dof
     rhs = _rhs(model)
     ta, tb = t0 - pre, t1 + post
@@ -159,7 +162,14 @@ def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6) -> 
         raise SimulationError("stable inversion: the rest states' stable and unstable directions do not add up "
                               "to the state's dimension")
 
+    began = last = time.perf_counter()
+
     def fun(t, y):
+        nonlocal last
+        now = time.perf_counter()
+        if progress is not None and now - last >= PROGRESS_LINES:
+            last = now
+            progress(f"stable inversion: solving on a mesh of {len(t)} nodes, {now - began:.0f} s so far")
         return np.column_stack([rhs(t[k], y[:, k]) for k in range(len(t))])
 
     def bc(ya, yb):
