@@ -298,3 +298,63 @@ expression = "y_P - 0.1*sin(t)"
                               ("2*crank - w*t", 0, None), ("sqrt(x_P**2 + y_P**2) - 1", 0, None)):
         expression = sympy.sympify(text, locals=names)
         assert driving.expression_unit(model, replace(height, expression=expression, order=order)) == unit, text
+
+
+SLIDER_CRANK = """schema = 1
+name = "slider_crank_units"
+dependent = ["rod"]
+[parameters]
+r = 0.1
+l = 0.3
+m1 = 0.5
+m2 = 2.0
+w = 6.0
+[[chain]]
+joint = "crank"
+type = "revolute"
+axis = "z"
+prescribed = "w*t"
+[[chain]]
+translation = ["r", 0, 0]
+[[chain]]
+body = "pin"
+shape = { type = "point_mass", mass = "m1" }
+[[chain]]
+joint = "rod"
+type = "revolute"
+axis = "z"
+[[chain]]
+translation = ["l", 0, 0]
+[[chain]]
+body = "slider"
+shape = { type = "point_mass", mass = "m2" }
+[[chain]]
+point = "B"
+[[constraints]]
+name = "guide"
+expression = "y_B"
+[initial]
+q = { rod = 0.0 }
+"""
+
+
+def test_the_motor_torque_of_a_prescribed_crank_is_its_own_reaction_alone(tmp_path):
+    """A slider-crank as a serial chain: the crank prescribed, the slider held on its guide by a
+    closing constraint. The driving function drawn on the crank added the guide's passive reaction
+    to the motor torque; it is the crank law's reaction alone, whose power is the rate of the
+    kinetic energy (the guide does no work), while the sum is not."""
+    from gpmegen.analysis import driving_plots
+
+    path = tmp_path / "slider_crank.toml"
+    path.write_text(SLIDER_CRANK, encoding="utf-8")
+    res = gpmegen.simulate(str(path), t_end=0.1, dt=2e-4, save_every=1, backend="numpy").arrays
+    model = gpmegen.load(model=gpmegen.load_model_file(path), backend="numpy")
+    k = model.index("crank")
+    motor = driving_plots.joint_forces(res, "crank")
+    kinetic = np.array([model.energies(q, qd)[0] for q, qd in zip(res["q"], res["qd"])])
+    rate = np.gradient(kinetic, res["t"])[5:-5]
+    power = (motor * res["qd"][:, k])[5:-5]
+    scale = np.max(np.abs(rate))
+    assert np.max(np.abs(power - rate)) < 1e-4 * scale
+    summed = (res["drive_forces"][:, k] + res["constraint_forces"][:, k]) * res["qd"][:, k]
+    assert np.max(np.abs(summed[5:-5] - rate)) > 0.1 * scale  # the guide's reaction on the crank is no motor's

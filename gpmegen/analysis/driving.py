@@ -66,6 +66,26 @@ def expression_unit(model, constraint) -> str | None:
     return None
 
 
+def joint_laws(model) -> dict:
+    """Coordinate → (constraint name, ±1) for each position constraint of the form ``±q - law(t)``
+    on that coordinate alone (a prescribed joint): its reaction ``Dᵀλ`` is ``±λ`` on that joint
+    and nothing elsewhere, the joint's motor. The reactions of the other constraints on that joint
+    (a slider's guide on a crank) are not its motor's."""
+    kinds = {e.name for e in expand(model).elements if isinstance(e, Joint)}
+    coordinates = {symbol(name): name for name in kinds}
+    points = {s for p in expand(model).points for s in point_symbols(p)}
+    laws = {}
+    for c in model.constraints:
+        expr = sp.sympify(c.expression)
+        own = expr.free_symbols & coordinates.keys()
+        if c.order == 0 and len(own) == 1 and not expr.free_symbols & points:
+            (coordinate,) = own
+            sign = sp.diff(expr, coordinate)
+            if sign in (sp.S.One, sp.S.NegativeOne) and coordinates[coordinate] not in laws:
+                laws[coordinates[coordinate]] = (c.name, int(sign))
+    return laws
+
+
 def lambda_units(model, constraint_units: dict) -> dict:
     """Unit of each constraint's λ from the unit of its expression: ``constraint_units`` (name →
     unit) where the case gives it, else :func:`expression_unit`, else "generalized"."""
@@ -135,7 +155,8 @@ def annotate(results: dict, model, loaded) -> dict:
     if model is None:  # generated code without its model (a built folder): forces in generalized units
         return results_io.annotate(results, {}, arrays)
     units = {"force_units": force_units(model),
-             "lambda_units": lambda_units(model, meta.get("constraint_units", {}))}
+             "lambda_units": lambda_units(model, meta.get("constraint_units", {})),
+             "joint_laws": {name: list(law) for name, law in joint_laws(model).items()}}
     if "lambda" in results:
         forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"])
         units["force_points"] = list(forces)

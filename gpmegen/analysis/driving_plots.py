@@ -18,8 +18,15 @@ def realization(results) -> str:
 
 def joint_forces(results, name):
     """The generalized force on joint ``name`` that drives it and realizes the constraints: its
-    drive plus ``Dᵀλ`` (ideal) or ``S u`` (actuated), both ``M q̈ - f`` there."""
+    drive plus ``Dᵀλ`` (ideal) or ``S u`` (actuated), both ``M q̈ - f`` there; on a joint with a
+    law of its own (``meta["joint_laws"]``, ideal realization), its drive plus that law's
+    reaction alone: the other constraints' reactions there are passive (a slider's guide on the
+    crank), not the motor's."""
     k = [str(c) for c in results["coordinates"]].index(name)
+    law = metadata(results).get("joint_laws", {}).get(name)
+    if law is not None and "lambda" in results and "u" not in results:
+        i = [str(c) for c in results["constraint_names"]].index(law[0])
+        return results["drive_forces"][:, k] + law[1] * results["lambda"][:, i]
     return results["drive_forces"][:, k] + results["constraint_forces"][:, k]
 
 
@@ -40,7 +47,8 @@ def driving_functions(plt, runs, style):
     # the way the constraints are realized names each run only where the runs differ in it
     handles = _handles(runs, style, plots.label if len(ways) == 1 else lambda r: f"{plots.label(r)} ({realization(r)})")
     plots._finish(fig, plots._title(runs, "Driving functions"), handles,
-                  "Drive plus the generalized forces that realize the programmed motion, on the joints"
+                  "Drive plus the generalized forces that realize the programmed motion, on the joints "
+                  "(on a joint with its own law, that law's reaction alone)"
                   + (f" ({ways.pop()})." if len(ways) == 1 else "."))
     return fig
 
