@@ -26,17 +26,26 @@ from .runtime import integrate
 from .status import Ending
 
 
-def positive_int(text: str) -> int:
-    """argparse type: a whole number ≥ 1 that fits a machine integer."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number (use 1 for the rigid arm)") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is below 1 (use 1 for the rigid arm, 2 or more for a flexible arm)")
-    if value > sys.maxsize:
-        raise argparse.ArgumentTypeError(f"{text} is more than any count can hold (at most {sys.maxsize})")
-    return value
+def _count(hint: str):
+    """argparse type: a whole number ≥ 1 that fits a machine integer; ``hint`` follows a refusal."""
+
+    def count(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number ({hint})") from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{value} is below 1 ({hint})")
+        if value > sys.maxsize:
+            raise argparse.ArgumentTypeError(f"{text} is more than any count can hold (at most {sys.maxsize})")
+        return value
+
+    return count
+
+
+positive_int = _count("give a count of 1 or more")
+# n_rfe: the hint is about the arm, and only there
+rfe_count = _count("use 1 for a rigid link, 2 or more for a flexible one")
 
 
 def _finite_number(accept, problem):
@@ -700,7 +709,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml) or a robot description (.urdf); default: the reference "
                         "manipulator")
-    b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+    b.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
@@ -717,7 +726,7 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("model_file", nargs="?", type=path_argument,
                     help="a model description (.toml or .urdf); default: the reference manipulator")
     ex.add_argument("--format", choices=("urdf",), required=True, help="the format to write: urdf")
-    ex.add_argument("--nrfe", type=positive_int, default=None,
+    ex.add_argument("--nrfe", type=rfe_count, default=None,
                     help="number of rigid finite elements (1: rigid; default 5, or the file's)")
     ex.add_argument("--out", type=path_argument, required=True, help="the file to write, e.g. arm.urdf")
     ex.set_defaults(func=cmd_export)
@@ -726,7 +735,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("model_file", nargs="?", type=path_argument,
                        help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
                             "manipulator")
-        p.add_argument("--nrfe", type=positive_int, default=None, nargs="+" if levels else None,
+        p.add_argument("--nrfe", type=rfe_count, default=None, nargs="+" if levels else None,
                        help="rigid finite elements of the arm (1: rigid; default 5, or the file's)"
                             + ("; several with --extrapolate" if levels else ""))
         p.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
@@ -819,7 +828,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
                         "manipulator")
-    m.add_argument("--nrfe", type=positive_int, default=None,
+    m.add_argument("--nrfe", type=rfe_count, default=None,
                    help="rigid finite elements of the arm (≥ 2 to have modes; default 5, or the file's)")
     m.add_argument("--lock", choices=("joints", "constraints"), default="joints",
                    help="linearize with the joints locked, or with the programmed constraints holding")
@@ -846,7 +855,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "or any output (--output)")
     c.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
-    c.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+    c.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                    help="n_rfe values (default 2 3 5 8 10 15 20, up to 40 takes minutes; with --output 3 5 9)")
     c.add_argument("--output", nargs="+", metavar="OUTPUT", default=None,
                    help="instead of the clamped links against beam theory: the discretization error of these "
@@ -886,7 +895,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("model_file", nargs="?", type=path_argument,
                     help="a model description (.toml; a folder made by 'build --out' holds no model to vary); "
                          "default: the reference manipulator")
-    sw.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+    sw.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                     help="rigid finite elements of the arm, one sweep of the parameters for each (default 5, or "
                          "the file's)")
     sw.add_argument("--param", type=sweep_param, action="append", metavar="NAME=SPEC",

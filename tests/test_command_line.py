@@ -193,3 +193,13 @@ def test_the_default_save_interval_is_1_ms_whatever_the_step(tmp_path, dt, sampl
     assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.02", "--dt", str(dt),
                  "--out", str(out)]) == 0
     assert len(results_io.load(out)["t"]) == samples
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--save-every", "0"], ["sweep", "--param", "m3=1", "--workers", "0"],
+                                  ["sweep", "--param", "m3=1:2", "--samples", "0"], ["modes", "--count", "0"]])
+def test_a_count_of_zero_is_refused_without_a_hint_about_the_arm(argv, capsys):
+    """Every count said "use 1 for the rigid arm" when given 0; only n_rfe speaks of the arm."""
+    code, _, err = _exit(argv, capsys)
+    assert code == 2 and "below 1 (give a count of 1 or more)" in err and "rigid" not in err
+    code, _, err = _exit(["simulate", "--nrfe", "0"], capsys)
+    assert code == 2 and "use 1 for a rigid link" in err
