@@ -194,3 +194,25 @@ def test_results_of_one_model_with_any_number_of_rfes_share_figures(pair, tmp_pa
                                       "energy_balance", "driving_functions", "elastic_deformation",
                                       "constraint_multipliers") for fmt in ("pdf", "svg"))
     assert {plots.family(results_io.load(folder / f"run_nrfe{n}.npz")) for n in (1, 2)} == {"manipulator"}
+
+
+def test_runs_of_one_model_by_different_methods_get_labels_that_tell_them_apart(pair, tmp_path):
+    """Runs by rk4, genalpha and dop853 of one model had one legend entry for all three: the labels
+    name what differs (method, step, parameter values), and every figure's legend has three."""
+    _, (rigid, _) = pair
+    settings = results_io.metadata(rigid)["settings"]
+    params = results_io.metadata(rigid)["params"]
+    variants = [_with_meta(rigid, settings={**settings, "method": m, "dt": dt}) for m, dt in
+                (("rk4", 1e-3), ("genalpha", 1e-3), ("genalpha", 1e-4))]
+    variants.append(_with_meta(rigid, params={**params, "m3": 2 * params["m3"]}))
+    labels = [plots.label(r) for r in plots.distinguished(variants)]
+    assert len(set(labels)) == 4, labels
+    assert "genalpha, dt 0.0001 s" in labels[2] and "m3 = " in labels[3] and "m3 = " in labels[0]
+    assert [plots.label(r) for r in plots.distinguished([rigid])] == [plots.label(rigid)]
+    import matplotlib.pyplot as plt
+
+    for stem, draw in plots.figures(variants):
+        fig = draw(plt, plots.distinguished(variants), plots.styles(variants))
+        texts = {t.get_text() for legend in fig.legends for t in legend.get_texts()}
+        assert set(labels) <= texts, stem
+        plt.close(fig)

@@ -48,10 +48,45 @@ def _pyplot():
 
 def label(results) -> str:
     """A legend label: the run's case's label (the model's name by default) and its start
-    unless it is the locked statics."""
+    unless it is the locked statics; with what tells it from the runs it is drawn beside, where
+    :func:`distinguished` put it there."""
+    if LEGEND in results:
+        return results[LEGEND]
     meta = metadata(results)
     text, start = meta.get("label", meta["model"]), meta["start"]
     return text if start == "locked" else f"{text} (no statics)" if start == "none" else f"{text} ({start} start)"
+
+
+LEGEND = "_legend"  # a run's label among others, set by distinguished() on a copy of its results
+# The settings that can tell runs of one model apart, as a legend names them.
+DISTINGUISHING = (("method", "{}"), ("dt", "dt {:g} s"), ("rtol", "rtol {:g}"), ("rho_inf", "ρ∞ {:g}"),
+                  ("backend", "{}"))
+
+
+def distinguished(runs: list) -> list:
+    """Copies of ``runs`` whose legend labels name what differs between them where their own
+    labels are alike: the settings of :data:`DISTINGUISHING` and the parameter values (runs by
+    rk4, genalpha and dop853 of one model had one label for all three)."""
+    base = [label(r) for r in runs]
+    if len(set(base)) == len(base):
+        return runs
+    metas = [metadata(r) for r in runs]
+    settings = [m.get("settings", {}) for m in metas]
+    params = [m.get("params", {}) for m in metas]
+    differ = []
+    for key, form in DISTINGUISHING:
+        values = [s.get(key) for s in settings]
+        if len({repr(v) for v in values}) > 1:
+            differ.append(lambda k, key=key, form=form: form.format(settings[k][key])
+                          if settings[k].get(key) is not None else None)
+    for name in sorted({n for p in params for n in p}):
+        if len({repr(p.get(name)) for p in params}) > 1:
+            differ.append(lambda k, name=name: f"{name} = {params[k][name]:.6g}" if name in params[k] else None)
+    out = []
+    for k, r in enumerate(runs):
+        extra = [text for text in (d(k) for d in differ) if text]
+        out.append({**r, LEGEND: base[k] + (f", {', '.join(extra)}" if extra else "")})
+    return out
 
 
 def joint_names(results) -> list:
@@ -344,6 +379,7 @@ def plot_all(runs: list, out, formats=("png",), names=None) -> list[Path]:
     if not formats or not set(formats) <= set(FORMATS):
         raise ValueError(f"figure formats {formats}: choose among {', '.join(FORMATS)}")
     check_compatible(runs, names)
+    runs = distinguished(runs)
     plt = _pyplot()
     out = Path(out)
     style = styles(runs)
