@@ -216,3 +216,35 @@ def test_runs_of_one_model_by_different_methods_get_labels_that_tell_them_apart(
         texts = {t.get_text() for legend in fig.legends for t in legend.get_texts()}
         assert set(labels) <= texts, stem
         plt.close(fig)
+
+
+def test_a_vibration_faster_than_the_samples_is_drawn_as_its_band_not_a_block(pair):
+    """A flexible arm's 1.6 kHz ringing saved every 1 ms, drawn as a line, became a solid block that
+    hid the rigid arm's curve: such a signal is drawn as its envelope, shaded, with its mean as the
+    line (at most WINDOWS points); a smooth one stays a line through every sample."""
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    _, (rigid, flexible) = pair
+    t = np.arange(10001) * 1e-3
+    smooth = 0.3 * np.sin(2 * np.pi * t / 10)
+    ringing = smooth + 1e-3 * np.sin(2 * np.pi * 1600 * t + 0.3)
+    assert plots.ringing(ringing) and not plots.ringing(smooth)
+
+    def run(results, theta):
+        q = np.zeros((len(t), results["q"].shape[1]))
+        q[:, 0] = theta
+        return {**results, "t": t, "q": q}
+
+    runs_ = [run(rigid, smooth), run(flexible, ringing)]
+    style = plots.styles(runs_)
+    fig = plots.joint_coordinates(plt, runs_, style)
+    ax = fig.axes[0]
+    lines = {len(line.get_xdata()) for line in ax.get_lines()}
+    assert lines == {len(t), plots.WINDOWS}
+    bands = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(bands) == 1
+    band = bands[0].get_paths()[0].vertices[:, 1]
+    assert band.max() >= ringing.max() - 1e-12 and band.min() <= ringing.min() + 1e-12
+    assert any("Shaded: the band" in text.get_text() or "shaded: the band" in text.get_text() for text in fig.texts)
+    plt.close(fig)
