@@ -49,6 +49,7 @@ from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
+from .runtime import integrate
 from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
 from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from .symbolic.transforms import KINDS, check_kinds
@@ -96,7 +97,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     transforms, jacobians = _at_least(manifest, check_kinds(transforms), jacobians)
     digest = input_hash(model, BACKENDS, transforms, jacobians)
     used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
-    reason = stale_reason(folder, manifest, digest, used)
+    reason = stale_reason(folder, manifest, digest, used, jacobians, transforms)
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
@@ -167,12 +168,13 @@ def statics(model=None, *, nrfe=None, start=None, params=None, backend="numpy", 
     return case.started(backend, start, dict(params or {}), _messages(progress))
 
 
-def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=100, method="rk4",
+def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=None, method="rk4",
              params=None, backend="numpy", repartition=False, directory=None, progress=None, save_dt=None,
              rtol=None, atol=None, rho_inf=None):
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
     :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
-    and ``t_end``, ``dt`` (s), ``save_every`` (steps), ``method`` ("rk4"; with ``backend="c"``
+    and ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in 1 ms, whatever the
+    method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method`` ("rk4"; with ``backend="c"``
     "genalpha", implicit with step ``dt`` and damping ``rho_inf``, "dop853", adaptive, or "radau",
     implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
     ``atol`` (adaptive methods), ``repartition``. A run that stops
@@ -180,6 +182,8 @@ def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_eve
     from .analysis import runs
 
     case, start = _started(model, nrfe, start, directory)
+    if save_every is None:
+        save_every = integrate.default_save_every(dt)
     done = runs.run(case, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
                     _messages(progress), repartition=repartition, save_dt=save_dt, rtol=rtol, atol=atol,
                     rho_inf=rho_inf)
@@ -194,9 +198,12 @@ def linearize(model=None, *, nrfe=None, start=None, params=None, backend="numpy"
     state nearest each time. The model is loaded with its Jacobians (built when missing).
     ``inputs``: the coordinates that take a generalized force (default: those the model drives,
     and a model file's actuators)."""
-    from .analysis import linear
+    from .analysis import cases, linear
 
     case, start = _started(model, nrfe, start, directory)
+    if not isinstance(case, cases.FolderCase):  # refused before a build (a folder's model is refused once open)
+        constraints = case.model.constraints
+        linear.refuse_velocity_constraints([c.name for c in constraints], [c.order for c in constraints])
     case.jacobians = True
     messages = _messages(progress)
     if inputs is None:

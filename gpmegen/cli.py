@@ -23,20 +23,30 @@ import numpy as np
 from . import limits
 from .analysis.plots import IncompatibleResults
 from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning
+from .runtime import integrate
 from .status import Ending
 
 
-def positive_int(text: str) -> int:
-    """argparse type: a whole number ≥ 1 that fits a machine integer."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number (use 1 for the rigid arm)") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is below 1 (use 1 for the rigid arm, 2 or more for a flexible arm)")
-    if value > sys.maxsize:
-        raise argparse.ArgumentTypeError(f"{text} is more than any count can hold (at most {sys.maxsize})")
-    return value
+def _count(hint: str):
+    """argparse type: a whole number ≥ 1 that fits a machine integer; ``hint`` follows a refusal."""
+
+    def count(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number ({hint})") from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{value} is below 1 ({hint})")
+        if value > sys.maxsize:
+            raise argparse.ArgumentTypeError(f"{text} is more than any count can hold (at most {sys.maxsize})")
+        return value
+
+    return count
+
+
+positive_int = _count("give a count of 1 or more")
+# n_rfe: the hint is about the arm, and only there
+rfe_count = _count("use 1 for a rigid link, 2 or more for a flexible one")
 
 
 def _finite_number(accept, problem):
@@ -473,7 +483,7 @@ def cmd_demo(args) -> int:
     _writable_folder(Path(args.figures))
     backend = _default_backend()
     dt = 1e-5 if backend == "c" else 1e-4
-    save_every = max(1, int(round(1e-3 / dt)))
+    save_every = integrate.default_save_every(dt)
     if backend != "c":
         progress("no C compiler found: the demo runs the NumPy backend with dt = 1e-4 s (the paper's 1e-5 s "
                  "would take hours in Python)")
@@ -717,7 +727,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml) or a robot description (.urdf); default: the reference "
                         "manipulator")
-    b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+    b.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
     b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
@@ -734,7 +744,7 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("model_file", nargs="?", type=path_argument,
                     help="a model description (.toml or .urdf); default: the reference manipulator")
     ex.add_argument("--format", choices=("urdf",), required=True, help="the format to write: urdf")
-    ex.add_argument("--nrfe", type=positive_int, default=None,
+    ex.add_argument("--nrfe", type=rfe_count, default=None,
                     help="number of rigid finite elements (1: rigid; default 5, or the file's)")
     ex.add_argument("--out", type=path_argument, required=True, help="the file to write, e.g. arm.urdf")
     ex.set_defaults(func=cmd_export)
@@ -743,7 +753,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("model_file", nargs="?", type=path_argument,
                        help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
                             "manipulator")
-        p.add_argument("--nrfe", type=positive_int, default=None, nargs="+" if levels else None,
+        p.add_argument("--nrfe", type=rfe_count, default=None, nargs="+" if levels else None,
                        help="rigid finite elements of the arm (1: rigid; default 5, or the file's)"
                             + ("; several with --extrapolate" if levels else ""))
         p.add_argument("--statics", choices=("locked", "constrained", "none"), default=None,
@@ -760,8 +770,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--dt", type=positive_float, default=1e-5,
                        help="RK4 step in s (default 1e-5, the paper's); with --save-every, the save interval of "
                             "every method")
-        p.add_argument("--save-every", type=positive_int, default=100,
-                       help="keep every k-th step of --dt (default 100)")
+        p.add_argument("--save-every", type=positive_int, default=None,
+                       help="keep every k-th step of --dt (default: the steps in 1 ms, at least 1)")
         p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
                        help="integrator, in any case: fixed-step rk4 (the paper's, default), genalpha (implicit, "
                             "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C), radau "
@@ -836,7 +846,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml) or a folder made by 'build --out'; default: the reference "
                         "manipulator")
-    m.add_argument("--nrfe", type=positive_int, default=None,
+    m.add_argument("--nrfe", type=rfe_count, default=None,
                    help="rigid finite elements of the arm (≥ 2 to have modes; default 5, or the file's)")
     m.add_argument("--lock", choices=("joints", "constraints"), default="joints",
                    help="linearize with the joints locked, or with the programmed constraints holding")
@@ -863,7 +873,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "or any output (--output)")
     c.add_argument("model_file", nargs="?", type=path_argument,
                    help="a model description (.toml): each of its flexible links clamped; default: the reference arm")
-    c.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+    c.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                    help="n_rfe values (default 2 3 5 8 10 15 20, up to 40 takes minutes; with --output 3 5 9)")
     c.add_argument("--output", nargs="+", metavar="OUTPUT", default=None,
                    help="instead of the clamped links against beam theory: the discretization error of these "
@@ -872,8 +882,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--t-end", type=end_time, default=0.0,
                    help="with --output: over a run of this many s (default 0: at the start, the statics)")
     c.add_argument("--dt", type=positive_float, default=1e-4, help="with --output: RK4 step in s (default 1e-4)")
-    c.add_argument("--save-every", type=positive_int, default=10, help="with --output: keep every k-th step "
-                                                                         "(default 10)")
+    c.add_argument("--save-every", type=positive_int, default=None, help="with --output: keep every k-th step "
+                                                                           "(default: the steps in 1 ms, at least 1)")
     c.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
                    help="with --output: integrator, as for simulate")
     c.add_argument("--backend", choices=("numpy", "c"), default=None,
@@ -903,7 +913,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("model_file", nargs="?", type=path_argument,
                     help="a model description (.toml; a folder made by 'build --out' holds no model to vary); "
                          "default: the reference manipulator")
-    sw.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
+    sw.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                     help="rigid finite elements of the arm, one sweep of the parameters for each (default 5, or "
                          "the file's)")
     sw.add_argument("--param", type=sweep_param, action="append", metavar="NAME=SPEC",
@@ -953,6 +963,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "save_every", 0) is None:  # one default interval, whatever the method and step
+        args.save_every = integrate.default_save_every(args.dt)
     try:
         with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext(), \
                 _warnings_as_lines():

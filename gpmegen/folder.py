@@ -87,14 +87,20 @@ def read_verified(folder: Path, name: str, rebuild: str = "gpmegen build") -> st
     return text
 
 
-def stale_reason(folder: Path, manifest: dict | None, digest: str, names) -> str | None:
+def stale_reason(folder: Path, manifest: dict | None, digest: str, names, jacobians: bool = False,
+                 transforms=()) -> str | None:
     """Why the generated ``folder`` (its manifest ``manifest``) cannot serve for the input hash
-    ``digest`` and the files ``names``: missing, generated from other inputs, or a file that
-    differs from its recorded sha256; None when it can."""
+    ``digest`` and the files ``names``: missing, built without the ``jacobians`` or
+    ``transforms`` asked for, generated from other inputs, or a file that differs from its
+    recorded sha256; None when it can."""
     if manifest is None:
         return f"{folder}/{MANIFEST} is missing or unreadable" if Path(folder).exists() else f"{folder} is missing"
     if manifest.get("input_hash") != digest:
-        return f"{folder} was generated from other inputs or another gpmegen version"
+        lacking = (["the acceleration Jacobians"] if jacobians and not manifest.get("jacobians") else []) + [
+            f"the transforms {kind}" for kind in transforms if kind not in manifest.get("transforms", ())]
+        if lacking:
+            return f"{folder} was built without {' and '.join(lacking)}, which are asked for now"
+        return f"{folder} was generated from other inputs (the model or its build options) or another gpmegen version"
     return next((problem for name in names if (problem := _checked(folder, name, manifest)[1])), None)
 
 

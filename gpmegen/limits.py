@@ -41,6 +41,11 @@ OVERRIDE = "pass --no-limits (in Python: with gpmegen.limits.lifted(): ...) to s
 BUILD_SECONDS = ((3, 0.2), (15, 0.8), (30, 2.3), (60, 8.2), (90, 16.1), (150, 44.1))
 #: Peak resident memory of the build process against n_dof (benchmarks/build_time.py).
 BUILD_BYTES = ((3, 102e6), (15, 121e6), (30, 158e6), (60, 252e6), (90, 393e6), (150, 775e6))
+#: The same with the acceleration Jacobians (--jacobians): BUILD_SECONDS and BUILD_BYTES times
+#: the ratio measured with and without them in one run (CPU 4.3, 8.6, 12.0, 17.9 times at n_dof
+#: 3, 9, 15, 30; memory 1.0, 1.3, 1.9, 4.0 times); beyond 30, extrapolated by that slope.
+BUILD_JACOBIAN_SECONDS = ((3, 0.9), (15, 9.6), (30, 41.0))
+BUILD_JACOBIAN_BYTES = ((3, 102e6), (15, 230e6), (30, 632e6))
 #: C compile (the hot part at -O3 and the rest at -O0, CPU time of both) against the size of
 #: model.c in bytes (n_rfe = 1, 5, 10, 20, 30, 50; benchmarks/build_time.py). Long functions are
 #: compiled in blocks (codegen/blocks.py), so the compile grows about as the file.
@@ -165,11 +170,19 @@ def check(work: str, seconds: float, n_bytes: float, fix: str, at_least: bool = 
                          f"memory, beyond {' and '.join(beyond)}; {fix}, or {OVERRIDE}")
 
 
-def check_build(n_dof: int, model: str, detail: str = "") -> None:
-    """Refuse deriving and generating ``model`` (a name) of ``n_dof`` coordinates when it cannot
-    finish; ``detail`` is said beside n_dof (e.g. the number of chain elements)."""
-    check(f"building {model} ({detail}n_dof = {n_dof})", interpolate(BUILD_SECONDS, n_dof),
-          interpolate(BUILD_BYTES, n_dof), "use fewer rfes (nrfe) or fewer joints")
+def build_seconds(n_dof: int, jacobians: bool = False) -> float:
+    """CPU time (s) of deriving and generating a model of ``n_dof`` coordinates (with its
+    acceleration Jacobians: far more, as they are derived too)."""
+    return interpolate(BUILD_JACOBIAN_SECONDS if jacobians else BUILD_SECONDS, n_dof)
+
+
+def check_build(n_dof: int, model: str, detail: str = "", jacobians: bool = False) -> None:
+    """Refuse deriving and generating ``model`` (a name) of ``n_dof`` coordinates (with its
+    ``jacobians``) when it cannot finish; ``detail`` is said beside n_dof (e.g. the number of
+    chain elements)."""
+    check(f"building {model} ({detail}n_dof = {n_dof}{', with its Jacobians' if jacobians else ''})",
+          build_seconds(n_dof, jacobians), interpolate(BUILD_JACOBIAN_BYTES if jacobians else BUILD_BYTES, n_dof),
+          "use fewer rfes (nrfe) or fewer joints" + (", or build without --jacobians" if jacobians else ""))
 
 
 def check_compile(source_bytes: int, source) -> None:

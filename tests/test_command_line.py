@@ -180,3 +180,26 @@ def test_ctrl_c_exits_130_in_build_and_simulate(argv, pattern, tmp_path):
     code, err = _interrupt_when(argv, pattern, tmp_path)
     assert code == 130, err
     assert "Traceback" not in err and "interrupted" in err.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("dt, samples", [(1e-3, 21), (1e-4, 21), (2.5e-3, 9)])
+def test_the_default_save_interval_is_1_ms_whatever_the_step(tmp_path, dt, samples):
+    """Saving followed --dt (every 100th step), so a run at a longer step saved a handful of
+    samples (genalpha at 1e-3 over 2 s: 21); with no --save-every or --save-dt a run saves about
+    every 1 ms (every step when the step is longer)."""
+    from gpmegen.analysis import results as results_io
+
+    out = tmp_path / "run.npz"
+    assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.02", "--dt", str(dt),
+                 "--out", str(out)]) == 0
+    assert len(results_io.load(out)["t"]) == samples
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--save-every", "0"], ["sweep", "--param", "m3=1", "--workers", "0"],
+                                  ["sweep", "--param", "m3=1:2", "--samples", "0"], ["modes", "--count", "0"]])
+def test_a_count_of_zero_is_refused_without_a_hint_about_the_arm(argv, capsys):
+    """Every count said "use 1 for the rigid arm" when given 0; only n_rfe speaks of the arm."""
+    code, _, err = _exit(argv, capsys)
+    assert code == 2 and "below 1 (give a count of 1 or more)" in err and "rigid" not in err
+    code, _, err = _exit(["simulate", "--nrfe", "0"], capsys)
+    assert code == 2 and "use 1 for a rigid link" in err

@@ -84,7 +84,8 @@ def test_units_of_the_driving_functions():
     """λ of the circle (m²) in N/m, of the height (m) in N; rotations take N·m, the slider N."""
     model = reference_case.ReferenceCase(2).model
     assert driving.lambda_units(model, {"circle": "m²", "height": "m"}) == {"circle": "N/m", "height": "N"}
-    assert driving.lambda_units(model, {}) == {"circle": "generalized", "height": "generalized"}
+    # without the case's units, from the expressions' forms: x_E² + z_E² - r_Ea² and y_E - y_c - A cos(…)
+    assert driving.lambda_units(model, {}) == {"circle": "N/m", "height": "N"}
     units = driving.force_units(model)
     assert units["psi2"] == units["theta1"] == "N·m" and units["x3"] == "N"
     assert {units[name] for name in units if name not in reference_case.START_JOINTS} == {"N·m"}
@@ -249,3 +250,111 @@ def test_an_actuated_run_keeps_its_own_default_results_and_says_so(tmp_path, mon
     assert sorted(p.name for p in (tmp_path / "results").glob("*.npz")) == [
         "run_nrfe1_locked_rk4.npz", "run_nrfe1_locked_rk4_actuated-psi2-x3.npz"]
     assert "u" in results_io.load(tmp_path / "results" / "run_nrfe1_locked_rk4_actuated-psi2-x3.npz")
+
+
+def test_units_of_multipliers_come_from_the_forms_of_their_constraints(tmp_path):
+    """Every multiplier of a model file was "generalized", even a prescribed crank's: a joint's
+    law takes its joint's force unit, a point's coordinate N, a squared distance N/m, a point's
+    velocity N; a form that does not fix the unit (a parameter as coefficient) stays generalized."""
+    from dataclasses import replace
+
+    import sympy
+
+    from gpmegen.model.chain import TIME, point_symbols, point_velocity_symbols, symbol, velocity_symbol
+    from gpmegen.model.toml_file import read_model_file
+
+    path = tmp_path / "slider.toml"
+    path.write_text("""schema = 1
+name = "units"
+dependent = ["slide"]
+[parameters]
+w = 2.0
+a = 3.0
+[[chain]]
+joint = "crank"
+type = "revolute"
+axis = "z"
+prescribed = "w*t"
+[[chain]]
+joint = "slide"
+type = "prismatic"
+axis = "y"
+[[chain]]
+body = "b"
+shape = { type = "point_mass", mass = 1.0, position = [1, 0, 0] }
+[[chain]]
+point = "P"
+[[constraints]]
+name = "height"
+expression = "y_P - 0.1*sin(t)"
+""", encoding="utf-8")
+    model = read_model_file(path).model
+    assert driving.lambda_units(model, {}) == {"height": "N", "prescribed_crank": "N·m"}
+    height = model.constraints[0]
+    names = {str(s): s for s in (*point_symbols("P"), *point_velocity_symbols("P"), symbol("slide"), symbol("crank"),
+                                 velocity_symbol("crank"), symbol("w"), symbol("a"), TIME)}
+    for text, order, unit in (("x_P**2 + y_P**2 - 4", 0, "m²"), ("a*z_P", 0, None), ("vz_P - 0.5", 1, "m/s"),
+                                    ("slide - 2*t", 0, "m"), ("crank_dot - w", 1, "rad/s"),
+                              ("2*crank - w*t", 0, None), ("sqrt(x_P**2 + y_P**2) - 1", 0, None)):
+        expression = sympy.sympify(text, locals=names)
+        assert driving.expression_unit(model, replace(height, expression=expression, order=order)) == unit, text
+
+
+SLIDER_CRANK = """schema = 1
+name = "slider_crank_units"
+dependent = ["rod"]
+[parameters]
+r = 0.1
+l = 0.3
+m1 = 0.5
+m2 = 2.0
+w = 6.0
+[[chain]]
+joint = "crank"
+type = "revolute"
+axis = "z"
+prescribed = "w*t"
+[[chain]]
+translation = ["r", 0, 0]
+[[chain]]
+body = "pin"
+shape = { type = "point_mass", mass = "m1" }
+[[chain]]
+joint = "rod"
+type = "revolute"
+axis = "z"
+[[chain]]
+translation = ["l", 0, 0]
+[[chain]]
+body = "slider"
+shape = { type = "point_mass", mass = "m2" }
+[[chain]]
+point = "B"
+[[constraints]]
+name = "guide"
+expression = "y_B"
+[initial]
+q = { rod = 0.0 }
+"""
+
+
+def test_the_motor_torque_of_a_prescribed_crank_is_its_own_reaction_alone(tmp_path):
+    """A slider-crank as a serial chain: the crank prescribed, the slider held on its guide by a
+    closing constraint. The driving function drawn on the crank added the guide's passive reaction
+    to the motor torque; it is the crank law's reaction alone, whose power is the rate of the
+    kinetic energy (the guide does no work), while the sum is not."""
+    from gpmegen.analysis import driving_plots
+
+    path = tmp_path / "slider_crank.toml"
+    path.write_text(SLIDER_CRANK, encoding="utf-8")
+    res = gpmegen.simulate(str(path), t_end=0.1, dt=2e-4, save_every=1, backend="numpy").arrays
+    model = gpmegen.load(model=gpmegen.load_model_file(path), backend="numpy")
+    k = model.index("crank")
+    motor = driving_plots.joint_forces(res, "crank")
+    kinetic = np.array([model.energies(q, qd)[0] for q, qd in zip(res["q"], res["qd"])])
+    rate = np.gradient(kinetic, res["t"])[5:-5]
+    power = (motor * res["qd"][:, k])[5:-5]
+    scale = np.max(np.abs(rate))
+    assert np.max(np.abs(power - rate)) < 1e-4 * scale
+    summed = (res["drive_forces"][:, k] + res["constraint_forces"][:, k]) * res["qd"][:, k]
+    assert np.max(np.abs(summed[5:-5] - rate)) > 0.1 * scale  # the guide's reaction on the crank is no motor's

@@ -272,3 +272,30 @@ def test_convergence_refuses_outputs_not_comparable_across_discretizations_befor
     err = capsys.readouterr().err
     assert f"output {output!r} is not comparable across discretizations" in err and "joint or point" in err
     assert len(err.strip().splitlines()) == 1 and "n_rfe =" not in err  # one line, no level run
+
+
+def test_extrapolation_of_the_papers_arm_runs_though_its_start_sets_constants_per_level(env, tmp_path, capsys):
+    """The reference case sets its circle constants r_Ea and y_c from each level's own statics, so
+    they differ between levels by design (1.0998 against 1.1008 m at n_rfe 3 and 5); they were
+    taken for a different model after every level had run, and the extrapolation refused."""
+    out = tmp_path / "arm.npz"
+    assert main(["simulate", "--nrfe", "2", "3", "--extrapolate", "--t-end", "0.002", "--dt", "1e-5",
+                 "--save-every", "50", "--workers", "1", "--backend", "numpy", "--out", str(out)]) == 0
+    data = extrapolate.load(out)
+    assert list(data["nrfe"]) == [2, 3] and np.all(np.isfinite(data["points_limit"]))
+
+
+def test_levels_of_different_models_are_refused_by_the_check_made_before_any_level_runs(tmp_path):
+    """Levels are compared by their symbolic models before the first runs (run_levels calls this
+    check): the same file at two n_rfe passes, a parameter default that differs is refused."""
+    from gpmegen.model.toml_file import read_model_file
+
+    other = tmp_path / "other.toml"
+    text = SPINUP.read_text(encoding="utf-8")
+    default = re.search(r"^(\w+) = \{ value = ([0-9.e+-]+)", text, re.M)
+    other.write_text(text.replace(default.group(0), f"{default.group(1)} = {{ value = {2 * float(default.group(2))}"),
+                     encoding="utf-8")
+    same = {n: read_model_file(SPINUP, nrfe=n).model for n in (2, 3)}
+    extrapolate.check_same_model(same)
+    with pytest.raises(ExtrapolationError, match="n_rfe = 3 and n_rfe = 2: different parameter values"):
+        extrapolate.check_same_model({2: same[2], 3: read_model_file(other, nrfe=3).model})

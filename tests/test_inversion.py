@@ -96,6 +96,37 @@ def test_cli_invert_writes_the_bounded_inputs(env, tmp_path, capsys):
     assert f"the inputs start {settings['lead']:.4g} s before t0 = 0 s" in line and settings["lead"] > 0.005
     assert list(res["actuators"]) == ["theta1"] and res["t"][0] == pytest.approx(-0.1)
     assert np.max(np.abs(res["u"][res["t"] < 0])) > 0.01 * np.max(np.abs(res["u"]))  # pre-actuation
-    assert cli.main(["invert", "--nrfe", "1", "--actuated", "psi2", "x3", "--t1", "1",
-                     "--out", str(tmp_path / "rigid.npz")]) == 1
+    assert cli.main(["invert", str(LINK), "--nrfe", "2", "--t1", "0.2", "--param", "Y=0.001",
+                     "--out", str(tmp_path / "undamped.npz")]) == 1
     assert "stable inversion needs hyperbolic internal dynamics" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("t0, t1, where, t_moving", [(0.05, 0.2, "before t0", 0.0), (0.0, 0.15, "after t1", 0.2)])
+def test_invert_refuses_a_law_that_moves_before_or_after_the_motion(env, tmp_path, capsys, t0, t1, where, t_moving):
+    """The move runs from 0 to T = 0.2 s; a window [t0, t1] that cuts it off was inverted as if the
+    motion rested outside it, returning inputs whose start (or end) is not at rest. Refused in one
+    line naming where the law moves and the fix, before the boundary-value problem is solved."""
+    from gpmegen import cli
+
+    out = tmp_path / "inv.npz"
+    args = ["invert", str(LINK), "--nrfe", "2", "--t0", str(t0), "--t1", str(t1), "--out", str(out)]
+    assert cli.main(args + [f"--param={k}={v}" for k, v in MOVE.items()]) == 1
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(errors) == 1
+    err = errors[0]
+    assert f"the programmed motion moves {where}" in err and "at rest outside [t0, t1]" in err
+    moving = float(err.split("change at t = ")[1].split(" s")[0])
+    assert moving == pytest.approx(t_moving, abs=0.01)  # the windows are sampled every 0.5 ms
+    assert not out.exists()
+
+
+def test_the_boundary_value_solve_says_how_far_it_is(env, monkeypatch):
+    """The solve printed nothing for 79 s: it now says the mesh it works on, at most every
+    PROGRESS_LINES s (0 here, so every evaluation, without waiting on the clock)."""
+    monkeypatch.setattr(inversion, "PROGRESS_LINES", 0.0)
+    lines = []
+    model = link(2, **MOVE)
+    inversion.stable_inversion(model, np.zeros(model.n_dof), 0.0, MOVE["T"], 0.1, 0.1, nodes=80,
+                               progress=lines.append)
+    assert lines and all(line.startswith("stable inversion: solving on a mesh of ") for line in lines)
+    assert {int(line.split("mesh of ")[1].split()[0]) for line in lines} >= {80}

@@ -242,9 +242,31 @@ def test_baumgarte_gains_leave_the_linear_model_unchanged_on_the_constraints(res
 
 
 def test_velocity_constraints_are_refused_by_name():
-    from types import SimpleNamespace
-
-    model = SimpleNamespace(constraint_names=("circle", "heading", "push"), constraint_orders=np.array([0, 1, 2]))
     with pytest.raises(gpmegen.ModelError, match="'heading', 'push' of first or second order"):
-        linear.refuse_velocity_constraints(model)
-    linear.refuse_velocity_constraints(SimpleNamespace(constraint_names=("circle",), constraint_orders=np.array([0])))
+        linear.refuse_velocity_constraints(("circle", "heading", "push"), np.array([0, 1, 2]))
+    linear.refuse_velocity_constraints(("circle",), np.array([0]))
+
+
+def test_a_first_order_constraint_is_refused_before_any_build(tmp_path, monkeypatch, capsys):
+    """linearize built the model with its Jacobians (47 s at the size met) and only then refused
+    the first-order constraint that makes it impossible: refused first now, nothing built."""
+    generated = tmp_path / "generated"
+    monkeypatch.setenv("GPMEGEN_GENERATED", str(generated))
+    example = Path(__file__).resolve().parents[1] / "examples" / "nonholonomic.toml"
+    out = tmp_path / "lin.npz"
+    assert main(["linearize", str(example), "--backend", "numpy", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "of first or second order" in err
+    assert not out.exists() and not (generated.exists() and any(generated.iterdir()))
+
+
+def test_a_rebuild_for_missing_jacobians_says_so(tmp_path):
+    """A folder built without the Jacobians, loaded with them, is built again: the message named
+    "other inputs or another gpmegen version"; it names the missing Jacobians."""
+    example = Path(__file__).resolve().parents[1] / "examples" / "planar_two_link.toml"
+    model = gpmegen.load_model_file(example, nrfe=1)
+    said = []
+    gpmegen.load(model=model, backend="numpy", directory=tmp_path)
+    gpmegen.load(model=model, backend="numpy", directory=tmp_path, jacobians=True, progress=said.append)
+    reasons = [line for line in said if "building it again" in line]
+    assert len(reasons) == 1 and "built without the acceleration Jacobians" in reasons[0], said

@@ -194,3 +194,57 @@ def test_results_of_one_model_with_any_number_of_rfes_share_figures(pair, tmp_pa
                                       "energy_balance", "driving_functions", "elastic_deformation",
                                       "constraint_multipliers") for fmt in ("pdf", "svg"))
     assert {plots.family(results_io.load(folder / f"run_nrfe{n}.npz")) for n in (1, 2)} == {"manipulator"}
+
+
+def test_runs_of_one_model_by_different_methods_get_labels_that_tell_them_apart(pair, tmp_path):
+    """Runs by rk4, genalpha and dop853 of one model had one legend entry for all three: the labels
+    name what differs (method, step, parameter values), and every figure's legend has three."""
+    _, (rigid, _) = pair
+    settings = results_io.metadata(rigid)["settings"]
+    params = results_io.metadata(rigid)["params"]
+    variants = [_with_meta(rigid, settings={**settings, "method": m, "dt": dt}) for m, dt in
+                (("rk4", 1e-3), ("genalpha", 1e-3), ("genalpha", 1e-4))]
+    variants.append(_with_meta(rigid, params={**params, "m3": 2 * params["m3"]}))
+    labels = [plots.label(r) for r in plots.distinguished(variants)]
+    assert len(set(labels)) == 4, labels
+    assert "genalpha, dt 0.0001 s" in labels[2] and "m3 = " in labels[3] and "m3 = " in labels[0]
+    assert [plots.label(r) for r in plots.distinguished([rigid])] == [plots.label(rigid)]
+    import matplotlib.pyplot as plt
+
+    for stem, draw in plots.figures(variants):
+        fig = draw(plt, plots.distinguished(variants), plots.styles(variants))
+        texts = {t.get_text() for legend in fig.legends for t in legend.get_texts()}
+        assert set(labels) <= texts, stem
+        plt.close(fig)
+
+
+def test_a_vibration_faster_than_the_samples_is_drawn_as_its_band_not_a_block(pair):
+    """A flexible arm's 1.6 kHz ringing saved every 1 ms, drawn as a line, became a solid block that
+    hid the rigid arm's curve: such a signal is drawn as its envelope, shaded, with its mean as the
+    line (at most WINDOWS points); a smooth one stays a line through every sample."""
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    _, (rigid, flexible) = pair
+    t = np.arange(10001) * 1e-3
+    smooth = 0.3 * np.sin(2 * np.pi * t / 10)
+    ringing = smooth + 1e-3 * np.sin(2 * np.pi * 1600 * t + 0.3)
+    assert plots.ringing(ringing) and not plots.ringing(smooth)
+
+    def run(results, theta):
+        q = np.zeros((len(t), results["q"].shape[1]))
+        q[:, 0] = theta
+        return {**results, "t": t, "q": q}
+
+    runs_ = [run(rigid, smooth), run(flexible, ringing)]
+    style = plots.styles(runs_)
+    fig = plots.joint_coordinates(plt, runs_, style)
+    ax = fig.axes[0]
+    lines = {len(line.get_xdata()) for line in ax.get_lines()}
+    assert lines == {len(t), plots.WINDOWS}
+    bands = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(bands) == 1
+    band = bands[0].get_paths()[0].vertices[:, 1]
+    assert band.max() >= ringing.max() - 1e-12 and band.min() <= ringing.min() + 1e-12
+    assert any("Shaded: the band" in text.get_text() or "shaded: the band" in text.get_text() for text in fig.texts)
+    plt.close(fig)

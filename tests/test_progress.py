@@ -44,3 +44,37 @@ def test_an_interrupted_compile_ends_the_compilers(monkeypatch, tmp_path):
         ccompile._run_compilers([[sys.executable, "-c", "import time; time.sleep(60)"]] * 2, str(tmp_path),
                                 interrupt)
     assert time.perf_counter() - t0 < 30  # killed, not waited for
+
+
+class _Clock:
+    """A wall clock the test moves by hand (no test here waits on real time)."""
+
+    def __init__(self):
+        self.now = 1000.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_long_runs_outside_a_terminal_say_how_far_they_are(monkeypatch, capsys):
+    """A run of the NumPy backend printed nothing for 96 s when its output went to a log (the bar
+    is drawn on a terminal only): away from a terminal, a line every 10 s of wall time, and the
+    end; work shorter than that prints nothing."""
+    from gpmegen.runtime import integrate
+
+    clock = _Clock()
+    monkeypatch.setattr(integrate.time, "perf_counter", clock)
+    bar = integrate.Progress(10.0, "n_rfe = 5, t (s)", enabled=False, lines_every=integrate.PROGRESS_LINES)
+    for wall, done in ((3, 0.5), (9.9, 1.0), (10.5, 1.2), (15, 2.0), (20.6, 3.0), (30, 10.0), (31, 10.0)):
+        clock.now = 1000.0 + wall
+        bar.update(done)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == ["n_rfe = 5, t (s): 1.2 of 10 (12 %) in 10 s, about 77 s left",
+                     "n_rfe = 5, t (s): 3 of 10 (30 %) in 21 s, about 48 s left",
+                     "n_rfe = 5, t (s): 10 of 10 (100 %) in 30 s, done"]
+    clock.now = 1000.0
+    short = integrate.Progress(10.0, "short", enabled=False, lines_every=integrate.PROGRESS_LINES)
+    for wall, done in ((2, 5.0), (4, 10.0)):
+        clock.now = 1000.0 + wall
+        short.update(done)
+    assert capsys.readouterr().err == ""

@@ -51,9 +51,19 @@ def test_without_initial_velocities_the_dependent_one_is_solved_and_reported(env
     v0, L = model.params["v0"], model.params["L"]
     np.testing.assert_allclose(begun.qd, np.eye(model.n_dof)[model.index("theta1")] * v0 / L, atol=1e-12)
     assert begun.moved["qd"] == (pytest.approx(v0 / L, abs=1e-12), "theta1")
+    assert "max|Δqd| = " in begun.report()
+    # the docs say such a law needs no qd: solving the dependent velocity is no warning
+    assert begun.warning() is None
+    assert _max_violation(model, begun.q, begun.qd) < 1e-10
+
+
+def test_a_velocity_given_off_the_constraint_is_changed_with_a_warning(env, tmp_path):
+    """A θ̇1 given that is not the law's v0/L: changing what the user gave is warned of."""
+    begun = _start(_variant(tmp_path, 'qd = { theta1 = "v0/L" }', 'qd = { theta1 = 0.0 }'))
+    v0, L = begun.model.params["v0"], begun.model.params["L"]
+    assert begun.qd[begun.model.index("theta1")] == pytest.approx(v0 / L, abs=1e-12)
     warning = begun.warning()
     assert warning.count("\n") == 0 and "[initial] qd" in warning and "theta1" in warning
-    assert _max_violation(model, begun.q, begun.qd) < 1e-10
 
 
 def test_an_independent_velocity_given_moves_the_dependent_one(env, tmp_path):
@@ -101,7 +111,7 @@ def test_simulate_reports_how_far_the_start_moved_and_records_it(env, tmp_path, 
     assert main(["simulate", str(path), "--t-end", "0.01", "--dt", "1e-4", "--backend", "numpy",
                  "--out", str(out)]) == 0
     err = capsys.readouterr().err
-    assert "start moved onto the constraints" in err and "warning: the start (as given" in err
+    assert "start moved onto the constraints" in err and "warning" not in err  # no qd given: nothing overridden
     meta = results_io.metadata(results_io.load(out))
     assert meta["start"] == "none"
     assert meta["start_moved"]["qd"]["coordinate"] == "theta1"

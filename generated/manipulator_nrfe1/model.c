@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: d794d98523ce755e
+Input hash: 18e1b68f0bf614cc
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -51,7 +51,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "d794d98523ce755e"; }
+const char *manipulator_nrfe1_input_hash(void) { return "18e1b68f0bf614cc"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }

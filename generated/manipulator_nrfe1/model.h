@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: d794d98523ce755e
+Input hash: 18e1b68f0bf614cc
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 86ea9b247e885c22
+Input hash: 319c6994792a10a3
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -51,7 +51,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "86ea9b247e885c22"; }
+const char *manipulator_nrfe5_input_hash(void) { return "319c6994792a10a3"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 86ea9b247e885c22
+Input hash: 319c6994792a10a3
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -22,6 +22,7 @@ class Case:
     starts: tuple = ()
     actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
+    start_constants: tuple = ()  # parameters the start sets from the model itself (so per n_rfe)
 
     def located(self, action):
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""

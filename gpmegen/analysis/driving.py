@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from ..model.chain import TIME, Joint, point_symbols
+from ..model.chain import TIME, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
 from ..model.expand import expand
 from ..runtime import statics
 from . import results as results_io
@@ -21,9 +21,12 @@ from . import results as results_io
 # Unit of a generalized force on a coordinate, by joint kind.
 FORCE_UNITS = {"revolute": "N·m", "prismatic": "N"}
 # Unit of λ by (constraint order, unit of its expression): λ·Φ̇ (order 0) or λ·Ψ (order 1) is a power.
-LAMBDA_UNITS = {(0, "m"): "N", (0, "m²"): "N/m", (0, "rad"): "N·m",
+LAMBDA_UNITS = {(0, "m"): "N", (0, "m²"): "N/m", (0, "m³"): "N/m²", (0, "rad"): "N·m",
                 (1, "m/s"): "N", (1, "rad/s"): "N·m", (1, "m²/s"): "N/m"}
 GENERALIZED = "generalized"
+# Unit of a coordinate by joint kind, and the powers of a length that an expression's unit names.
+COORDINATE_UNITS = {"revolute": "rad", "prismatic": "m"}
+LENGTH_POWERS = {1: "m", 2: "m²", 3: "m³"}
 
 
 def force_units(model) -> dict:
@@ -31,10 +34,63 @@ def force_units(model) -> dict:
     return {e.name: FORCE_UNITS[e.kind] for e in expand(model).elements if isinstance(e, Joint)}
 
 
+def expression_unit(model, constraint) -> str | None:
+    """The unit of ``constraint``'s expression where its form tells it, else None: one
+    coordinate (its velocity, first order) with coefficient ±1 beside a law of time and
+    parameters (a prescribed joint: rad or m; rad/s or m/s); or a polynomial in the coordinates
+    of points (first order: their velocities) whose terms in them have one degree d and numbers
+    as coefficients (m^d; m/s). Parameters carry no units, so these are the forms that fix it."""
+    expr = sp.sympify(constraint.expression)
+    expanded = expand(model)
+    kinds = {e.name: e.kind for e in expanded.elements if isinstance(e, Joint)}
+    if constraint.order == 0:
+        coordinates = {symbol(name): COORDINATE_UNITS[kind] for name, kind in kinds.items()}
+        points, lengths = {s for p in expanded.points for s in point_symbols(p)}, LENGTH_POWERS
+    elif constraint.order == 1:
+        coordinates = {velocity_symbol(name): COORDINATE_UNITS[kind] + "/s" for name, kind in kinds.items()}
+        points, lengths = {s for p in expanded.points for s in point_velocity_symbols(p)}, {1: "m/s"}
+    else:
+        return None
+    own_coordinates, own_points = expr.free_symbols & coordinates.keys(), expr.free_symbols & points
+    if len(own_coordinates) == 1 and not own_points:
+        (coordinate,) = own_coordinates
+        return coordinates[coordinate] if sp.diff(expr, coordinate) in (sp.S.One, sp.S.NegativeOne) else None
+    if own_points and not own_coordinates:
+        try:
+            terms = [(sum(powers), c) for powers, c in sp.Poly(expr, *sorted(own_points, key=str)).terms()]
+        except sp.PolynomialError:
+            return None
+        degrees = {d for d, _ in terms if d}
+        if len(degrees) == 1 and all(c.is_number for d, c in terms if d):
+            return lengths.get(degrees.pop())
+    return None
+
+
+def joint_laws(model) -> dict:
+    """Coordinate → (constraint name, ±1) for each position constraint of the form ``±q - law(t)``
+    on that coordinate alone (a prescribed joint): its reaction ``Dᵀλ`` is ``±λ`` on that joint
+    and nothing elsewhere, the joint's motor. The reactions of the other constraints on that joint
+    (a slider's guide on a crank) are not its motor's."""
+    kinds = {e.name for e in expand(model).elements if isinstance(e, Joint)}
+    coordinates = {symbol(name): name for name in kinds}
+    points = {s for p in expand(model).points for s in point_symbols(p)}
+    laws = {}
+    for c in model.constraints:
+        expr = sp.sympify(c.expression)
+        own = expr.free_symbols & coordinates.keys()
+        if c.order == 0 and len(own) == 1 and not expr.free_symbols & points:
+            (coordinate,) = own
+            sign = sp.diff(expr, coordinate)
+            if sign in (sp.S.One, sp.S.NegativeOne) and coordinates[coordinate] not in laws:
+                laws[coordinates[coordinate]] = (c.name, int(sign))
+    return laws
+
+
 def lambda_units(model, constraint_units: dict) -> dict:
-    """Unit of each constraint's λ from the unit of its expression (``constraint_units``, name →
-    unit, where the case knows it), else "generalized"."""
-    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name)), GENERALIZED)
+    """Unit of each constraint's λ from the unit of its expression: ``constraint_units`` (name →
+    unit) where the case gives it, else :func:`expression_unit`, else "generalized"."""
+    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name) or expression_unit(model, c)),
+                                     GENERALIZED)
             for c in model.constraints}
 
 
@@ -99,7 +155,8 @@ def annotate(results: dict, model, loaded) -> dict:
     if model is None:  # generated code without its model (a built folder): forces in generalized units
         return results_io.annotate(results, {}, arrays)
     units = {"force_units": force_units(model),
-             "lambda_units": lambda_units(model, meta.get("constraint_units", {}))}
+             "lambda_units": lambda_units(model, meta.get("constraint_units", {})),
+             "joint_laws": {name: list(law) for name, law in joint_laws(model).items()}}
     if "lambda" in results:
         forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"])
         units["force_points"] = list(forces)

@@ -18,8 +18,15 @@ def realization(results) -> str:
 
 def joint_forces(results, name):
     """The generalized force on joint ``name`` that drives it and realizes the constraints: its
-    drive plus ``Dᵀλ`` (ideal) or ``S u`` (actuated), both ``M q̈ - f`` there."""
+    drive plus ``Dᵀλ`` (ideal) or ``S u`` (actuated), both ``M q̈ - f`` there; on a joint with a
+    law of its own (``meta["joint_laws"]``, ideal realization), its drive plus that law's
+    reaction alone: the other constraints' reactions there are passive (a slider's guide on the
+    crank), not the motor's."""
     k = [str(c) for c in results["coordinates"]].index(name)
+    law = metadata(results).get("joint_laws", {}).get(name)
+    if law is not None and "lambda" in results and "u" not in results:
+        i = [str(c) for c in results["constraint_names"]].index(law[0])
+        return results["drive_forces"][:, k] + law[1] * results["lambda"][:, i]
     return results["drive_forces"][:, k] + results["constraint_forces"][:, k]
 
 
@@ -28,10 +35,11 @@ def driving_functions(plt, runs, style):
     joints = plots.joint_names(runs[0])
     units = metadata(runs[0]).get("force_units", {})
     fig, axes = plots._figure(plt, len(joints), 1, 2.2 * len(joints) + 1.0, sharex=True)
+    shaded = False
     for r, s in zip(runs, style):
         for ax, name in zip(axes[:, 0], joints):
             if name in [str(c) for c in r["coordinates"]]:
-                ax.plot(r["t"], joint_forces(r, name), **plots._line(s), lw=1.2)
+                shaded |= plots.trace(ax, r["t"], joint_forces(r, name), s)
     for ax, name in zip(axes[:, 0], joints):
         ax.set_ylabel(f"on {name} [{units.get(name, 'generalized')}]")
         ax.grid(True, alpha=0.3)
@@ -39,31 +47,34 @@ def driving_functions(plt, runs, style):
     ways = {realization(r) for r in runs}
     # the way the constraints are realized names each run only where the runs differ in it
     handles = _handles(runs, style, plots.label if len(ways) == 1 else lambda r: f"{plots.label(r)} ({realization(r)})")
-    plots._finish(fig, plots._title(runs, "Driving functions"), handles,
-                  "Drive plus the generalized forces that realize the programmed motion, on the joints"
-                  + (f" ({ways.pop()})." if len(ways) == 1 else "."))
+    plots._finish(fig, plots._title(runs, "Driving functions"), handles, plots._shaded(
+                  "Drive plus the generalized forces that realize the programmed motion, on the joints "
+                  "(on a joint with its own law, that law's reaction alone)"
+                  + (f" ({ways.pop()})." if len(ways) == 1 else "."), shaded))
     return fig
 
 
 def elastic_deformation(plt, runs, style):
-    """The deflection of E from the rigid arm at the same joints, and the spring moments c·ψ."""
+    """The deflection of E from the rigid arm at the same joints, x, y and z in a panel each (a
+    line style is the run's, never a component's), and the largest spring moment |c·ψ|."""
     pairs = [(r, s) for r, s in zip(runs, style) if "spring_forces" in r and np.any(r["spring_forces"])]
-    fig, axes = plots._figure(plt, 2, 1, 7.0, width=9.0, sharex=True)
-    a1, a2 = axes[:, 0]
+    fig, axes = plots._figure(plt, 4, 1, 9.0, width=9.0, sharex=True)
+    axes = axes[:, 0]
+    shaded = False
     for r, s in pairs:
         for i in range(3):
-            a1.plot(r["t"], 1e3 * r["deflection"][:, i], color=s["color"], linestyle=COMPONENTS[i], lw=1)
-        for j in np.flatnonzero(np.any(r["spring_forces"] != 0, axis=0)):
-            a2.plot(r["t"], r["spring_forces"][:, j], color=s["color"], linestyle=s["linestyle"], lw=0.6, alpha=0.7)
-    a1.set_ylabel("E - E of the rigid arm [mm]")
-    a2.set_ylabel("spring moments c·ψ [N·m]")
-    for ax in (a1, a2):
+            shaded |= plots.trace(axes[i], r["t"], 1e3 * r["deflection"][:, i], s, lw=1)
+        shaded |= plots.trace(axes[3], r["t"], np.max(np.abs(r["spring_forces"]), axis=1), s, lw=1)
+    for i, axis in enumerate("xyz"):
+        axes[i].set_ylabel(f"{axis}: E - rigid E [mm]")
+    axes[3].set_ylabel("largest |c·ψ| [N·m]")
+    for ax in axes:
         ax.grid(True, alpha=0.3)
-    a2.set_xlabel("t [s]")
+    axes[3].set_xlabel("t [s]")
     flexible = [r for r, _ in pairs]
-    handles = _handles(flexible, [s for _, s in pairs]) + _components()
-    plots._finish(fig, plots._title(runs, "Elastic deformation"), handles,
-                  "Top: x, y, z of E's deflection; bottom: the moment of every sde spring, one line each.")
+    plots._finish(fig, plots._title(runs, "Elastic deformation"), _handles(flexible, [s for _, s in pairs]),
+                  plots._shaded("E's deflection from the rigid arm at the same joints, by axis of {0}; the "
+                                "largest moment of the sde springs.", shaded))
     return fig
 
 
@@ -74,39 +85,33 @@ def constraint_multipliers(plt, runs, style):
     names = [str(c) for c in first["constraint_names"]]
     units = metadata(first).get("lambda_units", {})
     with_force = "point_forces" in first
-    rows = len(names) + with_force
-    fig, axes = plots._figure(plt, rows, 1, 2.2 * rows + 1.0, sharex=True)
+    rows = len(names) + 3 * with_force
+    fig, axes = plots._figure(plt, rows, 1, 2.0 * rows + 1.0, sharex=True)
+    shaded = False
     for r, s in pairs:
         for i, name in enumerate(names):
-            axes[i, 0].plot(r["t"], r["lambda"][:, i], **plots._line(s), lw=1.2)
+            shaded |= plots.trace(axes[i, 0], r["t"], r["lambda"][:, i], s)
             axes[i, 0].set_ylabel(f"λ {name} [{units.get(name, 'generalized')}]")
         if with_force and "point_forces" in r:
             point = metadata(r)["force_points"][0]
-            for i in range(3):
-                axes[-1, 0].plot(r["t"], r["point_forces"][:, 0, i], color=s["color"], linestyle=COMPONENTS[i], lw=1)
-            axes[-1, 0].set_ylabel(f"force on {point} in {{0}} [N]")
+            for i, axis in enumerate("xyz"):  # a panel each: a line style is the run's, never a component's
+                ax = axes[len(names) + i, 0]
+                shaded |= plots.trace(ax, r["t"], r["point_forces"][:, 0, i], s, lw=1)
+                ax.set_ylabel(f"{axis}: force on {point} [N]")
     for ax in axes[:, 0]:
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
-    handles = _handles([r for r, _ in pairs], [s for _, s in pairs]) + (_components() if with_force else [])
-    plots._finish(fig, plots._title(runs, "Ideal realization"), handles,
-                  "Multipliers λ of the constraints and the force they put on the constrained point.")
+    handles = _handles([r for r, _ in pairs], [s for _, s in pairs])
+    plots._finish(fig, plots._title(runs, "Ideal realization"), handles, plots._shaded(
+                  "Multipliers λ of the constraints and the force they put on the constrained point, in {0}.",
+                  shaded))
     return fig
-
-
-COMPONENTS = ["-", "--", ":"]  # x, y, z of a vector, in the run's colour
 
 
 def _handles(runs, style, name=plots.label):
     from matplotlib.lines import Line2D
 
     return [Line2D([], [], **plots._line(s), label=name(r)) for r, s in zip(runs, style)]
-
-
-def _components():
-    from matplotlib.lines import Line2D
-
-    return [Line2D([], [], color="0.3", linestyle=ls, label=axis) for ls, axis in zip(COMPONENTS, "xyz")]
 
 
 def figures(runs) -> list:

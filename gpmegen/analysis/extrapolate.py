@@ -132,20 +132,36 @@ def check_flexible(model) -> None:
                                  f"extrapolate a model with a flexible link")
 
 
+def check_same_model(models: dict) -> None:
+    """Refuse symbolic ``models`` (n_rfe → :class:`gpmegen.model.Model`) that are not one model
+    at several discretizations: different joints, points or parameter defaults. Cheap: made
+    before any level runs."""
+    _check_alike({nrfe: (joint_names(m), point_names(m), m.defaults) for nrfe, m in models.items()})
+
+
 def check_comparable(levels: list[Level]) -> None:
     """Refuse levels that are not one model at several discretizations: different joints,
-    points or parameter values, no flexible link, unfinished runs."""
-    first = levels[0]
-    check_flexible(first.model)
+    points or parameter values (but for those the start sets at each level, ``set_at_start``:
+    the reference case's circle constants come from each level's own statics), no flexible
+    link, unfinished runs."""
+    check_flexible(levels[0].model)
     for level in levels:
         status = str(level.results["status"])
         if status != "complete":
             raise ExtrapolationError(f"the run at n_rfe = {level.nrfe} did not finish ({status}): the levels "
                                      f"must cover the same motion; fix that run (a smaller --dt?) first")
-        for what, get in (("joints", lambda lv: joint_names(lv.model)), ("points", lambda lv: list(lv.loaded.points)),
-                          ("parameter values", lambda lv: dict(lv.loaded.params))):
-            if get(level) != get(first):
-                raise ExtrapolationError(f"n_rfe = {level.nrfe} and n_rfe = {first.nrfe}: different {what}, "
+    _check_alike({lv.nrfe: (joint_names(lv.model), list(lv.loaded.points),
+                            {k: v for k, v in lv.loaded.params.items() if k not in lv.set_at_start})
+                  for lv in levels})
+
+
+def _check_alike(described: dict) -> None:
+    """ExtrapolationError unless every n_rfe's (joints, points, parameter values) are the first's."""
+    (first, reference), *others = described.items()
+    for nrfe, description in others:
+        for what, mine, theirs in zip(("joints", "points", "parameter values"), description, reference):
+            if mine != theirs:
+                raise ExtrapolationError(f"n_rfe = {nrfe} and n_rfe = {first}: different {what}, "
                                          f"not one model at two discretizations; extrapolate runs of one model file")
 
 

@@ -28,7 +28,8 @@ def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, prog
     if not len(model.actuators):
         raise ModelError("a stable inversion needs actuated coordinates, one per constraint: give --actuated "
                          "(or a model file's actuators)")
-    inv = inversion.stable_inversion(model, q0, t0, t1, pre, post, nodes=nodes)
+    progress(f"stable inversion on [{t0 - pre:g}, {t1 + post:g}] s from {nodes} mesh nodes")
+    inv = inversion.stable_inversion(model, q0, t0, t1, pre, post, nodes=nodes, progress=progress)
     n = model.n_dof
     drive = np.array([model.drive_forces(t) for t in inv.t])
     inputs = np.zeros((len(inv.t), n))

@@ -19,13 +19,15 @@ from . import cases, runs
 @dataclass
 class Level:
     """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
-    ``loaded`` model its run ended with, the run's ``results`` dict and its wall ``seconds``."""
+    ``loaded`` model its run ended with, the run's ``results`` dict, its wall ``seconds`` and the
+    parameters its start set (``set_at_start``, see :attr:`gpmegen.analysis.cases.Case.start_constants`)."""
 
     nrfe: int
     model: object
     loaded: object
     results: dict
     seconds: float = float("nan")
+    set_at_start: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -95,8 +97,10 @@ def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, 
     the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path` of
     ``out`` (None: kept in memory only), on :func:`pool_size` processes (1: in this process).
     Returns the :class:`Level` of each, by ascending ``nrfe``."""
+    from .extrapolate import check_same_model
     from .sweep import pools
 
+    check_same_model({n: cases.case_for(model_file, n).model for n in sorted(set(nrfe))})
     tasks = [LevelTask(None if model_file is None else str(model_file), n, start, t_end, dt, save_every, method,
                        backend, tuple(sorted(overrides.items())),
                        None if out is None else str(level_path(out, n)), limits.are_lifted())
@@ -121,7 +125,8 @@ def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, 
     for task in tasks:
         case = cases.case_for(task.model_file, task.nrfe)
         loaded = case.started(backend, start, dict(overrides), _quiet).model  # built by the run: loads at once
-        levels.append(Level(task.nrfe, case.model, loaded, done[task.nrfe]["results"], done[task.nrfe]["seconds"]))
+        levels.append(Level(task.nrfe, case.model, loaded, done[task.nrfe]["results"], done[task.nrfe]["seconds"],
+                            case.start_constants))
     return levels
 
 

@@ -78,10 +78,11 @@ class LinearModel:
                 "coordinates": np.array(self.coordinates, dtype=object), "where": self.where}
 
 
-def refuse_velocity_constraints(model) -> None:
-    """ModelError for constraints of first or second order: they hold velocities or accelerations,
-    not positions, so the dependent coordinates do not follow from the independent ones."""
-    names = [name for name, order in zip(model.constraint_names, model.constraint_orders) if order != 0]
+def refuse_velocity_constraints(names, orders) -> None:
+    """ModelError for constraints (``names``, their ``orders``) of first or second order: they hold
+    velocities or accelerations, not positions, so the dependent coordinates do not follow from
+    the independent ones."""
+    names = [name for name, order in zip(names, orders) if order != 0]
     if names:
         raise ModelError(f"the constraint(s) {', '.join(map(repr, names))} of first or second order hold "
                          f"velocities or accelerations, not positions, so the states cannot be the independent "
@@ -105,7 +106,7 @@ def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
     """The linear model of ``model`` (loaded with its Jacobians, ideal realization) about
     ``(t, q, qd)``, with inputs on the coordinates named in ``inputs``. The partition is chosen at
     the state (pivoted QR of ``D``) unless the model fixes it."""
-    refuse_velocity_constraints(model)
+    refuse_velocity_constraints(model.constraint_names, model.constraint_orders)
     unknown = [name for name in inputs if name not in model.coordinates]
     if unknown:
         raise ModelError(f"inputs {', '.join(map(repr, unknown))}: not coordinates of {model.module.MODEL}; name "

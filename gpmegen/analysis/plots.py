@@ -48,10 +48,45 @@ def _pyplot():
 
 def label(results) -> str:
     """A legend label: the run's case's label (the model's name by default) and its start
-    unless it is the locked statics."""
+    unless it is the locked statics; with what tells it from the runs it is drawn beside, where
+    :func:`distinguished` put it there."""
+    if LEGEND in results:
+        return results[LEGEND]
     meta = metadata(results)
     text, start = meta.get("label", meta["model"]), meta["start"]
     return text if start == "locked" else f"{text} (no statics)" if start == "none" else f"{text} ({start} start)"
+
+
+LEGEND = "_legend"  # a run's label among others, set by distinguished() on a copy of its results
+# The settings that can tell runs of one model apart, as a legend names them.
+DISTINGUISHING = (("method", "{}"), ("dt", "dt {:g} s"), ("rtol", "rtol {:g}"), ("rho_inf", "ρ∞ {:g}"),
+                  ("backend", "{}"))
+
+
+def distinguished(runs: list) -> list:
+    """Copies of ``runs`` whose legend labels name what differs between them where their own
+    labels are alike: the settings of :data:`DISTINGUISHING` and the parameter values (runs by
+    rk4, genalpha and dop853 of one model had one label for all three)."""
+    base = [label(r) for r in runs]
+    if len(set(base)) == len(base):
+        return runs
+    metas = [metadata(r) for r in runs]
+    settings = [m.get("settings", {}) for m in metas]
+    params = [m.get("params", {}) for m in metas]
+    differ = []
+    for key, form in DISTINGUISHING:
+        values = [s.get(key) for s in settings]
+        if len({repr(v) for v in values}) > 1:
+            differ.append(lambda k, key=key, form=form: form.format(settings[k][key])
+                          if settings[k].get(key) is not None else None)
+    for name in sorted({n for p in params for n in p}):
+        if len({repr(p.get(name)) for p in params}) > 1:
+            differ.append(lambda k, name=name: f"{name} = {params[k][name]:.6g}" if name in params[k] else None)
+    out = []
+    for k, r in enumerate(runs):
+        extra = [text for text in (d(k) for d in differ) if text]
+        out.append({**r, LEGEND: base[k] + (f", {', '.join(extra)}" if extra else "")})
+    return out
 
 
 def joint_names(results) -> list:
@@ -103,6 +138,44 @@ def styles(runs: list) -> list[dict]:
 def _line(style) -> dict:
     """A run's style for a plain line (no markers)."""
     return {"color": style["color"], "linestyle": style["linestyle"]}
+
+
+# A signal whose samples turn (a local extremum) at more than this share of them vibrates faster
+# than they can draw: a line through them fills a band (a smooth motion turns a few times).
+RINGING = 0.2
+
+
+def ringing(values) -> bool:
+    """Whether the samples ``values`` (k,) vibrate faster than a line through them can show."""
+    step = np.diff(values)
+    return len(values) > 2 * WINDOWS and np.count_nonzero(step[1:] * step[:-1] < 0) > RINGING * len(values)
+
+
+def trace(ax, t, values, style, lw=1.2) -> bool:
+    """``values`` (k,) against ``t`` in a run's ``style``: a line; for a :func:`ringing` signal
+    (a flexible arm's kHz vibration saved every ms) its envelope, the least and largest in each of
+    :data:`WINDOWS` windows, shaded in the run's colour, and the windows' mean as the line, so
+    that the vibration neither becomes a solid block nor hides the other runs' curves. Returns
+    whether it shaded an envelope (for the caption: :data:`SHADED`)."""
+    if not ringing(values):
+        ax.plot(t, values, **_line(style), lw=lw)
+        return False
+    chunks = np.array_split(np.arange(len(t)), min(WINDOWS, len(t)))
+    middle = np.array([t[c[len(c) // 2]] for c in chunks])
+    ax.fill_between(middle, [values[c].min() for c in chunks], [values[c].max() for c in chunks],
+                    color=style["color"], alpha=0.25, lw=0)
+    ax.plot(middle, [values[c].mean() for c in chunks], **_line(style), lw=lw)
+    return True
+
+
+SHADED = "shaded: the band of a vibration faster than the samples, the line its mean"
+
+
+def _shaded(caption, shaded: bool):
+    """``caption`` (or None) with :data:`SHADED` where a panel shaded an envelope."""
+    if not shaded:
+        return caption
+    return f"{caption.rstrip('.')}; {SHADED}." if caption else SHADED[0].upper() + SHADED[1:] + "."
 
 
 def _title(runs, title) -> str:
@@ -166,17 +239,18 @@ def joint_coordinates(plt, runs, style):
     joints = joint_names(runs[0])
     pretty = metadata(runs[0]).get("joint_labels", {})
     fig, axes = _figure(plt, len(joints), 1, 2.2 * len(joints) + 1.0, sharex=True)
+    shaded = False
     for r, s in zip(runs, style):
         for ax, name in zip(axes[:, 0], joints):
             v = _coordinate(r, name)
             if v is not None:
-                ax.plot(r["t"], v, **_line(s), lw=1.2)
+                shaded |= trace(ax, r["t"], v, s)
     for ax, name in zip(axes[:, 0], joints):
         ax.set_ylabel(pretty.get(name, name))
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     _finish(fig, _title(runs, "Joint coordinates"), _run_handles(runs, style),
-            _caption(runs, "joint_coordinates"))
+            _shaded(_caption(runs, "joint_coordinates"), shaded))
     return fig
 
 
@@ -186,10 +260,10 @@ def end_effector(plt, runs, style):
 
     fig, axes = _figure(plt, 3, 1, 7.5, sharex=True)
     axes = axes[:, 0]
-    extra = []
+    extra, shaded = [], False
     for r, s in zip(runs, style):
         for i, ax in enumerate(axes):
-            ax.plot(r["t"], r["end_effector"][:, i], **_line(s), lw=1.2)
+            shaded |= trace(ax, r["t"], r["end_effector"][:, i], s)
         prescribed = metadata(r).get("prescribed")
         if prescribed and "prescribed" in r:
             axes[prescribed["axis"]].plot(r["t"], r["prescribed"], ":", color="k", lw=1)
@@ -200,7 +274,7 @@ def end_effector(plt, runs, style):
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("t [s]")
     _finish(fig, _title(runs, "Coordinates of the end-effector E"), _run_handles(runs, style) + extra,
-            _caption(runs, "end_effector"))
+            _shaded(_caption(runs, "end_effector"), shaded))
     return fig
 
 
@@ -344,6 +418,7 @@ def plot_all(runs: list, out, formats=("png",), names=None) -> list[Path]:
     if not formats or not set(formats) <= set(FORMATS):
         raise ValueError(f"figure formats {formats}: choose among {', '.join(FORMATS)}")
     check_compatible(runs, names)
+    runs = distinguished(runs)
     plt = _pyplot()
     out = Path(out)
     style = styles(runs)

@@ -68,6 +68,7 @@ class ReferenceCase(Case):
     """The paper's manipulator with its arm cut into ``nrfe`` rfes (1: rigid)."""
 
     starts = ("locked", "constrained")
+    start_constants = CONSTANTS
     start_refusal = ("--statics none is for model files; the reference case starts from statics "
                      "(--statics locked or constrained)")
 
@@ -102,7 +103,7 @@ class ReferenceCase(Case):
         model = self.load(backend, {k: v for k, v in overrides.items() if k not in CONSTANTS}, progress)
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
         model, q = initial_state(model, start, overrides)
-        return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT)
+        return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT, given_qd=frozenset())
 
     def shown(self, model) -> list[str]:
         return list(START_JOINTS)

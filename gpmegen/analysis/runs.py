@@ -49,7 +49,8 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     from ..runtime import integrate
 
     if method in ("rk4", *integrate.COMPILED):  # the chunked loops
-        bar = integrate.Progress(t_end, case.label, enabled=sys.stderr.isatty())
+        bar = integrate.Progress(t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(),
+                                 lines_every=integrate.PROGRESS_LINES)
     res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
                          repartition=repartition, notify=progress, qd0=begun.qd,
                          internal_dynamics=internal_dynamics, save_dt=save_dt, rtol=rtol, atol=atol,

@@ -89,12 +89,15 @@ def project_velocities(model, q, qd, t=0.0):
 class Start:
     """A consistent start: the ``model`` (with its partition), ``q`` and ``qd`` (n,) on the
     programmed constraints at t = 0, and ``moved``: for "q" and "qd", the largest change that
-    putting them there made (rad or m, rad/s or m/s) and the coordinate it was made on."""
+    putting them there made (rad or m, rad/s or m/s) and the coordinate it was made on;
+    ``overridden``: the same, over the values the user gave only (all of ``q``; of ``qd``, the
+    velocities given: the others are the constraints' to solve, so changing them is no warning)."""
 
     model: object
     q: np.ndarray
     qd: np.ndarray
     moved: dict = field(default_factory=dict)
+    overridden: dict = field(default_factory=dict)
 
     def report(self) -> str:
         """One line: how far the start was moved onto the constraints."""
@@ -102,8 +105,8 @@ class Start:
             f"max|Δ{key}| = {value:.3e}" + (f" ({name})" if value else "") for key, (value, name) in self.moved.items())
 
     def warning(self) -> str | None:
-        """One line when the start was moved by more than :data:`MOVE_WARNING`, else None."""
-        far = {key: (value, name) for key, (value, name) in self.moved.items() if value > MOVE_WARNING}
+        """One line when a value the user gave was changed by more than :data:`MOVE_WARNING`, else None."""
+        far = {key: (value, name) for key, (value, name) in self.overridden.items() if value > MOVE_WARNING}
         if not far:
             return None
         given = " and ".join(f"[initial] {key}" for key in far)
@@ -118,21 +121,27 @@ class Start:
         return {key: {"max_change": float(value), "coordinate": name} for key, (value, name) in self.moved.items()}
 
 
-def largest_change(model, before, after):
-    """(largest |after - before|, the coordinate it is on)."""
+def largest_change(model, before, after, among=None):
+    """(largest |after - before|, the coordinate it is on), over the coordinates named in
+    ``among`` (default: all)."""
     change = np.abs(np.asarray(after) - np.asarray(before))
-    if not change.size:
+    if among is not None:
+        change = np.where([name in among for name in model.coordinates], change, 0.0)
+    if not change.size or not change.any():
         return 0.0, ""
     k = int(np.argmax(change))
     return float(change[k]), model.coordinates[k]
 
 
-def consistent(model, q, qd, t=0.0, hint=None) -> Start:
+def consistent(model, q, qd, t=0.0, hint=None, given_qd=None) -> Start:
     """``q`` moved onto Φ = 0, then ``qd`` onto the constraint velocities, with the report of
-    how far each moved (see :class:`Start`)."""
+    how far each moved (see :class:`Start`). ``given_qd``: the coordinates whose velocity the
+    user gave (default: all of them)."""
     q_on = project_onto_constraints(model, q, t, hint=hint) if len(model.constraint_names) else np.array(q, float)
     qd_on = project_velocities(model, q_on, qd, t)
-    return Start(model, q_on, qd_on, {"q": largest_change(model, q, q_on), "qd": largest_change(model, qd, qd_on)})
+    q_moved = largest_change(model, q, q_on)
+    return Start(model, q_on, qd_on, {"q": q_moved, "qd": largest_change(model, qd, qd_on)},
+                 {"q": q_moved, "qd": largest_change(model, qd, qd_on, given_qd)})
 
 
 def vector_of(model, values: dict) -> np.ndarray:
@@ -156,7 +165,7 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
         model = partition.partition_at(model, q)
     if start == "locked":
         q = statics.locked(model, q)
-    begun = consistent(model, q, vector_of(model, velocities or {}))
+    begun = consistent(model, q, vector_of(model, velocities or {}), given_qd=frozenset(velocities or ()))
     if start == "constrained":
         begun.q = statics.constrained(model, begun.q)
         begun.qd = project_velocities(model, begun.q, begun.qd)

@@ -107,7 +107,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     t0 = time.perf_counter()
     n_dof = limits.model_coordinates(model)
     say(f"deriving the equations of motion of {n_dof} coordinates (deriving and printing estimated at "
-        f"{limits.duration(limits.interpolate(limits.BUILD_SECONDS, n_dof))} of CPU time)")
+        f"{limits.duration(limits.build_seconds(n_dof, jacobians))} of CPU time"
+        + (", with the acceleration Jacobians)" if jacobians else ")"))
     d = derive(model)
     say(f"derived {len(d.program.definitions)} intermediate quantities for {d.chain.n_dof} coordinates "
         f"in {time.perf_counter() - t0:.1f} s")
@@ -187,13 +188,14 @@ def _build_locked(model, folder, backends, force, progress, command, digest, tra
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
     if not force:
-        reason = stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]])
+        reason = stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]],
+                              jacobians, transforms)
         if reason is None:
             files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
         if manifest is not None and progress is not None:
             progress(f"{reason}: building it again")
-    limits.check_build(limits.model_coordinates(model), model.name)
+    limits.check_build(limits.model_coordinates(model), model.name, jacobians=jacobians)
     texts = render(model, backends, progress, command, digest, transforms, jacobians)
     write_folder(folder, texts)
     return BuildResult(

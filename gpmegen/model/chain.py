@@ -110,14 +110,15 @@ class Joint:
     """One coordinate: rotation about (revolute, rad) or translation along (prismatic, m) an
     axis of the current frame: a principal axis ``"x"``, ``"y"``, ``"z"`` or a constant unit
     vector ``(ax, ay, az)`` of numbers (:func:`gpmegen.model.expand.expand` normalizes it and
-    writes a principal one as its letter). ``stiffness`` and ``damping`` add the generalized
-    force ``-stiffness*q - damping*qd`` (a spring to ``q = 0``)."""
+    writes a principal one as its letter). ``stiffness``, ``rest`` and ``damping`` add the
+    generalized force ``-stiffness*(q - rest) - damping*qd`` (a spring to ``q = rest``, rad or m)."""
 
     name: str
     kind: str
     axis: str | tuple
     stiffness: sp.Expr = sp.S.Zero
     damping: sp.Expr = sp.S.Zero
+    rest: sp.Expr = sp.S.Zero
 
 
 @dataclass(frozen=True)

@@ -132,7 +132,7 @@ def _check_element(element, path, names: _Names, constant: set):
         if element.kind not in JOINT_KINDS:
             raise ModelError(f"joint {element.name!r}: unknown kind {element.kind!r}; use one of "
                              f"{', '.join(JOINT_KINDS)}", table + ("type",))
-        for key in ("stiffness", "damping"):
+        for key in ("stiffness", "rest", "damping"):
             _check_expression(getattr(element, key), constant, f"joint {element.name!r} {key}", table + (key,))
         return dataclasses.replace(element, axis=joint_axis(element, table + ("axis",)))
     elif isinstance(element, Body):

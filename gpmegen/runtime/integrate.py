@@ -33,26 +33,51 @@ def violation(model, t, q, qd, limit) -> Outcome | None:
     return None
 
 
-class Progress:
-    """A one-line progress bar on stderr (quiet when not a terminal unless forced)."""
+#: Wall time (s) between two progress lines where no bar can be drawn (a log, a pipe).
+PROGRESS_LINES = 10.0
 
-    def __init__(self, total: float, label: str, enabled: bool | None = None):
+
+class Progress:
+    """A one-line progress bar on stderr (quiet when not a terminal unless forced); elsewhere (a
+    log, a pipe), with ``lines_every`` (s of wall time), a plain line at most that often, the
+    first after that long, so that short work prints nothing and long work is never silent."""
+
+    def __init__(self, total: float, label: str, enabled: bool | None = None, lines_every: float | None = None):
         self.total, self.label = total, label
         self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.lines_every = None if self.enabled else lines_every
         self.start = time.perf_counter()
-        self.last = 0.0
+        self.last = 0.0 if self.enabled else self.start
+        self.lines, self.ended = 0, False
 
     def update(self, done: float):
         now = time.perf_counter()
+        if self.lines_every is not None:
+            self._line(done, now)
         if not self.enabled or (now - self.last < 0.25 and done < self.total):  # the end is always drawn
             return
         self.last = now
-        frac = min(done / self.total, 1.0) if self.total else 1.0
-        elapsed = now - self.start
-        eta = elapsed / frac - elapsed if frac > 0 else float("nan")
+        frac, elapsed, eta = self._measure(done, now)
         bar = "#" * int(30 * frac)
         print(f"\r{self.label} [{bar:<30}] {100 * frac:5.1f}%  {elapsed:6.1f} s, {eta:6.1f} s left",
               end="", file=sys.stderr, flush=True)
+
+    def _measure(self, done, now):
+        """(fraction done, s elapsed, s left at the pace so far)."""
+        frac = min(done / self.total, 1.0) if self.total else 1.0
+        elapsed = now - self.start
+        return frac, elapsed, elapsed / frac - elapsed if frac > 0 else float("nan")
+
+    def _line(self, done, now):
+        finished = done >= self.total
+        if self.ended or not (now - self.last >= self.lines_every or (finished and self.lines)):
+            return
+        self.last = now
+        frac, elapsed, eta = self._measure(done, now)
+        self.lines, self.ended = self.lines + 1, finished
+        left = "done" if finished else f"about {eta:.0f} s left"
+        print(f"{self.label}: {done:.6g} of {self.total:.6g} ({100 * frac:.0f} %) in {elapsed:.0f} s, {left}",
+              file=sys.stderr, flush=True)
 
     def close(self):
         if self.enabled:
@@ -366,6 +391,16 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
     t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
     return t, y, outcome, Effort(*(int(c) for c in counts))
+
+
+# The save interval when none is asked (s): that of the paper's run (1e-5 s steps, every 100th).
+SAVE_INTERVAL = 1e-3
+
+
+def default_save_every(dt: float) -> int:
+    """The steps of ``dt`` (s) saved once when the user asks for no interval: about
+    :data:`SAVE_INTERVAL`, whatever the step (every step when it is longer)."""
+    return max(1, int(round(SAVE_INTERVAL / dt)))
 
 
 def save_steps(dt: float, save_dt: float) -> int | None:

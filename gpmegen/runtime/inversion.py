@@ -15,6 +15,7 @@ neutral coordinate left to the internal dynamics).
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ from scipy.integrate import solve_bvp
 
 from ..errors import SimulationError
 from . import internal
+from .integrate import PROGRESS_LINES
 
 # Relative step of the differences of the actuated equations.
 STEP = 1e-7
@@ -112,15 +114,47 @@ def _hyperbolic(model, t, y_rest, rhs):
     return _jacobian(rhs, t, y_rest)
 
 
-def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6) -> Inversion:
+# Samples of the programmed law in each window outside [t0, t1] where it must be at rest, and the
+# share of its largest rate within [t0, t1] above which it counts as moving there.
+REST_SAMPLES = 201
+REST_RATE = 1e-9
+
+
+def check_at_rest_outside(model, q, t0, t1, pre, post) -> None:
+    """SimulationError when the programmed law moves in ``[t0 - pre, t0)`` or ``(t1, t1 + post]``:
+    the bounded solution is that of a motion at rest outside ``[t0, t1]``, so a law already moving
+    there would give inputs whose start (or end) is not at rest. Moving: a rate ``∂Φ/∂t`` at ``q``
+    (n,) above :data:`REST_RATE` of its largest within ``[t0, t1]``."""
+    zero = np.zeros(model.n_dof)
+    position = np.asarray(model.constraint_orders) == 0
+
+    def rates(times):  # at rest: Φ̇ of position constraints, Ψ of first-order ones, are their time terms
+        terms = [model.constraint_terms(t, q, zero) for t in times]
+        return np.array([np.max(np.abs(np.where(position, rate, phi)), initial=0.0) for phi, rate, _, _ in terms])
+
+    peak = np.max(rates(np.linspace(t0, t1, REST_SAMPLES)), initial=0.0)
+    for name, times, fix in (("before t0", np.linspace(t0 - pre, t0, REST_SAMPLES)[:-1], "an earlier --t0"),
+                             ("after t1", np.linspace(t1, t1 + post, REST_SAMPLES)[1:], "a later --t1")):
+        moving = np.flatnonzero(rates(times) > REST_RATE * max(peak, np.finfo(float).tiny))
+        if len(moving):
+            t = times[moving[0]] if name == "before t0" else times[moving[-1]]
+            raise SimulationError(
+                f"the programmed motion moves {name} ({t0:g} to {t1:g} s): its constraints change at t = {t:.6g} s; "
+                f"stable inversion is for a motion at rest outside [t0, t1]: give {fix} (where the motion is at "
+                f"rest)")
+
+
+def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6, progress=None) -> Inversion:
     """The bounded solution of ``model``'s actuated realization (actuators set) for a programmed
     motion at rest before ``t0`` and after ``t1`` (s), on ``[t0 - pre, t1 + post]`` with
     ``nodes`` mesh points at first and the BVP's relative residual ``tol``; ``q_guess`` (n,)
-    starts the Newton search of the rest states."""
+    starts the Newton search of the rest states. ``progress`` (a callable taking one line) is
+    told the mesh the solver works on, every :data:`gpmegen.runtime.integrate.PROGRESS_LINES` s."""
     n = model.n_dof
     rhs = _rhs(model)
     ta, tb = t0 - pre, t1 + post
     start = np.concatenate([rest(model, q_guess, t0), np.zeros(n)])
+    check_at_rest_outside(model, start[:n], t0, t1, pre, post)
     end = np.concatenate([rest(model, start[:n], t1), np.zeros(n)])
     rows_a = _rows(_hyperbolic(model, t0, start, rhs), lambda v: v.real < 0)
     rows_b = _rows(_hyperbolic(model, t1, end, rhs), lambda v: v.real > 0)
@@ -128,7 +162,14 @@ def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6) -> 
         raise SimulationError("stable inversion: the rest states' stable and unstable directions do not add up "
                               "to the state's dimension")
 
+    began = last = time.perf_counter()
+
     def fun(t, y):
+        nonlocal last
+        now = time.perf_counter()
+        if progress is not None and now - last >= PROGRESS_LINES:
+            last = now
+            progress(f"stable inversion: solving on a mesh of {len(t)} nodes, {now - began:.0f} s so far")
         return np.column_stack([rhs(t[k], y[:, k]) for k in range(len(t))])
 
     def bc(ya, yb):

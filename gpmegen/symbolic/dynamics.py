@@ -143,7 +143,7 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
             if any(gvec):
                 K[i, j] = K[j, i] = define(-gvec.dot(ji.omega.cross(l_j)))
 
-    spring = sp.Matrix([jt.stiffness * kin.q[j] for j, jt in enumerate(kin.joints)])
+    spring = sp.Matrix([jt.stiffness * (kin.q[j] - jt.rest) for j, jt in enumerate(kin.joints)])
     damping = sp.Matrix([jt.damping * kin.qd[j] for j, jt in enumerate(kin.joints)])
     for j, jt in enumerate(kin.joints):
         K[j, j] = K[j, j] + jt.stiffness
@@ -153,5 +153,5 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         drive[index[d.coordinate]] += sp.sympify(d.expression)
 
     potential = -sum((gvec.dot(c) for _, _, c, *_ in per_body), sp.S.Zero)
-    spring_energy = sum((jt.stiffness * kin.q[j] ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
+    spring_energy = sum((jt.stiffness * (kin.q[j] - jt.rest) ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
     return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body))

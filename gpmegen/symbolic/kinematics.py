@@ -41,7 +41,7 @@ def rotation_about(axis, c, s) -> sp.Matrix:
 
 @dataclass
 class JointTwist:
-    """Joint ``index`` of the chain: its world twist ``(ω, v)`` and spring/damper."""
+    """Joint ``index`` of the chain: its world twist ``(ω, v)`` and spring (to ``rest``)/damper."""
 
     index: int
     name: str
@@ -50,6 +50,7 @@ class JointTwist:
     v: sp.Matrix
     stiffness: sp.Expr
     damping: sp.Expr
+    rest: sp.Expr = sp.S.Zero
 
 
 @dataclass
@@ -139,7 +140,8 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
                 p = define_all(p + v * q[j])
                 d_alpha, d_a = zero, w.cross(v)
             joints.append(JointTwist(j, element.name, element.kind, omega, v,
-                                     sp.sympify(element.stiffness), sp.sympify(element.damping)))
+                                     sp.sympify(element.stiffness), sp.sympify(element.damping),
+                                     sp.sympify(element.rest)))
             alpha = define_all(alpha + d_alpha * qd[j])
             a = define_all(a + d_a * qd[j])
             w = define_all(w + omega * qd[j])

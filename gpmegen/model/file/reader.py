@@ -403,7 +403,7 @@ class Reader:
         return tuple(elements)
 
     def read_joint(self, item, path):
-        keys = ("joint", "type", "axis", "stiffness", "damping", "prescribed")
+        keys = ("joint", "type", "axis", "stiffness", "rest", "damping", "prescribed")
         self.table(item, path, keys, keys[:3], "joint")
         name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
         kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
@@ -412,9 +412,12 @@ class Reader:
         else:
             axis = self.choice(item["axis"], path + ("axis",), AXES, "axis")
         extra = {}
-        for key in ("stiffness", "damping"):
+        for key in ("stiffness", "rest", "damping"):
             if key in item:
                 extra[key] = self.quantity(item[key], path + (key,), self.params)
+        if "rest" in item and "stiffness" not in item:
+            self.fail(path + ("rest",), f"joint {name!r} has a rest position but no spring; add stiffness = ... "
+                                        f"or leave rest out")
         self.coordinates.append(name)
         if "prescribed" in item:
             here = path + ("prescribed",)
