@@ -70,3 +70,18 @@ def test_a_rest_position_without_a_spring_is_refused(tmp_path):
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ModelError, match="rest position but no spring; add stiffness"):
         gpmegen.load_model_file(path)
+
+
+def test_the_rest_position_goes_through_urdf_and_back(tmp_path):
+    """Exported to URDF (gpmegen's spring element) and imported again, the spring still pulls to
+    its rest position; without it the round trip would make it a spring to 0."""
+    from gpmegen.model.urdf import import_urdf
+    from gpmegen.model.urdf_export import urdf_text
+
+    model = gpmegen.load_model_file(pendulum(tmp_path))
+    path = tmp_path / "pendulum.urdf"
+    path.write_text(urdf_text(model), encoding="utf-8")
+    assert 'rest="0.3' in path.read_text(encoding="utf-8")
+    again = gpmegen.load(model=import_urdf(path).model, backend="numpy", directory=tmp_path / "gen")
+    for q in (-0.4, 0.3, 1.1):
+        assert again.forces(0.0, np.array([q]), np.zeros(1))[0] == pytest.approx(-40.0 * (q - 0.3), rel=1e-12)

@@ -291,7 +291,7 @@ def _chain(tree: UrdfTree, moving: list, flex: dict, extra: tuple, joints: dict,
             chain += _offset(_frame(tree, head, held, joint.parent) @ joint.origin)
             kind = "prismatic" if joint.type == "prismatic" else "revolute"
             chain.append(Joint(joints[joint.name], kind, joint.axis, stiffness=joint.stiffness,
-                               damping=joint.damping))
+                               damping=joint.damping, rest=joint.rest))
             head = joint.child
         chain += _group(tree, head, held, flex.get(head), extra, joint, links)
     return chain

@@ -6,7 +6,7 @@ are its ``<origin>``; the bodies between two joints make that link's ``<inertial
 pseudo-inertias added) and a visual box of the same mass and principal moments; an sde's
 rotations are consecutive joints, so the links between them have zero mass. Named points are
 links fixed to theirs. A joint's spring and damper, which URDF cannot hold, are written in the
-extension element ``<gpmegen:spring stiffness="..." damping="..."/>`` (namespace
+extension element ``<gpmegen:spring stiffness="..." damping="..." rest="..."/>`` (namespace
 :data:`NAMESPACE`; N·m/rad and N·m·s/rad, or N/m and N·s/m) inside the ``<joint>``, the
 damper also as URDF's own ``<dynamics damping>``. Gravity and constraints are not exported.
 """
@@ -100,11 +100,12 @@ def _joint(robot, parent: str, child: str, joint: Joint, T, values):
     ET.SubElement(element, "axis", {"xyz": _vector(axis)})
     if kind == "prismatic":   # URDF requires limits on a prismatic joint; gpmegen has none
         ET.SubElement(element, "limit", {"lower": "-1e3", "upper": "1e3", "effort": "0", "velocity": "0"})
-    stiffness, damping = (_value(getattr(joint, key), values) for key in ("stiffness", "damping"))
+    stiffness, damping, rest = (_value(getattr(joint, key), values) for key in ("stiffness", "damping", "rest"))
     if damping:
         ET.SubElement(element, "dynamics", {"damping": _number(damping)})
     if stiffness or damping:
-        ET.SubElement(element, SPRING, {"stiffness": _number(stiffness), "damping": _number(damping)})
+        spring = {"stiffness": _number(stiffness), "damping": _number(damping)}
+        ET.SubElement(element, SPRING, {**spring, "rest": _number(rest)} if rest else spring)
 
 
 def _value(expr, values) -> float:

@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import ModelError
 
 SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
-# gpmegen's URDF extension: <gpmegen:spring stiffness="..." damping="..."/> in a <joint>, the
+# gpmegen's URDF extension: <gpmegen:spring stiffness="..." damping="..." rest="..."/> in a <joint>, the
 # spring to q = 0 and the viscous damper that URDF cannot hold (gpmegen export writes it).
 NAMESPACE = "urn:gpmegen:urdf:1"
 SPRING = f"{{{NAMESPACE}}}spring"
@@ -50,8 +50,9 @@ class UrdfJoint:
     axis in the joint frame, and the data gpmegen keeps but does not use for the dynamics
     (``limit``: lower, upper (rad or m), effort (N·m or N), velocity (rad/s or m/s), None where
     the file gives none; ``friction``). ``damping`` (N·m·s/rad or N·s/m) acts as a viscous
-    damper on the coordinate, ``stiffness`` (N·m/rad or N/m) as a spring to ``q = 0``; both come
-    from ``<gpmegen:spring>`` when the joint has one, the damping else from ``<dynamics>``."""
+    damper on the coordinate, ``stiffness`` (N·m/rad or N/m) as a spring to ``q = rest`` (rad or
+    m, default 0); they come from ``<gpmegen:spring>`` when the joint has one, the damping else
+    from ``<dynamics>``."""
 
     name: str
     type: str
@@ -64,6 +65,7 @@ class UrdfJoint:
     friction: float
     stiffness: float = 0.0
     mimic: tuple | None = None   # <mimic>: (leader joint, multiplier, offset), q = multiplier·q_leader + offset
+    rest: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -229,10 +231,11 @@ def _joint(file, joint, links, element) -> UrdfJoint:
     origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, float)
     origin = _finite_origin(file, where, element, origin)
     spring = element.find(SPRING) if element is not None else None
-    stiffness = 0.0
+    stiffness = rest = 0.0
     if spring is not None:
         here = f"{where} <gpmegen:spring"
         stiffness = _number(file, spring.get("stiffness"), f"{here} stiffness>")
+        rest = _number(file, spring.get("rest"), f"{here} rest>")
         damping = _number(file, spring.get("damping"), f"{here} damping>")
         if stiffness < 0 or damping < 0:
             raise ModelError(f"{file}: {here}> has a negative stiffness or damping; give values of 0 or more")
@@ -244,7 +247,7 @@ def _joint(file, joint, links, element) -> UrdfJoint:
             for key, value, default in (("multiplier", joint.mimic.multiplier, 1.0),
                                         ("offset", joint.mimic.offset, 0.0)))
     return UrdfJoint(joint.name, joint.type, joint.parent, joint.child, origin, axis, numbers, damping, friction,
-                     stiffness, mimic)
+                     stiffness, mimic, rest)
 
 
 def _root(file, links, joints) -> str:
