@@ -61,3 +61,17 @@ class EvaluationError(SimulationError):
 class ExtrapolationError(GpmegenError):
     """Runs that cannot be extrapolated across discretizations: outputs not comparable between
     them, different models, fewer than two levels, a level that did not finish."""
+
+
+class OutputError(GpmegenError):
+    """An output cannot be written where it was asked: over one of the command's own inputs,
+    over an earlier output without leave, over a folder gpmegen did not make, or into a folder
+    that cannot be written."""
+
+
+class UnwritableFolderError(OutputError, OSError):
+    """A folder an output goes into cannot be written (an OSError too, for callers that treat
+    any failed write alike); its text is the whole message."""
+
+    def __str__(self):
+        return self.strerror or super().__str__()

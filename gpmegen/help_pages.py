@@ -187,7 +187,7 @@ examples:
 files written:
   <results>/run_nrfe1.npz, run_nrfe5.npz and their .csv (default results/);
   <figures>/joint_coordinates.png, end_effector.png, path.png, constraint_violation.png,
-  energy_balance.png (default figures/)""",
+  energy_balance.png (default figures/); those of an earlier demo are replaced only with --overwrite""",
     "animate": """\
 examples:
   gpmegen animate results/run_nrfe5.npz --out arm.gif --magnify 20
