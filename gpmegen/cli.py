@@ -179,9 +179,10 @@ def transform_kinds(text: str) -> tuple:
 def cmd_build(args) -> int:
     from .codegen import build
     from .folder import check_replaceable, read_manifest
+    from .runtime.loader import default_directory
     from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 
-    out = Path(args.out)
+    out = Path(args.out) if args.out is not None else default_directory()  # where the other commands look
     cases = [_case(args.model_file, n) for n in (args.nrfe or [None])]
     models = [case.model for case in cases]  # a bad model is refused before anything is written
     for model in models:  # a folder without gpmegen's manifest is always built again, so refused at once
@@ -703,7 +704,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "manipulator")
     b.add_argument("--nrfe", type=positive_int, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
-    b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
+    b.add_argument("--out", type=path_argument, default=None,
+                   help="output folder (default: where the other commands look for models: $GPMEGEN_GENERATED, "
+                        "else generated/ of the source checkout when inside it, else ./generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.add_argument("--transforms", type=transform_kinds, default=None, metavar="T,T_i,T_ij",
                    help="body transforms to generate: T (4x4 per body, the default), its first derivatives T_i and "

@@ -87,7 +87,9 @@ examples:
   gpmegen build examples/panda_flexible.toml --nrfe 2   (a URDF with a link made flexible)
 
 files written:
-  <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: generated/)""",
+  <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: the folder where the
+  other commands look for models: $GPMEGEN_GENERATED, else the source checkout's generated/ when
+  inside it, else ./generated/); a folder that gpmegen did not make is never replaced""",
     "simulate": """\
 examples:
   gpmegen simulate --nrfe 5 --t-end 10 --dt 1e-5

@@ -158,3 +158,50 @@ def test_a_read_only_output_folder_is_named_with_its_cause_not_a_temporary_file(
     assert line == (f"gpmegen export: error: output folder {folder} is not writable (Permission denied); choose "
                     f"another --out, or make it writable")
     assert not any(folder.iterdir())
+
+
+# ---- one place for models: where build writes, the other commands look -----------------------
+
+def test_outside_the_checkout_simulate_uses_the_folder_build_made(tmp_path):
+    """Outside the source checkout, ``build`` wrote ``./generated/`` while ``simulate`` derived
+    the model again into another folder (the checkout's ``generated/`` or the user cache)."""
+    import subprocess
+    import sys
+
+    from gpmegen.runtime.loader import CHECKOUT
+
+    work = tmp_path / "work"
+    work.mkdir()
+    shutil.copy(TIP_LAW, work / "arm.toml")
+    env = {k: v for k, v in os.environ.items() if k != "GPMEGEN_GENERATED"}
+    env.update(GPMEGEN_CACHE=str(tmp_path / "cache"), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    checkout_before = sorted(p.name for p in (CHECKOUT / "generated").iterdir()) if CHECKOUT else []
+
+    def gpmegen(*argv):
+        done = subprocess.run([sys.executable, "-m", "gpmegen.cli", *argv], cwd=work, env=env, capture_output=True,
+                              text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+        return done
+
+    built = gpmegen("build", "arm.toml", "--nrfe", "1")
+    assert "generated/tip_law_nrfe1: " in built.stdout
+    assert (work / "generated" / "tip_law_nrfe1" / "manifest.json").is_file()
+    ran = gpmegen("simulate", "arm.toml", "--nrfe", "1", "--t-end", "0.002", "--dt", "2e-4", "--backend", "numpy")
+    assert "model folder: generated/tip_law_nrfe1\n" in ran.stderr and "deriving" not in ran.stderr, ran.stderr
+    assert not (tmp_path / "xdg" / "gpmegen" / "generated").exists()
+    if CHECKOUT:
+        assert sorted(p.name for p in (CHECKOUT / "generated").iterdir()) == checkout_before
+
+
+def test_inside_the_checkout_models_go_to_its_generated_folder_from_any_subfolder(monkeypatch):
+    from gpmegen.runtime.loader import CHECKOUT, default_directory
+
+    if CHECKOUT is None:
+        pytest.skip("gpmegen runs installed, not from its source checkout")
+    monkeypatch.delenv("GPMEGEN_GENERATED")
+    monkeypatch.chdir(CHECKOUT)
+    assert default_directory() == Path("generated")
+    monkeypatch.chdir(CHECKOUT / "tests" / "models")
+    assert default_directory() == Path("../../generated")
+    monkeypatch.setenv("GPMEGEN_GENERATED", "elsewhere")
+    assert default_directory() == Path("elsewhere")
