@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: venv
-	$(BIN)/gpmegen demo
+	$(BIN)/gpmegen demo --overwrite
 
 test: venv
 	$(BIN)/ruff check gpmegen tests benchmarks

@@ -31,7 +31,7 @@ from .errors import (
     StaleModelError,
     StaticsError,
 )
-from .folder import BACKEND_FILES, read_manifest, recover_folder, stale_reason
+from .folder import BACKEND_FILES, check_replaceable, read_manifest, recover_folder, stale_reason
 from .model import (
     Body,
     Constraint,
@@ -101,6 +101,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
+        check_replaceable(folder)  # before the derivation, which the build would write there
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest,
                     transforms=transforms, jacobians=jacobians)
     return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),

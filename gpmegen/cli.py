@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import limits
+from . import limits, outputs
 from .analysis.plots import IncompatibleResults
-from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning
+from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning, OutputError
 from .runtime import integrate
 from .status import Ending
 
@@ -167,39 +167,22 @@ def _warnings_as_lines():
         yield
 
 
-def _writable_folder(path: Path) -> None:
-    """Refuse early an output folder that cannot be written, so nothing is half-written."""
-    import tempfile
-
-    probe = path
-    while not probe.exists() and probe != probe.parent:
-        probe = probe.parent
-    if not probe.is_dir():
-        raise UsageError(f"output folder {path}: {probe} is a file, not a folder; choose another --out")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=path):
-            pass
-    except OSError as exc:
-        raise UsageError(f"output folder {path} is not writable ({exc.strerror}); choose another --out") from None
-
-
-def _check_results_path(out: Path, overwrite: bool = False) -> None:
+def _check_results_path(out: Path, overwrite: bool = False, inputs=(), also=()) -> None:
     """Refuse, before any work, a results path that cannot take a run's files (complete or
-    partial): not .npz, a folder, in a folder that cannot be written, or holding the results of
-    an earlier run (unless ``overwrite``)."""
+    partial) and ``also`` (paths written with them): not .npz, a folder, one of the command's
+    ``inputs``, in a folder that cannot be written, or holding the results of an earlier run
+    (unless ``overwrite``)."""
     from .analysis import results as results_io
 
-    taken = results_io.existing(out)
-    if taken is not None and not overwrite and not taken.is_dir():
-        raise UsageError(f"{taken} holds an earlier run's results; pass --overwrite to replace them, or choose "
-                         f"another --out")
     if out.suffix != ".npz":
         raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
     for path in (*results_io.targets(out), *results_io.targets(out, complete=False)):
         if path.is_dir():
             raise UsageError(f"results file {out}: {path} is a folder; choose another name ending in .npz")
-    _writable_folder(out.parent)
+    outputs.check(results_io.targets(out, complete=False), inputs, overwrite=True)  # a partial pair is remade
+    outputs.check([*results_io.targets(out), *also], inputs, overwrite, what="an earlier run's results",
+                  fix="pass --overwrite to replace them, or choose another --out")
+    outputs.writable_folder(out.parent)
 
 
 def _case(model_file, nrfe):
@@ -223,12 +206,17 @@ def transform_kinds(text: str) -> tuple:
 
 def cmd_build(args) -> int:
     from .codegen import build
+    from .folder import check_replaceable, read_manifest
+    from .runtime.loader import default_directory
     from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 
-    out = Path(args.out)
+    out = Path(args.out) if args.out is not None else default_directory()  # where the other commands look
     cases = [_case(args.model_file, n) for n in (args.nrfe or [None])]
     models = [case.model for case in cases]  # a bad model is refused before anything is written
-    _writable_folder(out)
+    for model in models:  # a folder without gpmegen's manifest is always built again, so refused at once
+        if args.force or read_manifest(out / model.name) is None:
+            check_replaceable(out / model.name)
+    outputs.writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
     transforms, asked = DEFAULT_TRANSFORMS, ""
     if args.transforms is not None:
@@ -254,10 +242,11 @@ def cmd_export(args) -> int:
     from .model.urdf_export import urdf_text
 
     case = _case(args.model_file, args.nrfe)
-    text = case.located(functools.partial(urdf_text, case.model))
     out = Path(args.out)
     if out.is_dir():
         raise UsageError(f"--out {out} is a folder; give the file to write, e.g. --out {out / 'arm.urdf'}")
+    outputs.check([out], [args.model_file], args.overwrite)
+    text = case.located(functools.partial(urdf_text, case.model))
     print(f"wrote {atomic_write_bytes(out, text.encode('utf-8'))}: {case.model.name} as URDF")
     return 0
 
@@ -284,15 +273,16 @@ def _start(case, start):
 
 def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
                     overwrite=False, actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None,
-                    rho_inf=None):
+                    rho_inf=None, inputs=()):
     """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
-    C when a compiler is found. Returns the results; SimulationStopped when the run ended early."""
+    C when a compiler is found; ``inputs``: the paths the command reads, never written over.
+    Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
     from .analysis.cases import FileCase
     from .analysis.results import metadata
     from .runtime import integrate
 
-    _check_results_path(out, overwrite)
+    _check_results_path(out, overwrite, inputs)
     backend = backend or _default_backend()
     refusal = integrate.compiled_only(method, backend, bool(actuated if actuated is not None else case.actuators))
     if refusal:
@@ -384,7 +374,7 @@ def cmd_simulate(args) -> int:
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
                     dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
                     actuated=actuated, internal_dynamics=args.internal_dynamics, save_dt=args.save_dt,
-                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf)
+                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf, inputs=[args.model_file])
     return 0
 
 
@@ -395,7 +385,7 @@ def cmd_invert(args) -> int:
 
     case = _case(args.model_file, args.nrfe)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}_inversion.npz")
-    _check_results_path(out)
+    _check_results_path(out, args.overwrite, [args.model_file])
     if not args.t1 > args.t0:
         raise UsageError(f"--t1 ({args.t1:g} s) must come after --t0 ({args.t0:g} s)")
     res, inv, written = inversions.invert(case, _start(case, args.statics), args.t0, args.t1, args.pre, args.post,
@@ -427,7 +417,11 @@ def cmd_extrapolate(args) -> int:
         raise UsageError(str(exc)) from None
     start = _start(cases[0], args.statics)
     out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
-    _check_results_path(out)
+    from .analysis import results as results_io
+    from .analysis.levels import level_path
+
+    levels = [path for n in nrfe for path in results_io.targets(level_path(out, n))]
+    _check_results_path(out, args.overwrite, [args.model_file], also=[out.with_suffix(".png"), *levels])
     backend = args.backend or _default_backend()
     levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method, backend,
                         dict(args.param or []), out, progress, args.workers)
@@ -467,7 +461,8 @@ def cmd_plot(args) -> int:
 
     runs = [results_io.load(p) for p in args.results]
     plots.check_compatible(runs, args.results)  # before any folder or figure is made
-    _writable_folder(Path(args.out))
+    outputs.check(plots.targets(runs, Path(args.out), args.format), args.results, args.overwrite)
+    outputs.writable_folder(Path(args.out))
     for path in plots.plot_all(runs, Path(args.out), args.format, names=args.results):
         print(path)
     return 0
@@ -479,8 +474,8 @@ def cmd_demo(args) -> int:
 
     outs = {nrfe: Path(args.results) / f"run_nrfe{nrfe}.npz" for nrfe in (1, 5)}
     for out in outs.values():
-        _check_results_path(out, overwrite=True)  # the demo's own files, remade by each demo
-    _writable_folder(Path(args.figures))
+        _check_results_path(out, args.overwrite)
+    outputs.writable_folder(Path(args.figures))
     backend = _default_backend()
     dt = 1e-5 if backend == "c" else 1e-4
     save_every = integrate.default_save_every(dt)
@@ -494,6 +489,8 @@ def cmd_demo(args) -> int:
         results.append(res)
     from .analysis import plots
 
+    # The figures' names follow from the runs; the results are kept when the figures are refused.
+    outputs.check(plots.targets(results, Path(args.figures)), (), args.overwrite)
     for path in plots.plot_all(results, Path(args.figures)):
         print(path)
     return 0
@@ -504,8 +501,10 @@ def cmd_modes(args) -> int:
     from .analysis import modes, modes_output
 
     out = Path(args.out)
-    _writable_folder(out)
     case = _case(args.model_file, args.nrfe)
+    stem = f"modes_{case.name}_{args.lock}"
+    outputs.check([out / f"{stem}.csv", out / f"{stem}.png"], [args.model_file], args.overwrite)
+    outputs.writable_folder(out)
     start = "locked" if args.lock == "joints" else "constrained"
     begun = case.started("numpy", start, dict(args.param or []), progress)
     if args.lock == "joints":
@@ -516,7 +515,6 @@ def cmd_modes(args) -> int:
         where = "programmed constraints holding (constrained equilibrium, joints without springs held)"
     print(f"{case.label}, {where}:")
     print(result.format(args.count))
-    stem = f"modes_{case.name}_{args.lock}"
     print(modes_output.write_modes_csv(result, out / f"{stem}.csv"))
     print(modes_output.plot_mode_shapes(result, out / f"{stem}.png", count=min(6, args.count)))
     return 0
@@ -532,13 +530,13 @@ def cmd_linearize(args) -> int:
         raise UsageError(f"--out {out}: write the linear model as .npz or .mat (e.g. --out lin.mat)")
     if (args.at is None) != (args.times is None):
         raise UsageError("--at RESULTS.npz and --times t1,t2,... go together: the run and the instants in it")
-    _writable_folder(out.parent)
+    outputs.check(linear.targets(out, len(args.times or ())), [args.model_file, args.at], args.overwrite)
+    outputs.writable_folder(out.parent)
     models = api.linearize(args.model_file, nrfe=args.nrfe, start=args.statics, params=dict(args.param or []),
                            backend=args.backend or _default_backend(), progress=progress, at=args.at,
                            times=args.times)
     models = models if isinstance(models, list) else [models]
-    for k, lin in enumerate(models):
-        target = out if len(models) == 1 else out.with_name(f"{out.stem}_{k + 1}{out.suffix}")
+    for lin, target in zip(models, linear.targets(out, len(models))):
         print(lin.summary())
         print(linear.format_eigenvalues(lin.eigenvalues))
         print(f"wrote {linear.save(lin, target)}")
@@ -560,7 +558,6 @@ def cmd_convergence(args) -> int:
     if args.output:
         return cmd_convergence_of_outputs(args)
     out = Path(args.out)
-    _writable_folder(out)
     studies = {"convergence": convergence.Clamped()}
     if args.model_file:
         model = _case(args.model_file, None).model
@@ -570,6 +567,8 @@ def cmd_convergence(args) -> int:
                              f"converge; add a [[chain]] flexible link or study another model")
         studies = {f"convergence_{model.name}_link{link.label}": convergence.Clamped(model, link.label)
                    for link in links}
+    outputs.check([out / f"{stem}.png" for stem in studies], [args.model_file], args.overwrite)
+    outputs.writable_folder(out)
     with tempfile.TemporaryDirectory(prefix="gpmegen-convergence-") as tmp:
         directory = Path(args.directory) if args.directory else Path(tmp)
         for stem, clamped in studies.items():
@@ -587,7 +586,8 @@ def cmd_animate(args) -> int:
 
     try:
         animation.format_of(args.out, still=args.still is not None)  # before anything is loaded
-        _writable_folder(Path(args.out).parent)
+        outputs.check([args.out], [args.results, args.model], args.overwrite)
+        outputs.writable_folder(Path(args.out).parent)
         shown = animation.subject(args.results, args.model, progress)
         view = shown.view(*args.view, args.magnify, args.bodies)
         t, q = shown.results["t"], shown.results["q"]
@@ -685,8 +685,11 @@ def cmd_sweep(args) -> int:
     params = dict(args.param or [])
     if len(params) != len(args.param or []):
         raise UsageError("a parameter is given twice with --param; give each once, with all its values")
+    # A sweep's folder is its own (gpmegen.analysis.sweep.plan.claim): a run of the same sweep
+    # resumes it, any other is refused; it must not hold the model file.
+    outputs.check([args.out], [args.model_file], overwrite=True)
     if not Path(args.out).is_file():
-        _writable_folder(Path(args.out))
+        outputs.writable_folder(Path(args.out))
     try:
         summary = sweep.sweep(out=args.out, params=params, t_end=args.t_end, model_file=args.model_file,
                               nrfe=args.nrfe, samples=args.samples, seed=args.seed, sampling=args.sampling,
@@ -729,7 +732,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "manipulator")
     b.add_argument("--nrfe", type=rfe_count, nargs="+", default=None,
                    help="number of rigid finite elements (1: rigid; default 5, or the file's); several allowed")
-    b.add_argument("--out", type=path_argument, default="generated", help="output folder (default: generated/)")
+    b.add_argument("--out", type=path_argument, default=None,
+                   help="output folder (default: where the other commands look for models: $GPMEGEN_GENERATED, "
+                        "else generated/ of the source checkout when inside it, else ./generated/)")
     b.add_argument("--force", action="store_true", help="rebuild even when the inputs are unchanged")
     b.add_argument("--transforms", type=transform_kinds, default=None, metavar="T,T_i,T_ij",
                    help="body transforms to generate: T (4x4 per body, the default), its first derivatives T_i and "
@@ -954,6 +959,10 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--model", type=path_argument, default=None,
                     help="the model file that made the results (default: the one their metadata names)")
     an.set_defaults(func=cmd_animate)
+    for p in (ex, inv, pl, m, li, c, d, an):  # simulate has its own
+        p.add_argument("--overwrite", action="store_true",
+                       help="replace the files of an earlier command at the output path (never the command's own "
+                            "inputs)")
     for p in (b, s, inv, st, m, li, c, d, sw):
         p.add_argument("--no-limits", action="store_true",
                        help="start even work estimated to take more than an hour or more memory than is available")
@@ -972,7 +981,7 @@ def main(argv=None) -> int:
     except SimulationStopped as exc:
         print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)
         return 130 if exc.interrupted else 1
-    except (UsageError, limits.LimitError, IncompatibleResults) as exc:
+    except (UsageError, limits.LimitError, IncompatibleResults, OutputError) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:

@@ -66,3 +66,17 @@ class ExtrapolationError(GpmegenError):
 class ModelWarning(UserWarning):
     """A model was read, but not as its file says (e.g. a URDF name renamed); the command line
     prints it as one line."""
+
+
+class OutputError(GpmegenError):
+    """An output cannot be written where it was asked: over one of the command's own inputs,
+    over an earlier output without leave, over a folder gpmegen did not make, or into a folder
+    that cannot be written."""
+
+
+class UnwritableFolderError(OutputError, OSError):
+    """A folder an output goes into cannot be written (an OSError too, for callers that treat
+    any failed write alike); its text is the whole message."""
+
+    def __str__(self):
+        return self.strerror or super().__str__()

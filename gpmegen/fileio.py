@@ -9,6 +9,8 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+from .outputs import unwritable
+
 
 def atomic_write(path, write, mode=0o644) -> Path:
     """Write ``path`` by calling ``write(binary file)``; creates the parent folder."""
@@ -29,8 +31,11 @@ def atomic_write_all(writes: dict, mode=0o644) -> list[Path]:
     try:
         for path, write in writes.items():
             path = Path(path)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            except OSError as exc:  # named by the folder and the cause, not the temporary file's name
+                raise unwritable(path.parent, exc) from None
             staged.append((tmp, path))
             os.fchmod(fd, mode)
             with os.fdopen(fd, "wb") as fh:

@@ -87,7 +87,9 @@ examples:
   gpmegen build examples/panda_flexible.toml --nrfe 2   (a URDF with a link made flexible)
 
 files written:
-  <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: generated/)""",
+  <out>/<model>/model_numpy.py, model.c, model.h, manifest.json   (default out: the folder where the
+  other commands look for models: $GPMEGEN_GENERATED, else the source checkout's generated/ when
+  inside it, else ./generated/); a folder that gpmegen did not make is never replaced""",
     "simulate": """\
 examples:
   gpmegen simulate --nrfe 5 --t-end 10 --dt 1e-5
@@ -187,7 +189,7 @@ examples:
 files written:
   <results>/run_nrfe1.npz, run_nrfe5.npz and their .csv (default results/);
   <figures>/joint_coordinates.png, end_effector.png, path.png, constraint_violation.png,
-  energy_balance.png (default figures/)""",
+  energy_balance.png (default figures/); those of an earlier demo are replaced only with --overwrite""",
     "animate": """\
 examples:
   gpmegen animate results/run_nrfe5.npz --out arm.gif --magnify 20

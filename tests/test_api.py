@@ -159,7 +159,7 @@ def test_convergence_takes_param_overrides(tmp_path, capsys):
     quarter of the deflection, in beam theory and in every n_rfe."""
     tables = []
     for extra in ([], ["--param", "E2=2.8e11"]):
-        assert main(["convergence", "--nrfe", "2", "3", "--out", str(tmp_path), *extra]) == 0
+        assert main(["convergence", "--nrfe", "2", "3", "--out", str(tmp_path / f"E{len(tables)}"), *extra]) == 0
         out = capsys.readouterr().out
         block = out.split("\n\n")[1].splitlines()
         analytic = float(re.search(r"analytic (\S+)", block[0]).group(1))

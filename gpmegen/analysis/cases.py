@@ -37,13 +37,18 @@ class Case:
     jacobians = False  # load the model with the generated derivatives of the GPME (gpmegen build --jacobians)
 
     def load(self, backend, params, progress):
-        """The generated model on ``backend`` ("c" falls back to "numpy" when it cannot be built)."""
+        """The generated model on ``backend`` ("c" falls back to "numpy" when it cannot be built);
+        ``progress`` is told the model's folder."""
+        model = None
         if backend == "c":
             try:
-                return self.open("c", params, progress)
+                model = self.open("c", params, progress)
             except BuildError as exc:
                 progress(f"C backend unavailable ({exc}); using the NumPy backend")
-        return self.open("numpy", params, progress)
+        if model is None:
+            model = self.open("numpy", params, progress)
+        progress(f"model folder: {model.folder}")
+        return model
 
     def open(self, backend, params, progress):
         """The generated model on ``backend``, built first where missing or stale."""

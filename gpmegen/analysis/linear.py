@@ -178,6 +178,15 @@ def format_eigenvalues(values) -> str:
     return "\n".join(lines)
 
 
+def targets(path, count: int) -> list[Path]:
+    """The files ``count`` linear models go to at ``path``: ``path`` itself for one (or none
+    asked, the statics' model), ``<stem>_1<suffix>``, ``<stem>_2<suffix>``, ... for several."""
+    path = Path(path)
+    if count <= 1:
+        return [path]
+    return [path.with_name(f"{path.stem}_{k + 1}{path.suffix}") for k in range(count)]
+
+
 def save(linear: LinearModel, path) -> Path:
     """Write ``linear`` to ``path``, ``.npz`` (names as string arrays) or ``.mat`` (MATLAB 5,
     names as cell arrays of strings), atomically."""

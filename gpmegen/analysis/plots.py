@@ -410,6 +410,12 @@ def _saver(fig, fmt):
     return write
 
 
+def targets(runs, out, formats=("png",)) -> list[Path]:
+    """The files :func:`plot_all` writes for ``runs`` into the folder ``out``."""
+    formats = (formats,) if isinstance(formats, str) else tuple(formats)
+    return [Path(out) / f"{stem}.{fmt}" for stem, _ in figures(runs) for fmt in formats]
+
+
 def plot_all(runs: list, out, formats=("png",), names=None) -> list[Path]:
     """Write the figures for ``runs`` (results dicts of one model) into ``out``, each in every
     format of ``formats`` (of FORMATS); returns the paths. Runs of different models are refused

@@ -46,12 +46,6 @@ def targets(path, complete: bool = True) -> tuple[Path, Path]:
     return path, path.with_suffix(".csv")
 
 
-def existing(path) -> Path | None:
-    """The file of a complete run's pair for ``path`` (.npz, or the .csv beside it) that is
-    already there, or None: results are never replaced unless that is asked for."""
-    return next((p for p in targets(path) if p.exists()), None)
-
-
 def default_name(stem: str, start: str, method: str, actuators=()) -> str:
     """The default results file of a run: ``<stem>_<start>_<method>.npz``, one name per model,
     start and integrator (and ``_actuated-<coordinates>`` for an actuated realization), so that

@@ -111,10 +111,11 @@ class Results:
         """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
         see :func:`gpmegen.analysis.results.save`); an earlier run's results there are replaced
         only with ``overwrite``. Returns the paths written."""
-        taken = results_io.existing(path)
-        if taken is not None and not overwrite:
-            raise results_io.ResultsError(f"{taken} holds an earlier run's results; save with overwrite=True to "
-                                          f"replace them, or choose another path")
+        from .. import outputs
+
+        outputs.check(results_io.targets(path), (), overwrite, what="an earlier run's results",
+                      fix="save with overwrite=True to replace them, or choose another path",
+                      error=results_io.ResultsError)
         return results_io.save(self.arrays, path)
 
     def __repr__(self):

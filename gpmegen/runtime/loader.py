@@ -12,20 +12,26 @@ from pathlib import Path
 from ..errors import BuildError, ModelError, StaleModelError
 from ..folder import read_verified
 
-REPO_GENERATED = Path(__file__).resolve().parents[2] / "generated"
+#: The source checkout this package runs from, or None when it is installed (no pyproject.toml
+#: beside the package).
+CHECKOUT = Path(__file__).resolve().parents[2]
+CHECKOUT = CHECKOUT if (CHECKOUT / "pyproject.toml").is_file() and (CHECKOUT / "generated").is_dir() else None
 BACKENDS = ("numpy", "c")
 
 
 def default_directory() -> Path:
-    """Where generated models live: ``$GPMEGEN_GENERATED``, else the repository's
-    ``generated/`` (a source checkout), else ``~/.cache/gpmegen/generated``."""
+    """The one folder where models are built and looked for, by ``gpmegen build`` (its default
+    ``--out``), every other command and :func:`gpmegen.load` alike: ``$GPMEGEN_GENERATED``, else
+    the checkout's ``generated/`` when the current folder is inside the source checkout gpmegen
+    runs from, else ``generated/`` of the current folder. Never the installed package, nor a
+    checkout the user is not in. Relative to the current folder where it lies under it."""
     env = os.environ.get("GPMEGEN_GENERATED")
     if env:
         return Path(env)
-    if REPO_GENERATED.is_dir():
-        return REPO_GENERATED
-    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
-    return cache / "gpmegen" / "generated"
+    here = Path.cwd().resolve()
+    if CHECKOUT is not None and (here == CHECKOUT or CHECKOUT in here.parents):
+        return Path(os.path.relpath(CHECKOUT / "generated", here))
+    return Path("generated")
 
 
 def check_backend(backend: str) -> str:
