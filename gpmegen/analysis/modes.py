@@ -165,5 +165,34 @@ def highest_frequency(model, t, q, qd=None) -> float:
     omega2 = scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
     return math.sqrt(max(float(omega2[-1]), 0.0))
 
-__all__ = ["Modes", "natural_frequencies", "highest_frequency", "locked_modes", "constrained_modes", "classify",
-           "KINDS"]
+
+def motion_eigenvalues(model, t, q, qd=None) -> np.ndarray:
+    """The eigenvalues (1/s) of the first-order system ``M δq̈ + C δq̇ + K δq = 0`` linearized at
+    ``(t, q, qd)`` (``qd`` default rest) on the velocities the constraints allow (the null space
+    ``B`` of their ``D`` there, as in :func:`highest_frequency`), dampers included: ``K`` the tangent
+    stiffness, ``C = -∂f/∂q̇`` (joint and sde dampers, and the velocity terms away from rest) by
+    central differences of the model's forces. They bound RK4's step: see
+    :func:`gpmegen.runtime.stability.stable_step`."""
+    from ..runtime.internal import STEP
+
+    q = np.asarray(q, dtype=float)
+    qd = np.zeros(model.n_dof) if qd is None else np.asarray(qd, dtype=float)
+    D = model.constraint_terms(t, q, qd)[2]
+    B = scipy.linalg.null_space(D) if len(D) else np.eye(model.n_dof)
+    k = B.shape[1]
+    if k == 0:  # the constraints hold every coordinate: nothing moves
+        return np.zeros(0, dtype=complex)
+    C = np.empty((model.n_dof, model.n_dof))
+    for j in range(model.n_dof):
+        h = STEP * max(1.0, abs(qd[j]))
+        up, down = qd.copy(), qd.copy()
+        up[j] += h
+        down[j] -= h
+        C[:, j] = -(model.forces(t, q, up) - model.forces(t, q, down)) / (2 * h)
+    M, K, C = (B.T @ X @ B for X in (model.mass_matrix(q), model.stiffness_jacobian(q), C))
+    A = np.block([[np.zeros((k, k)), np.eye(k)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    return np.linalg.eigvals(A)
+
+
+__all__ = ["Modes", "natural_frequencies", "highest_frequency", "motion_eigenvalues", "locked_modes",
+           "constrained_modes", "classify", "KINDS"]

@@ -178,8 +178,8 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     block of ``D`` is watched: ``notify`` (a callable taking a message) is told when it degrades,
     and with ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that
     cannot finish (for DOP853: whose steps, at most its stable step at the start, cannot), or whose
-    step is above RK4's stable one at the start
-    (:func:`gpmegen.analysis.modes.highest_frequency`), is refused before it starts
+    step is above RK4's stable one at the start (from the eigenvalues of the motion linearized there,
+    dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), is refused before it starts
     (:class:`gpmegen.limits.LimitError`, unless the limits are lifted). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
@@ -203,7 +203,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop, omega,
                      None if method == "rk4" else save_dt)
     if method == "rk4" and omega is not None:
-        unstable = integrate.unstable_step(dt, omega)
+        unstable = integrate.unstable_step(dt, modes.motion_eigenvalues(model, 0.0, q0, qd0))
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     model.check_actuators(0.0, q0)

@@ -375,21 +375,28 @@ def save_steps(dt: float, save_dt: float) -> int | None:
     return k if k >= 1 and abs(k * dt - save_dt) <= 1e-9 * save_dt else None
 
 
-#: RK4's stability limit on the imaginary axis: an undamped mode of ω (rad/s) grows for h ω above it.
-RK4_STABILITY = 2.0 * math.sqrt(2.0)
 #: The methods that take steps above RK4's stable one: they choose their own.
 LONG_STEPS = ("--method genalpha (implicit, in C), radau (implicit, adaptive, in C), dop853 (adaptive, in C) or "
               "scipy-radau (implicit)")
 
 
-def unstable_step(dt: float, omega: float) -> str | None:
-    """Why RK4 at step ``dt`` (s) would blow up on a mode of ``omega`` (rad/s), with the stable
-    step and the methods that take the step asked for; None when ``dt`` is stable."""
-    stable = RK4_STABILITY / omega if omega > 0 else math.inf
+def unstable_step(dt: float, values) -> str | None:
+    """Why RK4 at step ``dt`` (s) would blow up on the linearized motion of eigenvalues ``values``
+    (1/s, dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), with the stable step
+    (:func:`gpmegen.runtime.stability.stable_step`), the eigenvalue that sets it and the methods
+    that take the step asked for; None when ``dt`` is stable."""
+    from .stability import stable_step
+
+    stable, value = stable_step(values)
     if dt <= stable:
         return None
-    return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (2√2/ω for the highest natural frequency "
-            f"{omega / (2 * math.pi):.4g} Hz at the start): use --dt {stable:.2g} or less, or {LONG_STEPS}")
+    undamped = value.real > -1e-6 * abs(value)
+    real = 0.0 if undamped else value.real
+    kind = ("undamped" if undamped else "overdamped" if abs(value.imag) <= 1e-6 * abs(value) else
+            f"damping ratio {-value.real / abs(value):.3g}")
+    return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (set by the eigenvalue {real:.4g} ± "
+            f"{abs(value.imag):.4g}j 1/s of the motion linearized at the start, {abs(value) / (2 * math.pi):.4g} Hz, "
+            f"{kind}): use --dt {stable:.2g} or less, or {LONG_STEPS}")
 
 
 #: Integrators that run only in the generated C loops (not the NumPy backend, nor the actuated
