@@ -913,7 +913,9 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--still", type=number_list, default=None, metavar="T1,T2,...",
                     help="draw the arm at these times (s), overlaid in one figure, instead of an animation")
     an.add_argument("--magnify", type=_finite_number(lambda v: v >= 0, "must be zero (the rigid arm) or more"),
-                    default=1.0, metavar="K", help="scale the elastic coordinates by K (default 1: as computed)")
+                    default=1.0, metavar="K",
+                    help="scale the elastic coordinates (the flexible links' sdes, not sprung joints) by K "
+                         "(default 1: as computed)")
     an.add_argument("--fps", type=positive_float, default=20.0, help="frames per second (default 20)")
     an.add_argument("--every", type=positive_int, default=None,
                     help="show every k-th saved sample (default: the step that plays the run in real time)")

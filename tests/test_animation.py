@@ -249,3 +249,28 @@ def test_the_axis_against_gravity_is_drawn_upwards(gravity, vertical):
     model = Model("m", (Parameter("g", 9.81),), (), gravity=tuple(sp.sympify(v, locals={"g": symbol("g")})
                                                                     for v in gravity))
     assert animation.vertical_axis(model, {"g": 9.81}) == vertical
+
+
+def test_a_sprung_joint_is_neither_magnified_nor_in_the_deflection(env, tmp_path):
+    """With a spring on the hub (about z, so that the weight turns it), the elastic coordinates are still the strip's sdes alone: the
+    magnified arm turns with the hub as computed, and the saved deflection is the tip's
+    displacement by the sdes (the hub's turn would make it a rigid swing of the whole arm)."""
+    model_file = tmp_path / "sprung.toml"
+    model_file.write_text(ARM.replace('axis = "y"\n', 'axis = "z"\nstiffness = 300\n', 1))  # gravity turns it
+    out = tmp_path / "sprung.npz"
+    assert main(["simulate", str(model_file), "--backend", "numpy", "--t-end", "0.1", "--dt", "2.5e-4",
+                 "--save-every", "40", "--out", str(out)]) == 0
+    subject = animation.subject(out)
+    loaded = subject.loaded
+    hub = loaded.index("hub")
+    assert hub not in subject.scene.elastic
+    assert sorted(subject.scene.elastic) == [k for k in range(loaded.n_dof) if k != hub]
+    run = results_io.load(out)
+    q = run["q"]
+    assert np.abs(q[-1, hub]) > 1e-3  # the hub has turned on its spring under the strip's weight
+    rigid = q.copy()
+    rigid[:, subject.scene.elastic] = 0.0
+    expected = np.array([loaded.end_effector(a) - loaded.end_effector(b) for a, b in zip(q, rigid)])
+    np.testing.assert_allclose(run["deflection"], expected, rtol=0, atol=1e-12)
+    magnified = geometry.magnified(q[-1:], subject.scene.elastic, 10.0)[0]
+    assert magnified[hub] == q[-1, hub]

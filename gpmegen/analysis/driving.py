@@ -75,15 +75,18 @@ def point_forces(model, loaded, t, q, lam) -> dict:
     return out
 
 
-def deformation(loaded, q) -> dict:
+def deformation(loaded, q, elastic=None) -> dict:
     """The elastic deformation at the samples ``q`` (k, n): ``spring_forces`` (k, n) the springs'
     generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
     coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
-    {0} from where the rigid arm at the same joint coordinates puts it (spring coordinates zero)."""
+    {0} from where the rigid arm at the same joint coordinates puts it (the ``elastic``
+    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.extrapolate.elastic_coordinates`;
+    None, for generated code without its model: those with a spring)."""
     C = statics.spring_stiffness(loaded, q[0])
-    springs = np.flatnonzero(np.abs(np.diag(C)) > 0)
+    if elastic is None:
+        elastic = np.flatnonzero(np.abs(np.diag(C)) > 0)
     rigid = q.copy()
-    rigid[:, springs] = 0.0
+    rigid[:, elastic] = 0.0
     deflection = np.array([loaded.end_effector(q[k]) - loaded.end_effector(rigid[k]) for k in range(len(q))])
     return {"spring_forces": q @ C.T, "deflection": deflection.reshape(len(q), 3)}
 
@@ -95,7 +98,10 @@ def annotate(results: dict, model, loaded) -> dict:
     the points named by ``meta["force_points"]``. ``model`` None (generated code alone): the
     deformation only."""
     meta = results_io.metadata(results)
-    arrays = deformation(loaded, results["q"]) if loaded.points and len(results["t"]) else {}
+    from .extrapolate import elastic_coordinates
+
+    elastic = None if model is None else elastic_coordinates(model, loaded)
+    arrays = deformation(loaded, results["q"], elastic) if loaded.points and len(results["t"]) else {}
     if model is None:  # generated code without its model (a built folder): forces in generalized units
         return results_io.annotate(results, {}, arrays)
     units = {"force_units": force_units(model),
