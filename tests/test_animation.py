@@ -252,9 +252,10 @@ def test_the_axis_against_gravity_is_drawn_upwards(gravity, vertical):
 
 
 def test_a_sprung_joint_is_neither_magnified_nor_in_the_deflection(env, tmp_path):
-    """With a spring on the hub (about z, so that the weight turns it), the elastic coordinates are still the strip's sdes alone: the
-    magnified arm turns with the hub as computed, and the saved deflection is the tip's
-    displacement by the sdes (the hub's turn would make it a rigid swing of the whole arm)."""
+    """With a spring on the hub (about z, so that the weight turns it), the elastic coordinates
+    are still the strip's sdes alone: the magnified arm turns with the hub as computed, and the
+    saved deflection is the tip's displacement by the sdes (the hub's turn would make it a rigid
+    swing of the whole arm)."""
     model_file = tmp_path / "sprung.toml"
     model_file.write_text(ARM.replace('axis = "y"\n', 'axis = "z"\nstiffness = 300\n', 1))  # gravity turns it
     out = tmp_path / "sprung.npz"
