@@ -12,6 +12,7 @@ import numpy as np
 from .. import limits
 from ..errors import ModelError, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
+from . import energy as energy_balance
 from . import modes
 from . import results as results_io
 
@@ -257,7 +258,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
 def collect(model, t, y, status, settings) -> dict:
     """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
     constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
-    actuated one), energies."""
+    actuated one), energies and the dampers' work (:mod:`gpmegen.analysis.energy`)."""
     n, m = model.n_dof, len(model.constraint_names)
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
@@ -279,6 +280,9 @@ def collect(model, t, y, status, settings) -> dict:
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)
         energy[k] = model.energies(q[k], qd[k])
+    finite = np.flatnonzero(np.all(np.isfinite(y[:, :2 * n]), axis=1))
+    dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)
+               if len(finite) else np.full(samples, np.nan))
     realization = ({"u": lam, "actuators": np.array([model.coordinates[k] for k in model.actuators])} if actuated
                    else {"lambda": lam})
     return {
@@ -288,7 +292,7 @@ def collect(model, t, y, status, settings) -> dict:
         "tau_drive": drive.sum(axis=1),
         "drive_forces": drive, "constraint_forces": reaction, **realization,
         "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
-        "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1],
+        "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1], "work_dampers": dampers,
         "status": np.array(status),
         "meta": results_io.encode({
             "model": model.module.MODEL, "coordinates": list(model.coordinates),
