@@ -50,3 +50,20 @@ def test_the_dampers_work_is_a_term_of_the_balance_and_the_residual_is_the_integ
     # the residual is RK4's error: far below the losses, and falling as dt⁴ when the step halves
     assert residuals[-1] < 1e-6 * abs(lost)
     assert residuals[-1] < residuals[0] / 10
+
+
+def test_scipy_radau_saves_the_multipliers_and_the_work(rigid):
+    """scipy-radau integrated (q, q̇) alone and saved NaN for the work, which also made every
+    sample's λ NaN: both are now saved, λ as RK4's at the same instants and the balance closed."""
+    from gpmegen.analysis import reference_case
+
+    model, q0 = reference_case.initial_state(rigid)
+    radau = study.simulate(model, q0, 0.1, dt=1e-3, method="scipy-radau", save_dt=1e-2, rtol=1e-10, atol=1e-12)
+    rk4 = study.simulate(model, q0, 0.1, dt=1e-4, save_every=100)
+    assert str(radau["status"]) == "complete"
+    for key in ("lambda", "work_drive", "work_constraints", "work_dampers"):
+        assert np.all(np.isfinite(radau[key])), key
+    np.testing.assert_allclose(radau["lambda"], rk4["lambda"], rtol=1e-6, atol=1e-6 * np.abs(rk4["lambda"]).max())
+    np.testing.assert_allclose(radau["work_constraints"], rk4["work_constraints"], rtol=0,
+                               atol=1e-6 * np.abs(rk4["work_constraints"]).max())
+    assert np.abs(energy.balance_residual(radau)).max() < 1e-6 * np.abs(radau["work_constraints"]).max()

@@ -275,7 +275,7 @@ def collect(model, t, y, status, settings) -> dict:
         phi[k] = model.constraint_values(t[k], q[k], qd[k])
         D = model.constraint_terms(t[k], q[k], qd[k])[2]
         drive[k] = model.drive_forces(t[k])
-        if np.all(np.isfinite(y[k])):
+        if np.all(np.isfinite(y[k, :2 * n])):  # the state, whatever the work columns hold
             qdd[k], M, f = model.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)

@@ -450,17 +450,15 @@ def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol
     """``scipy.integrate.solve_ivp`` on the same equations, saving at ``t_eval`` (s; None: at its
     steps) by the method's dense output. Returns ``(t, y, outcome, effort)``.
 
-    The implicit methods (Radau, BDF, LSODA) integrate ``(q, q̇)`` only (the work columns of ``y``
-    are then NaN) and get a forward-difference Jacobian with a fixed relative step: scipy's own
-    adapts its step per column and lets it grow without bound on a coordinate nothing depends on
-    (the column's rotation θ1, or the work states), until the state overflows. Their Jacobians
-    count in ``effort`` as calls, each 2n + 1 GPME solves (among the solves counted)."""
+    The implicit methods (Radau, BDF, LSODA) get a forward-difference Jacobian with a fixed
+    relative step: scipy's own adapts its step per column and lets it grow without bound on a
+    coordinate nothing depends on (the column's rotation θ1, or the work states), until the state
+    overflows. Their Jacobians count in ``effort`` as calls, each 2n + 3 GPME solves (among the
+    solves counted). Every method integrates the work states with the motion."""
     from scipy.integrate import solve_ivp
 
     check_start(model, t0, q0, qd0)
-    n = model.n_dof
-    with_work = method not in IMPLICIT
-    y0 = np.concatenate([q0, qd0] + ([[0.0, 0.0]] if with_work else [])).astype(float)
+    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
     full = state_derivative(model)
     solves = [0]
 
@@ -468,10 +466,9 @@ def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol
         solves[0] += 1
         return full(t, y)
 
-    rhs = counted if with_work else (lambda t, y: counted(t, np.concatenate([y, [0.0, 0.0]]))[:2 * n])
-    options = {} if with_work else {"jac": _difference_jacobian(rhs)}
-    sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
-    y = sol.y.T if with_work else np.column_stack([sol.y.T, np.full((len(sol.t), 2), np.nan)])
+    options = {"jac": _difference_jacobian(counted)} if method in IMPLICIT else {}
+    sol = solve_ivp(counted, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
+    y = sol.y.T
     reached = float(sol.t[-1]) if len(sol.t) else float(t0)
     outcome = Outcome(Ending.COMPLETE, reached) if sol.success else Outcome.diverged(reached, sol.message)
     effort = Effort(None, None, solves[0], int(sol.njev), int(sol.nlu))  # solve_ivp does not count its steps
