@@ -91,6 +91,36 @@ def deformation(loaded, q, elastic=None) -> dict:
     return {"spring_forces": q @ C.T, "deflection": deflection.reshape(len(q), 3)}
 
 
+#: The largest rotation (rad) of one sde that the RFEM's linear springs describe as a beam: its
+#: moment ``c·ψ`` with ``c = EI/Δ`` is small-strain beam theory's, whose ``sin ψ ≈ ψ`` is off by
+#: 0.17 % at 0.1 rad and by ``ψ²/6`` beyond; a larger rotation is a kink between two rfes, not a
+#: smooth bend, and more rfes share it out.
+ELASTIC_ROTATION = 0.1
+
+
+def large_rotation(model, loaded, t, q) -> str | None:
+    """A warning (one line) when a rotation of the symbolic ``model``'s sdes exceeds
+    :data:`ELASTIC_ROTATION` in magnitude at the samples ``t`` (k,), ``q`` (k, n) of ``loaded``:
+    the largest, its value and time; None when none does."""
+    from ..model.chain import FlexibleLink, Joint
+    from ..model.rfem import discretize
+
+    names = [part.name for link in model.chain if isinstance(link, FlexibleLink) for part in discretize(link)
+             if isinstance(part, Joint) and part.kind == "revolute"]
+    columns = [loaded.index(name) for name in names if name in loaded.coordinates]
+    if not columns or not len(t):
+        return None
+    size = np.abs(np.asarray(q, dtype=float)[:, columns])
+    size[~np.isfinite(size)] = 0.0
+    k, j = np.unravel_index(int(np.argmax(size)), size.shape)
+    if size[k, j] <= ELASTIC_ROTATION:
+        return None
+    return (f"warning: the sde rotation {loaded.coordinates[columns[j]]} reaches {q[k, columns[j]]:.3g} rad at "
+            f"t = {t[k]:.6g} s, beyond {ELASTIC_ROTATION:g} rad per sde, where the RFEM's linear sde springs "
+            f"(small-strain beam bending and torsion) no longer model the beam; use more rfes, a stiffer link or "
+            f"a gentler motion")
+
+
 def annotate(results: dict, model, loaded) -> dict:
     """``results`` of a run of the symbolic ``model`` (loaded as ``loaded``) with the units of its
     driving functions in the metadata (``force_units``, ``lambda_units``), the elastic

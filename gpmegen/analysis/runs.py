@@ -58,6 +58,10 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),
                                     "model_source": case.locator()}, case.extras(model, res))
     res = driving.annotate(res, case.source, model)
+    if case.source is not None:  # the sdes are known from the symbolic model
+        warning = driving.large_rotation(case.source, model, res["t"], res["q"])
+        if warning:
+            progress(warning)
     return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
 
 
