@@ -78,18 +78,16 @@ def shares(loaded, q, shape, up=None) -> dict:
         lengths = np.append(lengths, lengths[-1] if len(lengths) else 0.0)
         for b, ell in zip(rfes, lengths):
             axis = T[b, :3, 0]
-            vertical = up - (up @ axis) * axis
-            if np.linalg.norm(vertical) < 1e-9:  # a link along gravity: any bending is horizontal
-                vertical = np.cross(axis, T[b, :3, 1])
-            vertical /= np.linalg.norm(vertical)
+            normal = up - (up @ axis) * axis
+            upright = np.linalg.norm(normal) < 1e-9  # a link along gravity: any bending is horizontal
+            vertical = T[b, :3, 1] if upright else normal / np.linalg.norm(normal)
             across = np.cross(axis, vertical)
             u, w = dT[b, :3, 3], _rotation(dT[b, :3, :3], T[b, :3, :3])
-            if np.linalg.norm(up - (up @ axis) * axis) < 1e-9:
-                out["horizontal"] += (u @ vertical) ** 2 + (u @ across) ** 2 + ell**2 * (w @ vertical) ** 2 \
-                    + ell**2 * (w @ across) ** 2
-            else:
-                out["vertical"] += (u @ vertical) ** 2 + ell**2 * (w @ across) ** 2
-                out["horizontal"] += (u @ across) ** 2 + ell**2 * (w @ vertical) ** 2
+            # a turn about ``across`` moves the rfe's far end along ``vertical``, and the reverse
+            up_down = (u @ vertical) ** 2 + ell**2 * (w @ across) ** 2
+            sideways = (u @ across) ** 2 + ell**2 * (w @ vertical) ** 2
+            out["horizontal"] += sideways + (up_down if upright else 0.0)
+            out["vertical"] += 0.0 if upright else up_down
             out["torsion"] += ell**2 * (w @ axis) ** 2
             out["other"] += (u @ axis) ** 2
     moved = np.vstack([dT[:, :3, 3], _point_motion(loaded, q, shape, scale)])
