@@ -104,8 +104,23 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
         check_replaceable(folder)  # before the derivation, which the build would write there
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest,
                     transforms=transforms, jacobians=jacobians)
-    return open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
-                       progress=progress)
+    loaded = open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
+                         progress=progress)
+    loaded.gravity = gravity_function(model)
+    return loaded
+
+
+def gravity_function(model):
+    """The model's gravity vector g⃗ in {0} (3,) m/s² as a function of the parameter values (name →
+    number): what the generated code holds only inside its forces, kept for the analyses that need
+    its direction (the kinds of modes)."""
+    import sympy as sp
+
+    symbols = [p.symbol for p in model.parameters]
+    import numpy as np
+
+    evaluate = sp.lambdify(symbols, [sp.sympify(v) for v in model.gravity], modules="numpy")
+    return lambda params: np.array(evaluate(*(params[p.name] for p in model.parameters)), dtype=float)
 
 
 def _at_least(manifest, transforms, jacobians):

@@ -296,12 +296,13 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
+    violation = f"max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}" if len(model.constraint_names) else "no constraints"
     names = model.coordinates if isinstance(case, FileCase) else case.shown(model)
     final = _coordinate_values(names, [res["q"][-1, model.index(name)] for name in names])
     realization = f", actuated on {', '.join(model.coordinates[k] for k in model.actuators)}" if len(
         model.actuators) else ""
     print(f"{case.label} ({model.backend}, {_integration(metadata(res)['settings'], realization)}): "
-          f"{_outcome(status, res['t'][-1])} in {done.wall:.1f} s; max|Φ| = {', '.join(f'{v:.2e}' for v in phi)}; "
+          f"{_outcome(status, res['t'][-1])} in {done.wall:.1f} s; {violation}; "
           f"wrote {', '.join(map(str, written))}; state at t = {res['t'][-1]:.6g} s:\n{final}")
     if status != "complete":
         kept = f"results up to t = {res['t'][-1]:.6g} s kept in {written[0]} (partial)"
@@ -946,7 +947,9 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--still", type=number_list, default=None, metavar="T1,T2,...",
                     help="draw the arm at these times (s), overlaid in one figure, instead of an animation")
     an.add_argument("--magnify", type=_finite_number(lambda v: v >= 0, "must be zero (the rigid arm) or more"),
-                    default=1.0, metavar="K", help="scale the elastic coordinates by K (default 1: as computed)")
+                    default=1.0, metavar="K",
+                    help="scale the elastic coordinates (the flexible links' sdes, not sprung joints) by K "
+                         "(default 1: as computed)")
     an.add_argument("--fps", type=positive_float, default=20.0, help="frames per second (default 20)")
     an.add_argument("--every", type=positive_int, default=None,
                     help="show every k-th saved sample (default: the step that plays the run in real time)")

@@ -70,7 +70,7 @@ motion from the locked-joint statics, and their figures.""",
     "animate": """\
 Draw the arm of a results file moving in 3D: each rigid body as the box of its inertia, the rfes
 of each flexible link as a chain of segments, the named points and the path of the points the
-programmed constraints hold. --magnify K scales the elastic coordinates (those with a spring)
+programmed constraints hold. --magnify K scales the elastic coordinates (the flexible links' sdes)
 by K, as the title says. The model is the one the results name (a model file, the reference
 arm); --model gives it when they name none. With --still, a figure of the arm at chosen times.""",
 }

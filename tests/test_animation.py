@@ -249,3 +249,68 @@ def test_the_axis_against_gravity_is_drawn_upwards(gravity, vertical):
     model = Model("m", (Parameter("g", 9.81),), (), gravity=tuple(sp.sympify(v, locals={"g": symbol("g")})
                                                                     for v in gravity))
     assert animation.vertical_axis(model, {"g": 9.81}) == vertical
+
+
+def test_a_sprung_joint_is_neither_magnified_nor_in_the_deflection(env, tmp_path):
+    """With a spring on the hub (about z, so that the weight turns it), the elastic coordinates
+    are still the strip's sdes alone: the magnified arm turns with the hub as computed, and the
+    saved deflection is the tip's displacement by the sdes (the hub's turn would make it a rigid
+    swing of the whole arm)."""
+    model_file = tmp_path / "sprung.toml"
+    model_file.write_text(ARM.replace('axis = "y"\n', 'axis = "z"\nstiffness = 300\n', 1))  # gravity turns it
+    out = tmp_path / "sprung.npz"
+    assert main(["simulate", str(model_file), "--backend", "numpy", "--t-end", "0.1", "--dt", "2.5e-4",
+                 "--save-every", "40", "--out", str(out)]) == 0
+    subject = animation.subject(out)
+    loaded = subject.loaded
+    hub = loaded.index("hub")
+    assert hub not in subject.scene.elastic
+    assert sorted(subject.scene.elastic) == [k for k in range(loaded.n_dof) if k != hub]
+    run = results_io.load(out)
+    q = run["q"]
+    assert np.abs(q[-1, hub]) > 1e-3  # the hub has turned on its spring under the strip's weight
+    rigid = q.copy()
+    rigid[:, subject.scene.elastic] = 0.0
+    expected = np.array([loaded.end_effector(a) - loaded.end_effector(b) for a, b in zip(q, rigid)])
+    np.testing.assert_allclose(run["deflection"], expected, rtol=0, atol=1e-12)
+    magnified = geometry.magnified(q[-1:], subject.scene.elastic, 10.0)[0]
+    assert magnified[hub] == q[-1, hub]
+
+
+def test_a_run_warns_once_when_an_sde_rotation_grows_beyond_a_beams_small_strains(env, tmp_path, capsys):
+    """A strip 100 times softer droops far beyond what the linear sde springs model: one warning
+    names the sde, its rotation and the time (the largest over the run, as the saved q has it); the
+    arm of the other tests, whose sdes turn by a few milliradians, gets none."""
+    from gpmegen.analysis import driving
+
+    soft = tmp_path / "soft.toml"
+    soft.write_text(ARM.replace("young_modulus = 7.0e10", "young_modulus = 7.0e8"))
+    out = tmp_path / "soft.npz"
+    assert main(["simulate", str(soft), "--backend", "numpy", "--t-end", "0.01", "--dt", "2.5e-4",
+                 "--save-every", "8", "--out", str(out), "--statics", "locked"]) == 0
+    err = capsys.readouterr().err
+    warnings = [line for line in err.splitlines() if "sde rotation" in line]
+    assert len(warnings) == 1
+    run = results_io.load(out)
+    q, coordinates = run["q"], [str(c) for c in run["coordinates"]]
+    sdes = [k for k, name in enumerate(coordinates) if name != "hub"]
+    k, j = np.unravel_index(np.argmax(np.abs(q[:, sdes])), q[:, sdes].shape)
+    assert abs(q[k, sdes[j]]) > driving.ELASTIC_ROTATION
+    assert f"{coordinates[sdes[j]]} reaches {q[k, sdes[j]]:.3g} rad at t = {run['t'][k]:.6g} s" in warnings[0]
+    # the stiff strip: no warning
+    assert main(["simulate", str(_stiff(tmp_path)), "--backend", "numpy", "--t-end", "0.01", "--dt", "2.5e-4",
+                 "--save-every", "8", "--out", str(tmp_path / "stiff.npz"), "--statics", "locked"]) == 0
+    assert "sde rotation" not in capsys.readouterr().err
+
+
+def _stiff(folder):
+    path = folder / "stiff.toml"
+    path.write_text(ARM)
+    return path
+
+
+def test_a_run_without_constraints_says_so_instead_of_an_empty_violation(env, tmp_path, capsys):
+    assert main(["simulate", str(_stiff(tmp_path)), "--backend", "numpy", "--t-end", "0.005", "--dt", "2.5e-4",
+                 "--out", str(tmp_path / "free.npz")]) == 0
+    out = capsys.readouterr().out
+    assert "no constraints" in out and "max|Φ|" not in out

@@ -142,14 +142,15 @@ def test_a_folder_of_the_reference_manipulator_runs_its_scenario(env, tmp_path, 
 def test_modes_of_a_model_file_match_the_single_spring_formula(env, tmp_path, capsys):
     """n_rfe = 2: one sde at the middle, the outer half (a bar of length L/2) on a spring
     c = E·b·h³/(12 L) (bending in the plane of the joint); joints locked: f = √(c/J)/2π with J the
-    half's inertia about the sde."""
+    half's inertia about the sde. The model has no gravity, so +z is up and this bending in the
+    plane x0y0 is horizontal."""
     assert main(["modes", str(TIP_LAW), "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     L, b, h, rho, E = 0.5, 0.02, 0.01, 2700.0, 7.0e10
     c = E * b * h**3 / 12 / L
     m = rho * b * h * L / 2
     J = m * ((L / 2) ** 2 + h**2) / 12 + m * (L / 4) ** 2
-    first = float(re.search(r"^\s+1\s+(\S+)\s+vertical", out, re.M).group(1))
+    first = float(re.search(r"^\s+1\s+(\S+)\s+horizontal", out, re.M).group(1))
     assert first == pytest.approx(np.sqrt(c / J) / (2 * np.pi), rel=1e-5)
     assert (tmp_path / "modes_tip_law_joints.csv").exists()
 

@@ -12,7 +12,7 @@ from gpmegen import limits
 from gpmegen.analysis import modes, reference_case, study
 from gpmegen.analysis.results import metadata
 from gpmegen.cli import build_parser, main
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrate, stability
 
 pytestmark = pytest.mark.requires_cc
 
@@ -103,9 +103,8 @@ def test_rk4_through_the_chunked_driver_is_unchanged(arm):
 
 def test_rk4_above_the_stable_step_is_refused_and_that_step_is_the_edge(arm):
     model, q0, _ = arm
-    omega = modes.highest_frequency(model, 0.0, q0)
-    stable = integrate.RK4_STABILITY / omega
-    with pytest.raises(limits.LimitError, match=f"{stable:.3g} s.*{omega / (2 * math.pi):.4g} Hz.*dop853"):
+    stable, value = stability.stable_step(modes.motion_eigenvalues(model, 0.0, q0))
+    with pytest.raises(limits.LimitError, match=f"{stable:.3g} s.*{abs(value) / (2 * math.pi):.4g} Hz.*dop853"):
         study.simulate(model, q0, 0.01, dt=1.2 * stable)
     # the frequency is the real edge: RK4 holds the motion just below it and blows it up just above
     qd0 = np.zeros(model.n_dof)
@@ -117,6 +116,53 @@ def test_rk4_above_the_stable_step_is_refused_and_that_step_is_the_edge(arm):
     with limits.lifted():  # an expert may go on
         res = study.simulate(model, q0, 0.002, dt=1.2 * stable)
     assert str(res["status"]) == "complete"
+
+
+def test_rk4_stability_boundary_is_where_its_polynomial_has_modulus_one():
+    """The boundary radius against RK4's own polynomial: |R| = 1 there and below 1 just inside,
+    2√2 on the imaginary axis and, on the negative real axis, where R(-x) = 1 (R is positive on the
+    real axis): the real root of x³/24 - x²/6 + x/2 - 1."""
+    real_root = [x.real for x in np.roots([1 / 24, -1 / 6, 1 / 2, -1]) if abs(x.imag) < 1e-12 and x.real > 0]
+    assert stability.boundary_radius(math.pi) == pytest.approx(min(real_root), rel=1e-12)
+    assert stability.boundary_radius(math.pi / 2) == pytest.approx(2 * math.sqrt(2), rel=1e-12)
+    for theta in np.linspace(math.pi / 2, math.pi, 13):
+        r = stability.boundary_radius(theta)
+        ray = np.exp(1j * theta)
+        assert stability.amplification(r * ray) == pytest.approx(1.0, abs=1e-12)
+        inside = stability.amplification(np.linspace(0.0, 0.999 * r, 500)[1:] * ray)
+        assert np.all(inside < 1.0) and stability.amplification(1.001 * r * ray) > 1.0
+
+
+def test_rk4_stable_step_comes_from_the_damped_eigenvalues(env, tmp_path):
+    """Strong dampers make an overdamped eigenvalue far from the undamped frequencies: the step that
+    keeps it stable is 0.42 of 2√2/ω here. The eigenvalues are the chain's own (its exact A), the
+    predicted edge holds the motion just below it and blows it up just above, and a run above it
+    is refused."""
+    from pathlib import Path
+
+    m1, m2, k1, k2, c1, c2 = 1.0, 0.5, 100.0, 400.0, 20.0, 30.0
+    path = tmp_path / "chain.toml"  # the test chain with its second mass named, for a run's outputs
+    chain = (Path(__file__).parent / "models" / "spring_chain.toml").read_text()
+    path.write_text(chain + '\n[[chain]]\npoint = "tip"\n')
+    model = gpmegen.load(model=gpmegen.load_model_file(path), backend="numpy", params={"c1": c1, "c2": c2})
+    M = np.array([[m1 + m2, m2], [m2, m2]])
+    A = np.block([[np.zeros((2, 2)), np.eye(2)],
+                  [-np.linalg.solve(M, np.diag([k1, k2])), -np.linalg.solve(M, np.diag([c1, c2]))]])
+    values = modes.motion_eigenvalues(model, 0.0, np.zeros(2))
+    assert np.sort_complex(values) == pytest.approx(np.sort_complex(np.linalg.eigvals(A)), rel=1e-7)
+    stable, value = stability.stable_step(values)
+    assert stable < 0.5 * 2 * math.sqrt(2) / modes.highest_frequency(model, 0.0, np.zeros(2))
+    assert value.imag == 0 and stable == pytest.approx(stability.boundary_radius(math.pi) / abs(value))
+    q0, qd0 = np.array([0.1, -0.05]), np.zeros(2)
+    ends = {}
+    for factor in (0.99, 1.01):
+        _, y, outcome = integrate.rk4(model, q0, qd0, 1000 * stable, factor * stable)
+        assert outcome.complete
+        ends[factor] = np.abs(y[-1, :4]).max()
+    assert ends[0.99] < 1e-6 * np.abs(q0).max() and ends[1.01] > 1e3 * np.abs(q0).max()
+    with pytest.raises(limits.LimitError, match=f"stable step {stable:.3g} s.*overdamped"):
+        study.simulate(model, q0, 0.5, dt=1.01 * stable)
+    assert str(study.simulate(model, q0, 0.5, dt=0.99 * stable, save_every=10)["status"]) == "complete"
 
 
 def _run(argv, capsys, tmp_path):

@@ -1,5 +1,7 @@
 """gpmegen modes: locked and constrained linearizations, their files, and what they must obey."""
 
+from pathlib import Path
+
 import numpy as np
 
 from gpmegen.analysis import modes, reference_case
@@ -27,3 +29,79 @@ def test_modes_command_writes_table_csv_and_figure(tmp_path, capsys):
     assert csv[0].startswith("mode,frequency_Hz,kind,theta1,psi2,")
     assert len(csv) == 1 + 6  # six spring coordinates at n_rfe = 3
     assert (tmp_path / "modes_nrfe3_joints.png").stat().st_size > 10_000
+
+
+# A z-up arm: a sprung joint named psi1 turning about the vertical z0, then a flexible strip along
+# x0, thin along z (stiff across, soft up and down), free in psi and theta. Its psi bends it
+# across (horizontally), its theta up and down: names say the opposite.
+Z_UP = """
+schema = 1
+name = "z_up_strip"
+gravity = [0, 0, "-g"]
+
+[parameters]
+g = { value = 9.81, unit = "m/s^2", doc = "gravity" }
+L = { value = 0.8, unit = "m", doc = "strip length" }
+b = { value = 0.03, unit = "m", doc = "width, along y" }
+h = { value = 0.004, unit = "m", doc = "thickness, along z" }
+
+[[chain]]
+joint = "psi1"
+type = "revolute"
+axis = "z"
+stiffness = 400
+
+[[chain]]
+body = "hub"
+shape = { type = "point_mass", mass = 0.5 }
+
+[[chain]]
+flexible = "2"
+length = "L"
+section = { type = "rectangular", width = "b", thickness = "h" }
+density = 2700
+young_modulus = 7.0e10
+shear_modulus = 2.6e10
+freedoms = ["psi", "theta"]
+nrfe = 3
+
+[[chain]]
+point = "tip"
+"""
+
+
+def test_mode_labels_come_from_the_shapes_not_the_coordinate_names(tmp_path):
+    """Each mode's kind is the direction its shape moves the strip: checked against the tip's own
+    motion (the named point, not the transforms the labels use), and the modes the coordinates
+    named psi carry are horizontal here."""
+    import gpmegen
+
+    path = tmp_path / "z_up.toml"
+    path.write_text(Z_UP)
+    model = gpmegen.load(model=gpmegen.load_model_file(path), directory=tmp_path / "built")
+    q_eq, result = modes.locked_modes(model, np.zeros(model.n_dof))
+    assert set(result.kinds) == {"vertical", "horizontal"}
+    tip = model.points.index("tip")
+    psi = [k for k, name in enumerate(model.coordinates) if name.startswith("psi")]
+    for k, kind in enumerate(result.kinds):
+        shape = result.shapes[:, k]
+        h = 1e-6 / np.max(np.abs(shape))
+        moved = (model.point_positions(q_eq + h * shape)[tip] - model.point_positions(q_eq - h * shape)[tip]) / (2 * h)
+        assert kind == ("vertical" if abs(moved[2]) > np.hypot(moved[0], moved[1]) else "horizontal")
+        if np.sum(shape[psi] ** 2) > 0.9 * np.sum(shape**2):  # a mode of the psi coordinates
+            assert kind == "horizontal"
+
+
+def test_convergence_of_a_link_bending_in_one_plane_only(tmp_path, capsys):
+    """A link free in psi alone has no horizontal bending nor torsion: the study compares what it
+    has and says what it leaves out (it stopped on 'no horizontal mode')."""
+    path = tmp_path / "planar.toml"
+    text = Path(__file__).parent.joinpath("models", "flexible_link.toml").read_text()
+    path.write_text(text.replace('damping = ["d", "d", "d"]', 'damping = ["d", "d", "d"]\nfreedoms = ["psi"]'))
+    assert main(["convergence", str(path), "--nrfe", "2", "3", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "1st vertical bending frequency" in out and "1st horizontal bending frequency:" not in out
+    assert "not compared: 1st horizontal bending frequency, 1st torsional frequency" in out
+    block = out[out.index("1st vertical bending frequency"):]
+    errors = [float(line.split()[2]) for line in block.splitlines()[2:4]]
+    assert abs(errors[1]) < abs(errors[0])  # converging to the beam's vertical bending

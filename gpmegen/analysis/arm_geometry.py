@@ -25,8 +25,8 @@ import sympy as sp
 from ..model.chain import Body, FlexibleLink, Model, Point
 from ..model.expand import expand
 from ..model.rfem import discretize
-from ..runtime import statics
 from .driving import point_constraints
+from .extrapolate import elastic_coordinates
 
 # The 12 edges of a box, as pairs of its corners (corner k has signs from the bits of k).
 _CORNERS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)]) * 2.0 - 1.0
@@ -60,7 +60,8 @@ class Scene:
     rfes of each flexible link, base first, and their far ends in their own frames (3,);
     ``points`` named points; ``traced``: the points whose path is drawn (those the programmed
     constraints hold, see :func:`gpmegen.analysis.driving.point_constraints`); ``elastic``:
-    indices of the coordinates that carry a spring (the deformation); ``tool``: the index in
+    indices of the flexible links' sde coordinates (the deformation; a sprung joint is a joint);
+    ``tool``: the index in
     ``points`` of the point that ends the skeleton (None when no point lies beyond the last body)."""
 
     bodies: tuple
@@ -91,7 +92,7 @@ def scene(model: Model, loaded) -> Scene:
             boxes.append(box)
     links = tuple(tuple(loaded.bodies.index(name) for name in link) for link in rfes)
     traced = tuple(point for point in loaded.points if point in point_constraints(model))
-    elastic = statics.spring_coordinates(loaded, np.zeros(loaded.n_dof))
+    elastic = elastic_coordinates(model, loaded)
     tool = tool_point(model, traced)
     return Scene(tuple(loaded.bodies), tuple(boxes), links, ends, tuple(loaded.points), traced, elastic,
                  None if tool is None else loaded.points.index(tool))

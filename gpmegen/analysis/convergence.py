@@ -147,7 +147,9 @@ class ConvergenceTable:
     limit of the RFEM model (bending with the sections' rotary inertia, a Rayleigh beam; the
     other two equal to ``analytic``). ``orders_sde``: the fitted order against the limit in
     ``n_sde = nrfe - 1`` (the modified RFEM's error goes as ``n_sde⁻²``). ``build_seconds``
-    (k,) the time to build (or load) each model; ``static`` how the deflection was solved."""
+    (k,) the time to build (or load) each model; ``static`` how the deflection was solved. A
+    quantity the link does not have (no mode of that kind: a link free in ``psi`` alone neither
+    bends horizontally nor twists) is left out of every dict and named in ``absent``."""
 
     nrfe: np.ndarray
     values: dict
@@ -163,6 +165,12 @@ class ConvergenceTable:
     build_seconds: np.ndarray
     static: str = "linear"
     subject: str = "clamped arm (no slider)"
+    absent: tuple = ()
+
+    @property
+    def quantities(self) -> tuple:
+        """The entries of :data:`QUANTITIES` the table holds."""
+        return tuple(entry for entry in QUANTITIES if entry[0] in self.values)
 
     def format(self) -> str:
         """The table as text, one block per quantity."""
@@ -170,7 +178,7 @@ class ConvergenceTable:
                  f"frequencies at zero gravity about the straight arm",
                  "err EB: against Euler-Bernoulli / Saint-Venant; err limit: against the same with the "
                  "sections' rotary inertia (Rayleigh beam), the RFEM's continuum limit"]
-        for key, label, unit in QUANTITIES:
+        for key, label, unit in self.quantities:
             lines.append("")
             head = f"{label}: analytic {self.analytic[key]:.8g} {unit}"
             if self.limit[key] != self.analytic[key]:
@@ -185,6 +193,9 @@ class ConvergenceTable:
             lines.append(f"observed order, log-log fit over all nrfe: {self.orders[key]:.3f} (EB), "
                          f"{self.orders_limit[key]:.3f} (limit); over n_sde = nrfe - 1: "
                          f"{self.orders_sde[key]:.3f} (limit)")
+        if self.absent:
+            labels = ", ".join(label for key, label, _ in QUANTITIES if key in self.absent)
+            lines += ["", f"not compared: {labels} (no mode of that kind: the link's freedoms do not have it)"]
         return "\n".join(lines)
 
 
@@ -210,7 +221,8 @@ def tip_deflection(model, static: str = "linear") -> float:
 def arm_quantities(model, static: str = "linear") -> dict:
     """The four quantities of :data:`QUANTITIES` for a loaded clamped arm without slider;
     frequencies at zero gravity about the straight arm (pure beam theory; under gravity they
-    move by a relative ~1e-5 through the geometric stiffness of the self weight)."""
+    move by a relative ~1e-5 through the geometric stiffness of the self weight), each of the
+    first mode of its kind by shape; NaN for a kind no mode has."""
     modes = natural_frequencies(model.with_params(g=0.0), np.zeros(model.n_dof))
     return {
         "tip_deflection": tip_deflection(model, static),
@@ -260,6 +272,13 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
         for key, value in arm_quantities(model, static).items():
             values[key].append(value)
     values = {k: np.array(v) for k, v in values.items()}
+    absent = tuple(k for k, v in values.items() if np.all(np.isnan(v)))
+    mixed = [k for k, v in values.items() if k not in absent and np.any(np.isnan(v))]
+    if mixed:  # a kind found at some levels only: the shapes changed kind with n_rfe
+        raise ModelError(f"{clamped.title}: no mode of the kind of {', '.join(mixed)} at some n_rfe "
+                         f"({', '.join(str(n) for n, x in zip(nrfe_values, values[mixed[0]]) if np.isnan(x))}); "
+                         f"compare levels of 3 rfes or more")
+    values = {k: v for k, v in values.items() if k not in absent}
     analytic = {k: getattr(reference, k) for k in values}
     limit = {k: getattr(reference, LIMIT_KEYS[k]) for k in values}
     errors, orders, local = _relative(values, analytic, nrfe_values)
@@ -268,7 +287,7 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
                   for k, e in errors_limit.items()}
     return ConvergenceTable(np.array(nrfe_values), values, analytic, errors, orders, local,
                             limit, errors_limit, orders_limit, local_limit, orders_sde,
-                            np.array(seconds), static, clamped.title)
+                            np.array(seconds), static, clamped.title, absent)
 
 
 __all__ = [

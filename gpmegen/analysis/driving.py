@@ -131,17 +131,50 @@ def point_forces(model, loaded, t, q, lam) -> dict:
     return out
 
 
-def deformation(loaded, q) -> dict:
+def deformation(loaded, q, elastic=None) -> dict:
     """The elastic deformation at the samples ``q`` (k, n): ``spring_forces`` (k, n) the springs'
     generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
     coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
-    {0} from where the rigid arm at the same joint coordinates puts it (spring coordinates zero)."""
+    {0} from where the rigid arm at the same joint coordinates puts it (the ``elastic``
+    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.extrapolate.elastic_coordinates`;
+    None, for generated code without its model: those with a spring)."""
     C = statics.spring_stiffness(loaded, q[0])
-    springs = np.flatnonzero(np.abs(np.diag(C)) > 0)
+    if elastic is None:
+        elastic = np.flatnonzero(np.abs(np.diag(C)) > 0)
     rigid = q.copy()
-    rigid[:, springs] = 0.0
+    rigid[:, elastic] = 0.0
     deflection = np.array([loaded.end_effector(q[k]) - loaded.end_effector(rigid[k]) for k in range(len(q))])
     return {"spring_forces": q @ C.T, "deflection": deflection.reshape(len(q), 3)}
+
+
+#: The largest rotation (rad) of one sde that the RFEM's linear springs describe as a beam: its
+#: moment ``c·ψ`` with ``c = EI/Δ`` is small-strain beam theory's, whose ``sin ψ ≈ ψ`` is off by
+#: 0.17 % at 0.1 rad and by ``ψ²/6`` beyond; a larger rotation is a kink between two rfes, not a
+#: smooth bend, and more rfes share it out.
+ELASTIC_ROTATION = 0.1
+
+
+def large_rotation(model, loaded, t, q) -> str | None:
+    """A warning (one line) when a rotation of the symbolic ``model``'s sdes exceeds
+    :data:`ELASTIC_ROTATION` in magnitude at the samples ``t`` (k,), ``q`` (k, n) of ``loaded``:
+    the largest, its value and time; None when none does."""
+    from ..model.chain import FlexibleLink, Joint
+    from ..model.rfem import discretize
+
+    names = [part.name for link in model.chain if isinstance(link, FlexibleLink) for part in discretize(link)
+             if isinstance(part, Joint) and part.kind == "revolute"]
+    columns = [loaded.index(name) for name in names if name in loaded.coordinates]
+    if not columns or not len(t):
+        return None
+    size = np.abs(np.asarray(q, dtype=float)[:, columns])
+    size[~np.isfinite(size)] = 0.0
+    k, j = np.unravel_index(int(np.argmax(size)), size.shape)
+    if size[k, j] <= ELASTIC_ROTATION:
+        return None
+    return (f"warning: the sde rotation {loaded.coordinates[columns[j]]} reaches {q[k, columns[j]]:.3g} rad at "
+            f"t = {t[k]:.6g} s, beyond {ELASTIC_ROTATION:g} rad per sde, where the RFEM's linear sde springs "
+            f"(small-strain beam bending and torsion) no longer model the beam; use more rfes, a stiffer link or "
+            f"a gentler motion")
 
 
 def annotate(results: dict, model, loaded) -> dict:
@@ -151,7 +184,10 @@ def annotate(results: dict, model, loaded) -> dict:
     the points named by ``meta["force_points"]``. ``model`` None (generated code alone): the
     deformation only."""
     meta = results_io.metadata(results)
-    arrays = deformation(loaded, results["q"]) if loaded.points and len(results["t"]) else {}
+    from .extrapolate import elastic_coordinates
+
+    elastic = None if model is None else elastic_coordinates(model, loaded)
+    arrays = deformation(loaded, results["q"], elastic) if loaded.points and len(results["t"]) else {}
     if model is None:  # generated code without its model (a built folder): forces in generalized units
         return results_io.annotate(results, {}, arrays)
     units = {"force_units": force_units(model),

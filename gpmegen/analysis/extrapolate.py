@@ -35,6 +35,14 @@ def joint_names(model) -> list[str]:
     return [element.name for element in model.chain if isinstance(element, Joint)]
 
 
+def elastic_coordinates(model, loaded) -> np.ndarray:
+    """Indices of ``loaded``'s elastic coordinates: its flexible links' sde coordinates, every
+    coordinate that is no joint of the symbolic ``model`` (a sprung joint is a joint, not the
+    deformation)."""
+    joints = set(joint_names(model))
+    return np.array([k for k, name in enumerate(loaded.coordinates) if name not in joints], dtype=int)
+
+
 #: Words for groups of outputs (``gpmegen convergence --output``).
 GROUPS = {"points": ("points",), "joints": ("joints",), "deflection": ("deflections",),
           "velocities": ("joint_velocities", "point_velocities"), "forces": ("drive_forces", "constraint_forces")}
@@ -111,8 +119,8 @@ def outputs(level: Level) -> dict:
     """The comparable outputs of one level (see the module's doc), keyed by :data:`OUTPUTS`."""
     loaded, res = level.loaded, level.results
     joints = [loaded.index(name) for name in joint_names(level.model)]
-    elastic = np.ones(loaded.n_dof, dtype=bool)
-    elastic[joints] = False
+    elastic = np.zeros(loaded.n_dof, dtype=bool)
+    elastic[elastic_coordinates(level.model, loaded)] = True
     q, qd = res["q"], res["qd"]
     points = np.array([loaded.point_positions(x) for x in q])
     rigid = np.array([loaded.point_positions(np.where(elastic, 0.0, x)) for x in q])

@@ -1,7 +1,8 @@
 """Natural modes about an equilibrium: linearized free vibration ``K φ = ω² M φ`` on chosen
 coordinates (:func:`natural_frequencies`, :func:`locked_modes`), with the programmed constraints
-holding (:func:`constrained_modes`), and the kind of each mode (:func:`classify`: vertical bending,
-horizontal bending, torsion). Their CSV and figures: :mod:`gpmegen.analysis.modes_output`.
+holding (:func:`constrained_modes`), and the kind of each mode from its shape (vertical bending,
+horizontal bending, torsion: :mod:`gpmegen.analysis.mode_kinds`). Their CSV and figures:
+:mod:`gpmegen.analysis.modes_output`.
 """
 
 from __future__ import annotations
@@ -14,12 +15,7 @@ import scipy.linalg
 
 from ..errors import ModelError
 from ..runtime import statics
-
-# Coordinate families by name prefix: psi (about z) bends the arm in its vertical plane, theta
-# (about y) in the horizontal plane, phi (about x) twists it. Joints follow the same axes
-# (theta1 turns the column about y: horizontal; psi2 lifts the arm: vertical).
-FAMILIES = (("psi", "vertical"), ("theta", "horizontal"), ("phi", "torsion"))
-KINDS = ("vertical", "horizontal", "torsion")
+from .mode_kinds import KINDS, classify
 
 
 @dataclass
@@ -28,7 +24,8 @@ class Modes:
 
     ``frequencies`` (k,) Hz; ``shapes`` (n_dof, k), zero on the held coordinates, each column
     normalized to unit modal mass (``φᵀ M φ = 1``); ``free`` the indices of the coordinates
-    that move; ``coordinates`` the model's coordinate names; ``kinds`` from :func:`classify`."""
+    that move; ``coordinates`` the model's coordinate names; ``kinds`` from
+    :func:`gpmegen.analysis.mode_kinds.classify`."""
 
     frequencies: np.ndarray
     shapes: np.ndarray
@@ -37,11 +34,12 @@ class Modes:
     kinds: list = field(default_factory=list)
 
     def first(self, kind: str) -> float:
-        """Lowest frequency (Hz) of a mode of ``kind`` ('vertical', 'horizontal', 'torsion')."""
+        """Lowest frequency (Hz) of a mode of ``kind`` ('vertical', 'horizontal', 'torsion'); NaN
+        when no mode is of that kind (a planar link has no horizontal bending nor torsion)."""
         for f, k in zip(self.frequencies, self.kinds):
             if k == kind:
                 return float(f)
-        raise ValueError(f"no {kind} mode among the {len(self.frequencies)} modes found")
+        return math.nan
 
     def format(self, count: int | None = 10) -> str:
         """The lowest ``count`` modes (all when None) as text: frequency, kind and the
@@ -76,7 +74,7 @@ def natural_frequencies(model, q_eq, free=None) -> Modes:
     shapes = np.zeros((model.n_dof, free.size))
     shapes[free] = vectors
     modes = Modes(frequencies, shapes, free, tuple(model.coordinates))
-    modes.kinds = classify(modes.coordinates, shapes)
+    modes.kinds = classify(model, q_eq, shapes)
     return modes
 
 
@@ -87,23 +85,6 @@ def locked_modes(model, q_start=None, free=None):
     q_start = np.zeros(model.n_dof) if q_start is None else np.asarray(q_start, dtype=float)
     q_eq = statics.locked(model, q_start, free=free)
     return q_eq, natural_frequencies(model, q_eq, free=free)
-
-
-def classify(coordinates, shapes) -> list[str]:
-    """Kind of each mode (column of ``shapes``, (n_dof, k)): 'vertical' bending when the ψ
-    coordinates (names starting ``psi``) carry the largest share of ``Σ φ_j²``, 'horizontal'
-    bending for θ (``theta``), 'torsion' for φ (``phi``); 'other' when another coordinate
-    (e.g. ``x3``) dominates."""
-    shapes = np.asarray(shapes, dtype=float)
-    if shapes.ndim == 1:
-        shapes = shapes[:, None]
-    family = np.array([next((kind for prefix, kind in FAMILIES if name.startswith(prefix)), "other")
-                       for name in coordinates])
-    kinds = []
-    for col in shapes.T:
-        share = {kind: float(np.sum(col[family == kind] ** 2)) for kind in KINDS + ("other",)}
-        kinds.append(max(share, key=share.get))
-    return kinds
 
 
 def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
@@ -143,7 +124,7 @@ def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
     frequencies = np.sign(omega2) * np.sqrt(np.abs(omega2)) / (2.0 * math.pi)
     shapes = B @ vectors
     modes = Modes(frequencies, shapes, np.asarray(model.independent)[keep], tuple(model.coordinates))
-    modes.kinds = classify(modes.coordinates, shapes)
+    modes.kinds = classify(model, q_eq, shapes)
     return modes
 
 
@@ -165,5 +146,34 @@ def highest_frequency(model, t, q, qd=None) -> float:
     omega2 = scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
     return math.sqrt(max(float(omega2[-1]), 0.0))
 
-__all__ = ["Modes", "natural_frequencies", "highest_frequency", "locked_modes", "constrained_modes", "classify",
-           "KINDS"]
+
+def motion_eigenvalues(model, t, q, qd=None) -> np.ndarray:
+    """The eigenvalues (1/s) of the first-order system ``M δq̈ + C δq̇ + K δq = 0`` linearized at
+    ``(t, q, qd)`` (``qd`` default rest) on the velocities the constraints allow (the null space
+    ``B`` of their ``D`` there, as in :func:`highest_frequency`), dampers included: ``K`` the tangent
+    stiffness, ``C = -∂f/∂q̇`` (joint and sde dampers, and the velocity terms away from rest) by
+    central differences of the model's forces. They bound RK4's step: see
+    :func:`gpmegen.runtime.stability.stable_step`."""
+    from ..runtime.internal import STEP
+
+    q = np.asarray(q, dtype=float)
+    qd = np.zeros(model.n_dof) if qd is None else np.asarray(qd, dtype=float)
+    D = model.constraint_terms(t, q, qd)[2]
+    B = scipy.linalg.null_space(D) if len(D) else np.eye(model.n_dof)
+    k = B.shape[1]
+    if k == 0:  # the constraints hold every coordinate: nothing moves
+        return np.zeros(0, dtype=complex)
+    C = np.empty((model.n_dof, model.n_dof))
+    for j in range(model.n_dof):
+        h = STEP * max(1.0, abs(qd[j]))
+        up, down = qd.copy(), qd.copy()
+        up[j] += h
+        down[j] -= h
+        C[:, j] = -(model.forces(t, q, up) - model.forces(t, q, down)) / (2 * h)
+    M, K, C = (B.T @ X @ B for X in (model.mass_matrix(q), model.stiffness_jacobian(q), C))
+    A = np.block([[np.zeros((k, k)), np.eye(k)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    return np.linalg.eigvals(A)
+
+
+__all__ = ["Modes", "natural_frequencies", "highest_frequency", "motion_eigenvalues", "locked_modes",
+           "constrained_modes", "classify", "KINDS"]

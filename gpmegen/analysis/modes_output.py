@@ -66,6 +66,8 @@ def plot_convergence(table: ConvergenceTable, path) -> Path:
     fig, ax = plt.subplots(figsize=(7.0, 5.2))
     n = np.array(table.nrfe, dtype=float)
     for (key, label, _), marker, color in zip(QUANTITIES, "osd^", ("C0", "C1", "C2", "C3")):
+        if key not in table.values:  # the link has no mode of that kind
+            continue
         ax.loglog(n, np.abs(table.errors[key]), marker=marker, color=color,
                   label=f"{label} (fitted order {table.orders[key]:.2f})")
         if table.limit[key] != table.analytic[key]:

@@ -362,20 +362,23 @@ ENERGY_PANELS = (
     ("ΔV springs [J]", lambda r: r["spring_energy"] - r["spring_energy"][0]),
     ("W drive [J]", lambda r: r["work_drive"]),
     ("W constraints [J]", lambda r: r["work_constraints"]),
-    ("ΔE − W [J]", lambda r: balance_error(r)),
+    ("W dampers [J]", lambda r: r["work_dampers"] if "work_dampers" in r else np.zeros(len(r["t"]))),
+    ("residual ΔE − W [J]", lambda r: balance_error(r)),
 )
 
 
 def balance_error(results):
-    """ΔE − W: the change of total energy (kinetic, gravity, springs) since the start less the
-    work of the drive and of the constraint forces, in J; zero for an exact solution."""
-    total = results["kinetic_energy"] + results["gravity_energy"] + results["spring_energy"]
-    return total - total[0] - results["work_drive"] - results["work_constraints"]
+    """ΔE − W, J: :func:`gpmegen.analysis.energy.balance_residual` (the dampers' work is a term of
+    the balance, not part of the error)."""
+    from .energy import balance_residual
+
+    return balance_residual(results)
 
 
 def energy_balance(plt, runs, style):
     """Each energy term and work since the start in its own panel, the balance error in the last."""
-    fig, axes = _figure(plt, 3, 2, 7.5, width=10.0, sharex=True)
+    fig, axes = _figure(plt, 4, 2, 9.5, width=10.0, sharex=True)
+    axes[-1, -1].set_visible(False)
     for ax, (name, value) in zip(axes.ravel(), ENERGY_PANELS):
         for r, s in zip(runs, style):
             ax.plot(r["t"], value(r), **_line(s), lw=1.2)
@@ -384,7 +387,8 @@ def energy_balance(plt, runs, style):
     for ax in axes[-1]:
         ax.set_xlabel("t [s]")
     _finish(fig, _title(runs, "Energy balance"), _run_handles(runs, style),
-            "ΔE = ΔT + ΔV gravity + ΔV springs against W = W drive + W constraints.")
+            "ΔE = ΔT + ΔV gravity + ΔV springs against W = W drive + W constraints + W dampers; "
+            "the residual is what the balance leaves.")
     return fig
 
 

@@ -61,6 +61,10 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     res = driving.annotate(res, case.source, model)
     for line in joint_limits.exceeded(case.joint_limits(), model.coordinates, res["t"], res["q"], res["qd"]):
         progress(line)
+    if case.source is not None:  # the sdes are known from the symbolic model
+        warning = driving.large_rotation(case.source, model, res["t"], res["q"])
+        if warning:
+            progress(warning)
     return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from .. import limits
 from ..errors import ModelError, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
+from . import energy as energy_balance
 from . import modes
 from . import results as results_io
 
@@ -187,8 +188,8 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     block of ``D`` is watched: ``notify`` (a callable taking a message) is told when it degrades,
     and with ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that
     cannot finish (for DOP853: whose steps, at most its stable step at the start, cannot), or whose
-    step is above RK4's stable one at the start
-    (:func:`gpmegen.analysis.modes.highest_frequency`), is refused before it starts
+    step is above RK4's stable one at the start (from the eigenvalues of the motion linearized there,
+    dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), is refused before it starts
     (:class:`gpmegen.limits.LimitError`, unless the limits are lifted). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
@@ -212,7 +213,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop, omega,
                      None if method == "rk4" else save_dt)
     if method == "rk4" and omega is not None:
-        unstable = integrate.unstable_step(dt, omega)
+        unstable = integrate.unstable_step(dt, modes.motion_eigenvalues(model, 0.0, q0, qd0))
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     model.check_actuators(0.0, q0)
@@ -266,7 +267,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
 def collect(model, t, y, status, settings) -> dict:
     """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
     constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
-    actuated one), energies."""
+    actuated one), energies and the dampers' work (:mod:`gpmegen.analysis.energy`)."""
     n, m = model.n_dof, len(model.constraint_names)
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
@@ -283,11 +284,14 @@ def collect(model, t, y, status, settings) -> dict:
         phi[k] = model.constraint_values(t[k], q[k], qd[k])
         D = model.constraint_terms(t[k], q[k], qd[k])[2]
         drive[k] = model.drive_forces(t[k])
-        if np.all(np.isfinite(y[k])):
+        if np.all(np.isfinite(y[k, :2 * n])):  # the state, whatever the work columns hold
             qdd[k], M, f = model.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)
         energy[k] = model.energies(q[k], qd[k])
+    finite = np.flatnonzero(np.all(np.isfinite(y[:, :2 * n]), axis=1))
+    dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)
+               if len(finite) else np.full(samples, np.nan))
     realization = ({"u": lam, "actuators": np.array([model.coordinates[k] for k in model.actuators])} if actuated
                    else {"lambda": lam})
     return {
@@ -297,7 +301,7 @@ def collect(model, t, y, status, settings) -> dict:
         "tau_drive": drive.sum(axis=1),
         "drive_forces": drive, "constraint_forces": reaction, **realization,
         "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
-        "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1],
+        "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1], "work_dampers": dampers,
         "status": np.array(status),
         "meta": results_io.encode({
             "model": model.module.MODEL, "coordinates": list(model.coordinates),

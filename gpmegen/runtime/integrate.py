@@ -410,21 +410,28 @@ def save_steps(dt: float, save_dt: float) -> int | None:
     return k if k >= 1 and abs(k * dt - save_dt) <= 1e-9 * save_dt else None
 
 
-#: RK4's stability limit on the imaginary axis: an undamped mode of ω (rad/s) grows for h ω above it.
-RK4_STABILITY = 2.0 * math.sqrt(2.0)
 #: The methods that take steps above RK4's stable one: they choose their own.
 LONG_STEPS = ("--method genalpha (implicit, in C), radau (implicit, adaptive, in C), dop853 (adaptive, in C) or "
               "scipy-radau (implicit)")
 
 
-def unstable_step(dt: float, omega: float) -> str | None:
-    """Why RK4 at step ``dt`` (s) would blow up on a mode of ``omega`` (rad/s), with the stable
-    step and the methods that take the step asked for; None when ``dt`` is stable."""
-    stable = RK4_STABILITY / omega if omega > 0 else math.inf
+def unstable_step(dt: float, values) -> str | None:
+    """Why RK4 at step ``dt`` (s) would blow up on the linearized motion of eigenvalues ``values``
+    (1/s, dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), with the stable step
+    (:func:`gpmegen.runtime.stability.stable_step`), the eigenvalue that sets it and the methods
+    that take the step asked for; None when ``dt`` is stable."""
+    from .stability import stable_step
+
+    stable, value = stable_step(values)
     if dt <= stable:
         return None
-    return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (2√2/ω for the highest natural frequency "
-            f"{omega / (2 * math.pi):.4g} Hz at the start): use --dt {stable:.2g} or less, or {LONG_STEPS}")
+    undamped = value.real > -1e-6 * abs(value)
+    real = 0.0 if undamped else value.real
+    kind = ("undamped" if undamped else "overdamped" if abs(value.imag) <= 1e-6 * abs(value) else
+            f"damping ratio {-value.real / abs(value):.3g}")
+    return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (set by the eigenvalue {real:.4g} ± "
+            f"{abs(value.imag):.4g}j 1/s of the motion linearized at the start, {abs(value) / (2 * math.pi):.4g} Hz, "
+            f"{kind}): use --dt {stable:.2g} or less, or {LONG_STEPS}")
 
 
 #: Integrators that run only in the generated C loops (not the NumPy backend, nor the actuated
@@ -478,17 +485,15 @@ def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol
     """``scipy.integrate.solve_ivp`` on the same equations, saving at ``t_eval`` (s; None: at its
     steps) by the method's dense output. Returns ``(t, y, outcome, effort)``.
 
-    The implicit methods (Radau, BDF, LSODA) integrate ``(q, q̇)`` only (the work columns of ``y``
-    are then NaN) and get a forward-difference Jacobian with a fixed relative step: scipy's own
-    adapts its step per column and lets it grow without bound on a coordinate nothing depends on
-    (the column's rotation θ1, or the work states), until the state overflows. Their Jacobians
-    count in ``effort`` as calls, each 2n + 1 GPME solves (among the solves counted)."""
+    The implicit methods (Radau, BDF, LSODA) get a forward-difference Jacobian with a fixed
+    relative step: scipy's own adapts its step per column and lets it grow without bound on a
+    coordinate nothing depends on (the column's rotation θ1, or the work states), until the state
+    overflows. Their Jacobians count in ``effort`` as calls, each 2n + 3 GPME solves (among the
+    solves counted). Every method integrates the work states with the motion."""
     from scipy.integrate import solve_ivp
 
     check_start(model, t0, q0, qd0)
-    n = model.n_dof
-    with_work = method not in IMPLICIT
-    y0 = np.concatenate([q0, qd0] + ([[0.0, 0.0]] if with_work else [])).astype(float)
+    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
     full = state_derivative(model)
     solves = [0]
 
@@ -496,10 +501,9 @@ def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol
         solves[0] += 1
         return full(t, y)
 
-    rhs = counted if with_work else (lambda t, y: counted(t, np.concatenate([y, [0.0, 0.0]]))[:2 * n])
-    options = {} if with_work else {"jac": _difference_jacobian(rhs)}
-    sol = solve_ivp(rhs, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
-    y = sol.y.T if with_work else np.column_stack([sol.y.T, np.full((len(sol.t), 2), np.nan)])
+    options = {"jac": _difference_jacobian(counted)} if method in IMPLICIT else {}
+    sol = solve_ivp(counted, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
+    y = sol.y.T
     reached = float(sol.t[-1]) if len(sol.t) else float(t0)
     outcome = Outcome(Ending.COMPLETE, reached) if sol.success else Outcome.diverged(reached, sol.message)
     effort = Effort(None, None, solves[0], int(sol.njev), int(sol.nlu))  # solve_ivp does not count its steps

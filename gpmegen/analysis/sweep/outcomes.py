@@ -6,9 +6,10 @@ interrupted or failed), ``message`` (why, when not complete), ``t_final`` (s), `
 and ``max_abs_phi.<constraint>`` (the largest constraint violation over the run), ``q_final.<c>``
 per coordinate, ``peak_drive.<c>`` per driven coordinate and ``peak_constraint_force.<c>`` per
 coordinate (largest magnitude over the saved samples, N·m or N), ``energy_balance_error`` (J:
-the largest ``|ΔE - W_drive - W_constraints|``), and ``wall_s`` (the run's wall time in s,
-model loading and writing included). A column that does not apply to a run (a coordinate another
-nrfe does not have, the outcomes of a failed run) is empty in the CSV and null in Parquet.
+the largest ``|ΔE - W_drive - W_constraints - W_dampers|``, the dampers' work a term of the
+balance), and ``wall_s`` (the run's wall time in s, model loading and writing included). A
+column that does not apply to a run (a coordinate another nrfe does not have, the outcomes of a
+failed run) is empty in the CSV and null in Parquet.
 """
 
 from __future__ import annotations
@@ -51,9 +52,9 @@ def outcomes(results, driven=()) -> dict:
             peaks = np.abs(results[key]).max(axis=0)
             row.update({f"{prefix}.{c}": float(peaks[k]) for k, c in enumerate(coordinates)})
     if "kinetic_energy" in results:
-        total = results["kinetic_energy"] + results["gravity_energy"] + results["spring_energy"]
-        work = results["work_drive"] + results["work_constraints"]
-        row["energy_balance_error"] = float(np.abs(total - total[0] - work).max())
+        from ..energy import balance_residual
+
+        row["energy_balance_error"] = float(np.abs(balance_residual(results)).max())
     return row
 
 
