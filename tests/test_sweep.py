@@ -238,7 +238,8 @@ def test_ctrl_c_stops_the_workers_at_once_and_the_resume_makes_only_the_missing_
     """Ctrl-C said "k of N runs complete and kept" while the pool's processes went on: they wrote
     more runs after the command had ended, left .partial files, and the resume made those runs
     again."""
-    args = ["--nrfe", "1", "--param", "tdr0=1:3:12", "--t-end", "0.02", "--dt", "1e-4", "--save-every", "50",
+    # runs long enough that the signal finds them integrating, as a real sweep's would be
+    args = ["--nrfe", "1", "--param", "tdr0=1:3:8", "--t-end", "0.1", "--dt", "1e-4", "--save-every", "50",
             "--backend", "numpy"]
     stopped = tmp_path / "stopped"
     proc = subprocess.Popen(GPMEGEN + ["sweep", *args, "--workers", "2", "--out", str(stopped)],
@@ -251,29 +252,35 @@ def test_ctrl_c_stops_the_workers_at_once_and_the_resume_makes_only_the_missing_
     workers = _worker_processes(proc.pid)
     assert workers
     proc.send_signal(signal.SIGINT)
+    said = None
+    while said is None:
+        line = proc.stderr.readline()
+        assert line, "".join(lines)
+        lines.append(line)
+        if "runs complete and kept" in line:
+            said, told = line, time.time()  # the line was printed before this instant
     rest = proc.stderr.read()
     proc.wait(timeout=120)
-    ended = time.time()
     err = "".join(lines) + rest
     assert proc.returncode == 130, err
-    said, last = err.strip().splitlines()[-2:]
-    assert said.endswith("runs complete and kept; run the same sweep again to make the others"), err
-    assert last == "gpmegen sweep: interrupted", err
+    assert said.endswith("runs complete and kept; run the same sweep again to make the others\n"), err
+    assert rest == "gpmegen sweep: interrupted\n", err
     kept = int(said.removeprefix("gpmegen: ").split()[0])
     assert all(_gone(worker) for worker in workers)  # nothing can write to the folder any more
     files = {path: path.stat().st_mtime_ns for path in (stopped / "runs").iterdir()}
-    assert all(ns <= ended * 1e9 for ns in files.values())
+    late = sorted(path.name for path, ns in files.items() if ns > told * 1e9)
+    assert not late, f"written after the sweep said it had stopped: {late}"
     complete = [path for path in files if path.suffix == ".npz" and path.with_suffix(".json") in files]
-    assert len(complete) == kept and 3 <= kept < 12
+    assert len(complete) == kept and 3 <= kept < 8
     assert not [path for path in files if ".partial" in path.name or path.name.startswith(".")], sorted(files)
     assert not (stopped / "summary.csv").exists()
 
-    params = {"tdr0": plan.parse_param("tdr0=1:3:12")[1]}
-    setting = dict(nrfe=[1], params=params, t_end=0.02, dt=1e-4, save_every=50, backend="numpy")
-    said = []
-    resumed = gpmegen.sweep(out=stopped, workers=1, progress=said.append, **setting)
-    assert resumed.skipped == kept and resumed.runs == 12
-    assert sum(line.startswith("run ") for line in said) == 12 - kept  # exactly the missing runs made
+    params = {"tdr0": plan.parse_param("tdr0=1:3:8")[1]}
+    setting = dict(nrfe=[1], params=params, t_end=0.1, dt=1e-4, save_every=50, backend="numpy")
+    messages = []
+    resumed = gpmegen.sweep(out=stopped, workers=1, progress=messages.append, **setting)
+    assert resumed.skipped == kept and resumed.runs == 8
+    assert sum(line.startswith("run ") for line in messages) == 8 - kept  # exactly the missing runs made
     assert {path: files[path] for path in complete} == {path: path.stat().st_mtime_ns for path in complete}
     whole = gpmegen.sweep(out=tmp_path / "whole", workers=1, **setting)
     assert _same_numbers(resumed.columns) == _same_numbers(whole.columns)
