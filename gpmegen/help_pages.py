@@ -56,7 +56,8 @@ the inputs must start and after t1 they act.""",
 Many runs of one case: every combination of the given parameter values and rfe counts, or K
 samples (Latin hypercube or uniform) within given ranges. Each run is a simulate run (the same
 code, the same results file); the runs go to all local cores by default, or to a Dask cluster
-with --scheduler. A failed run is recorded with its message and the others go on; run the same
+with --scheduler. A failed run, or one whose process died (a crash in compiled code), is recorded
+with its message and the others go on; Ctrl-C stops the runs in progress at once. Run the same
 sweep again after an interruption and the runs already complete are kept.""",
     "export": """\
 Write the model's discretized chain as a URDF robot at the parameter defaults: rfes as links with

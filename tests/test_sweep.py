@@ -19,7 +19,7 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis import results as results_io
-from gpmegen.analysis.sweep import outcomes, plan
+from gpmegen.analysis.sweep import SweepFailures, outcomes, plan
 from gpmegen.cli import main
 from gpmegen.limits import LimitError
 
@@ -140,26 +140,148 @@ def test_scheduler_and_workers_in_their_own_processes_give_the_same_summary(refe
     assert _same_numbers(summary.columns) == _same_numbers(reference[1].columns)
 
 
-def test_an_interrupted_sweep_resumes_where_it_stopped(tmp_path):
-    args = ["--nrfe", "1", "--param", "tdr0=1:3:10", "--t-end", "0.1", "--dt", "1e-4", "--save-every", "50",
+#: Imported at the start of every Python process of a sweep that finds it on its path: the run
+#: with tdr0 = 2 kills its process with SIGSEGV, as a crash in compiled code would.
+CRASHING_RUN = """
+import os, signal
+from gpmegen.analysis import runs
+
+_run = runs.run
+
+def run(case, start, t_end, dt, save_every, method, backend, overrides, *args, **kwargs):
+    if overrides.get("tdr0") == 2.0:
+        os.kill(os.getpid(), signal.SIGSEGV)
+    return _run(case, start, t_end, dt, save_every, method, backend, overrides, *args, **kwargs)
+
+runs.run = run
+"""
+#: Three short runs of the rigid arm on NumPy; the second is the one CRASHING_RUN kills.
+THREE_RUNS = ["--nrfe", "1", "--param", "tdr0=1,2,3", "--t-end", "0.002", "--dt", "1e-3", "--save-every", "1",
+              "--backend", "numpy"]
+
+
+def _crashing_environment(tmp_path) -> dict:
+    """The environment of a process whose sweeps' run with tdr0 = 2 dies with SIGSEGV."""
+    import os
+
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(CRASHING_RUN)
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(hook), os.environ.get("PYTHONPATH")]))}
+
+
+def _died_as_asked(table, died):
+    assert table["status"] == ["complete", "died", "complete"]
+    assert died in table["message"][1]
+    assert table["q_final.theta1"][1] is None and table["q_final.theta1"][2] is not None
+
+
+def test_a_worker_that_dies_is_that_runs_outcome_and_the_sweep_goes_on(tmp_path):
+    """A pool's process killed by SIGSEGV ended the sweep with "internal error: KeyError:
+    'wall_s'" and no summary."""
+    out = tmp_path / "crashed"
+    done = subprocess.run(GPMEGEN + ["sweep", *THREE_RUNS, "--workers", "2", "--out", str(out)],
+                          capture_output=True, text=True, env=_crashing_environment(tmp_path), timeout=300)
+    assert done.returncode == 1, done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("gpmegen sweep: error: 1 of 3 runs did not complete (first: run "), last
+    assert "died: the process making this run was killed by SIGSEGV" in last
+    assert "internal error" not in done.stderr and "Traceback" not in done.stderr
+    table = outcomes.read_csv(out / "summary.csv")
+    _died_as_asked(table, "killed by SIGSEGV")
+    assert table["wall_s"][1] is not None
+    assert not list((out / "runs").glob(f"{table['run'][1]}*")) and not list((out / "runs").glob(".*"))
+    # run again without the crash, the sweep makes the run that died, and only that one
+    again = subprocess.run(GPMEGEN + ["sweep", *THREE_RUNS, "--workers", "2", "--out", str(out)],
+                           capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert "2 of 3 runs complete already (kept)" in again.stderr and "\ngpmegen: 1 runs " in again.stderr
+    assert outcomes.read_csv(out / "summary.csv")["status"] == ["complete"] * 3
+
+
+@pytest.mark.requires_cc
+def test_a_dask_worker_that_dies_is_that_runs_outcome_and_the_sweep_goes_on(tmp_path, monkeypatch):
+    """On a cluster the lost worker was an internal error (KeyError: 'wall_s') too."""
+    import dask
+    from distributed import LocalCluster
+
+    monkeypatch.setenv("PYTHONPATH", _crashing_environment(tmp_path)["PYTHONPATH"])  # the workers' processes
+    params = {"tdr0": [1.0, 2.0, 3.0]}
+    # a task whose worker dies is not tried again on another (Dask tries 3 more by default)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None) as cluster:
+        with pytest.raises(SweepFailures, match=r"1 of 3 runs did not complete \(first: run \w+, died: "):
+            gpmegen.sweep(out=tmp_path / "dask", scheduler=cluster.scheduler_address, nrfe=[1], params=params,
+                          t_end=0.002, dt=1e-3, save_every=1, backend="numpy")
+    _died_as_asked(outcomes.read_csv(tmp_path / "dask" / "summary.csv"), "the Dask worker making this run died")
+
+
+def _worker_processes(pid) -> list:
+    """The pool's processes of the sweep ``pid`` (not multiprocessing's resource tracker, which
+    writes nothing and ends on its own once the sweep has ended)."""
+    import psutil
+
+    return [child for child in psutil.Process(pid).children(recursive=True)
+            if any("spawn_main" in part for part in child.cmdline())]
+
+
+def _gone(process) -> bool:
+    import psutil
+
+    try:
+        return process.status() == psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return True
+
+
+def test_ctrl_c_stops_the_workers_at_once_and_the_resume_makes_only_the_missing_runs(tmp_path):
+    """Ctrl-C said "k of N runs complete and kept" while the pool's processes went on: they wrote
+    more runs after the command had ended, left .partial files, and the resume made those runs
+    again."""
+    # runs long enough that the signal finds them integrating, as a real sweep's would be
+    args = ["--nrfe", "1", "--param", "tdr0=1:3:8", "--t-end", "0.1", "--dt", "1e-4", "--save-every", "50",
             "--backend", "numpy"]
     stopped = tmp_path / "stopped"
     proc = subprocess.Popen(GPMEGEN + ["sweep", *args, "--workers", "2", "--out", str(stopped)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    _wait_for(lambda: len(list(stopped.glob("runs/*.json"))) >= 3 or proc.poll() is not None, 120, "3 runs")
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    lines = []
+    while sum(line.startswith("gpmegen: run ") for line in lines) < 3:  # three runs ended
+        line = proc.stderr.readline()
+        assert line, f"the sweep ended before its third run: {''.join(lines)}"
+        lines.append(line)
+    workers = _worker_processes(proc.pid)
+    assert workers
     proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+    said = None
+    while said is None:
+        line = proc.stderr.readline()
+        assert line, "".join(lines)
+        lines.append(line)
+        if "runs complete and kept" in line:
+            said, told = line, time.time()  # the line was printed before this instant
+    rest = proc.stderr.read()
+    proc.wait(timeout=120)
+    err = "".join(lines) + rest
     assert proc.returncode == 130, err
-    assert "runs complete and kept; run the same sweep again" in err
-    kept = {path: path.stat().st_mtime_ns for path in stopped.glob("runs/*.npz")
-            if path.with_suffix(".json").exists()}
-    assert 3 <= len(kept) < 10 and not (stopped / "summary.csv").exists()
+    assert said.endswith("runs complete and kept; run the same sweep again to make the others\n"), err
+    assert rest == "gpmegen sweep: interrupted\n", err
+    kept = int(said.removeprefix("gpmegen: ").split()[0])
+    assert all(_gone(worker) for worker in workers)  # nothing can write to the folder any more
+    files = {path: path.stat().st_mtime_ns for path in (stopped / "runs").iterdir()}
+    late = sorted(path.name for path, ns in files.items() if ns > told * 1e9)
+    assert not late, f"written after the sweep said it had stopped: {late}"
+    complete = [path for path in files if path.suffix == ".npz" and path.with_suffix(".json") in files]
+    assert len(complete) == kept and 3 <= kept < 8
+    assert not [path for path in files if ".partial" in path.name or path.name.startswith(".")], sorted(files)
+    assert not (stopped / "summary.csv").exists()
 
-    params = {"tdr0": plan.parse_param("tdr0=1:3:10")[1]}
+    params = {"tdr0": plan.parse_param("tdr0=1:3:8")[1]}
     setting = dict(nrfe=[1], params=params, t_end=0.1, dt=1e-4, save_every=50, backend="numpy")
-    resumed = gpmegen.sweep(out=stopped, workers=1, **setting)
-    assert resumed.skipped == len(kept) and resumed.runs == 10
-    assert {path: path.stat().st_mtime_ns for path in kept} == kept  # not made again
+    messages = []
+    resumed = gpmegen.sweep(out=stopped, workers=1, progress=messages.append, **setting)
+    assert resumed.skipped == kept and resumed.runs == 8
+    assert sum(line.startswith("run ") for line in messages) == 8 - kept  # exactly the missing runs made
+    assert {path: files[path] for path in complete} == {path: path.stat().st_mtime_ns for path in complete}
     whole = gpmegen.sweep(out=tmp_path / "whole", workers=1, **setting)
     assert _same_numbers(resumed.columns) == _same_numbers(whole.columns)
 

@@ -108,7 +108,7 @@ def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, 
     done = {}
 
     def record(task, row):
-        if row["status"] == "failed":  # only a process that died: the others' errors are raised
+        if row["status"] == "died":  # the others' errors are raised
             raise ExtrapolationError(f"n_rfe = {task.nrfe}: {row['message']}")
         done[task.nrfe] = row
         written = f"; wrote {', '.join(row['written'])}" if row["written"] else ""

@@ -178,17 +178,17 @@ def _completed(tasks) -> tuple[dict, list]:
 
 
 def _make(tasks, todo, rows, client, size, say) -> int:
-    """Make the runs ``todo``, adding their rows to ``rows``; the number of all runs not complete."""
-    from ...fileio import atomic_write_bytes
+    """Make the runs ``todo``, adding their rows to ``rows``; the number of all runs not complete.
+    Each complete run's row is written by its worker (:func:`.workers.perform`)."""
     from ...runtime.integrate import Progress, interruptible
 
     total = len(tasks)
     bar = Progress(total, "sweep")
     done = [len(rows)]
+    for task in todo:  # what an earlier call of the sweep, stopped or killed, left of these runs
+        _remove(task.leftovers())
 
     def record(task, row):
-        if row["status"] == "complete":
-            atomic_write_bytes(task.row_file, (json.dumps(row, indent=1) + "\n").encode())
         rows[task.run_id] = row
         done[0] += 1
         if bar.enabled:
@@ -197,7 +197,8 @@ def _make(tasks, todo, rows, client, size, say) -> int:
             state = row["status"] + (f": {row['message']}" if row.get("message") else "")
             inputs = [f"nrfe = {task.nrfe}"] if task.nrfe is not None else []
             inputs += [f"{k} = {v:g}" for k, v in task.params]
-            say(f"run {done[0]}/{total} ({', '.join([task.run_id, *inputs])}): {state} ({row['wall_s']:.2f} s)")
+            wall = f" ({row['wall_s']:.2f} s)" if row.get("wall_s") is not None else ""
+            say(f"run {done[0]}/{total} ({', '.join([task.run_id, *inputs])}): {state}{wall}")
 
     n_workers = min(size, len(todo))
     if todo:
@@ -212,10 +213,18 @@ def _make(tasks, todo, rows, client, size, say) -> int:
                 pools.in_process(todo, record, say)
             else:
                 pools.local_pool(todo, record, n_workers)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # the workers are stopped: nothing writes into the folder any more
         bar.close()
-        kept = sum(1 for row in rows.values() if row["status"] == "complete")
+        for task in todo:
+            if task.run_id not in rows:  # the runs stopped midway (a partial result is no run's outcome)
+                _remove(task.leftovers())
+        kept = len(_completed(tasks)[0])
         raise KeyboardInterrupt(f"{kept} of {total} runs complete and kept; run the same sweep again to make the "
                                 f"others") from None
     bar.close()
     return sum(1 for row in rows.values() if row["status"] != "complete")
+
+
+def _remove(paths) -> None:
+    for path in paths:
+        path.unlink(missing_ok=True)

@@ -2,7 +2,8 @@
 as Parquet (the same table, column for column).
 
 Columns: ``run`` (id), ``nrfe`` (empty: a model file's own), the parameters given, ``status`` (complete, diverged,
-interrupted or failed), ``message`` (why, when not complete), ``t_final`` (s), ``max_abs_phi``
+interrupted, failed, or died: its process was killed making it), ``message`` (why, when not complete),
+``t_final`` (s), ``max_abs_phi``
 and ``max_abs_phi.<constraint>`` (the largest constraint violation over the run), ``q_final.<c>``
 per coordinate, ``peak_drive.<c>`` per driven coordinate and ``peak_constraint_force.<c>`` per
 coordinate (largest magnitude over the saved samples, N·m or N), ``energy_balance_error`` (J:
@@ -61,6 +62,11 @@ def outcomes(results, driven=()) -> dict:
 def failure(message: str) -> dict:
     """The outcomes of a run that produced no results."""
     return {"status": "failed", "message": " ".join(message.split())}
+
+
+def died(message: str) -> dict:
+    """The outcomes of a run whose process died making it (a crash in compiled code, a kill)."""
+    return {"status": "died", "message": " ".join(message.split())}
 
 
 def columns(rows: list[dict]) -> dict[str, list]:

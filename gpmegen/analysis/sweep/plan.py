@@ -166,6 +166,14 @@ class Task:
         """The summary row of the run, written once it is complete."""
         return Path(self.folder) / RUNS / f"{self.run_id}.json"
 
+    def leftovers(self) -> list[Path]:
+        """What a run stopped midway may have left: its partial results (a run stopped by a
+        signal writes them) and the temporary files of a write that was cut short."""
+        from ..results import targets
+
+        partial = [path for path in targets(self.out, complete=False) if path.exists()]
+        return partial + sorted(self.out.parent.glob(f".{self.run_id}.*.tmp"))
+
     def inputs(self) -> dict:
         """The run's columns of the summary: its id, nrfe and parameter values."""
         return {"run": self.run_id, "nrfe": self.nrfe, **dict(self.params)}

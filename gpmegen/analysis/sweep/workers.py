@@ -9,6 +9,7 @@ raises for a run that fails, it returns the failure as the run's row.
 from __future__ import annotations
 
 import contextlib
+import json
 import signal
 import socket
 import sys
@@ -18,6 +19,7 @@ from pathlib import Path
 
 from ... import limits
 from ...errors import GpmegenError
+from ...fileio import atomic_write_bytes
 from .. import cases, runs
 from . import outcomes
 from .plan import MANIFEST, SweepError, Task
@@ -67,7 +69,8 @@ def prepare(task: Task, progress=_quiet) -> None:
 def perform(task: Task) -> dict:
     """Make the run ``task`` and write its results pair (:func:`gpmegen.analysis.runs.run`);
     returns its summary row (:func:`gpmegen.analysis.sweep.outcomes.outcomes`, or a failure
-    with its one-line message) with its inputs and wall time."""
+    with its one-line message) with its inputs and wall time, and writes it beside the results
+    (``task.row_file``) when the run is complete."""
     began = time.perf_counter()
     try:
         if not (Path(task.folder) / MANIFEST).is_file():
@@ -81,7 +84,10 @@ def perform(task: Task) -> dict:
         row = outcomes.failure(str(exc))
     except Exception as exc:  # a defect: recorded, so that the other runs go on
         row = outcomes.failure(f"internal error: {type(exc).__name__}: {exc} (this is a bug; report it)")
-    return {**task.inputs(), **row, "wall_s": time.perf_counter() - began}
+    row = {**task.inputs(), **row, "wall_s": time.perf_counter() - began}
+    if row["status"] == "complete":  # written here, after the results: a run with its row is complete
+        atomic_write_bytes(task.row_file, (json.dumps(row, indent=1) + "\n").encode())
+    return row
 
 
 class NotATerminal:
@@ -103,3 +109,25 @@ def initialize_pool_process() -> None:
     stderr is no terminal."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     sys.stderr = NotATerminal(sys.stderr)
+
+
+def serve(pipe, prepare, perform) -> None:
+    """The loop of a local pool's process: ``(kind, task)`` from ``pipe``, ``prepare(task)`` or
+    ``perform(task)``, and back ``("done", value)`` or ``("raised", exception)``; until the
+    pool closes its end."""
+    initialize_pool_process()
+    while True:
+        try:
+            kind, task = pipe.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            answer = ("done", (prepare if kind == "prepare" else perform)(task))
+        except Exception as exc:
+            answer = ("raised", exc)
+        try:
+            pipe.send(answer)
+        except (BrokenPipeError, OSError):
+            return
+        except Exception:  # an exception that cannot be pickled: its words, as an error
+            pipe.send(("raised", RuntimeError(f"{type(answer[1]).__name__}: {answer[1]}")))
