@@ -12,6 +12,7 @@ import numpy as np
 from .. import limits
 from ..errors import ModelError, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
+from ..status import Ending, Outcome
 from . import modes
 from . import results as results_io
 
@@ -218,22 +219,15 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization does not use the partition: nothing to watch
     watch = partition.Watch(model, repartition, notify, limit=np.inf if len(model.actuators) else
                             partition.ILL_CONDITIONED)
-    if method == "rk4":
-        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
-                                      max_violation=max_violation, watch=watch)
-        effort = integrate.rk4_effort(t, 0.0, dt)
-    elif method == "genalpha":
-        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
-                                                   max_violation=max_violation, watch=watch)
-    elif method in integrate.ADAPTIVE:
-        t, y, outcome, effort = integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol,
-                                                           progress=progress, max_violation=max_violation,
-                                                           watch=watch)
-    else:
-        times = integrate.grid(0.0, t_end, save_dt)
-        t, y, outcome, effort = integrate.scipy_solve(
-            model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=rtol, atol=atol,
-            t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
+    with integrate.interruptible():
+        try:  # from the line below on, a signal keeps at least the start
+            (notify or (lambda message: None))(f"integrating with {method} to t = {t_end:g} s; Ctrl-C or SIGTERM "
+                                               f"stops it, keeping the results so far")
+            t, y, outcome, effort = _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, atol,
+                                               rho_inf, progress, max_violation, watch)
+        except KeyboardInterrupt:  # before the integrator's own loop began, or in the line
+            t, y = np.zeros(1), np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]
+            outcome, effort = Outcome(Ending.INTERRUPTED, 0.0), integrate.Effort(0, 0, 0, 0, 0)
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
         outcome = internal.explain(outcome, stability, actuated)
@@ -252,6 +246,24 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
         (notify or (lambda message: None))(
             f"internal dynamics along the run: largest real part {worst[k]:.4g} 1/s at t = {t[k]:.6g} s")
     return results
+
+
+def _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, atol, rho_inf, progress,
+               max_violation, watch):
+    """The integration of :func:`simulate` by ``method``: ``(t, y, outcome, effort)``."""
+    if method == "rk4":
+        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
+                                      max_violation=max_violation, watch=watch)
+        return t, y, outcome, integrate.rk4_effort(t, 0.0, dt)
+    if method == "genalpha":
+        return integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
+                                  max_violation=max_violation, watch=watch)
+    if method in integrate.ADAPTIVE:
+        return integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol, progress=progress,
+                                          max_violation=max_violation, watch=watch)
+    times = integrate.grid(0.0, t_end, save_dt)
+    return integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=rtol, atol=atol,
+                                 t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
 
 
 def collect(model, t, y, status, settings) -> dict:
