@@ -198,9 +198,12 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
-    omega = None  # the highest natural frequency, for the methods whose steps it bounds
-    if method in limits.NEEDS_FREQUENCY and t_end > 0 and not limits.are_lifted():  # t_end 0: no step
-        omega = modes.highest_frequency(model, 0.0, q0, qd0)
+    omega = None  # the natural frequency that bounds the method's steps, when one does
+    if t_end > 0 and not limits.are_lifted():  # t_end 0: no step
+        if method in limits.NEEDS_FREQUENCY:
+            omega = modes.highest_frequency(model, 0.0, q0, qd0)
+        elif method in limits.NEEDS_LOWEST_FREQUENCY:
+            omega = modes.lowest_frequency(model, 0.0, q0, qd0)
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop, omega,
                      None if method == "rk4" else save_dt)
     if method == "rk4" and omega is not None:
