@@ -11,6 +11,7 @@ import argparse
 import contextlib
 import difflib
 import functools
+import gc
 import os
 import re
 import sys
@@ -1013,5 +1014,13 @@ def main(argv=None) -> int:
         return 1
 
 
+def quick_exit(code: int) -> int:
+    """``code``, with the objects made so far set aside from the garbage collector: the
+    interpreter's collections at exit would otherwise walk SymPy's millions of them (2.8 s after a
+    run's last line at load 10, 0.3 s without), and a stopped run is to end promptly."""
+    gc.freeze()
+    return code
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(quick_exit(main()))

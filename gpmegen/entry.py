@@ -12,7 +12,8 @@ def main() -> int:
         # leave a library half imported, and NumPy then reports a broken installation.
         with signals_held():
             from .cli import main as cli_main
-        return cli_main()
+            from .cli import quick_exit
+        return quick_exit(cli_main())
     except KeyboardInterrupt:
         import sys
 

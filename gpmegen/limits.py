@@ -7,7 +7,8 @@ and extrapolate beyond them with the slope of the last two. Builds, compiles and
 are calibrated by their CPU time, the RK4 steps by README "Performance": times of a quiet
 machine, so a busy one only takes longer than estimated and nothing that could finish within
 the limit is refused. The other integrators' runs count in GPME solves of that cost (a quarter
-of an RK4 step): generalized-α's estimated, DOP853's bounded from below by its stable step (see
+of an RK4 step): generalized-α's estimated, DOP853's bounded from below by its stable step,
+Radau's (compiled or SciPy's) by the period of the lowest natural frequency (see
 :data:`ESTIMATORS`). Work whose estimate exceeds :data:`MAX_SECONDS`, or the memory the
 system reports available (``MemAvailable``), raises :class:`LimitError`: one line with the
 estimate, the limit and what to change. ``--no-limits`` on the command line, or in Python::
@@ -76,6 +77,17 @@ JACOBIANS_PER_RUN = 3
 DOP853_STABILITY_RADIUS = 6.79
 #: GPME solves of an accepted DOP853 step: 12 stages, the first the rate at the last one's end.
 DOP853_SOLVES_PER_STEP = 12
+#: The fewest steps per period of the lowest natural frequency an implicit adaptive method (radau,
+#: scipy-radau) takes while that mode moves: a step over a whole period of a vibration cannot
+#: follow it to any tolerance (its collocation polynomial of degree 3 through the step would not
+#: see the oscillation), so it is cut until it does. The real count is far higher (tens a period
+#: at rtol 1e-8: tests/test_limits_runs.py). A motion whose vibrations have all died out below
+#: atol could step past it: such a long run is refused though it could finish, and
+#: ``--no-limits`` starts it.
+STEPS_PER_LOWEST_PERIOD = 1
+#: The fewest GPME solves of an accepted Radau IIA step: one Newton iteration on its 3 stages and
+#: the rate at its end.
+RADAU_SOLVES_PER_STEP = 4
 #: One saved sample against n_dof: the derived quantities (E, Φ, drive, constraint forces,
 #: energies) evaluated after the run, and its share of the .npz and .csv writing.
 SAMPLE_SECONDS = {"c": ((3, 34e-6), (15, 54e-6)), "numpy": ((3, 80e-6), (15, 226e-6))}
@@ -256,16 +268,34 @@ def _dop853(n_dof, t_end, dt, omega, backend) -> Integration | None:
                        f"highest natural frequency {omega / (2 * math.pi):.4g} Hz at the start)")
 
 
+def _radau(n_dof, t_end, dt, omega, backend, name="Radau IIA") -> Integration | None:
+    if omega is None or not omega > 0:
+        return None
+    period = 2 * math.pi / omega
+    n = math.ceil(t_end / period * STEPS_PER_LOWEST_PERIOD)
+    return Integration(n, n * RADAU_SOLVES_PER_STEP * solve_seconds(n_dof), True,
+                       f"at least {n:.3g} {name} steps of n_dof = {n_dof} ({STEPS_PER_LOWEST_PERIOD} a period, "
+                       f"{period:.2g} s, of the lowest natural frequency {omega / (2 * math.pi):.4g} Hz at the start)")
+
+
+def _scipy_radau(n_dof, t_end, dt, omega, backend) -> Integration | None:
+    return _radau(n_dof, t_end, dt, omega, backend, "scipy Radau")
+
+
 #: How each integrator's run is known before it starts: ``estimator(n_dof, t_end, dt, omega,
 #: backend)`` returns an :class:`Integration` or None (nothing can be said); ``dt`` the fixed step
-#: (for adaptive methods the save grid's unit), ``omega`` the highest natural frequency at the
-#: start (rad/s; None when not computed: see :data:`NEEDS_FREQUENCY`). A new integrator adds its
+#: (for adaptive methods the save grid's unit), ``omega`` the natural frequency at the start that
+#: bounds its steps (rad/s; None when not computed): the highest (:data:`NEEDS_FREQUENCY`), whose
+#: stability bounds an explicit step, or the lowest vibrating one (:data:`NEEDS_LOWEST_FREQUENCY`),
+#: whose period an implicit step does not exceed (:data:`STEPS_PER_LOWEST_PERIOD`). A new integrator adds its
 #: own; an implicit adaptive one (no stable step bounds it) can bound its steps from below by
 #: its largest step, each costing its solves (:func:`solve_seconds`) and its Jacobians and
 #: factorizations (:func:`jacobian_seconds`).
-ESTIMATORS = {"rk4": _rk4, "genalpha": _genalpha, "dop853": _dop853}
+ESTIMATORS = {"rk4": _rk4, "genalpha": _genalpha, "dop853": _dop853, "radau": _radau, "scipy-radau": _scipy_radau}
 #: The integrators whose estimate needs the highest natural frequency at the start.
 NEEDS_FREQUENCY = {"rk4", "dop853"}
+#: The integrators whose estimate needs the lowest vibrating natural frequency at the start.
+NEEDS_LOWEST_FREQUENCY = {"radau", "scipy-radau"}
 #: The integrators whose steps the stiff modes do not bound, named when an explicit one is refused.
 STIFF_METHODS = ["genalpha", "radau"]
 
@@ -298,7 +328,7 @@ def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_e
     frequency to bound its steps) is taken at zero seconds, a lower bound: what its saved samples
     take is still known."""
     integration = integration_estimate(n_dof, t_end, dt, method, backend, omega)
-    stiff = integration is not None and integration.at_least
+    stiff = integration is not None and integration.at_least and method not in NEEDS_LOWEST_FREQUENCY
     if integration is None:
         integration = Integration(0, 0.0, True, f"a {method} run of n_dof = {n_dof}")
     samples = (steps(t_end, save_dt) if save_dt else steps(t_end, dt) // max(1, int(save_every))) + 2
@@ -317,6 +347,8 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
     if estimate.stiff:
         others = " or ".join(m for m in STIFF_METHODS if m != method)
         fix = f"use a shorter --t-end, fewer rfes, or --method {others} (steps the stiff modes do not bound)"
+    elif method in NEEDS_LOWEST_FREQUENCY:
+        fix = "use a shorter --t-end (its steps do not exceed the lowest mode's period)"
     else:
         fix = "use a shorter --t-end, a larger --dt or a larger --save-every (or --save-dt)"
     check(f"running {estimate.work}", estimate.seconds, estimate.n_bytes, fix, at_least=estimate.at_least)

@@ -91,3 +91,35 @@ def test_the_dop853_bound_is_below_the_steps_it_takes_and_near_them_at_a_loose_t
             assert effort.steps <= 2 * bound.steps
     # a run that fits is not refused
     limits.check_run(model.n_dof, 2, 10.0, 1e-3, 1, "dop853", "c", omega, save_dt=1e-3)
+
+
+@pytest.mark.parametrize("method", ["radau", "scipy-radau"])
+def test_an_implicit_run_over_an_absurd_span_is_refused_before_it_starts(capsys, tmp_path, env, monkeypatch, method):
+    """radau and scipy-radau had no estimate: over 1e9 s they started (and ran for hours)."""
+    monkeypatch.setitem(integrate.ADAPTIVE, "radau", lambda *a, **k: pytest.fail("the run started"))
+    monkeypatch.setattr(integrate, "scipy_solve", lambda *a, **k: pytest.fail("the run started"))
+    out = tmp_path / "run.npz"
+    code = main(["simulate", "--nrfe", "5", "--backend", "c", "--method", method, "--t-end", "1e9", "--save-dt", "1e8",
+                 "--out", str(out)])
+    _, err = capsys.readouterr()
+    refusal = [line for line in err.splitlines() if "error" in line]
+    assert code == 2 and len(refusal) == 1 and "integrating" not in err, err
+    # 9.6 periods a second of the lowest mode over 1e9 s, four solves each at least
+    assert "at least 9.62e+09" in refusal[0] and "9.622 Hz" in refusal[0] and "beyond the limit of 3600 s" in err
+    assert "--t-end" in refusal[0] and "--no-limits" in refusal[0]
+    assert not list(tmp_path.iterdir())
+
+
+def test_the_lowest_period_bound_is_below_the_steps_radau_takes(arm):
+    """A step of the compiled Radau stays well within a period of the lowest mode, at a loose
+    tolerance as at the default one; a run that fits is not refused."""
+    model, q0, _ = arm
+    lowest, span = modes.lowest_frequency(model, 0.0, q0), 0.5
+    bound = limits.integration_estimate(model.n_dof, span, 1e-3, "radau", "c", lowest)
+    assert bound.at_least and bound.steps == np.ceil(span * lowest / (2 * np.pi))
+    for rtol in (1e-4, integrate.RTOL):
+        _, _, outcome, effort = integrate.radau(model, q0, np.zeros(model.n_dof), span, 1e-2, rtol=rtol, atol=rtol)
+        assert outcome.complete and effort.steps >= 2 * bound.steps
+    limits.check_run(model.n_dof, 2, 100.0, 1e-3, 1, "radau", "c", lowest, save_dt=1e-3)
+    with limits.lifted():  # --no-limits
+        limits.check_run(model.n_dof, 2, 1e9, 1e-3, 1, "radau", "c", lowest, save_dt=1e8)

@@ -3,13 +3,14 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 18e1b68f0bf614cc
+Input hash: 1b7d4ff3527e28a4
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "model.h"
 
@@ -51,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "18e1b68f0bf614cc"; }
+const char *manipulator_nrfe1_input_hash(void) { return "1b7d4ff3527e28a4"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -2426,28 +2427,50 @@ static void dense_value(double x, const double *y_old, const double F[][N_Y], do
     }
 }
 
+/* What a call of DOP853 that stopped before its last saved instant (max_steps spent) leaves
+   for the next to go on from, bit for bit as if it had not stopped: the time t, the state y and
+   its rate, the saved rows k so far and whether the last step was rejected. started: 0 (all
+   zero bytes) before the first call of a span. */
+struct dop853_memory {
+    double y[N_Y] ALIGNED, rate[N_Y] ALIGNED;
+    double t;
+    long k;
+    int started, rejected;
+};
+
+/* The bytes of a struct dop853_memory, which the caller holds between calls. */
+long manipulator_nrfe1_dop853_memory_bytes(void)
+{
+    return (long)sizeof(struct dop853_memory);
+}
+
 /* DOP853 from (t_a, y_a) (y = [q, qd, w], N_Y) to t_save[n_save - 1], saving y at each of the
    n_save increasing instants t_save (all after t_a) into y_out (n_save x N_Y): the step's own
    state where a step ends on one (always the last, where the last step is cut to end), the
    dense output of order 7 between. The error of each step, in the root mean square over q and qd
    of err / (atol + rtol |y|), is kept below 1. *h: in, the step to try first (<= 0: chosen
-   here); out, the step to try next. counts (5) are added to: steps accepted, steps rejected,
-   rates (GPME solves of the state), Jacobians and LU factorizations (none here). Returns
-   GPMEGEN_OK; the status of a failed rate; GPMEGEN_NONFINITE at a non-finite state;
-   GPMEGEN_STEP_TOO_SMALL when the step fell to round-off of t; GPMEGEN_BAD_ARGUMENTS. *n_saved
-   counts the saved rows, also on a failure. */
+   here); out, the step to try next. max_steps > 0: the call returns GPMEGEN_OK with *n_saved <
+   n_save after that many steps (accepted or rejected), its place kept in memory (struct
+   dop853_memory, zeroed by the caller before the span's first call), and the next call with the
+   same arguments goes on from there (t_a and y_a are then not read, and y_out only written from
+   row *n_saved on); 0: no limit, memory may be NULL. counts (5) are added to: steps accepted,
+   steps rejected, rates (GPME solves of the state), Jacobians and LU factorizations (none
+   here). Returns GPMEGEN_OK; the status of a failed rate; GPMEGEN_NONFINITE at a non-finite
+   state; GPMEGEN_STEP_TOO_SMALL when the step fell to round-off of t; GPMEGEN_BAD_ARGUMENTS.
+   *n_saved counts the saved rows of the span, also on a failure. */
 int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol,
-    double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved,
-    long *counts)
+    double *h, long max_steps, void *memory, const double *p, const int *dependent, const int *independent,
+    double *y_out, long *n_saved, long *counts)
 {
     double K[DOP_STAGES_DENSE][N_Y] ALIGNED, F[7][N_Y] ALIGNED;
-    double y[N_Y] ALIGNED, y_new[N_Y] ALIGNED, err5[N_MOTION] ALIGNED, err3[N_MOTION] ALIGNED;
-    double t = t_a;
-    int status, rejected = 0;
-    long k = 0;
+    double y_new[N_Y] ALIGNED, err5[N_MOTION] ALIGNED, err3[N_MOTION] ALIGNED;
+    struct dop853_memory run;
+    int status;
+    long taken = 0;
 
     *n_saved = 0;
-    if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h)) {
+    if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h) || max_steps < 0
+        || (max_steps > 0 && memory == NULL)) {
         return GPMEGEN_BAD_ARGUMENTS;
     }
     for (long j = 0; j < n_save; ++j) {
@@ -2456,21 +2479,55 @@ int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const d
         }
     }
     const double t_b = t_save[n_save - 1];
-    for (int i = 0; i < N_Y; ++i) {
-        y[i] = y_a[i];
+    double *y = run.y;
+    if (memory != NULL) {
+        memcpy(&run, memory, sizeof run);
+    } else {
+        run.started = 0;
     }
-    if (!all_finite(y, N_Y)) {
-        return GPMEGEN_NONFINITE;
+    if (run.started) {  /* going on from the call before */
+        if (!(run.k >= 0 && run.k < n_save && run.t >= t_a && run.t < t_b)) {
+            return GPMEGEN_BAD_ARGUMENTS;
+        }
+        *n_saved = run.k;
+        for (int i = 0; i < N_Y; ++i) {
+            K[0][i] = run.rate[i];
+        }
+    } else {
+        run.t = t_a;
+        run.k = 0;
+        run.rejected = 0;
+        for (int i = 0; i < N_Y; ++i) {
+            y[i] = y_a[i];
+        }
+        if (!all_finite(y, N_Y)) {
+            return GPMEGEN_NONFINITE;
+        }
+        ++counts[2];
+        if ((status = state_rate(run.t, y, p, dependent, independent, K[0])) != GPMEGEN_OK) {
+            return status;
+        }
+        if (!(*h > 0.0) && (status = dop853_first_step(run.t, y, K[0], rtol, atol, t_b - t_a, p, dependent,
+                                                       independent, h, &counts[2])) != GPMEGEN_OK) {
+            return status;
+        }
     }
-    ++counts[2];
-    if ((status = state_rate(t, y, p, dependent, independent, K[0])) != GPMEGEN_OK) {
-        return status;
-    }
-    if (!(*h > 0.0) && (status = dop853_first_step(t, y, K[0], rtol, atol, t_b - t_a, p, dependent, independent, h,
-                                                   &counts[2])) != GPMEGEN_OK) {
-        return status;
-    }
+    double t = run.t;
+    long k = run.k;
+    int rejected = run.rejected;
     while (k < n_save) {
+        if (max_steps > 0 && taken == max_steps) {  /* the caller's turn: the place kept for the next call */
+            run.t = t;
+            run.k = k;
+            run.rejected = rejected;
+            run.started = 1;
+            for (int i = 0; i < N_Y; ++i) {
+                run.rate[i] = K[0][i];
+            }
+            memcpy(memory, &run, sizeof run);
+            return GPMEGEN_OK;
+        }
+        ++taken;
         const int last = t + *h >= t_b;
         const double step = last ? t_b - t : *h;
         const double t_new = last ? t_b : t + step;
@@ -3225,6 +3282,24 @@ static enum radau_newton radau_newton(double t, double h, const double *y, doubl
     }
 }
 
+/* What a call of radau that stopped before its last saved instant (max_steps spent) leaves for
+   the next to go on from, bit for bit as if it had not stopped (see dop853_memory): the
+   Jacobian and the LUs kept, the last step's collocation polynomial (cont), the state and its
+   rate, and the step control's memory. started: 0 (all zero bytes) before a span's first call. */
+struct radau_memory {
+    struct radau_matrices m;
+    double A_q[N_DOF * N_DOF] ALIGNED, y[N_Y] ALIGNED, f0[N_Y] ALIGNED, cont[3][N_Y] ALIGNED;
+    double t, h_factored, h_cont, h_accepted, err_accepted, theta, faccon;
+    long k;
+    int have_jacobian, fresh_jacobian, have_cont, rejected, accepted, failure, chosen, started;
+};
+
+/* The bytes of a struct radau_memory, which the caller holds between calls. */
+long manipulator_nrfe1_radau_memory_bytes(void)
+{
+    return (long)sizeof(struct radau_memory);
+}
+
 /* Radau IIA of order 5 from t_a and y_a = [q, qd, w] (N_Y) to t_save[n_save - 1], saving y at the
    n_save increasing instants t_save (after t_a) into y_out (n_save x N_Y): the step's own state
    where a step ends on one (always the last), radau_dense_value between. Hairer's
@@ -3238,29 +3313,31 @@ static enum radau_newton radau_newton(double t, double h, const double *y, doubl
    an exact linear motion grow from 2 to 40 rtol between rtol 1e-4 and 1e-10; this one keeps it
    at 1.6 to 3 rtol); Gustafsson's predictive step control; the
    Jacobian of gpme_jacobian kept while Newton contracts fast, the LUs while the step is kept.
-   *h, counts (5: steps, rejected steps (by the error or Newton's failure), GPME solves,
-   Jacobians, LU factorizations, the real and the complex one each counting) as for dop853.
+   *h, max_steps, memory (a struct radau_memory) and counts (5: steps, rejected steps (by the
+   error or Newton's failure), GPME solves, Jacobians, LU factorizations, the real and the
+   complex one each counting) as for dop853.
    Returns GPMEGEN_OK; GPMEGEN_NO_CONVERGENCE when Newton fails on steps down to round-off of t,
    the status of a failed rate or factorization when those did, GPMEGEN_STEP_TOO_SMALL when the
    error test did; GPMEGEN_NONFINITE at a non-finite state or error; GPMEGEN_BAD_ARGUMENTS.
    *n_saved counts the saved rows, also on a failure. */
 int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol,
-    double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved,
-    long *counts)
+    double *h, long max_steps, void *memory, const double *p, const int *dependent, const int *independent,
+    double *y_out, long *n_saved, long *counts)
 {
-    struct radau_matrices m;
-    double A_q[N_DOF * N_DOF] ALIGNED, qdd[N_DOF] ALIGNED;
-    double y[N_Y] ALIGNED, f0[N_Y] ALIGNED, y_new[N_Y] ALIGNED, scale[N_MOTION] ALIGNED;
-    double z[3][N_Y] ALIGNED, w[3][N_Y] ALIGNED, rates[3][N_Y] ALIGNED, cont[3][N_Y] ALIGNED;
+    struct radau_memory run;
+    double qdd[N_DOF] ALIGNED, y_new[N_Y] ALIGNED, scale[N_MOTION] ALIGNED;
+    double z[3][N_Y] ALIGNED, w[3][N_Y] ALIGNED, rates[3][N_Y] ALIGNED;
     double err[N_Y] ALIGNED, ys[N_Y] ALIGNED;
+    double *const A_q = run.A_q, *const y = run.y, *const f0 = run.f0, (*const cont)[N_Y] = run.cont;
     double t = t_a, h_factored = 0.0, h_cont = 0.0, h_accepted = 0.0, err_accepted = 0.0;
     double theta = 0.0, faccon = 1.0;
     int status, have_jacobian = 0, fresh_jacobian = 0, have_cont = 0, rejected = 0, accepted = 0;
     int failure = GPMEGEN_STEP_TOO_SMALL, chosen = !(*h > 0.0);  /* chosen: the first step is a guess */
-    long k = 0;
+    long k = 0, taken = 0;
 
     *n_saved = 0;
-    if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h)) {
+    if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h) || max_steps < 0
+        || (max_steps > 0 && memory == NULL)) {
         return GPMEGEN_BAD_ARGUMENTS;
     }
     for (long j = 0; j < n_save; ++j) {
@@ -3270,21 +3347,47 @@ int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const do
     }
     const double t_b = t_save[n_save - 1], tol = pow(1e-3, 0.2) * pow(rtol, 0.8), abs_tol = atol * tol / rtol;
     const double newton_tolerance = fmax(10.0 * DBL_EPSILON / tol, fmin(0.03, sqrt(tol)));
-    for (int i = 0; i < N_Y; ++i) {
-        y[i] = y_a[i];
+    if (memory != NULL) {
+        memcpy(&run, memory, sizeof run);
+    } else {
+        run.started = 0;
     }
-    if (!all_finite(y, N_Y)) {
-        return GPMEGEN_NONFINITE;
-    }
-    ++counts[2];
-    if ((status = state_rate(t, y, p, dependent, independent, f0)) != GPMEGEN_OK) {
-        return status;
-    }
-    if (chosen && (status = dop853_first_step(t, y, f0, rtol, atol, t_b - t_a, p, dependent, independent, h,
-                                                   &counts[2])) != GPMEGEN_OK) {
-        return status;
+    if (run.started) {  /* going on from the call before: its place, as it kept it */
+        if (!(run.k >= 0 && run.k < n_save && run.t >= t_a && run.t < t_b)) {
+            return GPMEGEN_BAD_ARGUMENTS;
+        }
+        t = run.t, h_factored = run.h_factored, h_cont = run.h_cont, h_accepted = run.h_accepted;
+        err_accepted = run.err_accepted, theta = run.theta, faccon = run.faccon;
+        have_jacobian = run.have_jacobian, fresh_jacobian = run.fresh_jacobian, have_cont = run.have_cont;
+        rejected = run.rejected, accepted = run.accepted, failure = run.failure, chosen = run.chosen, k = run.k;
+        *n_saved = k;
+    } else {
+        for (int i = 0; i < N_Y; ++i) {
+            y[i] = y_a[i];
+        }
+        if (!all_finite(y, N_Y)) {
+            return GPMEGEN_NONFINITE;
+        }
+        ++counts[2];
+        if ((status = state_rate(t, y, p, dependent, independent, f0)) != GPMEGEN_OK) {
+            return status;
+        }
+        if (chosen && (status = dop853_first_step(t, y, f0, rtol, atol, t_b - t_a, p, dependent, independent, h,
+                                                  &counts[2])) != GPMEGEN_OK) {
+            return status;
+        }
     }
     while (k < n_save) {
+        if (max_steps > 0 && taken == max_steps) {  /* the caller's turn: the place kept for the next call */
+            run.t = t, run.h_factored = h_factored, run.h_cont = h_cont, run.h_accepted = h_accepted;
+            run.err_accepted = err_accepted, run.theta = theta, run.faccon = faccon;
+            run.have_jacobian = have_jacobian, run.fresh_jacobian = fresh_jacobian, run.have_cont = have_cont;
+            run.rejected = rejected, run.accepted = accepted, run.failure = failure, run.chosen = chosen, run.k = k;
+            run.started = 1;
+            memcpy(memory, &run, sizeof run);
+            return GPMEGEN_OK;
+        }
+        ++taken;
         const int last = t + *h >= t_b;
         const double step = last ? t_b - t : *h;
         const double t_new = last ? t_b : t + step;
@@ -3294,7 +3397,7 @@ int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const do
         if (!have_jacobian) {
             counts[2] += JACOBIAN_SOLVES;
             ++counts[3];
-            if ((status = gpme_jacobian(t, y, y + N_DOF, p, dependent, qdd, A_q, m.A_qd)) != GPMEGEN_OK) {
+            if ((status = gpme_jacobian(t, y, y + N_DOF, p, dependent, qdd, A_q, run.m.A_qd)) != GPMEGEN_OK) {
                 return status;
             }
             have_jacobian = fresh_jacobian = 1;
@@ -3305,7 +3408,7 @@ int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const do
         enum radau_newton newton = RADAU_DIVERGED;
         if (step != h_factored) {
             counts[4] += 2;
-            h_factored = (status = radau_factor(step, A_q, &m)) == GPMEGEN_OK ? step : 0.0;
+            h_factored = (status = radau_factor(step, A_q, &run.m)) == GPMEGEN_OK ? step : 0.0;
         }
         if (h_factored == step) {
             for (int i = 0; i < N_MOTION; ++i) {
@@ -3324,7 +3427,7 @@ int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const do
                     w[s][i] = RADAU_TI[s][0] * z[0][i] + RADAU_TI[s][1] * z[1][i] + RADAU_TI[s][2] * z[2][i];
                 }
             }
-            newton = radau_newton(t, step, y, z, w, &m, scale, newton_tolerance, p, dependent, independent, rates,
+            newton = radau_newton(t, step, y, z, w, &run.m, scale, newton_tolerance, p, dependent, independent, rates,
                                   &theta, &faccon, &iterations, &shrink, counts, &status);
             failure = newton == RADAU_CONVERGED ? failure : status != GPMEGEN_OK ? status : GPMEGEN_NO_CONVERGENCE;
         } else {
@@ -3345,7 +3448,7 @@ int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const do
                 const double e = (RADAU_E[0] * z[0][i] + RADAU_E[1] * z[1][i] + RADAU_E[2] * z[2][i]) / step;
                 err[i] = (pass ? ys[i] : f0[i]) + e;
             }
-            radau_solve_real(&m, err);
+            radau_solve_real(&run.m, err);
             error = 0.0;
             for (int i = 0; i < N_MOTION; ++i) {
                 error += (err[i] / scale[i]) * (err[i] / scale[i]);

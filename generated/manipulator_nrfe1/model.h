@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 18e1b68f0bf614cc
+Input hash: 1b7d4ff3527e28a4
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -230,17 +230,22 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
    n_save increasing instants t_save (after t_a) into y_out (n_save, 8), by its dense output of order 7
    where no step ends on one; the error of a step, as the root mean square over q and qd of
    err / (atol + rtol |y|), below 1. *h: the step to try first (<= 0: chosen), then the one to try
-   next. Adds to counts (5,): steps, rejected steps, GPME solves, Jacobians, LU factorizations.
-   Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NONFINITE, GPMEGEN_STEP_TOO_SMALL or
-   GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
-int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+   next. max_steps > 0: return GPMEGEN_OK after that many steps with *n_saved < n_save, the place
+   kept in memory (manipulator_nrfe1_dop853_memory_bytes() bytes, zero before a span's first call), so that
+   calls with the same arguments go on from it to the same bits as one call; 0: no limit (memory
+   may be NULL). Adds to counts (5,): steps, rejected steps, GPME solves, Jacobians, LU
+   factorizations. Returns GPMEGEN_OK, the status of a failed solve, GPMEGEN_NONFINITE,
+   GPMEGEN_STEP_TOO_SMALL or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
+int manipulator_nrfe1_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, long max_steps, void *memory, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+long manipulator_nrfe1_dop853_memory_bytes(void);
 
 /* Radau IIA (implicit, order 5, Hairer's RADAU5) with the arguments, saves, counts and statuses of
    manipulator_nrfe1_dop853, saving between steps by the polynomial of degree 4 whose derivative passes through the rates
    at the step's start and its three stages, and GPMEGEN_NO_CONVERGENCE when Newton's
    iterations fail on steps down to round-off; the LU factorizations counted are the real and the complex
    (3 x 3) ones of its Newton matrices. */
-int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, long max_steps, void *memory, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
+long manipulator_nrfe1_radau_memory_bytes(void);
 
 /* Generalized-alpha (order 2, numerical damping rho_inf in [0, 1]) over steps k_from + 1 .. k_to of the grid of
    manipulator_nrfe1_rk4, from y_io = [q, qd, w] (8,) and the method's acceleration a_io (3,; NaN at a run's

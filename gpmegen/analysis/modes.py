@@ -136,15 +136,35 @@ def highest_frequency(model, t, q, qd=None) -> float:
     constraint's does at rest, constrains nothing and leaves no partition to choose). The
     constraints' curvature is left out: it shifts the low modes, not the sdes' stiff ones that
     bound an explicit step."""
+    omega2 = _squared_frequencies(model, t, q, qd)
+    return math.sqrt(max(float(omega2[-1]), 0.0)) if len(omega2) else 0.0
+
+
+#: Squared frequencies below this fraction of the highest one are taken as no vibration (the
+#: round-off of a free or rigid motion's zero).
+VIBRATING = 1e-12
+
+
+def lowest_frequency(model, t, q, qd=None) -> float:
+    """The lowest natural frequency ω (rad/s) at ``(t, q, qd)`` of :func:`highest_frequency`'s
+    problem among those that vibrate (ω² above :data:`VIBRATING` of the highest; the motions of
+    no stiffness are left out); 0.0 when none does."""
+    omega2 = _squared_frequencies(model, t, q, qd)
+    vibrating = omega2[omega2 > VIBRATING * omega2[-1]] if len(omega2) and omega2[-1] > 0 else []
+    return math.sqrt(float(vibrating[0])) if len(vibrating) else 0.0
+
+
+def _squared_frequencies(model, t, q, qd):
+    """ω² (rad²/s², increasing) of :func:`highest_frequency`'s problem; empty when the
+    constraints hold every coordinate."""
     q = np.asarray(q, dtype=float)
     qd = np.zeros(model.n_dof) if qd is None else np.asarray(qd, dtype=float)
     D = model.constraint_terms(t, q, qd)[2]
     B = scipy.linalg.null_space(D) if len(D) else np.eye(model.n_dof)
     if B.shape[1] == 0:  # the constraints hold every coordinate: nothing vibrates
-        return 0.0
+        return np.empty(0)
     K, M = B.T @ model.stiffness_jacobian(q) @ B, B.T @ model.mass_matrix(q) @ B
-    omega2 = scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
-    return math.sqrt(max(float(omega2[-1]), 0.0))
+    return scipy.linalg.eigh(0.5 * (K + K.T), 0.5 * (M + M.T), eigvals_only=True)
 
 
 def motion_eigenvalues(model, t, q, qd=None) -> np.ndarray:
@@ -175,5 +195,5 @@ def motion_eigenvalues(model, t, q, qd=None) -> np.ndarray:
     return np.linalg.eigvals(A)
 
 
-__all__ = ["Modes", "natural_frequencies", "highest_frequency", "motion_eigenvalues", "locked_modes",
-           "constrained_modes", "classify", "KINDS"]
+__all__ = ["Modes", "natural_frequencies", "highest_frequency", "motion_eigenvalues", "lowest_frequency",
+           "locked_modes", "constrained_modes", "classify", "KINDS"]

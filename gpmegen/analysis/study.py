@@ -12,6 +12,7 @@ import numpy as np
 from .. import limits
 from ..errors import ModelError, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
+from ..status import Ending, Outcome
 from . import energy as energy_balance
 from . import modes
 from . import results as results_io
@@ -207,9 +208,12 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
-    omega = None  # the highest natural frequency, for the methods whose steps it bounds
-    if method in limits.NEEDS_FREQUENCY and t_end > 0 and not limits.are_lifted():  # t_end 0: no step
-        omega = modes.highest_frequency(model, 0.0, q0, qd0)
+    omega = None  # the natural frequency that bounds the method's steps, when one does
+    if t_end > 0 and not limits.are_lifted():  # t_end 0: no step
+        if method in limits.NEEDS_FREQUENCY:
+            omega = modes.highest_frequency(model, 0.0, q0, qd0)
+        elif method in limits.NEEDS_LOWEST_FREQUENCY:
+            omega = modes.lowest_frequency(model, 0.0, q0, qd0)
     limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop, omega,
                      None if method == "rk4" else save_dt)
     if method == "rk4" and omega is not None:
@@ -228,22 +232,15 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization does not use the partition: nothing to watch
     watch = partition.Watch(model, repartition, notify, limit=np.inf if len(model.actuators) else
                             partition.ILL_CONDITIONED)
-    if method == "rk4":
-        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
-                                      max_violation=max_violation, watch=watch)
-        effort = integrate.rk4_effort(t, 0.0, dt)
-    elif method == "genalpha":
-        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
-                                                   max_violation=max_violation, watch=watch)
-    elif method in integrate.ADAPTIVE:
-        t, y, outcome, effort = integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol,
-                                                           progress=progress, max_violation=max_violation,
-                                                           watch=watch)
-    else:
-        times = integrate.grid(0.0, t_end, save_dt)
-        t, y, outcome, effort = integrate.scipy_solve(
-            model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=rtol, atol=atol,
-            t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
+    with integrate.interruptible():
+        try:  # from the line below on, a signal keeps at least the start
+            (notify or (lambda message: None))(f"integrating with {method} to t = {t_end:g} s; Ctrl-C or SIGTERM "
+                                               f"stops it, keeping the results so far")
+            t, y, outcome, effort = _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, atol,
+                                               rho_inf, progress, max_violation, watch)
+        except KeyboardInterrupt:  # before the integrator's own loop began, or in the line
+            t, y = np.zeros(1), np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]
+            outcome, effort = Outcome(Ending.INTERRUPTED, 0.0), integrate.Effort(0, 0, 0, 0, 0)
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
         outcome = internal.explain(outcome, stability, actuated)
@@ -262,6 +259,24 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
         (notify or (lambda message: None))(
             f"internal dynamics along the run: largest real part {worst[k]:.4g} 1/s at t = {t[k]:.6g} s")
     return results
+
+
+def _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, atol, rho_inf, progress,
+               max_violation, watch):
+    """The integration of :func:`simulate` by ``method``: ``(t, y, outcome, effort)``."""
+    if method == "rk4":
+        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
+                                      max_violation=max_violation, watch=watch)
+        return t, y, outcome, integrate.rk4_effort(t, 0.0, dt)
+    if method == "genalpha":
+        return integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
+                                  max_violation=max_violation, watch=watch)
+    if method in integrate.ADAPTIVE:
+        return integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol, progress=progress,
+                                          max_violation=max_violation, watch=watch)
+    times = integrate.grid(0.0, t_end, save_dt)
+    return integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=rtol, atol=atol,
+                                 t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
 
 
 def collect(model, t, y, status, settings) -> dict:

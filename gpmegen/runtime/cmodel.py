@@ -329,23 +329,34 @@ class CEvaluator:
         k = int(n_saved[0])
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
 
-    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
-        return self._adaptive(self.lib.dop853, model, t_a, y_a, t_save, rtol, atol, step, counts)
+    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
+        return self._adaptive(self.lib.dop853, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps,
+                              first)
 
-    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
-        return self._adaptive(self.lib.radau, model, t_a, y_a, t_save, rtol, atol, step, counts)
+    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
+        return self._adaptive(self.lib.radau, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps,
+                              first)
 
-    def _adaptive(self, function, model, t_a, y_a, t_save, rtol, atol, step, counts):
-        """A call of the adaptive C loop ``function`` (dop853 or radau: one interface)."""
+    def loop_memory(self, method):
+        """Zeroed bytes (uint8) for what the adaptive C loop ``method`` ("dop853" or "radau") keeps
+        between the calls of one span."""
+        return np.zeros(getattr(self.lib, f"{method}_memory_bytes")(), dtype=np.uint8)
+
+    def _adaptive(self, function, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first):
+        """A call of the adaptive C loop ``function`` (dop853 or radau: one interface); its rows
+        from ``first`` (the rows the calls before saved) on."""
         dep, ind = self._partition_pointers(model)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
         self._check_counts(counts, integrate.ADAPTIVE_COUNTS)
+        if max_steps and (memory is None or memory.dtype != np.uint8 or not memory.flags.c_contiguous):
+            raise TypeError("a call with max_steps needs its memory: contiguous uint8 from loop_memory()")
         y_out = np.empty((len(t_save), len(y_a)))
         n_saved = self.ffi.new("long *")
         status = function(t_a, self._ptr(y_a), len(t_save), self._ptr(t_save), rtol, atol, self._ptr(step),
+                          int(max_steps), self.ffi.NULL if memory is None else self.ffi.from_buffer(memory),
                           self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
                           self.ffi.from_buffer("long[]", counts))
-        return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
+        return y_out[first:int(n_saved[0])].copy(), SolveStatus(status)
 
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         dep, ind = self._partition_pointers(model)

@@ -30,7 +30,7 @@ from .integrate import ADAPTIVE_COUNTS, COUNTS
 TIMEOUT = 120.0
 
 _PROTOTYPE = re.compile(r"^\s*(\w[\w\s\*]*?)\b(\w+)\((.*)\);\s*$")
-_ARGUMENT = re.compile(r"(const\s+)?(double|int|long)\s*(\*?)\s*(\w+)$")
+_ARGUMENT = re.compile(r"(const\s+)?(double|int|long|void)\s*(\*?)\s*(\w+)$")
 
 
 BATCH = "_batch"  # what ends the name of a function's batched form (model.h)
@@ -125,9 +125,11 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
                 doubles(np.zeros(n_save * n)), doubles(np.zeros(n_save * 2)), n_saved)
         for name in ("dop853", "radau"):  # one interface
             say(name)
-            getattr(lib, name)(t, doubles(np.concatenate([q, qd, [0.0, 0.0]])), 2, doubles([t + 1e-4, t + 2e-4]),
-                               1e-6, 1e-8, doubles([0.0]), doubles(p), dep, ind, doubles(np.zeros(2 * (2 * n + 2))),
-                               n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
+            memory, step = ffi.new("char[]", getattr(lib, name + "_memory_bytes")()), doubles([0.0])
+            for max_steps in (1, 0):  # stopped after its first step, then on from there to the end
+                getattr(lib, name)(t, doubles(np.concatenate([q, qd, [0.0, 0.0]])), 2, doubles([t + 1e-4, t + 2e-4]),
+                                   1e-6, 1e-8, step, max_steps, memory, doubles(p), dep, ind,
+                                   doubles(np.zeros(2 * (2 * n + 2))), n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
         say("genalpha")
         lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, [0.0, 0.0]])),
                      doubles(np.full(n, np.nan)), doubles(np.zeros(n * n)), ffi.new("int[]", n), ffi.new("int[]", 1),

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import EvaluationError, SimulationError
 from ..status import Ending, Outcome, SolveStatus
+from .pacing import StepBudget
 from .partition import check_second_order_rows
 
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
@@ -213,12 +214,14 @@ def check_start(model, t0, q0, qd0):
     check_second_order_rows(model, model.constraint_terms(t0, q0, qd0)[2], t0, qd0)
 
 
-def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None):
+def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None,
+        steps_per_call=None):
     """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s), run by
     ``model.rk4`` (in C or in Python) in chunks of about :data:`CHUNK_SECONDS` (see
-    :func:`chunked`). Keeps the initial state, the state after every ``save_every``-th step and
-    the final state. Returns ``(t, y, outcome)``: ``y`` rows of the augmented state, ``outcome``
-    an :class:`Outcome`."""
+    :func:`chunked`), each made of calls of ``steps_per_call`` steps (None: as many as take
+    :data:`gpmegen.runtime.pacing.CALL_SECONDS`). Keeps the initial state, the state after every
+    ``save_every``-th step and the final state. Returns ``(t, y, outcome)``: ``y`` rows of the
+    augmented state, ``outcome`` an :class:`Outcome`."""
     check_start(model, t0, q0, qd0)
     g = grid(t0, t_end, dt)
     # a whole number of save intervals, so that the chunks' ends (always saved) are saved rows anyway
@@ -226,35 +229,61 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
     n = model.n_dof
 
     def advance(model, y, k_from, k_to):
-        t, q, qd, w, status = model.rk4(y[:n], y[n:2 * n], t_end, dt, save_every, t0, y[2 * n:], (k_from, k_to))
-        rows = np.column_stack([q, qd, w])[1:]
-        return t[1:], rows, status, rows[-1] if len(rows) else y
+        place = {"k": k_from, "y": y}
+
+        def more(max_steps):
+            a, y = place["k"], place["y"]
+            b = min(k_to, a + max_steps)
+            t, q, qd, w, status = model.rk4(y[:n], y[n:2 * n], t_end, dt, save_every, t0, y[2 * n:], (a, b))
+            t, rows = t[1:], np.column_stack([q, qd, w])[1:]
+            done = status == SolveStatus.OK
+            if done:
+                place["k"], place["y"] = b, rows[-1] if len(rows) else y
+                if b < k_to and b % save_every:  # the loop saves where a call ends: not a row of the grid
+                    t, rows = t[:-1], rows[:-1]
+            return t, rows, status, b - a, place["y"] if done and b == k_to else None
+
+        return more
 
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
-    return chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
+    return chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
 
 
-def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation=None, watch=None):
+def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation=None, watch=None,
+            steps_per_call=None):
     """Drive an integrator over the instants of grid ``g`` from the augmented state ``y`` at its
-    start, ``chunk`` grid intervals per call of ``advance(model, y, k_from, k_to)``, which returns
-    the times and states of the saved rows after ``k_from`` up to ``k_to``, a :class:`SolveStatus`
-    and the state at ``g.time(k_to)`` to go on from. Between calls, progress is shown, the constraint
-    violation max|Φ| is checked against ``max_violation``, ``watch`` (a
-    :class:`gpmegen.runtime.partition.Watch`) looks at the partition, and Ctrl-C or SIGTERM keep
-    what was computed, at the same instants on both backends. Returns ``(t, y, outcome)``."""
+    start, ``chunk`` grid intervals at a time. ``advance(model, y, k_from, k_to)`` starts a chunk
+    and returns ``more(max_steps)``, which takes at most ``max_steps`` steps of it and returns the
+    times and states of the rows saved on the way, a :class:`SolveStatus`, the steps taken and,
+    once at ``g.time(k_to)``, the state to go on from (else None); ``max_steps`` is
+    ``steps_per_call`` or chosen by :class:`gpmegen.runtime.pacing.StepBudget` so that a call
+    lasts about :data:`gpmegen.runtime.pacing.CALL_SECONDS`, and the loops go on from where a
+    call stopped to the same bits, so the results do not depend on it. Between chunks, the
+    constraint violation max|Φ| is checked against ``max_violation`` and ``watch`` (a
+    :class:`gpmegen.runtime.partition.Watch`) looks at the partition, at the same instants on
+    both backends; between calls, progress is shown and Ctrl-C or SIGTERM keep what was
+    computed. Returns ``(t, y, outcome)``."""
     n = model.n_dof
     ts, ys = [np.array([g.time(0)])], [y[None, :]]
     done, outcome = 0, None
     bar = progress if progress is not None else Progress(g.t_end - g.t0, "RK4", enabled=False)
+    budget = StepBudget(steps_per_call)
     with interruptible():
         try:
             while done < g.n_steps and outcome is None:
                 end = min(done + chunk, g.n_steps)
-                t, rows, status, carry = advance(model, y, done, end)
-                ts.append(t)
-                ys.append(rows)
-                if status != SolveStatus.OK:
-                    outcome = Outcome.failed(t[-1] if len(t) else g.time(done), status)
+                more, carry = advance(model, y, done, end), None
+                while carry is None:
+                    t, rows, status, steps, carry = more(budget.start())
+                    budget.spent(steps)
+                    ts.append(t)
+                    ys.append(rows)
+                    if status != SolveStatus.OK:
+                        outcome = Outcome.failed(t[-1] if len(t) else _reached(ts, g), status)
+                        break
+                    if carry is None and len(t):
+                        bar.update(t[-1] - g.t0)
+                if outcome is not None:
                     break
                 y, done = carry, end
                 q, qd, now = y[:n], y[n:2 * n], g.time(end)
@@ -264,10 +293,15 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
                     model = watch.check(now, q, qd)  # with other dependent coordinates, maybe
                 bar.update(now - g.t0)
         except KeyboardInterrupt:
-            outcome = Outcome(Ending.INTERRUPTED, g.time(done))
+            outcome = Outcome(Ending.INTERRUPTED, _reached(ts, g))
         finally:
             bar.close()
     return np.concatenate(ts), np.concatenate(ys), outcome or Outcome(Ending.COMPLETE, g.t_end)
+
+
+def _reached(ts, g: Grid) -> float:
+    """The time (s) of the last row saved in ``ts`` (arrays of times), or the start of ``g``."""
+    return next((float(t[-1]) for t in reversed(ts) if len(t)), g.time(0))
 
 
 class Effort(NamedTuple):
@@ -311,29 +345,31 @@ RTOL, ATOL = 1e-8, 1e-10
 
 
 def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progress=None, max_violation=None,
-           watch=None):
+           watch=None, steps_per_call=None):
     """DOP853 (Dormand–Prince 8(5,3), adaptive) in the compiled loop, from ``t0`` to ``t_end`` (s),
     saving on :func:`grid` with interval ``save_dt`` (s) by its dense output of order 7, driven by
-    :func:`chunked`. ``rtol``, ``atol``: the tolerances of each step's error in ``q`` and ``q̇``.
-    Returns ``(t, y, outcome, effort)``, ``effort`` an :class:`Effort`."""
+    :func:`chunked` (``steps_per_call``: see there). ``rtol``, ``atol``: the tolerances of each
+    step's error in ``q`` and ``q̇``. Returns ``(t, y, outcome, effort)``, ``effort`` an :class:`Effort`."""
     return _compiled_adaptive("dop853", model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation,
-                              watch)
+                              watch, steps_per_call)
 
 
 def radau(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progress=None, max_violation=None,
-          watch=None):
+          watch=None, steps_per_call=None):
     """Radau IIA of order 5 (implicit, Hairer's RADAU5, with the GPME's Jacobians) in the compiled
     loop, as :func:`dop853` (same arguments and results), saving between steps by the polynomial of
     degree 4 whose derivative passes through the rates at the step's start and its three stages.
     Its steps are not bound by the stiff modes."""
     return _compiled_adaptive("radau", model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation,
-                              watch)
+                              watch, steps_per_call)
 
 
-def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation, watch):
+def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation, watch,
+                       steps_per_call=None):
     """The adaptive compiled loop ``method`` ("dop853" or "radau", a method of the model with
     :meth:`gpmegen.runtime.model.LoadedModel.dop853`'s interface) driven by :func:`chunked` on the
-    save grid, its step carried across the chunks. Returns ``(t, y, outcome, effort)``."""
+    save grid, its step carried across the chunks, its place within a chunk across the calls.
+    Returns ``(t, y, outcome, effort)``."""
     check_start(model, t0, q0, qd0)
     if not (rtol > 0 and atol >= 0):
         raise ValueError(f"need rtol > 0 and atol >= 0, got rtol = {rtol}, atol = {atol}")
@@ -344,11 +380,21 @@ def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, p
 
     def advance(model, y, k_from, k_to):
         t_save = np.array([g.time(k) for k in range(k_from + 1, k_to + 1)])
-        rows, status = getattr(model, method)(g.time(k_from), y, t_save, rtol, atol, step, counts)
-        return t_save[:len(rows)], rows, status, rows[-1] if len(rows) else y
+        memory, saved = model.loop_memory(method), [0]
+
+        def more(max_steps):
+            taken = counts[0] + counts[1]
+            rows, status = getattr(model, method)(g.time(k_from), y, t_save, rtol, atol, step, counts, memory,
+                                                  max_steps, saved[0])
+            t = t_save[saved[0]:saved[0] + len(rows)]
+            saved[0] += len(rows)
+            finished = status == SolveStatus.OK and saved[0] == len(t_save)
+            return t, rows, status, int(counts[0] + counts[1] - taken), rows[-1] if finished else None
+
+        return more
 
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
-    t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
+    t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
     return t, y, outcome, Effort(*(int(c) for c in counts))
 
 
@@ -363,14 +409,15 @@ RHO_INF = 0.9
 
 
 def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progress=None, max_violation=None,
-             watch=None, project=True):
+             watch=None, project=True, steps_per_call=None):
     """Generalized-α (Chung–Hulbert, second order, numerical damping ``rho_inf``) in the compiled
     loop with step ``dt`` (s) on :func:`grid`, modified Newton on q̈ with the GPME's Jacobians,
     saving on the grid of interval ``save_dt`` (s) (cubic Hermite between steps), driven by
     :func:`chunked`. With ``project`` (every run of ``simulate``; False only to measure what it
     does), each step's end is put back onto the position constraints (Newton on Φ = 0 to 1e-12)
     and q̇ onto ``D q̇ + Φ_t = 0`` and first-order ``Ψ = 0``: the Baumgarte-stabilized GPME
-    alone drifts to 1e-5 at the steps this method is for. Returns ``(t, y, outcome, effort)``."""
+    alone drifts to 1e-5 at the steps this method is for. ``steps_per_call``: see :func:`chunked`.
+    Returns ``(t, y, outcome, effort)``."""
     check_start(model, t0, q0, qd0)
     if not 0.0 <= rho_inf <= 1.0:
         raise ValueError(f"need 0 <= rho_inf <= 1, got {rho_inf}")
@@ -383,13 +430,20 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
               "have": np.zeros(1, dtype=np.intc)}
 
     def advance(model, y, k_from, k_to):
-        inside = save_times[(save_times > g.time(k_from)) & (save_times <= g.time(k_to))]
-        carry = np.array(y, dtype=float)
-        rows, status = model.genalpha(g, k_from, k_to, rho_inf, project, carry, memory, inside, counts)
-        return inside[:len(rows)], rows, status, carry
+        carry, place = np.array(y, dtype=float), [k_from]
+
+        def more(max_steps):
+            a = place[0]
+            b = min(k_to, a + max_steps)
+            inside = save_times[(save_times > g.time(a)) & (save_times <= g.time(b))]
+            rows, status = model.genalpha(g, a, b, rho_inf, project, carry, memory, inside, counts)
+            place[0] = b
+            return inside[:len(rows)], rows, status, b - a, carry if b == k_to else None
+
+        return more
 
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
-    t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch)
+    t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
     return t, y, outcome, Effort(*(int(c) for c in counts))
 
 
@@ -476,21 +530,23 @@ SCIPY = {"scipy-radau": "Radau"}
 
 
 def adaptive(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
-    """``scipy.integrate.solve_ivp`` on the same equations. Returns ``(t, y, outcome)``; see
+    """SciPy's ``method`` on the same equations. Returns ``(t, y, outcome)``; see
     :func:`scipy_solve`."""
     return scipy_solve(model, q0, qd0, t_end, t0, method, rtol, atol, t_eval)[:3]
 
 
 def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol=1e-12, t_eval=None):
-    """``scipy.integrate.solve_ivp`` on the same equations, saving at ``t_eval`` (s; None: at its
-    steps) by the method's dense output. Returns ``(t, y, outcome, effort)``.
+    """SciPy's ``method`` (a solver class of ``scipy.integrate``) on the same equations, stepped as
+    ``solve_ivp`` steps it (by :func:`_stepped`, so that Ctrl-C or SIGTERM keep what was
+    computed), saving at ``t_eval`` (s; None: at its steps) by the method's dense output.
+    Returns ``(t, y, outcome, effort)``.
 
     The implicit methods (Radau, BDF, LSODA) get a forward-difference Jacobian with a fixed
     relative step: scipy's own adapts its step per column and lets it grow without bound on a
     coordinate nothing depends on (the column's rotation θ1, or the work states), until the state
     overflows. Their Jacobians count in ``effort`` as calls, each 2n + 3 GPME solves (among the
     solves counted). Every method integrates the work states with the motion."""
-    from scipy.integrate import solve_ivp
+    import scipy.integrate
 
     check_start(model, t0, q0, qd0)
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
@@ -502,9 +558,37 @@ def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol
         return full(t, y)
 
     options = {"jac": _difference_jacobian(counted)} if method in IMPLICIT else {}
-    sol = solve_ivp(counted, (t0, t_end), y0, method=method, rtol=rtol, atol=atol, t_eval=t_eval, **options)
-    y = sol.y.T
-    reached = float(sol.t[-1]) if len(sol.t) else float(t0)
-    outcome = Outcome(Ending.COMPLETE, reached) if sol.success else Outcome.diverged(reached, sol.message)
-    effort = Effort(None, None, solves[0], int(sol.njev), int(sol.nlu))  # solve_ivp does not count its steps
-    return sol.t, y, outcome, effort
+    solver = getattr(scipy.integrate, method)(counted, t0, y0, t_end, rtol=rtol, atol=atol, **options)
+    t, y, outcome = _stepped(solver, t0, y0, t_eval)
+    effort = Effort(None, None, solves[0], int(solver.njev or 0), int(solver.nlu or 0))  # steps not counted by SciPy
+    return t, y, outcome, effort
+
+
+def _stepped(solver, t0, y0, t_eval):
+    """Step a SciPy ``OdeSolver`` to its end as ``solve_ivp`` does, saving at ``t_eval`` (s;
+    increasing) by its dense output, or at its steps when None; Ctrl-C or SIGTERM (Python
+    handles them between the right-hand side's calls) keep the rows saved. Returns ``(t, y,
+    outcome)``."""
+    ts, ys = ([np.array([t0])], [np.array(y0)[None, :]]) if t_eval is None else ([], [])
+    saved, outcome = 0, None
+    with interruptible():
+        try:
+            while solver.status == "running":
+                message = solver.step()
+                if solver.status == "failed":
+                    outcome = Outcome.diverged(float(solver.t), message)
+                    break
+                if t_eval is None:
+                    ts.append(np.array([solver.t]))
+                    ys.append(np.array(solver.y)[None, :])
+                    continue
+                upto = int(np.searchsorted(t_eval, solver.t, side="right"))
+                if upto > saved:
+                    ts.append(t_eval[saved:upto])
+                    ys.append(solver.dense_output()(t_eval[saved:upto]).T)
+                    saved = upto
+        except KeyboardInterrupt:
+            outcome = Outcome(Ending.INTERRUPTED, next((float(t[-1]) for t in reversed(ts) if len(t)), float(t0)))
+    t = np.concatenate(ts) if ts else np.empty(0)
+    y = np.concatenate(ys) if ys else np.empty((0, len(y0)))
+    return t, y, outcome or Outcome(Ending.COMPLETE, float(solver.t))

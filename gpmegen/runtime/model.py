@@ -555,22 +555,30 @@ class LoadedModel:
         n = self.n_dof
         return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 
-    def dop853(self, t_a, y_a, t_save, rtol, atol, step, counts):
+    def dop853(self, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
         """DOP853 of the GPME in the compiled loop from ``t_a`` (s) and the augmented state
         ``y_a = [q, q̇, w]`` (2n + 2,) to ``t_save[-1]``, saving at the increasing instants
         ``t_save`` (k,) s. ``step`` (1,): the step to try first (0: chosen), updated to the one to
         try next; ``counts`` (5,) int64: steps, rejected, GPME solves, Jacobians and LU
-        factorizations, added to. Returns ``(y, status)``: ``y`` (j, 2n + 2) the rows saved (all
-        k when ``status`` is OK)."""
+        factorizations, added to. ``max_steps`` > 0: the call returns after that many steps
+        (accepted or rejected), its place kept in ``memory`` (:meth:`loop_memory`, zero at the
+        span's start); calls with the same arguments, ``first`` the rows saved by those before,
+        go on from it to the same bits as one call. Returns ``(y, status)``: ``y`` the rows saved
+        from ``first`` on (to k when the span is done)."""
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
-        return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts)
+        return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
 
-    def radau(self, t_a, y_a, t_save, rtol, atol, step, counts):
+    def radau(self, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
         """Radau IIA of order 5 (implicit, Hairer's RADAU5) of the GPME in the compiled loop, with
         the arguments and results of :meth:`dop853`; its LU factorizations counted are the real
         and the complex (n, n) ones of its Newton matrices."""
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
-        return model.evaluator.radau(model, t_a, y_a, t_save, rtol, atol, step, counts)
+        return model.evaluator.radau(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
+
+    def loop_memory(self, method):
+        """Zeroed bytes (uint8) for what the adaptive compiled loop ``method`` ("dop853" or
+        "radau") keeps between the calls of one span (see :meth:`dop853`)."""
+        return self.evaluator.loop_memory(method)
 
     def genalpha(self, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
