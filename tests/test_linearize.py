@@ -23,8 +23,8 @@ REST = {"A": 0.0}
 def rest():
     """(linear model about the constrained statics of the reference arm at n_rfe = 3, the model
     with its Jacobians as that start binds it)."""
-    return (gpmegen.linearize(nrfe=3, start="constrained", params=REST),
-            gpmegen.load(nrfe=3, params=REST, jacobians=True))
+    return (gpmegen.linearize(nrfe=3, start="constrained", params=REST, backend="numpy"),
+            gpmegen.load(nrfe=3, params=REST, jacobians=True, backend="numpy"))
 
 
 def nonlinear_deviation(model, lin, x0, eps, t_end, dt):
@@ -75,7 +75,7 @@ def test_eigenvalues_are_the_constrained_modes(rest):
 
 
 def test_damping_makes_every_elastic_mode_decay():
-    lin = gpmegen.linearize(nrfe=3, start="constrained", params={**REST, "d2": 0.01})
+    lin = gpmegen.linearize(nrfe=3, start="constrained", params={**REST, "d2": 0.01}, backend="numpy")
     moving = lin.eigenvalues[np.abs(lin.eigenvalues) > 1.0]
     assert len(moving) == len(lin.eigenvalues) - 2  # all but the neutral column rotation
     _, zeta = linear.frequencies(moving)
@@ -121,7 +121,7 @@ def short_run(tmp_path_factory):
 
 
 def test_at_a_run_takes_the_nearest_saved_state(short_run):
-    models = gpmegen.linearize(nrfe=3, at=short_run, times=[0.0041, 0.01])
+    models = gpmegen.linearize(nrfe=3, at=short_run, times=[0.0041, 0.01], backend="numpy")
     run = gpmegen.Results(dict(np.load(short_run)))
     assert [m.t for m in models] == pytest.approx([0.004, 0.01])
     np.testing.assert_array_equal(models[1].q, np.asarray(run["q"])[-1])
@@ -164,7 +164,7 @@ def test_a_folder_built_without_jacobians_gets_one_line(tmp_path, capsys):
 
 
 def test_a_model_without_its_jacobians_is_refused_with_the_build_command():
-    plain = gpmegen.load(nrfe=1)
+    plain = gpmegen.load(nrfe=1, backend="numpy")
     with pytest.raises(gpmegen.BuildError, match="--jacobians"):
         linear.linearize(plain, 0.0, np.zeros(3), np.zeros(3))
 
