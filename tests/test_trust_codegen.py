@@ -74,7 +74,7 @@ def _tiny_model(description="", unit="", doc="") -> Model:
 
 
 @given(text=free_text, multiline=st.booleans())
-@settings(max_examples=500, deadline=None)
+@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_defect1_comment_text_keeps_to_the_safe_alphabet(text, multiline):
     out = comment_text(text, multiline)
     allowed = {chr(c) for c in range(0x20, 0x7F)} - {"\\", '"'} | ({"\n"} if multiline else set())
