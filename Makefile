@@ -20,14 +20,17 @@ $(STAMP): pyproject.toml
 demo: venv
 	$(BIN)/gpmegen demo --overwrite
 
+# On two processes (pytest-xdist): each has its own temporary folders, and the C cache they share
+# is keyed by hash and written by rename. The long tests run in check-c.
 test: venv
 	$(BIN)/ruff check gpmegen tests benchmarks
-	$(BIN)/python -m pytest -q -m "not sanitizers"
+	$(BIN)/python -m pytest -q -n 2 -m "not sanitizers and not long"
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,
-# and as compiled for use (tests/test_c_sanitizers.py).
+# and as compiled for use (tests/test_c_sanitizers.py); and the long tests (marked long): the
+# random-chain oracle and the convergence studies. CI runs it after make test.
 check-c: venv
-	$(BIN)/python -m pytest -q -m sanitizers
+	$(BIN)/python -m pytest -q -n 2 -m "sanitizers or long"
 
 snapshots: venv
 	$(BIN)/gpmegen build --nrfe 1 --force

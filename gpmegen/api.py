@@ -1,7 +1,8 @@
 """gpmegen's public face in Python: what a user imports from ``gpmegen``.
 
 - :func:`load`: a model (the reference manipulator, or any :class:`~gpmegen.model.Model`), built
-  into generated code when missing or stale, opened on the NumPy or the C backend;
+  into generated code when missing or stale, opened on the C backend where a C compiler is
+  found, else (or with ``backend="numpy"``) on the NumPy one;
 - :func:`statics`, :func:`simulate`: a model's consistent start and its constrained motion (as
   ``gpmegen statics`` and ``gpmegen simulate``), the latter as :class:`Results`;
 - :func:`load_model_file`, :func:`read_model_file`: models from TOML files (and URDF files);
@@ -50,22 +51,24 @@ from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
 from .runtime import integrate
-from .runtime.loader import BACKENDS, check_backend, default_directory, open_folder
+from .runtime.loader import BACKENDS, chosen_backend, default_directory, open_folder
 from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from .symbolic.transforms import KINDS, check_kinds
 from .version import __version__
 
 
-def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, model=None,
+def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, *, model=None,
          directory=None, build: bool = True, progress=None, command=None, transforms=DEFAULT_TRANSFORMS,
          jacobians: bool = False):
     """The generated model ready to evaluate.
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
-    rfes). ``params`` overrides parameter values. The model is built into ``directory`` (default
-    :func:`gpmegen.runtime.loader.default_directory`) when missing or stale, or when a file it
-    uses differs from the sha256 its manifest records, unless ``build=False``, which raises
-    :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
+    rfes). ``backend``: "c" or "numpy"; None (the default) is "c" where a C compiler is found, else
+    "numpy", said in one line (:func:`_backend`). ``params`` overrides parameter values. The model
+    is built into ``directory`` (default :func:`gpmegen.runtime.loader.default_directory`) when
+    missing or stale, or when a file it uses differs from the sha256 its manifest records, unless
+    ``build=False``, which raises :class:`StaleModelError` with the command to rebuild
+    (``command``, for a model of your own).
 
     The reference manipulator (``model`` None) is bound with the constraint constants ``r_Ea``
     and ``y_c`` that its runs use: those that put E of the locked statics at the paper's joint
@@ -79,7 +82,7 @@ def load(nrfe: int = 5, backend: str = "numpy", params: dict | None = None, *, m
     folder built with more serves as it is, and one built with less is built again with both what
     it had and what is asked (so that asking in turn never rebuilds back and forth).
     """
-    check_backend(backend)
+    backend = _backend(backend, progress)
     if model is None:
         from .analysis.reference_case import CONSTANTS, with_constants
 
@@ -131,6 +134,21 @@ def _at_least(manifest, transforms, jacobians):
     return kinds, bool(jacobians or held.get("jacobians", False))
 
 
+def _backend(backend, progress):
+    """``backend`` checked; None: "c" where a C compiler is found, else "numpy" (as the command
+    line chooses), the reason told to ``progress`` or, without one, as a Python RuntimeWarning."""
+    import warnings
+
+    said = []
+    chosen = chosen_backend(backend, said.append)
+    for line in said:
+        if progress is not None:
+            progress(line)
+        else:
+            warnings.warn(line, RuntimeWarning, stacklevel=3)
+    return chosen
+
+
 def _case(model, nrfe):
     """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
     model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
@@ -169,7 +187,7 @@ def _started(model, nrfe, start, directory):
     return case, start
 
 
-def statics(model=None, *, nrfe=None, start=None, params=None, backend="numpy", directory=None, progress=None):
+def statics(model=None, *, nrfe=None, start=None, params=None, backend=None, directory=None, progress=None):
     """The consistent start of a run, as ``gpmegen statics`` finds it: a
     :class:`gpmegen.analysis.study.Start` with ``model`` (loaded, its constants bound), ``q`` and
     ``qd`` (n,) on the programmed constraints at t = 0, and ``moved`` (how far they were moved
@@ -178,25 +196,28 @@ def statics(model=None, *, nrfe=None, start=None, params=None, backend="numpy", 
     ``model``: None (the reference manipulator, ``nrfe`` rfes, default 5), a model file's path, a
     folder made by ``gpmegen build --out``, or a :class:`Model`. ``start``: "locked" or
     "constrained" statics, or "none" (the default of models other than the reference case: the
-    configuration as given, undeformed). ``params`` overrides parameter values. ``progress``
-    takes one-line messages (default: only warnings, as Python warnings)."""
+    configuration as given, undeformed). ``params`` overrides parameter values. ``backend`` as
+    :func:`load` (default: C where a compiler is found). ``progress`` takes one-line messages
+    (default: only warnings, as Python warnings)."""
+    backend = _backend(backend, progress)
     case, start = _started(model, nrfe, start, directory)
     return case.started(backend, start, dict(params or {}), _messages(progress))
 
 
 def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=None, method="rk4",
-             params=None, backend="numpy", repartition=False, directory=None, progress=None, save_dt=None,
+             params=None, backend=None, repartition=False, directory=None, progress=None, save_dt=None,
              rtol=None, atol=None, rho_inf=None):
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
     :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
     and ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in 1 ms, whatever the
-    method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method`` ("rk4"; with ``backend="c"``
+    method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method`` ("rk4"; on the C backend
     "genalpha", implicit with step ``dt`` and damping ``rho_inf``, "dop853", adaptive, or "radau",
     implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
     ``atol`` (adaptive methods), ``repartition``. A run that stops
     early (diverges) is returned with its ``status`` saying why."""
     from .analysis import runs
 
+    backend = _backend(backend, progress)
     case, start = _started(model, nrfe, start, directory)
     if save_every is None:
         save_every = integrate.default_save_every(dt)
@@ -206,7 +227,7 @@ def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_eve
     return runs.Results(done.results)
 
 
-def linearize(model=None, *, nrfe=None, start=None, params=None, backend="numpy", directory=None, progress=None,
+def linearize(model=None, *, nrfe=None, start=None, params=None, backend=None, directory=None, progress=None,
               at=None, times=None, inputs=None):
     """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.linear.LinearModel`), as
     ``gpmegen linearize`` makes it: about :func:`statics`'s start (arguments as there), or with
@@ -216,6 +237,7 @@ def linearize(model=None, *, nrfe=None, start=None, params=None, backend="numpy"
     and a model file's actuators)."""
     from .analysis import cases, linear
 
+    backend = _backend(backend, progress)
     case, start = _started(model, nrfe, start, directory)
     if not isinstance(case, cases.FolderCase):  # refused before a build (a folder's model is refused once open)
         constraints = case.model.constraints

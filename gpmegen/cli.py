@@ -254,14 +254,9 @@ def cmd_export(args) -> int:
 
 def _default_backend() -> str:
     """"c" when a C compiler is found, else "numpy" (and says so)."""
-    from .runtime.ccompile import find_compiler
+    from .runtime.loader import default_backend
 
-    try:
-        find_compiler()
-        return "c"
-    except BuildError as exc:
-        progress(f"{exc}; using the NumPy backend")
-        return "numpy"
+    return default_backend(progress)
 
 
 def _start(case, start):

@@ -34,11 +34,20 @@ def flexible(generated_elsewhere):
     return gpmegen.load(nrfe=5, backend="numpy")
 
 
+@pytest.fixture(scope="session")
+def shared_cache(tmp_path_factory):
+    """One C cache for the modules of a test process: a model compiled by one is reused by the
+    next (the cache is keyed by the hash of the source, compiler and flags, so what one module
+    compiles is what another would)."""
+    return tmp_path_factory.mktemp("c-cache")
+
+
 @pytest.fixture(scope="module")
-def env(tmp_path_factory):
-    """A private generated folder and C cache for the whole module: ``(generated, cache)``."""
+def env(tmp_path_factory, shared_cache):
+    """A private generated folder for the whole module and the process's C cache:
+    ``(generated, cache)``. A test that must see a compile happen sets its own cache."""
     generated = tmp_path_factory.mktemp("generated")
-    cache = tmp_path_factory.mktemp("c-cache")
+    cache = shared_cache
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("GPMEGEN_GENERATED", str(generated))
         mp.setenv("GPMEGEN_CACHE", str(cache))

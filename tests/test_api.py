@@ -52,6 +52,28 @@ def test_load_statics_and_simulate_bind_the_same_constraint_constants(env):
     assert gpmegen.load(nrfe=5, params={"r_Ea": 1.05}).params["r_Ea"] == 1.05
 
 
+@pytest.mark.requires_cc
+def test_the_default_backend_is_c_where_a_compiler_is_found_and_numpy_stays_available():
+    assert gpmegen.load(nrfe=1).backend == "c"
+    assert gpmegen.load(nrfe=1, backend="numpy").backend == "numpy"
+    assert gpmegen.statics(nrfe=1).model.backend == "c"
+
+
+def test_without_a_compiler_the_default_is_numpy_said_in_one_line(monkeypatch):
+    monkeypatch.setenv("CC", "gpmegen-test-no-such-compiler")
+    with pytest.warns(RuntimeWarning) as caught:
+        model = gpmegen.load(nrfe=1)
+    said = [str(w.message) for w in caught]
+    assert model.backend == "numpy"
+    assert len(said) == 1 and "\n" not in said[0] and said[0].endswith("; using the NumPy backend"), said
+    told = []
+    run = gpmegen.simulate(nrfe=1, t_end=1e-3, dt=1e-4, progress=told.append)
+    assert run.meta["backend"] == "numpy"
+    assert [line for line in told if "NumPy backend" in line] == [said[0]]
+    with pytest.raises(gpmegen.BuildError, match="no-such-compiler"):
+        gpmegen.load(nrfe=1, backend="c")  # asked for by name, C is not replaced
+
+
 def test_simulate_returns_results_with_named_accessors_and_saves_without_replacing(env, tmp_path):
     run = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=2.5e-4, save_every=8)  # below its stable step, 4.3e-4 s
     assert run.coordinates == ("theta1", "psi1_1", "theta1_1", "phi1_1")
@@ -110,7 +132,7 @@ def test_every_command_runs_on_a_folder_made_by_build_out(env, tmp_path, capsys)
     assert main(["plot", str(run), "--out", str(tmp_path / "figures")]) == 0
     capsys.readouterr()
     # the folder keeps the file's [initial] (start.json): the same run as from the file itself
-    mine = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=2.5e-4, save_every=100)
+    mine = gpmegen.simulate(TIP_LAW, t_end=0.01, dt=2.5e-4, save_every=100, backend="numpy")
     np.testing.assert_allclose(gpmegen.Results.load(run).q, mine.q, atol=1e-14)
     assert gpmegen.Results.load(run).qd[0, 0] == pytest.approx(0.4)
     # a Model of one's own starts at rest at q = 0, here off the tip's law in velocity

@@ -30,7 +30,7 @@ def build_dir(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def manipulators(build_dir):
-    return {n: gpmegen.load(nrfe=n, directory=build_dir) for n in NRFE}
+    return {n: gpmegen.load(nrfe=n, directory=build_dir, backend="numpy") for n in NRFE}
 
 
 def arm_tip(model, q):
@@ -80,6 +80,7 @@ def test_beam_formulas():
     assert (f1 - f0) / f0 == pytest.approx(-0.5 * beam.CLAMPED_FREE_SLOPE_RATIO * 1e-4, rel=1e-3)
 
 
+@pytest.mark.long  # builds of the arm up to n_rfe 20, a convergence study
 def test_manipulator_arm_tip_deflection(manipulators):
     """Joints locked at θ1 = 0, ψ2 = 45°, x3 = 0, gravity 1e-3·9.81: the arm tip's deflection
     perpendicular to the arm against the Euler–Bernoulli cantilever under the arm's weight and
@@ -103,6 +104,7 @@ def test_manipulator_arm_tip_deflection(manipulators):
     assert errors[10] < errors[5] and errors[20] < errors[10]
 
 
+@pytest.mark.long  # builds of the arm up to n_rfe 20, a convergence study
 def test_clamped_arm_model_matches_the_manipulator(manipulators, build_dir):
     """The stand-alone clamped arm (with and without slider) has the mass and stiffness of the
     manipulator's flexible coordinates with the joints held and the arm horizontal."""
@@ -124,6 +126,7 @@ def test_clamped_arm_model_matches_the_manipulator(manipulators, build_dir):
             np.testing.assert_allclose(tip, arm_tip(m, q) - [0, m.params["h1"], 0], atol=1e-12)
 
 
+@pytest.mark.long  # builds of the arm up to n_rfe 20, a convergence study
 @pytest.mark.parametrize("kind, limit_key", [
     ("vertical", "vertical_bending_rotary"),
     ("horizontal", "horizontal_bending_rotary"),
@@ -152,6 +155,7 @@ def test_clamped_arm_frequencies(manipulators, kind, limit_key):
     assert order >= 1.8
 
 
+@pytest.mark.long  # builds of the arm up to n_rfe 20, a convergence study
 def test_clamped_arm_self_weight_deflection(manipulators):
     """Horizontal clamped arm under its weight (Newton–Raphson statics, full gravity): the tip
     deflection converges to w L⁴/(8 EI), with the error of the RFEM's midpoint quadrature,
@@ -170,6 +174,7 @@ def test_clamped_arm_self_weight_deflection(manipulators):
     assert convergence.observed_order(NRFE, errors) >= 1.8
 
 
+@pytest.mark.long  # builds of the arm up to n_rfe 20, a convergence study
 def test_convergence_table_and_classification(build_dir):
     table = convergence.convergence_table((2, 3), directory=build_dir)
     assert list(table.nrfe) == [2, 3]

@@ -12,7 +12,8 @@ WORDS = ["build", "simulate", "statics", "plot", "modes", "convergence", "demo",
          "tdr0=abc", "--", "-", "--help-me", "", " ", "ü", "5", "results/x.npz"]
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=300, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(st.lists(st.one_of(st.sampled_from(WORDS), st.text(max_size=8)), max_size=6))
 def test_parser_never_raises_anything_but_exit_2(capsys, argv):
     try:

@@ -106,6 +106,7 @@ def test_levels_that_cannot_be_extrapolated_are_refused(levels):
         richardson.richardson(levels, np.zeros(len(levels)))
 
 
+@pytest.mark.long  # a convergence study: one build per n_rfe
 def test_clamped_arm_tip_deflection_extrapolates_to_beam_theory(env):
     """The RFEM's static tip deflection under self weight is exactly wL⁴/8EI·(1 - 1/(2 n_sde²))
     (checked here too), so two levels give wL⁴/8EI and three an order of 2 and no error left."""
@@ -243,6 +244,7 @@ point = "tip"
 """
 
 
+@pytest.mark.long  # a convergence study: one build per n_rfe
 def test_convergence_of_a_named_point_at_the_statics_finds_beam_theory(env, tmp_path, capsys):
     """``convergence MODEL --output tip``: a link held horizontal by its locked joint sags under
     its weight by wL⁴/8EI·(1 - 1/(2 n_sde²)) (deflection / L = 6e-5: linear to 1e-8); the limit

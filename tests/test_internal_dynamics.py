@@ -23,7 +23,7 @@ def link(nrfe):
     """The flexible link on its hub, straight (an equilibrium: no gravity, tip on the x0 axis),
     its hub actuated."""
     file = gpmegen.read_model_file(LINK, nrfe=nrfe)
-    model = gpmegen.load(model=file.model).with_actuators(file.actuators)
+    model = gpmegen.load(model=file.model, backend="numpy").with_actuators(file.actuators)
     return model, np.zeros(model.n_dof)
 
 
@@ -135,7 +135,7 @@ def test_internal_dynamics_along_a_run_of_the_rigid_arm():
     along q̇); without actuators the request is refused."""
     from gpmegen.analysis import reference_case, study
 
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1), "locked")
+    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"), "locked")
     actuated = model.with_actuators(["psi2", "x3"])
     res = study.simulate(actuated, q0, 2.0, 1e-3, 125, internal_dynamics=True)
     values = res["internal_eigenvalues"]

@@ -19,7 +19,7 @@ MOVE = {"d": 0.01, "Y": 0.001, "T": 0.2}  # a 1 mm move in 0.2 s: the linear ran
 
 def link(nrfe, **params):
     file = gpmegen.read_model_file(LINK, nrfe=nrfe)
-    return gpmegen.load(model=file.model, params=params).with_actuators(file.actuators)
+    return gpmegen.load(model=file.model, params=params, backend="numpy").with_actuators(file.actuators)
 
 
 def smooth_step_acceleration(t, Y, T):

@@ -90,7 +90,7 @@ def pinocchio_model():
 
 @pytest.fixture(scope="module")
 def loaded(env):
-    return gpmegen.load(model=gpmegen_model(), directory=env[0])
+    return gpmegen.load(model=gpmegen_model(), directory=env[0], backend="numpy")
 
 
 def test_unaligned_joints_agree_with_pinocchio(loaded, rng):

@@ -23,8 +23,8 @@ REST = {"A": 0.0}
 def rest():
     """(linear model about the constrained statics of the reference arm at n_rfe = 3, the model
     with its Jacobians as that start binds it)."""
-    return (gpmegen.linearize(nrfe=3, start="constrained", params=REST),
-            gpmegen.load(nrfe=3, params=REST, jacobians=True))
+    return (gpmegen.linearize(nrfe=3, start="constrained", params=REST, backend="numpy"),
+            gpmegen.load(nrfe=3, params=REST, jacobians=True, backend="numpy"))
 
 
 def nonlinear_deviation(model, lin, x0, eps, t_end, dt):
@@ -75,7 +75,7 @@ def test_eigenvalues_are_the_constrained_modes(rest):
 
 
 def test_damping_makes_every_elastic_mode_decay():
-    lin = gpmegen.linearize(nrfe=3, start="constrained", params={**REST, "d2": 0.01})
+    lin = gpmegen.linearize(nrfe=3, start="constrained", params={**REST, "d2": 0.01}, backend="numpy")
     moving = lin.eigenvalues[np.abs(lin.eigenvalues) > 1.0]
     assert len(moving) == len(lin.eigenvalues) - 2  # all but the neutral column rotation
     _, zeta = linear.frequencies(moving)
@@ -121,7 +121,7 @@ def short_run(tmp_path_factory):
 
 
 def test_at_a_run_takes_the_nearest_saved_state(short_run):
-    models = gpmegen.linearize(nrfe=3, at=short_run, times=[0.0041, 0.01])
+    models = gpmegen.linearize(nrfe=3, at=short_run, times=[0.0041, 0.01], backend="numpy")
     run = gpmegen.Results(dict(np.load(short_run)))
     assert [m.t for m in models] == pytest.approx([0.004, 0.01])
     np.testing.assert_array_equal(models[1].q, np.asarray(run["q"])[-1])
@@ -164,7 +164,7 @@ def test_a_folder_built_without_jacobians_gets_one_line(tmp_path, capsys):
 
 
 def test_a_model_without_its_jacobians_is_refused_with_the_build_command():
-    plain = gpmegen.load(nrfe=1)
+    plain = gpmegen.load(nrfe=1, backend="numpy")
     with pytest.raises(gpmegen.BuildError, match="--jacobians"):
         linear.linearize(plain, 0.0, np.zeros(3), np.zeros(3))
 
@@ -214,8 +214,14 @@ def test_state_matrix_is_the_derivative_of_the_reduced_motion_in_motion(rest, rn
 
     x = np.concatenate([q[ind], qd[ind]])
     numeric = np.empty((k, 2 * k))
+    # Steps per block. In q_ind the motion is nonlinear: a small step (truncation ~h², 5e-12 of
+    # the block here). In q̇_ind it is quadratic (velocity products, the dependent rates linear in
+    # q̇_ind), so central differences are exact at any step and only rounding is left: q̈ carries
+    # ~2e-11 of it (ε times the elastic forces it balances), which a step of 1e-6 would make 2e-6
+    # of this block's scale (7.7/s); a step of 0.1 leaves 1e-11.
+    relative = np.r_[np.full(k, 1e-6), np.full(k, 1e-1)]
     for j in range(2 * k):
-        h = 1e-6 * max(1.0, abs(x[j]))
+        h = relative[j] * max(1.0, abs(x[j]))
         e = np.zeros(2 * k)
         e[j] = h
         numeric[:, j] = (reduced(x + e) - reduced(x - e)) / (2 * h)

@@ -50,7 +50,7 @@ def test_example_parses_validates_and_derives(name):
 @pytest.mark.parametrize("name", OTHER_EXAMPLES)
 def test_example_starts_on_its_constraints(name, tmp_path):
     file = read_model_file(EXAMPLES / name)
-    model = gpmegen.load(model=file.model, directory=tmp_path)
+    model = gpmegen.load(model=file.model, directory=tmp_path, backend="numpy")
     q = np.zeros(model.n_dof)
     for coordinate, value in file.initial_values().items():
         q[model.index(coordinate)] = value

@@ -61,6 +61,9 @@ if _HERE not in sys.path:
 
 import oracle as ref  # noqa: E402  (tests/oracle.py)
 
+# 60 builds of random models: a long test (make check-c)
+pytestmark = pytest.mark.long
+
 REL_TOL = 1e-10
 MAX_EXAMPLES = 60
 MAX_DOF = 12
@@ -490,7 +493,7 @@ def test_random_chain_agrees_with_oracle(build_dir, model_seed, state_seed):
     event(f"points {len(flat.points)}")
     event(f"drive {bool(model.drives)}")
 
-    loaded = gpmegen.load(model=model, directory=build_dir)
+    loaded = gpmegen.load(model=model, directory=build_dir, backend="numpy")
     assert loaded.coordinates == flat.coordinates
     assert loaded.points == flat.points
     assert loaded.parameter_names == model.parameter_names

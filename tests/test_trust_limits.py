@@ -104,7 +104,7 @@ def test_build_of_500_rfes_ran_until_killed(tmp_path, capsys):
 
 def test_build_of_500_rfes_ran_until_killed_from_python(tmp_path):
     with pytest.raises(LimitError, match=r"n_dof = 1500"):
-        gpmegen.load(nrfe=500, directory=tmp_path)
+        gpmegen.load(nrfe=500, directory=tmp_path, backend="numpy")
     assert not (tmp_path / "manipulator_nrfe500").exists()
 
 
@@ -211,7 +211,7 @@ def test_nrfe_of_24_digits_was_an_internal_error(tmp_path, capsys):
     assert exit_.value.code == 2
     assert "is more than any count can hold" in capsys.readouterr().err
     with pytest.raises(LimitError, match="n_dof = 300000000000000000000000"):
-        gpmegen.load(nrfe=10**23, directory=tmp_path)
+        gpmegen.load(nrfe=10**23, directory=tmp_path, backend="numpy")
 
 
 # --- 7. values that slip through ---------------------------------------------------------------
@@ -242,7 +242,7 @@ def test_model_with_an_infinite_default_wrote_a_module_that_cannot_be_imported(t
     model = Model("inf_default", (Parameter("m", math.inf),),
                   (Joint("q", "revolute", "z"), Body("b", shapes.point_mass(1.0, (1, 0, 0))), Point("P")))
     with pytest.raises(ModelError, match="parameter 'm' has the default inf, not a finite number"):
-        gpmegen.load(model=model, directory=tmp_path)
+        gpmegen.load(model=model, directory=tmp_path, backend="numpy")
     folder = tmp_path / "old"
     folder.mkdir()
     text = "DEFAULTS = (1.0, inf)\n"  # written by an older gpmegen, and recorded in its manifest
@@ -275,7 +275,7 @@ def test_negative_mass_by_param_skipped_the_checks_of_model_files(tmp_path, caps
     good = load_model_file(_file(tmp_path, ARM))
     with pytest.raises(ModelError, match=r"model reach_arm: the mass of body 'upper' is -3 with m = -3; masses must "
                                          r"be zero or positive: change m"):
-        gpmegen.load(model=good, params={"m": -3.0})
+        gpmegen.load(model=good, params={"m": -3.0}, backend="numpy")
 
 
 def test_with_params_bound_unphysical_values(flexible):
@@ -296,7 +296,7 @@ def test_division_by_zero_in_generated_code_was_an_internal_error(tmp_path, caps
     assert main(["statics", str(path), "--param", "c=0"]) == 1
     line = _one_line_error(capsys)
     assert "model reach_arm: points divides by zero" in line and "--param" in line
-    model = gpmegen.load(model=load_model_file(path), directory=tmp_path / "gen", params={"c": 0.0})
+    model = gpmegen.load(model=load_model_file(path), directory=tmp_path / "gen", params={"c": 0.0}, backend="numpy")
     with pytest.raises(EvaluationError, match="points divides by zero"):
         model.point_positions(np.zeros(model.n_dof))
 

@@ -40,7 +40,7 @@ def panda_urdf() -> Path:
 @pytest.fixture(scope="module")
 def panda(env):
     robot = import_urdf(panda_urdf(), tip="panda_hand")
-    return robot, gpmegen.load(model=robot.model, directory=env[0])
+    return robot, gpmegen.load(model=robot.model, directory=env[0], backend="numpy")
 
 
 def pinocchio_panda():
@@ -149,7 +149,7 @@ def test_flexible_link_replaces_the_link(panda, env, rng, tmp_path):
     panda_hand (fixed to link 7, so no body of its own) sits in the hand's frame."""
     path = tmp_path / "beam.toml"
     path.write_text(FLEXIBLE.format(nrfe=1))
-    flexible = gpmegen.load(model=load_model_file(path), directory=env[0])
+    flexible = gpmegen.load(model=load_model_file(path), directory=env[0], backend="numpy")
     assert flexible.coordinates == panda[1].coordinates
     model = pinocchio_panda()
     model.inertias[model.getJointId("panda_joint4")] = tube_inertia()
@@ -312,7 +312,7 @@ def test_serial_urdf_builds_from_the_command_line(tmp_path, env, capsys):
     assert flat.points == ("base", "arm", "slider", "tool")
     full = pin.buildModelFromUrdf(str(path))
     data = full.createData()
-    loaded = gpmegen.load(model=model, directory=env[0])
+    loaded = gpmegen.load(model=model, directory=env[0], backend="numpy")
     q = np.array([0.7, 0.05])
     configuration = np.array([np.cos(q[0]), np.sin(q[0]), q[1]])   # Pinocchio's continuous joint: (cos, sin)
     M = pin.crba(full, data, configuration)

@@ -117,7 +117,7 @@ def load_clamped_arm(nrfe: int, with_slider: bool = False, directory=None, param
     missing (default: gpmegen's generated folder)."""
     from .. import load
 
-    return load(model=clamped_arm_model(nrfe, with_slider), directory=directory, params=params)
+    return load(model=clamped_arm_model(nrfe, with_slider), directory=directory, params=params, backend="numpy")
 
 
 QUANTITIES = (
@@ -263,7 +263,7 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
     reference = None
     for n in nrfe_values:
         start = time.perf_counter()
-        model = load(model=clamped.build(n), directory=directory, params=params)
+        model = load(model=clamped.build(n), directory=directory, params=params, backend="numpy")
         seconds.append(time.perf_counter() - start)
         if progress is not None:
             progress(n, seconds[-1])

@@ -41,6 +41,24 @@ def check_backend(backend: str) -> str:
     return backend
 
 
+def default_backend(say) -> str:
+    """The backend used when none is named: "c" where a C compiler is found, else "numpy", after
+    telling ``say`` (a callable taking one line) why."""
+    from .ccompile import find_compiler
+
+    try:
+        find_compiler()
+        return "c"
+    except BuildError as exc:
+        say(f"{exc}; using the NumPy backend")
+        return "numpy"
+
+
+def chosen_backend(backend: str | None, say) -> str:
+    """``backend`` checked (:func:`check_backend`); None: :func:`default_backend`."""
+    return default_backend(say) if backend is None else check_backend(backend)
+
+
 def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
     """Import ``folder/model_numpy.py`` under a name unique to its folder, running exactly the
     text checked against the folder's manifest (no bytecode cache, which nothing checks).
