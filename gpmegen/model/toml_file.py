@@ -91,6 +91,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import GpmegenError, ModelError
+from ..user_files import read_user_file
 from .chain import Model
 from .expand import expand
 from .file.model_file import ModelFile
@@ -107,10 +108,7 @@ def _parse(path, nrfe):
     if nrfe is not None:
         check_nrfe(nrfe, f"{path}")
     file = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except OSError as exc:
-        raise ModelError(f"{file}: cannot read the model file ({exc.strerror or exc}); check the path") from None
+    raw = read_user_file(path, "the model file", ModelError)
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -1,0 +1,122 @@
+"""No input makes gpmegen allocate without bound: each command runs in a child process whose
+address space is capped at 1 GiB, so that a fault ends there in "out of memory" rather than in
+the machine's memory, and must end in one line naming the problem with its peak resident memory
+under 200 MB. Each test is named after the defect it provokes."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gpmegen.analysis import results as results_io
+from gpmegen.cli import main
+
+#: The child's address space: far beyond what any refusal needs, far below what the faults took.
+ADDRESS_SPACE = 2**30
+#: The peak resident memory a refused command may reach (the interpreter, NumPy and gpmegen take
+#: about 110 MB).
+PEAK_BYTES = 200e6
+
+_CHILD = f"""
+import resource, sys
+resource.setrlimit(resource.RLIMIT_AS, ({ADDRESS_SPACE}, {ADDRESS_SPACE}))
+from gpmegen.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+class Outcome:
+    def __init__(self, status: int, stderr: str, peak_bytes: float):
+        self.status, self.stderr, self.peak_bytes = status, stderr, peak_bytes
+
+    def one_line(self) -> str:
+        lines = [line for line in self.stderr.splitlines() if line.strip()]
+        assert len(lines) == 1, self.stderr
+        assert "Traceback" not in self.stderr and "out of memory" not in self.stderr, self.stderr
+        return lines[0]
+
+
+def run(tmp_path, *args) -> Outcome:
+    """``gpmegen args`` in a child capped at :data:`ADDRESS_SPACE`: its exit status, its stderr and
+    its own peak resident memory (from ``wait4``, so other children do not count)."""
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    with open(tmp_path / "stderr.txt", "wb") as err:
+        child = subprocess.Popen([sys.executable, "-c", _CHILD, *map(str, args)], stdin=subprocess.DEVNULL,
+                                 stdout=subprocess.DEVNULL, stderr=err, cwd=tmp_path, env=env)
+        _, status, usage = os.wait4(child.pid, 0)
+        child.returncode = os.waitstatus_to_exitcode(status)
+    return Outcome(child.returncode, (tmp_path / "stderr.txt").read_text("utf-8", "replace"),
+                   usage.ru_maxrss * 1024.0)
+
+
+def refused(outcome: Outcome, status: int = 2) -> str:
+    """The one line of a command refused with ``status`` within :data:`PEAK_BYTES`."""
+    line = outcome.one_line()
+    assert outcome.status == status, outcome.stderr
+    assert outcome.peak_bytes < PEAK_BYTES, f"peak {outcome.peak_bytes / 1e6:.0f} MB: {line}"
+    return line
+
+
+@pytest.fixture
+def zero_device():
+    if not os.path.exists("/dev/zero"):
+        pytest.skip("no /dev/zero")
+    return "/dev/zero"
+
+
+def test_model_file_naming_dev_zero_as_its_urdf_read_until_out_of_memory(tmp_path, zero_device):
+    model = tmp_path / "robot.toml"
+    model.write_text(f'schema = 1\nname = "robot"\nurdf = "{zero_device}"\n', encoding="utf-8")
+    line = refused(run(tmp_path, "build", model, "--out", tmp_path / "out"))
+    assert f"{zero_device}: the URDF file is a character device, not a regular file" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_fifo_is_refused_without_reading_it(tmp_path):
+    from gpmegen.errors import ModelError
+    from gpmegen.user_files import read_user_file
+
+    fifo = tmp_path / "model.toml"
+    os.mkfifo(fifo)
+    # a write end held open: a reader that did not refuse the FIFO would wait on it, not on open()
+    holder = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)
+    try:
+        with pytest.raises(ModelError, match="the model file is a FIFO, not a regular file; give a file"):
+            read_user_file(fifo, "the model file", ModelError)
+    finally:
+        os.close(holder)
+
+
+def test_model_file_beyond_the_cap_is_refused_with_its_size(tmp_path):
+    from gpmegen.user_files import MAX_USER_FILE_BYTES
+
+    model = tmp_path / "huge.toml"
+    with open(model, "wb") as fh:
+        fh.truncate(MAX_USER_FILE_BYTES + 1)   # sparse: nothing is written to the disk
+    line = refused(run(tmp_path, "build", model, "--out", tmp_path / "out"))
+    assert (f"{model}: the model file holds {MAX_USER_FILE_BYTES + 1} bytes, beyond the {MAX_USER_FILE_BYTES} "
+            f"bytes (8 MiB) read; give a smaller file") in line
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    """A short run of the reference manipulator at one rfe (11 samples) and its arrays."""
+    out = tmp_path_factory.mktemp("run") / "run.npz"
+    assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.01", "--dt", "1e-3",
+                 "--out", str(out)]) == 0
+    with np.load(out) as f:
+        return out, {k: f[k] for k in f.files}
+
+
+def test_results_naming_dev_zero_as_their_model_read_until_out_of_memory(tmp_path, small_run, zero_device):
+    _, arrays = small_run
+    meta = {**results_io.metadata(arrays), "model_source": {"file": zero_device}}
+    results = tmp_path / "results.npz"
+    np.savez(results, **{**arrays, "meta": results_io.encode(meta)})
+    line = refused(run(tmp_path, "animate", results, "--out", tmp_path / "arm.gif"))
+    assert f"{zero_device}: the model file is a character device, not a regular file; give a file" in line
+    assert not (tmp_path / "arm.gif").exists()
