@@ -1,7 +1,7 @@
 """No input makes gpmegen allocate without bound: each command runs in a child process whose
 address space is capped at 1 GiB, so that a fault ends there in "out of memory" rather than in
-the machine's memory, and must end in one line naming the problem with its peak resident memory
-under 200 MB. Each test is named after the defect it provokes."""
+the machine's memory (and its CPU time, so that one that loops ends too), and must end in one
+line naming the problem with its peak resident memory under 200 MB. Each test is named after the defect it provokes."""
 
 from __future__ import annotations
 
@@ -17,6 +17,9 @@ from gpmegen.cli import main
 
 #: The child's address space: far beyond what any refusal needs, far below what the faults took.
 ADDRESS_SPACE = 2**30
+#: CPU seconds after which the child is stopped: a fault that loops for ever ends as a failure
+#: instead of stalling the tests (every command here needs a few seconds).
+CPU_SECONDS = 300
 #: The peak resident memory a refused command may reach (the interpreter, NumPy and gpmegen take
 #: about 110 MB).
 PEAK_BYTES = 200e6
@@ -24,6 +27,8 @@ PEAK_BYTES = 200e6
 _CHILD = f"""
 import resource, sys
 resource.setrlimit(resource.RLIMIT_AS, ({ADDRESS_SPACE}, {ADDRESS_SPACE}))
+cpu = int(sys.argv.pop(1))
+resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu))
 from gpmegen.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -40,13 +45,14 @@ class Outcome:
         return lines[0]
 
 
-def run(tmp_path, *args) -> Outcome:
-    """``gpmegen args`` in a child capped at :data:`ADDRESS_SPACE`: its exit status, its stderr and
-    its own peak resident memory (from ``wait4``, so other children do not count)."""
+def run(tmp_path, *args, cpu_seconds: int = CPU_SECONDS) -> Outcome:
+    """``gpmegen args`` in a child capped at :data:`ADDRESS_SPACE` and ``cpu_seconds`` of CPU time:
+    its exit status, its stderr and its own peak resident memory (from ``wait4``, so other
+    children do not count)."""
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     with open(tmp_path / "stderr.txt", "wb") as err:
-        child = subprocess.Popen([sys.executable, "-c", _CHILD, *map(str, args)], stdin=subprocess.DEVNULL,
-                                 stdout=subprocess.DEVNULL, stderr=err, cwd=tmp_path, env=env)
+        child = subprocess.Popen([sys.executable, "-c", _CHILD, str(cpu_seconds), *map(str, args)],
+                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err, cwd=tmp_path, env=env)
         _, status, usage = os.wait4(child.pid, 0)
         child.returncode = os.waitstatus_to_exitcode(status)
     return Outcome(child.returncode, (tmp_path / "stderr.txt").read_text("utf-8", "replace"),
@@ -120,3 +126,29 @@ def test_results_naming_dev_zero_as_their_model_read_until_out_of_memory(tmp_pat
     line = refused(run(tmp_path, "animate", results, "--out", tmp_path / "arm.gif"))
     assert f"{zero_device}: the model file is a character device, not a regular file; give a file" in line
     assert not (tmp_path / "arm.gif").exists()
+
+
+def test_sweep_of_1e11_values_of_one_parameter_filled_the_memory(tmp_path):
+    line = refused(run(tmp_path, "sweep", "--param", "m3=1:2:100000000000", "--t-end", "0.01", "--out",
+                       tmp_path / "sweep"))
+    assert "--param 'm3=1:2:100000000000': 1e+11 values of one parameter are more than a sweep takes (1e+05)" in line
+    assert "give a smaller count" in line and not (tmp_path / "sweep").exists()
+
+
+def test_sweep_of_1e5_values_checked_them_for_duplicates_in_quadratic_time(tmp_path):
+    # the values are distinct, so the duplicate check passes and the sweep's estimate refuses it.
+    # The command takes about 10 s of CPU time (CPU time, not wall time: a busy machine does not
+    # add to it); the quadratic check took over 200 s of it.
+    line = refused(run(tmp_path, "sweep", "--param", "m3=1:2:100000", "--t-end", "1", "--workers", "1", "--out",
+                       tmp_path / "sweep", cpu_seconds=60))
+    assert "a sweep of 100000 runs on 1 worker would take about" in line and "--no-limits" in line
+
+
+def test_sweep_count_may_be_written_as_a_whole_number_in_exponent_form():
+    from gpmegen.analysis.sweep import SweepError, plan
+
+    assert plan.parse_param("m3=1:2:1e1") == ("m3", plan.parse_param("m3=1:2:10")[1])
+    with pytest.raises(SweepError, match="must be a whole number >= 1"):
+        plan.parse_param("m3=1:2:2.5")
+    with pytest.raises(SweepError, match="1, 2 given twice"):
+        plan.normalize({"m3": [2.0, 1.0, 2.0, 3.0, 1.0]}, None)
