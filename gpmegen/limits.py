@@ -324,6 +324,25 @@ def check_sweep(runs: list[tuple[int, RunEstimate]], workers: int) -> None:
           "give fewer values or --samples, a shorter --t-end, a larger --dt or --save-every, or more workers")
 
 
+#: Bytes per entry of the sparse Jacobian of SciPy's solve_bvp: its value and two int64 indices,
+#: and the value and an index in its compressed copy.
+BVP_ENTRY_BYTES = 36
+
+
+def check_inversion(n_dof: int, nodes: int) -> None:
+    """Refuse a stable inversion (SciPy's solve_bvp, NumPy backend) on ``nodes`` mesh nodes that
+    cannot finish. Each node holds two blocks of (2 n_dof)² in the collocation's sparse Jacobian
+    (:data:`BVP_ENTRY_BYTES` each) and takes, at the least, one Newton iteration: its residual
+    and its Jacobian by differences, 4 n_dof + 1 GPME solves."""
+    if nodes > MAX_COUNT:
+        raise LimitError(f"a stable inversion on {nodes:.3g} mesh nodes is more than can be counted; give fewer "
+                         f"--nodes")
+    n_bytes = BASE_BYTES + nodes * 2 * (2 * n_dof) ** 2 * BVP_ENTRY_BYTES
+    seconds = nodes * (4 * n_dof + 1) * solve_seconds(n_dof, "numpy")
+    check(f"a stable inversion on {nodes:.3g} mesh nodes of n_dof = {n_dof}", seconds, n_bytes,
+          "give fewer --nodes (the mesh is refined where needed, up to 20 times the nodes given)", at_least=True)
+
+
 def model_coordinates(model) -> int:
     """n_dof of ``model`` (a :class:`gpmegen.model.Model`) counted without expanding it: one per
     joint, one per free rotation of each sde of each flexible link."""

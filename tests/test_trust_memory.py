@@ -152,3 +152,11 @@ def test_sweep_count_may_be_written_as_a_whole_number_in_exponent_form():
         plan.parse_param("m3=1:2:2.5")
     with pytest.raises(SweepError, match="1, 2 given twice"):
         plan.normalize({"m3": [2.0, 1.0, 2.0, 3.0, 1.0]}, None)
+
+
+def test_inversion_on_1e8_mesh_nodes_filled_the_memory(tmp_path):
+    line = refused(run(tmp_path, "invert", "--nrfe", "1", "--t1", "1", "--actuated", "psi2", "x3", "--nodes",
+                       "100000000", "--out", tmp_path / "inversion.npz"))
+    assert "a stable inversion on 1e+08 mesh nodes of n_dof = 3 would take at least" in line
+    assert "GB of memory" in line and "give fewer --nodes" in line and "--no-limits" in line
+    assert not (tmp_path / "inversion.npz").exists()
