@@ -14,11 +14,11 @@ import io
 import logging
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import ModelError
-from ..user_files import read_user_file
 
 SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
 # gpmegen's URDF extension: <gpmegen:spring stiffness="..." damping="..."/> in a <joint>, the
@@ -94,7 +94,10 @@ def rpy(R) -> tuple[float, float, float]:
 def read_tree(path) -> UrdfTree:
     """The URDF file at ``path`` as a checked tree; ModelError naming the element and the fix."""
     file = str(path)
-    raw = read_user_file(path, "the URDF file", ModelError)
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise ModelError(f"{file}: cannot read the URDF file ({exc.strerror or exc}); check the path") from None
     robot, springs = _parse(file, raw)
     links = {}
     for link in robot.links:
