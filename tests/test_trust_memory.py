@@ -160,3 +160,34 @@ def test_inversion_on_1e8_mesh_nodes_filled_the_memory(tmp_path):
     assert "a stable inversion on 1e+08 mesh nodes of n_dof = 3 would take at least" in line
     assert "GB of memory" in line and "give fewer --nodes" in line and "--no-limits" in line
     assert not (tmp_path / "inversion.npz").exists()
+
+
+def _with_entry(source, target, name: str, elements: int) -> None:
+    """``source`` (an .npz) copied to ``target`` with an entry ``name`` whose .npy header declares
+    ``elements`` doubles, of which it holds eight bytes (a reader that trusts the header
+    allocates them all before reading)."""
+    import io
+    import zipfile
+
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False, "shape": (elements,)})
+    with zipfile.ZipFile(source) as old, zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as new:
+        for info in old.infolist():
+            if info.filename != f"{name}.npy":
+                new.writestr(info, old.read(info))
+        new.writestr(f"{name}.npy", header.getvalue() + bytes(8))
+
+
+def test_plot_inflated_an_unused_entry_of_1_gib(tmp_path, small_run):
+    results = tmp_path / "results.npz"
+    _with_entry(small_run[0], results, "unused", 2**27)
+    outcome = run(tmp_path, "plot", results, "--out", tmp_path / "figures")
+    assert outcome.status == 0, outcome.stderr
+    assert outcome.peak_bytes < PEAK_BYTES + 100e6  # matplotlib's figures come on top of the 110 MB
+
+
+def test_plot_of_an_entry_declaring_1_gib_in_8_bytes_is_refused(tmp_path, small_run):
+    results = tmp_path / "results.npz"
+    _with_entry(small_run[0], results, "qdd", 2**27)
+    line = refused(run(tmp_path, "plot", results, "--out", tmp_path / "figures"), status=1)
+    assert f"{results}: its array 'qdd' declares {2**30} bytes in" in line and "gpmegen simulate" in line
