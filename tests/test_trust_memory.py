@@ -191,3 +191,21 @@ def test_plot_of_an_entry_declaring_1_gib_in_8_bytes_is_refused(tmp_path, small_
     _with_entry(small_run[0], results, "qdd", 2**27)
     line = refused(run(tmp_path, "plot", results, "--out", tmp_path / "figures"), status=1)
     assert f"{results}: its array 'qdd' declares {2**30} bytes in" in line and "gpmegen simulate" in line
+
+
+def test_animation_at_3000_dpi_filled_the_memory(tmp_path, small_run):
+    line = refused(run(tmp_path, "animate", small_run[0], "--dpi", "3000", "--out", tmp_path / "arm.gif"))
+    assert "drawing 1 frame of 19200 x 16200 pixels (1.24e+03 MB each, 1 held until written)" in line
+    assert "give a smaller --dpi" in line and "--no-limits" in line and not (tmp_path / "arm.gif").exists()
+
+
+def test_animation_of_every_one_of_20001_samples_held_every_frame(tmp_path, small_run):
+    _, arrays = small_run
+    k = 20001
+    long = {**arrays, "t": np.linspace(0.0, 2.0, k)}
+    for key in ("q", "qd", "end_effector", "phi", "tau_drive"):
+        long[key] = np.resize(arrays[key], (k, *arrays[key].shape[1:]))
+    results = tmp_path / "long.npz"
+    np.savez(results, **long)
+    line = refused(run(tmp_path, "animate", results, "--every", "1", "--out", tmp_path / "arm.gif"))
+    assert "drawing 20001 frames of 640 x 540 pixels (1.38 MB each, 20001 held until written)" in line
