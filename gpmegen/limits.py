@@ -126,13 +126,30 @@ def available_memory() -> float | None:
         with open("/proc/meminfo") as fh:
             for line in fh:
                 if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024
+                    return _within_address_space(float(line.split()[1]) * 1024)
     except (OSError, ValueError, IndexError):
         pass
     try:
-        return float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        found = float(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
     except (OSError, ValueError, AttributeError):
         return None
+    return _within_address_space(found)
+
+
+def _within_address_space(available: float) -> float:
+    """``available`` bytes, or fewer when this process's address space is limited (``ulimit -v``):
+    what is left of that limit."""
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if limit == resource.RLIM_INFINITY:
+            return available
+        with open("/proc/self/statm") as fh:
+            used = int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+        return min(available, max(0.0, float(limit - used)))
+    except (ImportError, OSError, ValueError, IndexError):
+        return available
 
 
 def interpolate(points, x: float) -> float:
@@ -367,6 +384,40 @@ def check_sweep(runs: list[tuple[int, RunEstimate]], workers: int) -> None:
     n_bytes = workers * max(estimate.n_bytes for _, estimate in runs)
     check(f"a sweep of {total} runs on {workers} worker{'s' if workers > 1 else ''}", seconds, n_bytes,
           "give fewer values or --samples, a shorter --t-end, a larger --dt or --save-every, or more workers")
+
+
+#: Bytes per entry of the sparse Jacobian of SciPy's solve_bvp: its value and two int64 indices,
+#: and the value and an index in its compressed copy.
+BVP_ENTRY_BYTES = 36
+
+
+def check_inversion(n_dof: int, nodes: int) -> None:
+    """Refuse a stable inversion (SciPy's solve_bvp, NumPy backend) on ``nodes`` mesh nodes that
+    cannot finish. Each node holds two blocks of (2 n_dof)² in the collocation's sparse Jacobian
+    (:data:`BVP_ENTRY_BYTES` each) and takes, at the least, one Newton iteration: its residual
+    and its Jacobian by differences, 4 n_dof + 1 GPME solves."""
+    if nodes > MAX_COUNT:
+        raise LimitError(f"a stable inversion on {nodes:.3g} mesh nodes is more than can be counted; give fewer "
+                         f"--nodes")
+    n_bytes = BASE_BYTES + nodes * 2 * (2 * n_dof) ** 2 * BVP_ENTRY_BYTES
+    seconds = nodes * (4 * n_dof + 1) * solve_seconds(n_dof, "numpy")
+    check(f"a stable inversion on {nodes:.3g} mesh nodes of n_dof = {n_dof}", seconds, n_bytes,
+          "give fewer --nodes (the mesh is refined where needed, up to 20 times the nodes given)", at_least=True)
+
+
+#: Copies of a frame's RGBA pixels alive while it is drawn and encoded (Agg's buffer, the copy
+#: taken, the RGB and palette images of the encoder).
+FRAME_COPIES = 3
+
+
+def check_frames(width: int, height: int, frames: int, held: int) -> None:
+    """Refuse an animation or figure of ``frames`` frames of ``width`` x ``height`` pixels, of
+    which ``held`` are kept in memory until the file is written, that cannot fit."""
+    frame = 4.0 * width * height
+    n_bytes = BASE_BYTES + frame * (FRAME_COPIES + held)
+    check(f"drawing {frames} frame{'s' if frames > 1 else ''} of {width} x {height} pixels "
+          f"({frame / 1e6:.3g} MB each, {held} held until written)", 0.0, n_bytes,
+          "give a smaller --dpi, or fewer frames with a larger --every")
 
 
 def model_coordinates(model) -> int:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
+from .. import limits
 from ..errors import GpmegenError
 from ..fileio import atomic_write
 from . import arm_geometry as geometry
@@ -26,6 +27,7 @@ from .plots import _FILE_METADATA, _SVG_SALT, _pyplot
 
 MOVIES = ("gif", "mp4")
 STILLS = ("png", "pdf", "svg")
+FIGURE_SIZE = (6.4, 5.4)  # inches
 BODIES = ("skeleton", "boxes", "both")  # how rigid bodies are drawn (--bodies); the first is the default
 BODY, LIGHT_BODY, SKELETON, LINK, POINT, TRACE = "0.35", "0.75", "0.1", "C1", "C3", "C0"
 
@@ -87,10 +89,15 @@ def vertical_axis(model, params) -> str:
     return ("-" if g[k] > 0 else "") + "xyz"[k]
 
 
+def pixels(dpi: int, size=FIGURE_SIZE) -> tuple[int, int]:
+    """The width and height in pixels of a figure of ``size`` (inches) at ``dpi``."""
+    return round(size[0] * dpi), round(size[1] * dpi)
+
+
 class Canvas:
     """One 3D axes showing {0} with ``view.vertical`` upwards, with the artists of poses."""
 
-    def __init__(self, view: View, low, high, size=(6.4, 5.4), dpi=100):
+    def __init__(self, view: View, low, high, size=FIGURE_SIZE, dpi=100):
         plt = _pyplot()
         self.plt = plt
         self.bodies = view.bodies
@@ -168,6 +175,7 @@ def movie(scene, loaded, t, q, view: View, out, fps: float, every: int, dpi: int
     """Write the animation of the samples ``t`` (k,), ``q`` (k, n) to ``out`` (.gif or .mp4)."""
     fmt = format_of(out, still=False)
     shown = frames(t, every)
+    limits.check_frames(*pixels(dpi), len(shown), len(shown))
     drawn = geometry.poses(scene, loaded, q[shown], view.magnify, view.boxes)
     paths = traces(scene, loaded, q)
     canvas = Canvas(view, *geometry.bounds(drawn, paths), dpi=dpi)
@@ -227,6 +235,7 @@ def still(scene, loaded, t, q, view: View, times, out, dpi: int = 200) -> Path:
     each, with the traced points' path over the whole run; written to ``out`` (.png/.pdf/.svg)."""
     fmt = format_of(out, still=True)
     shown = [nearest(t, when) for when in times]
+    limits.check_frames(*pixels(dpi), 1, 0)
     drawn = geometry.poses(scene, loaded, q[shown], view.magnify, view.boxes)
     paths = traces(scene, loaded, q)
     canvas = Canvas(view, *geometry.bounds(drawn, paths), dpi=dpi)

@@ -91,6 +91,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import GpmegenError, ModelError
+from ..user_files import check_user_file, read_user_file
 from .chain import Model
 from .expand import expand
 from .file.model_file import ModelFile
@@ -107,10 +108,7 @@ def _parse(path, nrfe):
     if nrfe is not None:
         check_nrfe(nrfe, f"{path}")
     file = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except OSError as exc:
-        raise ModelError(f"{file}: cannot read the model file ({exc.strerror or exc}); check the path") from None
+    raw = read_user_file(path, "the model file", ModelError)
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -146,6 +144,7 @@ def read_urdf_file(path) -> ModelFile:
     """The rigid model of the URDF file at ``path`` (:func:`gpmegen.model.urdf.import_urdf`:
     its one branch of moving joints, gravity ``-g`` along z, its mimic joints following their
     leaders), starting at ``q = 0``, with its joints' limits."""
+    check_user_file(path, "the URDF file", ModelError)
     robot = import_urdf(path)
     try:
         expand(robot.model)

@@ -4,6 +4,7 @@ everything that decides its results, and the manifest that ties an output folder
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import itertools
 import json
@@ -21,6 +22,9 @@ RUNS = "runs"
 SAMPLINGS = ("lhs", "random")
 #: Column names of the summary that a parameter may not take.
 RESERVED = ("run", "nrfe")
+#: The most values one parameter takes (3 MB of them as Python floats); far more runs than a
+#: sweep can make within the limits (gpmegen.limits.check_sweep), which refuse it with its estimate.
+MAX_VALUES = 10**5
 
 
 class SweepError(GpmegenError):
@@ -59,13 +63,25 @@ def parse_param(text: str):
     if len(parts) == 2:
         return name, Range(_number(name, parts[0]), _number(name, parts[1]))
     if len(parts) == 3:
-        count = parts[2].strip()
-        if not count.isdigit() or int(count) < 1:
-            raise SweepError(f"--param {text!r}: the count {count!r} after the second ':' must be a whole number "
-                             f">= 1")
-        start, stop, count = _number(name, parts[0]), _number(name, parts[1]), int(count)
+        start, stop, count = _number(name, parts[0]), _number(name, parts[1]), _count(text, parts[2])
         return name, [start + (stop - start) * k / (count - 1) if count > 1 else start for k in range(count)]
     raise SweepError(f"--param {text!r}: write NAME=start:stop:count or NAME=low:high, with at most two ':'")
+
+
+def _count(text: str, given: str) -> int:
+    """The count of ``NAME=start:stop:count`` (digits, or a whole number such as 1e4), at most
+    :data:`MAX_VALUES`."""
+    given = given.strip()
+    try:
+        count = float(given)
+    except ValueError:
+        count = math.nan
+    if not (count >= 1 and count == math.floor(count)):
+        raise SweepError(f"--param {text!r}: the count {given!r} after the second ':' must be a whole number >= 1")
+    if count > MAX_VALUES:
+        raise SweepError(f"--param {text!r}: {count:.3g} values of one parameter are more than a sweep takes "
+                         f"({MAX_VALUES:.0e}); give a smaller count")
+    return int(count)
 
 
 def normalize(params: dict, samples: int | None) -> dict:
@@ -91,7 +107,10 @@ def normalize(params: dict, samples: int | None) -> dict:
         if samples is not None and len(values) > 1:
             raise SweepError(f"--param {name}: with --samples give a range {name}=low:high (or one fixed value), "
                              f"not a list of values")
-        twice = sorted({v for v in values if values.count(v) > 1})
+        if len(values) > MAX_VALUES:
+            raise SweepError(f"--param {name}: {len(values)} values of one parameter are more than a sweep takes "
+                             f"({MAX_VALUES:.0e}); give fewer")
+        twice = sorted(v for v, n in collections.Counter(values).items() if n > 1)
         if twice:
             raise SweepError(f"--param {name}: {', '.join(f'{v:g}' for v in twice)} given twice; give each value once")
         out[name] = values
