@@ -262,7 +262,7 @@ def collect(model, t, y, status, settings) -> dict:
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
     E = np.zeros((samples, 3))
-    phi = np.zeros((samples, m))
+    phi = np.full((samples, m), np.nan)
     drive = np.zeros((samples, n))
     qdd = np.full((samples, n), np.nan)
     reaction = np.zeros((samples, n))
@@ -271,10 +271,10 @@ def collect(model, t, y, status, settings) -> dict:
     actuated = len(model.actuators) > 0
     for k in range(samples):
         E[k] = model.end_effector(q[k])
-        phi[k] = model.constraint_values(t[k], q[k], qd[k])
-        D = model.constraint_terms(t[k], q[k], qd[k])[2]
         drive[k] = model.drive_forces(t[k])
-        if np.all(np.isfinite(y[k])):
+        if np.all(np.isfinite(y[k])):  # the model's functions refuse a state that is not finite
+            phi[k] = model.constraint_values(t[k], q[k], qd[k])
+            D = model.constraint_terms(t[k], q[k], qd[k])[2]
             qdd[k], M, f = model.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)
