@@ -33,7 +33,7 @@ def driving_functions(plt, runs, style):
             if name in [str(c) for c in r["coordinates"]]:
                 ax.plot(r["t"], joint_forces(r, name), **plots._line(s), lw=1.2)
     for ax, name in zip(axes[:, 0], joints):
-        ax.set_ylabel(f"on {name} [{units.get(name, 'generalized')}]")
+        ax.set_ylabel(plots.literal(f"on {name} [{units.get(name, 'generalized')}]"))
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     ways = {realization(r) for r in runs}
@@ -79,12 +79,12 @@ def constraint_multipliers(plt, runs, style):
     for r, s in pairs:
         for i, name in enumerate(names):
             axes[i, 0].plot(r["t"], r["lambda"][:, i], **plots._line(s), lw=1.2)
-            axes[i, 0].set_ylabel(f"λ {name} [{units.get(name, 'generalized')}]")
+            axes[i, 0].set_ylabel(plots.literal(f"λ {name} [{units.get(name, 'generalized')}]"))
         if with_force and "point_forces" in r:
             point = metadata(r)["force_points"][0]
             for i in range(3):
                 axes[-1, 0].plot(r["t"], r["point_forces"][:, 0, i], color=s["color"], linestyle=COMPONENTS[i], lw=1)
-            axes[-1, 0].set_ylabel(f"force on {point} in {{0}} [N]")
+            axes[-1, 0].set_ylabel(plots.literal(f"force on {point} in {{0}} [N]"))
     for ax in axes[:, 0]:
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
