@@ -249,3 +249,14 @@ def test_the_axis_against_gravity_is_drawn_upwards(gravity, vertical):
     model = Model("m", (Parameter("g", 9.81),), (), gravity=tuple(sp.sympify(v, locals={"g": symbol("g")})
                                                                     for v in gravity))
     assert animation.vertical_axis(model, {"g": 9.81}) == vertical
+
+
+def test_a_frame_rate_no_movie_can_have_is_refused_in_one_line(arm_run, tmp_path, capsys):
+    """--fps 1e-300 was an internal error (an IndexError: the sample step to play it in real time
+    is beyond any integer)."""
+    with pytest.raises(SystemExit) as info:
+        main(["animate", str(arm_run[0]), "--out", str(tmp_path / "a.gif"), "--fps", "1e-300"])
+    assert info.value.code == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "argument --fps: 1e-300 frames per second is outside 0.01 to 1000" in line
+    assert not (tmp_path / "a.gif").exists()

@@ -180,3 +180,15 @@ def test_ctrl_c_exits_130_in_build_and_simulate(argv, pattern, tmp_path):
     code, err = _interrupt_when(argv, pattern, tmp_path)
     assert code == 130, err
     assert "Traceback" not in err and "interrupted" in err.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("argv, named", [(["--t1", "inf"], "--t1: inf"), (["--t0", "nan", "--t1", "1"], "--t0: nan"),
+                                         (["--t0=-inf", "--t1", "1"], "--t0: -inf")])
+def test_invert_refuses_a_time_that_is_not_finite_in_one_line(argv, named, capsys):
+    """``invert --t1 inf`` went on to the inversion with an infinite window."""
+    models = Path(__file__).parent / "models"
+    with pytest.raises(SystemExit) as info:
+        main(["invert", str(models / "flexible_link.toml"), "--nrfe", "2", *argv])
+    assert info.value.code == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert f"argument {named} is not a finite time; give it in seconds" in line
