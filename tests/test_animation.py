@@ -260,3 +260,17 @@ def test_a_frame_rate_no_movie_can_have_is_refused_in_one_line(arm_run, tmp_path
     [line] = capsys.readouterr().err.strip().splitlines()
     assert "argument --fps: 1e-300 frames per second is outside 0.01 to 1000" in line
     assert not (tmp_path / "a.gif").exists()
+
+
+@pytest.mark.parametrize("source", ["x", [1], {"reference": "abc"}, {"reference": None}, {"reference": 0},
+                                    {"file": 5}, {"file": "arm.toml", "nrfe": "x"}, {"folder": ["a"]}])
+def test_a_malformed_model_source_is_refused_in_one_line(arm_run, tmp_path, capsys, source):
+    """A results file whose model_source is not what gpmegen writes was an internal error
+    (AttributeError, ValueError, TypeError)."""
+    results = results_io.load(arm_run[0])
+    odd = tmp_path / "odd.npz"
+    results_io.save(dict(results, meta=results_io.encode({**results_io.metadata(results), "model_source": source})),
+                    odd)
+    assert main(["animate", str(odd), "--still", "0", "--out", str(tmp_path / "still.png")]) == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "its model_source" in line and "is not one gpmegen writes" in line and "--model" in line
