@@ -56,7 +56,7 @@ def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None)
         f"model {model.module.MODEL}: the programmed constraints cannot be met from the start configuration by "
         f"moving {moved}: at best {violated}; "
         + (hint or "is the prescribed position within the chain's reach with these parameter values and this "
-                   "start ([initial] q)?"))
+                   "start ([initial] q)?"), partial={"phi": closest})
 
 
 def velocity_residual(model, t, q, qd):
