@@ -67,6 +67,10 @@ def _finite_number(accept, problem):
 
 positive_float = _finite_number(lambda v: v > 0, "must be a positive finite number")
 unit_interval = _finite_number(lambda v: 0 <= v <= 1, "must be a number from 0 to 1")
+# a GIF frame lasts a whole number of ms and at most 655 s (its delay is 16 bits of 10 ms)
+frame_rate = _finite_number(lambda v: 0.01 <= v <= 1000,
+                            "frames per second is outside 0.01 to 1000; give e.g. --fps 20")
+finite_time = _finite_number(np.isfinite, "is not a finite time; give it in seconds")
 end_time = _finite_number(lambda v: v >= 0, "is below zero or not finite; give the end time in seconds")
 
 
@@ -824,8 +828,8 @@ def build_parser() -> argparse.ArgumentParser:
     study_options(inv)
     inv.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
                      help="the inputs' coordinates, one per constraint (default: a model file's actuators)")
-    inv.add_argument("--t0", type=float, default=0.0, help="the programmed motion rests before t0 (s, default 0)")
-    inv.add_argument("--t1", type=float, required=True, help="and after t1 (s)")
+    inv.add_argument("--t0", type=finite_time, default=0.0, help="the programmed motion rests before t0 (s, default 0)")
+    inv.add_argument("--t1", type=finite_time, required=True, help="and after t1 (s)")
     inv.add_argument("--pre", type=positive_float, default=0.1, help="pre-actuation window before t0 (s, default 0.1)")
     inv.add_argument("--post", type=positive_float, default=0.1, help="post-actuation window after t1 (s, default 0.1)")
     inv.add_argument("--nodes", type=positive_int, default=200, help="initial mesh nodes of the BVP (default 200)")
@@ -946,7 +950,7 @@ def build_parser() -> argparse.ArgumentParser:
                     default=1.0, metavar="K",
                     help="scale the elastic coordinates (the flexible links' sdes, not sprung joints) by K "
                          "(default 1: as computed)")
-    an.add_argument("--fps", type=positive_float, default=20.0, help="frames per second (default 20)")
+    an.add_argument("--fps", type=frame_rate, default=20.0, help="frames per second (default 20)")
     an.add_argument("--every", type=positive_int, default=None,
                     help="show every k-th saved sample (default: the step that plays the run in real time)")
     an.add_argument("--view", type=camera, default=(20.0, -60.0), metavar="ELEV,AZIM",

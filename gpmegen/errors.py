@@ -38,6 +38,11 @@ class StaleModelError(BuildError):
     """A generated module does not match the current model or package version."""
 
 
+class StateError(GpmegenError, ValueError):
+    """A state given to a model's function (t, q or q̇) holds a NaN or an infinity
+    (:mod:`gpmegen.runtime.finite`)."""
+
+
 class StaticsError(GpmegenError):
     """Newton–Raphson statics did not converge."""
 

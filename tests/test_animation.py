@@ -314,3 +314,28 @@ def test_a_run_without_constraints_says_so_instead_of_an_empty_violation(env, tm
                  "--out", str(tmp_path / "free.npz")]) == 0
     out = capsys.readouterr().out
     assert "no constraints" in out and "max|Φ|" not in out
+
+
+def test_a_frame_rate_no_movie_can_have_is_refused_in_one_line(arm_run, tmp_path, capsys):
+    """--fps 1e-300 was an internal error (an IndexError: the sample step to play it in real time
+    is beyond any integer)."""
+    with pytest.raises(SystemExit) as info:
+        main(["animate", str(arm_run[0]), "--out", str(tmp_path / "a.gif"), "--fps", "1e-300"])
+    assert info.value.code == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "argument --fps: 1e-300 frames per second is outside 0.01 to 1000" in line
+    assert not (tmp_path / "a.gif").exists()
+
+
+@pytest.mark.parametrize("source", ["x", [1], {"reference": "abc"}, {"reference": None}, {"reference": 0},
+                                    {"file": 5}, {"file": "arm.toml", "nrfe": "x"}, {"folder": ["a"]}])
+def test_a_malformed_model_source_is_refused_in_one_line(arm_run, tmp_path, capsys, source):
+    """A results file whose model_source is not what gpmegen writes was an internal error
+    (AttributeError, ValueError, TypeError)."""
+    results = results_io.load(arm_run[0])
+    odd = tmp_path / "odd.npz"
+    results_io.save(dict(results, meta=results_io.encode({**results_io.metadata(results), "model_source": source})),
+                    odd)
+    assert main(["animate", str(odd), "--still", "0", "--out", str(tmp_path / "still.png")]) == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert "its model_source" in line and "is not one gpmegen writes" in line and "--model" in line

@@ -102,10 +102,10 @@ def test_bad_shapes_are_one_line(models, backend, args, named):
 def test_a_failing_state_names_its_place_in_the_batch(models):
     c = models("c")
     t, q, qd = _batch(c, 5, seed=3)
-    q[3, 0] = np.nan
+    q[3, c.index("x3")] = 1e200  # finite, but M, f and D overflow
     with pytest.raises(SimulationError, match=r"not finite at t = .* s \(state 3 of the batch\)"):
         c.accelerations(t, q, qd)
-    assert np.isnan(c.mass_matrix(q)[3]).any() and np.isfinite(c.mass_matrix(q)[:3]).all()
+    assert not np.isfinite(c.mass_matrix(q)[3]).all() and np.isfinite(c.mass_matrix(q)[:3]).all()
 
 
 @pytest.mark.requires_cc

@@ -203,3 +203,15 @@ def test_a_count_of_zero_is_refused_without_a_hint_about_the_arm(argv, capsys):
     assert code == 2 and "below 1 (give a count of 1 or more)" in err and "rigid" not in err
     code, _, err = _exit(["simulate", "--nrfe", "0"], capsys)
     assert code == 2 and "use 1 for a rigid link" in err
+
+
+@pytest.mark.parametrize("argv, named", [(["--t1", "inf"], "--t1: inf"), (["--t0", "nan", "--t1", "1"], "--t0: nan"),
+                                         (["--t0=-inf", "--t1", "1"], "--t0: -inf")])
+def test_invert_refuses_a_time_that_is_not_finite_in_one_line(argv, named, capsys):
+    """``invert --t1 inf`` went on to the inversion with an infinite window."""
+    models = Path(__file__).parent / "models"
+    with pytest.raises(SystemExit) as info:
+        main(["invert", str(models / "flexible_link.toml"), "--nrfe", "2", *argv])
+    assert info.value.code == 2
+    [line] = capsys.readouterr().err.strip().splitlines()
+    assert f"argument {named} is not a finite time; give it in seconds" in line

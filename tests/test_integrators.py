@@ -3,6 +3,7 @@ dense output on the save grid, what it took), the step guidance that refuses an 
 and the command line's --method, --save-dt, --rtol and --atol."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -353,3 +354,18 @@ def test_a_start_whose_second_order_rows_vanish_at_rest_gets_its_stable_step(env
     assert omega == pytest.approx(math.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[-1]), rel=1e-9)
     res = study.simulate(model, begun.q, 0.002, dt=1e-5, save_every=100, qd0=begun.qd)
     assert str(res["status"]) == "complete"
+
+
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)])
+def test_a_constraint_going_out_of_reach_is_reported_as_such_not_as_the_step(env, tmp_path, capsys, backend):
+    """The rigid reaching arm asked to reach 0.9449 m with 0.9 m of arm failed at t ≈ 0.72 s and
+    was reported as a divergence of the step ("non-finite state; try a smaller --dt")."""
+    arm = Path(__file__).parent / "models" / "reaching_arm.toml"
+    out = tmp_path / "reach.npz"
+    assert main(["simulate", str(arm), "--nrfe", "1", "--param", "A=0.1", "--t-end", "1.2", "--dt", "1e-3",
+                 "--backend", backend, "--out", str(out)]) == 1
+    line = capsys.readouterr().err.strip().splitlines()[-1]  # after the lines on the start
+    assert line.startswith("gpmegen simulate: error: diverged: ")
+    assert "at t = 0.72 s the constraint reach went out of reach" in line and "Jacobian D loses rank" in line
+    assert "smaller --dt" not in line and "shoulder" not in line
+    assert (tmp_path / "reach.partial.npz").exists()

@@ -249,3 +249,34 @@ def test_a_vibration_faster_than_the_samples_is_drawn_as_its_band_not_a_block(pa
     assert band.max() >= ringing.max() - 1e-12 and band.min() <= ringing.min() + 1e-12
     assert any("Shaded: the band" in text.get_text() or "shaded: the band" in text.get_text() for text in fig.texts)
     plt.close(fig)
+
+
+BROKEN_TEX = r"$\frac{a$"
+NESTED = "$" + "{" * 3000 + "x" + "}" * 3000 + "$"
+
+
+def test_text_from_a_results_file_is_drawn_as_it_is_never_read_as_tex(pair, tmp_path, capsys):
+    """A run label with broken TeX was an internal error (matplotlib's ParseSyntaxException), and
+    one of 3,000 nested braces a RecursionError: text from a results file is drawn literally
+    (the reference case's start tag, $E'_r$, stays mathtext where it parses)."""
+    _, (rigid, _) = pair
+    meta = {"label": BROKEN_TEX, "start_tag": NESTED, "joint_labels": {"theta1": NESTED},
+            "prescribed": {"axis": 1, "label": BROKEN_TEX}, "constraint_units": {"circle": NESTED},
+            "figures": {"path": BROKEN_TEX}, "force_units": {"theta1": NESTED}, "lambda_units": {"height": NESTED}}
+    path = tmp_path / "odd.npz"
+    results_io.save(_with_meta(rigid, **meta), path)
+    out = tmp_path / "figures"
+    assert main(["plot", str(path), "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "" and len(captured.out.split()) == len(plots.figures([rigid]))
+    fig = plots.joint_coordinates(plots._pyplot(), [results_io.load(path)], plots.styles([rigid]))
+    [shown] = fig.legends[0].get_texts()
+    assert shown._preprocess_math(shown.get_text()) == (BROKEN_TEX, False)  # drawn as it is, not as TeX
+    nested = plots.label(_with_meta(rigid, label=NESTED))
+    assert nested == plots.literal(NESTED) and not matplotlib.cbook.is_math_text(nested)
+
+
+def test_the_reference_case_s_start_tag_is_still_mathtext(pair):
+    _, (rigid, _) = pair
+    tag = plots.start_tag(results_io.metadata(rigid))
+    assert tag == "$E'_r$" and matplotlib.cbook.is_math_text(tag)

@@ -223,6 +223,13 @@ def test_parameter_value_beyond_a_double_became_inf_or_an_internal_error(tmp_pat
         load_model_file(path)
 
 
+def test_an_integer_too_long_to_print_was_an_internal_error(tmp_path):
+    """``(10**49)**100`` has 4,901 digits, more than Python turns into text: its refusal failed."""
+    path = _file(tmp_path, ARM.replace("m = 1.0", 'm = "(10**49)**100"'))
+    with pytest.raises(ModelError, match=r"arm\.toml:8: parameters\.m: .*holds a number of 1\.00e\+4900, beyond a dou"):
+        load_model_file(path)
+
+
 def test_constant_beyond_a_double_in_a_quantity_became_an_overflow_at_run_time(tmp_path):
     far = 'point = "F"\n\n[[chain]]\npoint = "E"\nposition = ["exp(710)*L", 0, 0]'
     path = _file(tmp_path, ARM.replace('point = "E"', far))

@@ -23,7 +23,7 @@ from ..errors import GpmegenError
 from ..fileio import atomic_write
 from . import arm_geometry as geometry
 from . import results as results_io
-from .plots import _FILE_METADATA, _SVG_SALT, _pyplot
+from .plots import _FILE_METADATA, _SVG_SALT, _pyplot, literal
 
 MOVIES = ("gif", "mp4")
 STILLS = ("png", "pdf", "svg")
@@ -281,7 +281,7 @@ class Subject:
     model: object
 
     def view(self, elev: float, azim: float, magnify: float, bodies: str = BODIES[0]) -> View:
-        label = results_io.metadata(self.results).get("label") or self.loaded.module.MODEL
+        label = literal(results_io.metadata(self.results).get("label") or self.loaded.module.MODEL)
         return View(elev, azim, vertical_axis(self.model, self.loaded.params), magnify, label, bodies)
 
 

@@ -318,12 +318,31 @@ def case_of_source(source, what) -> Case:
     if not source:
         raise ModelError(f"{what}: the results do not say which model made them (a model made in Python, or "
                          f"results of an older gpmegen); give its model file with --model")
+    if not _is_locator(source):
+        raise ModelError(f"{what}: its model_source {str(source)[:80]!r} is not one gpmegen writes "
+                         f"({{\"reference\": N}}, {{\"file\": path, \"nrfe\": N}} or {{\"folder\": path}}); "
+                         f"give its model file with --model")
     if "reference" in source:
-        return ReferenceCase(int(source["reference"]))
+        return ReferenceCase(source["reference"])
     path = Path(source.get("file") or source.get("folder"))
     if not path.exists():
         raise ModelError(f"{what}: the model the results name, {path}, is not there; give its model file with --model")
     return case_of_path(path, source.get("nrfe"))
+
+
+def _is_locator(source) -> bool:
+    """Whether ``source`` is a ``model_source`` as :meth:`Case.locator` writes it."""
+    def count(value):
+        return type(value) is int and value >= 1
+
+    if not isinstance(source, dict):
+        return False
+    if set(source) == {"reference"}:
+        return count(source["reference"])
+    paths = [source[key] for key in ("file", "folder") if key in source]
+    if len(paths) != 1 or not isinstance(paths[0], str) or not paths[0].strip():
+        return False
+    return set(source) <= {"file", "folder", "nrfe"} and (source.get("nrfe") is None or count(source["nrfe"]))
 
 
 def case_for(model_file, nrfe) -> Case:

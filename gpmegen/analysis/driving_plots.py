@@ -41,7 +41,7 @@ def driving_functions(plt, runs, style):
             if name in [str(c) for c in r["coordinates"]]:
                 shaded |= plots.trace(ax, r["t"], joint_forces(r, name), s)
     for ax, name in zip(axes[:, 0], joints):
-        ax.set_ylabel(f"on {name} [{units.get(name, 'generalized')}]")
+        ax.set_ylabel(plots.literal(f"on {name} [{units.get(name, 'generalized')}]"))
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     ways = {realization(r) for r in runs}
@@ -91,13 +91,13 @@ def constraint_multipliers(plt, runs, style):
     for r, s in pairs:
         for i, name in enumerate(names):
             shaded |= plots.trace(axes[i, 0], r["t"], r["lambda"][:, i], s)
-            axes[i, 0].set_ylabel(f"λ {name} [{units.get(name, 'generalized')}]")
+            axes[i, 0].set_ylabel(plots.literal(f"λ {name} [{units.get(name, 'generalized')}]"))
         if with_force and "point_forces" in r:
             point = metadata(r)["force_points"][0]
             for i, axis in enumerate("xyz"):  # a panel each: a line style is the run's, never a component's
                 ax = axes[len(names) + i, 0]
                 shaded |= plots.trace(ax, r["t"], r["point_forces"][:, 0, i], s, lw=1)
-                ax.set_ylabel(f"{axis}: force on {point} [N]")
+                ax.set_ylabel(plots.literal(f"{axis}: force on {point} [N]"))
     for ax in axes[:, 0]:
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")

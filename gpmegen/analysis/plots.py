@@ -46,14 +46,37 @@ def _pyplot():
     return plt
 
 
+def literal(text) -> str:
+    """``text`` as matplotlib draws it as it is: each ``$`` escaped, so that no part of it is read
+    as mathtext. Text from a results file is drawn so: a label may hold broken TeX, or braces
+    nested deeper than matplotlib's parser can recurse."""
+    return str(text).replace("$", r"\$")
+
+
+def start_tag(meta) -> str:
+    """The tag of a run's start point: mathtext where its case writes it so (the paper's
+    ``$E'_r$``) and matplotlib can parse it, else its text as it is."""
+    from matplotlib import cbook
+    from matplotlib.mathtext import MathTextParser
+
+    tag = str(meta.get("start_tag", "start"))
+    if not cbook.is_math_text(tag):
+        return tag
+    try:
+        MathTextParser("path").parse(tag)
+    except (ValueError, RecursionError):  # what its parser raises on broken or deeply nested TeX
+        return literal(tag)
+    return tag
+
+
 def label(results) -> str:
-    """A legend label: the run's case's label (the model's name by default) and its start
-    unless it is the locked statics; with what tells it from the runs it is drawn beside, where
-    :func:`distinguished` put it there."""
+    """A legend label, drawn as it is: the run's case's label (the model's name by default) and
+    its start unless it is the locked statics; with what tells it from the runs it is drawn
+    beside, where :func:`distinguished` put it there."""
     if LEGEND in results:
         return results[LEGEND]
     meta = metadata(results)
-    text, start = meta.get("label", meta["model"]), meta["start"]
+    text, start = literal(meta.get("label", meta["model"])), meta["start"]
     return text if start == "locked" else f"{text} (no statics)" if start == "none" else f"{text} ({start} start)"
 
 
@@ -84,7 +107,7 @@ def distinguished(runs: list) -> list:
             differ.append(lambda k, name=name: f"{name} = {params[k][name]:.6g}" if name in params[k] else None)
     out = []
     for k, r in enumerate(runs):
-        extra = [text for text in (d(k) for d in differ) if text]
+        extra = [literal(text) for text in (d(k) for d in differ) if text]  # parameter names are the user's
         out.append({**r, LEGEND: base[k] + (f", {', '.join(extra)}" if extra else "")})
     return out
 
@@ -180,14 +203,14 @@ def _shaded(caption, shaded: bool):
 
 def _title(runs, title) -> str:
     """``title`` naming the model of the runs (see :func:`family`)."""
-    return f"{title}: {family(runs[0])}"
+    return f"{title}: {literal(family(runs[0]))}"
 
 
 def _caption(runs, figure) -> str | None:
     """The source figure (e.g. "paper Fig. 2") when every run names the same one, else None."""
     sources = {metadata(r).get("figures", {}).get(figure) for r in runs}
     source = sources.pop() if len(sources) == 1 else None
-    return f"Corresponds to {source}." if source else None
+    return f"Corresponds to {literal(source)}." if source else None
 
 
 def _coordinate(results, name):
@@ -246,7 +269,7 @@ def joint_coordinates(plt, runs, style):
             if v is not None:
                 shaded |= trace(ax, r["t"], v, s)
     for ax, name in zip(axes[:, 0], joints):
-        ax.set_ylabel(pretty.get(name, name))
+        ax.set_ylabel(literal(pretty.get(name, name)))
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     _finish(fig, _title(runs, "Joint coordinates"), _run_handles(runs, style),
@@ -268,7 +291,7 @@ def end_effector(plt, runs, style):
         if prescribed and "prescribed" in r:
             axes[prescribed["axis"]].plot(r["t"], r["prescribed"], ":", color="k", lw=1)
             if not extra:
-                extra.append(Line2D([], [], linestyle=":", color="k", lw=1, label=prescribed["label"]))
+                extra.append(Line2D([], [], linestyle=":", color="k", lw=1, label=literal(prescribed["label"])))
     for ax, name in zip(axes, ("x_E [m]", "y_E [m]", "z_E [m]")):
         ax.set_ylabel(name)
         ax.grid(True, alpha=0.3)
@@ -289,7 +312,7 @@ def path(plt, runs, style):
             ax.plot(E[0, i], E[0, j], "o", ms=7, color=s["color"])
             # the case may place the tag; else a start at the right of the path is tagged on its left
             inward = 1 if "tag_offset" in meta else _inward(E[:, i], E[0, i])
-            ax.annotate(meta.get("start_tag", "start"), (E[0, i], E[0, j]), textcoords="offset points",
+            ax.annotate(start_tag(meta), (E[0, i], E[0, j]), textcoords="offset points",
                         xytext=meta.get("tag_offset", (8 * inward, -14)), ha="left" if inward > 0 else "right",
                         fontsize=12)
     a1.set_xlabel("x0 [m]"), a1.set_ylabel("z0 [m]"), a1.set_aspect("equal", "datalim")
@@ -347,7 +370,7 @@ def constraint_violation(plt, runs, style):
     fig, axes = _figure(plt, len(names), 1, 2.2 * len(names) + 1.2, sharex=True)
     zeros = [_violation_panel(ax, runs, style, i) for i, ax in enumerate(axes[:, 0])]
     for ax, name in zip(axes[:, 0], names):
-        ax.set_ylabel(f"|Φ {name}|" + (f" [{units[name]}]" if name in units else ""))
+        ax.set_ylabel(literal(f"|Φ {name}|" + (f" [{units[name]}]" if name in units else "")))
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     caption = f"Largest |Φ| in each of {min(WINDOWS, len(runs[0]['t']))} windows of the run"

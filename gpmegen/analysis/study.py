@@ -58,7 +58,7 @@ def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None)
         f"model {model.module.MODEL}: the programmed constraints cannot be met from the start configuration by "
         f"moving {moved}: at best {violated}; "
         + (hint or "is the prescribed position within the chain's reach with these parameter values and this "
-                   "start ([initial] q)?"))
+                   "start ([initial] q)?"), partial={"phi": closest})
 
 
 def velocity_residual(model, t, q, qd):
@@ -287,7 +287,7 @@ def collect(model, t, y, status, settings) -> dict:
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
     E = np.zeros((samples, 3))
-    phi = np.zeros((samples, m))
+    phi = np.full((samples, m), np.nan)
     drive = np.zeros((samples, n))
     qdd = np.full((samples, n), np.nan)
     reaction = np.zeros((samples, n))
@@ -296,10 +296,10 @@ def collect(model, t, y, status, settings) -> dict:
     actuated = len(model.actuators) > 0
     for k in range(samples):
         E[k] = model.end_effector(q[k])
-        phi[k] = model.constraint_values(t[k], q[k], qd[k])
-        D = model.constraint_terms(t[k], q[k], qd[k])[2]
         drive[k] = model.drive_forces(t[k])
-        if np.all(np.isfinite(y[k, :2 * n])):  # the state, whatever the work columns hold
+        if np.all(np.isfinite(y[k, :2 * n])):  # the state (the model's functions refuse one not finite)
+            phi[k] = model.constraint_values(t[k], q[k], qd[k])
+            D = model.constraint_terms(t[k], q[k], qd[k])[2]
             qdd[k], M, f = model.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)

@@ -151,7 +151,8 @@ def _import(path: Path):
 
 def exercise(module) -> None:
     """Every path of a ``Caller`` over the extension's own test function (n = 3): the fast
-    call, each form handed to the fallback, and a failed solve. AssertionError when one is wrong."""
+    call, each form handed to the fallback (a state that is not finite among them), and a
+    failed solve. AssertionError when one is wrong."""
     p, dependent, independent = np.array([0.5]), np.array([1], np.intc), np.array([0, 2], np.intc)
 
     def failure(status, t):
@@ -166,11 +167,13 @@ def exercise(module) -> None:
         assert np.array_equal(releasing(t, q, qd), caller(t, q, qd)), t
     others = [((0.1, q.tolist(), qd), {}), ((0.1, q.astype(np.float32), qd), {}), ((0.1, q, np.tile(qd, 2)[::2]), {}),
               ((0.1, q[:2], qd), {}), ((0.1, np.tile(q, (2, 1)), qd), {}), ((np.array(0.1), q, qd), {}),
-              ((0.1, q), {}), ((0.1, q), {"qd": qd}), ((2**1100, q, qd), {})]
+              ((0.1, q), {}), ((0.1, q), {"qd": qd}), ((2**1100, q, qd), {}),
+              ((np.inf, q, qd), {}), ((0.1, np.array([1.0, np.nan, 3.0]), qd), {}),
+              ((0.1, q, np.array([0.25, 0.5, -np.inf])), {})]  # not finite: the checked path refuses it
     for args, kwargs in others:
         assert caller(*args, **kwargs)[0] == "fallback", args
     try:
-        caller(0.5, np.array([np.nan, 0.0, 0.0]), qd)
+        caller(0.5, np.array([-1.0, 0.0, 0.0]), qd)
     except ArithmeticError as exc:
         assert str(exc) == "status 2 at 0.5", exc
     else:

@@ -279,7 +279,8 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
                     ts.append(t)
                     ys.append(rows)
                     if status != SolveStatus.OK:
-                        outcome = Outcome.failed(t[-1] if len(t) else _reached(ts, g), status)
+                        last = _last_saved(ts, ys)
+                        outcome = out_of_reach(model, *last, g.time(end)) or Outcome.failed(last[0], status)
                         break
                     if carry is None and len(t):
                         bar.update(t[-1] - g.t0)
@@ -299,9 +300,50 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
     return np.concatenate(ts), np.concatenate(ys), outcome or Outcome(Ending.COMPLETE, g.t_end)
 
 
+def _last_saved(ts, ys) -> tuple:
+    """The time (s) and augmented state of the last row saved in ``ts``, ``ys`` (the start's is
+    their first)."""
+    return next((float(t[-1]), rows[-1]) for t, rows in zip(reversed(ts), reversed(ys)) if len(t))
+
+
 def _reached(ts, g: Grid) -> float:
     """The time (s) of the last row saved in ``ts`` (arrays of times), or the start of ``g``."""
     return next((float(t[-1]) for t in reversed(ts) if len(t)), g.time(0))
+
+
+#: Instants between a failed chunk's last saved state and its end at which the constraints are
+#: looked for (each from the configuration found at the one before).
+REACH_LOOKS = 20
+
+
+def out_of_reach(model, t_last: float, y_last, t_end: float) -> Outcome | None:
+    """The outcome of a run that failed between ``t_last`` (its last state ``y_last``) and
+    ``t_end`` because its position constraints could no longer be met (the prescribed motion left
+    the workspace, where their Jacobian D loses rank), naming them and the instant; None when they
+    can be met throughout, so that the failure is the step's."""
+    from ..analysis.study import project_onto_constraints
+    from ..errors import StateError
+
+    orders = np.asarray(model.constraint_orders)
+    if model.dependent is None or not np.any(orders == 0) or not np.all(np.isfinite(y_last)):
+        return None
+    q = np.array(y_last[:model.n_dof], dtype=float)
+    for t in np.linspace(t_last, t_end, REACH_LOOKS + 1)[1:]:
+        try:
+            q = project_onto_constraints(model, q, float(t), tol=1e-9)
+        except SimulationError as exc:
+            phi = (exc.partial or {}).get("phi")
+            names = [name for name, order, value in zip(model.constraint_names, orders,
+                                                         phi if phi is not None else orders)
+                     if order == 0 and (phi is None or abs(value) > 1e-9)]
+            return Outcome.diverged(
+                t, f"at t = {float(t):.4g} s the constraint{'s' if len(names) > 1 else ''} {', '.join(names)} "
+                   f"went out of reach: no configuration meets {'them' if len(names) > 1 else 'it'} (the motion "
+                   f"leaves the workspace, where the constraints' Jacobian D loses rank); keep the prescribed "
+                   f"motion within reach")
+        except StateError:
+            return None
+    return None
 
 
 class Effort(NamedTuple):

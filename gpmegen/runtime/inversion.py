@@ -64,6 +64,8 @@ def rest(model, q, t, tol=1e-12, max_iter=50):
                 f"the rest state at t = {t:g} s is not unique (the unactuated rows of g + C q with Φ have a singular "
                 f"Jacobian: a coordinate left to the internal dynamics is neutral, without spring or gravity); "
                 f"stable inversion needs hyperbolic internal dynamics: actuate it or give it a spring") from None
+        if not np.all(np.isfinite(q)):  # the model's functions refuse it: Newton diverged
+            break
     raise SimulationError(f"no rest state of {model.module.MODEL} with the programmed constraints at t = {t:g} s "
                           f"(Newton did not converge); is the programmed motion at rest there?")
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
-from . import gpme, integrate, jacobians
+from . import finite, gpme, integrate, jacobians
 from .batch import is_batch, rows, stacked, states
 
 # What a failing generated function did, by the exception Python's math raised.
@@ -321,6 +321,15 @@ class LoadedModel:
         other._bind(self.params, overrides)
         return other
 
+    def _state(self, t, q, qd):
+        """``(batch, (t, q, qd))``: one state or a batch of them, converted and checked (shapes,
+        and :func:`gpmegen.runtime.finite.check`)."""
+        batch = is_batch(q)
+        state = states(t, q, qd, self.n_dof) if batch else (t, vector(q, self.n_dof, "q"),
+                                                              vector(qd, self.n_dof, "qd"))
+        finite.check(*state)
+        return batch, state
+
     def index(self, coordinate: str) -> int:
         """Position of a coordinate in ``q``."""
         return self.coordinates.index(coordinate)
@@ -328,14 +337,17 @@ class LoadedModel:
     # --- the generated functions, bound to the parameter values -----------------------------
     def mass_matrix(self, q):
         """M(q), (n, n), kg·m² / kg."""
-        if is_batch(q):
-            return self.evaluator.mass_matrix_batch(rows(q, self.n_dof, "q"), self.p)
+        q = rows(q, self.n_dof, "q") if is_batch(q) else vector(q, self.n_dof, "q")
+        finite.check(None, q)
+        if q.ndim == 2:
+            return self.evaluator.mass_matrix_batch(q, self.p)
         return self.evaluator.mass_matrix(q, self.p)
 
     def forces(self, t, q, qd):
         """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
-        if is_batch(q):
-            return self.evaluator.forces_batch(*states(t, q, qd, self.n_dof), self.p)
+        batch, (t, q, qd) = self._state(t, q, qd)
+        if batch:
+            return self.evaluator.forces_batch(t, q, qd, self.p)
         return self.evaluator.forces(t, q, qd, self.p)
 
     def static_residual(self, q):
@@ -377,8 +389,9 @@ class LoadedModel:
 
     def constraint_terms(self, t, q, qd):
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
-        if is_batch(q):
-            return self.evaluator.constraint_terms_batch(*states(t, q, qd, self.n_dof), self.p)
+        batch, (t, q, qd) = self._state(t, q, qd)
+        if batch:
+            return self.evaluator.constraint_terms_batch(t, q, qd, self.p)
         return self.evaluator.constraint_terms(t, q, qd, self.p)
 
     def constraint_values(self, t, q, qd):
@@ -446,8 +459,8 @@ class LoadedModel:
 
     def _checked_accelerations(self, t, q, qd):
         """:meth:`accelerations` with its inputs checked and converted in Python."""
-        if is_batch(q):
-            t, q, qd = states(t, q, qd, self.n_dof)
+        batch, (t, q, qd) = self._state(t, q, qd)
+        if batch:
             if len(self.actuators) or self.dependent is None:  # per state: the realization or partition
                 return stacked([self.accelerations(tk, qk, qdk) for tk, qk, qdk in zip(t, q, qd)])
             return self.evaluator.accelerations_batch(t, q, qd, self)

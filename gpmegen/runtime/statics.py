@@ -38,6 +38,8 @@ def _newton(residual, jacobian, x, what, tol, max_iter):
             raise StaticsError(f"{what}: the Jacobian is singular (residual {np.linalg.norm(r, np.inf):.3e}); "
                                f"hold more coordinates or change the starting configuration") from None
         x = x + step
+        if not np.all(np.isfinite(x)):  # the model's functions refuse it: Newton diverged
+            break
         r = residual(x)
         if not np.all(np.isfinite(r)):
             break

@@ -127,6 +127,15 @@ def _size_text(expr) -> str:
         return "too large to compute"
 
 
+def _held(expr) -> str:
+    """``expr = its value`` to three digits; only the value where an integer in it has more
+    digits than Python prints (``(10**49)**100``)."""
+    try:
+        return f"{expr} = {_size_text(expr)}"
+    except ValueError:
+        return f"a number of {_size_text(expr)}"
+
+
 def _fail(message: str):
     raise ModelError(message)
 
@@ -219,7 +228,7 @@ def check_size(expr, text: str):
     for node in sp.postorder_traversal(expr):
         # every constant the generated code computes must be a double: exp(1000) is not
         if isinstance(node, sp.Expr) and not node.free_symbols and evaluate(node, {}) is None:
-            _fail(f"expression {text[:60]!r} holds {node} = {_size_text(node)}, beyond a double; "
+            _fail(f"expression {text[:60]!r} holds {_held(node)}, beyond a double; "
                   f"use numbers between 1e-308 and 1e308 in size")
     for power in expr.atoms(sp.Pow):
         if power.exp.is_Number and abs(float(power.exp)) > MAX_EXPONENT:
