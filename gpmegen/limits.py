@@ -365,7 +365,8 @@ def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_ever
         others = " or ".join(m for m in STIFF_METHODS if m != method)
         fix = f"use a shorter --t-end, fewer rfes, or --method {others} (steps the stiff modes do not bound)"
     elif method in NEEDS_LOWEST_FREQUENCY:
-        fix = "use a shorter --t-end (its steps do not exceed the lowest mode's period)"
+        fix = ("use a shorter --t-end (its steps do not exceed the lowest mode's period) or a larger "
+               "--save-every (or --save-dt)")
     else:
         fix = "use a shorter --t-end, a larger --dt or a larger --save-every (or --save-dt)"
     check(f"running {estimate.work}", estimate.seconds, estimate.n_bytes, fix, at_least=estimate.at_least)

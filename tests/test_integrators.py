@@ -366,6 +366,10 @@ def test_a_constraint_going_out_of_reach_is_reported_as_such_not_as_the_step(env
                  "--backend", backend, "--out", str(out)]) == 1
     line = capsys.readouterr().err.strip().splitlines()[-1]  # after the lines on the start
     assert line.startswith("gpmegen simulate: error: diverged: ")
-    assert "at t = 0.72 s the constraint reach went out of reach" in line and "Jacobian D loses rank" in line
+    assert "the constraint reach went out of reach" in line and "Jacobian D loses rank" in line
+    # the first instant looked at with no configuration meeting it: past the analytic 0.718 s, and
+    # within the looks' spacing after it (their grid depends on the rows saved before the failure)
+    when = float(line.split("at t = ")[1].split(" s")[0])
+    assert 0.718 <= when <= 0.73
     assert "smaller --dt" not in line and "shoulder" not in line
     assert (tmp_path / "reach.partial.npz").exists()

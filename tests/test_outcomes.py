@@ -87,7 +87,9 @@ class Counted:
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_an_interrupted_run_keeps_the_chunks_computed(both, backend):
     model, q0 = both[0] if backend == "c" else both[1], both[2]
-    t, y, outcome = integrate.rk4(Counted(model, interrupt=3), q0, np.zeros(3), 1.0, 1e-3, save_every=10)
+    # one call per chunk (a call's steps are otherwise sized by wall time)
+    t, y, outcome = integrate.rk4(Counted(model, interrupt=3), q0, np.zeros(3), 1.0, 1e-3, save_every=10,
+                                  steps_per_call=10**9)
     assert outcome.ending is Ending.INTERRUPTED and str(outcome) == "interrupted"
     assert outcome.t == t[-1] == pytest.approx(2 * integrate.CHUNK_SECONDS) and len(t) == len(y) == 11
     assert np.all(np.isfinite(y))
@@ -99,7 +101,8 @@ def test_the_run_goes_on_with_the_model_the_partition_watch_chose(both):
     # any condition number is too large: after the first chunk the watch chooses anew (the same
     # coordinates) and the run goes on with the model it returns, a copy of the one it started with
     watch = partition.Watch(start, repartition=True, limit=0.0)
-    t, _, outcome = integrate.rk4(start, q0, np.zeros(3), 0.2, 1e-3, save_every=10, watch=watch)
+    t, _, outcome = integrate.rk4(start, q0, np.zeros(3), 0.2, 1e-3, save_every=10, watch=watch,
+                                  steps_per_call=10**9)  # one call per chunk
     assert outcome.complete and t[-1] == 0.2
     assert start.calls == 1 and watch.model is not start and watch.model.dependent.tolist() == n.dependent.tolist()
 

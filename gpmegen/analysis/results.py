@@ -36,7 +36,7 @@ PER_SAMPLE = ("t", "q", "qd", "end_effector", "phi", "tau_drive")
 #: are never inflated.
 ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "drive_forces", "constraint_forces",
                       "lambda", "point_forces", "u", "actuators", "kinetic_energy", "gravity_energy", "spring_energy",
-                      "work_drive", "work_constraints", "prescribed", "spring_forces", "deflection",
+                      "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
                       "internal_eigenvalues")
 
 

@@ -280,7 +280,10 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
                     ys.append(rows)
                     if status != SolveStatus.OK:
                         last = _last_saved(ts, ys)
-                        outcome = out_of_reach(model, *last, g.time(end)) or Outcome.failed(last[0], status)
+                        # a singular solve names the constraints' loss of rank itself; a state gone
+                        # non-finite (or a step that failed) may be a motion that left the workspace
+                        reach = None if status == SolveStatus.SINGULAR else out_of_reach(model, *last, g.time(end))
+                        outcome = reach or Outcome.failed(last[0], status)
                         break
                     if carry is None and len(t):
                         bar.update(t[-1] - g.t0)
@@ -314,6 +317,8 @@ def _reached(ts, g: Grid) -> float:
 #: Instants between a failed chunk's last saved state and its end at which the constraints are
 #: looked for (each from the configuration found at the one before).
 REACH_LOOKS = 20
+#: Constraint values at which a configuration that Newton could not finish counts as meeting them.
+MET = 1e-6
 
 
 def out_of_reach(model, t_last: float, y_last, t_end: float) -> Outcome | None:
@@ -333,6 +338,8 @@ def out_of_reach(model, t_last: float, y_last, t_end: float) -> Outcome | None:
             q = project_onto_constraints(model, q, float(t), tol=1e-9)
         except SimulationError as exc:
             phi = (exc.partial or {}).get("phi")
+            if phi is not None and np.max(np.abs(np.asarray(phi)[orders == 0]), initial=0.0) <= MET:
+                return None  # met, but where D lost rank: the solve's own message says that
             names = [name for name, order, value in zip(model.constraint_names, orders,
                                                          phi if phi is not None else orders)
                      if order == 0 and (phi is None or abs(value) > 1e-9)]
