@@ -47,10 +47,11 @@ def driving_functions(plt, runs, style):
     ways = {realization(r) for r in runs}
     # the way the constraints are realized names each run only where the runs differ in it
     handles = _handles(runs, style, plots.label if len(ways) == 1 else lambda r: f"{plots.label(r)} ({realization(r)})")
+    own_laws = any(metadata(r).get("joint_laws") for r in runs)
     plots._finish(fig, plots._title(runs, "Driving functions"), handles, plots._shaded(
-                  "Drive plus the generalized forces that realize the programmed motion, on the joints "
-                  "(on a joint with its own law, that law's reaction alone)"
-                  + (f" ({ways.pop()})." if len(ways) == 1 else "."), shaded))
+                  "Drive plus the forces realizing the programmed motion"
+                  + (f" ({ways.pop()})" if len(ways) == 1 else "")
+                  + ("; on a joint with its own law, that law's reaction alone." if own_laws else "."), shaded))
     return fig
 
 

@@ -191,7 +191,7 @@ def trace(ax, t, values, style, lw=1.2) -> bool:
     return True
 
 
-SHADED = "shaded: the band of a vibration faster than the samples, the line its mean"
+SHADED = "shaded: the band of a vibration too fast for the samples"
 
 
 def _shaded(caption, shaded: bool):
