@@ -55,7 +55,11 @@ def test_interrupted_simulation_keeps_partial_results(tmp_path, sig, generated_e
     proc = subprocess.Popen(GPMEGEN + ["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "100", "--dt",
                                        "1e-3", "--save-every", "10", "--out", str(out)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    time.sleep(4.0)
+    # the signal once the run has said how far it got (a line every 10 s away from a terminal), so
+    # that it has rows beyond the start to keep, however long that takes on a busy machine
+    for line in proc.stderr:
+        if " of 100 (" in line:
+            break
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130  # interrupted, as Ctrl-C in any command
