@@ -74,8 +74,7 @@ def elastic_deformation(plt, runs, style):
     axes[3].set_xlabel("t [s]")
     flexible = [r for r, _ in pairs]
     plots._finish(fig, plots._title(runs, "Elastic deformation"), _handles(flexible, [s for _, s in pairs]),
-                  plots._shaded("E's deflection from the rigid arm at the same joints, by axis of {0}; the "
-                                "largest moment of the sde springs.", shaded))
+                  plots._shaded("E less E of the rigid arm, by axis of {0}; the largest sde moment.", shaded))
     return fig
 
 
@@ -104,7 +103,7 @@ def constraint_multipliers(plt, runs, style):
     axes[-1, 0].set_xlabel("t [s]")
     handles = _handles([r for r, _ in pairs], [s for _, s in pairs])
     plots._finish(fig, plots._title(runs, "Ideal realization"), handles, plots._shaded(
-                  "Multipliers λ of the constraints and the force they put on the constrained point, in {0}.",
+                  "Multipliers λ and the force on the constrained point, in {0}.",
                   shaded))
     return fig
 
