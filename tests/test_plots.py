@@ -280,3 +280,22 @@ def test_the_reference_case_s_start_tag_is_still_mathtext(pair):
     _, (rigid, _) = pair
     tag = plots.start_tag(results_io.metadata(rigid))
     assert tag == "$E'_r$" and matplotlib.cbook.is_math_text(tag)
+
+
+def test_no_text_of_any_figure_falls_outside_it(pair):
+    """Every figure plot writes (those of the demo, the driving functions, the elastic deformation
+    and the multipliers): every text drawn, measured by the renderer, lies within the figure."""
+    from drawn_text import outside
+
+    runs = plots.distinguished(pair[1])
+    plt = plots._pyplot()
+    style = plots.styles(runs)
+    made = []
+    for stem, draw in plots.figures(runs):
+        fig = draw(plt, runs, style)
+        try:
+            made.append(stem)
+            assert outside(fig) == [], stem
+        finally:
+            plt.close(fig)
+    assert {"joint_coordinates", "end_effector", "path", "constraint_violation", "energy_balance"} <= set(made)
