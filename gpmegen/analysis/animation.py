@@ -23,7 +23,7 @@ from ..errors import GpmegenError
 from ..fileio import atomic_write
 from . import arm_geometry as geometry
 from . import results as results_io
-from .plots import _FILE_METADATA, _SVG_SALT, _freeze_layout, _pyplot, literal
+from .plots import _FILE_METADATA, _SVG_SALT, _freeze_layout, _pyplot, broken, literal
 
 MOVIES = ("gif", "mp4")
 STILLS = ("png", "pdf", "svg")
@@ -174,13 +174,9 @@ class Canvas:
     def title(self, text: str):
         """Set the title to ``text``, in lines broken between words where it is wider than the
         figure; returns it."""
-        import textwrap
-
         title = self.ax.set_title(text, fontsize=9)
         room = self.fig.bbox.width - 2 * 4.0 * self.fig.dpi / 72  # _within's margins
-        width = title.get_window_extent(self.fig.canvas.get_renderer()).width
-        if width > room:
-            title.set_text("\n".join(textwrap.wrap(text, max(10, int(len(text) * room / width)))))
+        title.set_text(broken(text, room, title.get_window_extent(self.fig.canvas.get_renderer()).width))
         return title
 
     def _plot(self, xyz, **style):
