@@ -589,7 +589,8 @@ def cmd_convergence(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    """The arm moving in 3D (GIF or MP4), or a still figure of it at chosen times."""
+    """The arm moving (GIF or MP4; in 2D when it stays in one plane, else in 3D), or a still figure
+    of it at chosen times."""
     from .analysis import animation
 
     try:
@@ -947,7 +948,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--scheduler", type=path_argument, default=None, metavar="ADDRESS",
                     help="run on the Dask cluster of this scheduler (tcp://HOST:PORT or a scheduler file)")
     sw.set_defaults(func=cmd_sweep)
-    an = command("animate", "the arm moving in 3D (GIF or MP4), or a still figure of the deformed arm")
+    an = command("animate", "the arm moving (GIF or MP4; 2D when it stays in a plane, else 3D), or a still figure "
+                            "of the deformed arm")
     an.add_argument("results", type=path_argument, help="a results .npz file of simulate or invert")
     an.add_argument("--out", type=path_argument, required=True,
                     help="arm.gif or arm.mp4 (ffmpeg); with --still a figure .png, .pdf or .svg")

@@ -1,6 +1,7 @@
-"""The arm moving in 3D (``gpmegen animate``): a GIF (Pillow) or an MP4 (ffmpeg) of a results
-file's motion, or a still figure of the deformed arm at chosen times, drawn from the geometry of
-:mod:`gpmegen.analysis.arm_geometry` with matplotlib.
+"""The arm moving (``gpmegen animate``): a GIF (Pillow) or an MP4 (ffmpeg) of a results file's
+motion, or a still figure of the deformed arm at chosen times, drawn from the geometry of
+:mod:`gpmegen.analysis.arm_geometry` with matplotlib: in 3D, or in 2D, face-on, when the arm
+stays in one plane over the run.
 
 Frames are rendered by Agg and encoded here, so the bytes are the same for the same results and
 options (the GIF holds no date; the MP4 is written with ffmpeg's bit-exact flags). Every file is
