@@ -139,11 +139,18 @@ def number_list(text: str) -> tuple:
     return values
 
 
-def camera(text: str) -> tuple:
-    """argparse type: the camera's elevation and azimuth in degrees, ``elev,azim``."""
-    values = number_list(text)
+def camera(text: str):
+    """argparse type of animate's --view: auto, 3d, 2d, or the 3D camera's elevation and azimuth in
+    degrees, ``elev,azim`` (a tuple)."""
+    if text.strip().lower() in ("auto", "3d", "2d"):
+        return text.strip().lower()
+    try:
+        values = number_list(text)
+    except argparse.ArgumentTypeError:
+        values = ()
     if len(values) != 2:
-        raise argparse.ArgumentTypeError(f"{text!r}: give the elevation and the azimuth in degrees, e.g. 20,-60")
+        raise argparse.ArgumentTypeError(f"{text!r}: give auto, 3d, 2d or the 3D camera's elevation and azimuth in "
+                                         f"degrees, e.g. 20,-60")
     return values
 
 
@@ -582,7 +589,8 @@ def cmd_convergence(args) -> int:
 
 
 def cmd_animate(args) -> int:
-    """The arm moving in 3D (GIF or MP4), or a still figure of it at chosen times."""
+    """The arm moving (GIF or MP4; in 2D when it stays in one plane, else in 3D), or a still figure
+    of it at chosen times."""
     from .analysis import animation
 
     try:
@@ -590,7 +598,7 @@ def cmd_animate(args) -> int:
         outputs.check([args.out], [args.results, args.model], args.overwrite)
         outputs.writable_folder(Path(args.out).parent)
         shown = animation.subject(args.results, args.model, progress)
-        view = shown.view(*args.view, args.magnify, args.bodies)
+        view = shown.view(args.view, args.magnify, args.bodies)
         t, q = shown.results["t"], shown.results["q"]
         if args.still is not None:
             print(animation.still(shown.scene, shown.loaded, t, q, view, args.still, args.out, dpi=args.dpi or 200))
@@ -940,7 +948,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--scheduler", type=path_argument, default=None, metavar="ADDRESS",
                     help="run on the Dask cluster of this scheduler (tcp://HOST:PORT or a scheduler file)")
     sw.set_defaults(func=cmd_sweep)
-    an = command("animate", "the arm moving in 3D (GIF or MP4), or a still figure of the deformed arm")
+    an = command("animate", "the arm moving (GIF or MP4; 2D when it stays in a plane, else 3D), or a still figure "
+                            "of the deformed arm")
     an.add_argument("results", type=path_argument, help="a results .npz file of simulate or invert")
     an.add_argument("--out", type=path_argument, required=True,
                     help="arm.gif or arm.mp4 (ffmpeg); with --still a figure .png, .pdf or .svg")
@@ -953,8 +962,10 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--fps", type=frame_rate, default=20.0, help="frames per second (default 20)")
     an.add_argument("--every", type=positive_int, default=None,
                     help="show every k-th saved sample (default: the step that plays the run in real time)")
-    an.add_argument("--view", type=camera, default=(20.0, -60.0), metavar="ELEV,AZIM",
-                    help="camera elevation and azimuth in degrees (default 20,-60)")
+    an.add_argument("--view", type=camera, default="auto", metavar="auto|3d|2d|ELEV,AZIM",
+                    help="auto (default): 2D, face-on, when the arm stays in one plane over the run, else 3D; 3d; "
+                         "2d (refused when the arm leaves every plane); or 3D from the camera's elevation and "
+                         "azimuth in degrees (3d is 20,-60)")
     an.add_argument("--dpi", type=positive_int, default=None, help="resolution (default 100, 200 for --still)")
     an.add_argument("--bodies", choices=("skeleton", "boxes", "both"), default="skeleton",
                     help="rigid bodies as the skeleton through their frames (default), the boxes of their "

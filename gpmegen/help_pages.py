@@ -69,11 +69,18 @@ dampers, which URDF cannot hold, are in the extension element <gpmegen:spring st
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
     "animate": """\
-Draw the arm of a results file moving in 3D: each rigid body as the box of its inertia, the rfes
-of each flexible link as a chain of segments, the named points and the path of the points the
-programmed constraints hold. --magnify K scales the elastic coordinates (the flexible links' sdes)
-by K, as the title says. The model is the one the results name (a model file, the reference
-arm); --model gives it when they name none. With --still, a figure of the arm at chosen times.""",
+Draw the arm of a results file moving: its skeleton through the body frames (--bodies: the boxes
+of their inertias), the rfes of each flexible link as a chain of segments, the named points and
+the path of the points the programmed constraints hold. --magnify K scales the elastic
+coordinates (the flexible links' sdes) by K, as the title says. An arm that stays in one plane
+over the whole run (every drawn point within 1e-6 of the arm's size of it, deformation as
+magnified) is drawn in 2D, face-on, one scale on both axes: the axes are named in {0} ("x [m]",
+or the combination of x, y, z an oblique plane's axis is), the direction against gravity
+upwards as far as the plane holds it (seen from above when gravity is normal to the plane).
+Other arms are drawn in 3D with the axis against gravity upwards. --view 3d or a camera
+ELEV,AZIM draws any arm in 3D; --view 2d refuses an arm that leaves every plane. The model is
+the one the results name (a model file, the reference arm); --model gives it when they name
+none. With --still, a figure of the arm at chosen times.""",
 }
 
 EPILOGS = {
@@ -196,6 +203,7 @@ examples:
   gpmegen animate results/run_nrfe5.npz --out arm.gif --magnify 20
   gpmegen animate results/run_nrfe5.npz --out arm.mp4 --fps 30 --view 30,-45
   gpmegen animate results/run_nrfe5.npz --still 0,2.5,5 --magnify 20 --out deformed.pdf
+  gpmegen animate results/planar.npz --out planar.gif       (a planar arm: 2D; --view 3d for 3D)
 
 files written:
   --out: the GIF (Pillow) or MP4 (needs ffmpeg), or the still figure""",

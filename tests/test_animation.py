@@ -8,6 +8,7 @@ gets one line each."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,8 +186,8 @@ def test_the_box_of_a_bar_is_the_bar():
 
 
 def test_the_title_states_the_magnification(shown):
-    assert "magnified 10×" in shown.view(20, -60, 10.0).title("t = 0 s")
-    assert "magnified" not in shown.view(20, -60, 1.0).title("t = 0 s")
+    assert "magnified 10×" in shown.view((20, -60), 10.0).title("t = 0 s")
+    assert "magnified" not in shown.view((20, -60), 1.0).title("t = 0 s")
 
 
 def one_line_error(capsys, argv) -> str:
@@ -340,3 +341,185 @@ def test_a_malformed_model_source_is_refused_in_one_line(arm_run, tmp_path, caps
     assert main(["animate", str(odd), "--still", "0", "--out", str(tmp_path / "still.png")]) == 2
     [line] = capsys.readouterr().err.strip().splitlines()
     assert "its model_source" in line and "is not one gpmegen writes" in line and "--model" in line
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.fixture(scope="module")
+def planar_run(env, tmp_path_factory):
+    """A short run of the planar example, its links flexible (2 rfes each: their sdes can bend and
+    twist out of the plane, and do not)."""
+    out = tmp_path_factory.mktemp("planar") / "planar.npz"
+    assert main(["simulate", str(EXAMPLES / "planar_two_link.toml"), "--nrfe", "2", "--backend", "numpy",
+                 "--t-end", "0.05", "--dt", "1e-4", "--save-every", "50", "--out", str(out)]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference_run(env, tmp_path_factory):
+    """Half a second of the reference case, rigid: its base turns, so the plane of the arm turns."""
+    out = tmp_path_factory.mktemp("reference") / "reference.npz"
+    assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.5", "--dt", "1e-3",
+                 "--save-every", "10", "--out", str(out)]) == 0
+    return out
+
+
+@pytest.fixture
+def kept(monkeypatch):
+    """The figures animate drew, kept open (a Canvas closes its figure when done)."""
+    figures = []
+    monkeypatch.setattr(animation.Canvas, "close", lambda canvas: figures.append(canvas.fig))
+    yield figures
+    import matplotlib.pyplot as plt
+
+    for fig in figures:
+        plt.close(fig)
+
+
+def test_a_planar_arm_is_drawn_face_on_in_its_plane_by_default(planar_run, tmp_path, kept):
+    assert main(["animate", str(planar_run), "--still", "0,0.05", "--dpi", "40", "--out", str(tmp_path / "a.png")]) == 0
+    [fig] = kept
+    [ax] = fig.axes
+    assert ax.name == "rectilinear"  # not "3d"
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x [m]", "y [m]")  # the plane x0-y0, y against gravity
+    assert ax.get_aspect() == 1.0 and not ax.yaxis_inverted() and not ax.xaxis_inverted()
+    # the lines are the arm's x, y: the tool E at its start (xa, ya) at t = 0
+    subject = animation.subject(planar_run)
+    start = subject.loaded.point_positions(subject.results["q"][0]).reshape(-1, 3)[subject.scene.tool]
+    assert start == pytest.approx([0.5734401855541006, 0.6189883999977893, 0.0], abs=2e-3)
+    skeleton = ax.get_lines()[0].get_xydata()
+    np.testing.assert_array_equal(skeleton[-1], start[:2])
+    # asked for in 3D, or from a camera, it is drawn in 3D
+    for view in ("3d", "30,-45"):
+        assert main(["animate", str(planar_run), "--still", "0", "--dpi", "40", "--view", view, "--overwrite",
+                     "--out", str(tmp_path / "a.png")]) == 0
+    assert [fig.axes[0].name for fig in kept[1:]] == ["3d", "3d"]
+    assert (kept[2].axes[0].elev, kept[2].axes[0].azim) == (30.0, -45.0)
+
+
+def test_a_spatial_arm_stays_in_3d_and_2d_is_refused_for_it(reference_run, tmp_path, kept, capsys):
+    """The reference arm's plane turns with its base (by 3e-5 of its size in half a second)."""
+    assert main(["animate", str(reference_run), "--still", "0", "--dpi", "40", "--out", str(tmp_path / "a.png")]) == 0
+    assert kept[0].axes[0].name == "3d"
+    line = one_line_error(capsys, ["animate", str(reference_run), "--view", "2d", "--out", str(tmp_path / "b.gif")])
+    assert "--view 2d: the arm does not move in one plane" in line and "--view 3d" in line
+    assert not (tmp_path / "b.gif").exists()
+    with pytest.raises(SystemExit) as exited:
+        main(["animate", str(reference_run), "--view", "sideways", "--out", str(tmp_path / "b.gif")])
+    err = capsys.readouterr().err.strip()
+    assert exited.value.code == 2 and "give auto, 3d, 2d or" in err and "\n" not in err
+
+
+def test_the_plane_is_the_one_the_arm_moves_in_not_one_the_model_suggests(shown):
+    """ARM's hub turns about y, but gravity along y gives it no torque: it stays at zero while
+    the strip sags and swings in x-y, the plane through the hub's axis (the plane normal to the
+    joint axes, x-z, would show the strip edge-on)."""
+    q = shown.results["q"]
+    assert np.all(q[:, shown.loaded.index("hub")] == 0.0) and np.abs(q[:, shown.scene.elastic]).max() > 1e-4
+    plane = shown.view().plane
+    np.testing.assert_array_equal([plane.across, plane.up], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
+
+def test_the_plane_is_found_from_the_drawn_points_whatever_its_orientation(rng):
+    """Points in an oblique plane that holds the vertical (y against gravity): y upwards, the
+    other axis the plane's horizontal, named as the combination of x, z it is; the same points
+    lifted out of the plane by more than FLAT of their size are in none; a plane normal to
+    gravity is seen from above; points on a line lie in the plane through it and the vertical."""
+    horizontal = np.array([0.6, 0.0, 0.8])
+    points = rng.uniform(-1, 1, (50, 1)) * horizontal + rng.uniform(-1, 1, (50, 1)) * [0.0, 1.0, 0.0]
+    plane, off, size = geometry.plane_of(points, np.array([0.0, 1.0, 0.0]))
+    assert off < 1e-15 * size
+    np.testing.assert_array_equal(plane.up, [0.0, 1.0, 0.0])
+    np.testing.assert_allclose(plane.across, horizontal, atol=1e-12)
+    np.testing.assert_allclose(np.cross(plane.across, plane.up), plane.normal, atol=1e-15)
+    assert animation._coordinate(plane.across) == "0.6 x + 0.8 z"
+    lifted = points.copy()
+    lifted[0] += 3e-6 * size * plane.normal
+    assert geometry.plane_of(lifted, np.array([0.0, 1.0, 0.0]))[0] is None
+    flat = np.column_stack([rng.uniform(-1, 1, (50, 2)), np.zeros(50)])
+    above = geometry.plane_of(flat, np.array([0.0, 0.0, 1.0]))[0]
+    assert above.above
+    np.testing.assert_array_equal(np.array([above.across, above.up, above.normal]), np.eye(3))
+    line = geometry.plane_of(rng.uniform(-1, 1, (20, 1)) * [1.0, 0.0, 0.0], np.array([0.0, 0.0, 1.0]))[0]
+    np.testing.assert_array_equal(np.array([line.across, line.up]), [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+def test_a_plane_upside_down_is_drawn_with_its_vertical_axis_reversed(planar_run):
+    """With gravity along +y the planar arm is drawn with y downwards and x still rightwards
+    (seen from -z), as the 3D view turns it half a turn about its first axis."""
+    import dataclasses
+
+    subject = animation.subject(planar_run)
+    model = dataclasses.replace(subject.model, gravity=tuple(-g for g in subject.model.gravity))
+    view = dataclasses.replace(subject, model=model).view()
+    np.testing.assert_array_equal([view.plane.across, view.plane.up, view.plane.normal],
+                                  [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+    canvas = animation.Canvas(view, np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]]), view.title("t = 0 s"), dpi=40)
+    try:
+        assert canvas.ax.yaxis_inverted() and not canvas.ax.xaxis_inverted()
+        assert (canvas.ax.get_xlabel(), canvas.ax.get_ylabel()) == ("x [m]", "y [m]")
+    finally:
+        canvas.close()
+
+
+@pytest.mark.parametrize("case, view, axes", [("arm", ["--view", "20,-60"], "3d"), ("reference", [], "3d"),
+                                              ("planar", [], "rectilinear")])
+def test_no_text_of_a_frame_or_a_still_falls_outside_the_figure(case, view, axes, request, tmp_path, kept,
+                                                                monkeypatch):
+    """Every text drawn (title, tick labels, axis labels, legend), measured by the renderer, lies
+    within the image: the 3D axes' lowest labels fell below it."""
+    from drawn_text import outside
+
+    results = str(request.getfixturevalue("arm_run")[0] if case == "arm" else request.getfixturevalue(f"{case}_run"))
+    found = []
+    rgba = animation.Canvas.rgba
+    monkeypatch.setattr(animation.Canvas, "rgba", lambda canvas: found.append(outside(canvas.fig)) or rgba(canvas))
+    assert main(["animate", results, "--every", "4", "--magnify", "30", *view, "--out", str(tmp_path / "a.gif")]) == 0
+    assert main(["animate", results, "--still", "0,0.02", "--dpi", "100", *view, "--out", str(tmp_path / "a.png")]) == 0
+    assert len(found) > 1 and len(kept) == 2 and {fig.axes[0].name for fig in kept} == {axes}
+    assert found == [[]] * len(found)
+    assert outside(kept[1]) == []
+
+
+def test_a_title_wider_than_the_figure_is_broken_into_lines(arm_run, tmp_path, kept):
+    """A long label (a model's description, say) is drawn in lines within the figure, and the
+    axes keep their size (a 3D axes was shrunk in vain to fit it)."""
+    from drawn_text import outside
+
+    data = dict(results_io.load(arm_run[0]))
+    label = "; ".join(["a flexible strip on a hub with a block and a tip mass"] * 3)
+    data["meta"] = results_io.encode({**results_io.metadata(data), "label": label})
+    results_io.save(data, tmp_path / "long.npz")
+    for view in ("20,-60", "auto"):
+        assert main(["animate", str(tmp_path / "long.npz"), "--model", str(arm_run[1]), "--still", "0", "--dpi", "60",
+                     "--view", view, "--overwrite", "--out", str(tmp_path / "a.png")]) == 0
+    for fig in kept:
+        title = fig.axes[0].get_title()
+        assert "\n" in title and title.replace("\n", " ") == label + ": deformed arm"
+        assert outside(fig) == []
+        assert fig.axes[0].get_position().width > 0.5
+    assert [fig.axes[0].name for fig in kept] == ["3d", "rectilinear"]
+
+
+def test_a_horizontal_plane_is_seen_from_above_and_says_so_only_under_gravity(planar_run):
+    """The planar example with gravity along -z moves in the plane normal to it: seen from above,
+    x rightwards and y upwards, the figure saying that gravity points into the page; without
+    gravity the same view says nothing of it."""
+    import dataclasses
+
+    from drawn_text import drawn_text
+
+    subject = animation.subject(planar_run)
+    notes = []
+    down = subject.model.gravity[1]  # -g
+    for g in ((0, 0, down), (0, 0, 0)):
+        model = dataclasses.replace(subject.model, gravity=g)
+        view = dataclasses.replace(subject, model=model).view(magnify=1.0)
+        np.testing.assert_array_equal([view.plane.across, view.plane.up], [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        canvas = animation.Canvas(view, np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 0.0]]), "t = 0 s", dpi=40)
+        try:
+            notes.append([text for text, _ in drawn_text(canvas.fig) if "gravity" in text])
+        finally:
+            canvas.close()
+    assert notes == [["seen from above: gravity into the page"], []]

@@ -105,3 +105,32 @@ def test_convergence_of_a_link_bending_in_one_plane_only(tmp_path, capsys):
     block = out[out.index("1st vertical bending frequency"):]
     errors = [float(line.split()[2]) for line in block.splitlines()[2:4]]
     assert abs(errors[1]) < abs(errors[0])  # converging to the beam's vertical bending
+
+
+def test_the_mode_shapes_title_sits_on_the_highest_panel(tmp_path, monkeypatch):
+    """The title's bottom is less than 5 % of the figure's height above the top of the highest
+    panel, tick labels included (the default subplot margins left a blank band of about 8 %
+    under it), and does not overlap it; nothing falls outside the figure."""
+    import matplotlib.pyplot as plt
+    from drawn_text import outside
+
+    from gpmegen.analysis import modes_output
+    from gpmegen.analysis.modes import Modes
+
+    names = tuple(f"{rotation}1_{k}" for k in range(1, 5) for rotation in ("psi", "theta", "phi"))
+    shapes = np.sin(np.outer(np.arange(1, 13), np.arange(1, 7)))
+    figures = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    for count in (6, 3, 1):
+        shown = Modes(np.linspace(3.0, 90.0, 6), shapes, np.arange(12), names, ["vertical", "torsion"] * 3)
+        modes_output.plot_mode_shapes(shown, tmp_path / f"modes{count}.png", count=count)
+        fig = figures[-1]
+        renderer = fig.canvas.get_renderer()
+        title = fig._suptitle.get_window_extent(renderer)
+        top = max(ax.get_tightbbox(renderer).y1 for ax in fig.axes)
+        height = fig.bbox.height
+        assert 0 <= title.y0 - top < 0.05 * height, (count, (title.y0 - top) / height)
+        assert outside(fig) == []
+    monkeypatch.undo()
+    for fig in figures:
+        plt.close(fig)

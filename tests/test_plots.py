@@ -280,3 +280,53 @@ def test_the_reference_case_s_start_tag_is_still_mathtext(pair):
     _, (rigid, _) = pair
     tag = plots.start_tag(results_io.metadata(rigid))
     assert tag == "$E'_r$" and matplotlib.cbook.is_math_text(tag)
+
+
+def _every_figure(runs):
+    """(stem, figure) of every figure plot writes for ``runs``, each closed once looked at."""
+    runs = plots.distinguished(runs)
+    plt = plots._pyplot()
+    style = plots.styles(runs)
+    for stem, draw in plots.figures(runs):
+        fig = draw(plt, runs, style)
+        try:
+            yield stem, fig
+        finally:
+            plt.close(fig)
+
+
+def test_no_text_of_any_figure_falls_outside_it(pair):
+    """Every figure plot writes (those of the demo, the driving functions, the elastic deformation
+    and the multipliers): every text drawn, measured by the renderer, lies within the figure."""
+    from drawn_text import outside
+
+    made = []
+    for stem, fig in _every_figure(pair[1]):
+        made.append(stem)
+        assert outside(fig) == [], stem
+    assert {"joint_coordinates", "end_effector", "path", "constraint_violation", "energy_balance"} <= set(made)
+
+
+def test_long_legend_labels_stay_within_the_figure_whole(pair):
+    """Runs told apart by their method, step, tolerance and two parameters have labels too long
+    for three columns, or one: they ran off both sides of every figure. Their legend has fewer
+    columns and labels broken into lines, every word kept, and nothing falls outside."""
+    from drawn_text import outside
+
+    base = pair[1][1]
+    meta = results_io.metadata(base)
+    variants = []
+    for k, method in enumerate(("rk4", "genalpha", "dop853", "radau")):
+        settings = {**meta["settings"], "method": method, "dt": 1e-3 / (k + 1), "rtol": 1e-6 * (k + 1)}
+        params = {**meta["params"], "young_modulus_of_the_second_link": 7e10 * (k + 1), "density_of_it": 2700 + k}
+        variants.append(_with_meta(base, settings=settings, params=params))
+    labels = [plots.label(r) for r in plots.distinguished(variants)]
+    assert min(len(label) for label in labels) > 110
+    broken = []
+    for stem, fig in _every_figure(variants):
+        assert outside(fig) == [], stem
+        [legend] = fig.legends
+        drawn = [text.get_text() for text in legend.get_texts()][:len(labels)]  # the runs first
+        assert [text.replace("\n", " ") for text in drawn] == labels
+        broken.append(all("\n" in text for text in drawn))
+    assert any(broken)  # in the 8 in wide figures

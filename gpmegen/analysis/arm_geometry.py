@@ -157,9 +157,94 @@ def poses(s: Scene, loaded, q, factor: float = 1.0, boxes: bool = False) -> list
     return [pose(s, loaded, x, boxes) for x in magnified(q, s.elastic, factor)]
 
 
-def bounds(drawn: list[Pose], paths) -> tuple[np.ndarray, np.ndarray]:
-    """The lowest and highest x, y, z (m) of everything in ``drawn`` and of the ``paths`` (k, j,
-    3) of traced points: fixed axes for all frames."""
-    every = np.vstack([np.vstack([p.skeleton, p.edges.reshape(-1, 3), *p.chains, p.points]) for p in drawn]
-                      + [np.asarray(paths).reshape(-1, 3)])
-    return every.min(axis=0), every.max(axis=0)
+def everything(drawn: list[Pose], paths) -> np.ndarray:
+    """Every point (k, 3) of ``drawn``, the boxes' corners included, and of the ``paths`` (k, j, 3)
+    of traced points: what fixed axes for all frames hold."""
+    return np.vstack([np.vstack([p.skeleton, p.edges.reshape(-1, 3), *p.chains, p.points]) for p in drawn]
+                     + [np.asarray(paths).reshape(-1, 3)])
+
+
+# A drawing lies in a plane when no point of it is farther from the plane than this fraction of
+# its size: a thousandth of a pixel of a 1000-pixel image, far below anything a view could show,
+# and far above the rounding of the transforms (1e-16 of the size).
+FLAT = 1e-6
+
+
+def drawn_points(drawn: list[Pose], paths) -> np.ndarray:
+    """Every point (k, 3) of ``drawn`` that a line or marker passes through, and of the ``paths``
+    (k, j, 3) of traced points: the skeleton, the rfe chains and the named points (the boxes are
+    left out: a body's box has a thickness whatever the motion)."""
+    return np.vstack([np.vstack([p.skeleton, *p.chains, p.points]) for p in drawn]
+                     + [np.asarray(paths).reshape(-1, 3)])
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A plane of {0} seen face-on: ``across`` (3,) the unit vector drawn rightwards, ``up`` (3,)
+    the unit vector drawn upwards, ``normal`` = across × up (towards the viewer); ``above``
+    whether gravity is along -``normal`` (the plane seen from above, gravity into the page)."""
+
+    across: np.ndarray
+    up: np.ndarray
+    normal: np.ndarray
+    above: bool = False
+
+
+def flatness(points) -> tuple[np.ndarray, float, float, np.ndarray | None]:
+    """The plane nearest to ``points`` (k, 3) in least squares: its unit normal, the largest
+    distance of a point from it (m), the size of the points (the largest of their extents along
+    x, y, z, m) and, when they lie on one line (within :data:`FLAT` of their size), its
+    direction (None otherwise; the plane is then any through the line, the normal one of them)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    points = points[np.isfinite(points).all(axis=1)]
+    if not len(points):
+        return np.array([0.0, 0.0, 1.0]), 0.0, 0.0, np.array([1.0, 0.0, 0.0])
+    size = float(np.max(points.max(axis=0) - points.min(axis=0)))
+    centred = points - points.mean(axis=0)
+    _, axes = np.linalg.eigh(centred.T @ centred)  # principal directions, the least spread first
+    spread = np.abs(centred @ axes).max(axis=0)
+    return axes[:, 0], float(spread[0]), size, axes[:, 2] if spread[1] <= FLAT * size else None
+
+
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def _snapped(v) -> np.ndarray:
+    """The unit vector ``v`` made exactly an axis of {0} when it is one but for rounding."""
+    k = int(np.argmax(np.abs(v)))
+    return np.eye(3)[k] * np.sign(v[k]) if abs(v[k]) > 1.0 - 1e-9 else v
+
+
+def plane_of(points, against_gravity) -> tuple[Plane | None, float, float]:
+    """The plane the ``points`` (k, 3) lie in, seen face-on with ``against_gravity`` (3,: a unit
+    vector, +z when there is no gravity) drawn upwards as far as the plane holds it; None when the
+    points leave every plane by more than :data:`FLAT` of their size. Returns it with the largest
+    distance of a point from the nearest plane (m) and the size of the points (m).
+
+    Points on one line lie in many planes: the one through the line and the vertical is taken
+    (or, for a vertical line, through it and the first of x, y, z across it). When gravity lies
+    in the plane, its direction is drawn downwards; when it is normal to it, the plane is seen
+    from above (gravity into the page) with the {0} axis nearest to it drawn rightwards."""
+    normal, off, size, along = flatness(points)
+    if off > FLAT * size:
+        return None, off, size
+    up = _unit(against_gravity)
+    if along is not None:
+        for other in (up, *np.eye(3)):
+            if np.linalg.norm(np.cross(along, other)) > 0.1:
+                normal = _unit(np.cross(along, other))
+                break
+    normal = _snapped(normal)
+    in_plane = up - (up @ normal) * normal
+    if np.linalg.norm(in_plane) > 1e-6:  # gravity (partly) in the plane: drawn downwards
+        vertical = _snapped(_unit(in_plane))
+        across = np.cross(vertical, normal)
+        if across[np.argmax(np.abs(across))] < 0:  # the side that draws the plane's main axis rightwards
+            normal, across = -normal, -across
+        return Plane(_snapped(across), vertical, normal), off, size
+    normal = normal if normal @ up > 0 else -normal  # gravity normal to the plane: seen from above
+    k = int(np.argmin(np.abs(normal)))  # the axis of {0} nearest to the plane
+    across = _snapped(_unit(np.eye(3)[k] - normal[k] * normal))
+    return Plane(across, _snapped(np.cross(normal, across)), normal, above=True), off, size

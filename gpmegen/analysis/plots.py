@@ -220,18 +220,51 @@ def _coordinate(results, name):
 
 def _finish(fig, title, handles, caption=None):
     """Title, one legend under the axes (outside the data) and the caption line under it, in a
-    strip added at the bottom of the figure, outside the layout."""
+    strip added at the bottom of the figure, outside the layout. The legend has up to
+    :data:`LEGEND_COLUMNS` columns, as many as fit the figure's width (runs told apart by their
+    settings and parameters have long labels, which ran off both sides), and a label wider than
+    the figure alone is broken into lines."""
     fig.suptitle(title)
-    rows = -(-len(handles) // LEGEND_COLUMNS)
+    legend, rows = _legend(fig, handles)
     foot = LEGEND_PAD + LEGEND_ROW * rows + (CAPTION_ROW if caption else 0.0)  # in
     height = fig.get_figheight() + foot
     fig.set_figheight(height)
     fig.get_layout_engine().set(rect=(0, foot / height, 1, 1 - foot / height))
-    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, foot / height),
-               ncols=min(len(handles), LEGEND_COLUMNS), fontsize=9, frameon=False).set_in_layout(False)
+    legend.set_bbox_to_anchor((0.5, foot / height), transform=fig.transFigure)
     if caption:
         fig.text(0.5, 0.04 / height, caption, ha="center", va="bottom", fontsize=9, style="italic", color="0.3")
     _freeze_layout(fig)
+
+
+def _legend(fig, handles):
+    """The figure's legend of ``handles`` in as many columns (up to :data:`LEGEND_COLUMNS`) as fit
+    its width, labels broken into lines where one column does not; with its number of lines."""
+    renderer = fig.canvas.get_renderer()
+    room = fig.bbox.width - 2 * LEGEND_PAD * fig.dpi
+    for columns in range(min(len(handles), LEGEND_COLUMNS), 0, -1):
+        legend = fig.legend(handles=handles, loc="upper center", ncols=columns, fontsize=9, frameon=False)
+        legend.set_in_layout(False)
+        if legend.get_window_extent(renderer).width <= room or columns == 1:
+            break
+        legend.remove()
+    texts = legend.get_texts()
+    widths = [text.get_window_extent(renderer).width for text in texts]
+    room_for_text = room - (legend.get_window_extent(renderer).width - max(widths))
+    if columns > 1 or max(widths) <= room_for_text:
+        return legend, -(-len(handles) // columns)
+    for text, width in zip(texts, widths):
+        text.set_text(broken(text.get_text(), room_for_text, width))
+    return legend, sum(text.get_text().count("\n") + 1 for text in texts)
+
+
+def broken(text: str, room: float, width: float) -> str:
+    """``text``, drawn ``width`` wide, in lines broken between words to fit ``room`` (the same
+    unit): as it is when it fits."""
+    import textwrap
+
+    if width <= room:
+        return text
+    return "\n".join(textwrap.wrap(text, max(10, int(len(text) * room / width))))
 
 
 def _freeze_layout(fig):
