@@ -224,3 +224,15 @@ def test_animation_of_every_one_of_20001_samples_held_every_frame(tmp_path, smal
     np.savez(results, **long)
     line = refused(run(tmp_path, "animate", results, "--every", "1", "--out", tmp_path / "arm.gif"))
     assert "drawing 20001 frames of 640 x 540 pixels (1.38 MB each, 20001 held until written)" in line
+
+
+def test_import_urdf_from_python_refuses_a_file_beyond_the_cap_before_reading_it(tmp_path):
+    import gpmegen
+    from gpmegen.errors import ModelError
+    from gpmegen.user_files import MAX_USER_FILE_BYTES
+
+    urdf = tmp_path / "huge.urdf"
+    with open(urdf, "wb") as fh:
+        fh.truncate(MAX_USER_FILE_BYTES + 1)   # sparse: nothing is written to the disk
+    with pytest.raises(ModelError, match=f"the URDF file holds {MAX_USER_FILE_BYTES + 1} bytes, beyond the"):
+        gpmegen.import_urdf(urdf)
