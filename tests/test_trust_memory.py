@@ -236,3 +236,16 @@ def test_import_urdf_from_python_refuses_a_file_beyond_the_cap_before_reading_it
         fh.truncate(MAX_USER_FILE_BYTES + 1)   # sparse: nothing is written to the disk
     with pytest.raises(ModelError, match=f"the URDF file holds {MAX_USER_FILE_BYTES + 1} bytes, beyond the"):
         gpmegen.import_urdf(urdf)
+
+
+def test_extrapolation_file_declaring_1_gib_in_8_bytes_is_refused_before_it_is_inflated(tmp_path):
+    from gpmegen.analysis import extrapolate
+    from gpmegen.errors import ExtrapolationError
+
+    small = tmp_path / "small.npz"
+    extrapolate.save({"t": np.zeros(3), "nrfe": np.array([2, 3])}, small)
+    forged = tmp_path / "forged.npz"
+    _with_entry(small, forged, "q_limit", 2**27)
+    with pytest.raises(ExtrapolationError, match=rf"its array 'q_limit' declares {2**30} bytes in \d+; make it with"):
+        extrapolate.load(forged)
+    assert set(extrapolate.load(small)) == {"format", "t", "nrfe"}
