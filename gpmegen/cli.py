@@ -228,6 +228,8 @@ def cmd_build(args) -> int:
     for model in models:  # a folder without gpmegen's manifest is always built again, so refused at once
         if args.force or read_manifest(out / model.name) is None:
             check_replaceable(out / model.name)
+            # and a build too long for the limits, before --out is created
+            limits.check_build(limits.model_coordinates(model), model.name, jacobians=args.jacobians)
     outputs.writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
     transforms, asked = DEFAULT_TRANSFORMS, ""

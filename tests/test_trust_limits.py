@@ -394,3 +394,12 @@ def test_a_build_with_jacobians_was_estimated_as_one_without(capsys, tmp_path):
         limits.check_build(300, "big", jacobians=True)
     assert main(["build", "--nrfe", "100", "--jacobians", "--out", str(tmp_path / "unused")]) == 2
     assert "with its Jacobians" in capsys.readouterr().err
+
+
+def test_a_refused_build_left_its_lock_file_and_output_folder_behind(capsys, tmp_path):
+    """The estimate refused the build only after the lock had created ``--out`` and a lock file
+    in it: a refused command must leave nothing."""
+    out = tmp_path / "out"
+    assert main(["build", "--nrfe", "100", "--jacobians", "--out", str(out)]) == 2
+    assert "with its Jacobians" in capsys.readouterr().err
+    assert not out.exists()

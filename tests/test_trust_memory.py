@@ -224,3 +224,28 @@ def test_animation_of_every_one_of_20001_samples_held_every_frame(tmp_path, smal
     np.savez(results, **long)
     line = refused(run(tmp_path, "animate", results, "--every", "1", "--out", tmp_path / "arm.gif"))
     assert "drawing 20001 frames of 640 x 540 pixels (1.38 MB each, 20001 held until written)" in line
+
+
+def test_import_urdf_from_python_refuses_a_file_beyond_the_cap_before_reading_it(tmp_path):
+    import gpmegen
+    from gpmegen.errors import ModelError
+    from gpmegen.user_files import MAX_USER_FILE_BYTES
+
+    urdf = tmp_path / "huge.urdf"
+    with open(urdf, "wb") as fh:
+        fh.truncate(MAX_USER_FILE_BYTES + 1)   # sparse: nothing is written to the disk
+    with pytest.raises(ModelError, match=f"the URDF file holds {MAX_USER_FILE_BYTES + 1} bytes, beyond the"):
+        gpmegen.import_urdf(urdf)
+
+
+def test_extrapolation_file_declaring_1_gib_in_8_bytes_is_refused_before_it_is_inflated(tmp_path):
+    from gpmegen.analysis import extrapolate
+    from gpmegen.errors import ExtrapolationError
+
+    small = tmp_path / "small.npz"
+    extrapolate.save({"t": np.zeros(3), "nrfe": np.array([2, 3])}, small)
+    forged = tmp_path / "forged.npz"
+    _with_entry(small, forged, "q_limit", 2**27)
+    with pytest.raises(ExtrapolationError, match=rf"its array 'q_limit' declares {2**30} bytes in \d+; make it with"):
+        extrapolate.load(forged)
+    assert set(extrapolate.load(small)) == {"format", "t", "nrfe"}

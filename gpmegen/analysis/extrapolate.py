@@ -13,11 +13,14 @@ the joints.
 
 from __future__ import annotations
 
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .. import npz
 from ..errors import ExtrapolationError
 from ..fileio import atomic_write
 from . import richardson
@@ -232,12 +235,11 @@ def save(data: dict, path) -> Path:
 
 def load(path) -> dict:
     """Read a file written by :func:`save`; ExtrapolationError if it is not one."""
+    remake = "make it with 'gpmegen simulate MODEL --nrfe 5 10 20 --extrapolate'"
     try:
-        with np.load(path, allow_pickle=False) as f:
-            data = {k: f[k] for k in f.files}
-    except (OSError, ValueError, EOFError) as exc:
-        raise ExtrapolationError(f"{path}: cannot read it as an extrapolation ({exc}); make it with "
-                                 f"'gpmegen simulate MODEL --nrfe 5 10 20 --extrapolate'") from None
+        data = npz.read_checked(Path(path), lambda key: True, ExtrapolationError, remake)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise ExtrapolationError(f"{path}: cannot read it as an extrapolation ({exc}); {remake}") from None
     if str(data.get("format", "")) != FORMAT:
         raise ExtrapolationError(f"{path}: not a gpmegen extrapolation (no '{FORMAT}' marker)")
     return data

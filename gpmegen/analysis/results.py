@@ -17,7 +17,6 @@ before): ``qdd`` (k, n) q̈, ``constraint_forces`` (k, n) ``M q̈ - f``, and eit
 from __future__ import annotations
 
 import json
-import math
 import uuid
 import zipfile
 import zlib
@@ -25,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import npz
 from ..errors import GpmegenError
 from ..fileio import atomic_write_all
 
@@ -131,45 +131,12 @@ def save(results: dict, path, csv: bool = True) -> list[Path]:
     return atomic_write_all(writes)
 
 
-def _read_entries(path: Path) -> dict:
-    """The :data:`ENTRIES` of the NPZ at ``path``, each read after its declared sizes are checked:
-    the .npy header's shape must fit the size the zip declares for the entry (which bounds what is
-    inflated), and all of them the memory available. ResultsError otherwise."""
-    from .. import limits
-
-    with zipfile.ZipFile(path) as zf:
-        entries = {}
-        for info in zf.infolist():
-            key = info.filename.removesuffix(".npy")
-            if key not in ENTRIES or key in entries:
-                continue
-            with zf.open(info) as fh:
-                version = np.lib.format.read_magic(fh)
-                read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
-                    np.lib.format.read_array_header_2_0
-                shape, _, dtype = read_header(fh)
-            declared = math.prod(shape) * dtype.itemsize
-            if dtype.hasobject or declared > info.file_size:
-                raise ResultsError(f"{path}: its array '{key}' declares {declared} bytes in {info.file_size}; make "
-                                   f"the results again with 'gpmegen simulate'")
-            entries[key] = info
-        total = sum(info.file_size for info in entries.values())
-        available = limits.available_memory()
-        if available is not None and total > available:
-            raise ResultsError(f"{path}: its arrays hold {total / 1e9:.3g} GB, more than the {available / 1e9:.3g} "
-                               f"GB of memory available; read it on a larger machine")
-        data = {}
-        for key, info in entries.items():
-            with zf.open(info) as fh:
-                data[key] = np.lib.format.read_array(fh, allow_pickle=False)
-    return data
-
-
 def load(path) -> dict:
     """Read a results NPZ written by :func:`save`; ResultsError if it is not one."""
     path = Path(path)
     try:
-        data = _read_entries(path)
+        data = npz.read_checked(path, ENTRIES.__contains__, ResultsError,
+                                "make the results again with 'gpmegen simulate'")
     except FileNotFoundError:
         raise ResultsError(f"{path}: no such file; run 'gpmegen simulate' first") from None
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:  # empty, truncated, foreign

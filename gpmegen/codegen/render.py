@@ -175,9 +175,19 @@ def build(model: Model, out: Path, backends=("numpy",), force=False, progress=No
     files as its manifest records them. ``digest``: the model's :func:`input_hash`, when the
     caller has it already; ``transforms``, ``jacobians``: as :func:`render`."""
     folder = Path(out) / model.name
+    digest = digest or input_hash(model, backends, transforms, jacobians)
+    # A build that would be refused is refused before the lock creates anything in ``out``
+    # (looked at without the lock: the answer is checked again under it).
+    if force or _stale(folder, read_manifest(folder), digest, backends, transforms, jacobians) is not None:
+        limits.check_build(limits.model_coordinates(model), model.name, jacobians=jacobians)
     with FolderLock(folder):
-        return _build_locked(model, folder, backends, force, progress, command,
-                             digest or input_hash(model, backends, transforms, jacobians), transforms, jacobians)
+        return _build_locked(model, folder, backends, force, progress, command, digest, transforms, jacobians)
+
+
+def _stale(folder, manifest, digest, backends, transforms, jacobians) -> str | None:
+    """Why the build in ``folder`` (its ``manifest``) is not the one asked for; None: it is."""
+    return stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]],
+                        jacobians, transforms)
 
 
 def _build_locked(model, folder, backends, force, progress, command, digest, transforms, jacobians) -> BuildResult:
@@ -188,8 +198,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest, tra
     manifest = read_manifest(folder)
     t0 = time.perf_counter()
     if not force:
-        reason = stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]],
-                              jacobians, transforms)
+        reason = _stale(folder, manifest, digest, backends, transforms, jacobians)
         if reason is None:
             files = {p.name: p.stat().st_size for p in sorted(folder.iterdir())}
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)

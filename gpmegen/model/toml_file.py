@@ -91,7 +91,7 @@ import tomllib
 from pathlib import Path
 
 from ..errors import GpmegenError, ModelError
-from ..user_files import check_user_file, read_user_file
+from ..user_files import read_user_file
 from .chain import Model
 from .expand import expand
 from .file.model_file import ModelFile
@@ -144,7 +144,6 @@ def read_urdf_file(path) -> ModelFile:
     """The rigid model of the URDF file at ``path`` (:func:`gpmegen.model.urdf.import_urdf`:
     its one branch of moving joints, gravity ``-g`` along z, its mimic joints following their
     leaders), starting at ``q = 0``, with its joints' limits."""
-    check_user_file(path, "the URDF file", ModelError)
     robot = import_urdf(path)
     try:
         expand(robot.model)

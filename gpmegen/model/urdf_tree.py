@@ -15,11 +15,11 @@ import io
 import logging
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import ModelError
+from ..user_files import read_user_file
 
 SUPPORTED = ("revolute", "continuous", "prismatic", "fixed")
 # gpmegen's URDF extension: <gpmegen:spring stiffness="..." damping="..." rest="..."/> in a <joint>, the
@@ -106,10 +106,9 @@ def rpy(R) -> tuple[float, float, float]:
 def read_tree(path) -> UrdfTree:
     """The URDF file at ``path`` as a checked tree; ModelError naming the element and the fix."""
     file = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except OSError as exc:
-        raise ModelError(f"{file}: cannot read the URDF file ({exc.strerror or exc}); check the path") from None
+    # every reader of URDFs (model files, `gpmegen build robot.urdf`, import_urdf from Python)
+    # comes through here: a device, FIFO or huge file is refused before it is read
+    raw = read_user_file(path, "the URDF file", ModelError)
     robot, root = _parse(file, raw)
     elements = {kind: {e.get("name"): e for e in root.findall(kind)} for kind in ("link", "joint")}
     links = {}

@@ -7,7 +7,6 @@ from importlib import metadata
 from pathlib import Path
 
 from ...errors import ModelError
-from ...user_files import check_user_file
 from ..chain import FlexibleLink, Joint, Point
 from ..rfem import discretize
 from ..urdf import GRAVITY, FlexibleUrdfLink, import_urdf, unit_direction
@@ -46,7 +45,6 @@ def read_urdf_chain(reader, data, parameters: tuple, name: str) -> tuple:
     :class:`~gpmegen.model.urdf.ImportedRobot` (its mimic constraints and limits); the reader's
     coordinates and points recorded as :meth:`Reader.read_chain` records them."""
     path = urdf_path(reader, data["urdf"])
-    check_user_file(path, "the URDF file", ModelError)  # read_tree reads whatever the path names
     tree = read_tree(path)
     tip = data["urdf"].get("tip") if isinstance(data["urdf"], dict) else None
     if tip is not None:
