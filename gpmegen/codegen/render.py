@@ -133,6 +133,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         massive_links=d.recursive.massive,
+        parent_links=d.recursive.parent,
         dependent=tuple(model.dependent) if model.dependent is not None else None,
         statuses=tuple(SolveStatus),
         arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
