@@ -468,3 +468,12 @@ def test_a_flexible_link_in_a_branch_agrees_with_the_dense_solves(env, rng):
         recursive = c_model.accelerations(0.0, q, qd)
         for reference in (c_model.motion(0.0, q, qd)[0], numpy_model.accelerations(0.0, q, qd)):
             assert _relative(recursive, reference) <= 1e-9
+
+
+def test_urdf_export_refuses_a_tree_in_one_line():
+    from gpmegen.model.urdf_export import urdf_text
+
+    with pytest.raises(ModelError) as info:
+        urdf_text(gpmegen_tree(random_tree(1)))
+    message = str(info.value)
+    assert "URDF export writes serial chains only" in message and "\n" not in message
