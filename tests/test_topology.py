@@ -477,3 +477,102 @@ def test_urdf_export_refuses_a_tree_in_one_line():
         urdf_text(gpmegen_tree(random_tree(1)))
     message = str(info.value)
     assert "URDF export writes serial chains only" in message and "\n" not in message
+
+
+# ============================================================================================
+# Branches in a model file
+# ============================================================================================
+
+TREE_FILE = """
+schema = 1
+name = "file_tree"
+gravity = [0, -9.81, 0]
+
+[parameters]
+m = { value = 1.5, unit = "kg", doc = "mass of each arm" }
+
+[[chain]]
+joint = "base"
+type = "revolute"
+axis = "y"
+
+[[chain]]
+body = "torso"
+shape = { type = "point_mass", mass = 4.0, position = [0, 0.5, 0] }
+
+[[chain]]
+point = "shoulder"
+position = [0, 0.5, 0]
+
+[[chain]]
+parent = "shoulder"
+joint = "left"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "left_arm"
+shape = { type = "point_mass", mass = "m", position = [0.4, 0, 0] }
+
+[[chain]]
+point = "left_hand"
+position = [0.4, 0, 0]
+
+[[chain]]
+parent = "shoulder"
+translation = [0, 0, 0.1]
+
+[[chain]]
+joint = "right"
+type = "prismatic"
+axis = "x"
+
+[[chain]]
+body = "right_arm"
+shape = { type = "point_mass", mass = "m", position = [0.3, 0, 0] }
+
+[[constraints]]
+name = "hand_height"
+expression = "y_left_hand - 0.4"
+"""
+
+
+def test_a_model_file_branches_with_parent_keys(tmp_path):
+    from gpmegen.model.toml_file import load_model_file
+
+    path = tmp_path / "tree.toml"
+    path.write_text(TREE_FILE)
+    model = load_model_file(path)
+    branches = [e for e in model.chain if isinstance(e, Branch)]
+    assert branches == [Branch("shoulder"), Branch("shoulder")]
+    topology = expand(model).topology
+    assert topology.parent == (-1, 0, 0) and topology.point_joint == (0, 1)
+    assert not topology.related(1, 2)
+
+
+@pytest.mark.parametrize("change, problem", [
+    (('parent = "shoulder"\njoint = "left"', 'parent = "elbow"\njoint = "left"'),
+     "chain[3].parent: branch parent 'elbow' names no point"),
+    (('parent = "shoulder"\ntranslation', 'parent = "left_arm"\ntranslation'),
+     "chain[6].parent: branch parent 'left_arm' is a body, not a point"),
+    (('parent = "shoulder"\ntranslation', 'parent = 3\ntranslation'), "chain[6].parent"),
+    (('mass = 4.0', 'mass = -4.0'), "chain[1].shape.mass"),
+    (('mass = "m", position = [0.3', 'mass = -2.0, position = [0.3'), "chain[8].shape.mass"),
+    (('body = "right_arm"', 'body = "left"'), "chain[8].body"),
+    (('axis = "x"', 'axis = "w"'), "chain[7].axis"),
+])
+def test_model_file_errors_after_a_branch_name_their_line(tmp_path, change, problem):
+    """The Branch a parent key makes is no [[chain]] table of its own: errors about the
+    elements after it still name their table and the line of the changed text."""
+    from gpmegen.model.toml_file import load_model_file
+
+    old, new = change
+    assert TREE_FILE.count(old) == 1
+    text = TREE_FILE.replace(old, new)
+    line = text[:text.index(new)].count("\n") + 1
+    path = tmp_path / "tree.toml"
+    path.write_text(text)
+    with pytest.raises(ModelError) as info:
+        load_model_file(path)
+    message = str(info.value)
+    assert f"tree.toml:{line}: {problem}" in message and "\n" not in message, message
