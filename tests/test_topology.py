@@ -353,6 +353,29 @@ def test_the_symbolic_mass_matrix_and_stiffness_jacobian_are_sparse(seed):
         assert [i for i in range(n) if first[b][i] != sp.zeros(4, 4)] == list(moving)
 
 
+def _evaluate(program, outputs, values):
+    """``outputs`` (expressions of ``program``'s intermediates) as floats, with ``values`` for
+    the coordinates and velocities."""
+    values = dict(values)
+    for symbol, expression in program.closure(outputs):
+        values[symbol] = sp.Float(expression.xreplace(values))
+    return np.array([float(sp.sympify(e).xreplace(values)) for e in outputs])
+
+
+@pytest.mark.parametrize("seed", SEEDS[:2])
+def test_the_mass_product_over_subtrees_and_ancestors_is_m_times_a(seed):
+    """``mass_product`` (the O(n) M a the acceleration Jacobians differentiate) against M a."""
+    tree = random_tree(seed)
+    d = derive(gpmegen_tree(tree, gravity=GRAVITY))
+    n = len(tree)
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal(n)
+    product = d.dynamics.mass_product(d.kinematics, sp.Matrix([sp.Float(v) for v in a]), d.program.define_all)
+    values = dict(zip(d.kinematics.q, map(sp.Float, rng.uniform(-1.5, 1.5, n))))
+    mass = _evaluate(d.program, list(d.dynamics.mass_matrix), values).reshape(n, n)
+    assert _relative(_evaluate(d.program, list(product), values), mass @ a) <= 1e-12
+
+
 @pytest.mark.requires_cc
 @pytest.mark.parametrize("seed", SEEDS[:4])
 def test_the_c_recursion_on_trees_agrees_with_pinocchio_aba(env, seed):
