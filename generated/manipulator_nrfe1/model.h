@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: f5da3602212c79fa
+Input hash: 4466e8be68317bf6
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

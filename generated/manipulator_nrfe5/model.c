@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 3c51bee51f41de17
+Input hash: 1f2553b3a750a050
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "3c51bee51f41de17"; }
+const char *manipulator_nrfe5_input_hash(void) { return "1f2553b3a750a050"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -6672,6 +6672,12 @@ static const unsigned char MASSIVE[N_DOF] = {1, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1, 0,
    pass from the tips meets every link after all its children). A serial chain: j - 1. */
 static const int PARENT[N_DOF] = {-1, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13};
 
+/* Whether link j has no children (its sums start at zero), and whether it is the child of its
+   parent that the pass from the tips meets first, the highest-numbered (it sets its parent's
+   sums, the others add to them): no sum is cleared or read before it holds a value. */
+static const unsigned char LEAF[N_DOF] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+static const unsigned char FIRST_CHILD[N_DOF] = {0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+
 /* The articulated-body algorithm's pass from the tip, from the joint axes S (N_DOF x 6), link
    inertias I (N_DOF x LINK_SIZE), link bias forces b (N_DOF x 6) and joint forces tau (N_DOF)
    (recursive_terms): with the bias forces holding the velocity products and gravity, the base
@@ -6690,14 +6696,22 @@ static int articulated_backward(const double *S, const double *I, const double *
                                 const double *D, double *U, double *inv_d, double *u, double *uy)
 {
     /* IA and P of each link (21 and 6 entries), children's contributions summed into them */
-    double d[N_DOF] ALIGNED, IA[N_DOF * 21] ALIGNED = {0.0}, P[N_DOF * 6] ALIGNED = {0.0}, largest = 0.0;
+    double d[N_DOF] ALIGNED, IA[N_DOF * 21] ALIGNED, P[N_DOF * 6] ALIGNED, largest = 0.0;
 
-    double PY[N_DOF * N_CONSTRAINTS * 6] ALIGNED = {0.0};  /* P of each row of D, per link */
+    double PY[N_DOF * N_CONSTRAINTS * 6] ALIGNED;  /* P of each row of D, per link */
 
     for (int j = N_DOF - 1; j >= 0; --j) {
         const double *s = S + 6 * j;
         double *Uj = U + 6 * j, *IAj = IA + 21 * j, *Pj = P + 6 * j;
         const int parent = PARENT[j];
+        if (LEAF[j]) {
+            for (int e = 0; e < 21; ++e) {
+                IAj[e] = 0.0;
+            }
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                Pj[i] = 0.0;
+            }
+        }
         if (MASSIVE[j]) {
             link_add(I + LINK_SIZE * j, IAj);
             UNROLL6 for (int i = 0; i < 6; ++i) {
@@ -6718,11 +6732,23 @@ static int articulated_backward(const double *S, const double *I, const double *
         UNROLL6 for (int i = 0; i < 6; ++i) {
             scaled[i] = Uj[i] * inv;
         }
-        if (parent >= 0) {
-            double *IAp = IA + 21 * parent, *Pp = P + 6 * parent;
+        if (parent >= 0 && FIRST_CHILD[j]) {
+            double *restrict IAp = IA + 21 * parent, *restrict Pp = P + 6 * parent;
             UNROLL6 for (int i = 0; i < 6; ++i) {
                 UNROLL6 for (int k = 0; k < 6; ++k) {
                     if (k >= i) {  /* the upper triangle; constant once the loops are unrolled */
+                        IAp[SYM6[i][k]] = IAj[SYM6[i][k]] - scaled[i] * Uj[k];
+                    }
+                }
+            }
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                Pp[i] = Pj[i] + scaled[i] * u[j];
+            }
+        } else if (parent >= 0) {
+            double *restrict IAp = IA + 21 * parent, *restrict Pp = P + 6 * parent;
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                UNROLL6 for (int k = 0; k < 6; ++k) {
+                    if (k >= i) {
                         IAp[SYM6[i][k]] += IAj[SYM6[i][k]] - scaled[i] * Uj[k];
                     }
                 }
@@ -6733,13 +6759,19 @@ static int articulated_backward(const double *S, const double *I, const double *
         }
 
         for (int a = 0; a < N_CONSTRAINTS; ++a) {
-            const double *pa = PY + 6 * (N_CONSTRAINTS * j + a);
+            double *pa = PY + 6 * (N_CONSTRAINTS * j + a);
+            if (LEAF[j]) {
+                UNROLL6 for (int i = 0; i < 6; ++i) {
+                    pa[i] = 0.0;
+                }
+            }
             const double ua = D[a * N_DOF + j] - dot6(s, pa);
             uy[a * N_DOF + j] = ua;
             if (parent >= 0) {
-                double *pp = PY + 6 * (N_CONSTRAINTS * parent + a);
+                double *restrict pp = PY + 6 * (N_CONSTRAINTS * parent + a);
                 UNROLL6 for (int i = 0; i < 6; ++i) {
-                    pp[i] += pa[i] + scaled[i] * ua;
+                    const double passed = pa[i] + scaled[i] * ua;
+                    pp[i] = FIRST_CHILD[j] ? passed : pp[i] + passed;
                 }
             }
         }

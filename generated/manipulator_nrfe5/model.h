@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 3c51bee51f41de17
+Input hash: 1f2553b3a750a050
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
