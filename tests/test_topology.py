@@ -599,3 +599,25 @@ def test_model_file_errors_after_a_branch_name_their_line(tmp_path, change, prob
         load_model_file(path)
     message = str(info.value)
     assert f"tree.toml:{line}: {problem}" in message and "\n" not in message, message
+
+
+def test_transform_derivatives_on_a_tree_agree_with_central_differences(env, rng):
+    """T_i and T_ij of the bodies of a tree (numpy backend) against central differences of T
+    and T_i, and zero for the joints of the other branch."""
+    import test_transforms as transforms_test
+
+    tree = _two_branch_tree()
+    model = gpmegen_tree(tree, "tree_transforms", GRAVITY)
+    loaded = gpmegen.load(model=model, backend="numpy", transforms=("T", "T_i", "T_ij"))
+    topology = expand(model).topology
+    for _ in range(2):
+        q = rng.uniform(-1.0, 1.0, len(tree))
+        for kind, lower in (("T_i", "T"), ("T_ij", "T_i")):
+            exact = loaded.transforms(q, kind)
+            numeric = transforms_test.central(lambda x, lower=lower: loaded.transforms(x, lower), q, 1e-4)
+            np.testing.assert_allclose(exact, numeric, rtol=0, atol=1e-6 * np.abs(exact).max())
+        first = loaded.transforms(q, "T_i")
+        for j in range(len(tree)):   # body b<j> is moved by joint j and its supports alone
+            body = loaded.bodies.index(f"b{j}")
+            moving = [i for i in range(len(tree)) if np.abs(first[body, i]).max() > 0]
+            assert moving == list(topology.supports[j])
