@@ -30,6 +30,7 @@ from gpmegen.model.chain import (
     Body,
     Branch,
     Constraint,
+    Drive,
     FlexibleLink,
     Joint,
     Model,
@@ -621,3 +622,50 @@ def test_transform_derivatives_on_a_tree_agree_with_central_differences(env, rng
             body = loaded.bodies.index(f"b{j}")
             moving = [i for i in range(len(tree)) if np.abs(first[body, i]).max() > 0]
             assert moving == list(topology.supports[j])
+
+
+# ============================================================================================
+# Trees with flexible links, springs, dampers and drives against the brute-force oracle
+# ============================================================================================
+
+
+def _oracle_trees():
+    """A flexible link in a branch with a drive; random rigid trees with a flexible branch from a
+    tip and a sprung, damped slider hanging from the ground."""
+    t = sp.Symbol("t", real=True)
+    flexible = _flexible_branch_model()
+    yield Model(flexible.name, flexible.parameters, flexible.chain, gravity=GRAVITY,
+                drives=(Drive("wrist", 0.3 * sp.sin(2 * t)), Drive("q1", 1.5)))
+    for seed in (4, 5):
+        base = gpmegen_tree(random_tree(seed), f"oracle_tree{seed}", GRAVITY)
+        link = FlexibleLink("g", 0.6, RectangularSection(0.03, 0.01), density=2700.0, young_modulus=7e10,
+                            shear_modulus=2.6e10, n_rfe=2)
+        extra = (Branch("tip2"), Offset((0.1, 0, 0), (("y", 0.3),)), link, Point("gtip", (0, 0, 0)),
+                 Body("gload", shapes.point_mass(0.4, (0.01, 0, 0))),
+                 Branch("ground"), Offset((0, 0, 0.5)), Joint("slide", "prismatic", "y", stiffness=40.0, damping=0.5),
+                 Body("slider", shapes.point_mass(1.2, (0.05, 0, 0))))
+        yield Model(base.name, base.parameters, base.chain + extra, gravity=GRAVITY,
+                    drives=(Drive("slide", sp.cos(t)),))
+
+
+@pytest.mark.parametrize("index", [0, 1, 2])
+def test_trees_with_flexible_branches_agree_with_the_oracle(env, rng, index):
+    """M, f (drives, springs, dampers, gravity, velocity terms), the points and the energies of
+    the NumPy backend against tests/oracle.py, which multiplies the elementary matrices on each
+    body's path from the ground."""
+    import test_random_chains as chains
+
+    model = list(_oracle_trees())[index]
+    loaded = gpmegen.load(model=model, directory=env[0], backend="numpy")
+    chain, R0 = chains.to_oracle(model, model.defaults)
+    assert chain.coordinates == loaded.coordinates
+    n = chain.n_dof
+    for _ in range(3):
+        t, q, qd = float(rng.uniform(0, 3)), 0.4 * rng.standard_normal(n), rng.standard_normal(n)
+        assert _relative(loaded.mass_matrix(q), chain.mass_matrix(q)) <= REL_TOL
+        assert _relative(loaded.forces(t, q, qd), chain.forces(t, q, qd)) <= REL_TOL
+        assert _relative(loaded.forces(t, q, qd) - loaded.forces(t, q, -qd), 2 * (-chain.damping() @ qd)) <= 1e-9
+        expected = np.array([R0.T @ chain.point(name, q) for name in loaded.points])
+        np.testing.assert_allclose(loaded.point_positions(q), expected, rtol=0, atol=1e-12)
+        kinetic = float(loaded.energies(q, qd)[0])
+        assert abs(kinetic - chain.kinetic_energy(q, qd)) <= REL_TOL * chain.kinetic_energy(q, qd)
