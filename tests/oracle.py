@@ -1,4 +1,4 @@
-"""Independent brute-force reference ("oracle") for the dynamics of serial chains.
+"""Independent brute-force reference ("oracle") for the dynamics of serial chains and trees.
 
 Written straight from the formulas of ``shared/reference-model.md`` with plain NumPy; it shares
 no code with ``gpmegen`` on purpose, so that agreement between the two means something.
@@ -15,10 +15,14 @@ A chain is a list of steps, applied left to right from the inertial frame {0}:
   ``-c q - d qd``);
 * ``Body(name, H)``                 a body with the numeric 4x4 pseudo-inertia ``H`` attached to
   the current frame;
-* ``Point(name, xyz)``              a point fixed in the current frame.
+* ``Point(name, xyz)``              a point fixed in the current frame;
+* ``Branch(point)``                 the steps after it start again from the frame of the named
+  point (the current frame where the point was defined, translated to it), or from {0} for
+  ``None``: a tree, listed one branch after the other.
 
-For a body ``b`` the transform ``T_b(q)`` is the ordered product of the elementary matrices met
-before it. ``T_i = dT_b/dq_i`` and ``T_mn = d2T_b/dq_m dq_n`` are computed exactly by the product
+For a body ``b`` the transform ``T_b(q)`` is the ordered product of the elementary matrices on
+its path from {0} (in a serial chain: all those met before it), so a joint off that path does
+not move it. ``T_i = dT_b/dq_i`` and ``T_mn = d2T_b/dq_m dq_n`` are computed exactly by the product
 rule: the joint's elementary matrix is replaced by its analytic first or second derivative (no
 twists, no recursion, no composite bodies). Then (Lagrange's equations, corrected velocity term):
 
@@ -169,6 +173,11 @@ class Point:
     xyz: tuple
 
 
+@dataclass(frozen=True)
+class Branch:
+    point: str | None  # None: {0}
+
+
 def _const_drive(n: int) -> Callable[[float], np.ndarray]:
     return lambda t: np.zeros(n)
 
@@ -190,6 +199,7 @@ class Chain:
         """Yield (step, factors) for every Body/Point step, where factors is the list of
         (kind, payload) entries preceding it: ("fixed", T) or ("joint", Joint)."""
         factors = []
+        frames = {}   # point name -> the factors of a frame at the point
         for step in self.steps:
             if isinstance(step, np.ndarray):
                 step = Fixed(step)
@@ -197,7 +207,11 @@ class Chain:
                 factors.append(("fixed", np.asarray(step.T, dtype=float)))
             elif isinstance(step, Joint):
                 factors.append(("joint", step))
+            elif isinstance(step, Branch):
+                factors = [] if step.point is None else list(frames[step.point])
             elif isinstance(step, (Body, Point)):
+                if isinstance(step, Point):
+                    frames[step.name] = factors + [("fixed", translation(*step.xyz))]
                 yield step, list(factors)
             else:
                 raise TypeError(f"unknown chain step {step!r}")

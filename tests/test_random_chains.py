@@ -41,8 +41,10 @@ from hypothesis import strategies as st
 import gpmegen
 from gpmegen.model import shapes
 from gpmegen.model.chain import (
+    GROUND_NAME,
     TIME,
     Body,
+    Branch,
     CircularSection,
     Drive,
     FlexibleLink,
@@ -317,6 +319,8 @@ def to_oracle(model: Model, params: dict):
             steps.append(ref.Body(e.name, H))
         elif isinstance(e, Point):
             steps.append(ref.Point(e.name, tuple(_num(v, values) for v in e.position)))
+        elif isinstance(e, Branch):   # from a point, or from {0} turned as the chain's start
+            steps += [ref.Branch(e.parent)] if e.parent != GROUND_NAME else [ref.Branch(None), ref.Fixed(R0)]
         else:  # pragma: no cover - expand() yields nothing else
             raise TypeError(e)
     n = len(index)

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1b7d4ff3527e28a4
+Input hash: 4466e8be68317bf6
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "1b7d4ff3527e28a4"; }
+const char *manipulator_nrfe1_input_hash(void) { return "4466e8be68317bf6"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -983,7 +983,7 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
    qd: (3,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
    out_S: (3, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
-   out_I: (3, 10) spatial inertia of each link (the bodies joint j moves and joint j + 1 does not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
+   out_I: (3, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
    out_b: (3, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
    out_tau: (3,) joint forces Q(t) - C q - damping
    out_phi: (2,) constraint values phi in CONSTRAINTS order
@@ -1674,7 +1674,7 @@ static int gpme_solve(double t, const double *q, const double *qd, const double 
    so qdd = qdd0 + Y lam with qdd0 = M^-1 f, Y = M^-1 D^T (N_DOF x N_CONSTRAINTS), and
    (D Y) lam = c - D qdd0, D Y symmetric positive definite when D has full rank. M^-1 is applied
    by the articulated-body algorithm (Featherstone, Rigid Body Dynamics Algorithms, ch. 7) on the
-   serial chain, every quantity in {0}: no M is formed, and the velocity-product and gravity terms
+   model's tree (PARENT), every quantity in {0}: no M is formed, and the velocity-product and gravity terms
    of f come out of the recursion too (recursive_terms holds the joint axes S_j, the link
    inertias, the joint forces tau = Q - C q - damping and g).
    Spatial vectors hold 6 doubles, angular part first, the linear part taken at the origin of {0};
@@ -1742,15 +1742,25 @@ static inline void link_add(const double *l, double *a)
    elements hold none, and the passes skip them (known when the code is generated). */
 static const unsigned char MASSIVE[N_DOF] = {1, 1, 1};
 
+/* The link each link hangs from: the parent of joint j (-1: the ground; always before j, so a
+   pass from the tips meets every link after all its children). A serial chain: j - 1. */
+static const int PARENT[N_DOF] = {-1, 0, 1};
+
+/* Whether link j has no children (its sums start at zero), and whether it is the child of its
+   parent that the pass from the tips meets first, the highest-numbered (it sets its parent's
+   sums, the others add to them): no sum is cleared or read before it holds a value. */
+static const unsigned char LEAF[N_DOF] = {0, 0, 1};
+static const unsigned char FIRST_CHILD[N_DOF] = {0, 1, 1};
+
 /* The articulated-body algorithm's pass from the tip, from the joint axes S (N_DOF x 6), link
    inertias I (N_DOF x LINK_SIZE), link bias forces b (N_DOF x 6) and joint forces tau (N_DOF)
    (recursive_terms): with the bias forces holding the velocity products and gravity, the base
-   is at rest and the passes run on qdd alone. Link j holds the bodies that joint j moves and
-   joint j + 1 does not, so the parent of link j is link j - 1 and the articulated inertia IA and
-   bias force P of the links after j are running sums.
-   The pass factors M = K^T diag(d) K (K unit lower triangular, K_jk = U_j . S_k / d_j for k < j,
-   U_j = IA_j S_j, d_j = S_j . U_j) and leaves u = K^-T f: then M^-1 f = K^-1 (u / d), which
-   articulated_forward() forms. The same pass without bias forces and with tau = row a of D
+   is at rest and the passes run on qdd alone. Link j holds the bodies that joint j moves directly,
+   and hangs from link PARENT[j]: each link's articulated inertia IA_j and bias force P_j (its own
+   plus what its children passed on) are passed on to its parent.
+   The pass factors M = K^T diag(d) K (K unit lower triangular, K_jk = U_j . S_k / d_j for k an
+   ancestor of j, zero for the other k < j, U_j = IA_j S_j, d_j = S_j . U_j) and leaves
+   u = K^-T f: then M^-1 f = K^-1 (u / d), which articulated_forward() forms. The same pass without bias forces and with tau = row a of D
    (N_CONSTRAINTS x N_DOF row-major) leaves uy[a * N_DOF ..] = K^-T D_a^T, needing only the
    factors of the state: it runs in the same loop, whose chain of dependent steps it does not
    lengthen. Returns GPMEGEN_NONFINITE when a pivot d_j is not finite, GPMEGEN_SINGULAR when one
@@ -1759,20 +1769,30 @@ static const unsigned char MASSIVE[N_DOF] = {1, 1, 1};
 static int articulated_backward(const double *S, const double *I, const double *b, const double *tau,
                                 const double *D, double *U, double *inv_d, double *u, double *uy)
 {
-    double d[N_DOF] ALIGNED, IA[21] ALIGNED = {0.0}, P[6] ALIGNED = {0.0}, largest = 0.0;
+    /* IA and P of each link (21 and 6 entries), children's contributions summed into them */
+    double d[N_DOF] ALIGNED, IA[N_DOF * 21] ALIGNED, P[N_DOF * 6] ALIGNED, largest = 0.0;
 
-    double PY[N_CONSTRAINTS * 6] ALIGNED = {0.0};  /* P of each row of D */
+    double PY[N_DOF * N_CONSTRAINTS * 6] ALIGNED;  /* P of each row of D, per link */
 
     for (int j = N_DOF - 1; j >= 0; --j) {
         const double *s = S + 6 * j;
-        double *Uj = U + 6 * j;
-        if (MASSIVE[j]) {
-            link_add(I + LINK_SIZE * j, IA);
+        double *Uj = U + 6 * j, *IAj = IA + 21 * j, *Pj = P + 6 * j;
+        const int parent = PARENT[j];
+        if (LEAF[j]) {
+            for (int e = 0; e < 21; ++e) {
+                IAj[e] = 0.0;
+            }
             UNROLL6 for (int i = 0; i < 6; ++i) {
-                P[i] += b[6 * j + i];
+                Pj[i] = 0.0;
             }
         }
-        sym6_apply(IA, s, Uj);
+        if (MASSIVE[j]) {
+            link_add(I + LINK_SIZE * j, IAj);
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                Pj[i] += b[6 * j + i];
+            }
+        }
+        sym6_apply(IAj, s, Uj);
         d[j] = dot6(s, Uj);
         if (!(d[j] > 0.0)) {
             return isfinite(d[j]) ? GPMEGEN_SINGULAR : GPMEGEN_NONFINITE;
@@ -1780,29 +1800,53 @@ static int articulated_backward(const double *S, const double *I, const double *
         largest = d[j] > largest ? d[j] : largest;
         const double inv = 1.0 / d[j];
         inv_d[j] = inv;
-        u[j] = tau[j] - dot6(s, P);
-        /* what link j - 1 receives: IA - U U^T / d and P + U u_j / d */
+        u[j] = tau[j] - dot6(s, Pj);
+        /* what the parent link receives: IA_j - U U^T / d and P_j + U u_j / d */
         double scaled[6] ALIGNED;
         UNROLL6 for (int i = 0; i < 6; ++i) {
             scaled[i] = Uj[i] * inv;
         }
-        UNROLL6 for (int i = 0; i < 6; ++i) {
-            UNROLL6 for (int k = 0; k < 6; ++k) {
-                if (k >= i) {  /* the upper triangle; constant once the loops are unrolled */
-                    IA[SYM6[i][k]] -= scaled[i] * Uj[k];
+        if (parent >= 0 && FIRST_CHILD[j]) {
+            double *restrict IAp = IA + 21 * parent, *restrict Pp = P + 6 * parent;
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                UNROLL6 for (int k = 0; k < 6; ++k) {
+                    if (k >= i) {  /* the upper triangle; constant once the loops are unrolled */
+                        IAp[SYM6[i][k]] = IAj[SYM6[i][k]] - scaled[i] * Uj[k];
+                    }
                 }
             }
-        }
-        UNROLL6 for (int i = 0; i < 6; ++i) {
-            P[i] += scaled[i] * u[j];
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                Pp[i] = Pj[i] + scaled[i] * u[j];
+            }
+        } else if (parent >= 0) {
+            double *restrict IAp = IA + 21 * parent, *restrict Pp = P + 6 * parent;
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                UNROLL6 for (int k = 0; k < 6; ++k) {
+                    if (k >= i) {
+                        IAp[SYM6[i][k]] += IAj[SYM6[i][k]] - scaled[i] * Uj[k];
+                    }
+                }
+            }
+            UNROLL6 for (int i = 0; i < 6; ++i) {
+                Pp[i] += Pj[i] + scaled[i] * u[j];
+            }
         }
 
         for (int a = 0; a < N_CONSTRAINTS; ++a) {
-            double *pa = PY + 6 * a;
+            double *pa = PY + 6 * (N_CONSTRAINTS * j + a);
+            if (LEAF[j]) {
+                UNROLL6 for (int i = 0; i < 6; ++i) {
+                    pa[i] = 0.0;
+                }
+            }
             const double ua = D[a * N_DOF + j] - dot6(s, pa);
             uy[a * N_DOF + j] = ua;
-            UNROLL6 for (int i = 0; i < 6; ++i) {
-                pa[i] += scaled[i] * ua;
+            if (parent >= 0) {
+                double *restrict pp = PY + 6 * (N_CONSTRAINTS * parent + a);
+                UNROLL6 for (int i = 0; i < 6; ++i) {
+                    const double passed = pa[i] + scaled[i] * ua;
+                    pp[i] = FIRST_CHILD[j] ? passed : pp[i] + passed;
+                }
             }
         }
 
@@ -1820,16 +1864,18 @@ static int articulated_backward(const double *S, const double *I, const double *
 }
 
 /* qdd (N_DOF) = K^-1 (u / d), the articulated-body algorithm's pass from the base with the
-   factors of articulated_backward(): link accelerations A_j = A_j-1 + S_j qdd_j (less the
-   velocity products and gravity, which the bias forces hold). */
+   factors of articulated_backward(): link accelerations A_j = A_PARENT[j] + S_j qdd_j (the
+   ground's 0; less the velocity products and gravity, which the bias forces hold). */
 static void articulated_forward(const double *S, const double *U, const double *inv_d, const double *u, double *qdd)
 {
-    double A[6] ALIGNED = {0.0};
+    static const double ground[6] ALIGNED = {0.0};
+    double A[N_DOF * 6] ALIGNED;
     for (int j = 0; j < N_DOF; ++j) {
-        const double *s = S + 6 * j;
-        qdd[j] = (u[j] - dot6(U + 6 * j, A)) * inv_d[j];
+        const double *s = S + 6 * j, *Ap = PARENT[j] >= 0 ? A + 6 * PARENT[j] : ground;
+        double *Aj = A + 6 * j;
+        qdd[j] = (u[j] - dot6(U + 6 * j, Ap)) * inv_d[j];
         UNROLL6 for (int i = 0; i < 6; ++i) {
-            A[i] += s[i] * qdd[j];
+            Aj[i] = Ap[i] + s[i] * qdd[j];
         }
     }
 }

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1b7d4ff3527e28a4
+Input hash: 4466e8be68317bf6
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -176,7 +176,7 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
    qd: (3,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
    out_S: (3, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
-   out_I: (3, 10) spatial inertia of each link (the bodies joint j moves and joint j + 1 does not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
+   out_I: (3, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
    out_b: (3, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
    out_tau: (3,) joint forces Q(t) - C q - damping
    out_phi: (2,) constraint values phi in CONSTRAINTS order

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1b7d4ff3527e28a4
+Input hash: 4466e8be68317bf6
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -43,7 +43,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe1'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '1b7d4ff3527e28a4'
+INPUT_HASH = '4466e8be68317bf6'
 N_DOF = 3
 COORDINATES = ('theta1', 'psi2', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -928,7 +928,7 @@ def recursive_terms(t, q, qd, p):
         p: (25,) parameter values in PARAMETERS order
     Returns:
         S: (3, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
-        I: (3, 10) spatial inertia of each link (the bodies joint j moves and joint j + 1 does not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
+        I: (3, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
         b: (3, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
         tau: (3,) joint forces Q(t) - C q - damping
         phi: (2,) constraint values phi in CONSTRAINTS order

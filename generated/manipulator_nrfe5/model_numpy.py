@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c333706bd7f0300b
+Input hash: 1f2553b3a750a050
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -55,7 +55,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe5'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = 'c333706bd7f0300b'
+INPUT_HASH = '1f2553b3a750a050'
 N_DOF = 15
 COORDINATES = ('theta1', 'psi2', 'psi2_1', 'theta2_1', 'phi2_1', 'psi2_2', 'theta2_2', 'phi2_2', 'psi2_3', 'theta2_3', 'phi2_3', 'psi2_4', 'theta2_4', 'phi2_4', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -4238,7 +4238,7 @@ def recursive_terms(t, q, qd, p):
         p: (25,) parameter values in PARAMETERS order
     Returns:
         S: (15, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
-        I: (15, 10) spatial inertia of each link (the bodies joint j moves and joint j + 1 does not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
+        I: (15, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
         b: (15, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
         tau: (15,) joint forces Q(t) - C q - damping
         phi: (2,) constraint values phi in CONSTRAINTS order

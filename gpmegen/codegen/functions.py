@@ -178,8 +178,8 @@ def _recursive_function(d: Derivation, constraint_outputs) -> Function:
         "recursive_terms", "Joint axes, link inertias, bias and joint forces in {0} for the articulated-body "
         "solve, and the constraint terms.", ("t", "q", "qd", "p"),
         (_out("S", rec.axes, "world twist (omega, v at the origin) of each joint's axis, in COORDINATES order"),
-         _out("I", rec.links, "spatial inertia of each link (the bodies joint j moves and joint j + 1 does "
-              "not) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2)"),
+         _out("I", rec.links, "spatial inertia of each link (the bodies joint j moves directly: none "
+              "of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2)"),
          _out("b", rec.bias, "bias force of each link (torque about the origin, N m; force, N): its rate of "
               "momentum at qdd = 0 plus its weight"),
          _out("tau", rec.joint_forces, "joint forces Q(t) - C q - damping", vector=True))

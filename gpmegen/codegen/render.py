@@ -133,6 +133,10 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         massive_links=d.recursive.massive,
+        parent_links=d.recursive.parent,
+        leaf_links=tuple(not children for children in d.chain.topology.children),
+        first_child_links=tuple(p >= 0 and j == max(d.chain.topology.children[p])
+                                for j, p in enumerate(d.chain.topology.parent)),
         dependent=tuple(model.dependent) if model.dependent is not None else None,
         statuses=tuple(SolveStatus),
         arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),

@@ -4,7 +4,9 @@ drives and programmed constraints.
 A chain is a tuple of elements read from the base outwards. A ``Joint`` or ``Offset`` moves the
 current frame; a ``Body`` or ``Point`` is attached to the current frame; a ``FlexibleLink`` is
 expanded by :mod:`gpmegen.model.rfem` into rigid finite elements and spring-damping joints and
-leaves the current frame at its tip. Quantities are SymPy expressions of parameter symbols (or
+leaves the current frame at its tip. A ``Branch`` makes a tree: the elements after it start
+again from a point defined before it (or from the ground), so the chain lists a tree's branches
+one after the other (:mod:`gpmegen.model.topology`). Quantities are SymPy expressions of parameter symbols (or
 plain numbers); nothing here does algebra beyond naming symbols.
 """
 
@@ -151,6 +153,19 @@ class Point:
 
     name: str
     position: tuple = (0, 0, 0)
+
+
+@dataclass(frozen=True)
+class Branch:
+    """The start of a branch: the elements after it, up to the next ``Branch``, hang from the
+    point named ``parent``, defined earlier in the chain. Their first frame has its origin at the
+    point and the orientation of the frame the point is attached to (for a point after a
+    flexible link: its last rfe); ``parent="ground"`` starts from the base frame {0}."""
+
+    parent: str
+
+
+GROUND_NAME = "ground"
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
-"""Validation of a Model and its expansion into a flat chain of joints, offsets, bodies and
-points (flexible links discretized by RFEM)."""
+"""Validation of a Model and its expansion into a flat chain of joints, offsets, bodies, points
+and branch starts (flexible links discretized by RFEM), with its tree (:mod:`.topology`)."""
 
 from __future__ import annotations
 
@@ -13,9 +13,11 @@ import sympy as sp
 from ..errors import ModelError
 from .chain import (
     AXES,
+    GROUND_NAME,
     JOINT_KINDS,
     TIME,
     Body,
+    Branch,
     FlexibleLink,
     Joint,
     Model,
@@ -30,18 +32,21 @@ from .chain import (
     velocity_symbol,
 )
 from .rfem import MATERIAL, check_link, discretize
+from .topology import GROUND, Topology
 
 
 @dataclass(frozen=True)
 class FlatChain:
     """A validated model with its flexible links expanded.
 
-    ``elements``: Joint, Offset, Body and Point only, base first. ``coordinates``: the joint
-    names in chain order (the order of ``q``)."""
+    ``elements``: Joint, Offset, Body, Point and Branch only, base first (a Branch: the elements
+    after it start from its parent point's frame). ``coordinates``: the joint names in chain
+    order (the order of ``q``). ``topology``: the tree of the joints, bodies and points."""
 
     model: Model
     elements: tuple
     coordinates: tuple
+    topology: Topology
 
     @property
     def n_dof(self) -> int:
@@ -115,6 +120,8 @@ def _flatten(model: Model):
             out.append((path + (_NAME_KEY[type(element)],), element))
         elif isinstance(element, Offset):
             out.append((path, element))
+        elif isinstance(element, Branch):
+            out.append((path + ("parent",), element))
         else:
             raise ModelError(f"chain element {k + 1}: unknown element {type(element).__name__}", path)
     return out
@@ -123,9 +130,59 @@ def _flatten(model: Model):
 _NAME_KEY = {Joint: "joint", Body: "body", Point: "point"}
 
 
-def _check_element(element, path, names: _Names, constant: set):
+def _check_branch(branch: Branch, path, names: _Names, points: list):
+    """A branch's parent: ``"ground"`` or a point defined before it (``points``: all the points
+    of the chain); ModelError naming the fix otherwise."""
+    parent = branch.parent
+    if parent == GROUND_NAME:
+        if GROUND_NAME in points:
+            raise ModelError(f"a branch from {GROUND_NAME!r} is ambiguous: a point has that name, which a branch "
+                             f"reads as the base frame; rename the point", path)
+        return
+    if not isinstance(parent, str):
+        raise ModelError(f"branch parent {parent!r} is not a name; name a point defined before the branch, or "
+                         f"{GROUND_NAME!r}", path)
+    if parent in names.seen:
+        what, _ = names.seen[parent]
+        if what != "point":
+            raise ModelError(f"branch parent {parent!r} is a {what}, not a point; add a point where the branch "
+                             f"starts and name it", path)
+        return
+    if parent in points:
+        raise ModelError(f"branch parent {parent!r} is defined later in the chain; move the branch after the point "
+                         f"{parent!r} (each branch follows the point it starts from)", path)
+    close = difflib.get_close_matches(parent, [p for p in points if p in names.seen], 1)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    raise ModelError(f"branch parent {parent!r} names no point; {hint}name a point defined before the branch, or "
+                     f"{GROUND_NAME!r}", path)
+
+
+def topology(elements) -> Topology:
+    """The tree of checked flat ``elements``: each joint hangs from the joint that moves the
+    frame it is defined in, and a Branch restarts from its parent point's joint."""
+    current = GROUND
+    parent, body_joint, point_joint, joint_of_point = [], [], [], {}
+    for element in elements:
+        if isinstance(element, Joint):
+            parent.append(current)
+            current = len(parent) - 1
+        elif isinstance(element, Body):
+            body_joint.append(current)
+        elif isinstance(element, Point):
+            point_joint.append(current)
+            joint_of_point[element.name] = current
+        elif isinstance(element, Branch):
+            current = GROUND if element.parent == GROUND_NAME else joint_of_point[element.parent]
+    return Topology.of(parent, body_joint, point_joint)
+
+
+def _check_element(element, path, names: _Names, constant: set, points: list = ()):
     """Names, kinds, axes and expressions of one expanded chain element at ``path``; the element
-    as the derivation takes it (a joint's axis in its one form: :func:`joint_axis`)."""
+    as the derivation takes it (a joint's axis in its one form: :func:`joint_axis`). ``points``:
+    the names of all the chain's points, for a Branch's parent."""
+    if isinstance(element, Branch):
+        _check_branch(element, path, names, list(points))
+        return element
     table = path[:-1] if isinstance(element, (Joint, Body, Point)) else path
     if isinstance(element, Joint):
         names.claim(element.name, "coordinate", path)
@@ -309,7 +366,9 @@ def expand(model: Model) -> FlatChain:
             raise ModelError(f"parameter {p.name!r} has the default {p.default}, not a finite number; give a "
                              f"value below 1e308 in size", ("parameters", p.name))
     constant = {p.symbol for p in model.parameters}   # expressions of the chain may use parameters only
-    flat = [(path, _check_element(element, path, names, constant)) for path, element in _flatten(model)]
+    flattened = _flatten(model)
+    points = [e.name for _, e in flattened if isinstance(e, Point)]
+    flat = [(path, _check_element(element, path, names, constant, points)) for path, element in flattened]
     coordinates = [e.name for _, e in flat if isinstance(e, Joint)]
     if not coordinates:
         raise ModelError(f"model {model.name!r} has no joints: add at least one joint", ("chain",))
@@ -319,4 +378,5 @@ def expand(model: Model) -> FlatChain:
     _check_drives(model, coordinates, constant)
     _check_constraints(model, flat, coordinates, names)
     _check_dependent(model, coordinates)
-    return FlatChain(model, tuple(e for _, e in flat), tuple(coordinates))
+    elements = tuple(e for _, e in flat)
+    return FlatChain(model, elements, tuple(coordinates), topology(elements))

@@ -20,7 +20,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from .chain import AXES, Body, Joint, Model, Offset, Point
+from .chain import AXES, Body, Branch, Joint, Model, Offset, Point
 from .expand import expand
 from .urdf_tree import NAMESPACE, SPRING, rpy
 
@@ -31,6 +31,9 @@ def urdf_text(model: Model) -> str:
     """The URDF of ``model`` at its parameter defaults (see the module's docstring)."""
     values = {p.symbol: p.default for p in model.parameters}
     flat = expand(model)
+    if not flat.topology.is_serial or any(isinstance(e, Branch) for e in flat.elements):
+        raise ModelError(f"model {model.name!r} branches (it has Branch elements), and URDF export writes serial "
+                         f"chains only; export each branch as a model of its own", ("chain",))
     robot = ET.Element("robot", {"name": model.name})
     links = [_Link(f"{model.name}_base")]
     T = np.eye(4)   # the current frame in the current link's frame

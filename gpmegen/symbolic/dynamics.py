@@ -1,17 +1,21 @@
 """Mass matrix, velocity terms, gravity, springs, dampers, drives and the stiffness Jacobian
-by composite bodies along the chain (Lagrange's equations in the paper's notation).
+by composite bodies over the model's tree (Lagrange's equations in the paper's notation).
 
 With the world pseudo-inertia of body ``b``, ``J_b = T_b H_b T_bᵀ = [[Σ, c], [cᵀ, m]]``
 (``Σ = ∫ r rᵀ dm``, ``c = m r_C`` in {0}) and the world inertia tensor ``I = tr(Σ)·1 - Σ``:
 
-- ``m_ij = Σ_b tr(T_i H T_jᵀ) = tr(Δ_i J^c_j Δ_jᵀ) = ω_i·n_j + v_i·l_j`` for ``i ≤ j``, with
+- ``m_ij = Σ_b tr(T_i H T_jᵀ) = tr(Δ_i J^c_j Δ_jᵀ) = ω_i·n_j + v_i·l_j`` for ``i`` supporting
+  ``j`` (an ancestor of ``j`` or ``j`` itself, :mod:`gpmegen.model.topology`), with
   ``(n_j, l_j) = (I^c ω_j + c^c × v_j,  m^c v_j + ω_j × c^c)`` of the composite ``J^c_j`` of
-  all bodies after joint ``j`` (composite-rigid-body algorithm);
+  the bodies joint ``j`` moves: its own and its children's composites (composite-rigid-body
+  algorithm); ``m_ij = 0`` when neither joint supports the other, as no body moves with both;
 - ``h_i = -Σ_b Σ_m Σ_n tr(T_i H T_mnᵀ) q̇_m q̇_n = -S_i·F_i`` with ``F_i`` the sum over
-  bodies after ``i`` of ``I_b a_b + V_b ×* I_b V_b`` (rate of momentum at ``q̈ = 0``);
+  bodies joint ``i`` moves of ``I_b a_b + V_b ×* I_b V_b`` (rate of momentum at ``q̈ = 0``);
 - ``g_i = ∂E_p/∂q_i = -g⃗·l_i``, ``E_p = -g⃗·Σ c_b``;
-- stiffness Jacobian ``K_ij = ∂(g + C q)_i/∂q_j = -g⃗·(ω_i × l_j) + C_ij`` for ``i ≤ j``
-  (from ``T_ij = Δ_i Δ_j T``), symmetric.
+- stiffness Jacobian ``K_ij = ∂(g + C q)_i/∂q_j = -g⃗·(ω_i × l_j) + C_ij`` for ``i`` supporting
+  ``j`` (from ``T_ij = Δ_i Δ_j T``), symmetric, zero where ``m_ij`` is.
+
+In a serial chain joint ``i`` supports every later joint, and the sums run over ``j ≥ i``.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..model.topology import GROUND
 from .kinematics import Kinematics
 
 
@@ -36,33 +41,53 @@ class Dynamics:
     stiffness_jacobian: sp.Matrix  # ∂(g + C q - Q)/∂q (n, n)
     potential_energy: sp.Expr     # gravity part, J
     spring_energy: sp.Expr        # J
-    columns: tuple = ()           # (n_j, l_j) per joint: m_ij = ω_i·n_j + v_i·l_j for i ≤ j
-    bodies: tuple = ()            # (level, m, c, I, n, l) per body: mass, first moment and inertia about {0}'s
-                                  # origin, rate of momentum at q̈ = 0 (torque n about the origin, force l)
+    columns: tuple = ()           # (n_j, l_j) per joint: m_ij = ω_i·n_j + v_i·l_j for i supporting j
+    bodies: tuple = ()            # (joint, m, c, I, n, l) per body: the joint that moves it (-1: the
+                                  # ground), mass, first moment and inertia about {0}'s origin, rate of
+                                  # momentum at q̈ = 0 (torque n about the origin, force l)
 
     def mass_product(self, kin: Kinematics, a: sp.Matrix, define_all) -> sp.Matrix:
         """``M a`` (n,) for a vector ``a`` (n,) of expressions, in O(n) intermediates:
-        ``(M a)_i = ω_i·Σ_{j≥i} a_j n_j + v_i·Σ_{j≥i} a_j l_j + n_i·Σ_{j<i} a_j ω_j + l_i·Σ_{j<i} a_j v_j``
-        (the upper triangle of M by columns, the lower one by symmetry)."""
+        ``(M a)_i = ω_i·Σ_{j∈sub(i)} a_j n_j + v_i·Σ_{j∈sub(i)} a_j l_j + n_i·Σ_{j∈anc(i)} a_j ω_j
+        + l_i·Σ_{j∈anc(i)} a_j v_j`` with ``sub(i)`` the subtree of joint ``i`` (itself included)
+        and ``anc(i)`` its ancestors (the columns of M where ``i`` supports ``j``, the rows
+        where ``j`` supports ``i`` by symmetry); each sum is its children's or parent's plus one
+        term."""
         n = len(self.columns)
+        topology = kin.chain.topology
         after_n, after_l = [None] * n, [None] * n
-        sum_n, sum_l = sp.zeros(3, 1), sp.zeros(3, 1)
         for j in reversed(range(n)):
             n_j, l_j = self.columns[j]
-            sum_n, sum_l = define_all(sum_n + a[j] * n_j), define_all(sum_l + a[j] * l_j)
-            after_n[j], after_l[j] = sum_n, sum_l
+            sum_n, sum_l = _sum([after_n[c] for c in topology.children[j]], define_all), \
+                _sum([after_l[c] for c in topology.children[j]], define_all)
+            after_n[j], after_l[j] = define_all(sum_n + a[j] * n_j), define_all(sum_l + a[j] * l_j)
         product = []
-        sum_w, sum_v = sp.zeros(3, 1), sp.zeros(3, 1)
+        passed_w, passed_v = [None] * n, [None] * n   # Σ a_k ω_k (v_k) over joint i's supports
         for i, ji in enumerate(kin.joints):
             n_i, l_i = self.columns[i]
+            parent = topology.parent[i]
+            if parent == GROUND:
+                sum_w, sum_v = sp.zeros(3, 1), sp.zeros(3, 1)
+            else:
+                sum_w, sum_v = passed_w[parent], passed_v[parent]
             product.append(ji.omega.dot(after_n[i]) + ji.v.dot(after_l[i]) + n_i.dot(sum_w) + l_i.dot(sum_v))
-            sum_w, sum_v = define_all(sum_w + a[i] * ji.omega), define_all(sum_v + a[i] * ji.v)
+            passed_w[i], passed_v[i] = define_all(sum_w + a[i] * ji.omega), define_all(sum_v + a[i] * ji.v)
         return sp.Matrix(n, 1, product)
 
     @property
     def forces(self) -> sp.Matrix:
         """``f = Q + h - g - C q - D q̇`` (n,)."""
         return self.drive_forces + self.velocity_terms - self.gravity_terms - self.spring_forces - self.damping_forces
+
+
+def _sum(vectors, define_all):
+    """The sum of 3-vectors (zero for none), each partial sum after the first named once."""
+    if not vectors:
+        return sp.zeros(3, 1)
+    total = vectors[0]
+    for v in vectors[1:]:
+        total = define_all(total + v)
+    return total
 
 
 def _world_inertia(body, define_all):
@@ -85,6 +110,13 @@ def _apply(m, c, inertia, w, u):
     return inertia * w + c.cross(u), m * u + w.cross(c)
 
 
+def _add_composite(total, part, define, define_all):
+    """``total + part`` of two (m, c, I, n, l) composites, each sum named."""
+    m, c, inertia, torque, force = part
+    return (define(total[0] + m), define_all(total[1] + c), define_all(total[2] + inertia),
+            define_all(total[3] + torque), define_all(total[4] + force))
+
+
 def derive(kin: Kinematics, gravity, drives) -> Dynamics:
     """Dynamics of the chain whose kinematics is ``kin``; ``gravity`` is the vector g⃗ in {0}
     (expressions), ``drives`` a sequence of Drive."""
@@ -103,26 +135,27 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         # (ω, v) ×* (n, l) = (ω × n + v × l, ω × l)
         torque = define_all(n_a + body.w.cross(n_w) + body.u.cross(l_w))
         force = define_all(l_a + body.w.cross(l_w))
-        per_body.append((body.level, m, c, inertia, torque, force))
+        per_body.append((body.joint, m, c, inertia, torque, force))
 
-    # Composites, from the tip back: after joint j are the bodies with level > j.
+    # Composites, from the tips back: joint j moves its own bodies and its children's composites.
+    topology = kin.chain.topology
     zero = sp.zeros(3, 1)
-    comp_m, comp_c, comp_i = sp.S.Zero, zero, sp.zeros(3, 3)
-    comp_n, comp_f = zero, zero
     composite = [None] * n
-    bodies_by_level = {}
-    for level, *rest in per_body:
-        bodies_by_level.setdefault(level, []).append(rest)
+    bodies_of = {}
+    for joint, *rest in per_body:
+        bodies_of.setdefault(joint, []).append(rest)
     for j in reversed(range(n)):
-        for m, c, inertia, torque, force in bodies_by_level.get(j + 1, []):
-            comp_m = define(comp_m + m)
-            comp_c = define_all(comp_c + c)
-            comp_i = define_all(comp_i + inertia)
-            comp_n = define_all(comp_n + torque)
-            comp_f = define_all(comp_f + force)
+        parts = [composite[c] for c in topology.children[j]]
+        comp_m, comp_c, comp_i, comp_n, comp_f = parts[0] if parts else (sp.S.Zero, zero, sp.zeros(3, 3), zero, zero)
+        for part in parts[1:]:
+            comp_m, comp_c, comp_i, comp_n, comp_f = _add_composite((comp_m, comp_c, comp_i, comp_n, comp_f), part,
+                                                                    define, define_all)
+        for body in bodies_of.get(j, []):
+            comp_m, comp_c, comp_i, comp_n, comp_f = _add_composite((comp_m, comp_c, comp_i, comp_n, comp_f), body,
+                                                                    define, define_all)
         composite[j] = (comp_m, comp_c, comp_i, comp_n, comp_f)
-    # Each body enters once, at j = level - 1, and stays in every composite nearer the base;
-    # bodies before the first joint (level 0) never move and enter no term.
+    # Each body enters once, at the joint that moves it, and stays in the composite of every joint
+    # that supports that one; bodies fixed to the ground never move and enter no term.
 
     M = sp.zeros(n, n)
     K = sp.zeros(n, n)
@@ -137,7 +170,7 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         grav[j] = define(-gvec.dot(columns[j][1]))
     for j in range(n):
         n_j, l_j = columns[j]
-        for i in range(j + 1):
+        for i in topology.supports[j]:   # ascending, as range(j + 1) in a serial chain
             ji = kin.joints[i]
             M[i, j] = M[j, i] = define(ji.omega.dot(n_j) + ji.v.dot(l_j))
             if any(gvec):

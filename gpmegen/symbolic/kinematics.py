@@ -1,11 +1,13 @@
-"""Forward kinematics along the chain, as named intermediate symbols.
+"""Forward kinematics over the model's tree, as named intermediate symbols.
 
-For each level the homogeneous transform ``T = [R p; 0 1]`` from the current frame to {0}.
-For joint ``i`` the world twist ``Δ_i = T_i S_i T_i⁻¹ = [ω̂_i v_i; 0 0]`` (``S_i`` the generator
-of its axis), so that ``∂T_b/∂q_i = Δ_i T_b`` for every body ``b`` after it, and
-``∂²T_b/∂q_i∂q_j = Δ_i Δ_j T_b`` for ``i ≤ j``. The body twist ``Ω = Σ Δ_j q̇_j`` and the
-velocity-product part of ``Ω̇`` (``Σ_j [Ω_j-1, Δ_j] q̇_j``, i.e. ``Σ T_mn q̇_m q̇_n`` of the
-paper) are built along the chain the same way.
+For each frame the homogeneous transform ``T = [R p; 0 1]`` from the frame to {0}. For joint ``i``
+the world twist ``Δ_i = T_i S_i T_i⁻¹ = [ω̂_i v_i; 0 0]`` (``S_i`` the generator of its axis), so
+that ``∂T_b/∂q_i = Δ_i T_b`` for every body ``b`` that joint ``i`` supports (moves), and
+``∂²T_b/∂q_i∂q_j = Δ_i Δ_j T_b`` for ``i ≤ j`` both supporting it. The body twist ``Ω = Σ Δ_j q̇_j``
+and the velocity-product part of ``Ω̇`` (``Σ_j [Ω_parent(j), Δ_j] q̇_j``, i.e. ``Σ T_mn q̇_m q̇_n`` of
+the paper) are built from the base outwards the same way, each joint from its parent's frame
+(:mod:`gpmegen.model.topology`; a serial chain: the joint before it). A Branch element starts
+again from its parent point's frame, every twist being taken at {0}'s origin.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from ..model.chain import AXES, Body, Joint, Offset, Point
+from ..model.chain import AXES, GROUND_NAME, Body, Branch, Joint, Offset, Point
 from ..model.expand import FlatChain
 from . import names
 from .program import Program
@@ -55,11 +57,12 @@ class JointTwist:
 
 @dataclass
 class BodyState:
-    """A body after ``level`` joints: rotation ``R``, origin ``p``, pseudo-inertia ``H`` (body
-    frame), twist ``(w, u)`` and velocity-product spatial acceleration ``(alpha, a)``."""
+    """A body moved by joint ``joint`` (``-1``: fixed to the ground) and the joints that support
+    it: rotation ``R``, origin ``p``, pseudo-inertia ``H`` (body frame), twist ``(w, u)`` and
+    velocity-product spatial acceleration ``(alpha, a)``."""
 
     name: str
-    level: int
+    joint: int
     R: sp.Matrix
     p: sp.Matrix
     H: sp.Matrix
@@ -71,11 +74,12 @@ class BodyState:
 
 @dataclass
 class PointState:
-    """A point after ``level`` joints: position, velocity and velocity-product acceleration in
-    {0}, and the Jacobian columns ``∂position/∂q_j`` (zero for ``j ≥ level``)."""
+    """A point moved by joint ``joint`` (``-1``: the ground): position, velocity and
+    velocity-product acceleration in {0}, and the Jacobian columns ``∂position/∂q_j`` (zero for
+    the joints that do not support ``joint``)."""
 
     name: str
-    level: int
+    joint: int
     position: sp.Matrix
     velocity: sp.Matrix
     acceleration: sp.Matrix
@@ -103,16 +107,20 @@ def coordinate_symbols(chain: FlatChain):
 
 def forward(chain: FlatChain, program: Program) -> Kinematics:
     """Walk the chain from the base, defining transforms, joint twists, body twists and
-    velocity-product accelerations as intermediate symbols."""
+    velocity-product accelerations as intermediate symbols; each element starts from the frame
+    of what it hangs from (the element before it, or a Branch's parent point)."""
     define, define_all = program.define, program.define_all
     q, qd = coordinate_symbols(chain)
+    supports = chain.topology.supports
     zero = sp.zeros(3, 1)
-    R, p = sp.eye(3), sp.zeros(3, 1)
-    w, u = zero, zero          # body twist (ω, v at the origin of {0})
-    alpha, a = zero, zero      # velocity-product part of its rate
-    joints, bodies, points = [], [], {}
+    ground = (sp.eye(3), sp.zeros(3, 1), zero, zero, zero, zero, -1)
+    R, p, w, u, alpha, a, current = ground   # the frame; its twist (ω, v at the origin of {0}),
+    # the velocity-product part of its rate, and the joint that moves it (-1: the ground)
+    joints, bodies, points, frames = [], [], {}, {}
     for element in chain.elements:
-        if isinstance(element, Offset):
+        if isinstance(element, Branch):
+            R, p, w, u, alpha, a, current = ground if element.parent == GROUND_NAME else frames[element.parent]
+        elif isinstance(element, Offset):
             t = sp.Matrix([sp.sympify(v) for v in element.translation])
             if any(t):
                 p = define_all(p + R * t)
@@ -146,17 +154,20 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
             a = define_all(a + d_a * qd[j])
             w = define_all(w + omega * qd[j])
             u = define_all(u + v * qd[j])
+            current = j
         elif isinstance(element, Body):
             H = define_all(sp.Matrix(element.pseudo_inertia))
-            bodies.append(BodyState(element.name, len(joints), R, p, H, w, u, alpha, a))
+            bodies.append(BodyState(element.name, current, R, p, H, w, u, alpha, a))
         elif isinstance(element, Point):
             r = sp.Matrix([sp.sympify(v) for v in element.position])
             position = define_all(p + R * r)
             velocity = define_all(w.cross(position) + u)
             # p̈ = Ω̇ p + Ω Ω p; its velocity-product part: α×p + a + ω×ṗ
             acceleration = define_all(alpha.cross(position) + a + w.cross(velocity))
-            jac = [define_all(jt.omega.cross(position) + jt.v) for jt in joints]
+            moving = supports[current] if current >= 0 else ()
+            jac = [define_all(jt.omega.cross(position) + jt.v) if jt.index in moving else zero for jt in joints]
             jac += [zero] * (chain.n_dof - len(jac))
-            points[element.name] = PointState(element.name, len(joints), position, velocity, acceleration, jac)
+            points[element.name] = PointState(element.name, current, position, velocity, acceleration, jac)
+            frames[element.name] = (R, position, w, u, alpha, a, current)
     params = {p.name: p.symbol for p in chain.model.parameters}
     return Kinematics(chain, program, q, qd, params, joints, bodies, points)

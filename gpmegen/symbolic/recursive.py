@@ -1,10 +1,11 @@
 """What the articulated-body recursion of the C backend (``templates/recursive.c.j2``) reads, as
-expressions of intermediate symbols: the chain's joints and links in ground coordinates.
+expressions of intermediate symbols: the tree's joints and links in ground coordinates.
 
 Everything is a spatial vector in {0}, angular part first, the linear part taken at {0}'s
 origin (Plücker coordinates), so no transform between links is needed. Link ``j`` holds the
-bodies moved by joints ``0..j`` and no other (those of level ``j + 1``; none for the massless
-frames between joints); bodies of level 0 never move and enter no link. Per joint or link:
+bodies that joint ``j`` moves directly (the joint that moves them, :mod:`gpmegen.model.topology`;
+none for the massless frames between joints), and hangs from link ``parent[j]``; bodies fixed to
+the ground never move and enter no link. Per joint or link:
 
 - the axis ``S_j = (ω_j, v_j)`` of joint ``j``, its world twist (:class:`.kinematics.JointTwist`;
   ``(0, axis)`` for a prismatic joint);
@@ -15,8 +16,8 @@ frames between joints); bodies of level 0 never move and enter no link. Per join
   :mod:`.dynamics` forms it for ``h``) plus its weight, as a force ``(n, f)``;
 - the joint forces ``τ = Q(t) - C q - D q̇`` (drives, springs, dampers).
 
-With the link accelerations ``a_j = a_j⁰ - (0, g⃗) + Σ_{k≤j} S_k q̈_k`` the link forces are
-``I_j Σ_{k≤j} S_k q̈_k + b_j``, so the recursion works on ``q̈`` alone, from a base at rest:
+With the link accelerations ``a_j = a_j⁰ - (0, g⃗) + Σ_{k supporting j} S_k q̈_k`` the link forces
+are ``I_j Σ_{k supporting j} S_k q̈_k + b_j``, so the recursion works on ``q̈`` alone, from a base at rest:
 it needs O(n) of these numbers where ``M`` has O(n²) entries, and never projects the bias
 forces onto the joints as ``f`` does.
 """
@@ -27,6 +28,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..model.topology import GROUND
 from .dynamics import Dynamics
 from .kinematics import Kinematics
 
@@ -38,13 +40,15 @@ LINK = ("m", "cx", "cy", "cz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
 @dataclass
 class RecursiveTerms:
     """Shapes in brackets: ``axes`` (n, 6), ``links`` (n, 10), ``bias`` (n, 6), ``joint_forces``
-    (n,); ``massive``: per link, whether it holds a body (n,), known when the code is generated."""
+    (n,); ``massive``: per link, whether it holds a body (n,), and ``parent``: per link, the link
+    it hangs from (n,; -1: the ground), both known when the code is generated."""
 
     axes: sp.Matrix
     links: sp.Matrix
     bias: sp.Matrix
     joint_forces: sp.Matrix
     massive: tuple
+    parent: tuple
 
 
 def derive(kin: Kinematics, dyn: Dynamics, gravity) -> RecursiveTerms:
@@ -56,13 +60,13 @@ def derive(kin: Kinematics, dyn: Dynamics, gravity) -> RecursiveTerms:
     axes = sp.Matrix(n, 6, [v for jt in kin.joints for v in (*jt.omega, *jt.v)])
     links, bias = sp.zeros(n, len(LINK)), sp.zeros(n, 6)
     massive = [False] * n
-    for level, m, c, inertia, torque, force in dyn.bodies:
-        if level > 0:
-            links[level - 1, :] += sp.Matrix([[m, *c, *(inertia[i, k] for i in range(3) for k in range(i, 3))]])
+    for joint, m, c, inertia, torque, force in dyn.bodies:
+        if joint != GROUND:
+            links[joint, :] += sp.Matrix([[m, *c, *(inertia[i, k] for i in range(3) for k in range(i, 3))]])
             # its weight as a bias: I (0, -g) = (-c × g, -m g)
-            bias[level - 1, :] += sp.Matrix([[*(torque - c.cross(g)), *(force - m * g)]])
-            massive[level - 1] = True
+            bias[joint, :] += sp.Matrix([[*(torque - c.cross(g)), *(force - m * g)]])
+            massive[joint] = True
     # a link of several bodies: their sums, each named once
     return RecursiveTerms(axes, links.applyfunc(define), bias.applyfunc(define),
                           (dyn.drive_forces - dyn.spring_forces - dyn.damping_forces).applyfunc(define),
-                          tuple(massive))
+                          tuple(massive), kin.chain.topology.parent)

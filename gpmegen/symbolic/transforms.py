@@ -1,10 +1,11 @@
 """The body transforms ``T`` of the paper and their derivatives ``T_i = ∂T/∂q_i``,
 ``T_ij = ∂²T/∂q_i∂q_j``, from the world twists of :func:`gpmegen.symbolic.kinematics.forward`.
 
-A body after ``level`` joints moves with the joints before it only: ``T_i = Δ_i T`` for
-``i < level`` and ``T_ij = Δ_i Δ_j T`` for ``i ≤ j < level`` (the later joint's twist acts
-first, since ``Δ_j`` depends on ``q_i`` and not the other way round); both vanish otherwise and
-``T_ij`` is symmetric in ``i, j``.
+A body moves with the joints that support the joint moving it only
+(:mod:`gpmegen.model.topology`): ``T_i = Δ_i T`` for ``i`` among them and ``T_ij = Δ_i Δ_j T``
+for ``i ≤ j`` both among them (the later joint's twist acts first, since ``Δ_j`` depends on
+``q_i`` and not the other way round); both vanish otherwise and ``T_ij`` is symmetric in
+``i, j``. In a serial chain these are the joints before the body.
 """
 
 from __future__ import annotations
@@ -37,18 +38,20 @@ def first_derivatives(kin: Kinematics) -> list[list[sp.Matrix]]:
     (``T_ij`` is made of them)."""
     deltas = [twist_matrix(j) for j in kin.joints]
     zero = sp.zeros(4, 4)
-    return [[kin.program.define_all(deltas[i] * transform(b)) if i < b.level else zero
-             for i in range(len(kin.q))] for b in kin.bodies]
+    moved = [set(kin.chain.topology.moved_by(b.joint)) for b in kin.bodies]
+    return [[kin.program.define_all(deltas[i] * transform(b)) if i in moving else zero
+             for i in range(len(kin.q))] for b, moving in zip(kin.bodies, moved)]
 
 
 def second_derivatives(kin: Kinematics, first: list[list[sp.Matrix]]) -> list[list[list[sp.Matrix]]]:
     """``T_ij`` of each body: ``[body][i][j]`` 4x4 from its ``first`` derivatives."""
     deltas = [twist_matrix(j) for j in kin.joints]
     n, zero = len(kin.q), sp.zeros(4, 4)
+    moved = [set(kin.chain.topology.moved_by(b.joint)) for b in kin.bodies]
 
     def entry(b, i, j):
         i, j = min(i, j), max(i, j)
-        return deltas[i] * first[b][j] if j < kin.bodies[b].level else zero
+        return deltas[i] * first[b][j] if i in moved[b] and j in moved[b] else zero
 
     return [[[entry(b, i, j) for j in range(n)] for i in range(n)] for b in range(len(kin.bodies))]
 

@@ -110,11 +110,26 @@ def field_text(path) -> str:
 
 
 
-def located(error, file: str, locator: Locator):
+def file_path(path, chain=()) -> tuple:
+    """``path``, a field of a model whose elements are ``chain``, as a field of the model file
+    that made it: a Branch element is made by the ``parent`` key of the ``[[chain]]`` table
+    after it, and is no table of its own, so the k-th element of the chain is the table counted
+    without the Branches before it."""
+    path = tuple(path)
+    if len(path) < 2 or path[0] != "chain" or not isinstance(path[1], int) or not chain:
+        return path
+    from ..chain import Branch
+
+    return ("chain", sum(not isinstance(e, Branch) for e in chain[:path[1]])) + path[2:]
+
+
+def located(error, file: str, locator: Locator, chain=()):
     """``error`` of the model layer or the derivation as an error of the same type whose message
     starts with ``"<file>:<line>: <field>: "`` for the field it is about (``error.subject``),
-    and names the line of a second field it is about (``error.other``)."""
+    and names the line of a second field it is about (``error.other``); ``chain``: the model's
+    chain, whose fields the error names (:func:`file_path`)."""
     subject, other = getattr(error, "subject", ()), getattr(error, "other", ())
+    subject, other = file_path(subject, chain), file_path(other, chain)
     message = str(error)
     if other:
         message += f" (the other is {field_text(other)}, line {locator.line(other)})"

@@ -43,7 +43,7 @@ class ModelFile:
         """``error`` about this model (a ModelError or DerivationError whose ``subject`` is a
         field) as an error of the same type whose message starts with ``"<file>:<line>:
         <field>: "``, from the text read once."""
-        return located(error, self.path, self._locator)
+        return located(error, self.path, self._locator, self.model.chain)
 
     def initial_values(self, params: dict | None = None) -> dict[str, float]:
         """The start configuration as numbers (rad, m), with the parameter defaults overridden

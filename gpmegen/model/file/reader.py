@@ -19,10 +19,12 @@ from ...errors import ModelError
 from .. import shapes
 from ..chain import (
     AXES,
+    GROUND_NAME,
     JOINT_KINDS,
     PAPER_FREEDOMS,
     TIME,
     Body,
+    Branch,
     CircularSection,
     Constraint,
     Drive,
@@ -48,7 +50,7 @@ from ..expand import expand
 from ..requirements import evaluate, requirements, violation
 from ..rfem import check_freedoms, check_link, check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
-from .locator import Locator, field_text, located
+from .locator import Locator, field_text, file_path, located
 from .model_file import ModelFile
 from .urdf_section import chain_error, read_urdf_chain
 
@@ -229,7 +231,7 @@ class Reader:
         for need in requirements(model):
             problem = violation(need, values, "the parameter defaults")
             if problem:
-                self.fail(need.subject, problem)
+                self.fail(file_path(need.subject, model.chain), problem)
 
     def expression(self, text, path, scope):
         """Parse ``text`` safely; ``scope`` maps the names it may use to their symbols."""
@@ -324,7 +326,7 @@ class Reader:
         except ModelError as exc:
             if "urdf" in data and exc.subject[:1] == ("chain",):
                 raise chain_error(self, exc) from None
-            raise located(exc, self.file, self.locator) from None
+            raise located(exc, self.file, self.locator, chain) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
                          limits=robot.limits if robot is not None else {})
@@ -374,10 +376,16 @@ class Reader:
             self.fail(("chain",), "the chain is empty; add [[chain]] elements")
         elements = []
         moving = False
+        moving_of = {}   # point -> whether a joint moves it
         for k, item in enumerate(items):
             path = ("chain", k)
             if not isinstance(item, dict):
                 self.fail(path, f"expected a table, got {_kind_of(item)}; write each element as a [[chain]] table")
+            if "parent" in item:   # a branch from that point (checked when the model is expanded)
+                parent = self.string(item["parent"], path + ("parent",))
+                elements.append(Branch(parent))
+                moving = parent != GROUND_NAME and moving_of.get(parent, True)
+                item = {key: value for key, value in item.items() if key != "parent"}
             kinds = [key for key in ELEMENT_KINDS if key in item]
             if len(kinds) > 1:
                 self.fail(path, f"one element cannot be both a {kinds[0]} and a {kinds[1]}; split it into "
@@ -397,8 +405,10 @@ class Reader:
                         moving = True
             elif isinstance(element, Joint):
                 moving = True
-            elif isinstance(element, Point) and moving:
-                self.moving_points.add(element.name)
+            elif isinstance(element, Point):
+                moving_of[element.name] = moving
+                if moving:
+                    self.moving_points.add(element.name)
             elements.append(element)
         return tuple(elements)
 
