@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1f2553b3a750a050
+Input hash: 6c4900f3ea6aded7
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
