@@ -52,7 +52,8 @@ class Block:
     mark: str | None   # "fragment", "long", "not run" or None
 
     def where(self) -> str:
-        return f"{self.page.relative_to(ROOT)}:{self.line}"
+        page = self.page.relative_to(ROOT) if self.page.is_relative_to(ROOT) else self.page.name
+        return f"{page}:{self.line}"
 
 
 def blocks(page: Path) -> list[Block]:
@@ -403,3 +404,53 @@ def test_every_readme_code_block_runs_as_pasted(tmp_path, shared_cache, untouche
 def test_long_code_block_runs_alone(block, tmp_path, shared_cache, untouched_checkout):
     _copy_inputs(tmp_path)
     _run_blocks([block], tmp_path, _environment(shared_cache))
+
+
+# ---------------------------------------------------------------- the checks themselves
+
+
+def test_a_toml_fragment_with_a_key_no_model_file_knows_is_refused():
+    misspelled = tomllib.loads('[[chain]]\njoint = "a"\nstifness = 1.0\n')
+    right = tomllib.loads('[[chain]]\njoint = "a"\nstiffness = 1.0\n[parameters]\nmy_name = 1.0\n')
+    assert set(_keys(misspelled)) - _vocabulary() == {"stifness"}
+    assert not set(_keys(right)) - _vocabulary()
+
+
+def _page(folder: Path, text: str) -> list[Block]:
+    page = folder / "page.md"
+    page.write_text(text, encoding="utf-8")
+    return blocks(page)
+
+
+def test_python_and_shell_blocks_of_a_page_run_in_its_order_in_one_interpreter(tmp_path):
+    chosen = _page(tmp_path, """\
+```python
+made = 1
+open("a.txt", "w").write("from python")
+```
+
+```console
+$ cat a.txt > b.txt
+```
+
+```python
+assert made == 1 and open("b.txt").read() == "from python"
+```
+""")
+    _run_blocks(chosen, tmp_path, dict(os.environ))
+
+
+def test_a_block_using_a_name_no_earlier_block_made_fails_naming_its_line(tmp_path):
+    """As the README's generated-model block did with q, qd and t."""
+    chosen = _page(tmp_path, "```python\nx = 1\n```\n\ntext\n\n```python\nprint(q)\n```\n")
+    with pytest.raises(pytest.fail.Exception, match=r"page.md:7: the block failed(.|\n)*NameError: name 'q'"):
+        _run_blocks(chosen, tmp_path, dict(os.environ))
+
+
+def test_a_console_command_shown_failing_must_fail_with_that_error(tmp_path):
+    shown = _page(tmp_path, "```console\n$ echo 'prog: error: no such thing, really' >&2; exit 2\n"
+                            "prog: error: no such thing, really\n```\n")
+    _run_blocks(shown, tmp_path, dict(os.environ))
+    passing = _page(tmp_path, "```console\n$ true\nprog: error: no such thing, really\n```\n")
+    with pytest.raises(AssertionError, match="should fail with 'prog: error: no such thing'"):
+        _run_blocks(passing, tmp_path, dict(os.environ))
