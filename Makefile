@@ -28,7 +28,8 @@ test: venv
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,
 # and as compiled for use (tests/test_c_sanitizers.py); and the long tests (marked long): the
-# random-chain oracle and the convergence studies. CI runs it after make test.
+# random-chain oracle, the convergence studies and the documentation's longer examples
+# (tests/test_docs.py). CI runs it after make test.
 check-c: venv
 	$(BIN)/python -m pytest -q -n 2 -m "sanitizers or long"
 
