@@ -18,7 +18,8 @@ What each fence holds, and what is done with it:
 All blocks of a page run in one temporary folder holding copies of ``examples/`` and
 ``tests/models/`` (never in the checkout: the test asserts that ``git status`` is unchanged),
 python and shell blocks interleaved in the page's order. A block after ``<!-- long -->`` is left
-out of its page's run and runs alone, in a folder of its own, under the ``long`` marker; one after
+out of its page's run and runs under the ``long`` marker, in a folder of its own, after the
+page's other blocks before it; one after
 ``<!-- not run: REASON -->`` (a Makefile target, a cluster) is only checked to say why.
 """
 
@@ -41,6 +42,7 @@ LANGUAGES = ("python", "console", "bash", "toml", "text")
 FENCE = re.compile(r"^(\s*)```(.*)$")
 MARK = re.compile(r"^<!--\s*(fragment|long|not run:\s*(?P<reason>.*?))\s*-->$")
 SYNC = "@@docs-block@@"
+ERROR_LINE = re.compile(r"^[\w.-]+(?: [\w-]+)?: error: ")  # "gpmegen simulate: error: ...", as commands fail
 
 
 @dataclass
@@ -200,7 +202,7 @@ def test_command_line_page_is_the_one_its_parser_and_help_pages_make():
 
 def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     """The help pages of plot and demo list the figures from the list the plots are drawn from;
-    a real plot of runs that hold everything writes exactly those, in every format asked."""
+    a real plot of a run that holds everything writes exactly those."""
     from gpmegen import cli_docs
     from gpmegen.analysis.figure_list import FIGURES
     from gpmegen.cli import main
@@ -213,9 +215,8 @@ def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     assert main(["simulate", "--nrfe", "5", "--t-end", "0.002", "--dt", "1e-4", "--save-every", "5",
                  "--backend", "numpy", "--out", str(run)]) == 0  # the flexible arm: every figure applies
     out = tmp_path / "figures"
-    assert main(["plot", str(run), "--out", str(out), "--format", "png,svg"]) == 0
-    written = sorted(p.name for p in out.iterdir())
-    assert written == sorted(f"{figure.stem}.{fmt}" for figure in FIGURES for fmt in ("png", "svg"))
+    assert main(["plot", str(run), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{figure.stem}.png" for figure in FIGURES)
 
 
 # ---------------------------------------------------------------- the blocks run
@@ -273,7 +274,7 @@ def _run_shell(block: Block, folder: Path, env: dict) -> None:
     for command, shown in commands:
         done = subprocess.run(["bash", "-o", "pipefail", "-c", command], cwd=folder, env=env,
                               capture_output=True, text=True)
-        error = next((line for line in shown if "error:" in line), None)
+        error = next((line for line in shown if ERROR_LINE.match(line)), None)
         if error is None:
             assert done.returncode == 0, (f"{block.where()}: {command!r} exit {done.returncode}\n"
                                           f"{done.stdout[-2000:]}{done.stderr[-3000:]}")
@@ -401,11 +402,13 @@ def test_every_readme_code_block_runs_as_pasted(tmp_path, shared_cache, untouche
 
 @pytest.mark.long
 @pytest.mark.parametrize("block", [b for b in ALL if b.mark == "long" and b.language in RUN], ids=lambda b: b.where())
-def test_long_code_block_runs_alone(block, tmp_path, shared_cache, untouched_checkout):
+def test_long_code_block_runs_after_the_blocks_before_it(block, tmp_path, shared_cache, untouched_checkout):
+    """After the blocks of its page before it (whose files it may read), as the page is pasted."""
     if "panda" in block.code:  # the Panda's URDF comes with the example-robot-data package
         pytest.importorskip("example_robot_data")
     _copy_inputs(tmp_path)
-    _run_blocks([block], tmp_path, _environment(shared_cache))
+    before = [b for b in _runnable(block.page) if b.line < block.line]
+    _run_blocks([*before, block], tmp_path, _environment(shared_cache))
 
 
 # ---------------------------------------------------------------- the checks themselves
@@ -453,6 +456,9 @@ def test_a_console_command_shown_failing_must_fail_with_that_error(tmp_path):
     shown = _page(tmp_path, "```console\n$ echo 'prog: error: no such thing, really' >&2; exit 2\n"
                             "prog: error: no such thing, really\n```\n")
     _run_blocks(shown, tmp_path, dict(os.environ))
+    output = _page(tmp_path, "```console\n$ echo 'per output, its discretization error: 1e-6'\n"
+                             "per output, its discretization error: 1e-6\n```\n")
+    _run_blocks(output, tmp_path, dict(os.environ))  # output that speaks of an error is no failure
     passing = _page(tmp_path, "```console\n$ true\nprog: error: no such thing, really\n```\n")
     with pytest.raises(AssertionError, match="should fail with 'prog: error: no such thing'"):
         _run_blocks(passing, tmp_path, dict(os.environ))
