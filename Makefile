@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: venv demo test check-c snapshots bench clean animation
+.PHONY: venv demo test check-c snapshots bench clean animation docs
 
 venv: $(STAMP)
 
@@ -28,7 +28,8 @@ test: venv
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,
 # and as compiled for use (tests/test_c_sanitizers.py); and the long tests (marked long): the
-# random-chain oracle and the convergence studies. CI runs it after make test.
+# random-chain oracle, the convergence studies and the documentation's longer examples
+# (tests/test_docs.py). CI runs it after make test.
 check-c: venv
 	$(BIN)/python -m pytest -q -n 2 -m "sanitizers or long"
 
@@ -44,6 +45,11 @@ animation: venv
 	$(BIN)/gpmegen animate results/animation_nrfe5.npz --out docs/figures/arm_nrfe5.gif --magnify 3 --fps 10 --dpi 70
 	$(BIN)/gpmegen simulate examples/panda_flexible.toml --statics constrained --t-end 4 --out results/panda_flexible.npz --overwrite
 	$(BIN)/gpmegen animate results/panda_flexible.npz --out docs/figures/panda_flexible.gif --magnify 100 --fps 10 --dpi 70 --view 30,-40
+
+# The command line's reference page, made from its parser and help pages (tests/test_docs.py fails
+# when the committed page differs).
+docs: venv
+	$(BIN)/python -m gpmegen.cli_docs > docs/command-line.md
 
 bench: venv
 	$(BIN)/python benchmarks/build_time.py

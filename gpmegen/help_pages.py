@@ -3,6 +3,8 @@ files it writes (``gpmegen COMMAND --help``)."""
 
 from __future__ import annotations
 
+from .analysis.figure_list import listing
+
 DESCRIPTIONS = {
     "build": """\
 Generate the model's code: the derivation (SymPy) rendered as a NumPy module and as C with its
@@ -133,9 +135,9 @@ examples:
   gpmegen plot results/*.npz --out figures/paper --format png,pdf,svg
 
 files written:
-  <out>/joint_coordinates, end_effector, path, constraint_violation (when the model has
-  constraints) and energy_balance, each as .png (200 dpi), .pdf or .svg (default out: figures/);
-  the same input gives the same bytes""",
+  <out>/<figure> as .png (200 dpi), .pdf or .svg for each --format (default out: figures/); the
+  same input gives the same bytes. The figures, in this order:
+""" + listing(),
     "modes": """\
 examples:
   gpmegen modes --nrfe 5
@@ -196,8 +198,9 @@ examples:
 
 files written:
   <results>/run_nrfe1.npz, run_nrfe5.npz and their .csv (default results/);
-  <figures>/joint_coordinates.png, end_effector.png, path.png, constraint_violation.png,
-  energy_balance.png (default figures/); those of an earlier demo are replaced only with --overwrite""",
+  <figures>/<figure>.png (default figures/), the figures of 'gpmegen plot' for the two runs; those
+  of an earlier demo are replaced only with --overwrite:
+""" + listing(),
     "animate": """\
 examples:
   gpmegen animate results/run_nrfe5.npz --out arm.gif --magnify 20

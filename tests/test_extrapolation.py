@@ -222,26 +222,7 @@ def test_levels_run_on_a_pool_of_processes_give_the_bytes_of_levels_run_one_afte
         assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f"), key
 
 
-CANTILEVER = """schema = 1
-name = "cantilever_nrfe{nrfe}"
-gravity = [0, "-g", 0]
-[parameters]
-g = 9.81
-L = 2.0
-EI = 5.0e5
-rhoA = 3.0
-[[chain]]
-joint = "theta1"
-type = "revolute"
-axis = "z"
-[[chain]]
-flexible = "1"
-length = "L"
-section = { type = "stiffness", EIz = "EI", EIy = "EI", GJ = "EI", rhoA = "rhoA" }
-freedoms = ["psi"]
-[[chain]]
-point = "tip"
-"""
+CANTILEVER = (Path(__file__).parent / "models" / "cantilever.toml").read_text(encoding="utf-8")
 
 
 @pytest.mark.long  # a convergence study: one build per n_rfe

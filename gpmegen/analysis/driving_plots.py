@@ -114,14 +114,7 @@ def _handles(runs, style, name=plots.label):
     return [Line2D([], [], **plots._line(s), label=name(r)) for r, s in zip(runs, style)]
 
 
-def figures(runs) -> list:
-    """The (stem, draw) of the driving-function figures ``runs`` can make (see
-    :func:`gpmegen.analysis.plots.figures`): none for results without the driving functions."""
-    if not all("constraint_forces" in r and "drive_forces" in r for r in runs):
-        return []
-    made = [("driving_functions", driving_functions)]
-    if any("spring_forces" in r and np.any(r["spring_forces"]) for r in runs):
-        made.append(("elastic_deformation", elastic_deformation))
-    if any("lambda" in r for r in runs):
-        made.append(("constraint_multipliers", constraint_multipliers))
-    return made
+# The figures drawn here, by stem; which of them a set of runs gets, and in what order, is
+# gpmegen.analysis.figure_list's.
+DRAWS = {"driving_functions": driving_functions, "elastic_deformation": elastic_deformation,
+         "constraint_multipliers": constraint_multipliers}

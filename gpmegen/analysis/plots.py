@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import GpmegenError
 from ..fileio import atomic_write_all
+from . import figure_list
 from .results import metadata
 
 FORMATS = ("png", "pdf", "svg")
@@ -449,15 +450,14 @@ def energy_balance(plt, runs, style):
 
 
 def figures(runs) -> list:
-    """The (stem, draw) of the figures ``runs`` can make: draw(plt, runs, styles) -> Figure."""
-    made = [("joint_coordinates", joint_coordinates), ("end_effector", end_effector), ("path", path)]
-    if len(runs[0]["constraint_names"]):
-        made.append(("constraint_violation", constraint_violation))
-    if all("kinetic_energy" in r for r in runs):
-        made.append(("energy_balance", energy_balance))
-    from . import driving_plots  # the driving functions and the elastic deformation, where the runs hold them
+    """The (stem, draw) of the figures ``runs`` can make, in the order and under the conditions of
+    :data:`gpmegen.analysis.figure_list.FIGURES`: draw(plt, runs, styles) -> Figure."""
+    from . import driving_plots  # the driving functions and the elastic deformation
 
-    return made + driving_plots.figures(runs)
+    draws = {"joint_coordinates": joint_coordinates, "end_effector": end_effector, "path": path,
+             "constraint_violation": constraint_violation, "energy_balance": energy_balance,
+             **driving_plots.DRAWS}
+    return [(stem, draws[stem]) for stem in figure_list.stems(runs)]
 
 
 def _saver(fig, fmt):

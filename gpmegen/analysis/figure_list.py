@@ -1,0 +1,78 @@
+"""The figures that ``gpmegen plot`` and ``gpmegen demo`` write, in the order they are drawn:
+one list, read by the code that draws them (:func:`gpmegen.analysis.plots.figures`) and by the
+help pages (:mod:`gpmegen.help_pages`), so that what a command says it writes is what it writes.
+
+Kept free of imports (no NumPy, no Matplotlib): the help pages are built at every start of the
+command line.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One figure: its file name without extension, what it shows, when it is drawn (``None``:
+    always) and the test of that on the runs drawn together (results dicts)."""
+
+    stem: str
+    shows: str
+    when: str | None
+    applies: Callable[[list], bool]
+
+
+def _always(runs) -> bool:
+    return True
+
+
+def _constraints(runs) -> bool:
+    return len(runs[0]["constraint_names"]) > 0
+
+
+def _energies(runs) -> bool:
+    return all("kinetic_energy" in r for r in runs)
+
+
+def _driving(runs) -> bool:
+    return all("constraint_forces" in r and "drive_forces" in r for r in runs)
+
+
+def _deformation(runs) -> bool:
+    return _driving(runs) and any("spring_forces" in r and r["spring_forces"].any() for r in runs)
+
+
+def _multipliers(runs) -> bool:
+    return _driving(runs) and any("lambda" in r for r in runs)
+
+
+FIGURES = (
+    Figure("joint_coordinates", "the joint coordinates against time", None, _always),
+    Figure("end_effector", "the coordinates of the end-effector against time", None, _always),
+    Figure("path", "the path of the end-effector", None, _always),
+    Figure("constraint_violation", "the largest |Φ| of each constraint in windows of the run",
+           "when the model has programmed constraints", _constraints),
+    Figure("energy_balance", "each energy term, the work of drive, constraints and dampers, and the residual",
+           "when the results hold the energies", _energies),
+    Figure("driving_functions", "drive plus the constraints' reaction on each joint",
+           "when the results hold the driving functions", _driving),
+    Figure("elastic_deformation", "the deflection of the end-effector and the moments at the sdes",
+           "when a run's springs carry load: flexible links", _deformation),
+    Figure("constraint_multipliers", "the multipliers λ and the force on the constrained point",
+           "when the results hold the multipliers", _multipliers),
+)
+
+
+def stems(runs) -> list[str]:
+    """The stems of the figures drawn for ``runs``, in order."""
+    return [figure.stem for figure in FIGURES if figure.applies(runs)]
+
+
+def listing(indent: str = "  ", width: int = 96) -> str:
+    """The figures as the help pages list them: one item per figure, with when it is drawn."""
+    import textwrap
+
+    return "\n".join(textwrap.fill(f"{figure.stem}: {figure.shows}" + (f" ({figure.when})" if figure.when else ""),
+                                   width, initial_indent=indent, subsequent_indent=indent + "  ")
+                     for figure in FIGURES)
