@@ -1,11 +1,34 @@
-"""Shared fixtures: reference models are loaded once per session from the repository's
-``generated/`` (built there when missing)."""
+"""Shared fixtures, and what makes the suite fast: work done once per run, not once per test.
+
+- Every build derives and renders a model once per ``pytest`` run, for both xdist workers
+  (:func:`shared_renders`): the files of a render are kept in a folder the workers share, keyed
+  by the model's input hash (the one its build manifest records) and every build option, and a
+  second build of the same model anywhere in the run (another module's folder, the other worker)
+  takes them from there, its progress lines said again. Each build still writes its own folder,
+  so a test may change or break its build without another seeing it. Only builds are served
+  so: a test that calls ``gpmegen.codegen.render`` itself, or a child process, derives afresh.
+- One C cache for the whole run (:func:`shared_cache`), shared by the workers: a model compiled
+  (and checked in a child process) by one module is reused by every other. A test that must
+  see a compile happen gives ``GPMEGEN_CACHE`` (or ``cache=``) a folder of its own.
+- ``env`` (per module): a private generated folder and the shared C cache, set in the
+  environment; ``rigid``/``flexible``: the reference arm at n_rfe 1 and 5 (NumPy backend), loaded
+  once per worker from the committed snapshots (``generated_elsewhere``).
+- :func:`shared_folder` gives a new fixture a folder shared by the run's workers; hold
+  :class:`gpmegen.folder.FolderLock` on what you put there so that one worker makes it and the
+  other waits and then finds it.
+"""
+
+import hashlib
+import json
+import os
+import sys
 
 import numpy as np
 import pytest
 
 import gpmegen
 from gpmegen.errors import BuildError
+from gpmegen.fileio import atomic_write_bytes
 from gpmegen.runtime import ccompile
 
 
@@ -34,12 +57,82 @@ def flexible(generated_elsewhere):
     return gpmegen.load(nrfe=5, backend="numpy")
 
 
+def shared_folder(tmp_path_factory, name):
+    """The folder ``name`` shared by the processes of this ``pytest`` run: beside the xdist
+    workers' own base temporary folders (their common parent belongs to this run alone), or in
+    the base temporary folder of a run without xdist."""
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent
+    folder = base / name
+    folder.mkdir(exist_ok=True)
+    return folder
+
+
 @pytest.fixture(scope="session")
 def shared_cache(tmp_path_factory):
-    """One C cache for the modules of a test process: a model compiled by one is reused by the
-    next (the cache is keyed by the hash of the source, compiler and flags, so what one module
-    compiles is what another would)."""
-    return tmp_path_factory.mktemp("c-cache")
+    """One C cache for the whole run, both workers: a model compiled by one module is reused by
+    every other (the cache is keyed by the hash of the source, compiler and flags, so what one
+    compiles is what another would, and a library is written by rename, so a worker never sees
+    half of one)."""
+    return shared_folder(tmp_path_factory, "c-cache")
+
+
+def _tunables() -> list:
+    """The module-level constants of the generator (``gpmegen.codegen``, ``gpmegen.symbolic``)
+    as they are now: a test may change one (e.g. the block size of the C), which changes what a
+    render gives without changing the model's input hash."""
+    found = []
+    for name, module in sorted(sys.modules.items()):
+        if module is None or not name.startswith(("gpmegen.codegen", "gpmegen.symbolic")):
+            continue
+        for attr, value in sorted(vars(module).items()):
+            if attr.isupper() and isinstance(value, (bool, int, float, str, tuple, frozenset)):
+                found.append(f"{name}.{attr}={value!r}")
+    return found
+
+
+@pytest.fixture(scope="session", autouse=True)
+def shared_renders(tmp_path_factory):
+    """Builds take the derivation and rendering of a model from the run's shared store when it
+    was done before in this run (see the module's docstring): ``gpmegen.codegen.render``'s
+    ``render`` as the build calls it, its result kept under a key of everything it depends on.
+    One worker renders while holding the key's lock; the other waits and then reads it."""
+    import importlib
+
+    from gpmegen.folder import FolderLock
+
+    module = importlib.import_module("gpmegen.codegen.render")
+    original = module.render
+    store = shared_folder(tmp_path_factory, "renders")
+
+    def render(model, backends=("numpy",), progress=None, command=None, digest=None,
+               transforms=module.DEFAULT_TRANSFORMS, jacobians=False):
+        key = hashlib.sha256(json.dumps([
+            module.input_hash(model, backends, transforms, jacobians), digest, model.name, list(backends),
+            command, list(transforms), bool(jacobians), _tunables()]).encode()).hexdigest()[:24]
+        kept = store / f"{key}.json"
+        with FolderLock(kept):
+            if kept.exists():
+                record = json.loads(kept.read_text(encoding="utf-8"))
+                for line in record["said"]:
+                    if progress is not None:
+                        progress(line)
+                return record["files"]
+            said = []
+
+            def tell(line):
+                said.append(line)
+                if progress is not None:
+                    progress(line)
+
+            files = original(model, backends, tell, command, digest, transforms, jacobians)
+            atomic_write_bytes(kept, json.dumps({"files": files, "said": said}).encode("utf-8"))
+            return files
+
+    module.render = render
+    yield store
+    module.render = original
 
 
 @pytest.fixture(scope="module")

@@ -129,7 +129,8 @@ def spinup_levels(nrfe, t_end, dt, backend="c", omega=4.0):
                                        params={"Omega": omega})
 
 
-@pytest.mark.requires_cc
+@pytest.mark.long  # a convergence study: builds up to n_rfe 13, each run 6 s long (the runs' outputs and
+@pytest.mark.requires_cc  # their extrapolation: test_point_velocities_*, test_levels_run_on_a_pool_*)
 def test_spinup_limit_from_coarse_runs_is_closer_to_a_fine_run_than_any_of_them(env):
     """The tip's deflection during the spin-up: extrapolated from n_rfe 3, 5, 7 it is far nearer
     the limit from n_rfe 7 and 13 than the runs themselves, the estimated error of the n_rfe 7

@@ -271,35 +271,54 @@ SETTINGS = dict(deadline=None, derandomize=True, suppress_health_check=[
     HealthCheck.function_scoped_fixture, HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
+def _fuzzed(strategy, regressions, count):
+    """A test that builds the ``regressions`` (cases this fuzzer found, kept) and then ``count``
+    random mutations drawn from ``strategy`` (the same ones on every run: derandomized)."""
+    @settings(max_examples=count, **SETTINGS)
+    @given(mutation=strategy)
+    def test(mutation, tmp_path, capsys, monkeypatch):
+        _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+
+    for mutation in reversed(regressions):
+        test = example(mutation=mutation)(test)
+    return test
+
+
+#: Each sweep runs twice: a sample of its random mutations in ``make test`` (every regression
+#: case, and as many random ones as the sample size) and all of them in ``make check-c`` (long).
+SAMPLE = 0.1
+
 # Explicit cases first (found by this fuzzer; kept as regressions), then the random ones.
-@example(mutation=_mutated(("parameters", "beta_circle", "\r\n"), 2))            # key with a line break
-@example(mutation=_mutated(("parameters", "m1", "value"), -(10 ** 400)))           # int beyond double range
-@example(mutation=_mutated(("chain", 2, "translation", 1), 10 ** 400))
-@example(mutation=_mutated(("chain", 7, "position", 0), "L3 + 1e308*1e308"))      # constant overflow
-@example(mutation=_mutated(("drives", 0, "expression"), "t" + "**t" * 300))        # deep power tower
-@example(mutation=_mutated(("chain", 2, "translation", 1), "h1" + "**h1" * 300))
-@example(mutation=_mutated(("constraints", 1, "expression"),                       # a switch: builds, warns
-                           "y_E - y_c - A*Piecewise((cos(2*pi*t/T), t < T), (1, True))"))
-@example(mutation=_mutated(("drives", 0, "expression"), "tdr0*Heaviside(t - t0) + Piecewise((t, t <= t0), (t0, True))"))
-@settings(max_examples=300, **SETTINGS)
-@given(mutation=mutations())
-def test_mutated_model_file_builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
-    _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+BASE_REGRESSIONS = [
+    _mutated(("parameters", "beta_circle", "\r\n"), 2),            # key with a line break
+    _mutated(("parameters", "m1", "value"), -(10 ** 400)),           # int beyond double range
+    _mutated(("chain", 2, "translation", 1), 10 ** 400),
+    _mutated(("chain", 7, "position", 0), "L3 + 1e308*1e308"),      # constant overflow
+    _mutated(("drives", 0, "expression"), "t" + "**t" * 300),        # deep power tower
+    _mutated(("chain", 2, "translation", 1), "h1" + "**h1" * 300),
+    _mutated(("constraints", 1, "expression"),                       # a switch: builds, warns
+             "y_E - y_c - A*Piecewise((cos(2*pi*t/T), t < T), (1, True))"),
+    _mutated(("drives", 0, "expression"), "tdr0*Heaviside(t - t0) + Piecewise((t, t <= t0), (t0, True))"),
+]
+test_mutated_model_file_builds_or_fails_cleanly = _fuzzed(mutations(), BASE_REGRESSIONS, int(300 * SAMPLE))
+test_mutated_model_file_builds_or_fails_cleanly_all = pytest.mark.long(
+    _fuzzed(mutations(), BASE_REGRESSIONS, 300))
 
 
 # The new keys, with values at their edges: a held rotation named twice, none, a law that names
 # its own coordinate, a section by stiffness with the material added, a tube without its wall.
-@example(mutation=_mutated(("chain", 1, "freedoms"), ["psi", "psi"], LINKS_TEXT))
-@example(mutation=_mutated(("chain", 1, "freedoms"), [], LINKS_TEXT))
-@example(mutation=_mutated(("chain", 1, "freedoms", 0), [], LINKS_TEXT))     # an unhashable entry
-@example(mutation=_mutated(("chain", 0, "prescribed"), "theta1 + t", LINKS_TEXT))
-@example(mutation=_mutated(("chain", 1, "density"), 2700, LINKS_TEXT))
-@example(mutation=_mutated(("chain", 3, "section", "inner_diameter"), "D", LINKS_TEXT))
-@example(mutation=_mutated(("dependent",), ["theta1"], LINKS_TEXT))
-@settings(max_examples=150, **SETTINGS)
-@given(mutation=mutations(LINKS))
-def test_mutated_flexible_links_build_or_fail_cleanly(mutation, tmp_path, capsys, monkeypatch):
-    _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+LINKS_REGRESSIONS = [
+    _mutated(("chain", 1, "freedoms"), ["psi", "psi"], LINKS_TEXT),
+    _mutated(("chain", 1, "freedoms"), [], LINKS_TEXT),
+    _mutated(("chain", 1, "freedoms", 0), [], LINKS_TEXT),     # an unhashable entry
+    _mutated(("chain", 0, "prescribed"), "theta1 + t", LINKS_TEXT),
+    _mutated(("chain", 1, "density"), 2700, LINKS_TEXT),
+    _mutated(("chain", 3, "section", "inner_diameter"), "D", LINKS_TEXT),
+    _mutated(("dependent",), ["theta1"], LINKS_TEXT),
+]
+test_mutated_flexible_links_build_or_fail_cleanly = _fuzzed(mutations(LINKS), LINKS_REGRESSIONS, int(150 * SAMPLE))
+test_mutated_flexible_links_build_or_fail_cleanly_all = pytest.mark.long(
+    _fuzzed(mutations(LINKS), LINKS_REGRESSIONS, 150))
 
 
 SECOND_ORDER_TEXT = (ROOT / "examples" / "manipulator_tangential.toml").read_text()
@@ -319,15 +338,17 @@ def second_order_mutations(draw):
     return f"constraints[{k}].{key} = {value!r}", dumps(data)
 
 
-@example(mutation=("constraints[2].expression = 'ax_E^2'",
-                   SECOND_ORDER_TEXT.replace('"(z_E*ax_E - x_E*az_E)/r_Ea - a0*sin(2*pi*t/Ta)"', '"ax_E^2"')))
-@example(mutation=("constraints[0].order = 2", SECOND_ORDER_TEXT.replace("order = 0", "order = 2", 1)))
-@example(mutation=("constraints[0].order = []", SECOND_ORDER_TEXT.replace("order = 0", "order = []", 1)))  # unhashable
-@example(mutation=("constraints[2].order = 1", SECOND_ORDER_TEXT.replace("order = 2", "order = 1", 1)))
-@settings(max_examples=80, **SETTINGS)
-@given(mutation=second_order_mutations())
-def test_mutated_second_order_constraint_builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
-    _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch)
+SECOND_ORDER_REGRESSIONS = [
+    ("constraints[2].expression = 'ax_E^2'",
+     SECOND_ORDER_TEXT.replace('"(z_E*ax_E - x_E*az_E)/r_Ea - a0*sin(2*pi*t/Ta)"', '"ax_E^2"')),
+    ("constraints[0].order = 2", SECOND_ORDER_TEXT.replace("order = 0", "order = 2", 1)),
+    ("constraints[0].order = []", SECOND_ORDER_TEXT.replace("order = 0", "order = []", 1)),  # unhashable
+    ("constraints[2].order = 1", SECOND_ORDER_TEXT.replace("order = 2", "order = 1", 1)),
+]
+test_mutated_second_order_constraint_builds_or_fails_cleanly = _fuzzed(
+    second_order_mutations(), SECOND_ORDER_REGRESSIONS, int(80 * SAMPLE))
+test_mutated_second_order_constraint_builds_or_fails_cleanly_all = pytest.mark.long(
+    _fuzzed(second_order_mutations(), SECOND_ORDER_REGRESSIONS, 80))
 
 
 def _builds_or_fails_cleanly(mutation, tmp_path, capsys, monkeypatch):
