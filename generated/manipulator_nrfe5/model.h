@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6c4900f3ea6aded7
+Input hash: bb759c6320f0269c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
