@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis import arm_geometry as geometry
 from gpmegen.model.chain import Branch, FlexibleLink, RectangularSection
 from gpmegen.model.expand import expand
 from gpmegen.model.rfem import discretize
@@ -200,3 +201,49 @@ def test_a_flexible_urdf_tree_agrees_with_the_dense_solves(forks, env, tmp_path,
         recursive = c_model.accelerations(0.0, q, qd)
         for reference in (c_model.motion(0.0, q, qd)[0], forks[0].accelerations(0.0, q, qd)):
             assert _relative(recursive, reference) <= 1e-9
+
+
+def _drawn_segments(lines) -> set:
+    """The segments of lines with NaN rows between them, each as a pair of rounded end points."""
+    segments = set()
+    for a, b in zip(lines[:-1], lines[1:]):
+        if np.isfinite(a).all() and np.isfinite(b).all():
+            segments.add(frozenset((tuple(np.round(a, 9)), tuple(np.round(b, 9)))))
+    return segments
+
+
+def test_the_skeleton_of_a_tree_joins_each_body_to_its_parent(robot, rng):
+    """Each body's frame (its link's, from Pinocchio) is joined to the frame of the nearest link
+    above it in the URDF that carries a body (the base when none does), the tool point to its
+    link's body; no other segment, so none joins two branches."""
+    imported, loaded, model, index = robot
+    scene = geometry.scene(imported.model, loaded)
+    names = {new: old for kind, old, new in imported.renamed if kind == "link"}
+    link_of = {body: names.get(body.removesuffix("_body"), body.removesuffix("_body")) for body in scene.bodies}
+    with_body = {link: body for body, link in link_of.items()}
+    parent = {j.child: j.parent for j in imported.tree.joints}
+
+    def carrier(link):   # the nearest link above ``link`` that carries a body; None: the base
+        link = parent.get(link)
+        while link is not None and link not in with_body:
+            link = parent.get(link)
+        return link
+
+    tool = scene.points[scene.tool]
+    tool_link = names.get(tool, tool)
+    tool_body = tool_link if tool_link in with_body else carrier(tool_link)
+    data = model.createData()
+    n = len(index)
+    for _ in range(2):
+        q = rng.uniform(-1.5, 1.5, n)
+        qp = np.empty(n)
+        qp[index] = q
+        pin.framesForwardKinematics(model, data, qp)
+
+        def at(link):
+            return np.zeros(3) if link is None else data.oMf[model.getFrameId(link)].translation
+
+        expected = {frozenset((tuple(np.round(at(link), 9)), tuple(np.round(at(carrier(link)), 9))))
+                    for link in link_of.values()}
+        expected.add(frozenset((tuple(np.round(at(tool_link), 9)), tuple(np.round(at(tool_body), 9)))))
+        assert _drawn_segments(geometry.pose(scene, loaded, q).lines) == expected
