@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: ba5cd5eaf9af4fa9
+Input hash: 2c789c08200b2718
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: bb759c6320f0269c
+Input hash: 524fa5b053e7e103
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
