@@ -22,9 +22,11 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis import arm_geometry as geometry
+from gpmegen.errors import ModelWarning
 from gpmegen.model.chain import Branch, FlexibleLink, RectangularSection
 from gpmegen.model.expand import expand
 from gpmegen.model.rfem import discretize
+from gpmegen.model.toml_file import load_model_file
 from gpmegen.model.urdf import FlexibleUrdfLink, import_urdf
 
 pin = pytest.importorskip("pinocchio")
@@ -270,3 +272,47 @@ def test_a_tree_exported_to_urdf_imports_as_the_same_tree(forks, env, tmp_path, 
         q2[order], qd2[order] = q, qd
         assert _relative(again.mass_matrix(q2)[np.ix_(order, order)], first.mass_matrix(q)) <= REL_TOL
         assert _relative(again.forces(0.0, q2, qd2)[order], first.forces(0.0, q, qd)) <= REL_TOL
+
+
+FORK_FILE = """
+schema = 1
+name = "fork_file"
+urdf = "fork.urdf"
+
+[[chain]]
+link = "arm"
+flexible = "a"
+along = [1, 0, 0]
+length = 0.6
+section = { type = "rectangular", width = 0.04, thickness = 0.01 }
+density = 2700.0
+young_modulus = 7e10
+shear_modulus = 2.6e10
+nrfe = 3
+damping = [0.02, 0.02, 0.02]
+"""
+
+
+def test_a_model_file_imports_the_tree_whole(tmp_path):
+    """A model file naming the fork's URDF without ``tip``, its arm made flexible by a
+    ``[[chain]]`` table: the same chain as the import from Python, branches included."""
+    _flexible_tree_urdf(tmp_path / "fork.urdf", False)
+    (tmp_path / "fork.toml").write_text(FORK_FILE)
+    model = load_model_file(tmp_path / "fork.toml")
+    assert model.chain == _flexible_fork(tmp_path / "fork.urdf", False).chain
+
+
+def test_a_base_link_named_ground_is_renamed_when_branches_start_from_it(tmp_path):
+    """Branches from the base start from its link's point, and a branch reads ``ground`` as the
+    base frame: a base link of that name is renamed (with the warning of renamed names), and
+    the model expands with two branches from it."""
+    inertial = '<inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>'
+    path = tmp_path / "two.urdf"
+    path.write_text(f"""<robot name="two"><link name="ground"/><link name="b">{inertial}</link>
+<link name="c">{inertial}</link>
+<joint name="j1" type="revolute"><parent link="ground"/><child link="b"/><axis xyz="0 0 1"/></joint>
+<joint name="j2" type="revolute"><parent link="ground"/><child link="c"/><origin xyz="1 0 0"/></joint></robot>""")
+    with pytest.warns(ModelWarning, match="link 'ground' -> ground_2"):
+        robot = import_urdf(path)
+    assert Branch("ground_2") in robot.model.chain
+    assert expand(robot.model).topology.parent == (-1, -1)
