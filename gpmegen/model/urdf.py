@@ -221,10 +221,10 @@ def _valid(name: str, bare: bool) -> bool:
 def valid_names(tree: UrdfTree, robot: str | None, moving: list, reserved: tuple = ()) -> tuple:
     """``(kind, URDF name, new name)`` for each name that cannot stand in generated code (the
     robot's unless ``robot`` is None, the coordinates' and the links'; a link named in
-    ``reserved`` too), in file order: the
-    characters outside letters, digits and ``_`` become ``_``, a name that does not start with
-    a letter or is reserved gets its kind in front, and one that would meet a name already
-    taken gets ``_2``, ``_3``, ...; so the same file always gives the same names."""
+    ``reserved`` too), in file order: the characters outside letters, digits and ``_`` become
+    ``_``, a name that does not start with a letter or is reserved gets its kind in front, and
+    one that would meet a name already taken (or ``reserved``) gets ``_2``, ``_3``, ...; so the
+    same file always gives the same names."""
     wanted = [("joint", j.name, True, 48) for j in moving]
     # a link's body is named <link>_body, which must be a name too
     wanted += [("link", link, False, 48 - len(BODY_SUFFIX)) for link in tree.links]
