@@ -141,7 +141,7 @@ def test_the_rigid_arm_is_straight_and_as_long_as_its_link(shown):
 
 def test_the_skeleton_runs_through_the_body_frames(shown, rng):
     """At a random state the skeleton is the base, the origin of every body's frame (``T``) and
-    the tool; at zero deformation its vertices are where the hub's rotation puts the block (at
+    the tool, drawn as one line; at zero deformation its vertices are where the hub's rotation puts the block (at
     the hub), the rfes' origins along the strip (at the sdes, L/4 and 3L/4: the rfe method's
     end pieces are half the inner ones) and the tip mass and tip (at L)."""
     scene, loaded = shown.scene, shown.loaded
@@ -153,6 +153,7 @@ def test_the_skeleton_runs_through_the_body_frames(shown, rng):
     origins = loaded.transforms(bent)[:, :3, 3]
     tip = loaded.point_positions(bent).reshape(-1, 3)[scene.points.index("tip")]
     np.testing.assert_array_equal(drawn.skeleton, np.vstack([np.zeros(3), origins, tip]))
+    np.testing.assert_array_equal(drawn.lines, drawn.skeleton)   # a serial chain: one line in chain order
     hub = q[loaded.index("hub")]
     along = np.array([np.cos(hub), 0.0, -np.sin(hub)])  # the strip's x turned by the hub about y
     rigid = geometry.poses(scene, loaded, q[None], 0.0)[0].skeleton

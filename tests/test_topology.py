@@ -494,15 +494,6 @@ def test_a_flexible_link_in_a_branch_agrees_with_the_dense_solves(env, rng):
             assert _relative(recursive, reference) <= 1e-9
 
 
-def test_urdf_export_refuses_a_tree_in_one_line():
-    from gpmegen.model.urdf_export import urdf_text
-
-    with pytest.raises(ModelError) as info:
-        urdf_text(gpmegen_tree(random_tree(1)))
-    message = str(info.value)
-    assert "URDF export writes serial chains only" in message and "\n" not in message
-
-
 # ============================================================================================
 # Branches in a model file
 # ============================================================================================

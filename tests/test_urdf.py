@@ -192,12 +192,6 @@ BAD = {
     "unknown link": ("""<robot name="r"><link name="a"/>
 <joint name="j" type="revolute"><parent link="a"/><child link="arm"/></joint></robot>""",
                      "<joint name=\"j\"> names the child link 'arm', which the file does not define"),
-    "branching": ("""<robot name="r"><link name="a"/><link name="b"><inertial><mass value="1"/>
-<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link><link name="c"><inertial>
-<mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
-<joint name="j1" type="revolute"><parent link="a"/><child link="b"/></joint>
-<joint name="j2" type="revolute"><parent link="a"/><child link="c"/></joint></robot>""",
-                  '<link name="a"> branches into the moving joints \'j1\' and \'j2\''),
 }
 
 

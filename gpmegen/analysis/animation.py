@@ -188,7 +188,7 @@ class Canvas:
         """Add the artists of ``pose``, all in ``colour`` when given; returns them."""
         artists = []
         if self.bodies != "boxes":
-            artists.append(self._plot(pose.skeleton, color=colour or SKELETON, lw=1.8, marker="o", ms=3.5))
+            artists.append(self._plot(pose.lines, color=colour or SKELETON, lw=1.8, marker="o", ms=3.5))
         if self.bodies != "skeleton":
             light = self.bodies == "both"
             artists.append(self._plot(_with_breaks(pose.edges), color=colour or (LIGHT_BODY if light else BODY),

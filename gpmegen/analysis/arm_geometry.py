@@ -1,8 +1,10 @@
 """What a picture of the arm shows, computed from the generated body transforms ``T``: the
-skeleton (a line from the base through the origin of every body's frame, in chain order, to the
-tool), each rigid body as the box of its inertia (on request), the rfes of each flexible link as
-a chain of segments, the named points, with the elastic deformation optionally magnified. Pure
-NumPy; drawing is :mod:`gpmegen.analysis.animation`.
+skeleton (lines from the base through the origin of every body's frame to the tool: each body's
+frame joined to the frame of the body it hangs from, so a tree is drawn branch by branch and a
+serial chain as one line in chain order), each rigid body as the box of its inertia (on
+request), the rfes of each flexible link as a chain of segments, the named points, with the
+elastic deformation optionally magnified. Pure NumPy; drawing is
+:mod:`gpmegen.analysis.animation`.
 
 A body's frame is where the chain puts its joint (a URDF link's frame is its joint's), so the
 skeleton is the drawing robotics users read: it shows the joints and the links between them
@@ -25,6 +27,7 @@ import sympy as sp
 from ..model.chain import Body, FlexibleLink, Model, Point
 from ..model.expand import expand
 from ..model.rfem import discretize
+from ..model.topology import GROUND
 from .driving import point_constraints
 from .extrapolate import elastic_coordinates
 
@@ -62,7 +65,9 @@ class Scene:
     constraints hold, see :func:`gpmegen.analysis.driving.point_constraints`); ``elastic``:
     indices of the flexible links' sde coordinates (the deformation; a sprung joint is a joint);
     ``tool``: the index in
-    ``points`` of the point that ends the skeleton (None when no point lies beyond the last body)."""
+    ``points`` of the point that ends the skeleton (None when no point lies beyond the last body);
+    ``parents``: for each node of the skeleton after the base, the node it is drawn from
+    (:func:`skeleton_parents`)."""
 
     bodies: tuple
     boxes: tuple
@@ -72,6 +77,7 @@ class Scene:
     traced: tuple
     elastic: np.ndarray
     tool: int | None = None
+    parents: tuple = ()
 
 
 def scene(model: Model, loaded) -> Scene:
@@ -95,18 +101,57 @@ def scene(model: Model, loaded) -> Scene:
     elastic = elastic_coordinates(model, loaded)
     tool = tool_point(model, traced)
     return Scene(tuple(loaded.bodies), tuple(boxes), links, ends, tuple(loaded.points), traced, elastic,
-                 None if tool is None else loaded.points.index(tool))
+                 None if tool is None else loaded.points.index(tool), skeleton_parents(model, loaded.bodies, tool))
+
+
+def _moves(topology, mover: int, joint: int) -> bool:
+    """Whether what ``joint`` moves is carried by ``mover`` (the ground carries everything)."""
+    return mover == GROUND or (joint != GROUND and mover in topology.supports[joint])
 
 
 def tool_point(model: Model, traced) -> str | None:
-    """The point that ends the skeleton: of the points beyond the last body in chain order, the
-    last that the programmed constraints hold (the tool the task moves), else the last; None
-    when there is none."""
-    elements = expand(model).elements
-    last_body = max((k for k, e in enumerate(elements) if isinstance(e, Body)), default=-1)
-    beyond = [e.name for e in elements[last_body + 1:] if isinstance(e, Point)]
+    """The point that ends the skeleton: of the points beyond the last body of their branch (no
+    body after them in chain order is moved by what moves them), the last that the programmed
+    constraints hold (the tool the task moves), else the last in chain order; None when there is
+    none. For a serial chain: the points beyond its last body."""
+    flat = expand(model)
+    topology, elements = flat.topology, flat.elements
+    joint = dict(zip([e.name for e in elements if isinstance(e, Point)], topology.point_joint))
+    bodies = list(zip([k for k, e in enumerate(elements) if isinstance(e, Body)], topology.body_joint))
+    beyond = [e.name for k, e in enumerate(elements) if isinstance(e, Point)
+              and not any(at > k and _moves(topology, joint[e.name], j) for at, j in bodies)]
     held = [name for name in beyond if name in traced]
     return (held or beyond or [None])[-1]
+
+
+def skeleton_parents(model: Model, bodies, tool: str | None) -> tuple:
+    """For each node of the skeleton after the base (node 0: the origin of {0}; then the frames
+    of ``bodies``, in that order; then the ``tool`` point when there is one), the node it is
+    drawn from: the last body before it whose joint moves it (a body of the ground moves every
+    body), else the base. A serial chain gives ``(0, 1, 2, ...)``: one line in chain order."""
+    flat = expand(model)
+    topology = flat.topology
+    body_joint = dict(zip([e.name for e in flat.elements if isinstance(e, Body)], topology.body_joint))
+    joints = [body_joint[name] for name in bodies]
+    if tool is not None:
+        joints.append(dict(zip([e.name for e in flat.elements if isinstance(e, Point)], topology.point_joint))[tool])
+    parents = []
+    for k, joint in enumerate(joints):
+        before = [i for i in range(min(k, len(bodies))) if _moves(topology, joints[i], joint)]
+        parents.append(before[-1] + 1 if before else 0)
+    return tuple(parents)
+
+
+def skeleton_lines(skeleton, parents) -> np.ndarray:
+    """The ``skeleton`` nodes (k, 3) as lines, with a NaN row between two lines: a node drawn
+    from the node before it continues the line, any other starts a new line at its parent. A
+    serial chain is one line, the nodes themselves."""
+    rows = [skeleton[:1]]
+    for k, parent in enumerate(parents, start=1):
+        if parent != k - 1:
+            rows += [np.full((1, 3), np.nan), skeleton[parent:parent + 1]]
+        rows.append(skeleton[k:k + 1])
+    return np.vstack(rows)
 
 
 def magnified(q, elastic, factor: float) -> np.ndarray:
@@ -121,6 +166,7 @@ def magnified(q, elastic, factor: float) -> np.ndarray:
 class Pose:
     """The drawn geometry at one state, in {0} (m): ``skeleton`` (n_bodies + 1 or + 2, 3) the
     origin of {0}, of every body's frame in the order of the transforms and the tool point;
+    ``lines``: the skeleton as drawn, each node joined to its parent (:func:`skeleton_lines`);
     ``edges`` (n_edges, 2, 3) of the bodies' boxes (none when they are not drawn); ``chains``
     one (n_rfe + 1, 3) polyline per flexible link, through the rfes' origins to the link's far
     end; ``points`` (n_points, 3)."""
@@ -129,6 +175,7 @@ class Pose:
     edges: np.ndarray
     chains: tuple
     points: np.ndarray
+    lines: np.ndarray
 
 
 def pose(s: Scene, loaded, q, boxes: bool = False) -> Pose:
@@ -148,7 +195,8 @@ def pose(s: Scene, loaded, q, boxes: bool = False) -> Pose:
     chains = tuple(np.vstack([T[link, :3, 3], T[link[-1], :3, :3] @ s.ends[link[-1]] + T[link[-1], :3, 3]])
                    for link in s.links)
     edges = np.array(edges).reshape(-1, 2, 3)
-    return Pose(skeleton, edges, chains, points)
+    parents = s.parents or tuple(range(len(skeleton) - 1))
+    return Pose(skeleton, edges, chains, points, skeleton_lines(skeleton, parents))
 
 
 def poses(s: Scene, loaded, q, factor: float = 1.0, boxes: bool = False) -> list[Pose]:

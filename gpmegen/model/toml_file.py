@@ -142,7 +142,7 @@ def read_model_file(path, nrfe: int | None = None) -> ModelFile:
 
 def read_urdf_file(path) -> ModelFile:
     """The rigid model of the URDF file at ``path`` (:func:`gpmegen.model.urdf.import_urdf`:
-    its one branch of moving joints, gravity ``-g`` along z, its mimic joints following their
+    its whole tree of moving joints, gravity ``-g`` along z, its mimic joints following their
     leaders), starting at ``q = 0``, with its joints' limits."""
     robot = import_urdf(path)
     try:

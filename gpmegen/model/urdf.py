@@ -1,11 +1,12 @@
 """URDF import: a robot description as a gpmegen :class:`~gpmegen.model.chain.Model`.
 
-gpmegen chains are serial, so one branch of the URDF tree becomes the chain: the branch from
-the base to ``tip`` (a link), or, when no tip is named, the one branch that holds every moving
-joint (a tree whose moving joints branch is refused, naming the link where they do). The
-coordinates are the branch's revolute, continuous (as revolute) and prismatic joints, base
-first. Each moving link carries one body: its own inertial and those of every link fixed to it
-(fixed joints, and the joints of other branches held at their zero position), combined rigidly
+Without ``tip`` the whole tree is the model: its coordinates are every revolute, continuous (as
+revolute) and prismatic joint, depth first from the base (each link's child joints in file
+order, a joint's whole subtree before its next sibling), and a joint that does not hang from the
+joint before it starts a :class:`~gpmegen.model.chain.Branch` from its parent link's group. With
+``tip`` (a link) one branch is the model, the joints from the base to the tip, and the joints of
+every other branch are held at their zero position. Each moving link carries one body: its own
+inertial and those of every link fixed to it (fixed joints, and held joints), combined rigidly
 by adding pseudo-inertias. Every link's frame origin is a point named after the link. A joint's
 ``<dynamics damping>`` is its viscous damper (``<gpmegen:spring stiffness damping>``, which
 ``gpmegen export`` writes, gives a spring and damper); limits, effort and friction are kept as data
@@ -17,7 +18,8 @@ URDF robots are described z up.
 
 A model file may name a URDF and make links flexible (:class:`FlexibleUrdfLink`): the link's own
 inertial gives way to the beam, which starts at the link's frame and extends ``along`` a
-direction of that frame; whatever is fixed to the link, and the next joint, follow the beam's tip.
+direction of that frame; whatever is fixed to the link, and the joints that hang from it, follow
+the beam's tip (branches after the first start from the point ``<link>_tip``).
 """
 
 from __future__ import annotations
@@ -33,12 +35,29 @@ import sympy as sp
 
 from ..errors import ModelError, ModelWarning
 from . import shapes
-from .chain import Body, Constraint, FlexibleLink, Joint, Model, Offset, Parameter, Point, check_name, symbol
+from .chain import (
+    GROUND_NAME,
+    Body,
+    Branch,
+    Constraint,
+    FlexibleLink,
+    Joint,
+    Model,
+    Offset,
+    Parameter,
+    Point,
+    check_name,
+    symbol,
+)
 from .expand import AXIS_TOLERANCE
 from .urdf_tree import UrdfJoint, UrdfTree, read_tree, rpy
 
 GRAVITY = Parameter("g", 9.81, "m/s²", "gravitational acceleration, along -z of the base")
 BODY_SUFFIX = "_body"
+# The point at a flexible link's frame as its beam's tip carries it, where the branches that hang
+# from the link start: <link>_tip (<link>_tip2, ... when a URDF name has it; within the names'
+# limit, as a link's name leaves room for <link>_body).
+TIP_SUFFIX = "_tip"
 MIMIC_PREFIX = "mimic_"
 # An inertia tensor is refused when a principal moment is below zero, or one exceeds the sum of
 # the other two, by more than this part of the largest moment: the rounding of the digits a
@@ -63,10 +82,10 @@ class FlexibleUrdfLink:
 class ImportedRobot:
     """A URDF read as a model: the ``model``, the ``tree`` it came from, the URDF joints of its
     coordinates in the order of ``q`` (their limits and friction as data, their URDF names as
-    ``name``) and the ``tip`` link; ``renamed``: ``(kind, URDF name, name in the model)`` for each
-    robot, joint or link name that was not a valid name; ``constraints``: the position
-    constraints that make each ``<mimic>`` joint of the chain follow its leader, the mimic joints
-    ``dependent``."""
+    ``name``) and the ``tip`` link (of a tree imported whole: the last joint's child link);
+    ``renamed``: ``(kind, URDF name, name in the model)`` for each robot, joint or link name that
+    was not a valid name; ``constraints``: the position constraints that make each ``<mimic>``
+    joint follow its leader, the mimic joints ``dependent``."""
 
     model: Model
     tree: UrdfTree
@@ -110,7 +129,7 @@ def import_urdf(path, tip: str | None = None, flexible: tuple = (), extra: tuple
                 parameters: tuple = (GRAVITY,), gravity=None, name: str | None = None, **model) -> ImportedRobot:
     """The URDF at ``path`` (or its :class:`UrdfTree`) as a model (see the module's docstring).
 
-    ``tip``: the link the chain ends at (None: the one branch of all moving joints);
+    ``tip``: the link the chain ends at (None: the whole tree, coordinates depth first);
     ``flexible``: :class:`FlexibleUrdfLink` s; ``extra``: ``(link, element)`` pairs of chain
     elements (points) to attach to a link's frame; ``parameters``, ``gravity`` (default
     ``(0, 0, -g)``), ``name`` (default the robot's) and any other :class:`Model` fields replace
@@ -126,7 +145,10 @@ def import_urdf(path, tip: str | None = None, flexible: tuple = (), extra: tuple
     for link in list(flex) + [link for link, _ in extra]:
         _check_link_named(tree, link)
     own = name is None
-    renamed = valid_names(tree, tree.name if own else None, moving)
+    # a branch from the root link starts from its point, which must not read as the ground
+    _, _, hanging = _groups(tree, moving)
+    renamed = valid_names(tree, tree.name if own else None, moving,
+                          (GROUND_NAME,) if hanging[tree.root] > 1 else ())
     if renamed:
         warnings.warn(f"{tree.path}: names that cannot stand in generated code renamed: "
                       + ", ".join(f"{kind} {old!r} -> {new}" for kind, old, new in renamed), ModelWarning,
@@ -154,8 +176,9 @@ def import_urdf(path, tip: str | None = None, flexible: tuple = (), extra: tuple
 
 
 def serial_branch(tree: UrdfTree, tip: str | None) -> list[UrdfJoint]:
-    """The joints from the base to ``tip``, or (``tip`` None) to the last moving joint of the one
-    branch that holds them all; ModelError when moving joints branch and no tip is named."""
+    """The joints from the base to ``tip``, or (``tip`` None) every joint of the tree, depth
+    first (each link's child joints in file order, a joint's whole subtree before its next
+    sibling), so that each joint comes after the joint it hangs from."""
     if tip is not None:
         _check_link_named(tree, tip)
         parent = {j.child: j for j in tree.joints}
@@ -164,36 +187,12 @@ def serial_branch(tree: UrdfTree, tip: str | None) -> list[UrdfJoint]:
             branch.append(parent[link])
             link = parent[link].parent
         return branch[::-1]
-    branch, link = [], tree.root
-    leads = _leading(tree)
-    while True:
-        ahead = [j for j in tree.children(link) if j.name in leads]
-        if len(ahead) > 1:
-            raise tree.error(f"<link name=\"{link}\"> branches into the moving joints {ahead[0].name!r} and "
-                             f"{ahead[1].name!r}, and gpmegen chains are serial; import the branch to one tip link "
-                             f"from a model file, urdf = {{ file = \"...\", tip = \"<link>\" }} (the joints of the "
-                             f"other branches are held at zero)")
-        if not ahead:
-            return branch
-        branch.append(ahead[0])
-        link = ahead[0].child
-
-
-def _leading(tree: UrdfTree) -> set:
-    """The names of the joints that move or lead to a joint that moves; children before parents
-    without recursion, so that a chain of any length of fixed joints is read."""
-    order, todo = [], [tree.root]
-    while todo:
-        link = todo.pop()
-        for j in tree.children(link):
-            order.append(j)
-            todo.append(j.child)
-    leads, moving_below = set(), set()
-    for j in reversed(order):   # every joint after its children's joints
-        if j.type != "fixed" or j.child in moving_below:
-            leads.add(j.name)
-            moving_below.add(j.parent)
-    return leads
+    order, todo = [], list(reversed(tree.children(tree.root)))
+    while todo:   # without recursion, so that a branch of any length is read
+        joint = todo.pop()
+        order.append(joint)
+        todo += reversed(tree.children(joint.child))
+    return order
 
 
 def _check_link_named(tree: UrdfTree, link: str):
@@ -219,21 +218,22 @@ def _valid(name: str, bare: bool) -> bool:
     return True
 
 
-def valid_names(tree: UrdfTree, robot: str | None, moving: list) -> tuple:
+def valid_names(tree: UrdfTree, robot: str | None, moving: list, reserved: tuple = ()) -> tuple:
     """``(kind, URDF name, new name)`` for each name that cannot stand in generated code (the
-    robot's unless ``robot`` is None, the coordinates' and the links'), in file order: the
-    characters outside letters, digits and ``_`` become ``_``, a name that does not start with
-    a letter or is reserved gets its kind in front, and one that would meet a name already
-    taken gets ``_2``, ``_3``, ...; so the same file always gives the same names."""
+    robot's unless ``robot`` is None, the coordinates' and the links'; a link named in
+    ``reserved`` too), in file order: the characters outside letters, digits and ``_`` become
+    ``_``, a name that does not start with a letter or is reserved gets its kind in front, and
+    one that would meet a name already taken (or ``reserved``) gets ``_2``, ``_3``, ...; so the
+    same file always gives the same names."""
     wanted = [("joint", j.name, True, 48) for j in moving]
     # a link's body is named <link>_body, which must be a name too
     wanted += [("link", link, False, 48 - len(BODY_SUFFIX)) for link in tree.links]
     if robot is not None:
         wanted.insert(0, ("robot", robot, False, 48))
-    taken = {old for kind, old, bare, _ in wanted if kind != "robot" and _valid(old, bare)}
+    taken = {old for kind, old, bare, _ in wanted if kind != "robot" and _valid(old, bare)} | set(reserved)
     renamed = []
     for kind, old, bare, longest in wanted:
-        if _valid(old, bare) and len(old) <= longest:
+        if _valid(old, bare) and len(old) <= longest and not (kind == "link" and old in reserved):
             continue
         stem = re.sub(r"[^A-Za-z0-9_]+", "_", str(old)).strip("_")
         if not stem[:1].isalpha() or not _valid(stem[:longest], bare):
@@ -248,11 +248,11 @@ def valid_names(tree: UrdfTree, robot: str | None, moving: list) -> tuple:
 
 
 def mimic_constraints(tree: UrdfTree, moving: list, names: dict) -> list:
-    """``(constraint, coordinate)`` for each ``<mimic>`` joint of the chain: the position
+    """``(constraint, coordinate)`` for each ``<mimic>`` joint of the model: the position
     constraint ``mimic_<q>: q - (multiplier·q_leader + offset) = 0`` (no gains: it is linear in
     the coordinates, as the prescribed joints' are), the mimic joint dependent. A leader off the
-    chain is held at its zero position, as its branch is. ModelError for a leader the file does
-    not define, or joints that mimic each other round a loop."""
+    branch imported with ``tip`` is held at its zero position, as its branch is. ModelError for a
+    leader the file does not define, or joints that mimic each other round a loop."""
     joints = {j.name: j for j in tree.joints}
     out = []
     for joint in moving:
@@ -283,18 +283,47 @@ def mimic_constraints(tree: UrdfTree, moving: list, names: dict) -> list:
 
 def _chain(tree: UrdfTree, moving: list, flex: dict, extra: tuple, joints: dict, links: dict) -> list:
     """The chain: the base's group, then for each moving joint its offset, the joint and the
-    group of links that moves with it; ``joints`` and ``links`` give the model's names."""
+    group of links that moves with it; ``joints`` and ``links`` give the model's names. A joint
+    that does not hang from the group just written starts a branch (:class:`Branch`) from the
+    frame of the group it hangs from: the point at its head link's frame, or for a flexible
+    head link the point ``<link>_tip`` at that frame as the beam's tip carries it."""
     held = {j.name for j in moving}
+    heads, group, hanging = _groups(tree, moving)
+    taken = {*links.values(), *joints.values(), *(link + BODY_SUFFIX for link in links.values()),
+             *(point.name for _, point in extra)}
+    anchor = {head: links[head] if head not in flex else _unique(links[head] + TIP_SUFFIX, taken) for head in heads}
     chain, head = [], tree.root
     for joint in [None, *moving]:
         if joint is not None:
-            chain += _offset(_frame(tree, head, held, joint.parent) @ joint.origin)
+            if group[joint.parent] != head:
+                chain.append(Branch(anchor[group[joint.parent]]))
+            chain += _offset(_frame(tree, group[joint.parent], held, joint.parent) @ joint.origin)
             kind = "prismatic" if joint.type == "prismatic" else "revolute"
             chain.append(Joint(joints[joint.name], kind, joint.axis, stiffness=joint.stiffness,
                                damping=joint.damping, rest=joint.rest))
             head = joint.child
-        chain += _group(tree, head, held, flex.get(head), extra, joint, links)
+        tip = anchor[head] if head in flex and hanging[head] > 1 else None
+        chain += _group(tree, head, held, flex.get(head), extra, joint, links, tip)
     return chain
+
+
+def _unique(name: str, taken: set) -> str:
+    """``name``, or when it is taken ``name2``, ``name3``, ... (the first one free)."""
+    out, k = name, 1
+    while out in taken:
+        k += 1
+        out = f"{name}{k}"
+    taken.add(out)
+    return out
+
+
+def _groups(tree: UrdfTree, moving: list) -> tuple:
+    """The head links (the root, then each moving joint's child), the head of each link's group
+    (the links that move with it) and the number of moving joints that hang from each group."""
+    held = {j.name for j in moving}
+    heads = [tree.root] + [j.child for j in moving]
+    group = {link: head for head in heads for link, _ in _members(tree, head, held)}
+    return heads, group, {head: sum(group[j.parent] == head for j in moving) for head in heads}
 
 
 def _members(tree: UrdfTree, head: str, held: set) -> list[tuple[str, np.ndarray]]:
@@ -312,16 +341,16 @@ def _frame(tree, head, held, link) -> np.ndarray:
     return dict(_members(tree, head, held))[link]
 
 
-def _group(tree, head, held, flexible, attached, joint, names) -> list:
+def _group(tree, head, held, flexible, attached, joint, names, tip=None) -> list:
     """The elements of the links moving with ``head``: one body of their combined inertials (or
-    the beam of a flexible link, after which the links fixed to it follow its tip), a point at
-    each link's frame (named as ``names`` says), then the points ``attached`` (``(link, Point)``
-    pairs) to any of them."""
+    the beam of a flexible link, after which the links fixed to it follow its tip, and the point
+    ``tip`` when one is named), a point at each link's frame (named as ``names`` says), then the
+    points ``attached`` (``(link, Point)`` pairs) to any of them."""
     members = _members(tree, head, held)
     out = [Point(names[head], (0, 0, 0))]
     weighed = members
     if flexible is not None:
-        out += _beam(flexible)
+        out += _beam(flexible) + ([Point(tip)] if tip is not None else [])
         weighed = members[1:]   # the link's own inertial gives way to the beam
     with_inertial = [(tree.links[link], T) for link, T in weighed if tree.links[link]]
     if joint is not None:   # the base's links never move, so their inertia cannot act: not checked

@@ -1,14 +1,15 @@
 """URDF export: a model's discretized chain as a URDF robot, for URDF viewers and other engines.
 
 The expanded chain (:func:`gpmegen.model.expand.expand`: flexible links already cut into rfes and
-sdes) is walked at the parameter defaults. Each joint starts a new link; the offsets before it
-are its ``<origin>``; the bodies between two joints make that link's ``<inertial>`` (their
-pseudo-inertias added) and a visual box of the same mass and principal moments; an sde's
-rotations are consecutive joints, so the links between them have zero mass. Named points are
-links fixed to theirs. A joint's spring and damper, which URDF cannot hold, are written in the
-extension element ``<gpmegen:spring stiffness="..." damping="..." rest="..."/>`` (namespace
-:data:`NAMESPACE`; N·m/rad and N·m·s/rad, or N/m and N·s/m) inside the ``<joint>``, the
-damper also as URDF's own ``<dynamics damping>``. Gravity and constraints are not exported.
+sdes) is walked at the parameter defaults. Each joint starts a new link, a child of the link it
+hangs from (a branch starts from its parent point's frame, so a tree is written as the URDF tree
+it is); the offsets before it are its ``<origin>``; the bodies between two joints make that
+link's ``<inertial>`` (their pseudo-inertias added) and a visual box of the same mass and
+principal moments; an sde's rotations are consecutive joints, so the links between them have
+zero mass. Named points are links fixed to theirs. A joint's spring and damper, which URDF cannot
+hold, are written in the extension element ``<gpmegen:spring stiffness="..." damping="..."
+rest="..."/>`` (namespace :data:`NAMESPACE`; N·m/rad and N·m·s/rad, or N/m and N·s/m) inside the
+``<joint>``, the damper also as URDF's own ``<dynamics damping>``. Gravity and constraints are not exported.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 import sympy as sp
 
 from ..errors import ModelError
-from .chain import AXES, Body, Branch, Joint, Model, Offset, Point
+from .chain import AXES, GROUND_NAME, Body, Branch, Joint, Model, Offset, Point
 from .expand import expand
 from .urdf_tree import NAMESPACE, SPRING, rpy
 
@@ -31,28 +32,32 @@ def urdf_text(model: Model) -> str:
     """The URDF of ``model`` at its parameter defaults (see the module's docstring)."""
     values = {p.symbol: p.default for p in model.parameters}
     flat = expand(model)
-    if not flat.topology.is_serial or any(isinstance(e, Branch) for e in flat.elements):
-        raise ModelError(f"model {model.name!r} branches (it has Branch elements), and URDF export writes serial "
-                         f"chains only; export each branch as a model of its own", ("chain",))
     robot = ET.Element("robot", {"name": model.name})
     links = [_Link(f"{model.name}_base")]
-    T = np.eye(4)   # the current frame in the current link's frame
+    joints = []   # (parent link, child link, joint, its origin in the parent link's frame)
+    current, T = 0, np.eye(4)   # the current link, and the current frame in its frame
+    frames = {}   # point -> (its link, the frame a branch from it starts from)
     for element in flat.elements:
         if isinstance(element, Offset):
             T = T @ _offset(element, values)
         elif isinstance(element, Body):
-            links[-1].add(T @ _number_matrix(element.pseudo_inertia, values) @ T.T, element.name)
+            links[current].add(T @ _number_matrix(element.pseudo_inertia, values) @ T.T, element.name)
         elif isinstance(element, Point):
-            position = [_value(v, values) for v in element.position]
-            links[-1].points.append((element.name, (T @ [*position, 1.0])[:3]))
+            position = (T @ [*(_value(v, values) for v in element.position), 1.0])[:3]
+            links[current].points.append((element.name, position))
+            start = T.copy()
+            start[:3, 3] = position
+            frames[element.name] = (current, start)
+        elif isinstance(element, Branch):
+            current, T = (0, np.eye(4)) if element.parent == GROUND_NAME else frames[element.parent]
         else:
-            links[-1].joint_out = (element, T)
             links.append(_Link(f"{element.name}_link"))
-            T = np.eye(4)
+            joints.append((current, len(links) - 1, element, T))
+            current, T = len(links) - 1, np.eye(4)
     for link in links:
         link.write(robot)
-    for parent, child in zip(links, links[1:]):
-        _joint(robot, parent.name, child.name, *parent.joint_out, values)
+    for parent, child, joint, origin in joints:
+        _joint(robot, links[parent].name, links[child].name, joint, origin, values)
     ET.indent(robot, space="  ")
     return ET.tostring(robot, encoding="unicode", xml_declaration=True) + "\n"
 
