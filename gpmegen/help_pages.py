@@ -93,7 +93,7 @@ examples:
   gpmegen build examples/planar_two_link.toml --out my_models
   gpmegen build --nrfe 3 --transforms T,T_i,T_ij
   gpmegen build --nrfe 3 --jacobians                (exact dqdd/dq, dqdd/dqd: gpmegen.load(..., jacobians=True))
-  gpmegen build robot.urdf                         (a serial URDF, rigid, as it stands)
+  gpmegen build robot.urdf                         (a URDF, rigid, as it stands)
   gpmegen build examples/panda_flexible.toml --nrfe 2   (a URDF with a link made flexible)
 
 files written:
