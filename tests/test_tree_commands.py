@@ -210,3 +210,29 @@ def test_the_api_accelerations_of_the_tree_agree_with_the_numpy_backend(built, l
         assert np.all(np.isfinite(expected))
         np.testing.assert_allclose(c_model.accelerations(t, q, qd), expected, rtol=1e-9,
                                    atol=1e-9 * np.abs(expected).max())
+
+
+@pytest.mark.requires_cc
+def test_a_grip_written_with_a_root_singular_at_q_0_keeps_its_c_backend(env, tmp_path):
+    """The grip as the root of the tips' distance is singular where the tips meet, at q = 0, one
+    of the states where a freshly compiled library is tried before it is loaded: the library is
+    tried at the other state, loaded, and agrees with the NumPy backend."""
+    text = GRIPPER.read_text()
+    squared = '"(x_tipA - x_tipB)^2 + (y_tipA - y_tipB)^2 - (2*Lf*sin(a0))^2"'
+    assert squared in text
+    path = tmp_path / "gripper_root.toml"
+    path.write_text(text.replace(squared, '"sqrt((x_tipA - x_tipB)^2 + (y_tipA - y_tipB)^2) - 2*Lf*sin(a0)"')
+                    .replace('name = "flexible_gripper_nrfe{nrfe}"', 'name = "gripper_root_nrfe{nrfe}"'))
+    model = read_model_file(path).model
+    numpy_model = gpmegen.load(model=model, backend="numpy", directory=tmp_path)
+    zero = np.zeros(numpy_model.n_dof)
+    with pytest.raises(gpmegen.errors.EvaluationError, match="divides by zero"):   # undefined at q = 0
+        numpy_model.constraint_terms(0.0, zero, zero)
+    c_model = gpmegen.load(model=model, backend="c", directory=tmp_path)
+    p = _params()
+    q = zero.copy()
+    q[[c_model.index("theta1"), c_model.index("a"), c_model.index("b")]] = p["th0"], p["a0"], -p["a0"]
+    qd = np.linspace(-1.0, 1.0, c_model.n_dof)
+    expected = numpy_model.accelerations(0.2, q, qd)
+    np.testing.assert_allclose(c_model.accelerations(0.2, q, qd), expected, rtol=1e-9,
+                               atol=1e-9 * np.abs(expected).max())
