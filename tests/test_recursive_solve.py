@@ -92,11 +92,11 @@ def test_reference_arm_n_rfe_1_to_1e_11(env):
         assert _relative(c_model.accelerations(t, q, qd), c_model.motion(t, q, qd)[0]) <= 1e-11
 
 
-@pytest.mark.parametrize("name", ["curvature_arm", "manipulator", "manipulator_tangential", "nonholonomic",
-                                  "planar_two_link", "spatial_six_joint", "spinup", "spinup_axial"])
+@pytest.mark.parametrize("name", ["curvature_arm", "flexible_gripper", "manipulator", "manipulator_tangential",
+                                  "nonholonomic", "planar_two_link", "spatial_six_joint", "spinup", "spinup_axial"])
 def test_examples_agree_with_the_dense_solves(env, name):
     """Every example model file at n_rfe 2 (second-order and first-order constraints, drives,
-    springs, dampers, tilted and prismatic joints, no constraints at all)."""
+    springs, dampers, tilted and prismatic joints, no constraints at all, a tree)."""
     path = EXAMPLES / f"{name}.toml"
     model = load_model_file(path, nrfe=2)
     c_model = gpmegen.load(model=model, directory=env[0], backend="c")

@@ -5,8 +5,9 @@ A defect in compiled code (a miscompilation, undefined behaviour in the generate
 raise: it kills the process that runs it. So a freshly compiled library is first exercised by
 ``python -m gpmegen.runtime.cprobe LIBRARY MODEL_C MODEL_NUMPY_PY`` in a child process: each
 function its header (``model.h`` beside ``MODEL_C``) declares is called with exactly sized
-buffers at two states (all zeros, and a seeded random one), the GPME with a regular partition
-and three RK4 steps. The parent learns from the
+buffers at two states (all zeros, and a seeded random one; a state where the model's own NumPy
+functions raise, a singular model, is left out), the GPME with a regular partition and three RK4
+steps. The parent learns from the
 child's exit status whether the library is safe to load, and from its last line which function
 it was calling when it died. The same exercise, run on a library compiled with
 ``-fsanitize=address,undefined`` (``make check-c``), is the sanitizer sweep.
@@ -78,8 +79,26 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         values = np.atleast_1d(np.asarray(values, dtype=float)).ravel()
         return ffi.new("double[]", values.tolist()) if values.size else ffi.new("double[]", 1)
 
+    def state_values(t, q, qd):
+        return {"t": t, "q": q, "qd": qd, "a": qd[::-1].copy(), "lam": np.full(n_constraints, 0.5), "p": p}
+
+    def defined(state) -> bool:
+        # A model may be singular where the probe looks (a constraint with the root of a distance
+        # that vanishes at q = 0): there its NumPy module, which sizes the buffers, raises, and
+        # the library is exercised at the other state.
+        values = state_values(*state)
+        try:
+            for c_name, arguments in functions:
+                name = short[c_name]
+                if arguments and not name.endswith(BATCH) and hasattr(module, name):
+                    getattr(module, name)(*(values[a] for *_, a in arguments if not a.startswith("out_")))
+        except ArithmeticError:
+            return False
+        return True
+
+    states = [state for state in states if defined(state)] or states[-1:]
     for t, q, qd in states:
-        values = {"t": t, "q": q, "qd": qd, "a": qd[::-1].copy(), "lam": np.full(n_constraints, 0.5), "p": p}
+        values = state_values(t, q, qd)
         for c_name, arguments in functions:
             name = short[c_name]
             if name.endswith(BATCH):
