@@ -198,17 +198,19 @@ def measure(spec: str) -> dict:
 
 def build_table(specs):
     print(f"load average before: {' '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
-    print(f"{'model':>18} {'n_dof':>5} {'derive':>7} {'emit':>6} {'compile':>8} {'(CPU)':>6} {'load':>5} "
-          f"{'total':>6} {'CPU':>6} {'model.c':>8} {'peak':>5} {'load avg':>8}")
-    print(f"{'':>18} {'':>5} {'[s]':>7} {'[s]':>6} {'[s]':>8} {'[s]':>6} {'[s]':>5} {'[s]':>6} {'[s]':>6} "
-          f"{'[KiB]':>8} {'[MB]':>5} {'':>8}")
+    print(f"{'model':>18} {'n_dof':>5} {'derive':>7} {'emit':>6} {'(CPU)':>6} {'compile':>8} {'(CPU)':>6} "
+          f"{'load':>5} {'total':>6} {'CPU':>6} {'model.c':>8} {'peak':>5} {'load avg':>8}")
+    print(f"{'':>18} {'':>5} {'[s]':>7} {'[s]':>6} {'[s]':>6} {'[s]':>8} {'[s]':>6} {'[s]':>5} {'[s]':>6} "
+          f"{'[s]':>6} {'[KiB]':>8} {'[MB]':>5} {'':>8}")
     for spec in specs:
         r = measure(spec)
-        print(f"{r['name']:>18} {r['n_dof']:>5} {r['derive']:>7.1f} {r['emit']:>6.1f} {r['compile']:>8.1f} "
+        print(f"{r['name']:>18} {r['n_dof']:>5} {r['derive']:>7.1f} {r['emit']:>6.1f} {r['build_cpu']:>6.1f} "
+              f"{r['compile']:>8.1f} "
               f"{r['compile_cpu']:>6.1f} {r['load']:>5.1f} {r['total']:>6.1f} {r['cpu']:>6.1f} "
               f"{r['files']['model.c'] / 1024:>8.0f} {r['peak'] / 1e6:>5.0f} {os.getloadavg()[0]:>8.1f}", flush=True)
-    print("derive, emit, compile, load, total: wall; (CPU): the compilers'; CPU: the building process's and its "
-          "children's, all phases; peak: the building process; load avg: the 1-minute load average after the row.")
+    print("derive, emit, compile, load, total: wall; (CPU) after emit: the building process's up to the compile; "
+          "(CPU) after compile: the compilers'; CPU: the building process's and its children's, all phases;\n"
+          "peak: the building process's memory; load avg: the 1-minute load average after the row.")
 
 
 # ============================================================================================
