@@ -80,7 +80,11 @@ def measure(kind: str, nrfe: int) -> dict:
     run = subprocess.run([sys.executable, "-c", CODE, kind, str(nrfe)], capture_output=True, text=True)
     if run.returncode != 0:
         raise SystemExit(f"{kind} {nrfe}: {run.stderr.strip()[-2000:]}")
-    r = json.loads(run.stdout.strip().splitlines()[-1])
+    return phases(json.loads(run.stdout.strip().splitlines()[-1]))
+
+
+def phases(r: dict) -> dict:
+    """The phases' wall and CPU times (s) added to a child's record from its clock marks."""
     m = r["marks"]
     r["derive"] = m["derived"][0] - m["start"][0]
     r["derive_cpu"] = m["derived"][1] - m["start"][1]
