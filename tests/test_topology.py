@@ -47,6 +47,7 @@ _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:
     sys.path.insert(0, _HERE)
 
+import oracle  # noqa: E402  (tests/oracle.py)
 from precise_solve import extended_accelerations  # noqa: E402
 
 pin = pytest.importorskip("pinocchio")
@@ -59,13 +60,8 @@ def _relative(a, b):
 
 
 def _rotation(axis, angle):
-    c, s = np.cos(angle), np.sin(angle)
-    k = "xyz".index(axis)
-    i, j = (k + 1) % 3, (k + 2) % 3
-    R = np.eye(3)
-    R[i, i] = R[j, j] = c
-    R[i, j], R[j, i] = -s, s
-    return R
+    """The 3x3 elementary rotation of the tests' oracle."""
+    return oracle.rotation(axis, angle)[:3, :3]
 
 
 def _offset_se3(translation, rotations):
