@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5c6e65160779aa22
+Input hash: 6222bc1ec6d3157a
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
