@@ -1,5 +1,5 @@
-/* The GPME (paper eqs. 12-16) by the dense solve: the factorizations it takes, and the
-   constraint rows' right sides that the model's recursion shares with it. */
+/* The GPME (paper eqs. 12-16) by the dense solve (its LDL^T and the constraint rows' right
+   sides are the kernels of gpmegen_solver.h, which the model's recursion shares). */
 
 #include "solver_internal.h"
 
@@ -129,85 +129,6 @@ static int constraint_basis(int N_DOF, int NC, double *D, double *c, int *depend
         }
     }
     return GPMEGEN_OK;
-}
-
-/* LDL^T factorization in place of the symmetric positive definite n x n row-major a, read and
-   written in its upper triangle only (a[j * n + i], i >= j): on return a[j * n + i] = L_ij for
-   i > j (L unit lower triangular) and inv_d[j] = 1 / D_jj. No square roots, and one division per
-   column: the factorization is a chain of n dependent pivots, so what each pivot costs sets
-   its time (a Cholesky pivot waits for a square root and then a division). Right-looking
-   updates run along contiguous rows. Returns GPMEGEN_NONFINITE when a diagonal entry or a
-   pivot is not finite (a non-finite off-diagonal entry reaches a later pivot), GPMEGEN_SINGULAR
-   when a is not numerically positive definite (a pivot at or below n * DBL_EPSILON times the
-   largest diagonal entry), else GPMEGEN_OK. */
-int gpmegen_ldlt(int n, double *a, double *inv_d)
-{
-    double scale = 0.0;
-    for (int i = 0; i < n; ++i) {
-        if (!(fabs(a[i * n + i]) <= DBL_MAX)) {
-            return GPMEGEN_NONFINITE;
-        }
-        if (a[i * n + i] > scale) {
-            scale = a[i * n + i];
-        }
-    }
-    const double tiny = (double)n * DBL_EPSILON * scale;
-    for (int j = 0; j < n; ++j) {
-        double *row = a + j * n;
-        const double d = row[j];
-        if (!(d > tiny)) {
-            return isfinite(d) ? GPMEGEN_SINGULAR : GPMEGEN_NONFINITE;
-        }
-        const double inv = 1.0 / d;
-        inv_d[j] = inv;
-        for (int m = j + 1; m < n; ++m) {
-            const double l = row[m] * inv;  /* L_mj; row[m] is L_mj D_jj */
-            double *target = a + m * n;
-            for (int i = m; i < n; ++i) {
-                target[i] -= l * row[i];
-            }
-        }
-        for (int i = j + 1; i < n; ++i) {
-            row[i] *= inv;
-        }
-    }
-    return GPMEGEN_OK;
-}
-
-/* Solve L D L^T x = b in place (b: n entries) with the factors from gpmegen_ldlt(). Both
-   substitutions go column by column: once an unknown is final it is taken out of all the others
-   at once, so each step waits for one multiply-subtract rather than for a sum run in sequence. */
-void gpmegen_ldlt_solve(int n, const double *a, const double *inv_d, double *b)
-{
-    for (int k = 0; k < n; ++k) {
-        const double y = b[k];
-        const double *row = a + k * n;
-        for (int i = k + 1; i < n; ++i) {
-            b[i] -= row[i] * y;
-        }
-    }
-    for (int i = 0; i < n; ++i) {
-        b[i] *= inv_d[i];
-    }
-    for (int k = n - 1; k > 0; --k) {
-        const double x = b[k];
-        for (int i = 0; i < k; ++i) {
-            b[i] -= a[i * n + k] * x;
-        }
-    }
-}
-
-/* The right sides c (N_CONSTRAINTS) of the constraint rows D qdd = c from their terms phi,
-   phi_rate, gam and Baumgarte gains alpha, beta (see gpmegen_gpme_solve). */
-void gpmegen_constraint_rhs(const struct gpmegen_model *model, const double *phi, const double *phi_rate,
-                            const double *gam, const double *alpha, const double *beta, double *c)
-{
-    const int *orders = model->constraint_orders;
-    for (int a = 0; a < model->n_constraints; ++a) {
-        c[a] = orders[a] == 0 ? -gam[a] - 2.0 * alpha[a] * phi_rate[a] - beta[a] * beta[a] * phi[a]
-             : orders[a] == 1 ? -gam[a] - alpha[a] * phi[a]
-             : -gam[a];
-    }
 }
 
 /* qdd (N_DOF) = M^-1 f: the model has no programmed constraints and *power, that of the

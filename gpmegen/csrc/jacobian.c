@@ -50,8 +50,8 @@ int gpmegen_lu_factor(int n, double *a, int *piv)
 }
 
 /* Solves a x = b for the k columns of b (n x k row-major, overwritten by x), a and piv from
-   gpmegen_lu_factor. */
-void gpmegen_lu_solve(int n, const double *a, const int *piv, int k, double *b)
+   gpmegen_lu_factor: the body of gpmegen_lu_solve. */
+ALWAYS_INLINE static inline void lu_solve_columns(int n, const double *a, const int *piv, int k, double *b)
 {
     for (int i = 0; i < n; ++i) {
         if (piv[i] != i) {
@@ -81,6 +81,18 @@ void gpmegen_lu_solve(int n, const double *a, const int *piv, int k, double *b)
         for (int c = 0; c < k; ++c) {
             b[i * k + c] *= inv;
         }
+    }
+}
+
+/* Solves a x = b for the k columns of b (n x k row-major, overwritten by x), a and piv from
+   gpmegen_lu_factor. One column (the Newton iterations' case) has a body of its own, without the
+   inner loop over columns; the arithmetic is the same. */
+void gpmegen_lu_solve(int n, const double *a, const int *piv, int k, double *b)
+{
+    if (k == 1) {
+        lu_solve_columns(n, a, piv, 1, b);
+    } else {
+        lu_solve_columns(n, a, piv, k, b);
     }
 }
 
