@@ -93,10 +93,10 @@ static int held_rows(const struct gpmegen_model *model, double t, const double *
 }
 
 /* dx (N_DOF) with D dx = -r (D: m x N_DOF row-major, r: m; both overwritten) that moves only m
-   coordinates: the pivots of elimination_step(), as constraint_basis() chooses the dependent
-   coordinates of the GPME solve (the largest entry of the rows left), so the correction stays
+   coordinates: the pivots of gpmegen_elimination_step(), as the GPME's dense solve chooses its
+   dependent coordinates (the largest entry of the rows left), so the correction stays
    well conditioned wherever the model's fixed partition would not. Returns the status of
-   elimination_step(). */
+   gpmegen_elimination_step(). */
 static int pivot_correction(int N_DOF, int N_CONSTRAINTS, int m, double *D, double *r, double *dx)
 {
     int column[N_CONSTRAINTS] ALIGNED;

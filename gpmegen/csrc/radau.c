@@ -50,7 +50,7 @@ struct radau_matrices {
 };
 
 /* LU factorization with partial pivoting of the complex n x n matrix re + i im (row-major), in
-   place as lu_factor's. Returns GPMEGEN_NONFINITE or GPMEGEN_SINGULAR as lu_factor. */
+   place as gpmegen_lu_factor's. Returns GPMEGEN_NONFINITE or GPMEGEN_SINGULAR as it does. */
 static int complex_lu_factor(int n, double *re, double *im, int *piv)
 {
     double largest = 0.0;
@@ -376,7 +376,7 @@ long gpmegen_radau_memory_bytes(const struct gpmegen_model *model)
    0.1 rtol^(2/3), equal at rtol 1e-3, counts the local error, O(h^6), and let the error against
    an exact linear motion grow from 2 to 40 rtol between rtol 1e-4 and 1e-10; this one keeps it
    at 1.6 to 3 rtol); Gustafsson's predictive step control; the
-   Jacobian of gpme_jacobian kept while Newton contracts fast, the LUs while the step is kept.
+   Jacobian of gpmegen_gpme_jacobian kept while Newton contracts fast, the LUs while the step is kept.
    *h, max_steps, memory (gpmegen_radau_memory_bytes()) and counts (5: steps, rejected steps (by the
    error or Newton's failure), GPME solves, Jacobians, LU factorizations, the real and the
    complex one each counting) as for dop853.
@@ -390,6 +390,7 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
 {
     const int N_DOF = model->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
     const size_t n_kept = radau_kept_doubles(N_DOF), nn = (size_t)N_DOF * (size_t)N_DOF;
+    const size_t kept_bytes = n_kept * sizeof(double), pivot_bytes = 2 * (size_t)N_DOF * sizeof(int);
     struct radau_place run;
     double kept[n_kept] ALIGNED;
     int kept_pivots[2 * N_DOF] ALIGNED;
@@ -420,8 +421,8 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
     const double newton_tolerance = fmax(10.0 * DBL_EPSILON / tol, fmin(0.03, sqrt(tol)));
     if (memory != NULL) {
         memcpy(&run, memory, sizeof run);
-        memcpy(kept, (const char *)memory + sizeof run, n_kept * sizeof(double));
-        memcpy(kept_pivots, (const char *)memory + sizeof run + n_kept * sizeof(double), 2 * (size_t)N_DOF * sizeof(int));
+        memcpy(kept, (const char *)memory + sizeof run, kept_bytes);
+        memcpy(kept_pivots, (const char *)memory + sizeof run + kept_bytes, pivot_bytes);
         matrices.s_real = run.s_real, matrices.s_re = run.s_re, matrices.s_im = run.s_im;
     } else {
         run.started = 0;
@@ -446,7 +447,8 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
         if ((status = gpmegen_state_rate(model, t, y, p, f0)) != GPMEGEN_OK) {
             return status;
         }
-        if (chosen && (status = gpmegen_first_step(model, t, y, f0, rtol, atol, t_b - t_a, p, h, &counts[2])) != GPMEGEN_OK) {
+        if (chosen
+            && (status = gpmegen_first_step(model, t, y, f0, rtol, atol, t_b - t_a, p, h, &counts[2])) != GPMEGEN_OK) {
             return status;
         }
     }
@@ -459,8 +461,8 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
             run.s_real = matrices.s_real, run.s_re = matrices.s_re, run.s_im = matrices.s_im;
             run.started = 1;
             memcpy(memory, &run, sizeof run);
-            memcpy((char *)memory + sizeof run, kept, n_kept * sizeof(double));
-            memcpy((char *)memory + sizeof run + n_kept * sizeof(double), kept_pivots, 2 * (size_t)N_DOF * sizeof(int));
+            memcpy((char *)memory + sizeof run, kept, kept_bytes);
+            memcpy((char *)memory + sizeof run + kept_bytes, kept_pivots, pivot_bytes);
             return GPMEGEN_OK;
         }
         ++taken;

@@ -195,7 +195,8 @@ int main(void)
         const double error = fmax(fabs(qdd[0] - expected), fabs(qdd[1] - expected));
         check("gpme_solve_tied", status == GPMEGEN_OK && error < 1e-15 && fabs(power) < 1e-15, "error", error);
         gpmegen_gpme_solve(&FREE, 0.0, q, qd, p, qdd, M, f, &power);
-        check("gpme_solve_free", qdd[0] == -STIFFNESS[0] / MASS[0] && qdd[1] == -STIFFNESS[1] / MASS[1], "qdd0", qdd[0]);
+        check("gpme_solve_free", qdd[0] == -STIFFNESS[0] / MASS[0] && qdd[1] == -STIFFNESS[1] / MASS[1], "qdd0",
+              qdd[0]);
     }
     /* the Jacobians by differences: dqdd/dq = -diag(k / m), dqdd/dqd = 0 */
     {
@@ -217,7 +218,8 @@ int main(void)
         const double coarse = rk4_error(model, 50, 2.0, start), fine = rk4_error(model, 100, 2.0, start);
         snprintf(name, sizeof name, "rk4_order_%s", tied ? "tied" : "free");
         check(name, fine > 0.0 && coarse / fine > 14.0 && coarse / fine < 18.0, "error ratio", coarse / fine);
-        const double ga_coarse = genalpha_error(model, 200, 2.0, start), ga_fine = genalpha_error(model, 400, 2.0, start);
+        const double ga_coarse = genalpha_error(model, 200, 2.0, start);
+        const double ga_fine = genalpha_error(model, 400, 2.0, start);
         snprintf(name, sizeof name, "genalpha_order_%s", tied ? "tied" : "free");
         check(name, ga_fine > 0.0 && ga_coarse / ga_fine > 3.5 && ga_coarse / ga_fine < 4.5, "error ratio",
               ga_coarse / ga_fine);
