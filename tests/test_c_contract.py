@@ -56,10 +56,13 @@ def test_every_function_documents_its_arguments_and_the_documented_shapes_hold(b
 
 
 def test_the_header_declares_the_status_codes_of_gpmegen_status(built):
-    header = (built[1] / "model.h").read_text()
-    enum = re.search(r"enum gpmegen_status \{(.*?)\};", header, re.S).group(1)
-    assert re.findall(r"GPMEGEN_(\w+) = (\d+)", enum) == [(s.name, str(s.value)) for s in SolveStatus]
-    source = (built[1] / "model.c").read_text()
+    """model.h and the solver library's header declare the same codes, those of gpmegen.status, and
+    the C (the model's and the solver library's) returns each of them somewhere."""
+    solver = ccompile.solver_sources()
+    for header in ((built[1] / "model.h").read_text(), solver[ccompile.SOLVER_HEADER]):
+        enum = re.search(r"enum gpmegen_status \{(.*?)\};", header, re.S).group(1)
+        assert re.findall(r"GPMEGEN_(\w+) = (\d+)", enum) == [(s.name, str(s.value)) for s in SolveStatus]
+    source = (built[1] / "model.c").read_text() + "".join(solver.values())
     status_returns = re.findall(r"return (GPMEGEN_\w+)", source)
     assert {f"GPMEGEN_{s.name}" for s in SolveStatus} == set(status_returns)
 
@@ -108,8 +111,10 @@ def test_two_models_link_into_one_program(built, tmp_path):
     program = tmp_path / "two_models"
     cc = ccompile.find_compiler()
     sources = [str(folder / "model.c") for folder in built.values()]
+    solver = str(ccompile.build_solver(cache=tmp_path / "cache").path)  # one copy serves both models
     link = subprocess.run([*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(built[1].parent),
-                           str(main), *sources, "-lm", "-o", str(program)], capture_output=True, text=True)
+                           f"-I{ccompile.solver_include()}", str(main), *sources, solver, "-lm", "-o", str(program)],
+                          capture_output=True, text=True)
     assert link.returncode == 0, link.stderr
     printed = subprocess.run([str(program)], check=True, capture_output=True, text=True).stdout.split("\n")[:2]
     for line, (n, m_last) in zip(printed, expected, strict=True):

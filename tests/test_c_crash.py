@@ -70,10 +70,11 @@ def test_spinning_beam_runs_compiled_for_avx512_and_agrees_with_numpy(env, beam)
 
 
 def test_local_arrays_of_the_generated_c_are_all_declared_aligned(env, beam):
-    """The workaround is a rule for every local array, so that new code cannot forget it."""
+    """The workaround is a rule for every local array, so that new code cannot forget it: in the
+    generated C and in the solver library's (gpmegen/csrc), which every model library links."""
     import re
 
-    source = (Path(beam.folder) / "model.c").read_text()
+    source = (Path(beam.folder) / "model.c").read_text() + "".join(ccompile.solver_sources().values())
     declarations = re.findall(r"^ +(?:double|int|long) +([^;()\n]*\[[^;()\n]*);", source, re.M)
     assert declarations, "no local arrays found: the pattern is out of date"
     for line in declarations:
@@ -81,6 +82,12 @@ def test_local_arrays_of_the_generated_c_are_all_declared_aligned(env, beam):
             name_and_size = declarator.split("=")[0].strip()  # an initializer follows the attribute
             if "[" in name_and_size:
                 assert name_and_size.endswith("ALIGNED"), declarator
+
+
+def _library_meta(cache: Path) -> Path:
+    """The metadata of the one model library in ``cache`` (beside it, the solver library's)."""
+    [meta] = [p for p in cache.glob("*.json") if not p.name.startswith(ccompile.SOLVER_PREFIX)]
+    return meta
 
 
 def _crashing_library(tmp_path, folder) -> Path:
@@ -91,10 +98,11 @@ def _crashing_library(tmp_path, folder) -> Path:
     crash.write_text(f"#include <signal.h>\nvoid {points}(const double *q, const double *p, double *out_P)\n"
                      "{ (void)q; (void)p; (void)out_P; raise(SIGSEGV); }\n")
     model = tmp_path / "model.o"
-    subprocess.run([*compiler, "-O1", "-fPIC", f"-D{points}=points_replaced", "-c", "-o", model, folder / "model.c"],
-                   check=True, capture_output=True)
+    subprocess.run([*compiler, "-O1", "-fPIC", f"-D{points}=points_replaced", f"-I{ccompile.solver_include()}", "-c",
+                    "-o", model, folder / "model.c"], check=True, capture_output=True)
     library = tmp_path / "crashing.so"
-    subprocess.run([*compiler, "-shared", "-fPIC", "-o", library, model, crash, "-lm"], check=True,
+    solver = ccompile.build_solver(cache=tmp_path / "cache").path
+    subprocess.run([*compiler, "-shared", "-fPIC", "-o", library, model, crash, solver, "-lm"], check=True,
                    capture_output=True)
     return library
 
@@ -124,7 +132,7 @@ def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env):
             ccompile.load_library(source, cache=cache, check=failing)
     assert len(calls) == 1
     assert not any(str(path) in ccompile._loaded for path in calls)
-    meta = json.loads(next(cache.glob("*.json")).read_text())
+    meta = json.loads(_library_meta(cache).read_text())
     assert meta["check"].startswith("the test process was killed")
 
 
@@ -142,11 +150,11 @@ def test_a_test_run_that_cannot_start_leaves_no_verdict(tmp_path, env):
 
     with pytest.raises(cprobe.ProbeUnavailable, match="could not start"):
         ccompile.load_library(folder / "model.c", cache=cache, check=broken)
-    assert "check" not in json.loads(next(cache.glob("*.json")).read_text())
+    assert "check" not in json.loads(_library_meta(cache).read_text())
     ffi, lib, _ = ccompile.load_library(  # the next load tests it again, and it passes
         folder / "model.c", cache=cache,
         check=lambda library: cprobe.check_in_child(library, folder / "model.c", folder / "model_numpy.py"))
-    assert json.loads(next(cache.glob("*.json")).read_text())["check"] == "ok"
+    assert json.loads(_library_meta(cache).read_text())["check"] == "ok"
 
 
 def test_the_command_line_falls_back_to_numpy_in_one_line(tmp_path, env):

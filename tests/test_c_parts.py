@@ -22,8 +22,9 @@ def _whole_library(folder: Path, tmp_path: Path) -> Path:
     flags = ccompile.DEFAULT_FLAGS + (ccompile.GCC_FLAGS if ccompile.is_gcc(ccompile.compiler_identity(compiler))
                                       else ())
     library = tmp_path / "whole.so"
-    subprocess.run([*compiler, *flags, *ccompile.LINK_FLAGS, "-o", str(library), str(folder / "model.c"), "-lm"],
-                   check=True, capture_output=True)
+    solver = ccompile.build_solver(cache=tmp_path / "cache").path
+    subprocess.run([*compiler, *flags, *ccompile.LINK_FLAGS, f"-I{ccompile.solver_include()}", "-o", str(library),
+                    str(folder / "model.c"), str(solver), "-lm"], check=True, capture_output=True)
     return library
 
 

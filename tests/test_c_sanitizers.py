@@ -2,8 +2,8 @@
 of models, run under AddressSanitizer and UndefinedBehaviorSanitizer, and again as the product
 compiles it (``-O3 -march=native``, and ``-march=x86-64-v4`` where the processor has AVX-512).
 
-The spread: each example, the reference arm rigid, flexible and at n_rfe = 12 (its reduced
-system above the size whose loops are unrolled), a model without constraints, one with three
+The spread: each example, the reference arm rigid, flexible and at n_rfe = 12 (its largest
+reduced system), a model without constraints, one with three
 flexible links and constraints of both orders, and the spinning beam that once crashed. Each run
 is :mod:`gpmegen.runtime.cprobe` in a child process: a sanitizer report or a signal fails it.
 """

@@ -101,9 +101,11 @@ def _without_hash(files, model):
 
 
 def _c_tokens(files: dict) -> list[str]:
-    """The C file, with the header it includes, after translation phases 1-4 (trigraphs, line
-    splicing, comments, macros), as whitespace-separated tokens: what the compiler sees."""
-    preprocess = [ccompile.find_compiler()[0], "-E", "-std=c99", "-trigraphs", "-P", "-x", "c", "-"]
+    """The C file, with the headers it includes (its own and the solver library's), after
+    translation phases 1-4 (trigraphs, line splicing, comments, macros), as whitespace-separated
+    tokens: what the compiler sees."""
+    preprocess = [ccompile.find_compiler()[0], "-E", "-std=c99", "-trigraphs", "-P", f"-I{ccompile.solver_include()}",
+                  "-x", "c", "-"]
     with tempfile.TemporaryDirectory() as include:
         Path(include, "model.h").write_text(files["model.h"])
         run = subprocess.run(preprocess, input=files["model.c"], cwd=include,

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 52d202d02fd490af
+Input hash: 38e06c9dd8a1086c
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

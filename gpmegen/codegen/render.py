@@ -56,7 +56,8 @@ NOT_GENERATOR = frozenset({"model/toml_file.py"})
 @functools.cache
 def generator_digest() -> bytes:
     """sha256 of the generator itself: the package version, the source of the generator's
-    modules and the templates. Read once per process (they do not change while it runs)."""
+    modules, the templates and the solver library's header (the descriptor model.c fills). Read
+    once per process (they do not change while it runs)."""
     h = hashlib.sha256()
     h.update(__version__.encode())
     package = resources.files("gpmegen")
@@ -70,6 +71,8 @@ def generator_digest() -> bytes:
     for name in sorted(p.name for p in root.iterdir() if p.name.endswith(".j2")):
         h.update(name.encode())
         h.update(root.joinpath(name).read_bytes())
+    h.update(b"csrc/gpmegen_solver.h")
+    h.update(package.joinpath("csrc", "gpmegen_solver.h").read_bytes())
     return h.digest()
 
 

@@ -1,14 +1,17 @@
-{#- The GPME acceleration Jacobians dqdd/dq, dqdd/dqd (included by model.c.j2 in its hot part,
-    after gpme_solve): the implicit integrators of integrators.c.j2 call the static gpme_jacobian.
-    From the generated derivatives of the GPME residuals when the model is built with them
-    (jacobians), else by central differences of gpme_solve. -#}
-/* ---- Dense LU (the Jacobians' linear system here, the Newton matrix of generalized-alpha) ---- */
+/* The GPME acceleration Jacobians dqdd/dq, dqdd/dqd that the implicit integrators take: from the
+   generated derivatives of the GPME residuals when the model is built with them, else by central
+   differences of the model's solve; and the dense LU they and generalized-alpha's Newton matrix
+   are solved with. */
+
+#include "solver_internal.h"
+
+/* ---- Dense LU ------------------------------------------------------------------------------ */
 
 /* LU factorization with partial pivoting of the n x n row-major a, in place (unit lower L below
    the diagonal, U on and above); piv[k] is the row swapped with row k at step k. Returns
    GPMEGEN_NONFINITE when an entry is not finite, GPMEGEN_SINGULAR when a pivot is at or below
    n * DBL_EPSILON times the largest entry, else GPMEGEN_OK. */
-static NOINLINE int lu_factor(int n, double *a, int *piv)
+int gpmegen_lu_factor(int n, double *a, int *piv)
 {
     double largest = 0.0;
     for (int i = 0; i < n * n; ++i) {
@@ -47,8 +50,8 @@ static NOINLINE int lu_factor(int n, double *a, int *piv)
 }
 
 /* Solves a x = b for the k columns of b (n x k row-major, overwritten by x), a and piv from
-   lu_factor. */
-static NOINLINE void lu_solve(int n, const double *a, const int *piv, int k, double *b)
+   gpmegen_lu_factor: the body of gpmegen_lu_solve. */
+ALWAYS_INLINE static inline void lu_solve_columns(int n, const double *a, const int *piv, int k, double *b)
 {
     for (int i = 0; i < n; ++i) {
         if (piv[i] != i) {
@@ -81,41 +84,49 @@ static NOINLINE void lu_solve(int n, const double *a, const int *piv, int k, dou
     }
 }
 
-{% if jacobians %}
+/* Solves a x = b for the k columns of b (n x k row-major, overwritten by x), a and piv from
+   gpmegen_lu_factor. One column (the Newton iterations' case) has a body of its own, without the
+   inner loop over columns; the arithmetic is the same. */
+void gpmegen_lu_solve(int n, const double *a, const int *piv, int k, double *b)
+{
+    if (k == 1) {
+        lu_solve_columns(n, a, piv, 1, b);
+    } else {
+        lu_solve_columns(n, a, piv, k, b);
+    }
+}
+
 /* ---- Acceleration Jacobians ---------------------------------------------------------------- */
-/* GPME solves one gpme_jacobian takes (as an integrator counts them). */
-#define JACOBIAN_SOLVES 1
 
 /* qdd (N_DOF) from the GPME (gpme_recursive) and its Jacobians dqdd_dq, dqdd_dqd (N_DOF x N_DOF
    row-major, [i][j] = d qdd_i / d q_j): differentiating M qdd - f = D^T lam and D qdd = c,
        [M  -D^T] [d qdd]   [dF]      F = f - M a + D^T lam,  C = c - D a  at a = qdd,
        [D    0 ] [d lam] = [dC],     lam fixed (gpme_residual_jacobians),
    with lam = (D D^T)^-1 D (M qdd - f), solved by LU with partial pivoting for the 2 N_DOF
-   columns of dq and dqd together, M, f and D from gpme_terms. dependent is not read. Returns
+   columns of dq and dqd together, M, f and D from gpme_terms. Returns
    the status of gpme_recursive, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE
    when the system above is singular or not finite. */
-static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
-                         double *qdd, double *dqdd_dq, double *dqdd_dqd)
+static int exact_jacobian(const struct gpmegen_model *model, double t, const double *q, const double *qd,
+                          const double *p, double *qdd, double *dqdd_dq, double *dqdd_dqd)
 {
-    enum { NC = N_CONSTRAINTS, NK = N_DOF + N_CONSTRAINTS, NR = 2 * N_DOF };
+    const int N_DOF = model->n_dof, NC = model->n_constraints, NK = N_DOF + NC, NR = 2 * N_DOF;
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
     double K[NK * NK] ALIGNED, rhs[NK * NR] ALIGNED;
     double F_q[N_DOF * N_DOF] ALIGNED, F_qd[N_DOF * N_DOF] ALIGNED;
-    double C_q[NC > 0 ? NC * N_DOF : 1] ALIGNED, C_qd[NC > 0 ? NC * N_DOF : 1] ALIGNED;
-    double lam[NC > 0 ? NC : 1] ALIGNED = {0.0};
+    double C_q[AT_LEAST_1(NC * N_DOF)] ALIGNED, C_qd[AT_LEAST_1(NC * N_DOF)] ALIGNED;
+    double lam[AT_LEAST_1(NC)] ALIGNED;
     int piv[NK] ALIGNED;
     int status;
 
-    (void)dependent;
-    if ((status = gpme_recursive(t, q, qd, p, qdd, &power)) != GPMEGEN_OK) {
+    lam[0] = 0.0;
+    if ((status = model->gpme_recursive(t, q, qd, p, qdd, &power)) != GPMEGEN_OK) {
         return status;
     }
-{% if n_constraints %}
-    {
+    if (NC > 0) {
         double phi[NC] ALIGNED, phi_rate[NC] ALIGNED, gam[NC] ALIGNED;
         double D[NC * N_DOF] ALIGNED, DDt[NC * NC] ALIGNED, r[N_DOF] ALIGNED;
         int piv_c[NC] ALIGNED;
-        {{ prefix }}_gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
+        model->gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
         for (int i = 0; i < N_DOF; ++i) {  /* M qdd - f */
             double s = -f[i];
             for (int j = 0; j < N_DOF; ++j) {
@@ -137,10 +148,10 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
                 DDt[a * NC + b] = v;
             }
         }
-        if ((status = lu_factor(NC, DDt, piv_c)) != GPMEGEN_OK) {
+        if ((status = gpmegen_lu_factor(NC, DDt, piv_c)) != GPMEGEN_OK) {
             return status;
         }
-        lu_solve(NC, DDt, piv_c, 1, lam);
+        gpmegen_lu_solve(NC, DDt, piv_c, 1, lam);
         for (int a = 0; a < NC; ++a) {
             for (int j = 0; j < N_DOF; ++j) {
                 K[j * NK + N_DOF + a] = -D[a * N_DOF + j];
@@ -151,13 +162,11 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
             }
         }
     }
-{% else %}
-    {
+    else {
         double none[1] ALIGNED;
-        {{ prefix }}_gpme_terms(t, q, qd, p, M, f, none, none, none, none);
+        model->gpme_terms(t, q, qd, p, M, f, none, none, none, none);
     }
-{% endif %}
-    {{ prefix }}_gpme_residual_jacobians(t, q, qd, qdd, lam, p, F_q, F_qd, C_q, C_qd);
+    model->gpme_residual_jacobians(t, q, qd, qdd, lam, p, F_q, F_qd, C_q, C_qd);
     for (int i = 0; i < N_DOF; ++i) {
         for (int j = 0; j < N_DOF; ++j) {
             K[i * NK + j] = M[i * N_DOF + j];
@@ -171,10 +180,10 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
             rhs[(N_DOF + a) * NR + N_DOF + j] = C_qd[a * N_DOF + j];
         }
     }
-    if ((status = lu_factor(NK, K, piv)) != GPMEGEN_OK) {
+    if ((status = gpmegen_lu_factor(NK, K, piv)) != GPMEGEN_OK) {
         return status;
     }
-    lu_solve(NK, K, piv, NR, rhs);
+    gpmegen_lu_solve(NK, K, piv, NR, rhs);
     for (int i = 0; i < N_DOF; ++i) {
         for (int j = 0; j < N_DOF; ++j) {
             dqdd_dq[i * N_DOF + j] = rhs[i * NR + j];
@@ -184,27 +193,20 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
     return GPMEGEN_OK;
 }
 
-{% else %}
-/* ---- Acceleration Jacobians ---------------------------------------------------------------- */
-/* GPME solves one gpme_jacobian takes (as an integrator counts them). */
-#define JACOBIAN_SOLVES (4 * N_DOF + 1)
-
-/* qdd (N_DOF) = gpme_recursive's accelerations at (t, q, qd), and their Jacobians dqdd_dq and dqdd_dqd
-   (N_DOF x N_DOF, row-major: entry [i * N_DOF + j] is d qdd_i / d q_j). dependent: not read.
-   Returns the status of gpme_recursive.
-   A model built without its Jacobians (gpmegen build --jacobians): central differences of
-   gpme_recursive with steps cbrt(DBL_EPSILON) max(1, |x_j|) (about 1e-10 relative, 4 N_DOF + 1
-   solves). An implicit integrator refreshes its Jacobian rarely, so these cost little there; the
-   generated ones are exact, and cheaper to build without. */
-static int gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
-                         double *qdd, double *dqdd_dq, double *dqdd_dqd)
+/* qdd (N_DOF) = the model's recursive accelerations at (t, q, qd), and their Jacobians dqdd_dq
+   and dqdd_dqd by central differences of the same solve, with steps cbrt(DBL_EPSILON)
+   max(1, |x_j|) (about 1e-10 relative, 4 N_DOF + 1 solves), for a model built without its
+   Jacobians (gpmegen build --jacobians). An implicit integrator refreshes its Jacobian rarely, so
+   these cost little there; the generated ones are exact, and cheaper to build without. */
+static int differenced_jacobian(const struct gpmegen_model *model, double t, const double *q, const double *qd,
+                                const double *p, double *qdd, double *dqdd_dq, double *dqdd_dqd)
 {
+    const int N_DOF = model->n_dof;
     double x[2 * N_DOF] ALIGNED, up[N_DOF] ALIGNED, down[N_DOF] ALIGNED;
     double power;
     const double relative = cbrt(DBL_EPSILON);
     int status;
-    (void)dependent;  /* the solve reads no partition */
-    if ((status = gpme_recursive(t, q, qd, p, qdd, &power)) != GPMEGEN_OK) {
+    if ((status = model->gpme_recursive(t, q, qd, p, qdd, &power)) != GPMEGEN_OK) {
         return status;
     }
     for (int i = 0; i < N_DOF; ++i) {
@@ -214,11 +216,11 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
     for (int j = 0; j < 2 * N_DOF; ++j) {
         const double h = relative * fmax(1.0, fabs(x[j])), saved = x[j];
         x[j] = saved + h;
-        if ((status = gpme_recursive(t, x, x + N_DOF, p, up, &power)) != GPMEGEN_OK) {
+        if ((status = model->gpme_recursive(t, x, x + N_DOF, p, up, &power)) != GPMEGEN_OK) {
             return status;
         }
         x[j] = saved - h;
-        if ((status = gpme_recursive(t, x, x + N_DOF, p, down, &power)) != GPMEGEN_OK) {
+        if ((status = model->gpme_recursive(t, x, x + N_DOF, p, down, &power)) != GPMEGEN_OK) {
             return status;
         }
         x[j] = saved;
@@ -229,11 +231,20 @@ static int gpme_jacobian(double t, const double *q, const double *qd, const doub
     }
     return GPMEGEN_OK;
 }
-{% endif %}
 
-/* See gpme_jacobian and model.h. */
-int {{ prefix }}_gpme_jacobian(double t, const double *q, const double *qd, const double *p, const int *dependent,
-    double *qdd, double *dqdd_dq, double *dqdd_dqd)
+/* GPME solves one gpmegen_gpme_jacobian takes (as an integrator counts them). */
+long gpmegen_jacobian_solves(const struct gpmegen_model *model)
 {
-    return gpme_jacobian(t, q, qd, p, dependent, qdd, dqdd_dq, dqdd_dqd);
+    return model->gpme_residual_jacobians != NULL ? 1 : 4 * (long)model->n_dof + 1;
+}
+
+/* qdd (N_DOF) and its Jacobians dqdd_dq, dqdd_dqd (N_DOF x N_DOF row-major, [i * N_DOF + j] =
+   d qdd_i / d q_j): exact when the model has its generated residual Jacobians, else by central
+   differences. Returns the status of the model's solve, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE
+   when the exact Jacobians' system is singular or not finite. */
+int gpmegen_gpme_jacobian(const struct gpmegen_model *model, double t, const double *q, const double *qd,
+                          const double *p, double *qdd, double *dqdd_dq, double *dqdd_dqd)
+{
+    return model->gpme_residual_jacobians != NULL ? exact_jacobian(model, t, q, qd, p, qdd, dqdd_dq, dqdd_dqd)
+                                                  : differenced_jacobian(model, t, q, qd, p, qdd, dqdd_dq, dqdd_dqd);
 }

@@ -1,6 +1,7 @@
-{#- Radau IIA of order 5 (Hairer's RADAU5 scheme), included by model.c.j2 after integrators.c.j2:
-    it calls state_rate, error_scale and dop853_first_step from there, gpme_jacobian, lu_factor
-    and lu_solve from jacobian.c.j2. -#}
+/* Radau IIA of order 5 (Hairer's RADAU5 scheme): it takes the rates and the first step of rk4.c
+   and dop853.c, the Jacobians and the LU of jacobian.c. */
+
+#include "solver_internal.h"
 
 /* ---- Radau IIA, order 5: Hairer and Wanner, Solving ODEs II, sec. IV.8 (RADAU5) ------------- */
 
@@ -42,15 +43,15 @@ static const double RADAU_GROWTH = 8.0, RADAU_SHRINK = 0.2;
    that matrix at s = GAMMA / h, LU-factored; re, im: at s = (ALPHA + i BETA) / h, the real and
    imaginary parts of its complex LU; A_qd kept for the right-hand sides. */
 struct radau_matrices {
-    double A_qd[N_DOF * N_DOF] ALIGNED;
-    double real[N_DOF * N_DOF] ALIGNED, re[N_DOF * N_DOF] ALIGNED, im[N_DOF * N_DOF] ALIGNED;
-    int real_pivot[N_DOF] ALIGNED, complex_pivot[N_DOF] ALIGNED;
+    int n_dof;
+    double *A_qd, *real, *re, *im;  /* N_DOF x N_DOF each */
+    int *real_pivot, *complex_pivot;  /* N_DOF each */
     double s_real, s_re, s_im;
 };
 
 /* LU factorization with partial pivoting of the complex n x n matrix re + i im (row-major), in
-   place as lu_factor's. Returns GPMEGEN_NONFINITE or GPMEGEN_SINGULAR as lu_factor. */
-static NOINLINE int complex_lu_factor(int n, double *re, double *im, int *piv)
+   place as gpmegen_lu_factor's. Returns GPMEGEN_NONFINITE or GPMEGEN_SINGULAR as it does. */
+static int complex_lu_factor(int n, double *re, double *im, int *piv)
 {
     double largest = 0.0;
     for (int i = 0; i < n * n; ++i) {
@@ -96,7 +97,7 @@ static NOINLINE int complex_lu_factor(int n, double *re, double *im, int *piv)
 }
 
 /* Solves (re + i im) x = b_re + i b_im (n,), overwritten by x, with complex_lu_factor's LU. */
-static NOINLINE void complex_lu_solve(int n, const double *re, const double *im, const int *piv, double *b_re,
+static void complex_lu_solve(int n, const double *re, const double *im, const int *piv, double *b_re,
                                       double *b_im)
 {
     for (int i = 0; i < n; ++i) {
@@ -131,6 +132,7 @@ static NOINLINE void complex_lu_solve(int n, const double *re, const double *im,
    Returns GPMEGEN_OK, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE of a factorization. */
 static int radau_factor(double h, const double *A_q, struct radau_matrices *m)
 {
+    const int N_DOF = m->n_dof;
     const double g = RADAU_GAMMA / h, a = RADAU_ALPHA / h, b = RADAU_BETA / h;
     int status;
     m->s_real = g;
@@ -146,7 +148,7 @@ static int radau_factor(double h, const double *A_q, struct radau_matrices *m)
         m->re[i * N_DOF + i] += a * a - b * b;
         m->im[i * N_DOF + i] += 2.0 * a * b;
     }
-    if ((status = lu_factor(N_DOF, m->real, m->real_pivot)) != GPMEGEN_OK) {
+    if ((status = gpmegen_lu_factor(N_DOF, m->real, m->real_pivot)) != GPMEGEN_OK) {
         return status;
     }
     return complex_lu_factor(N_DOF, m->re, m->im, m->complex_pivot);
@@ -155,6 +157,7 @@ static int radau_factor(double h, const double *A_q, struct radau_matrices *m)
 /* A_qd times the q part of r (N_DOF). */
 static void times_A_qd(const struct radau_matrices *m, const double *r, double *out)
 {
+    const int N_DOF = m->n_dof;
     for (int i = 0; i < N_DOF; ++i) {
         double s = 0.0;
         for (int j = 0; j < N_DOF; ++j) {
@@ -167,13 +170,14 @@ static void times_A_qd(const struct radau_matrices *m, const double *r, double *
 /* Solves (s_real I - J) x = r (N_Y, overwritten by x) by the reduction of struct radau_matrices. */
 static void radau_solve_real(const struct radau_matrices *m, double *r)
 {
+    const int N_DOF = m->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
     const double s = m->s_real;
     double x[N_DOF] ALIGNED;
     times_A_qd(m, r, x);
     for (int i = 0; i < N_DOF; ++i) {
         x[i] = r[N_DOF + i] + s * r[i] - x[i];
     }
-    lu_solve(N_DOF, m->real, m->real_pivot, 1, x);
+    gpmegen_lu_solve(N_DOF, m->real, m->real_pivot, 1, x);
     for (int i = 0; i < N_DOF; ++i) {
         r[N_DOF + i] = s * x[i] - r[i];
         r[i] = x[i];
@@ -186,6 +190,7 @@ static void radau_solve_real(const struct radau_matrices *m, double *r)
 /* Solves ((s_re + i s_im) I - J) (x + i y) = r + i u (N_Y each, overwritten by x and y). */
 static void radau_solve_complex(const struct radau_matrices *m, double *r, double *u)
 {
+    const int N_DOF = m->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
     const double a = m->s_re, b = m->s_im;
     double x[N_DOF] ALIGNED, y[N_DOF] ALIGNED;
     times_A_qd(m, r, x);
@@ -224,7 +229,7 @@ static const double RADAU_W[4][4] = {
 };
 
 /* The stages' rates F (3 x N_Y) times h from the transformed increments w: T Lambda w. */
-static void radau_stage_rates(const double w[][N_Y], double F[][N_Y])
+static void radau_stage_rates(int N_Y, const double w[][N_Y], double F[][N_Y])
 {
     for (int i = 0; i < N_Y; ++i) {
         const double v0 = RADAU_GAMMA * w[0][i], v1 = RADAU_ALPHA * w[1][i] - RADAU_BETA * w[2][i];
@@ -237,7 +242,7 @@ static void radau_stage_rates(const double w[][N_Y], double F[][N_Y])
 
 /* y at t + x h by the dense output above from y0, h f0 = h f(t, y0) and hF (3 x N_Y, of
    radau_stage_rates) into out (N_Y). */
-static void radau_dense_value(double x, double h, const double *y0, const double *f0, const double hF[][N_Y],
+static void radau_dense_value(int N_Y, double x, double h, const double *y0, const double *f0, const double hF[][N_Y],
                               double *out)
 {
     double weight[4] ALIGNED;
@@ -259,12 +264,13 @@ enum radau_newton { RADAU_CONVERGED, RADAU_DIVERGED, RADAU_SLOW };
    one iteration sufficed), *faccon: Hairer's theta / (1 - theta), carried from step to step;
    *iterations: the iterations done. On RADAU_SLOW, *shrink: the step's factor Hairer's estimate
    predicts convergence at. *status: the status of a failed rate (else left as it was). */
-static enum radau_newton radau_newton(double t, double h, const double *y, double z[][N_Y], double w[][N_Y],
-                                      const struct radau_matrices *m, const double *scale, double tolerance,
-                                      const double *p, const int *dependent, const int *independent,
-                                      double rates[][N_Y], double *theta, double *faccon, int *iterations,
-                                      double *shrink, long *counts, int *status)
+static enum radau_newton radau_newton(const struct gpmegen_model *model, int N_Y, double t, double h, const double *y,
+                                      double z[][N_Y], double w[][N_Y], const struct radau_matrices *m,
+                                      const double *scale, double tolerance, const double *p, double rates[][N_Y],
+                                      double *theta, double *faccon, int *iterations, double *shrink, long *counts,
+                                      int *status)
 {
+    const int N_MOTION = N_Y - 2;
     const double nodes[3] ALIGNED = { RADAU_C1, RADAU_C2, 1.0 };
     double ys[N_Y] ALIGNED, dw[3][N_Y] ALIGNED, previous = 0.0, previous_rate = 0.0;
     *faccon = pow(fmax(*faccon, DBL_EPSILON), 0.8);
@@ -278,7 +284,7 @@ static enum radau_newton radau_newton(double t, double h, const double *y, doubl
                 ys[i] = y[i] + z[k][i];
             }
             ++counts[2];
-            if ((*status = state_rate(t + nodes[k] * h, ys, p, dependent, independent, rates[k])) != GPMEGEN_OK) {
+            if ((*status = gpmegen_state_rate(model, t + nodes[k] * h, ys, p, rates[k])) != GPMEGEN_OK) {
                 return RADAU_DIVERGED;
             }
         }
@@ -335,21 +341,27 @@ static enum radau_newton radau_newton(double t, double h, const double *y, doubl
 }
 
 /* What a call of radau that stopped before its last saved instant (max_steps spent) leaves for
-   the next to go on from, bit for bit as if it had not stopped (see dop853_memory): the
+   the next to go on from, bit for bit as if it had not stopped (see gpmegen_dop853): the
    Jacobian and the LUs kept, the last step's collocation polynomial (cont), the state and its
-   rate, and the step control's memory. started: 0 (all zero bytes) before a span's first call. */
-struct radau_memory {
-    struct radau_matrices m;
-    double A_q[N_DOF * N_DOF] ALIGNED, y[N_Y] ALIGNED, f0[N_Y] ALIGNED, cont[3][N_Y] ALIGNED;
-    double t, h_factored, h_cont, h_accepted, err_accepted, theta, faccon;
+   rate, and the step control's memory. started: 0 (all zero bytes) before a span's first call.
+   The memory holds a struct radau_place, then the doubles of radau_kept_doubles() (A_qd, real, re,
+   im and A_q, N_DOF x N_DOF each; y, f0, N_Y each; cont, 3 x N_Y), then the pivots (2 x N_DOF). */
+struct radau_place {
+    double t, h_factored, h_cont, h_accepted, err_accepted, theta, faccon, s_real, s_re, s_im;
     long k;
     int have_jacobian, fresh_jacobian, have_cont, rejected, accepted, failure, chosen, started;
 };
 
-/* The bytes of a struct radau_memory, which the caller holds between calls. */
-long {{ prefix }}_radau_memory_bytes(void)
+static size_t radau_kept_doubles(int n_dof)
 {
-    return (long)sizeof(struct radau_memory);
+    return 5 * (size_t)n_dof * (size_t)n_dof + 5 * (size_t)(2 * n_dof + 2);
+}
+
+/* The bytes of the memory, which the caller holds between calls. */
+long gpmegen_radau_memory_bytes(const struct gpmegen_model *model)
+{
+    return (long)(sizeof(struct radau_place) + radau_kept_doubles(model->n_dof) * sizeof(double)
+                  + 2 * (size_t)model->n_dof * sizeof(int));
 }
 
 /* Radau IIA of order 5 from t_a and y_a = [q, qd, w] (N_Y) to t_save[n_save - 1], saving y at the
@@ -364,23 +376,31 @@ long {{ prefix }}_radau_memory_bytes(void)
    0.1 rtol^(2/3), equal at rtol 1e-3, counts the local error, O(h^6), and let the error against
    an exact linear motion grow from 2 to 40 rtol between rtol 1e-4 and 1e-10; this one keeps it
    at 1.6 to 3 rtol); Gustafsson's predictive step control; the
-   Jacobian of gpme_jacobian kept while Newton contracts fast, the LUs while the step is kept.
-   *h, max_steps, memory (a struct radau_memory) and counts (5: steps, rejected steps (by the
+   Jacobian of gpmegen_gpme_jacobian kept while Newton contracts fast, the LUs while the step is kept.
+   *h, max_steps, memory (gpmegen_radau_memory_bytes()) and counts (5: steps, rejected steps (by the
    error or Newton's failure), GPME solves, Jacobians, LU factorizations, the real and the
    complex one each counting) as for dop853.
    Returns GPMEGEN_OK; GPMEGEN_NO_CONVERGENCE when Newton fails on steps down to round-off of t,
    the status of a failed rate or factorization when those did, GPMEGEN_STEP_TOO_SMALL when the
    error test did; GPMEGEN_NONFINITE at a non-finite state or error; GPMEGEN_BAD_ARGUMENTS.
    *n_saved counts the saved rows, also on a failure. */
-int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol,
-    double *h, long max_steps, void *memory, const double *p, const int *dependent, const int *independent,
-    double *y_out, long *n_saved, long *counts)
+int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y_a, long n_save, const double *t_save,
+                  double rtol, double atol, double *h, long max_steps, void *memory, const double *p, double *y_out,
+                  long *n_saved, long *counts)
 {
-    struct radau_memory run;
+    const int N_DOF = model->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
+    const size_t n_kept = radau_kept_doubles(N_DOF), nn = (size_t)N_DOF * (size_t)N_DOF;
+    const size_t kept_bytes = n_kept * sizeof(double), pivot_bytes = 2 * (size_t)N_DOF * sizeof(int);
+    struct radau_place run;
+    double kept[n_kept] ALIGNED;
+    int kept_pivots[2 * N_DOF] ALIGNED;
+    struct radau_matrices matrices = { N_DOF, kept, kept + nn, kept + 2 * nn, kept + 3 * nn, kept_pivots,
+                                       kept_pivots + N_DOF, 0.0, 0.0, 0.0 };
     double qdd[N_DOF] ALIGNED, y_new[N_Y] ALIGNED, scale[N_MOTION] ALIGNED;
     double z[3][N_Y] ALIGNED, w[3][N_Y] ALIGNED, rates[3][N_Y] ALIGNED;
     double err[N_Y] ALIGNED, ys[N_Y] ALIGNED;
-    double *const A_q = run.A_q, *const y = run.y, *const f0 = run.f0, (*const cont)[N_Y] = run.cont;
+    double *const A_q = kept + 4 * nn, *const y = A_q + nn, *const f0 = y + N_Y;
+    double (*const cont)[N_Y] = (double (*)[N_Y])(f0 + N_Y);
     double t = t_a, h_factored = 0.0, h_cont = 0.0, h_accepted = 0.0, err_accepted = 0.0;
     double theta = 0.0, faccon = 1.0;
     int status, have_jacobian = 0, fresh_jacobian = 0, have_cont = 0, rejected = 0, accepted = 0;
@@ -401,6 +421,9 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
     const double newton_tolerance = fmax(10.0 * DBL_EPSILON / tol, fmin(0.03, sqrt(tol)));
     if (memory != NULL) {
         memcpy(&run, memory, sizeof run);
+        memcpy(kept, (const char *)memory + sizeof run, kept_bytes);
+        memcpy(kept_pivots, (const char *)memory + sizeof run + kept_bytes, pivot_bytes);
+        matrices.s_real = run.s_real, matrices.s_re = run.s_re, matrices.s_im = run.s_im;
     } else {
         run.started = 0;
     }
@@ -421,11 +444,11 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
             return GPMEGEN_NONFINITE;
         }
         ++counts[2];
-        if ((status = state_rate(t, y, p, dependent, independent, f0)) != GPMEGEN_OK) {
+        if ((status = gpmegen_state_rate(model, t, y, p, f0)) != GPMEGEN_OK) {
             return status;
         }
-        if (chosen && (status = dop853_first_step(t, y, f0, rtol, atol, t_b - t_a, p, dependent, independent, h,
-                                                  &counts[2])) != GPMEGEN_OK) {
+        if (chosen
+            && (status = gpmegen_first_step(model, t, y, f0, rtol, atol, t_b - t_a, p, h, &counts[2])) != GPMEGEN_OK) {
             return status;
         }
     }
@@ -435,8 +458,11 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
             run.err_accepted = err_accepted, run.theta = theta, run.faccon = faccon;
             run.have_jacobian = have_jacobian, run.fresh_jacobian = fresh_jacobian, run.have_cont = have_cont;
             run.rejected = rejected, run.accepted = accepted, run.failure = failure, run.chosen = chosen, run.k = k;
+            run.s_real = matrices.s_real, run.s_re = matrices.s_re, run.s_im = matrices.s_im;
             run.started = 1;
             memcpy(memory, &run, sizeof run);
+            memcpy((char *)memory + sizeof run, kept, kept_bytes);
+            memcpy((char *)memory + sizeof run + kept_bytes, kept_pivots, pivot_bytes);
             return GPMEGEN_OK;
         }
         ++taken;
@@ -447,9 +473,9 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
             return failure;
         }
         if (!have_jacobian) {
-            counts[2] += JACOBIAN_SOLVES;
+            counts[2] += gpmegen_jacobian_solves(model);
             ++counts[3];
-            if ((status = gpme_jacobian(t, y, y + N_DOF, p, dependent, qdd, A_q, run.m.A_qd)) != GPMEGEN_OK) {
+            if ((status = gpmegen_gpme_jacobian(model, t, y, y + N_DOF, p, qdd, A_q, matrices.A_qd)) != GPMEGEN_OK) {
                 return status;
             }
             have_jacobian = fresh_jacobian = 1;
@@ -460,7 +486,7 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
         enum radau_newton newton = RADAU_DIVERGED;
         if (step != h_factored) {
             counts[4] += 2;
-            h_factored = (status = radau_factor(step, A_q, &run.m)) == GPMEGEN_OK ? step : 0.0;
+            h_factored = (status = radau_factor(step, A_q, &matrices)) == GPMEGEN_OK ? step : 0.0;
         }
         if (h_factored == step) {
             for (int i = 0; i < N_MOTION; ++i) {
@@ -479,7 +505,7 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
                     w[s][i] = RADAU_TI[s][0] * z[0][i] + RADAU_TI[s][1] * z[1][i] + RADAU_TI[s][2] * z[2][i];
                 }
             }
-            newton = radau_newton(t, step, y, z, w, &run.m, scale, newton_tolerance, p, dependent, independent, rates,
+            newton = radau_newton(model, N_Y, t, step, y, z, w, &matrices, scale, newton_tolerance, p, rates,
                                   &theta, &faccon, &iterations, &shrink, counts, &status);
             failure = newton == RADAU_CONVERGED ? failure : status != GPMEGEN_OK ? status : GPMEGEN_NO_CONVERGENCE;
         } else {
@@ -500,7 +526,7 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
                 const double e = (RADAU_E[0] * z[0][i] + RADAU_E[1] * z[1][i] + RADAU_E[2] * z[2][i]) / step;
                 err[i] = (pass ? ys[i] : f0[i]) + e;
             }
-            radau_solve_real(&run.m, err);
+            radau_solve_real(&matrices, err);
             error = 0.0;
             for (int i = 0; i < N_MOTION; ++i) {
                 error += (err[i] / scale[i]) * (err[i] / scale[i]);
@@ -513,7 +539,7 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
                 y_new[i] = y[i] + err[i];
             }
             ++counts[2];
-            if ((status = state_rate(t, y_new, p, dependent, independent, ys)) != GPMEGEN_OK) {
+            if ((status = gpmegen_state_rate(model, t, y_new, p, ys)) != GPMEGEN_OK) {
                 return status;
             }
         }
@@ -581,14 +607,14 @@ int {{ prefix }}_radau(double t_a, const double *y_a, long n_save, const double 
                 continue;
             }
             if (!dense) {
-                radau_stage_rates((const double (*)[N_Y])w, rates);
+                radau_stage_rates(N_Y, (const double (*)[N_Y])w, rates);
                 dense = 1;
             }
-            radau_dense_value((t_save[k] - t) / step, step, y, f0, (const double (*)[N_Y])rates, y_out + k * N_Y);
+            radau_dense_value(N_Y, (t_save[k] - t) / step, step, y, f0, (const double (*)[N_Y])rates, y_out + k * N_Y);
         }
         *n_saved = k;
         ++counts[2];
-        if ((status = state_rate(t_new, y_new, p, dependent, independent, f0)) != GPMEGEN_OK) {
+        if ((status = gpmegen_state_rate(model, t_new, y_new, p, f0)) != GPMEGEN_OK) {
             return status;
         }
         t = t_new;

@@ -1,0 +1,87 @@
+"""The solver library (gpmegen/csrc) on its own: tests/c/solver_check.c drives its dense solve,
+factorizations, Jacobians and integrators through hand-written model descriptors with known
+answers (orders of convergence, accuracy against exact motions, runs in chunks ending on the same
+bits), linked with the library's object from the C cache as a model library links it; and the
+object itself: built once per key and reused, rebuilt when its bytes are damaged, its key part of
+each model library's."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from gpmegen.runtime import ccompile
+
+pytestmark = pytest.mark.requires_cc
+CHECK = Path(__file__).parent / "c" / "solver_check.c"
+
+
+def _run_checks(tmp_path: Path, flags) -> subprocess.CompletedProcess:
+    solver = ccompile.build_solver(flags, cache=tmp_path / "cache")
+    program = tmp_path / "solver_check"
+    cc = ccompile.find_compiler()
+    subprocess.run([*cc, *flags, f"-I{ccompile.solver_include()}", "-o", str(program), str(CHECK),
+                    str(solver.path), "-lm"], check=True, capture_output=True, text=True)
+    return subprocess.run([str(program)], capture_output=True, text=True, timeout=300)
+
+
+def test_the_solver_library_passes_its_c_checks(tmp_path):
+    run = _run_checks(tmp_path, ccompile.DEFAULT_FLAGS)
+    lines = run.stdout.splitlines()
+    assert run.returncode == 0 and not [line for line in lines if not line.startswith("ok ")], run.stdout
+    assert len(lines) == 19, run.stdout  # every check ran
+
+
+def test_the_solver_sources_compile_without_warnings(tmp_path):
+    cc = ccompile.find_compiler()
+    for name in ccompile.solver_sources():
+        if name.endswith(".c"):
+            run = subprocess.run([*cc, "-O2", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-fPIC", "-c",
+                                  str(ccompile.solver_include() / name), "-o", str(tmp_path / "unit.o")],
+                                 capture_output=True, text=True)
+            assert run.returncode == 0 and run.stderr == "", (name, run.stderr)
+
+
+def test_the_solver_object_is_built_once_and_rebuilt_when_damaged(tmp_path):
+    cache = tmp_path / "cache"
+    first = ccompile.build_solver(cache=cache)
+    assert first.compiled and first.path.name == f"{ccompile.SOLVER_PREFIX}{first.key}.o"
+    again = ccompile.build_solver(cache=cache)
+    assert not again.compiled and again.path == first.path
+    first.path.write_bytes(first.path.read_bytes()[:100])
+    rebuilt = ccompile.build_solver(cache=cache)
+    assert rebuilt.compiled and "does not match its recorded sha256" in rebuilt.rebuilt_reason
+    other = ccompile.build_solver(ccompile.DEFAULT_FLAGS + ("-DALIGNED=",), cache=cache)
+    assert other.compiled and other.key != first.key
+
+
+def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path):
+    """The model library's key names the solver's: a changed solver builds the model again."""
+    source = tmp_path / "model.c"
+    folder = Path(__file__).resolve().parents[1] / "generated" / "manipulator_nrfe1"
+    for name in ("model.c", ccompile.HEADER):
+        (tmp_path / name).write_text((folder / name).read_text())
+    info = ccompile.build_library(source, cache=tmp_path / "cache")
+    assert info.solver is not None and info.solver.path.exists()
+    assert ccompile.build_solver(cache=tmp_path / "cache").key == info.solver.key
+    # the model library exports the model's names only: the solver's are hidden inside it
+    symbols = subprocess.run(["nm", "-D", "--defined-only", str(info.path)], capture_output=True, text=True)
+    if symbols.returncode == 0:
+        assert "gpmegen_rk4" not in symbols.stdout and "manipulator_nrfe1_rk4" in symbols.stdout
+
+
+@pytest.mark.sanitizers
+def test_the_solver_library_passes_its_c_checks_under_the_sanitizers(tmp_path):
+    """The same checks with the library and the program under AddressSanitizer and
+    UndefinedBehaviorSanitizer (the flags of tests/test_c_sanitizers.py): no access outside an
+    array (the variable-length ones sized from the descriptor), no undefined behaviour."""
+    flags = ("-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer",
+             "-std=c99", "-ffp-contract=off", "-fno-math-errno")
+    probe = subprocess.run([*ccompile.find_compiler(), "-print-file-name=libasan.so"], capture_output=True, text=True)
+    if not Path(probe.stdout.strip()).is_absolute():
+        pytest.skip("the compiler has no libasan.so (sanitizers not installed)")
+    run = _run_checks(tmp_path, flags)
+    assert run.returncode == 0 and run.stderr == "", run.stdout + run.stderr
+    assert len(run.stdout.splitlines()) == 19 and "FAIL" not in run.stdout, run.stdout
