@@ -181,7 +181,8 @@ def annotate(results: dict, model, loaded) -> dict:
     """``results`` of a run of the symbolic ``model`` (loaded as ``loaded``) with the units of its
     driving functions in the metadata (``force_units``, ``lambda_units``), the elastic
     :func:`deformation` and, for the ideal realization, ``point_forces`` (k, n_points, 3) N on
-    the points named by ``meta["force_points"]``. ``model`` None (generated code alone): the
+    the points named by ``meta["force_points"]`` and the reactions of the closures
+    (:mod:`gpmegen.analysis.closures`, described by ``meta["closures"]``). ``model`` None (generated code alone): the
     deformation only."""
     meta = results_io.metadata(results)
     from .extrapolate import elastic_coordinates
@@ -198,6 +199,11 @@ def annotate(results: dict, model, loaded) -> dict:
         units["force_points"] = list(forces)
         if forces:
             arrays["point_forces"] = np.stack(list(forces.values()), axis=1)
+        if model.closures:
+            from . import closures
+
+            units["closures"] = closures.describe(model)
+            arrays.update(closures.result_arrays(model, results["q"], results["lambda"], loaded.p))
     return results_io.annotate(results, units, arrays)
 
 

@@ -726,9 +726,9 @@ class Reader:
             for label, row in zip(closure.rows, closure.constraints()):
                 if kinds[row.name] == "constant":
                     self.fail(("closures", k, "points"), f"closure {closure.name!r}: its row {label!r} "
-                                                         f"({closure.describe(label)} = 0) is a constant other than zero, so "
-                                                         f"the points can never meet; place them where the loop can "
-                                                         f"close")
+                                                         f"({closure.describe(label)} = 0) is a constant other than "
+                                                         f"zero, so the points can never meet; place them where the "
+                                                         f"loop can close")
                 if kinds[row.name] == "zero":
                     dropped.add(row.name)
                     warnings.warn(f"closure {closure.name!r}: row {label!r} ({closure.describe(label)}) vanishes "
