@@ -14,7 +14,8 @@ import pytest
 import gpmegen
 from gpmegen.analysis import closures as closure_reactions
 from gpmegen.analysis import study
-from gpmegen.errors import SimulationError
+from gpmegen.cli import main
+from gpmegen.errors import ModelError, ModelWarning, SimulationError
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
 from gpmegen.model.toml_file import read_model_file
@@ -318,3 +319,98 @@ def test_spatial_loop_matches_kkt_on_pinocchio(env, rng, kind, axis):
             np.testing.assert_allclose(reaction["moment"][0], moment, rtol=0, atol=1e-10 * size)
             assert np.abs(moment).max() > 1e-3 * size   # a moment is carried
         checked += 1
+
+
+# ---- rows that vanish, redundant rows, refusals, assembly -------------------------------------
+
+@pytest.mark.parametrize("kind, kept, dropped", [
+    ('type = "revolute"\naxis = "z"', ("x", "y"), ("z", "zx", "zy")),
+    ('type = "point"', ("x", "y"), ("z",)),
+    ('type = "prismatic"\naxis = "x"', ("y1", "xy"), ("z1", "xz", "yz")),
+])
+def test_rows_that_vanish_identically_are_dropped_by_name(tmp_path, kind, kept, dropped):
+    """With every joint axis along z and every offset in the plane, the closure's out-of-plane
+    coincidence row and the orientation rows about axes in the plane vanish identically: exactly
+    those are dropped, each with one warning line naming the closure and the row, and the
+    constraints hold the others. A prismatic closure along the coupler's x keeps its in-plane
+    slide row and the row that holds the relative turn about z (x₁·y₂)."""
+    path = tmp_path / "four_bar.toml"
+    text = four_bar_text(**{'["C1", "C2"]\ntype = "revolute"\naxis = "z"': f'["C1", "C2"]\n{kind}'})
+    path.write_text(text)
+    with pytest.warns(ModelWarning) as caught:
+        model = read_model_file(path).model
+    lines = [str(w.message) for w in caught]
+    assert lines == [f"closure 'C': row {label!r} ({model.closures[0].describe(label)}) vanishes identically on this "
+                     f"chain and is dropped" for label in dropped]
+    assert model.closures[0].rows == kept
+    assert [c.name for c in model.constraints] == [f"C_{label}" for label in kept] + ["prescribed_theta1"]
+
+
+def test_redundant_rows_are_refused_at_the_start_naming_the_closure(tmp_path, env):
+    """The four-bar closed by a revolute joint whose frames are turned about x and back: the
+    orientation rows no longer vanish by their form, but they are redundant with the in-plane
+    motion (zero rows of D): the start refuses the closure in one line, with the fix."""
+    path = tmp_path / "four_bar_turned.toml"
+    path.write_text(four_bar_text(**{
+        '[[chain]]\npoint = "C1"': '[[chain]]\nrotations = [["x", 0.3], ["x", -0.3]]\n\n[[chain]]\npoint = "C1"',
+        'name = "four_bar"': 'name = "four_bar_turned"',
+        'dependent = ["theta2", "theta3"]': 'dependent = "auto"',
+        'prescribed = "w*t"\n': ''}))
+    model = read_model_file(path).model
+    assert model.closures[0].rows == ("x", "y", "zx", "zy")
+    with pytest.raises(ModelError) as info:
+        gpmegen.statics(str(path), backend="numpy", directory=env[0])
+    message = str(info.value)
+    assert "closure 'C': its rows C_zx, C_zy are redundant at the start" in message
+    assert 'type = "point"' in message and "\n" not in message
+
+
+def test_assembly_reports_what_moved_and_names_a_loop_that_cannot_close(tmp_path, env, capsys):
+    """From the example's rough [initial] q the start moves theta2 and theta3 onto the loop and
+    says by how much (no warning); with a ground link longer than the other three together the
+    loop cannot close, and the refusal names the closure and its residual."""
+    assert main(["statics", str(FOUR_BAR)]) == 0
+    err = capsys.readouterr().err
+    coupler, rocker = exact_four_bar(0.0)
+    assert (f"the loops assembled by moving theta2 from 1 to {coupler:.6g} ({coupler - 1.0:+.3e}), "
+            f"theta3 from 1.7 to {rocker:.6g} ({rocker - 1.7:+.3e})") in err
+    assert "warning: the start" not in err
+    assert main(["statics", str(FOUR_BAR), "--param", "d=1.0"]) == 1
+    err = capsys.readouterr().err
+    line = [line for line in err.splitlines() if "error" in line]
+    assert len(line) == 1 and "closure 'C' (residual " in line[0] and "cannot be closed" in line[0]
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("change, message", [
+    ({'points = ["C1", "C2"]': 'points = ["C1", "C1b"]',
+      '[[chain]]\npoint = "C1"': '[[chain]]\npoint = "C1b"\n\n[[chain]]\npoint = "C1"'},
+     "closure 'C': points 'C1' and 'C1b' are both on the same body, so the closure holds nothing; close the loop "
+     "between points on two different bodies"),
+    ({'points = ["C1", "C2"]': 'points = ["C1", "C3"]'},
+     "closures[0].points[1]: closure 'C': no point 'C3'; declare it with a [[chain]] point = \"C3\" element"),
+    ({'type = "revolute"\naxis = "z"\nalpha': 'type = "revolute"\nalpha'},
+     "closures[0]: closure 'C': a revolute closure needs its axis; add axis = \"x\", \"y\" or \"z\""),
+    ({'type = "revolute"\naxis = "z"\nalpha': 'type = "hinge"\naxis = "z"\nalpha'},
+     "closures[0].type: closure 'C': unknown type 'hinge'; use \"point\", \"revolute\", \"prismatic\""),
+    ({'name = "C"\npoints': 'name = "B"\npoints'},
+     "closures[0].name: closure 'B' is named 'B', and that name is already taken by a point; rename the closure"),
+    ({'name = "C"\npoints': 'name = "theta1"\npoints'},
+     "closures[0].name: the row 'x' of closure 'theta1' is named 'theta1_x'"),
+])
+def test_bad_closures_are_refused_in_one_line(tmp_path, capsys, change, message):
+    """gpmegen build refuses each bad closure with exit status 2 and one line naming it and the
+    fix, before anything is derived."""
+    path = tmp_path / "four_bar.toml"
+    path.write_text(four_bar_text(**change))
+    if "theta1_x" in message:   # a row's name taken by a coordinate: give the crank that name
+        path.write_text(path.read_text().replace('joint = "theta1"', 'joint = "theta1_x"')
+                        .replace("theta1 = 0", "theta1_x = 0"))
+        message = "closures[0].name: the row 'x' of closure 'theta1' is named 'theta1_x', and that name is already " \
+                  "taken by a coordinate; rename the closure"
+    assert main(["build", str(path), "--out", str(tmp_path / "built")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    errors = [line for line in err.splitlines() if "error" in line]
+    assert len(errors) == 1 and message in errors[0], err
+    assert not (tmp_path / "built").exists()

@@ -382,10 +382,10 @@ def expand(model: Model) -> FlatChain:
         _check_expression(v, constant, "gravity", ("gravity", i))
     _check_drives(model, coordinates, constant)
     _check_constraints(model, flat, coordinates, names)
-    _check_dependent(model, coordinates)
     elements = tuple(e for _, e in flat)
     tree = topology(elements)
     _check_closures(model, points, tree, names)
+    _check_dependent(model, coordinates)
     return FlatChain(model, elements, tuple(coordinates), tree)
 
 
