@@ -13,7 +13,9 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis import closures as closure_reactions
+from gpmegen.analysis import results as results_io
 from gpmegen.analysis import study
+from gpmegen.analysis.figure_list import stems
 from gpmegen.cli import main
 from gpmegen.errors import ModelError, ModelWarning, SimulationError
 from gpmegen.model import shapes
@@ -98,6 +100,35 @@ def test_four_bar_crank_torque_balances_the_power(four_bar_run, env):
     scale = np.max(np.abs(power))
     assert scale > 0.1
     np.testing.assert_allclose(power, rates, rtol=0, atol=1e-7 * scale)
+
+
+@pytest.mark.requires_cc
+def test_four_bar_on_the_c_backend_saves_its_reactions(env, tmp_path):
+    """The example on the C backend (its O(n) solve) follows the same exact position analysis;
+    its results file and CSV hold the closure's reaction apart from λ, with units, and its
+    figures include the reactions'."""
+    run = gpmegen.simulate(str(FOUR_BAR), t_end=0.3, dt=1e-3, save_every=10, backend="c", directory=env[0])
+    coupler, rocker = exact_four_bar(run.coordinate("theta1"))
+    assert np.max(np.abs(wrapped(run.coordinate("theta2") - coupler))) < 1e-8
+    assert np.max(np.abs(wrapped(run.coordinate("theta3") - rocker))) < 1e-8
+    names = list(run["constraint_names"])
+    lam = run["lambda"]
+    force = run["closure_C_force"]
+    np.testing.assert_array_equal(force[:, 0], lam[:, names.index("C_x")])   # a coincidence row's λ is the force
+    np.testing.assert_array_equal(force[:, 1], lam[:, names.index("C_y")])
+    assert not force[:, 2].any() and not run["closure_C_moment"].any()     # the dropped rows carry nothing
+    path = tmp_path / "four_bar.npz"
+    run.save(path)
+    loaded = results_io.load(path)
+    np.testing.assert_array_equal(loaded["closure_C_force"], force)
+    meta = results_io.metadata(loaded)
+    assert meta["lambda_units"] == {"C_x": "N", "C_y": "N", "prescribed_theta1": "N·m"}
+    assert meta["closures"] == [{"name": "C", "points": ["C1", "C2"], "type": "revolute", "axis": "z",
+                                 "rows": ["C_x", "C_y"], "moment": True, "acting": {"force": ["x", "y"], "moment": []}}]
+    header = path.with_suffix(".csv").read_text().splitlines()[1].split(",")
+    assert header[-6:] == [f"{a}_closure_C [{unit}]" for a, unit in (("Fx", "N"), ("Fy", "N"), ("Fz", "N"),
+                                                                      ("Mx", "N·m"), ("My", "N·m"), ("Mz", "N·m"))]
+    assert stems([loaded])[-2:] == ["constraint_multipliers", "closure_reactions"]
 
 
 # ---- spatial loops against Pinocchio ----------------------------------------------------------

@@ -88,9 +88,13 @@ def joint_laws(model) -> dict:
 
 def lambda_units(model, constraint_units: dict) -> dict:
     """Unit of each constraint's λ from the unit of its expression: ``constraint_units`` (name →
-    unit) where the case gives it, else :func:`expression_unit`, else "generalized"."""
-    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name) or expression_unit(model, c)),
-                                     GENERALIZED)
+    unit) where the case gives it, else a closure's row's (a coincidence or slide row is a length,
+    its λ a force; an orientation row a cosine, its λ a moment), else :func:`expression_unit`,
+    else "generalized"."""
+    looped = {closure.row_name(label): "m" if len(label) == 1 or label.endswith("1") else "rad"
+              for closure in model.closures for label in closure.rows}
+    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name) or looped.get(c.name)
+                                      or expression_unit(model, c)), GENERALIZED)
             for c in model.constraints}
 
 
