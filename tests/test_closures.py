@@ -6,6 +6,7 @@ refused at the start, and the closures refused in one line."""
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,12 @@ from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import gpme, partition
+
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:
+    sys.path.insert(0, _HERE)
+
+import oracle  # noqa: E402  (tests/oracle.py)
 
 ROOT = Path(__file__).resolve().parents[1]
 FOUR_BAR = ROOT / "examples" / "four_bar.toml"
@@ -170,21 +177,11 @@ BRANCH_B = (
 POINT_A = (0.1, 0.02, -0.03)
 
 
-def elementary(axis, angle):
-    c, s = math.cos(angle), math.sin(angle)
-    k = "xyz".index(axis)
-    i, j = (k + 1) % 3, (k + 2) % 3
-    R = np.eye(3)
-    R[i, i] = R[j, j] = c
-    R[i, j], R[j, i] = -s, s
-    return R
-
-
 def placement(t, rotations):
-    T = np.eye(4)
+    """The 4x4 transform of an offset: its translation, then its rotations in order."""
+    T = oracle.translation(*t)
     for axis, angle in rotations:
-        T[:3, :3] = T[:3, :3] @ elementary(axis, angle)
-    T[:3, 3] = t
+        T = T @ oracle.rotation(axis, angle)
     return T
 
 
@@ -373,7 +370,7 @@ def test_spatial_loop_matches_kkt_on_pinocchio(env, rng, kind, axis):
     ('type = "revolute"\naxis = "z"', ("x", "y"), ("z", "zx", "zy")),
     ('type = "point"', ("x", "y"), ("z",)),
     ('type = "prismatic"\naxis = "x"', ("y1", "xy"), ("z1", "xz", "yz")),
-])
+], ids=["revolute", "point", "prismatic"])
 def test_rows_that_vanish_identically_are_dropped_by_name(tmp_path, kind, kept, dropped):
     """With every joint axis along z and every offset in the plane, the closure's out-of-plane
     coincidence row and the orientation rows about axes in the plane vanish identically: exactly
@@ -443,7 +440,7 @@ def test_assembly_reports_what_moved_and_names_a_loop_that_cannot_close(tmp_path
      "closures[0].name: closure 'B' is named 'B', and that name is already taken by a point; rename the closure"),
     ({'name = "C"\npoints': 'name = "theta1"\npoints'},
      "closures[0].name: the row 'x' of closure 'theta1' is named 'theta1_x'"),
-])
+], ids=["same_body", "missing_point", "no_axis", "unknown_type", "name_taken", "row_name_taken"])
 def test_bad_closures_are_refused_in_one_line(tmp_path, capsys, change, message):
     """gpmegen build refuses each bad closure with exit status 2 and one line naming it and the
     fix, before anything is derived."""

@@ -101,14 +101,8 @@ def constraint_multipliers(plt, runs, style):
                 ax = axes[len(shown) + i, 0]
                 shaded |= plots.trace(ax, r["t"], r["point_forces"][:, 0, i], s, lw=1)
                 ax.set_ylabel(plots.literal(f"{axis}: force on {point} [N]"))
-    for ax in axes[:, 0]:
-        ax.grid(True, alpha=0.3)
-    axes[-1, 0].set_xlabel("t [s]")
-    handles = _handles([r for r, _ in pairs], [s for _, s in pairs])
-    plots._finish(fig, plots._title(runs, "Ideal realization"), handles, plots._shaded(
-                  "Multipliers λ and the force on the constrained point, in {0}.",
-                  shaded))
-    return fig
+    return _finish_panels(fig, axes, runs, pairs, "Ideal realization",
+                          "Multipliers λ and the force on the constrained point, in {0}.", shaded)
 
 
 def closure_reactions(plt, runs, style):
@@ -129,13 +123,19 @@ def closure_reactions(plt, runs, style):
             if key in r:   # a panel each: a line style is the run's, never a component's
                 shaded |= plots.trace(axes[row, 0], r["t"], r[key][:, a], s, lw=1)
             axes[row, 0].set_ylabel(plots.literal(f"{name}: {kind} {'xyz'[a]} [{unit}]"))
+    return _finish_panels(fig, axes, runs, pairs, "Closure reactions",
+                          "Reaction on the body of each closure's second point from the body of its first, in {0}.",
+                          shaded)
+
+
+def _finish_panels(fig, axes, runs, pairs, title, note, shaded):
+    """A figure of panels against time finished: grids, the time axis, the runs' legend of
+    ``pairs`` (run, style), the title and the note (with the shading's when ``shaded``)."""
     for ax in axes[:, 0]:
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     handles = _handles([r for r, _ in pairs], [s for _, s in pairs])
-    plots._finish(fig, plots._title(runs, "Closure reactions"), handles, plots._shaded(
-                  "Reaction on the body of each closure's second point from the body of its first, in {0}.",
-                  shaded))
+    plots._finish(fig, plots._title(runs, title), handles, plots._shaded(note, shaded))
     return fig
 
 
