@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: e9a56d5306bea7af
+Input hash: f081fa37a4eaffd2
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

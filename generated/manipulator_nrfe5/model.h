@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: a7df91e29c46d500
+Input hash: 4af2f3644f9704e3
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
