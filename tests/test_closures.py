@@ -109,6 +109,95 @@ def test_four_bar_crank_torque_balances_the_power(four_bar_run, env):
     np.testing.assert_allclose(power, rates, rtol=0, atol=1e-7 * scale)
 
 
+GROUNDED = """
+schema = 1
+name = "four_bar_grounded"
+gravity = [0, "-g", 0]
+dependent = ["theta2", "theta3"]
+
+[parameters]
+g = 9.81
+L1 = 0.1
+L2 = 0.3
+L3 = 0.25
+d = 0.3
+w = 6.283185307179586
+
+[[chain]]
+point = "D"                 # the rocker's pivot, on the ground: defined before any joint
+position = ["d", 0, 0]
+
+[[chain]]
+joint = "theta1"
+type = "revolute"
+axis = "z"
+prescribed = "w*t"
+
+[[chain]]
+body = "crank"
+shape = { type = "bar", mass = 0.5, length = "L1", width = 0.02, thickness = 0.01 }
+
+[[chain]]
+translation = ["L1", 0, 0]
+
+[[chain]]
+joint = "theta2"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "coupler"
+shape = { type = "bar", mass = 1.0, length = "L2", width = 0.02, thickness = 0.01 }
+
+[[chain]]
+translation = ["L2", 0, 0]
+
+[[chain]]
+point = "C"
+
+[[chain]]
+joint = "theta3"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "rocker"
+shape = { type = "bar", mass = 0.8, length = "L3", width = 0.02, thickness = 0.01 }
+
+[[chain]]
+point = "R"
+position = ["L3", 0, 0]
+
+[[closures]]
+name = "pin"
+points = ["R", "D"]
+type = "point"
+
+[initial]
+q = { theta2 = 1.0, theta3 = 3.8 }
+"""
+
+
+def test_a_serial_chain_pinned_to_a_ground_point_is_the_same_four_bar(tmp_path, env):
+    """The four-bar as one serial chain (crank, coupler, rocker) whose tip is pinned to the
+    rocker's pivot, a point on the ground: the coupler's tip follows the closed-form analysis
+    to 1e-8 m, and the reaction on the ground (the second point's body) is the force that holds
+    the pin."""
+    path = tmp_path / "grounded.toml"
+    path.write_text(GROUNDED)
+    run = gpmegen.simulate(str(path), t_end=0.3, dt=1e-3, save_every=10, backend="numpy", directory=env[0])
+    assert run.status == "complete"
+    theta1, theta2 = run.coordinate("theta1"), run.coordinate("theta2")
+    coupler, rocker = exact_four_bar(theta1)
+    tip = np.column_stack([L1 * np.cos(theta1) + L2 * np.cos(theta1 + theta2),
+                           L1 * np.sin(theta1) + L2 * np.sin(theta1 + theta2)])
+    exact = np.column_stack([D + L3 * np.cos(rocker), L3 * np.sin(rocker)])
+    assert np.max(np.abs(tip - exact)) < 1e-8
+    names = list(run["constraint_names"])
+    assert names == ["pin_x", "pin_y", "prescribed_theta1"]
+    np.testing.assert_array_equal(run["closure_pin_force"][:, :2], run["lambda"][:, :2])
+
+
 @pytest.mark.requires_cc
 def test_four_bar_on_the_c_backend_saves_its_reactions(env, tmp_path):
     """The example on the C backend (its O(n) solve) follows the same exact position analysis;
