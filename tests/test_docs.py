@@ -203,7 +203,8 @@ def test_command_line_page_is_the_one_its_parser_and_help_pages_make():
 
 def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     """The help pages of plot and demo list the figures from the list the plots are drawn from;
-    a real plot of a run that holds everything writes exactly those."""
+    real plots of a run that holds everything but closed loops (the flexible arm) and of one that
+    closes a loop (the four-bar) write exactly those together."""
     from gpmegen import cli_docs
     from gpmegen.analysis.figure_list import FIGURES
     from gpmegen.cli import main
@@ -217,7 +218,13 @@ def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
                  "--backend", "numpy", "--out", str(run)]) == 0  # the flexible arm: every figure applies
     out = tmp_path / "figures"
     assert main(["plot", str(run), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == sorted(f"{figure.stem}.png" for figure in FIGURES)
+    loop = tmp_path / "loop.npz"
+    assert main(["simulate", str(ROOT / "examples" / "four_bar.toml"), "--t-end", "0.002", "--dt", "1e-4",
+                 "--save-every", "5", "--backend", "numpy", "--out", str(loop)]) == 0
+    assert main(["plot", str(loop), "--out", str(tmp_path / "loop_figures")]) == 0
+    written = {p.name for folder in (out, tmp_path / "loop_figures") for p in folder.iterdir()}
+    assert "closure_reactions.png" not in {p.name for p in out.iterdir()}
+    assert sorted(written) == sorted(f"{figure.stem}.png" for figure in FIGURES)
 
 
 # ---------------------------------------------------------------- the blocks run

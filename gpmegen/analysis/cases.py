@@ -157,7 +157,8 @@ class ModelCase(Case):
         model = self.load(backend, overrides, progress)
         progress(f"start of {self.label} ({'no statics' if start == 'none' else start + ' statics'})")
         q, qd = self.initial(model.params)
-        return study.file_start(model, q, start, qd)
+        closures = {c.name: [c.row_name(label) for label in c.rows] for c in self.model.closures}
+        return study.file_start(model, q, start, qd, closures=closures)
 
 
 class FileCase(ModelCase):

@@ -88,9 +88,13 @@ def joint_laws(model) -> dict:
 
 def lambda_units(model, constraint_units: dict) -> dict:
     """Unit of each constraint's λ from the unit of its expression: ``constraint_units`` (name →
-    unit) where the case gives it, else :func:`expression_unit`, else "generalized"."""
-    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name) or expression_unit(model, c)),
-                                     GENERALIZED)
+    unit) where the case gives it, else a closure's row's (a coincidence or slide row is a length,
+    its λ a force; an orientation row a cosine, its λ a moment), else :func:`expression_unit`,
+    else "generalized"."""
+    looped = {closure.row_name(label): "m" if len(label) == 1 or label.endswith("1") else "rad"
+              for closure in model.closures for label in closure.rows}
+    return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name) or looped.get(c.name)
+                                      or expression_unit(model, c)), GENERALIZED)
             for c in model.constraints}
 
 
@@ -181,7 +185,8 @@ def annotate(results: dict, model, loaded) -> dict:
     """``results`` of a run of the symbolic ``model`` (loaded as ``loaded``) with the units of its
     driving functions in the metadata (``force_units``, ``lambda_units``), the elastic
     :func:`deformation` and, for the ideal realization, ``point_forces`` (k, n_points, 3) N on
-    the points named by ``meta["force_points"]``. ``model`` None (generated code alone): the
+    the points named by ``meta["force_points"]`` and the reactions of the closures
+    (:mod:`gpmegen.analysis.closures`, described by ``meta["closures"]``). ``model`` None (generated code alone): the
     deformation only."""
     meta = results_io.metadata(results)
     from .extrapolate import elastic_coordinates
@@ -198,6 +203,11 @@ def annotate(results: dict, model, loaded) -> dict:
         units["force_points"] = list(forces)
         if forces:
             arrays["point_forces"] = np.stack(list(forces.values()), axis=1)
+        if model.closures:
+            from . import closures
+
+            units["closures"] = closures.describe(model)
+            arrays.update(closures.result_arrays(model, results["q"], results["lambda"], loaded.p))
     return results_io.annotate(results, units, arrays)
 
 

@@ -82,29 +82,60 @@ def constraint_multipliers(plt, runs, style):
     """The multipliers λ of the ideal realization, and the force on the constrained point."""
     pairs = [(r, s) for r, s in zip(runs, style) if "lambda" in r]
     first = pairs[0][0]
+    # the closures' rows are drawn as their reactions (closure_reactions), apart from these
+    looped = {row for closure in metadata(first).get("closures", []) for row in closure["rows"]}
     names = [str(c) for c in first["constraint_names"]]
+    shown = [i for i, name in enumerate(names) if name not in looped]
     units = metadata(first).get("lambda_units", {})
     with_force = "point_forces" in first
-    rows = len(names) + 3 * with_force
+    rows = max(len(shown) + 3 * with_force, 1)
     fig, axes = plots._figure(plt, rows, 1, 2.0 * rows + 1.0, sharex=True)
     shaded = False
     for r, s in pairs:
-        for i, name in enumerate(names):
-            shaded |= plots.trace(axes[i, 0], r["t"], r["lambda"][:, i], s)
-            axes[i, 0].set_ylabel(plots.literal(f"λ {name} [{units.get(name, 'generalized')}]"))
+        for row, i in enumerate(shown):
+            shaded |= plots.trace(axes[row, 0], r["t"], r["lambda"][:, i], s)
+            axes[row, 0].set_ylabel(plots.literal(f"λ {names[i]} [{units.get(names[i], 'generalized')}]"))
         if with_force and "point_forces" in r:
             point = metadata(r)["force_points"][0]
             for i, axis in enumerate("xyz"):  # a panel each: a line style is the run's, never a component's
-                ax = axes[len(names) + i, 0]
+                ax = axes[len(shown) + i, 0]
                 shaded |= plots.trace(ax, r["t"], r["point_forces"][:, 0, i], s, lw=1)
                 ax.set_ylabel(plots.literal(f"{axis}: force on {point} [N]"))
+    return _finish_panels(fig, axes, runs, pairs, "Ideal realization",
+                          "Multipliers λ and the force on the constrained point, in {0}.", shaded)
+
+
+def closure_reactions(plt, runs, style):
+    """Each closure's reaction on the body of its second point, from the body of its first: the
+    force and, where the closure holds orientation, the moment, by axis of {0} (the components
+    its kept rows act along)."""
+    pairs = [(r, s) for r, s in zip(runs, style) if "lambda" in r]
+    first = pairs[0][0]
+    # the components its kept rows act along (a dropped row's is zero throughout)
+    panels = [(closure["name"], kind, "xyz".index(a), unit) for closure in metadata(first).get("closures", [])
+              for kind, unit in (("force", "N"), ("moment", "N·m"))
+              if f"closure_{closure['name']}_{kind}" in first for a in closure["acting"][kind]]
+    fig, axes = plots._figure(plt, len(panels), 1, 1.6 * len(panels) + 1.0, sharex=True)
+    shaded = False
+    for r, s in pairs:
+        for row, (name, kind, a, unit) in enumerate(panels):
+            key = f"closure_{name}_{kind}"
+            if key in r:   # a panel each: a line style is the run's, never a component's
+                shaded |= plots.trace(axes[row, 0], r["t"], r[key][:, a], s, lw=1)
+            axes[row, 0].set_ylabel(plots.literal(f"{name}: {kind} {'xyz'[a]} [{unit}]"))
+    return _finish_panels(fig, axes, runs, pairs, "Closure reactions",
+                          "Reaction on the body of each closure's second point from the body of its first, in {0}.",
+                          shaded)
+
+
+def _finish_panels(fig, axes, runs, pairs, title, note, shaded):
+    """A figure of panels against time finished: grids, the time axis, the runs' legend of
+    ``pairs`` (run, style), the title and the note (with the shading's when ``shaded``)."""
     for ax in axes[:, 0]:
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("t [s]")
     handles = _handles([r for r, _ in pairs], [s for _, s in pairs])
-    plots._finish(fig, plots._title(runs, "Ideal realization"), handles, plots._shaded(
-                  "Multipliers λ and the force on the constrained point, in {0}.",
-                  shaded))
+    plots._finish(fig, plots._title(runs, title), handles, plots._shaded(note, shaded))
     return fig
 
 
@@ -117,4 +148,4 @@ def _handles(runs, style, name=plots.label):
 # The figures drawn here, by stem; which of them a set of runs gets, and in what order, is
 # gpmegen.analysis.figure_list's.
 DRAWS = {"driving_functions": driving_functions, "elastic_deformation": elastic_deformation,
-         "constraint_multipliers": constraint_multipliers}
+         "constraint_multipliers": constraint_multipliers, "closure_reactions": closure_reactions}

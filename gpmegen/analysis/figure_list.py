@@ -47,6 +47,10 @@ def _multipliers(runs) -> bool:
     return _driving(runs) and any("lambda" in r for r in runs)
 
 
+def _closures(runs) -> bool:
+    return _multipliers(runs) and any(str(key).startswith("closure_") for r in runs for key in r)
+
+
 FIGURES = (
     Figure("joint_coordinates", "the joint coordinates against time", None, _always),
     Figure("end_effector", "the coordinates of the end-effector against time", None, _always),
@@ -61,6 +65,8 @@ FIGURES = (
            "when a run's springs carry load: flexible links", _deformation),
     Figure("constraint_multipliers", "the multipliers λ and the force on the constrained point",
            "when the results hold the multipliers", _multipliers),
+    Figure("closure_reactions", "each closed loop's reaction force (and moment) in {0}",
+           "when the model closes loops ([[closures]])", _closures),
 )
 
 

@@ -11,12 +11,15 @@ format 1 (settings as Python text) are refused with the command that makes them 
 The driving functions were added to format 2 without changing it (files without them are read as
 before): ``qdd`` (k, n) q̈, ``constraint_forces`` (k, n) ``M q̈ - f``, and either ``lambda``
 (k, m) with ``point_forces`` (k, n_points, 3) N (ideal realization) or ``u`` (k, m) with
-``actuators`` (m,) names (actuated realization); their units are in ``meta``.
+``actuators`` (m,) names (actuated realization); their units are in ``meta``. A model with
+closed loops adds each closure's reaction, ``closure_<name>_force`` and ``closure_<name>_moment``
+(k, 3) in {0}, described by ``meta["closures"]``.
 """
 
 from __future__ import annotations
 
 import json
+import re
 import uuid
 import zipfile
 import zlib
@@ -38,6 +41,14 @@ ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "
                       "lambda", "point_forces", "u", "actuators", "kinetic_energy", "gravity_energy", "spring_energy",
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
                       "internal_eigenvalues")
+#: A closure's reaction (:mod:`gpmegen.analysis.closures`): ``closure_<name>_force`` and
+#: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
+CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")
+
+
+def readable(name: str) -> bool:
+    """Whether :func:`load` reads the array ``name``: one of :data:`ENTRIES` or a closure's reaction."""
+    return name in ENTRIES or CLOSURE_ENTRY.fullmatch(name) is not None
 
 
 class ResultsError(GpmegenError):
@@ -88,8 +99,9 @@ def annotate(results: dict, meta: dict, arrays: dict) -> dict:
 
 def driving_columns(results: dict) -> tuple[list, list]:
     """The CSV's columns of the driving functions, with units in their names: λ of each
-    constraint (ideal realization), the force on each constrained point in {0}, or the inputs
-    ``u`` (actuated realization). Returns (names, arrays (k,) or (k, j))."""
+    constraint (ideal realization), the force on each constrained point in {0} and each
+    closure's reaction (force, and moment where it has one, in {0}), or the inputs ``u``
+    (actuated realization). Returns (names, arrays (k,) or (k, j))."""
     meta = metadata(results)
     if "u" in results:
         units = meta.get("force_units", {})
@@ -102,6 +114,12 @@ def driving_columns(results: dict) -> tuple[list, list]:
     if "point_forces" in results:
         names += [f"F{a}_{p} [N]" for p in meta["force_points"] for a in "xyz"]
         arrays.append(results["point_forces"].reshape(len(results["t"]), -1))
+    for closure in meta.get("closures", []):   # the reaction on its second point's body, in {0}
+        for kind, letter, unit in (("force", "F", "N"), ("moment", "M", "N·m")):
+            key = f"closure_{closure['name']}_{kind}"
+            if key in results:
+                names += [f"{letter}{a}_closure_{closure['name']} [{unit}]" for a in "xyz"]
+                arrays.append(results[key])
     return names, arrays
 
 
@@ -135,7 +153,7 @@ def load(path) -> dict:
     """Read a results NPZ written by :func:`save`; ResultsError if it is not one."""
     path = Path(path)
     try:
-        data = npz.read_checked(path, ENTRIES.__contains__, ResultsError,
+        data = npz.read_checked(path, readable, ResultsError,
                                 "make the results again with 'gpmegen simulate'")
     except FileNotFoundError:
         raise ResultsError(f"{path}: no such file; run 'gpmegen simulate' first") from None

@@ -22,12 +22,13 @@ from . import results as results_io
 MOVE_WARNING = 1e-6
 
 
-def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None):
+def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None, closures=None):
     """Move the dependent coordinates so that the position constraints (order 0) hold,
     Φ(q, t) = 0 (Newton on their block of D; least squares when first-order constraints take
     some dependent coordinates). When it fails, the message names the model's constraints left
     violated, with their values at the closest configuration found, and ends with ``hint``
-    (default: a generic one)."""
+    (default: a generic one); a closure among them (``closures``: closure name -> its row names)
+    is named with its residual, the norm of its rows."""
     q = np.array(q, dtype=float)
     dep = model.dependent
     rows = np.flatnonzero(np.asarray(model.constraint_orders) == 0)
@@ -54,6 +55,17 @@ def project_onto_constraints(model, q, t=0.0, tol=1e-12, max_iter=50, hint=None)
     violated = ", ".join(f"{name} = {value:.3e}" for name, value in zip(model.constraint_names, closest)
                          if abs(value) > tol)
     moved = ", ".join(model.coordinates[k] for k in dep)
+    value_of = dict(zip(model.constraint_names, closest))
+    open_loops = {name: float(np.linalg.norm([value_of[row] for row in rows]))
+                  for name, rows in (closures or {}).items()
+                  if any(abs(value_of[row]) > tol for row in rows)}
+    if open_loops:
+        loops = " and ".join(f"closure {name!r} (residual {value:.3e}, the norm of its rows)"
+                             for name, value in open_loops.items())
+        raise SimulationError(
+            f"model {model.module.MODEL}: {loops} cannot be closed from the start configuration by moving {moved} "
+            f"(at best {violated}); give [initial] q nearer to a configuration where the loop closes, or dimensions "
+            f"that let it close (docs/model-file.md, 'Closures')", partial={"phi": closest})
     raise SimulationError(
         f"model {model.module.MODEL}: the programmed constraints cannot be met from the start configuration by "
         f"moving {moved}: at best {violated}; "
@@ -100,15 +112,24 @@ class Start:
     qd: np.ndarray
     moved: dict = field(default_factory=dict)
     overridden: dict = field(default_factory=dict)
+    assembled: dict | None = None   # with closures: coordinate -> (before, after), for those moved
 
     def report(self) -> str:
-        """One line: how far the start was moved onto the constraints."""
-        return "start moved onto the constraints by " + "; ".join(
+        """One line: how far the start was moved onto the constraints (with closures: each
+        coordinate the assembly of the loops moved, and by how much)."""
+        line = "start moved onto the constraints by " + "; ".join(
             f"max|Δ{key}| = {value:.3e}" + (f" ({name})" if value else "") for key, (value, name) in self.moved.items())
+        if self.assembled:
+            line += "; the loops assembled by moving " + ", ".join(
+                f"{name} from {before:.6g} to {after:.6g} ({after - before:+.3e})"
+                for name, (before, after) in self.assembled.items())
+        return line
 
     def warning(self) -> str | None:
-        """One line when a value the user gave was changed by more than :data:`MOVE_WARNING`, else None."""
-        far = {key: (value, name) for key, (value, name) in self.overridden.items() if value > MOVE_WARNING}
+        """One line when a value the user gave was changed by more than :data:`MOVE_WARNING`, else None
+        (with closures, ``q`` is assembled from a rough guess: moving it is reported, not warned of)."""
+        far = {key: (value, name) for key, (value, name) in self.overridden.items() if value > MOVE_WARNING
+               and not (key == "q" and self.assembled is not None)}
         if not far:
             return None
         given = " and ".join(f"[initial] {key}" for key in far)
@@ -135,15 +156,51 @@ def largest_change(model, before, after, among=None):
     return float(change[k]), model.coordinates[k]
 
 
-def consistent(model, q, qd, t=0.0, hint=None, given_qd=None) -> Start:
+def consistent(model, q, qd, t=0.0, hint=None, given_qd=None, closures=None) -> Start:
     """``q`` moved onto Φ = 0, then ``qd`` onto the constraint velocities, with the report of
     how far each moved (see :class:`Start`). ``given_qd``: the coordinates whose velocity the
-    user gave (default: all of them)."""
-    q_on = project_onto_constraints(model, q, t, hint=hint) if len(model.constraint_names) else np.array(q, float)
+    user gave (default: all of them). ``closures`` (closure name -> its row names): the model
+    closes loops, whose assembly from a rough ``q`` is reported coordinate by coordinate."""
+    q_on = (project_onto_constraints(model, q, t, hint=hint, closures=closures) if len(model.constraint_names)
+            else np.array(q, float))
     qd_on = project_velocities(model, q_on, qd, t)
     q_moved = largest_change(model, q, q_on)
+    assembled = None if not closures else {
+        name: (float(before), float(after)) for name, before, after in zip(model.coordinates, q, q_on)
+        if abs(after - before) > 0.0}
     return Start(model, q_on, qd_on, {"q": q_moved, "qd": largest_change(model, qd, qd_on)},
-                 {"q": q_moved, "qd": largest_change(model, qd, qd_on, given_qd)})
+                 {"q": q_moved, "qd": largest_change(model, qd, qd_on, given_qd)}, assembled)
+
+
+# Below this fraction of the largest singular value of the constraint Jacobian, a singular value
+# counts as zero: the rows are redundant (:func:`check_redundant`).
+REDUNDANT = 1e-9
+
+
+def check_redundant(model, q, closures, t=0.0):
+    """Refuse (ModelError, one line) a start ``q`` where the rows of a closure are redundant with
+    the others or among themselves: the constraint Jacobian ``D`` has a rank below its number of
+    rows (singular values below :data:`REDUNDANT` times the largest), and a closure's rows take
+    part in a combination that vanishes. ``closures``: closure name -> its row names."""
+    if not closures:
+        return
+    _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
+    if not np.all(np.isfinite(D)) or not D.size:
+        return
+    U, sigma, _ = np.linalg.svd(D)
+    rank = int(np.sum(sigma > REDUNDANT * max(sigma[0], 1e-300)))
+    if rank == D.shape[0]:
+        return
+    null = U[:, rank:]   # combinations of rows whose gradients cancel
+    taking = np.linalg.norm(null, axis=1) > 1e-6
+    names = list(model.constraint_names)
+    for name, rows in closures.items():
+        involved = [row for row in rows if taking[names.index(row)]]
+        if involved:
+            raise ModelError(
+                f"closure {name!r}: its rows {', '.join(involved)} are redundant at the start (the constraint "
+                f"Jacobian has rank {rank} for {D.shape[0]} rows): the loop is closed more often than the motion "
+                f"allows; use type = \"point\" or a closure of fewer rows")
 
 
 def vector_of(model, values: dict) -> np.ndarray:
@@ -154,20 +211,25 @@ def vector_of(model, values: dict) -> np.ndarray:
     return x
 
 
-def file_start(model, initial: dict, start="none", velocities: dict | None = None) -> Start:
+def file_start(model, initial: dict, start="none", velocities: dict | None = None, closures=None) -> Start:
     """Start of a model file's run: the ``[initial]`` configuration (``initial``, ``velocities``:
     coordinate name → value), dependent coordinates chosen when the file says "auto",
     optionally the locked statics first (``start="locked"``), then made consistent
     (:func:`consistent`); ``start="constrained"`` then solves the constrained equilibrium (the
-    velocities are projected again there)."""
+    velocities are projected again there). ``closures`` (closure name -> its row names): the
+    loops are assembled from the rough ``initial``, refused where their rows are redundant
+    (:func:`check_redundant`, before and after)."""
     if start not in ("none", "locked", "constrained"):
         raise ValueError(f"unknown start {start!r}: use 'none', 'locked' or 'constrained'")
     q = vector_of(model, initial)
+    check_redundant(model, q, closures)
     if model.dependent is None:
         model = partition.partition_at(model, q)
     if start == "locked":
         q = statics.locked(model, q)
-    begun = consistent(model, q, vector_of(model, velocities or {}), given_qd=frozenset(velocities or ()))
+    begun = consistent(model, q, vector_of(model, velocities or {}), given_qd=frozenset(velocities or ()),
+                       closures=closures)
+    check_redundant(model, begun.q, closures)
     if start == "constrained":
         begun.q = statics.constrained(model, begun.q)
         begun.qd = project_velocities(model, begun.q, begun.qd)

@@ -3,6 +3,7 @@
 from .chain import (
     Body,
     Chain,
+    Closure,
     Constraint,
     Drive,
     FlexibleLink,
@@ -15,6 +16,6 @@ from .chain import (
 from .reference import reference_model
 
 __all__ = [
-    "Body", "Chain", "Constraint", "Drive", "FlexibleLink", "Joint", "Model", "Offset",
+    "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "Joint", "Model", "Offset",
     "Parameter", "Point", "reference_model",
 ]

@@ -88,6 +88,14 @@ def point_acceleration_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Sym
     return tuple(sp.Symbol(f"a{a}_{point}", real=True) for a in AXES)
 
 
+def axis_symbols(point: str, axis: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
+    """Symbols of the unit vector along the ``axis`` ("x", "y" or "z") of the frame a point is
+    attached to, in {0}: what a closure's orientation rows are written in. Their names hold a
+    double underscore, which no expression of a model file may, so that they are a closure's
+    alone."""
+    return tuple(sp.Symbol(f"e{axis}__{point}__{a}", real=True) for a in AXES)
+
+
 def as_expr(value) -> sp.Expr:
     """A number or SymPy expression as a SymPy expression."""
     return sp.sympify(value)
@@ -285,6 +293,77 @@ class Constraint:
     beta: sp.Expr = sp.S.Zero
 
 
+CLOSURE_TYPES = ("point", "revolute", "prismatic")
+
+
+def _other_axes(axis: str) -> tuple[str, str]:
+    """The two axes after ``axis`` in cyclic order (x: y, z; y: z, x; z: x, y)."""
+    k = AXES.index(axis)
+    return AXES[(k + 1) % 3], AXES[(k + 2) % 3]
+
+
+def closure_rows(kind: str, axis: str | None) -> tuple[str, ...]:
+    """The labels of the rows a closure of ``kind`` writes (all of them, before any is dropped):
+    ``x``, ``y``, ``z`` the coincidence of its two points along {0}'s axes; ``ab`` (two axis
+    letters) the orientation row ``a₁·b₂``, the ``a`` axis of the first point's frame against
+    the ``b`` axis of the second's; ``b1`` the slide row ``(r₂ - r₁)·b₁``."""
+    if kind == "point":
+        return AXES
+    b, c = _other_axes(axis)
+    if kind == "revolute":
+        return (*AXES, axis + b, axis + c)
+    return (b + "1", c + "1", axis + b, axis + c, b + c)
+
+
+@dataclass(frozen=True)
+class Closure:
+    """A loop closed between two points on different bodies (either may be on the ground):
+    ``kind`` "point" (they coincide: a spherical joint), "revolute" (they coincide and the
+    frames' ``axis`` stay parallel) or "prismatic" (the frames keep their relative orientation
+    and the second point moves along the first frame's ``axis`` only). ``rows``: the labels of
+    its rows that the model's constraints hold (:func:`closure_rows`; the others vanish
+    identically and were dropped), each the position constraint named ``<name>_<label>`` with
+    the Baumgarte gains ``alpha``, ``beta``."""
+
+    name: str
+    points: tuple
+    kind: str = "point"
+    axis: str | None = None
+    rows: tuple = ()
+    alpha: sp.Expr = sp.S.Zero
+    beta: sp.Expr = sp.S.Zero
+
+    def row_name(self, label: str) -> str:
+        return f"{self.name}_{label}"
+
+    def row_expression(self, label: str) -> sp.Expr:
+        """The row ``label``'s expression in the point and axis symbols of the two points."""
+        first, second = self.points
+        r1, r2 = point_symbols(first), point_symbols(second)
+        if label in AXES:
+            k = AXES.index(label)
+            return r2[k] - r1[k]
+        if label.endswith("1"):
+            e1 = axis_symbols(first, label[0])
+            return sum(((b - a) * e for a, b, e in zip(r1, r2, e1)), sp.S.Zero)
+        e1, e2 = axis_symbols(first, label[0]), axis_symbols(second, label[1])
+        return sum((a * b for a, b in zip(e1, e2)), sp.S.Zero)
+
+    def describe(self, label: str) -> str:
+        """The row ``label`` in words, e.g. ``x_C2 - x_C1`` or ``z axis at C1 · x axis at C2``."""
+        first, second = self.points
+        if label in AXES:
+            return f"{label}_{second} - {label}_{first}"
+        if label.endswith("1"):
+            return f"({second} - {first}) · {label[0]} axis at {first}"
+        return f"{label[0]} axis at {first} · {label[1]} axis at {second}"
+
+    def constraints(self, labels=None) -> tuple:
+        """Its rows (``labels``, default :attr:`rows`) as position constraints."""
+        return tuple(Constraint(self.row_name(label), self.row_expression(label), 0, self.alpha, self.beta)
+                     for label in (self.rows if labels is None else labels))
+
+
 Chain = tuple
 
 
@@ -294,7 +373,8 @@ class Model:
 
     ``gravity`` is the gravitational acceleration vector in {0} (m/s²) as expressions;
     ``dependent`` names the dependent coordinates of the constraint partition (``None``: chosen
-    automatically at run time).
+    automatically at run time). ``closures``: the loops closed (:class:`Closure`), whose rows
+    are among ``constraints``.
     """
 
     name: str
@@ -305,6 +385,7 @@ class Model:
     constraints: tuple = ()
     dependent: tuple | None = None
     description: str = ""
+    closures: tuple = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -13,6 +13,7 @@ import sympy as sp
 from ..errors import ModelError
 from .chain import (
     AXES,
+    CLOSURE_TYPES,
     GROUND_NAME,
     JOINT_KINDS,
     TIME,
@@ -24,7 +25,9 @@ from .chain import (
     Offset,
     Point,
     acceleration_symbol,
+    axis_symbols,
     check_name,
+    closure_rows,
     point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
@@ -303,6 +306,8 @@ def _check_constraints(model: Model, flat, coordinates: list, names: _Names):
     accelerations = {acceleration_symbol(c) for c in coordinates}
     for name in points:
         kinematic |= set(point_symbols(name))
+        if model.closures:   # a closure's orientation rows name the axes of its points' frames
+            kinematic |= {s for axis in AXES for s in axis_symbols(name, axis)}
         rates |= set(point_velocity_symbols(name))
         accelerations |= set(point_acceleration_symbols(name))
     for k, c in enumerate(model.constraints):
@@ -377,6 +382,46 @@ def expand(model: Model) -> FlatChain:
         _check_expression(v, constant, "gravity", ("gravity", i))
     _check_drives(model, coordinates, constant)
     _check_constraints(model, flat, coordinates, names)
-    _check_dependent(model, coordinates)
     elements = tuple(e for _, e in flat)
-    return FlatChain(model, elements, tuple(coordinates), topology(elements))
+    tree = topology(elements)
+    _check_closures(model, points, tree, names)
+    _check_dependent(model, coordinates)
+    return FlatChain(model, elements, tuple(coordinates), tree)
+
+
+def _check_closures(model: Model, points: list, tree, names: _Names):
+    """Each closure: a free name, a known type with its axis, two points on different bodies
+    (one may be on the ground: moved by no joint), its rows among the model's constraints as
+    :meth:`Closure.constraints` writes them."""
+    held = {c.name: c for c in model.constraints}
+    for k, closure in enumerate(model.closures):
+        path = ("closures", k)
+        names.claim(closure.name, "closure", path + ("name",))
+        if closure.kind not in CLOSURE_TYPES:
+            raise ModelError(f"closure {closure.name!r}: unknown type {closure.kind!r}; use "
+                             + ", ".join(f'"{kind}"' for kind in CLOSURE_TYPES), path + ("type",))
+        if closure.kind == "point" and closure.axis is not None:
+            raise ModelError(f"closure {closure.name!r}: a point closure takes no axis; remove it, or use "
+                             f"type = \"revolute\" or \"prismatic\"", path + ("axis",))
+        if closure.kind != "point" and closure.axis not in AXES:
+            raise ModelError(f"closure {closure.name!r}: a {closure.kind} closure needs its axis, \"x\", \"y\" or "
+                             f"\"z\" of the first point's frame; add axis = \"z\"", path + ("axis",))
+        if len(closure.points) != 2:
+            raise ModelError(f"closure {closure.name!r}: give two points, got {len(closure.points)}; write "
+                             f"points = [\"C1\", \"C2\"]", path + ("points",))
+        for j, point in enumerate(closure.points):
+            if point not in points:
+                raise ModelError(f"closure {closure.name!r}: no point {point!r} (points: {', '.join(points)}); "
+                                 f"declare it with a [[chain]] point element or fix the name", path + ("points", j))
+        moved = [tree.point_joint[points.index(point)] for point in closure.points]
+        if moved[0] == moved[1]:
+            where = "the ground" if moved[0] < 0 else "the same body"
+            raise ModelError(f"closure {closure.name!r}: points {closure.points[0]!r} and {closure.points[1]!r} are "
+                             f"both on {where}, so the closure holds nothing; close the loop between points on two "
+                             f"different bodies", path + ("points",))
+        allowed = closure_rows(closure.kind, closure.axis)
+        for label, row in zip(closure.rows, closure.constraints()):
+            if label not in allowed or held.get(row.name) != row:
+                raise ModelError(f"closure {closure.name!r}: its row {label!r} is not among the model's constraints "
+                                 f"as the closure writes it; make the model with Closure.constraints()",
+                                 path + ("rows",))

@@ -29,8 +29,10 @@ import sympy as sp
 
 from ..errors import DerivationError
 from ..model.chain import (
+    AXES,
     TIME,
     acceleration_symbol,
+    axis_symbols,
     point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
@@ -59,45 +61,72 @@ class ConstraintTerms:
     warnings: tuple = ()   # one line each: switches where an impulse is not applied
 
 
-def derive(kin: Kinematics, constraints) -> ConstraintTerms:
-    """Terms of the programmed constraints on the chain whose kinematics is ``kin``."""
-    define = kin.program.define
-    n = len(kin.q)
-    names = kin.chain.coordinates
-    internal = {}                     # user symbol -> internal expression
-    rate_of = {}                      # user symbol -> its time derivative (q̈ = 0), user symbols
-    # the rates of a first-order expression and the accelerations of a second-order one, by
-    # where their coefficients enter D: the column j of a coordinate, or a point's Jacobian row
-    velocity_column, acceleration_column = {}, {}     # symbol -> j
-    velocity_jacobian, acceleration_jacobian = {}, {}   # symbol -> (n,) Jacobian components
-    for j, name in enumerate(names):
-        internal[symbol(name)] = kin.q[j]
-        internal[velocity_symbol(name)] = kin.qd[j]
-        internal[acceleration_symbol(name)] = sp.S.Zero   # its velocity-product part
-        rate_of[symbol(name)] = velocity_symbol(name)
-        velocity_column[velocity_symbol(name)] = acceleration_column[acceleration_symbol(name)] = j
-    for pname, pt in kin.points.items():
-        xs, vs, accs = point_symbols(pname), point_velocity_symbols(pname), point_acceleration(pname)
-        for k, a in enumerate(point_acceleration_symbols(pname)):
-            internal[xs[k]] = pt.position[k]
-            internal[vs[k]] = pt.velocity[k]
-            internal[accs[k]] = internal[a] = pt.acceleration[k]
-            rate_of[xs[k]] = vs[k]
-            rate_of[vs[k]] = accs[k]
-            velocity_jacobian[vs[k]] = acceleration_jacobian[a] = [pt.jacobian[j][k] for j in range(n)]
+class _Symbols:
+    """What the user symbols of constraint expressions stand for on the chain whose kinematics
+    is ``kin``: ``internal`` (user symbol -> internal expression), ``rate_of`` (user symbol ->
+    its time derivative at q̈ = 0, a user symbol) and where the coefficients of rates and
+    accelerations enter ``D`` (``velocity_column`` and ``acceleration_column``: symbol -> j;
+    ``velocity_jacobian`` and ``acceleration_jacobian``: symbol -> (n,) components). The axes of
+    points' frames (:func:`gpmegen.model.chain.axis_symbols`, a closure's) are defined only
+    where ``constraints`` use them."""
 
-    def rate(expr):
+    def __init__(self, kin: Kinematics, constraints):
+        n = self.n = len(kin.q)
+        names = kin.chain.coordinates
+        internal = self.internal = {}
+        rate_of = self.rate_of = {}
+        self.velocity_column, self.acceleration_column = {}, {}
+        self.velocity_jacobian, self.acceleration_jacobian = {}, {}
+        for j, name in enumerate(names):
+            internal[symbol(name)] = kin.q[j]
+            internal[velocity_symbol(name)] = kin.qd[j]
+            internal[acceleration_symbol(name)] = sp.S.Zero   # its velocity-product part
+            rate_of[symbol(name)] = velocity_symbol(name)
+            self.velocity_column[velocity_symbol(name)] = self.acceleration_column[acceleration_symbol(name)] = j
+        for pname, pt in kin.points.items():
+            xs, vs, accs = point_symbols(pname), point_velocity_symbols(pname), point_acceleration(pname)
+            for k, a in enumerate(point_acceleration_symbols(pname)):
+                internal[xs[k]] = pt.position[k]
+                internal[vs[k]] = pt.velocity[k]
+                internal[accs[k]] = internal[a] = pt.acceleration[k]
+                rate_of[xs[k]] = vs[k]
+                rate_of[vs[k]] = accs[k]
+                self.velocity_jacobian[vs[k]] = self.acceleration_jacobian[a] = [pt.jacobian[j][k] for j in range(n)]
+        used = {s for c in constraints for s in sp.sympify(c.expression).free_symbols}
+        for pname, pt in kin.points.items():
+            for axis in AXES:
+                es = axis_symbols(pname, axis)
+                if used & set(es):
+                    self._axis(kin, pt, axis, es)
+
+    def _axis(self, kin, pt, axis, es):
+        """The unit vector ``e`` along ``axis`` of point ``pt``'s frame, its rate ``ω × e`` and the
+        velocity-product part of its second derivative ``α × e + ω × (ω × e)``."""
+        define_all = kin.program.define_all
+        e = pt.R[:, AXES.index(axis)]
+        rate = define_all(pt.w.cross(e))
+        second = define_all(pt.alpha.cross(e) + pt.w.cross(rate))
+        moving = kin.chain.topology.supports[pt.joint] if pt.joint >= 0 else ()
+        columns = [define_all(jt.omega.cross(e)) if jt.index in moving else sp.zeros(3, 1) for jt in kin.joints]
+        columns += [sp.zeros(3, 1)] * (self.n - len(columns))
+        for k in range(3):
+            v, a = (sp.Symbol(f"{kind}{es[k].name}", real=True) for kind in ("v", "a"))
+            self.internal[es[k]], self.internal[v], self.internal[a] = e[k], rate[k], second[k]
+            self.rate_of[es[k]], self.rate_of[v] = v, a
+            self.velocity_jacobian[v] = [columns[j][k] for j in range(self.n)]
+
+    def rate(self, expr):
         """Velocity-product part of d/dt expr (the q̈ part is D q̈), in user symbols."""
         return sp.diff(expr, TIME) + sum(
-            (sp.diff(expr, s) * rate_of[s] for s in sorted(expr.free_symbols, key=str) if s in rate_of),
+            (sp.diff(expr, s) * self.rate_of[s] for s in sorted(expr.free_symbols, key=str) if s in self.rate_of),
             sp.S.Zero,
         )
 
-    def jacobian_row(expr, column, jacobian):
+    def jacobian_row(self, expr, column, jacobian):
         """Coefficients of q̈ in ``expr``'s highest derivative, for expr linear in the rates that
         ``column`` and ``jacobian`` map (velocities: of d/dt expr; accelerations: of expr
         itself), in internal symbols."""
-        row = [sp.S.Zero] * n
+        row = [sp.S.Zero] * self.n
         for s in sorted(expr.free_symbols, key=str):
             if s in column:
                 row[column[s]] += sp.diff(expr, s)
@@ -105,7 +134,35 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
                 coeff = sp.diff(expr, s)
                 for j, component in enumerate(jacobian[s]):
                     row[j] += coeff * component
-        return [v.xreplace(internal) for v in row]
+        return [v.xreplace(self.internal) for v in row]
+
+
+def constant_rows(kin: Kinematics, constraints) -> list[str]:
+    """For each position constraint: "zero" where it vanishes identically on the chain (its value
+    and its row of ``D`` are exact zeros once written in the kinematics' intermediates: a
+    closure's out-of-plane rows in a planar linkage), "constant" where its row of ``D`` does but
+    its value does not, else "". Defines intermediates in ``kin.program``: give it a program of
+    its own."""
+    symbols = _Symbols(kin, constraints)
+    out = []
+    for c in constraints:
+        expr = as_piecewise(c.expression)
+        row = symbols.jacobian_row(symbols.rate(expr), symbols.velocity_column, symbols.velocity_jacobian)
+        if c.order != 0 or any(v != 0 for v in row):
+            out.append("")
+        else:
+            out.append("zero" if expr.xreplace(symbols.internal) == 0 else "constant")
+    return out
+
+
+def derive(kin: Kinematics, constraints) -> ConstraintTerms:
+    """Terms of the programmed constraints on the chain whose kinematics is ``kin``."""
+    define = kin.program.define
+    symbols = _Symbols(kin, constraints)
+    internal, rate, jacobian_row = symbols.internal, symbols.rate, symbols.jacobian_row
+    velocity_column, acceleration_column = symbols.velocity_column, symbols.acceleration_column
+    velocity_jacobian, acceleration_jacobian = symbols.velocity_jacobian, symbols.acceleration_jacobian
+    n = len(kin.q)
 
     defaults = {p.symbol: sp.Float(p.default) for p in kin.chain.model.parameters}
     values, rates, rows, gammas, warnings = [], [], [], [], []

@@ -76,7 +76,9 @@ class BodyState:
 class PointState:
     """A point moved by joint ``joint`` (``-1``: the ground): position, velocity and
     velocity-product acceleration in {0}, and the Jacobian columns ``∂position/∂q_j`` (zero for
-    the joints that do not support ``joint``)."""
+    the joints that do not support ``joint``); the frame it is attached to: its rotation ``R``
+    to {0}, angular velocity ``w`` and the velocity-product part ``alpha`` of its angular
+    acceleration (what a closure's orientation rows need)."""
 
     name: str
     joint: int
@@ -84,6 +86,9 @@ class PointState:
     velocity: sp.Matrix
     acceleration: sp.Matrix
     jacobian: list = field(default_factory=list)
+    R: sp.Matrix | None = None
+    w: sp.Matrix | None = None
+    alpha: sp.Matrix | None = None
 
 
 @dataclass
@@ -167,7 +172,8 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
             moving = supports[current] if current >= 0 else ()
             jac = [define_all(jt.omega.cross(position) + jt.v) if jt.index in moving else zero for jt in joints]
             jac += [zero] * (chain.n_dof - len(jac))
-            points[element.name] = PointState(element.name, current, position, velocity, acceleration, jac)
+            points[element.name] = PointState(element.name, current, position, velocity, acceleration, jac,
+                                              R, w, alpha)
             frames[element.name] = (R, position, w, u, alpha, a, current)
     params = {p.name: p.symbol for p in chain.model.parameters}
     return Kinematics(chain, program, q, qd, params, joints, bodies, points)

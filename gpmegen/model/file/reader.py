@@ -19,6 +19,7 @@ from ...errors import ModelError
 from .. import shapes
 from ..chain import (
     AXES,
+    CLOSURE_TYPES,
     GROUND_NAME,
     JOINT_KINDS,
     PAPER_FREEDOMS,
@@ -26,6 +27,7 @@ from ..chain import (
     Body,
     Branch,
     CircularSection,
+    Closure,
     Constraint,
     Drive,
     FlexibleLink,
@@ -40,6 +42,7 @@ from ..chain import (
     TubeSection,
     acceleration_symbol,
     check_name,
+    closure_rows,
     point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
@@ -64,7 +67,8 @@ _RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "initial", "actuators", "urdf")
+            "chain", "drives", "constraints", "closures", "initial", "actuators", "urdf")
+CLOSURE_KEYS = ("name", "points", "type", "axis", "alpha", "beta")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
 SHAPE_KEYS = {
     "cylinder": ("type", "mass", "radius", "length", "axis"),
@@ -309,8 +313,10 @@ class Reader:
         gravity = self.read_vector(data.get("gravity", up), ("gravity",), self.params)
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
+        closures = self.read_closures(data.get("closures", []), constraints, chain)
+        constraints += tuple(row for closure in closures for row in closure.constraints())
         dependent = self.read_dependent(data.get("dependent", "auto"))
-        constraints, dependent = self.prescribe(constraints, dependent)
+        constraints, dependent = self.prescribe(constraints, dependent, bool(closures))
         if robot is not None and robot.constraints:   # the URDF's mimic joints follow their leaders
             constraints += robot.constraints
             dependent = None if dependent is None else tuple(dependent) + robot.dependent
@@ -318,8 +324,10 @@ class Reader:
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
-            constraints=constraints, dependent=dependent, description=description,
+            constraints=constraints, dependent=dependent, description=description, closures=closures,
         )
+        if closures:
+            model = self.drop_vanishing(model, chain)
         self.check_requirements(model)
         try:
             expand(model)
@@ -631,7 +639,110 @@ class Reader:
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
 
-    def prescribe(self, constraints, dependent):
+    def read_closures(self, items, constraints, chain) -> tuple:
+        """The ``[[closures]]`` as :class:`Closure` with all the rows of their type (the ones that
+        vanish identically are dropped later: :meth:`drop_vanishing`); each name, and the names of
+        the rows it writes, checked against every name of the file."""
+        self.array(items, ("closures",), what="list of [[closures]] tables")
+        bodies = [part.name for element in chain
+                  for part in (discretize(element) if isinstance(element, FlexibleLink) else (element,))
+                  if isinstance(part, Body)]
+        taken = {**{name: "parameter" for name in self.params}, **{name: "coordinate" for name in self.coordinates},
+                 **{name: "point" for name in self.points}, **{name: "body" for name in bodies},
+                 **{c.name: "constraint" for c in constraints}}
+        closures = []
+        for k, item in enumerate(items):
+            path = ("closures", k)
+            self.table(item, path, CLOSURE_KEYS, ("name", "points"), "closure")
+            name = self.name(item["name"], path + ("name",), "closure")
+            kind = item.get("type", "point")
+            if kind not in CLOSURE_TYPES:
+                close = difflib.get_close_matches(str(kind), CLOSURE_TYPES, 1)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                self.fail(path + ("type",), f"closure {name!r}: unknown type {kind!r}; {hint}use "
+                                            + ", ".join(f'"{t}"' for t in CLOSURE_TYPES))
+            axis = item.get("axis")
+            if kind == "point" and axis is not None:
+                self.fail(path + ("axis",), f"closure {name!r}: a point closure takes no axis; remove it, or use "
+                                            f"type = \"revolute\" or \"prismatic\"")
+            if kind != "point" and axis is None:
+                self.fail(path, f"closure {name!r}: a {kind} closure needs its axis; add axis = \"x\", \"y\" or "
+                                f"\"z\" (of the frame of its first point)")
+            if kind != "point":
+                self.choice(axis, path + ("axis",), AXES, "closure axis")
+            self.array(item["points"], path + ("points",), 2, "list of two point names")
+            points = tuple(self.string(p, path + ("points", j), "a point name in quotes")
+                           for j, p in enumerate(item["points"]))
+            for j, point in enumerate(points):
+                if point not in self.points:
+                    close = difflib.get_close_matches(point, self.points, 1)
+                    hint = f"did you mean {close[0]!r}? or " if close else ""
+                    self.fail(path + ("points", j), f"closure {name!r}: no point {point!r}; {hint}declare it with a "
+                                                    f"[[chain]] point = \"{point}\" element")
+            gains = {}
+            for key in ("alpha", "beta"):
+                if key in item:
+                    gains[key] = self.quantity(item[key], path + (key,), self.params)
+                    value = evaluate(gains[key], self.defaults)
+                    if value is not None and value < 0:
+                        self.fail(path + (key,), f"closure {name!r}: negative {key} {value:g}; Baumgarte gains must "
+                                                 f"be zero or positive")
+            closure = Closure(name, points, kind, axis, closure_rows(kind, axis), **gains)
+            named = [(f"closure {name!r}", name)] + [(f"the row {label!r} of closure {name!r}", closure.row_name(label))
+                                                     for label in closure.rows]
+            for what, text in named:
+                if text in taken:
+                    self.fail(path + ("name",), f"{what} is named {text!r}, and that name is already taken by a "
+                                                f"{taken[text]}; rename the closure")
+                try:
+                    check_name(text, "closure row")
+                except ModelError as exc:
+                    raise self.error(path + ("name",), f"{exc}: shorten the closure's name") from None
+                taken[text] = "closure" if text == name else "closure row"
+            closures.append(closure)
+        return tuple(closures)
+
+    def drop_vanishing(self, model, chain):
+        """``model`` without the rows of its closures that vanish identically (one warning line
+        each, naming the closure and the row); a row whose value is a constant other than zero
+        (the points can never meet along it) is refused."""
+        import dataclasses
+        import warnings
+
+        from ...errors import ModelWarning
+        from ...symbolic.constraints import constant_rows
+        from ...symbolic.kinematics import forward
+        from ...symbolic.program import Program
+
+        try:
+            flat = expand(dataclasses.replace(model, dependent=None))
+        except ModelError:
+            return model   # the full check reports it
+        rows = [row for closure in model.closures for row in closure.constraints()]
+        kinds = dict(zip((row.name for row in rows), constant_rows(forward(flat, Program()), rows)))
+        closures, dropped = [], set()
+        for k, closure in enumerate(model.closures):
+            kept = []
+            for label, row in zip(closure.rows, closure.constraints()):
+                if kinds[row.name] == "constant":
+                    self.fail(("closures", k, "points"), f"closure {closure.name!r}: its row {label!r} "
+                                                         f"({closure.describe(label)} = 0) is a constant other than "
+                                                         f"zero, so the points can never meet; place them where the "
+                                                         f"loop can close")
+                if kinds[row.name] == "zero":
+                    dropped.add(row.name)
+                    warnings.warn(f"closure {closure.name!r}: row {label!r} ({closure.describe(label)}) vanishes "
+                                  f"identically on this chain and is dropped", ModelWarning, stacklevel=2)
+                else:
+                    kept.append(label)
+            if not kept:
+                self.fail(("closures", k), f"closure {closure.name!r}: every row vanishes identically, so it holds "
+                                           f"nothing; remove it")
+            closures.append(dataclasses.replace(closure, rows=tuple(kept)))
+        return dataclasses.replace(model, closures=tuple(closures),
+                                   constraints=tuple(c for c in model.constraints if c.name not in dropped))
+
+    def prescribe(self, constraints, dependent, closures=False):
         """``constraints`` and ``dependent`` with each prescribed joint's law written as the
         position constraint ``prescribed_<q>: q - law(t) = 0``, after the file's own, and ``q``
         dependent: the GPME prescribes a joint's motion by a programmed constraint with that
@@ -654,7 +765,8 @@ class Reader:
                                                                 f"already; remove it from dependent")
             written.append(Constraint(cname, symbol(name) - law))
         if dependent is None and constraints:
-            self.fail(("dependent",), "with prescribed joints, list the dependent coordinates of the [[constraints]] "
+            rows = "[[constraints]] and the rows of the [[closures]] kept" if closures else "[[constraints]]"
+            self.fail(("dependent",), f"with prescribed joints, list the dependent coordinates of the {rows} "
                                       "(one per constraint; the prescribed joints are added after them): write "
                                       "dependent = [\"...\"]")
         return constraints + tuple(written), tuple(dependent or ()) + tuple(self.prescribed)

@@ -1,0 +1,548 @@
+"""Closed loops ([[closures]]): a planar four-bar against its exact position analysis and the
+power balance of its crank, spatial loops at random consistent states against a KKT solve on
+Pinocchio's M and nonlinear effects, the rows that vanish identically, the redundant rows
+refused at the start, and the closures refused in one line."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.analysis import closures as closure_reactions
+from gpmegen.analysis import energy, study
+from gpmegen.analysis import results as results_io
+from gpmegen.analysis.figure_list import stems
+from gpmegen.cli import main
+from gpmegen.errors import ModelError, ModelWarning, SimulationError
+from gpmegen.model import shapes
+from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
+from gpmegen.model.toml_file import read_model_file
+from gpmegen.runtime import gpme, partition
+
+_HERE = str(Path(__file__).resolve().parent)
+if _HERE not in sys.path:
+    sys.path.insert(0, _HERE)
+
+import oracle  # noqa: E402  (tests/oracle.py)
+
+ROOT = Path(__file__).resolve().parents[1]
+FOUR_BAR = ROOT / "examples" / "four_bar.toml"
+# the example's dimensions, as its [parameters] give them
+L1, L2, L3, D, W = 0.1, 0.3, 0.25, 0.3, 2 * math.pi
+
+
+def four_bar_text(**replace) -> str:
+    """The example's text with lines replaced (``old=new`` pairs given as a dict of strings)."""
+    text = FOUR_BAR.read_text()
+    for old, new in replace.items():
+        assert text.count(old) == 1
+        text = text.replace(old, new)
+    return text
+
+
+def exact_four_bar(theta1):
+    """The coupler's angle relative to the crank and the rocker's absolute angle for the crank
+    at ``theta1``, on the branch with the coupler's tip above the line from B to the rocker's
+    pivot: the two circles about B (radius L2) and D = (d, 0) (radius L3) intersected."""
+    bx, by = L1 * np.cos(theta1), L1 * np.sin(theta1)
+    ex, ey = D - bx, -by
+    s = np.hypot(ex, ey)
+    ux, uy = ex / s, ey / s
+    along = (L2 ** 2 - L3 ** 2 + s ** 2) / (2 * s)
+    across = np.sqrt(L2 ** 2 - along ** 2)
+    cx, cy = bx + along * ux - across * uy, by + along * uy + across * ux
+    return np.arctan2(cy - by, cx - bx) - theta1, np.arctan2(cy, cx - D)
+
+
+def wrapped(a):
+    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+
+
+@pytest.fixture(scope="module", params=["revolute", "point"])
+def four_bar_run(request, env, tmp_path_factory):
+    """0.5 s of the four-bar (crank at 2π rad/s), closed by a revolute joint about z (the
+    example) or by a point closure, on the NumPy backend."""
+    path = tmp_path_factory.mktemp("four_bar") / "four_bar.toml"
+    if request.param == "point":
+        path.write_text(four_bar_text(**{'["C1", "C2"]\ntype = "revolute"\naxis = "z"': '["C1", "C2"]\ntype = "point"',
+                                         'name = "four_bar"': 'name = "four_bar_point"'}))
+    else:
+        path.write_text(FOUR_BAR.read_text())
+    run = gpmegen.simulate(str(path), t_end=0.5, dt=1e-3, save_every=10, backend="numpy", directory=env[0])
+    return path, run
+
+
+def test_four_bar_follows_its_exact_position_analysis(four_bar_run):
+    """The crank turns at w, and the coupler and rocker angles along the run are the closed-form
+    four-bar's at the crank's angle, to 1e-8 rad."""
+    _, run = four_bar_run
+    assert run.status == "complete"
+    t, theta1 = run.t, run.coordinate("theta1")
+    np.testing.assert_allclose(theta1, W * t, rtol=0, atol=1e-10)
+    coupler, rocker = exact_four_bar(theta1)
+    assert np.max(np.abs(wrapped(run.coordinate("theta2") - coupler))) < 1e-8
+    assert np.max(np.abs(wrapped(run.coordinate("theta3") - rocker))) < 1e-8
+    assert np.ptp(run.coordinate("theta3")) > 0.3   # the rocker rocks
+
+
+def test_four_bar_crank_torque_balances_the_power(four_bar_run, env):
+    """The crank's torque (the prescribed constraint's multiplier) times its rate is the rate of
+    the kinetic and gravity energy at every saved state: d/dt (T + V) along the motion, by central
+    differences of the generated energies along (q̇, q̈); the closure does no work."""
+    path, run = four_bar_run
+    loaded = gpmegen.load(model=read_model_file(path).model, backend="numpy", directory=env[0])
+    names = list(run["constraint_names"])
+    torque = run["lambda"][:, names.index("prescribed_theta1")]
+    eps = 1e-6
+    rates = []
+    for q, qd, qdd in zip(run["q"], run["qd"], run["qdd"]):
+        ahead, behind = loaded.energies(q + eps * qd, qd + eps * qdd), loaded.energies(q - eps * qd, qd - eps * qdd)
+        rates.append((ahead[0] + ahead[1] - behind[0] - behind[1]) / (2 * eps))
+    power = torque * run["qd"][:, list(run["coordinates"]).index("theta1")]
+    scale = np.max(np.abs(power))
+    assert scale > 0.1
+    np.testing.assert_allclose(power, rates, rtol=0, atol=1e-7 * scale)
+
+
+GROUNDED = """
+schema = 1
+name = "four_bar_grounded"
+gravity = [0, "-g", 0]
+dependent = ["theta2", "theta3"]
+
+[parameters]
+g = 9.81
+L1 = 0.1
+L2 = 0.3
+L3 = 0.25
+d = 0.3
+w = 6.283185307179586
+
+[[chain]]
+point = "D"                 # the rocker's pivot, on the ground: defined before any joint
+position = ["d", 0, 0]
+
+[[chain]]
+joint = "theta1"
+type = "revolute"
+axis = "z"
+prescribed = "w*t"
+
+[[chain]]
+body = "crank"
+shape = { type = "bar", mass = 0.5, length = "L1", width = 0.02, thickness = 0.01 }
+
+[[chain]]
+translation = ["L1", 0, 0]
+
+[[chain]]
+joint = "theta2"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "coupler"
+shape = { type = "bar", mass = 1.0, length = "L2", width = 0.02, thickness = 0.01 }
+
+[[chain]]
+translation = ["L2", 0, 0]
+
+[[chain]]
+point = "C"
+
+[[chain]]
+joint = "theta3"
+type = "revolute"
+axis = "z"
+
+[[chain]]
+body = "rocker"
+shape = { type = "bar", mass = 0.8, length = "L3", width = 0.02, thickness = 0.01 }
+
+[[chain]]
+point = "R"
+position = ["L3", 0, 0]
+
+[[closures]]
+name = "pin"
+points = ["R", "D"]
+type = "point"
+
+[initial]
+q = { theta2 = 1.0, theta3 = 3.8 }
+"""
+
+
+def test_a_serial_chain_pinned_to_a_ground_point_is_the_same_four_bar(tmp_path, env):
+    """The four-bar as one serial chain (crank, coupler, rocker) whose tip is pinned to the
+    rocker's pivot, a point on the ground: the coupler's tip follows the closed-form analysis
+    to 1e-8 m, and the reaction on the ground (the second point's body) is the force that holds
+    the pin."""
+    path = tmp_path / "grounded.toml"
+    path.write_text(GROUNDED)
+    run = gpmegen.simulate(str(path), t_end=0.3, dt=1e-3, save_every=10, backend="numpy", directory=env[0])
+    assert run.status == "complete"
+    theta1, theta2 = run.coordinate("theta1"), run.coordinate("theta2")
+    coupler, rocker = exact_four_bar(theta1)
+    tip = np.column_stack([L1 * np.cos(theta1) + L2 * np.cos(theta1 + theta2),
+                           L1 * np.sin(theta1) + L2 * np.sin(theta1 + theta2)])
+    exact = np.column_stack([D + L3 * np.cos(rocker), L3 * np.sin(rocker)])
+    assert np.max(np.abs(tip - exact)) < 1e-8
+    names = list(run["constraint_names"])
+    assert names == ["pin_x", "pin_y", "prescribed_theta1"]
+    np.testing.assert_array_equal(run["closure_pin_force"][:, :2], run["lambda"][:, :2])
+
+
+@pytest.mark.requires_cc
+def test_four_bar_on_the_c_backend_saves_its_reactions(env, tmp_path):
+    """The example on the C backend (its O(n) solve) follows the same exact position analysis;
+    its results file and CSV hold the closure's reaction apart from λ, with units, and its
+    figures include the reactions'."""
+    run = gpmegen.simulate(str(FOUR_BAR), t_end=0.3, dt=1e-3, save_every=10, backend="c", directory=env[0])
+    coupler, rocker = exact_four_bar(run.coordinate("theta1"))
+    assert np.max(np.abs(wrapped(run.coordinate("theta2") - coupler))) < 1e-8
+    assert np.max(np.abs(wrapped(run.coordinate("theta3") - rocker))) < 1e-8
+    names = list(run["constraint_names"])
+    lam = run["lambda"]
+    force = run["closure_C_force"]
+    np.testing.assert_array_equal(force[:, 0], lam[:, names.index("C_x")])   # a coincidence row's λ is the force
+    np.testing.assert_array_equal(force[:, 1], lam[:, names.index("C_y")])
+    assert not force[:, 2].any() and not run["closure_C_moment"].any()     # the dropped rows carry nothing
+    path = tmp_path / "four_bar.npz"
+    run.save(path)
+    loaded = results_io.load(path)
+    np.testing.assert_array_equal(loaded["closure_C_force"], force)
+    meta = results_io.metadata(loaded)
+    assert meta["lambda_units"] == {"C_x": "N", "C_y": "N", "prescribed_theta1": "N·m"}
+    assert meta["closures"] == [{"name": "C", "points": ["C1", "C2"], "type": "revolute", "axis": "z",
+                                 "rows": ["C_x", "C_y"], "moment": True, "acting": {"force": ["x", "y"], "moment": []}}]
+    header = path.with_suffix(".csv").read_text().splitlines()[1].split(",")
+    assert header[-6:] == [f"{a}_closure_C [{unit}]" for a, unit in (("Fx", "N"), ("Fy", "N"), ("Fz", "N"),
+                                                                      ("Mx", "N·m"), ("My", "N·m"), ("Mz", "N·m"))]
+    assert stems([loaded])[-2:] == ["constraint_multipliers", "closure_reactions"]
+
+
+@pytest.mark.requires_cc
+def test_flexible_coupler_holds_its_loop_and_its_energy_balance(env):
+    """examples/four_bar_flexible.toml: the coupler's rfes bend, the loop holds and the energy
+    balance ΔE - W stays at the integration's error, far below the energy exchanged."""
+    run = gpmegen.simulate(str(ROOT / "examples" / "four_bar_flexible.toml"), t_end=0.3, dt=1e-4, save_every=10,
+                           backend="c", directory=env[0])
+    assert run.status == "complete"
+    assert np.max(np.abs(run["phi"])) < 1e-10
+    bend = np.abs(run.coordinate("psi2_1")).max()
+    assert 1e-5 < bend < 1e-2
+    exchanged = np.abs(run["work_constraints"]).max()
+    assert exchanged > 0.1
+    assert np.abs(energy.balance_residual(run.arrays)).max() < 1e-6 * exchanged
+
+
+# ---- spatial loops against Pinocchio ----------------------------------------------------------
+
+try:
+    import pinocchio as pin
+except ImportError:   # the spatial tests skip without it
+    pin = None
+
+GRAVITY = (0.4, -9.81, 1.3)
+# each joint: (translation, rotations of the offset before it, kind, axis, body (mass, centre,
+# inertia (Ixx, Iyy, Izz, Ixy, Ixz, Iyz) about the centre))
+BRANCH_A = (
+    ((0.0, 0.0, 0.1), (("x", 0.2),), "revolute", "z", (1.2, (0.1, 0.02, 0.0), (0.02, 0.03, 0.025, 0.001, 0.0, 0.002))),
+    ((0.3, 0.0, 0.0), (("y", 0.5),), "revolute", "y", (0.9, (0.15, 0.0, 0.03), (0.01, 0.02, 0.015, 0.0, 0.001, 0.0))),
+    ((0.1, 0.05, 0.0), (), "prismatic", "x", (0.6, (0.05, 0.01, 0.0), (0.004, 0.006, 0.005, 0.0, 0.0, 0.0005))),
+    ((0.25, 0.0, 0.05), (("z", -0.3),), "revolute", "x", (0.7, (0.08, -0.02, 0.01), (0.005, 0.004, 0.006, 0, 0, 0))),
+)
+BRANCH_B = (
+    ((0.4, 0.3, 0.0), (("z", 1.0),), "revolute", "y", (1.0, (0.0, 0.1, 0.02), (0.02, 0.01, 0.02, 0.0, 0.0, 0.001))),
+    ((0.2, 0.0, 0.1), (), "revolute", "z", (0.8, (0.1, 0.0, 0.0), (0.003, 0.01, 0.01, 0.0, 0.0, 0.0))),
+    ((0.15, 0.0, 0.0), (("x", 0.4),), "revolute", "x", (0.5, (0.05, 0.02, -0.01), (0.002, 0.003, 0.004, 0, 0, 0))),
+)
+POINT_A = (0.1, 0.02, -0.03)
+
+
+def placement(t, rotations):
+    """The 4x4 transform of an offset: its translation, then its rotations in order."""
+    T = oracle.translation(*t)
+    for axis, angle in rotations:
+        T = T @ oracle.rotation(axis, angle)
+    return T
+
+
+def closing_offset():
+    """The offset from the last joint of branch B to the point CB that puts CB on CA, its frame
+    on CA's, at q = 0: (translation, ZYX rotations)."""
+    A = np.eye(4)
+    for t, rotations, *_ in BRANCH_A:
+        A = A @ placement(t, rotations)
+    A = A @ placement(POINT_A, ())
+    B = np.eye(4)
+    for t, rotations, *_ in BRANCH_B:
+        B = B @ placement(t, rotations)
+    rel = np.linalg.solve(B, A)
+    R = rel[:3, :3]
+    angles = (("z", math.atan2(R[1, 0], R[0, 0])), ("y", -math.asin(R[2, 0])), ("x", math.atan2(R[2, 1], R[2, 2])))
+    assert np.allclose(placement((0, 0, 0), angles)[:3, :3], R, atol=1e-14)
+    return tuple(rel[:3, 3]), angles
+
+
+def tensor(moments):
+    xx, yy, zz, xy, xz, yz = moments
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def spatial_model(kind, axis) -> Model:
+    chain = []
+    for label, branch in (("a", BRANCH_A), ("b", BRANCH_B)):
+        if label == "b":
+            chain.append(Branch("ground"))
+        for k, (t, rotations, joint, joint_axis, (m, c, moments)) in enumerate(branch):
+            chain += [Offset(t, rotations), Joint(f"{label}{k}", joint, joint_axis),
+                      Body(f"{label}{k}_body", shapes.from_inertia_tensor(m, c, tensor(moments).tolist()))]
+        if label == "a":
+            chain.append(Point("CA", POINT_A))
+        else:
+            t, angles = closing_offset()
+            chain += [Offset(t, angles), Point("CB")]
+    closure = Closure("L", ("CA", "CB"), kind, axis, closure_rows(kind, axis))
+    return Model(f"loop_{kind}", (Parameter("unused", 1.0),), tuple(chain), gravity=GRAVITY,
+                 constraints=closure.constraints(), closures=(closure,))
+
+
+PIN_JOINTS = {("revolute", "x"): "JointModelRX", ("revolute", "y"): "JointModelRY", ("revolute", "z"): "JointModelRZ",
+              ("prismatic", "x"): "JointModelPX"}
+
+
+def pinocchio_model():
+    model = pin.Model()
+    frames = {}
+    for label, branch in (("a", BRANCH_A), ("b", BRANCH_B)):
+        parent = 0
+        for k, (t, rotations, joint, joint_axis, (m, c, moments)) in enumerate(branch):
+            T = placement(t, rotations)
+            parent = model.addJoint(parent, getattr(pin, PIN_JOINTS[joint, joint_axis])(), pin.SE3(T[:3, :3], T[:3, 3]),
+                                    f"{label}{k}")
+            model.appendBodyToJoint(parent, pin.Inertia(m, np.array(c), tensor(moments)), pin.SE3.Identity())
+        if label == "a":
+            where = pin.SE3(np.eye(3), np.array(POINT_A))
+        else:
+            t, angles = closing_offset()
+            T = placement(t, angles)
+            where = pin.SE3(T[:3, :3], T[:3, 3])
+        name = "CA" if label == "a" else "CB"
+        frames[name] = model.addFrame(pin.Frame(name, parent, 0, where, pin.FrameType.OP_FRAME))
+    model.gravity.linear = np.array(GRAVITY)
+    return model, frames
+
+
+def pinocchio_rows(model, data, frames, closure, q, qd):
+    """The closure's rows at (q, q̇) from Pinocchio's frames: values Φ, Jacobian J and the
+    velocity-product part γ of Φ̈, by the rows' formulas (coincidence x_B - x_A; orientation
+    a_A·b_B; slide (p_B - p_A)·e_A)."""
+    n = model.nv
+    pin.forwardKinematics(model, data, q, qd, np.zeros(n))
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    got = {}
+    for name, fid in frames.items():
+        J = pin.getFrameJacobian(model, data, fid, world)
+        v = pin.getFrameVelocity(model, data, fid, world)
+        a = pin.getFrameClassicalAcceleration(model, data, fid, world)
+        got[name] = dict(p=data.oMf[fid].translation.copy(), R=data.oMf[fid].rotation.copy(), Jv=J[:3], Jw=J[3:],
+                         v=v.linear.copy(), w=v.angular.copy(), a=a.linear.copy(), dw=a.angular.copy())
+    A, B = got["CA"], got["CB"]
+    values, rows, gammas = [], [], []
+    for label in closure.rows:
+        if label in ("x", "y", "z"):
+            k = "xyz".index(label)
+            values.append(B["p"][k] - A["p"][k])
+            rows.append(B["Jv"][k] - A["Jv"][k])
+            gammas.append(B["a"][k] - A["a"][k])
+        elif label.endswith("1"):
+            e = A["R"][:, "xyz".index(label[0])]
+            r, dv = B["p"] - A["p"], B["v"] - A["v"]
+            values.append(r @ e)
+            rows.append(e @ (B["Jv"] - A["Jv"]) + np.cross(e, r) @ A["Jw"])
+            gammas.append((B["a"] - A["a"]) @ e + 2 * dv @ np.cross(A["w"], e)
+                          + r @ (np.cross(A["dw"], e) + np.cross(A["w"], np.cross(A["w"], e))))
+        else:
+            a1, b2 = A["R"][:, "xyz".index(label[0])], B["R"][:, "xyz".index(label[1])]
+            axis = np.cross(b2, a1)
+            values.append(a1 @ b2)
+            rows.append(axis @ (B["Jw"] - A["Jw"]))
+            gammas.append((B["dw"] - A["dw"]) @ axis + (B["w"] - A["w"]) @ (
+                np.cross(np.cross(B["w"], b2), a1) + np.cross(b2, np.cross(A["w"], a1))))
+    return np.array(values), np.array(rows), np.array(gammas), got
+
+
+def expected_reaction(closure, lam, got):
+    """Force and moment on CB's body from λ by the rows' virtual work, with Pinocchio's frames."""
+    force, moment = np.zeros(3), np.zeros(3)
+    for label, value in zip(closure.rows, lam):
+        if label in ("x", "y", "z"):
+            force["xyz".index(label)] += value
+        elif label.endswith("1"):
+            force += value * got["CA"]["R"][:, "xyz".index(label[0])]
+        else:
+            a1, b2 = got["CA"]["R"][:, "xyz".index(label[0])], got["CB"]["R"][:, "xyz".index(label[1])]
+            moment += value * np.cross(b2, a1)
+    return force, moment
+
+
+@pytest.mark.parametrize("kind, axis", [("point", None), ("revolute", "z"), ("prismatic", "x")])
+def test_spatial_loop_matches_kkt_on_pinocchio(env, rng, kind, axis):
+    """At random consistent states (assembled from random guesses near the closed q = 0), q̈ and
+    λ of the GPME against the KKT system of Pinocchio's M and nonlinear effects with the
+    closure's rows from Pinocchio's frames, to 1e-10 of their size; the generated D against
+    central differences of Pinocchio's row values; the reported reaction against λ's."""
+    if pin is None:
+        pytest.skip("pinocchio is not installed")
+    model = spatial_model(kind, axis)
+    closure = model.closures[0]
+    assert len(closure.rows) == {"point": 3, "revolute": 5, "prismatic": 5}[kind]
+    loaded = gpmegen.load(model=model, backend="numpy", directory=env[0])
+    pmodel, frames = pinocchio_model()
+    data = pmodel.createData()
+    n = loaded.n_dof
+    checked = 0
+    while checked < 3:
+        guess = rng.uniform(-0.3, 0.3, n)
+        at = partition.partition_at(loaded, guess)
+        try:
+            q = study.project_onto_constraints(at, guess)
+        except SimulationError:
+            continue
+        qd = study.project_velocities(at, q, rng.uniform(-1.5, 1.5, n))
+        values, J, gamma, got = pinocchio_rows(pmodel, data, frames, closure, q, qd)
+        assert np.max(np.abs(values)) < 1e-11
+        phi, _, D, _ = loaded.constraint_terms(0.0, q, qd)
+        np.testing.assert_allclose(D, J, rtol=0, atol=1e-12 * np.abs(J).max())
+        eps, fd = 1e-6, np.zeros_like(J)
+        for j in range(n):
+            step = np.zeros(n)
+            step[j] = eps
+            fd[:, j] = (pinocchio_rows(pmodel, data, frames, closure, q + step, qd)[0]
+                        - pinocchio_rows(pmodel, data, frames, closure, q - step, qd)[0]) / (2 * eps)
+        np.testing.assert_allclose(D, fd, rtol=0, atol=1e-8)
+        M = pin.crba(pmodel, data, q)
+        M = np.triu(M) + np.triu(M, 1).T
+        nle = pin.rnea(pmodel, data, q, qd, np.zeros(n))
+        m = len(closure.rows)
+        kkt = np.block([[M, -J.T], [J, np.zeros((m, m))]])
+        solution = np.linalg.solve(kkt, np.concatenate([-nle, -gamma]))
+        qdd_ref, lam_ref = solution[:n], solution[n:]
+        qdd, M_ours, f = loaded.motion(0.0, q, qd)
+        lam = gpme.multipliers(M_ours, f, qdd, D)
+        np.testing.assert_allclose(qdd, qdd_ref, rtol=0, atol=1e-10 * np.abs(qdd_ref).max())
+        np.testing.assert_allclose(lam, lam_ref, rtol=0, atol=1e-10 * np.abs(lam_ref).max())
+        reaction = closure_reactions.reactions(model, q[None], lam[None], loaded.p)["L"]
+        force, moment = expected_reaction(closure, lam_ref, got)
+        size = max(np.abs(force).max(), np.abs(moment).max())
+        np.testing.assert_allclose(reaction["force"][0], force, rtol=0, atol=1e-10 * size)
+        if kind == "point":
+            assert "moment" not in reaction
+        else:
+            np.testing.assert_allclose(reaction["moment"][0], moment, rtol=0, atol=1e-10 * size)
+            assert np.abs(moment).max() > 1e-3 * size   # a moment is carried
+        checked += 1
+
+
+# ---- rows that vanish, redundant rows, refusals, assembly -------------------------------------
+
+@pytest.mark.parametrize("kind, kept, dropped", [
+    ('type = "revolute"\naxis = "z"', ("x", "y"), ("z", "zx", "zy")),
+    ('type = "point"', ("x", "y"), ("z",)),
+    ('type = "prismatic"\naxis = "x"', ("y1", "xy"), ("z1", "xz", "yz")),
+], ids=["revolute", "point", "prismatic"])
+def test_rows_that_vanish_identically_are_dropped_by_name(tmp_path, kind, kept, dropped):
+    """With every joint axis along z and every offset in the plane, the closure's out-of-plane
+    coincidence row and the orientation rows about axes in the plane vanish identically: exactly
+    those are dropped, each with one warning line naming the closure and the row, and the
+    constraints hold the others. A prismatic closure along the coupler's x keeps its in-plane
+    slide row and the row that holds the relative turn about z (x₁·y₂)."""
+    path = tmp_path / "four_bar.toml"
+    text = four_bar_text(**{'["C1", "C2"]\ntype = "revolute"\naxis = "z"': f'["C1", "C2"]\n{kind}'})
+    path.write_text(text)
+    with pytest.warns(ModelWarning) as caught:
+        model = read_model_file(path).model
+    lines = [str(w.message) for w in caught]
+    assert lines == [f"closure 'C': row {label!r} ({model.closures[0].describe(label)}) vanishes identically on this "
+                     f"chain and is dropped" for label in dropped]
+    assert model.closures[0].rows == kept
+    assert [c.name for c in model.constraints] == [f"C_{label}" for label in kept] + ["prescribed_theta1"]
+
+
+def test_redundant_rows_are_refused_at_the_start_naming_the_closure(tmp_path, env):
+    """The four-bar closed by a revolute joint whose frames are turned about x and back: the
+    orientation rows no longer vanish by their form, but they are redundant with the in-plane
+    motion (zero rows of D): the start refuses the closure in one line, with the fix."""
+    path = tmp_path / "four_bar_turned.toml"
+    path.write_text(four_bar_text(**{
+        '[[chain]]\npoint = "C1"': '[[chain]]\nrotations = [["x", 0.3], ["x", -0.3]]\n\n[[chain]]\npoint = "C1"',
+        'name = "four_bar"': 'name = "four_bar_turned"',
+        'dependent = ["theta2", "theta3"]': 'dependent = "auto"',
+        'prescribed = "w*t"\n': ''}))
+    model = read_model_file(path).model
+    assert model.closures[0].rows == ("x", "y", "zx", "zy")
+    with pytest.raises(ModelError) as info:
+        gpmegen.statics(str(path), backend="numpy", directory=env[0])
+    message = str(info.value)
+    assert "closure 'C': its rows C_zx, C_zy are redundant at the start" in message
+    assert 'type = "point"' in message and "\n" not in message
+
+
+def test_assembly_reports_what_moved_and_names_a_loop_that_cannot_close(tmp_path, env, capsys):
+    """From the example's rough [initial] q the start moves theta2 and theta3 onto the loop and
+    says by how much (no warning); with a ground link longer than the other three together the
+    loop cannot close, and the refusal names the closure and its residual."""
+    assert main(["statics", str(FOUR_BAR)]) == 0
+    err = capsys.readouterr().err
+    coupler, rocker = exact_four_bar(0.0)
+    assert (f"the loops assembled by moving theta2 from 1 to {coupler:.6g} ({coupler - 1.0:+.3e}), "
+            f"theta3 from 1.7 to {rocker:.6g} ({rocker - 1.7:+.3e})") in err
+    assert "warning: the start" not in err
+    assert main(["statics", str(FOUR_BAR), "--param", "d=1.0"]) == 1
+    err = capsys.readouterr().err
+    line = [line for line in err.splitlines() if "error" in line]
+    assert len(line) == 1 and "closure 'C' (residual " in line[0] and "cannot be closed" in line[0]
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("change, message", [
+    ({'points = ["C1", "C2"]': 'points = ["C1", "C1b"]',
+      '[[chain]]\npoint = "C1"': '[[chain]]\npoint = "C1b"\n\n[[chain]]\npoint = "C1"'},
+     "closure 'C': points 'C1' and 'C1b' are both on the same body, so the closure holds nothing; close the loop "
+     "between points on two different bodies"),
+    ({'points = ["C1", "C2"]': 'points = ["C1", "C3"]'},
+     "closures[0].points[1]: closure 'C': no point 'C3'; declare it with a [[chain]] point = \"C3\" element"),
+    ({'type = "revolute"\naxis = "z"\nalpha': 'type = "revolute"\nalpha'},
+     "closures[0]: closure 'C': a revolute closure needs its axis; add axis = \"x\", \"y\" or \"z\""),
+    ({'type = "revolute"\naxis = "z"\nalpha': 'type = "hinge"\naxis = "z"\nalpha'},
+     "closures[0].type: closure 'C': unknown type 'hinge'; use \"point\", \"revolute\", \"prismatic\""),
+    ({'name = "C"\npoints': 'name = "B"\npoints'},
+     "closures[0].name: closure 'B' is named 'B', and that name is already taken by a point; rename the closure"),
+    ({'name = "C"\npoints': 'name = "theta1"\npoints'},
+     "closures[0].name: the row 'x' of closure 'theta1' is named 'theta1_x'"),
+], ids=["same_body", "missing_point", "no_axis", "unknown_type", "name_taken", "row_name_taken"])
+def test_bad_closures_are_refused_in_one_line(tmp_path, capsys, change, message):
+    """gpmegen build refuses each bad closure with exit status 2 and one line naming it and the
+    fix, before anything is derived."""
+    path = tmp_path / "four_bar.toml"
+    path.write_text(four_bar_text(**change))
+    if "theta1_x" in message:   # a row's name taken by a coordinate: give the crank that name
+        path.write_text(path.read_text().replace('joint = "theta1"', 'joint = "theta1_x"')
+                        .replace("theta1 = 0", "theta1_x = 0"))
+        message = "closures[0].name: the row 'x' of closure 'theta1' is named 'theta1_x', and that name is already " \
+                  "taken by a coordinate; rename the closure"
+    assert main(["build", str(path), "--out", str(tmp_path / "built")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    errors = [line for line in err.splitlines() if "error" in line]
+    assert len(errors) == 1 and message in errors[0], err
+    assert not (tmp_path / "built").exists()
