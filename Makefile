@@ -40,7 +40,8 @@ snapshots: venv
 # The README's animations, small in bytes (10 frames per second, 70 dpi): the reference arm
 # (n_rfe 5) over the paper's 10 s, its deformation magnified 3 times; the flexible Panda (needs
 # example-robot-data) over two turns of its circle, from its constrained statics, magnified 100 times;
-# and the model files' page's still of the gripper (a tree) at four times, magnified 300 times.
+# and the model files' page's stills of the gripper (a tree) at four times, magnified 300 times,
+# and of Baxter (two arms, a flexible upper arm each; needs example-robot-data) at three.
 animation: venv
 	$(BIN)/gpmegen simulate --nrfe 5 --t-end 10 --out results/animation_nrfe5.npz --overwrite
 	$(BIN)/gpmegen animate results/animation_nrfe5.npz --out docs/figures/arm_nrfe5.gif --magnify 3 --fps 10 --dpi 70
@@ -48,6 +49,8 @@ animation: venv
 	$(BIN)/gpmegen animate results/panda_flexible.npz --out docs/figures/panda_flexible.gif --magnify 100 --fps 10 --dpi 70 --view 30,-40
 	$(BIN)/gpmegen simulate examples/flexible_gripper.toml --t-end 0.3 --dt 1e-4 --save-every 10 --out results/flexible_gripper.npz --overwrite
 	$(BIN)/gpmegen animate results/flexible_gripper.npz --still 0,0.1,0.2,0.3 --magnify 300 --dpi 80 --out docs/figures/flexible_gripper.png --overwrite
+	$(BIN)/gpmegen simulate examples/baxter_flexible.toml --statics constrained --t-end 2 --out results/baxter_flexible.npz --overwrite
+	$(BIN)/gpmegen animate results/baxter_flexible.npz --still 0,1,2 --magnify 300 --dpi 80 --out docs/figures/baxter_flexible.png --overwrite
 
 # The command line's reference page, made from its parser and help pages (tests/test_docs.py fails
 # when the committed page differs).

@@ -412,7 +412,8 @@ def test_every_readme_code_block_runs_as_pasted(tmp_path, shared_cache, untouche
 @pytest.mark.parametrize("block", [b for b in ALL if b.mark == "long" and b.language in RUN], ids=lambda b: b.where())
 def test_long_code_block_runs_after_the_blocks_before_it(block, tmp_path, shared_cache, untouched_checkout):
     """After the blocks of its page before it (whose files it may read), as the page is pasted."""
-    if "panda" in block.code:  # the Panda's URDF comes with the example-robot-data package (data, no module)
+    if "panda" in block.code or "baxter" in block.code:  # their URDFs come with the example-robot-data
+        # package (data, no module)
         try:
             metadata.distribution("example-robot-data")
         except metadata.PackageNotFoundError:

@@ -316,3 +316,40 @@ def test_a_base_link_named_ground_is_renamed_when_branches_start_from_it(tmp_pat
         robot = import_urdf(path)
     assert Branch("ground_2") in robot.model.chain
     assert expand(robot.model).topology.parent == (-1, -1)
+
+
+@pytest.mark.long
+def test_the_two_armed_baxter_with_flexible_upper_arms_lifts_both_hands(env, tmp_path):
+    """``examples/baxter_flexible.toml``: Baxter imported whole, each upper arm a flexible tube,
+    both hands lifted together by their own shoulders and elbows, built at n_rfe 2 and run for
+    0.1 s from its constrained statics: the start is at rest and balanced, both hands keep their
+    x and y and rise along the law, the held joints stay where they were held, and both tubes bend
+    (the elastic coordinates of each arm move)."""
+    from gpmegen.cli import main
+
+    robot_file("baxter")
+    example = Path(__file__).resolve().parents[1] / "examples" / "baxter_flexible.toml"
+    out = tmp_path / "baxter.npz"
+    assert main(["simulate", str(example), "--nrfe", "2", "--t-end", "0.1", "--dt", "1e-4", "--save-every", "50",
+                 "--statics", "constrained", "--backend", "numpy", "--out", str(out)]) == 0
+    model = load_model_file(example, nrfe=2)
+    values = {p.name: float(p.default) for p in model.parameters}
+    loaded = gpmegen.load(model=model, backend="numpy")
+    with np.load(out) as r:
+        coordinates = [str(c) for c in r["coordinates"]]
+        t, q, qd, qdd, phi = r["t"], r["q"], r["qd"], r["qdd"], r["phi"]
+    assert np.abs(phi).max() < 1e-8
+    assert np.abs(qd[0]).max() == 0.0 and np.abs(qdd[0]).max() < 1e-6
+    lift = values["H"] * (1 - np.cos(np.pi * t / values["T"])) ** 2 / 4
+    points = list(loaded.points)
+    for side in ("left", "right"):
+        hand = np.array([loaded.point_positions(qk)[points.index(f"{side}_gripper")] for qk in q])
+        start = [values[f"{c}{side[0]}"] for c in "xyz"]
+        np.testing.assert_allclose(hand, np.column_stack([np.full_like(t, start[0]), np.full_like(t, start[1]),
+                                                          start[2] + lift]), rtol=0, atol=1e-8)
+        held = [coordinates.index(f"{side}_{j}") for j in ("e0", "w0", "w1", "w2")]
+        np.testing.assert_allclose(q[:, held], [[values[f"{side[0]}{j}"] for j in ("e0", "w0", "w1", "w2")]] * len(q),
+                                   rtol=0, atol=1e-12)
+        elastic = [k for k, name in enumerate(coordinates) if name.endswith(f"{side[0].upper()}_1")]
+        assert elastic and np.abs(q[-1, elastic] - q[0, elastic]).max() > 1e-7
+    assert lift[-1] > 5e-5   # m: the hands rose, by 60 µm at 0.1 s

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model.topology import GROUND
+from .algebra import cross, dot, mul
 from .kinematics import Kinematics
 
 
@@ -70,7 +71,7 @@ class Dynamics:
                 sum_w, sum_v = sp.zeros(3, 1), sp.zeros(3, 1)
             else:
                 sum_w, sum_v = passed_w[parent], passed_v[parent]
-            product.append(ji.omega.dot(after_n[i]) + ji.v.dot(after_l[i]) + n_i.dot(sum_w) + l_i.dot(sum_v))
+            product.append(dot(ji.omega, after_n[i]) + dot(ji.v, after_l[i]) + dot(n_i, sum_w) + dot(l_i, sum_v))
             passed_w[i], passed_v[i] = define_all(sum_w + a[i] * ji.omega), define_all(sum_v + a[i] * ji.v)
         return sp.Matrix(n, 1, product)
 
@@ -96,9 +97,9 @@ def _world_inertia(body, define_all):
     m = H[3, 3]
     hc = H[0:3, 3]
     sigma_body = H[0:3, 0:3]
-    c = define_all(R * hc + m * p)
-    rh = R * hc
-    sigma = R * sigma_body * R.T + rh * p.T + p * rh.T + m * p * p.T
+    c = define_all(mul(R, hc) + m * p)
+    rh = mul(R, hc)
+    sigma = mul(mul(R, sigma_body), R.T) + mul(rh, p.T) + mul(p, rh.T) + mul(m * p, p.T)
     sigma = define_all(sigma)
     inertia = sp.eye(3) * (sigma[0, 0] + sigma[1, 1] + sigma[2, 2]) - sigma
     inertia = define_all(inertia)
@@ -107,7 +108,7 @@ def _world_inertia(body, define_all):
 
 def _apply(m, c, inertia, w, u):
     """Spatial inertia times twist: (I ω + c × v, m v + ω × c)."""
-    return inertia * w + c.cross(u), m * u + w.cross(c)
+    return mul(inertia, w) + cross(c, u), m * u + cross(w, c)
 
 
 def _add_composite(total, part, define, define_all):
@@ -133,8 +134,8 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         n_w, l_w = define_all(n_w), define_all(l_w)
         n_a, l_a = _apply(m, c, inertia, body.alpha, body.a)
         # (ω, v) ×* (n, l) = (ω × n + v × l, ω × l)
-        torque = define_all(n_a + body.w.cross(n_w) + body.u.cross(l_w))
-        force = define_all(l_a + body.w.cross(l_w))
+        torque = define_all(n_a + cross(body.w, n_w) + cross(body.u, l_w))
+        force = define_all(l_a + cross(body.w, l_w))
         per_body.append((body.joint, m, c, inertia, torque, force))
 
     # Composites, from the tips back: joint j moves its own bodies and its children's composites.
@@ -166,15 +167,15 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         m_c, c_c, i_c, n_c, f_c = composite[j]
         n_j, l_j = _apply(m_c, c_c, i_c, jt.omega, jt.v)
         columns.append((define_all(n_j), define_all(l_j)))
-        h[j] = define(-(jt.omega.dot(n_c) + jt.v.dot(f_c)))
-        grav[j] = define(-gvec.dot(columns[j][1]))
+        h[j] = define(-(dot(jt.omega, n_c) + dot(jt.v, f_c)))
+        grav[j] = define(-dot(gvec, columns[j][1]))
     for j in range(n):
         n_j, l_j = columns[j]
         for i in topology.supports[j]:   # ascending, as range(j + 1) in a serial chain
             ji = kin.joints[i]
-            M[i, j] = M[j, i] = define(ji.omega.dot(n_j) + ji.v.dot(l_j))
+            M[i, j] = M[j, i] = define(dot(ji.omega, n_j) + dot(ji.v, l_j))
             if any(gvec):
-                K[i, j] = K[j, i] = define(-gvec.dot(ji.omega.cross(l_j)))
+                K[i, j] = K[j, i] = define(-dot(gvec, cross(ji.omega, l_j)))
 
     spring = sp.Matrix([jt.stiffness * (kin.q[j] - jt.rest) for j, jt in enumerate(kin.joints)])
     damping = sp.Matrix([jt.damping * kin.qd[j] for j, jt in enumerate(kin.joints)])
@@ -185,6 +186,6 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
     for d in drives:
         drive[index[d.coordinate]] += sp.sympify(d.expression)
 
-    potential = -sum((gvec.dot(c) for _, _, c, *_ in per_body), sp.S.Zero)
+    potential = -sum((dot(gvec, c) for _, _, c, *_ in per_body), sp.S.Zero)
     spring_energy = sum((jt.stiffness * (kin.q[j] - jt.rest) ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
     return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body))

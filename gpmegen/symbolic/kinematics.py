@@ -19,6 +19,7 @@ import sympy as sp
 from ..model.chain import AXES, GROUND_NAME, Body, Branch, Joint, Offset, Point
 from ..model.expand import FlatChain
 from . import names
+from .algebra import cross, mul
 from .program import Program
 
 
@@ -128,30 +129,30 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
         elif isinstance(element, Offset):
             t = sp.Matrix([sp.sympify(v) for v in element.translation])
             if any(t):
-                p = define_all(p + R * t)
+                p = define_all(p + mul(R, t))
             for axis, angle in element.rotations:
                 angle = sp.sympify(angle)
                 if angle != 0:
-                    R = define_all(R * rotation(axis, define(sp.cos(angle)), define(sp.sin(angle))))
+                    R = define_all(mul(R, rotation(axis, define(sp.cos(angle)), define(sp.sin(angle)))))
         elif isinstance(element, Joint):
             j = len(joints)
             # the joint's axis in {0}: a column of R for a principal axis, else R n
             if isinstance(element.axis, str):
                 axis = R[:, AXES.index(element.axis)]
             else:
-                axis = define_all(R * sp.Matrix(element.axis))
+                axis = define_all(mul(R, sp.Matrix(element.axis)))
             if element.kind == "revolute":
                 c, s = define(sp.cos(q[j])), define(sp.sin(q[j]))
                 omega = axis  # the rotation leaves its own axis in place
-                R = define_all(R * rotation_about(element.axis, c, s))
-                v = define_all(p.cross(omega))
+                R = define_all(mul(R, rotation_about(element.axis, c, s)))
+                v = define_all(cross(p, omega))
                 # [Ω, Δ_j] for Δ_j = (ω_j, v_j): motion cross product (w, u) × (ω, v)
-                d_alpha, d_a = w.cross(omega), w.cross(v) + u.cross(omega)
+                d_alpha, d_a = cross(w, omega), cross(w, v) + cross(u, omega)
             else:
                 omega = zero
                 v = axis
                 p = define_all(p + v * q[j])
-                d_alpha, d_a = zero, w.cross(v)
+                d_alpha, d_a = zero, cross(w, v)
             joints.append(JointTwist(j, element.name, element.kind, omega, v,
                                      sp.sympify(element.stiffness), sp.sympify(element.damping),
                                      sp.sympify(element.rest)))
@@ -165,12 +166,12 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
             bodies.append(BodyState(element.name, current, R, p, H, w, u, alpha, a))
         elif isinstance(element, Point):
             r = sp.Matrix([sp.sympify(v) for v in element.position])
-            position = define_all(p + R * r)
-            velocity = define_all(w.cross(position) + u)
+            position = define_all(p + mul(R, r))
+            velocity = define_all(cross(w, position) + u)
             # p̈ = Ω̇ p + Ω Ω p; its velocity-product part: α×p + a + ω×ṗ
-            acceleration = define_all(alpha.cross(position) + a + w.cross(velocity))
+            acceleration = define_all(cross(alpha, position) + a + cross(w, velocity))
             moving = supports[current] if current >= 0 else ()
-            jac = [define_all(jt.omega.cross(position) + jt.v) if jt.index in moving else zero for jt in joints]
+            jac = [define_all(cross(jt.omega, position) + jt.v) if jt.index in moving else zero for jt in joints]
             jac += [zero] * (chain.n_dof - len(jac))
             points[element.name] = PointState(element.name, current, position, velocity, acceleration, jac,
                                               R, w, alpha)
