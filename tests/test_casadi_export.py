@@ -178,6 +178,18 @@ def test_saved_functions_load_in_a_fresh_process(tmp_path, capsys):
     _close(np.reshape(M, (model.n_dof, model.n_dof)), model.mass_matrix(q), 1e-12)
 
 
+def test_python_export_returns_what_it_saves(tmp_path):
+    made = gpmegen.export_casadi(tmp_path / "arm", ROOT / "examples" / "flexible_arm.toml", nrfe=3,
+                                 inputs=["theta1"])
+    loaded = casadi_export.load(tmp_path / "arm")
+    assert sorted(made) == sorted(loaded) == sorted(casadi_export.EXPORTED)
+    q, qd = np.array([0.3, 0.01, -0.02]), np.array([1.0, 0.2, -0.1])
+    p = json.loads((tmp_path / "arm" / casadi_export.MANIFEST).read_text())["defaults"]
+    for u in ([0.0], [0.5]):
+        np.testing.assert_array_equal(_value(loaded["qdd"](0.2, q, qd, u, p)), _value(made["qdd"](0.2, q, qd, u, p)))
+    assert not np.array_equal(_value(made["qdd"](0.2, q, qd, [0.5], p)), _value(made["qdd"](0.2, q, qd, [0.0], p)))
+
+
 def test_export_is_deterministic(tmp_path, monkeypatch):
     for k in (1, 2):  # the same command (it is in the source) in two folders
         (tmp_path / str(k)).mkdir()
