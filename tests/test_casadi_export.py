@@ -4,6 +4,7 @@ the saved files in a fresh process, and user text and names that must not change
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import subprocess
 import sys
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
 from conftest import stacked_gpme
 from hypothesis import HealthCheck, example, given, settings
 from precise_solve import EPS
@@ -21,6 +23,7 @@ from gpmegen.analysis.extrapolate import elastic_coordinates
 from gpmegen.cli import main
 from gpmegen.codegen import casadi_export, input_hash
 from gpmegen.model import reference_model
+from gpmegen.model.chain import TIME
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import gpme
 
@@ -252,3 +255,21 @@ def test_names_of_generator_symbols_and_of_casadi_give_the_same_functions():
             args = {"qdd": (t, q, qd, u, p), "f": (t, q, qd, u, p), "M": (q, p), "points": (q, p),
                     "energies": (q, qd, p)}.get(name, (t, q, qd, p))
             np.testing.assert_array_equal(_value(colliding_fns[name](*args)), _value(fn(*args)), err_msg=name)
+
+
+def test_switching_laws_print_as_casadi_conditionals(tmp_path):
+    # the spin-up's prescribed hub angle is a Piecewise of t (its constraint's terms switch at
+    # t = T = 15 s) and a drive with Min, Max, Abs and Heaviside: both sides of every switch
+    model = load_model_file(ROOT / "examples" / "spinup.toml", nrfe=2)
+    law = gpmegen.Drive("theta1", sp.Min(TIME, 3) * sp.Abs(TIME - 2) + sp.Max(TIME - 4, 0) + sp.Heaviside(TIME - 1))
+    model = dataclasses.replace(model, drives=(law,))
+    fns = _casadi_functions(model, ("theta1",))
+    loaded = gpmegen.load(model=model, backend="numpy", directory=tmp_path)
+    rng = np.random.default_rng(4)
+    for t in (0.5, 1.0, 1.5, 2.5, 3.5, 5.0, 14.0, 15.0, 16.0):
+        q, qd = rng.uniform(-0.1, 0.1, loaded.n_dof), rng.uniform(-0.5, 0.5, loaded.n_dof)
+        p = loaded.p
+        _close(fns["f"](t, q, qd, [0.0], p), loaded.forces(t, q, qd), 1e-12)
+        for name, value in zip(("Phi", "Phi_rate", "D", "gamma"), loaded.constraint_terms(t, q, qd)):
+            _close(fns[name](t, q, qd, p), value, 1e-12)
+        _close(fns["qdd"](t, q, qd, [0.0], p), loaded.accelerations(t, q, qd), 1e-12)

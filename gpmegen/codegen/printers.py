@@ -133,7 +133,7 @@ class CasadiPrinter(PythonPrinter):
     def _print_Heaviside(self, expr):
         x = self._print(expr.args[0])
         h0 = self._print(expr.args[1]) if len(expr.args) > 1 else "0.5"
-        return f"{CASADI}.if_else({x} > 0, 1.0, {CASADI}.if_else({x} < 0, 0.0, {h0}))"
+        return f"{CASADI}.if_else(({x}) > 0, 1.0, {CASADI}.if_else(({x}) < 0, 0.0, {h0}))"
 
     def _print_Piecewise(self, expr):
         """Nested ``if_else``; the last condition is True, as the model checks."""
