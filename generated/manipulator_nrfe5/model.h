@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 458a5f72d00fe49e
+Input hash: c5716d975aa9a608
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
