@@ -214,6 +214,13 @@ def test_export_refuses_in_one_line(tmp_path, capsys):
     assert main(["export", str(PLANAR), "--format", "casadi", "--nrfe", "2", "--out", str(out)]) == 2
     assert "--overwrite" in capsys.readouterr().err
     assert main(["export", str(PLANAR), "--format", "casadi", "--nrfe", "2", "--out", str(out), "--overwrite"]) == 0
+    capsys.readouterr()
+    assert main(["export", str(PLANAR), "--format", "casadi", "--out", str(PLANAR), "--overwrite"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "an input of this command" in err and "\n" not in err
+    (tmp_path / "file").write_text("")
+    assert main(["export", str(PLANAR), "--format", "casadi", "--nrfe", "2", "--out", str(tmp_path / "file")]) == 2
+    assert "is a file; give a folder" in capsys.readouterr().err
 
 
 def test_missing_casadi_is_one_line_naming_the_extra(tmp_path):
