@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c5716d975aa9a608
+Input hash: 67396b3b15180b85
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
