@@ -22,6 +22,7 @@ import gpmegen
 from gpmegen.analysis.extrapolate import elastic_coordinates
 from gpmegen.cli import main
 from gpmegen.codegen import casadi_export, input_hash
+from gpmegen.errors import ModelError
 from gpmegen.model import reference_model
 from gpmegen.model.chain import TIME
 from gpmegen.model.toml_file import load_model_file
@@ -280,3 +281,14 @@ def test_switching_laws_print_as_casadi_conditionals(tmp_path):
         for name, value in zip(("Phi", "Phi_rate", "D", "gamma"), loaded.constraint_terms(t, q, qd)):
             _close(fns[name](t, q, qd, p), value, 1e-12)
         _close(fns["qdd"](t, q, qd, [0.0], p), loaded.accelerations(t, q, qd), 1e-12)
+
+
+def test_a_function_casadi_cannot_print_is_one_line(tmp_path):
+    law = gpmegen.Drive("a", sp.erf(TIME) + sp.Mod(TIME, 2))
+    model = dataclasses.replace(_tiny_model(), drives=(law,))
+    with pytest.raises(ModelError) as exc:
+        casadi_export.render_casadi(model, ("a",))
+    assert "cannot print erf" in str(exc.value) and "\n" not in str(exc.value)
+    # Mod alone prints, floored as SymPy's: -0.5 mod 2 = 1.5
+    fns = _casadi_functions(dataclasses.replace(_tiny_model(), drives=(gpmegen.Drive("a", sp.Mod(TIME, 2)),)))
+    assert float(fns["f"](-0.5, [0.0], [0.0], [], [1.0])) == 1.5

@@ -70,7 +70,13 @@ def render_casadi(model, inputs=(), command=None) -> str:
     fns = [fn for fn in model_functions(d, transforms=()) if fn.name in PRINTED]
     names = model.parameter_names
     printer, cache = CasadiPrinter(names), {}
-    lowered = [lower(fn, d, printer, p, cache=cache) for fn, p in zip(fns, prepare_all(fns, d))]
+    try:
+        lowered = [lower(fn, d, printer, p, cache=cache) for fn, p in zip(fns, prepare_all(fns, d))]
+    except (KeyError, ValueError, NotImplementedError) as exc:  # a function CasADi has no counterpart for
+        what = str(exc).strip("'").splitlines()[0] if str(exc) else type(exc).__name__
+        raise ModelError(f"model {model.name}: the CasADi export cannot print {what}; write the model with the "
+                         f"functions of a model file (sin, cos, tan, exp, log, sqrt, Abs, Min, Max, atan2, "
+                         f"Heaviside, Piecewise)") from None
     return template_environment().get_template(SOURCE + ".j2").render(
         functions=lowered,
         model=model,

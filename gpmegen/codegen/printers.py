@@ -173,6 +173,11 @@ class CasadiPrinter(PythonPrinter):
     def _print_BooleanFalse(self, expr):
         return "0.0"
 
+    def _print_Mod(self, expr):
+        """SymPy's Mod, floored (the sign of the divisor): ``a - b floor(a / b)``."""
+        a, b = (self._print(x) for x in expr.args)
+        return f"(({a}) - ({b})*{CASADI}.floor(({a})/({b})))"
+
     def _print_Pi(self, expr):
         return repr(float(sp.pi))
 
