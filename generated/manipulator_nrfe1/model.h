@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 2ed5d7aed5c4836f
+Input hash: 1efb8ba5a159b067
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 67396b3b15180b85
+Input hash: b4a76781f9387a8c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
