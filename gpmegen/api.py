@@ -9,6 +9,7 @@
   :func:`import_urdf`: a URDF with its joints' limits as data; :func:`urdf_text`: a model as URDF;
 - the model's elements (:class:`Model`, :class:`Joint`, :class:`FlexibleLink`, ...) and the
   reference case (:func:`reference_model`);
+- :func:`export_casadi`: the model's functions as CasADi functions, saved as ``.casadi`` files;
 - :func:`linearize`: the state-space model ``ẋ = A x + B u`` about the statics or at instants of a run;
 - :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
 - the errors, one type per failure family (:class:`GpmegenError` and its subclasses).
@@ -225,6 +226,20 @@ def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_eve
                     _messages(progress), repartition=repartition, save_dt=save_dt, rtol=rtol, atol=atol,
                     rho_inf=rho_inf)
     return runs.Results(done.results)
+
+
+def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) -> dict:
+    """The model's functions as CasADi functions, as ``gpmegen export --format casadi`` writes them
+    into ``folder`` (:mod:`gpmegen.codegen.casadi_export`): ``qdd(t, q, qd, u, p)``, ``M(q, p)``,
+    ``f(t, q, qd, u, p)``, ``Phi``, ``Phi_rate``, ``D``, ``gamma`` ``(t, q, qd, p)``, ``points(q, p)``,
+    ``energies(q, qd, p)``, by name; ``u`` holds a generalized force on each coordinate of
+    ``inputs``. ``model``, ``nrfe`` as :func:`statics`; ``overwrite`` replaces an earlier export.
+    Needs the casadi package (``pip install 'gpmegen[casadi]'``)."""
+    from .codegen import casadi_export
+
+    casadi_export.require_casadi()
+    case = _case(model, nrfe)
+    return case.located(lambda: casadi_export.export(case.model, folder, tuple(inputs), overwrite=overwrite))
 
 
 def linearize(model=None, *, nrfe=None, start=None, params=None, backend=None, directory=None, progress=None,

@@ -257,12 +257,41 @@ def cmd_export(args) -> int:
 
     case = _case(args.model_file, args.nrfe)
     out = Path(args.out)
+    if args.format == "casadi":
+        return _export_casadi(case, out, args)
+    if args.inputs:
+        raise UsageError("--inputs is for --format casadi (a URDF holds no inputs); leave it out")
     if out.is_dir():
         raise UsageError(f"--out {out} is a folder; give the file to write, e.g. --out {out / 'arm.urdf'}")
     outputs.check([out], [args.model_file], args.overwrite)
     text = case.located(functools.partial(urdf_text, case.model))
     print(f"wrote {atomic_write_bytes(out, text.encode('utf-8'))}: {case.model.name} as URDF")
     return 0
+
+
+def _export_casadi(case, out, args) -> int:
+    """``export --format casadi``: the model's CasADi functions in the folder ``out``."""
+    from .codegen import casadi_export
+
+    casadi_export.require_casadi()  # before the derivation, which takes a while
+    outputs.check([out], [args.model_file], overwrite=True)  # never over the model file; its own files below
+    command = "gpmegen export " + " ".join(
+        [*([str(args.model_file)] if args.model_file else []), *(["--nrfe", str(args.nrfe)] if args.nrfe else []),
+         "--format casadi", f"--out {out}", *(["--inputs", ",".join(args.inputs)] if args.inputs else [])])
+    made = case.located(functools.partial(casadi_export.export, case.model, out, args.inputs or (), command,
+                                          args.overwrite))
+    print(f"wrote {out}: {case.model.name} as CasADi functions {', '.join(made)} (.casadi) and their source "
+          f"{casadi_export.SOURCE}")
+    return 0
+
+
+def input_names(text: str) -> tuple:
+    """argparse type: coordinate names separated by commas."""
+    names = tuple(name.strip() for name in text.split(","))
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"{text!r} holds an empty name; give coordinates separated by commas, "
+                                         f"e.g. theta1,theta2")
+    return names
 
 
 def _default_backend() -> str:
@@ -756,13 +785,18 @@ def build_parser() -> argparse.ArgumentParser:
                         "integrators use central differences)")
     b.set_defaults(func=cmd_build)
 
-    ex = command("export", "the discretized chain as a URDF robot")
+    ex = command("export", "the discretized chain as a URDF robot, or the model's functions for CasADi")
     ex.add_argument("model_file", nargs="?", type=path_argument,
                     help="a model description (.toml or .urdf); default: the reference manipulator")
-    ex.add_argument("--format", choices=("urdf",), required=True, help="the format to write: urdf")
+    ex.add_argument("--format", choices=("urdf", "casadi"), required=True,
+                    help="the format to write: urdf (a file), or casadi (a folder of CasADi functions)")
     ex.add_argument("--nrfe", type=rfe_count, default=None,
                     help="number of rigid finite elements (1: rigid; default 5, or the file's)")
-    ex.add_argument("--out", type=path_argument, required=True, help="the file to write, e.g. arm.urdf")
+    ex.add_argument("--out", type=path_argument, required=True,
+                    help="the file to write, e.g. arm.urdf; with --format casadi, the folder, e.g. arm_casadi")
+    ex.add_argument("--inputs", type=input_names, default=None, metavar="NAME,NAME",
+                    help="--format casadi: coordinates that take an input u (a generalized force, added to the "
+                         "model's drives), in the order of u; default none")
     ex.set_defaults(func=cmd_export)
 
     def study_options(p, levels=False):

@@ -66,7 +66,14 @@ Write the model's discretized chain as a URDF robot at the parameter defaults: r
 their inertials and a box of the same mass and principal moments as visual, each sde as
 consecutive revolute joints with massless links between, named points as fixed links. Springs and
 dampers, which URDF cannot hold, are in the extension element <gpmegen:spring stiffness damping>
-(namespace urn:gpmegen:urdf:1) of each joint; gravity and constraints are not exported.""",
+(namespace urn:gpmegen:urdf:1) of each joint; gravity and constraints are not exported.
+
+With --format casadi, the model's functions for CasADi (MPC, trajectory optimization), from the
+same derivation as the NumPy and C code: qdd(t, q, qd, u, p) (the GPME's accelerations, solved
+by CasADi so that it can differentiate them), M(q, p), f(t, q, qd, u, p), Phi, Phi_rate, D,
+gamma (t, q, qd, p), points(q, p) and energies(q, qd, p), each saved by CasADi's Function.save as
+<name>.casadi. u holds a generalized force on each coordinate named by --inputs, added to the
+model's drives; p the parameter values. Needs casadi: pip install 'gpmegen[casadi]'.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
@@ -188,9 +195,12 @@ files written:
 examples:
   gpmegen export --format urdf --nrfe 5 --out arm.urdf
   gpmegen export examples/planar_two_link.toml --format urdf --out planar.urdf
+  gpmegen export examples/flexible_arm.toml --format casadi --inputs theta1 --out arm_casadi
 
 files written:
-  --out (written whole or not at all)""",
+  --out (written whole or not at all); with --format casadi the folder --out: <name>.casadi of each
+  function, model_casadi.py (their source) and casadi.json (the order of q, p and u, the parameter
+  defaults)""",
     "demo": """\
 examples:
   gpmegen demo
