@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 38e06c9dd8a1086c
+Input hash: ebf93beb833afa45
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c3a0d875c3c529d1
+Input hash: 63f13df763dbdacf
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
