@@ -21,6 +21,7 @@
 import hashlib
 import json
 import os
+import signal
 import sys
 
 import numpy as np
@@ -30,6 +31,13 @@ import gpmegen
 from gpmegen.errors import BuildError
 from gpmegen.fileio import atomic_write_bytes
 from gpmegen.runtime import ccompile
+
+# Tests send Ctrl-C (SIGINT) to child processes. A suite started in the background by a
+# non-interactive shell (`make test &`) starts with SIGINT ignored, and an ignored signal stays
+# ignored across exec, so the children would never hear it; give the workers Python's own handler,
+# which every child then starts without.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def skip_without_cc():

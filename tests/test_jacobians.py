@@ -38,7 +38,10 @@ def differences(model, t, q, qd, h=1e-3):
 
 def relative(a, b, scale=0.0) -> float:
     """Largest difference relative to the largest entry of ``b`` or ``scale``, the larger."""
-    return float(np.abs(a - b).max() / max(np.abs(b).max(), scale))
+    size = max(np.abs(b).max(), scale)
+    # all of it exactly zero (a rigid arm turning freely in a horizontal plane): the difference
+    # itself, which must be zero too
+    return float(np.abs(a - b).max() / size) if size > 0 else float(np.abs(a - b).max())
 
 
 def random_state(model, rng, spread=0.2):

@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 
 from gpmegen.cli import main
 from gpmegen.errors import BuildError
+from gpmegen.runtime import ccompile
 from gpmegen.runtime.ccompile import find_compiler
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -257,7 +258,8 @@ def _check_generated(folder: Path, label: str):
         elif tok.type == tokenize.NAME:
             assert tok.string not in ("inf", "nan", "oo", "zoo"), (label, f"line {tok.start[0]}: {tok.line}")
     if CC:
-        done = subprocess.run([*CC, "-fsyntax-only", "-w", str(folder / "model.c")], capture_output=True, text=True)
+        done = subprocess.run([*CC, "-fsyntax-only", "-w", f"-I{ccompile.solver_include()}", str(folder / "model.c")],
+                              capture_output=True, text=True)
         assert done.returncode == 0, (label, done.stderr[:2000])
 
 

@@ -157,8 +157,11 @@ class ModelCase(Case):
         model = self.load(backend, overrides, progress)
         progress(f"start of {self.label} ({'no statics' if start == 'none' else start + ' statics'})")
         q, qd = self.initial(model.params)
-        closures = {c.name: [c.row_name(label) for label in c.rows] for c in self.model.closures}
-        return study.file_start(model, q, start, qd, closures=closures)
+        return study.file_start(model, q, start, qd, closures=self.closure_rows())
+
+    def closure_rows(self) -> dict:
+        """Each closure's name -> the names of its constraint rows, for the start's messages."""
+        return {c.name: [c.row_name(label) for label in c.rows] for c in self.model.closures}
 
 
 class FileCase(ModelCase):
@@ -233,6 +236,11 @@ class FolderCase(ModelCase):
         raise ModelError(f"{self.folder} holds generated code, not its model; give the model file instead")
 
     source = None
+
+    def closure_rows(self) -> dict:
+        """None known: the closures live in the model file, which a folder does not hold (its rows
+        are constraints like the others)."""
+        return {}
 
     @property
     def command(self) -> str:
