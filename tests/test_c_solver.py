@@ -57,6 +57,25 @@ def test_the_solver_object_is_built_once_and_rebuilt_when_damaged(tmp_path):
     assert other.compiled and other.key != first.key
 
 
+def test_a_cache_folder_without_room_for_the_solver_object_is_one_line(tmp_path, monkeypatch):
+    """Where no file can be made in the cache folder (read-only, full), building the solver
+    object, and with it any model library, raises BuildError naming the folder and the fix."""
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(ccompile.tempfile, "mkstemp", refuse)
+    source = tmp_path / "model.c"
+    folder = Path(__file__).resolve().parents[1] / "generated" / "manipulator_nrfe1"
+    for name in ("model.c", ccompile.HEADER):
+        (tmp_path / name).write_text((folder / name).read_text())
+    for build in (lambda: ccompile.build_solver(cache=tmp_path / "cache"),
+                  lambda: ccompile.build_library(source, cache=tmp_path / "cache")):
+        with pytest.raises(ccompile.BuildError) as refused:
+            build()
+        assert str(refused.value) == (f"cannot write the solver library into the C cache folder {tmp_path / 'cache'} "
+                                      f"(Permission denied); set GPMEGEN_CACHE to a writable folder")
+
+
 def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path):
     """The model library's key names the solver's: a changed solver builds the model again."""
     source = tmp_path / "model.c"

@@ -387,15 +387,17 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
     if progress:
         progress("compiling the solver library (once per compiler and flags)")
     _remove_abandoned(cache)
-    fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".o.tmp", dir=cache)
-    os.close(fd)
-    tmp = Path(tmp)
     cc = [os.path.abspath(compiler[0]), *compiler[1:]]
     units = [name for name in sources if name.endswith(".c")]
     compiles = [[*cc, *flags, "-fPIC", "-c", name, "-o", name[:-2] + ".o"] for name in units]
-    join = [*cc, "-r", "-o", str(tmp), *(name[:-2] + ".o" for name in units)]
     t0 = time.perf_counter()
+    tmp = None
     try:
+        # in the try: a cache folder where nothing can be written is one line, as for the libraries
+        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".o.tmp", dir=cache)
+        os.close(fd)
+        tmp = Path(tmp)
+        join = [*cc, "-r", "-o", str(tmp), *(name[:-2] + ".o" for name in units)]
         with tempfile.TemporaryDirectory(prefix=f".{key[:16]}.", suffix=".src.tmp", dir=cache) as folder:
             for name, text in sources.items():
                 Path(folder, name).write_text(text, encoding="utf-8")
@@ -421,7 +423,8 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
         raise BuildError(f"cannot write the solver library into the C cache folder {cache} ({exc.strerror}); "
                          f"set GPMEGEN_CACHE to a writable folder") from None
     finally:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
     if progress:
         progress(f"compiled the solver library in {seconds:.1f} s")
     return CompiledLibrary(path, key, compiler[0], flags, True, seconds, reason)
