@@ -18,8 +18,8 @@ pytestmark = pytest.mark.requires_cc
 CHECK = Path(__file__).parent / "c" / "solver_check.c"
 
 
-def _run_checks(tmp_path: Path, flags) -> subprocess.CompletedProcess:
-    solver = ccompile.build_solver(flags, cache=tmp_path / "cache")
+def _run_checks(tmp_path: Path, flags, solver=None) -> subprocess.CompletedProcess:
+    solver = solver or ccompile.build_solver(flags, cache=tmp_path / "cache")
     program = tmp_path / "solver_check"
     cc = ccompile.find_compiler()
     subprocess.run([*cc, *flags, f"-I{ccompile.solver_include()}", "-o", str(program), str(CHECK),
@@ -32,6 +32,29 @@ def test_the_solver_library_passes_its_c_checks(tmp_path):
     lines = run.stdout.splitlines()
     assert run.returncode == 0 and not [line for line in lines if not line.startswith("ok ")], run.stdout
     assert len(lines) == 19, run.stdout  # every check ran
+
+
+def test_a_compiler_without_partial_links_compiles_the_library_as_one_unit(tmp_path):
+    """A compiler that refuses ``-r`` (the join of the sources' objects) gets the sources as one
+    translation unit instead: the object passes the same checks."""
+    log = tmp_path / "asked.txt"
+    refusing = tmp_path / "cc-without-r"
+    refusing.write_text(f"""#!/bin/sh
+for a in "$@"; do
+    if [ "$a" = "-r" ]; then
+        echo "-r" >> '{log}'
+        echo "cc-without-r: error: unrecognized command-line option '-r'" >&2
+        exit 1
+    fi
+done
+exec {ccompile.find_compiler()[0]} "$@"
+""")
+    refusing.chmod(0o755)
+    solver = ccompile.build_solver(cache=tmp_path / "cache", compiler=[str(refusing)])
+    assert solver.compiled and log.read_text() == "-r\n"
+    run = _run_checks(tmp_path, ccompile.DEFAULT_FLAGS, solver)
+    lines = run.stdout.splitlines()
+    assert run.returncode == 0 and len(lines) == 19 and all(line.startswith("ok ") for line in lines), run.stdout
 
 
 def test_the_solver_sources_compile_without_warnings(tmp_path):

@@ -80,6 +80,9 @@ COMPILERS = ("cc", "gcc", "clang")
 SOLVER_HEADER = "gpmegen_solver.h"
 #: The name of the solver library's object in the cache: ``solver-<key>.o``.
 SOLVER_PREFIX = "solver-"
+#: The file that includes every source of the solver library: compiled as one unit into its object
+#: where the compiler cannot join the objects of its sources (no ``-r``).
+UNITY = "gpmegen_solver_all.c"
 
 _lock = threading.Lock()
 _loaded: dict = {}          # library path -> (ffi, lib), so repeated loads reuse one handle
@@ -373,7 +376,8 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
     """The solver library's object (``solver-<key>.o`` in the cache) for ``flags`` (to which the
     GCC flags are added as for a model, when the compiler is GCC): reused when its key matches
     and its bytes are intact, else compiled, each source apart and at once, and joined into one
-    relocatable object (``-r``). Raises :class:`BuildError` as :func:`build_library`."""
+    relocatable object (``-r``; where the compiler refuses it, the sources are compiled as one unit
+    instead, :data:`UNITY`). Raises :class:`BuildError` as :func:`build_library`."""
     compiler = compiler or find_compiler()
     identity = compiler_identity(compiler)
     flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) and not set(GCC_FLAGS) <= set(flags) else ())
@@ -405,6 +409,10 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
                 results = _run_compilers(compiles, folder, progress)
                 if all(code == 0 for code, _ in results):
                     results += _run_compilers([join], folder, None)
+                    if results[-1][0] != 0:   # a compiler without -r: the sources as one unit instead
+                        Path(folder, UNITY).write_text("".join(f'#include "{name}"\n' for name in units))
+                        compiles, join = [], [*cc, *flags, "-fPIC", "-c", UNITY, "-o", str(tmp)]
+                        results = _run_compilers([join], folder, progress)
             except OSError as exc:
                 raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
                                  f"working C compiler or use backend='numpy'") from None
