@@ -108,6 +108,12 @@ def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path):
     info = ccompile.build_library(source, cache=tmp_path / "cache")
     assert info.solver is not None and info.solver.path.exists()
     assert ccompile.build_solver(cache=tmp_path / "cache").key == info.solver.key
+    # a cached model library is reused without its solver object: that is needed only to link
+    for path in (info.solver.path, info.solver.path.with_suffix(".json")):
+        path.unlink()
+    again = ccompile.build_library(source, cache=tmp_path / "cache")
+    assert not again.compiled and again.path == info.path and again.solver is None
+    assert not list((tmp_path / "cache").glob(f"{ccompile.SOLVER_PREFIX}*"))
     # the model library exports the model's names only: the solver's are hidden inside it
     symbols = subprocess.run(["nm", "-D", "--defined-only", str(info.path)], capture_output=True, text=True)
     if symbols.returncode == 0:

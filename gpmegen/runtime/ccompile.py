@@ -217,6 +217,14 @@ def _solver_key(sources: dict, identity: str, flags) -> str:
     return library_key(text, identity, tuple(flags) + ("solver",))
 
 
+def _solver_plan(flags, compiler) -> tuple[tuple, dict, str]:
+    """The solver library's flags (``flags`` and the GCC flags), sources and key, nothing built."""
+    identity = compiler_identity(compiler)
+    flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) and not set(GCC_FLAGS) <= set(flags) else ())
+    sources = solver_sources()
+    return flags, sources, _solver_key(sources, identity, flags)
+
+
 @dataclass
 class CompiledLibrary:
     """A compiled model library: where it is, its key, and how it was obtained."""
@@ -228,7 +236,7 @@ class CompiledLibrary:
     compiled: bool          # built in this call (False: reused from the cache)
     compile_seconds: float  # wall time of the compiler run that produced the library
     rebuilt_reason: str | None = None  # why a cached library was not reused
-    solver: CompiledLibrary | None = None  # the solver library's object it links
+    solver: CompiledLibrary | None = None  # the solver library's object it linked (None: reused from the cache)
 
 
 def _sha256_file(path: Path) -> str:
@@ -379,10 +387,7 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
     relocatable object (``-r``; where the compiler refuses it, the sources are compiled as one unit
     instead, :data:`UNITY`). Raises :class:`BuildError` as :func:`build_library`."""
     compiler = compiler or find_compiler()
-    identity = compiler_identity(compiler)
-    flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) and not set(GCC_FLAGS) <= set(flags) else ())
-    sources = solver_sources()
-    key = _solver_key(sources, identity, flags)
+    flags, sources, key = _solver_plan(flags, compiler)
     cache = _cache_folder(cache)
     path, meta_path = cache / f"{SOLVER_PREFIX}{key}.o", cache / f"{SOLVER_PREFIX}{key}.json"
     ok, reason, meta = _cached_ok(path, meta_path)
@@ -465,13 +470,14 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None, heade
     base_flags = tuple(flags)
     flags = base_flags + (GCC_FLAGS if is_gcc(identity) else ())
     cache = _cache_folder(cache)
-    solver = build_solver(base_flags, cache, progress, compiler)
-    key = library_key(source, identity, flags + LINK_FLAGS + part_flags(flags)[1] + (solver.key,), header)
+    # the solver's key names it; its object is needed (and built if missing) only to link a new library
+    key = library_key(source, identity, flags + LINK_FLAGS + part_flags(flags)[1]
+                      + (_solver_plan(base_flags, compiler)[2],), header)
     lib_path, meta_path = cache / f"{key}.so", cache / f"{key}.json"
     ok, reason, meta = _cached_ok(lib_path, meta_path)
     if ok:
-        return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)),
-                               solver=solver)
+        return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
+    solver = build_solver(base_flags, cache, progress, compiler)
     size = len(source.encode())
     limits.check_compile(size, source_path)
     if progress:
