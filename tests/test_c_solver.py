@@ -18,8 +18,8 @@ pytestmark = pytest.mark.requires_cc
 CHECK = Path(__file__).parent / "c" / "solver_check.c"
 
 
-def _run_checks(tmp_path: Path, flags) -> subprocess.CompletedProcess:
-    solver = ccompile.build_solver(flags, cache=tmp_path / "cache")
+def _run_checks(tmp_path: Path, flags, solver=None) -> subprocess.CompletedProcess:
+    solver = solver or ccompile.build_solver(flags, cache=tmp_path / "cache")
     program = tmp_path / "solver_check"
     cc = ccompile.find_compiler()
     subprocess.run([*cc, *flags, f"-I{ccompile.solver_include()}", "-o", str(program), str(CHECK),
@@ -32,6 +32,29 @@ def test_the_solver_library_passes_its_c_checks(tmp_path):
     lines = run.stdout.splitlines()
     assert run.returncode == 0 and not [line for line in lines if not line.startswith("ok ")], run.stdout
     assert len(lines) == 19, run.stdout  # every check ran
+
+
+def test_a_compiler_without_partial_links_compiles_the_library_as_one_unit(tmp_path):
+    """A compiler that refuses ``-r`` (the join of the sources' objects) gets the sources as one
+    translation unit instead: the object passes the same checks."""
+    log = tmp_path / "asked.txt"
+    refusing = tmp_path / "cc-without-r"
+    refusing.write_text(f"""#!/bin/sh
+for a in "$@"; do
+    if [ "$a" = "-r" ]; then
+        echo "-r" >> '{log}'
+        echo "cc-without-r: error: unrecognized command-line option '-r'" >&2
+        exit 1
+    fi
+done
+exec {ccompile.find_compiler()[0]} "$@"
+""")
+    refusing.chmod(0o755)
+    solver = ccompile.build_solver(cache=tmp_path / "cache", compiler=[str(refusing)])
+    assert solver.compiled and log.read_text() == "-r\n"
+    run = _run_checks(tmp_path, ccompile.DEFAULT_FLAGS, solver)
+    lines = run.stdout.splitlines()
+    assert run.returncode == 0 and len(lines) == 19 and all(line.startswith("ok ") for line in lines), run.stdout
 
 
 def test_the_solver_sources_compile_without_warnings(tmp_path):
@@ -57,6 +80,25 @@ def test_the_solver_object_is_built_once_and_rebuilt_when_damaged(tmp_path):
     assert other.compiled and other.key != first.key
 
 
+def test_a_cache_folder_without_room_for_the_solver_object_is_one_line(tmp_path, monkeypatch):
+    """Where no file can be made in the cache folder (read-only, full), building the solver
+    object, and with it any model library, raises BuildError naming the folder and the fix."""
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(ccompile.tempfile, "mkstemp", refuse)
+    source = tmp_path / "model.c"
+    folder = Path(__file__).resolve().parents[1] / "generated" / "manipulator_nrfe1"
+    for name in ("model.c", ccompile.HEADER):
+        (tmp_path / name).write_text((folder / name).read_text())
+    for build in (lambda: ccompile.build_solver(cache=tmp_path / "cache"),
+                  lambda: ccompile.build_library(source, cache=tmp_path / "cache")):
+        with pytest.raises(ccompile.BuildError) as refused:
+            build()
+        assert str(refused.value) == (f"cannot write the solver library into the C cache folder {tmp_path / 'cache'} "
+                                      f"(Permission denied); set GPMEGEN_CACHE to a writable folder")
+
+
 def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path):
     """The model library's key names the solver's: a changed solver builds the model again."""
     source = tmp_path / "model.c"
@@ -66,6 +108,12 @@ def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path):
     info = ccompile.build_library(source, cache=tmp_path / "cache")
     assert info.solver is not None and info.solver.path.exists()
     assert ccompile.build_solver(cache=tmp_path / "cache").key == info.solver.key
+    # a cached model library is reused without its solver object: that is needed only to link
+    for path in (info.solver.path, info.solver.path.with_suffix(".json")):
+        path.unlink()
+    again = ccompile.build_library(source, cache=tmp_path / "cache")
+    assert not again.compiled and again.path == info.path and again.solver is None
+    assert not list((tmp_path / "cache").glob(f"{ccompile.SOLVER_PREFIX}*"))
     # the model library exports the model's names only: the solver's are hidden inside it
     symbols = subprocess.run(["nm", "-D", "--defined-only", str(info.path)], capture_output=True, text=True)
     if symbols.returncode == 0:

@@ -80,6 +80,9 @@ COMPILERS = ("cc", "gcc", "clang")
 SOLVER_HEADER = "gpmegen_solver.h"
 #: The name of the solver library's object in the cache: ``solver-<key>.o``.
 SOLVER_PREFIX = "solver-"
+#: The file that includes every source of the solver library: compiled as one unit into its object
+#: where the compiler cannot join the objects of its sources (no ``-r``).
+UNITY = "gpmegen_solver_all.c"
 
 _lock = threading.Lock()
 _loaded: dict = {}          # library path -> (ffi, lib), so repeated loads reuse one handle
@@ -214,6 +217,14 @@ def _solver_key(sources: dict, identity: str, flags) -> str:
     return library_key(text, identity, tuple(flags) + ("solver",))
 
 
+def _solver_plan(flags, compiler) -> tuple[tuple, dict, str]:
+    """The solver library's flags (``flags`` and the GCC flags), sources and key, nothing built."""
+    identity = compiler_identity(compiler)
+    flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) and not set(GCC_FLAGS) <= set(flags) else ())
+    sources = solver_sources()
+    return flags, sources, _solver_key(sources, identity, flags)
+
+
 @dataclass
 class CompiledLibrary:
     """A compiled model library: where it is, its key, and how it was obtained."""
@@ -225,7 +236,7 @@ class CompiledLibrary:
     compiled: bool          # built in this call (False: reused from the cache)
     compile_seconds: float  # wall time of the compiler run that produced the library
     rebuilt_reason: str | None = None  # why a cached library was not reused
-    solver: CompiledLibrary | None = None  # the solver library's object it links
+    solver: CompiledLibrary | None = None  # the solver library's object it linked (None: reused from the cache)
 
 
 def _sha256_file(path: Path) -> str:
@@ -373,12 +384,10 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
     """The solver library's object (``solver-<key>.o`` in the cache) for ``flags`` (to which the
     GCC flags are added as for a model, when the compiler is GCC): reused when its key matches
     and its bytes are intact, else compiled, each source apart and at once, and joined into one
-    relocatable object (``-r``). Raises :class:`BuildError` as :func:`build_library`."""
+    relocatable object (``-r``; where the compiler refuses it, the sources are compiled as one unit
+    instead, :data:`UNITY`). Raises :class:`BuildError` as :func:`build_library`."""
     compiler = compiler or find_compiler()
-    identity = compiler_identity(compiler)
-    flags = tuple(flags) + (GCC_FLAGS if is_gcc(identity) and not set(GCC_FLAGS) <= set(flags) else ())
-    sources = solver_sources()
-    key = _solver_key(sources, identity, flags)
+    flags, sources, key = _solver_plan(flags, compiler)
     cache = _cache_folder(cache)
     path, meta_path = cache / f"{SOLVER_PREFIX}{key}.o", cache / f"{SOLVER_PREFIX}{key}.json"
     ok, reason, meta = _cached_ok(path, meta_path)
@@ -387,15 +396,17 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
     if progress:
         progress("compiling the solver library (once per compiler and flags)")
     _remove_abandoned(cache)
-    fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".o.tmp", dir=cache)
-    os.close(fd)
-    tmp = Path(tmp)
     cc = [os.path.abspath(compiler[0]), *compiler[1:]]
     units = [name for name in sources if name.endswith(".c")]
     compiles = [[*cc, *flags, "-fPIC", "-c", name, "-o", name[:-2] + ".o"] for name in units]
-    join = [*cc, "-r", "-o", str(tmp), *(name[:-2] + ".o" for name in units)]
     t0 = time.perf_counter()
+    tmp = None
     try:
+        # in the try: a cache folder where nothing can be written is one line, as for the libraries
+        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".o.tmp", dir=cache)
+        os.close(fd)
+        tmp = Path(tmp)
+        join = [*cc, "-r", "-o", str(tmp), *(name[:-2] + ".o" for name in units)]
         with tempfile.TemporaryDirectory(prefix=f".{key[:16]}.", suffix=".src.tmp", dir=cache) as folder:
             for name, text in sources.items():
                 Path(folder, name).write_text(text, encoding="utf-8")
@@ -403,6 +414,10 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
                 results = _run_compilers(compiles, folder, progress)
                 if all(code == 0 for code, _ in results):
                     results += _run_compilers([join], folder, None)
+                    if results[-1][0] != 0:   # a compiler without -r: the sources as one unit instead
+                        Path(folder, UNITY).write_text("".join(f'#include "{name}"\n' for name in units))
+                        compiles, join = [], [*cc, *flags, "-fPIC", "-c", UNITY, "-o", str(tmp)]
+                        results = _run_compilers([join], folder, progress)
             except OSError as exc:
                 raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
                                  f"working C compiler or use backend='numpy'") from None
@@ -421,7 +436,8 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
         raise BuildError(f"cannot write the solver library into the C cache folder {cache} ({exc.strerror}); "
                          f"set GPMEGEN_CACHE to a writable folder") from None
     finally:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
     if progress:
         progress(f"compiled the solver library in {seconds:.1f} s")
     return CompiledLibrary(path, key, compiler[0], flags, True, seconds, reason)
@@ -454,13 +470,14 @@ def build_library(source_path, flags=DEFAULT_FLAGS, cache=None, text=None, heade
     base_flags = tuple(flags)
     flags = base_flags + (GCC_FLAGS if is_gcc(identity) else ())
     cache = _cache_folder(cache)
-    solver = build_solver(base_flags, cache, progress, compiler)
-    key = library_key(source, identity, flags + LINK_FLAGS + part_flags(flags)[1] + (solver.key,), header)
+    # the solver's key names it; its object is needed (and built if missing) only to link a new library
+    key = library_key(source, identity, flags + LINK_FLAGS + part_flags(flags)[1]
+                      + (_solver_plan(base_flags, compiler)[2],), header)
     lib_path, meta_path = cache / f"{key}.so", cache / f"{key}.json"
     ok, reason, meta = _cached_ok(lib_path, meta_path)
     if ok:
-        return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)),
-                               solver=solver)
+        return CompiledLibrary(lib_path, key, compiler[0], flags, False, float(meta.get("compile_seconds", 0.0)))
+    solver = build_solver(base_flags, cache, progress, compiler)
     size = len(source.encode())
     limits.check_compile(size, source_path)
     if progress:

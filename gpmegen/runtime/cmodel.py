@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
-from . import ccompile, cprobe, fastcall, integrate
+from . import ccompile, cprobe, cstack, fastcall, integrate
 from .model import TRANSFORM_FUNCTIONS, LoadedModel, vector
 
 #: The number of coordinates from which a single fast call lets other threads run while its C
@@ -74,6 +74,8 @@ class CEvaluator:
         if self.lib.n_dof() != self.n or self.lib.n_parameters() != self.n_parameters:
             raise BuildError(f"{source} does not match {module_path}; rebuild with 'gpmegen build --force'")
         self.shape = (self.n,)
+        self._exact_jacobians = hasattr(module, "gpme_residual_jacobians")
+        self._solve_fits = False  # a single solve's stack checked against the limit (once)
         # single calls checked and made in C (see fastcall.py); None: through cffi, and why
         self._fast, self.fastcall_unavailable = fastcall.extension(cache, progress)
         self._partition_c = (None, None, None, None)
@@ -229,6 +231,9 @@ class CEvaluator:
 
     # --- the GPME solve and the RK4 loop ------------------------------------------------------
     def _solve(self, t, q, qd, model, M=None, f=None):
+        if not self._solve_fits:
+            self._check_stack("solve")
+            self._solve_fits = True
         scratch, q_c, qd_c = self._state(q, qd)
         dep, ind = self._partition_pointers(model)
         if M is None:
@@ -267,6 +272,7 @@ class CEvaluator:
         ``checked``; None when the extension is not available."""
         if self._fast is None:
             return None
+        self._check_stack("solve")
         address = int(self.ffi.cast("uintptr_t", self.lib.gpme_accelerations))
         return self._fast.Caller(address, self.n, np.ascontiguousarray(model.p, dtype=float), *self._partition(model),
                                  checked, self._failure, self.lib, self.n >= RELEASE_GIL_FROM)
@@ -281,6 +287,7 @@ class CEvaluator:
         return F_q, F_qd, C_q[:m], C_qd[:m]
 
     def acceleration_jacobians(self, t, q, qd, model):
+        self._check_stack("jacobian")
         scratch, q_c, qd_c = self._state(q, qd)
         dep, _ = self._partition_pointers(model)
         A_q, A_qd = np.empty((self.n, self.n)), np.empty((self.n, self.n))
@@ -317,6 +324,7 @@ class CEvaluator:
         return qdd
 
     def rk4(self, model, g, k_from, k_to, save_every, y0):
+        self._check_stack("rk4")
         n = self.n
         dep, ind = self._partition_pointers(model)
         q0, qd0, w0 = (np.ascontiguousarray(part) for part in (y0[:n], y0[n:2 * n], y0[2 * n:]))
@@ -330,10 +338,12 @@ class CEvaluator:
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
 
     def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
+        self._check_stack("dop853")
         return self._adaptive(self.lib.dop853, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps,
                               first)
 
     def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
+        self._check_stack("radau")
         return self._adaptive(self.lib.radau, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps,
                               first)
 
@@ -359,6 +369,7 @@ class CEvaluator:
         return y_out[first:int(n_saved[0])].copy(), SolveStatus(status)
 
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
+        self._check_stack("genalpha")
         dep, ind = self._partition_pointers(model)
         self._check_counts(counts, integrate.COUNTS)
         t_save = np.ascontiguousarray(t_save, dtype=float)
@@ -376,6 +387,10 @@ class CEvaluator:
                                    self._params(model.p), dep, ind, self._ptr(y_out), n_saved,
                                    self.ffi.from_buffer("long[]", counts))
         return y_out[:int(n_saved[0])].copy(), SolveStatus(status)
+
+    def _check_stack(self, call):
+        """Refuse in one line a call of the solver library that would overflow the stack."""
+        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name)
 
     def _check_counts(self, counts, size):
         if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8 or len(counts) < size:
