@@ -6,26 +6,30 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 Ωs = 4, 6 and 10 rad/s. Output: the tip's deflection in the hub frame.
 
 - gpmegen: examples/spinup_axial.toml (sdes that bend and stretch; --model bending:
-  examples/spinup.toml, inextensible) at several n_rfe (RK4, or generalized-α with --method
-  genalpha), extrapolated to n_rfe → ∞
-  (gpmegen.analysis.extrapolate);
+  examples/spinup.toml, inextensible) at several n_rfe (generalized-α at 1e-3 s by default, or
+  RK4 with --method rk4 --dt 1e-4), extrapolated to n_rfe → ∞ (gpmegen.analysis.extrapolate);
 - reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
-  generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed; coarser
-  Exudyn runs give its error against wall time;
+  generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed;
+- Exudyn as its users would tune it (EXUDYN_RHO_INF, EXUDYN_RTOL, EXUDYN_ATOL, sparse solver) at
+  --compare elements and --compare-step, timed against gpmegen;
 - the conventional linear modal model (clamped-free modes in the hub frame, no geometric
   stiffening), which loses stability once the hub turns faster than the first bending frequency.
 
-Prints the load average, then per Ωs: the reference's own convergence (how much it changes with half
-its elements and with half its step), the error of each gpmegen level and of the limit relative to
-the reference's peak, the estimated error beside the true one, the wall times of both engines (the
-levels run at once on the cores; compiled before the clock starts) and of the cheapest Exudyn run
-as accurate as gpmegen's limit; writes figures/spinup.png.
+Builds the levels first (the time printed: from an empty cache the derivation and compile, else
+the loading). Then per Ωs, --repeat times alternately so that both see the same load: gpmegen's
+levels at once on the cores and one after the other in this process, and each compared Exudyn run.
+Prints the reference's own convergence (how much it changes with half its elements and with half
+its step), where gpmegen's time goes per level (steps, Newton iterations, Jacobians, LU
+factorizations, the projection's constraint evaluations, the run's seconds and those of the
+compiled loop alone), and at the end one table: per run the best wall time (and all), the error
+against the reference relative to its peak and for gpmegen the estimated error; writes
+figures/spinup.png.
 
     .venv/bin/python -m pip install exudyn      # the reference engine: a benchmark dependency only
     .venv/bin/python benchmarks/spinup.py                        # Ωs = 4, 6, 10
-    .venv/bin/python benchmarks/spinup.py --omega 4 --nrfe 5 10 20 --elements 32
-    .venv/bin/python benchmarks/spinup.py --method genalpha --dt 1e-3              # within 2e-5 at Ωs 4, 6
-    .venv/bin/python benchmarks/spinup.py --method genalpha --dt 1e-3 --omega 10 --nrfe 10 20 30 40
+    .venv/bin/python benchmarks/spinup.py --omega 4 --repeat 1 --no-reference-check --compare 8
+    .venv/bin/python benchmarks/spinup.py --omega 10 --nrfe 10 20 30 40
+    .venv/bin/python benchmarks/spinup.py --method rk4 --dt 1e-4 --repeat 1
 """
 
 from __future__ import annotations
@@ -72,24 +76,41 @@ def gpmegen_build(model_file, nrfe, dt):
     return time.perf_counter() - start
 
 
-def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4"):
+def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None):
     """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds of
     each level's run, wall seconds of all, the levels run at once on the cores, and each level's
-    effort: the counts of its integrator). Build the levels first (:func:`gpmegen_build`)."""
+    effort: the counts of its integrator and, for generalized-α, the seconds of its compiled loop
+    alone); ``workers``: processes (default one per core). Build the levels first (:func:`gpmegen_build`)."""
     from gpmegen.analysis import extrapolate
     from gpmegen.analysis.levels import simulate_levels
     from gpmegen.analysis.results import metadata
 
     start = time.perf_counter()
     levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)), method=method,
-                             backend="c", params={"Omega": omega})
+                             backend="c", params={"Omega": omega}, workers=workers)
     wall = time.perf_counter() - start
     seconds = [level.seconds for level in levels]
     efforts = [dict(metadata(level.results)["settings"]["effort"], n_dof=level.loaded.n_dof) for level in levels]
+    if method == "genalpha":
+        for effort, level in zip(efforts, levels):
+            effort["integration"], effort["difference"] = integration_seconds(level, dt)
     tip = in_hub(extrapolate.extrapolate(levels, ["points"]), omega)
     if len(levels) >= 3:
         tip["even"] = in_hub(extrapolate.extrapolate(levels, ["points"], terms=2), omega)
     return tip["t"], tip, seconds, wall, efforts
+
+
+def integration_seconds(level, dt):
+    """The wall seconds of the compiled generalized-α loop alone on ``level``'s loaded model from
+    its run's start (in this process), and the largest difference of its final q from the run's
+    (0: the same integration)."""
+    from gpmegen.runtime import integrate
+
+    q, qd = level.results["q"], level.results["qd"]
+    start = time.perf_counter()
+    y = integrate.genalpha(level.loaded, q[0], qd[0], T_END, dt, SAVED)[1]
+    seconds = time.perf_counter() - start
+    return seconds, float(np.max(np.abs(y[-1, :q.shape[1]] - q[-1])))
 
 
 def in_hub(data, omega):
@@ -154,9 +175,9 @@ def exudyn_run(omega, elements, step, t, modified=False):
     settings.timeIntegration.newton.useModifiedNewton = modified
     settings.timeIntegration.adaptiveStep = False
     settings.timeIntegration.verboseMode = 0
-    settings.solutionSettings.writeSolutionToFile = False
-    settings.solutionSettings.sensorsWritePeriod = step  # every step: interpolated onto t below
-    settings.linearSolverType = exudyn.LinearSolverType.EigenSparse
+    settings.solution.file.write = False
+    settings.solution.sensors.writePeriod = step  # every step: interpolated onto t below
+    settings.linearSolver.solverType = exudyn.LinearSolverType.EigenSparse
     start = time.perf_counter()
     try:
         mbs.SolveDynamic(settings)
@@ -245,7 +266,9 @@ def effort_rows(nrfe, efforts, seconds):
         iterations = effort["solves"] - (4 * effort["n_dof"] + 1) * jacobians - steps
         lines.append(f"    n_rfe {n:3d} ({effort['n_dof']:3d} dof): {steps} steps, ≤ {iterations} Newton iterations "
                      f"({iterations / max(steps, 1):.2f} a step), {jacobians} Jacobians, {effort['factorizations']} "
-                     f"LU factorizations, {effort['projections']} constraint evaluations projecting; {s:.2f} s")
+                     f"LU factorizations, {effort['projections']} constraint evaluations projecting; run {s:.2f} s"
+                     + (f", of it the compiled loop {effort['integration']:.2f} s (again in this process, final q "
+                        f"within {effort['difference']:.1e})" if "integration" in effort else ""))
     return lines
 
 
@@ -282,21 +305,22 @@ def main(argv=None) -> int:
     build = gpmegen_build(model_file, args.nrfe, args.dt)
     print(f"gpmegen: n_rfe {' '.join(map(str, args.nrfe))} built, compiled and loaded in {build:.1f} s wall "
           f"(in {processes} processes; from the cache when it holds them)")
+    pools = sorted({processes, 1}, reverse=True)  # the levels at once, and one after the other
     compared = [(elements, modified) for elements in args.compare
                 for modified in ((False, True) if args.modified_newton else (False,))]
     cases, table = {}, []
     for omega in args.omega:
-        first, walls, exudyn_walls, loads = None, [], {key: [] for key in compared}, []
+        first, walls, exudyn_walls, loads = None, {w: [] for w in pools}, {key: [] for key in compared}, []
         for _ in range(args.repeat):  # alternately, so that both see the same load
             loads.append(os.getloadavg()[0])
-            got = gpmegen_runs(model_file, omega, args.nrfe, args.dt, args.method)
-            walls.append((got[3], got[2]))
-            first = first or got
+            for workers in pools:
+                got = gpmegen_runs(model_file, omega, args.nrfe, args.dt, args.method, workers)
+                walls[workers].append((got[3], got[2], got[4]))
+                first = first or got
             for key in compared:
                 values, seconds = exudyn_run(omega, key[0], args.compare_step, got[0], modified=key[1])
                 exudyn_walls[key].append((seconds, values))
-        t, tip, _, _, efforts = first
-        best = min(walls, key=lambda w: w[0])
+        t, tip = first[:2]
         reference, seconds_reference = exudyn_run(omega, args.elements, args.step, t)
         if reference is None:
             print(f"\nΩs = {omega:g} rad/s: the reference's solver gave up; try another --step or --elements")
@@ -312,18 +336,21 @@ def main(argv=None) -> int:
                 change = "its solver gave up" if other is None else f"{np.max(np.abs(other - reference)) / scale:.2e}"
                 print(f"  reference with {label} ({elements} elements, step {step:g} s): changes by {change} "
                       f"({seconds_other:.1f} s)")
-        print(f"  gpmegen's levels ({args.method}, dt {args.dt:g} s), the fastest of {args.repeat} runs:")
-        for line in effort_rows(args.nrfe, efforts, best[1]):
-            print(line)
-        print(f"    serial sum {sum(best[1]):.2f} s, parallel wall {best[0]:.2f} s on {processes} processes "
-              f"(longest level {max(best[1]):.2f} s)")
+        for workers, runs in walls.items():
+            best = min(runs, key=lambda w: w[0])
+            print(f"  gpmegen's levels ({args.method}, dt {args.dt:g} s) on {workers} process(es), the fastest of "
+                  f"{args.repeat}: wall {best[0]:.2f} s, its levels' runs {sum(best[1]):.2f} s in all "
+                  f"(longest {max(best[1]):.2f} s)")
+            for line in effort_rows(args.nrfe, best[2], best[1]):
+                print(line)
         for n, values, estimated in zip(args.nrfe, tip["levels"], tip["errors"]):
             table.append((omega, f"gpmegen n_rfe {n}", None, np.max(np.abs(values - reference)) / scale,
                           np.max(np.abs(estimated)) / scale))
         limits = [("gpmegen limit, term n^-2", tip)] + ([("gpmegen limit, n^-2 and n^-4", tip["even"])]
                                                         if "even" in tip else [])
-        for label, data in limits:
-            table.append((omega, label, [w[0] for w in walls], np.max(np.abs(data["limit"] - reference)) / scale,
+        for (label, data), workers in ((limit, workers) for limit in limits for workers in pools):
+            table.append((omega, f"{label}, {workers} process(es)", [w[0] for w in walls[workers]],
+                          np.max(np.abs(data["limit"] - reference)) / scale,
                           np.max(np.abs(data["limit_error"])) / scale))
         for (elements, modified), runs in exudyn_walls.items():
             values = runs[0][1]
