@@ -6,26 +6,30 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 Ωs = 4, 6 and 10 rad/s. Output: the tip's deflection in the hub frame.
 
 - gpmegen: examples/spinup_axial.toml (sdes that bend and stretch; --model bending:
-  examples/spinup.toml, inextensible) at several n_rfe (RK4, or generalized-α with --method
-  genalpha), extrapolated to n_rfe → ∞
-  (gpmegen.analysis.extrapolate);
+  examples/spinup.toml, inextensible) at several n_rfe (generalized-α at 1e-3 s by default, or
+  RK4 with --method rk4 --dt 1e-4), extrapolated to n_rfe → ∞ (gpmegen.analysis.extrapolate);
 - reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
-  generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed; coarser
-  Exudyn runs give its error against wall time;
+  generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed;
+- Exudyn as its users would tune it (EXUDYN_RHO_INF, EXUDYN_RTOL, EXUDYN_ATOL, sparse solver) at
+  --compare elements and --compare-step, timed against gpmegen;
 - the conventional linear modal model (clamped-free modes in the hub frame, no geometric
   stiffening), which loses stability once the hub turns faster than the first bending frequency.
 
-Prints the load average, then per Ωs: the reference's own convergence (how much it changes with half
-its elements and with half its step), the error of each gpmegen level and of the limit relative to
-the reference's peak, the estimated error beside the true one, the wall times of both engines (the
-levels run at once on the cores; compiled before the clock starts) and of the cheapest Exudyn run
-as accurate as gpmegen's limit; writes figures/spinup.png.
+Builds the levels first (the time printed: from an empty cache the derivation and compile, else
+the loading). Then per Ωs, --repeat times alternately so that both see the same load: gpmegen's
+levels at once on the cores and one after the other in this process, and each compared Exudyn run.
+Prints the reference's own convergence (how much it changes with half its elements and with half
+its step), where gpmegen's time goes per level (steps, Newton iterations, Jacobians, LU
+factorizations, the projection's constraint evaluations, the run's seconds and those of the
+compiled loop alone), and at the end one table: per run the best wall time (and all), the error
+against the reference relative to its peak and for gpmegen the estimated error; writes
+figures/spinup.png.
 
     .venv/bin/python -m pip install exudyn      # the reference engine: a benchmark dependency only
     .venv/bin/python benchmarks/spinup.py                        # Ωs = 4, 6, 10
-    .venv/bin/python benchmarks/spinup.py --omega 4 --nrfe 5 10 20 --elements 32
-    .venv/bin/python benchmarks/spinup.py --method genalpha --dt 1e-3              # within 2e-5 at Ωs 4, 6
-    .venv/bin/python benchmarks/spinup.py --method genalpha --dt 1e-3 --omega 10 --nrfe 10 20 30 40
+    .venv/bin/python benchmarks/spinup.py --omega 4 --repeat 1 --no-reference-check --compare 8
+    .venv/bin/python benchmarks/spinup.py --omega 10 --nrfe 10 20 30 40
+    .venv/bin/python benchmarks/spinup.py --method rk4 --dt 1e-4 --repeat 1
 """
 
 from __future__ import annotations
@@ -62,22 +66,51 @@ def in_hub_frame(t, points, omega):
     return -np.sin(theta) * points[:, 0] + np.cos(theta) * points[:, 1]
 
 
-def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4"):
-    """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds of
-    each level's integration, wall seconds of all, the levels run at once on the cores)."""
-    from gpmegen.analysis import extrapolate
+def gpmegen_build(model_file, nrfe, dt):
+    """Build, compile and load every level (in the pool's processes, as the run does); returns the
+    wall seconds (from an empty cache: the derivation, emission and compile; else the loading)."""
     from gpmegen.analysis.levels import simulate_levels
 
-    simulate_levels(model_file, nrfe, 0.0, dt, backend="c")  # built and compiled before the clock starts
+    start = time.perf_counter()
+    simulate_levels(model_file, nrfe, 0.0, dt, backend="c")
+    return time.perf_counter() - start
+
+
+def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None):
+    """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds of
+    each level's run, wall seconds of all, the levels run at once on the cores, and each level's
+    effort: the counts of its integrator and, for generalized-α, the seconds of its compiled loop
+    alone); ``workers``: processes (default one per core). Build the levels first (:func:`gpmegen_build`)."""
+    from gpmegen.analysis import extrapolate
+    from gpmegen.analysis.levels import simulate_levels
+    from gpmegen.analysis.results import metadata
+
     start = time.perf_counter()
     levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)), method=method,
-                             backend="c", params={"Omega": omega})
+                             backend="c", params={"Omega": omega}, workers=workers)
     wall = time.perf_counter() - start
     seconds = [level.seconds for level in levels]
+    efforts = [dict(metadata(level.results)["settings"]["effort"], n_dof=level.loaded.n_dof) for level in levels]
+    if method == "genalpha":
+        for effort, level in zip(efforts, levels):
+            effort["integration"], effort["difference"] = integration_seconds(level, dt)
     tip = in_hub(extrapolate.extrapolate(levels, ["points"]), omega)
     if len(levels) >= 3:
         tip["even"] = in_hub(extrapolate.extrapolate(levels, ["points"], terms=2), omega)
-    return tip["t"], tip, seconds, wall
+    return tip["t"], tip, seconds, wall, efforts
+
+
+def integration_seconds(level, dt):
+    """The wall seconds of the compiled generalized-α loop alone on ``level``'s loaded model from
+    its run's start (in this process), and the largest difference of its final q from the run's
+    (0: the same integration)."""
+    from gpmegen.runtime import integrate
+
+    q, qd = level.results["q"], level.results["qd"]
+    start = time.perf_counter()
+    y = integrate.genalpha(level.loaded, q[0], qd[0], T_END, dt, SAVED)[1]
+    seconds = time.perf_counter() - start
+    return seconds, float(np.max(np.abs(y[-1, :q.shape[1]] - q[-1])))
 
 
 def in_hub(data, omega):
@@ -96,9 +129,18 @@ def in_hub(data, omega):
     return tip
 
 
-def exudyn_run(omega, elements, step, t):
+#: Exudyn's settings as its users would tune them for this beam: generalized-α of spectral radius
+#: 0.9 (1.0 does not converge: index-3 constraints), Newton to a relative 1e-8 and an absolute 1e-6
+#: (its default absolute tolerance is below the round-off of the axial forces, EA = 2.8e7 N, and
+#: makes it cut its step thousands of times), the sparse solver (EigenSparse).
+EXUDYN_RHO_INF, EXUDYN_RTOL, EXUDYN_ATOL = 0.9, 1e-8, 1e-6
+
+
+def exudyn_run(omega, elements, step, t, modified=False):
     """The tip's deflection in the hub frame by Exudyn's ANCF cable elements, at the instants
-    ``t``; returns (values, wall seconds); values None when its solver gave up."""
+    ``t``, with the settings above and full Newton (``modified``: Exudyn's modified Newton, its
+    Jacobian kept while the iteration converges); returns (values, wall seconds of its solve);
+    values None when its solver gave up."""
     import exudyn
     from exudyn import utilities as xu
     from exudyn.beams import GenerateStraightLineANCFCable2D
@@ -127,14 +169,15 @@ def exudyn_run(omega, elements, step, t):
     settings = exudyn.SimulationSettings()
     settings.timeIntegration.numberOfSteps = int(round(T_END / step))
     settings.timeIntegration.endTime = T_END
-    settings.timeIntegration.generalizedAlpha.spectralRadius = 0.8  # 1.0 fails to converge (index-3 constraints)
-    settings.timeIntegration.newton.absoluteTolerance = 1e-6  # the default fails on the axial forces' round-off
-    settings.timeIntegration.newton.useModifiedNewton = False
+    settings.timeIntegration.generalizedAlpha.spectralRadius = EXUDYN_RHO_INF
+    settings.timeIntegration.newton.relativeTolerance = EXUDYN_RTOL
+    settings.timeIntegration.newton.absoluteTolerance = EXUDYN_ATOL
+    settings.timeIntegration.newton.useModifiedNewton = modified
     settings.timeIntegration.adaptiveStep = False
     settings.timeIntegration.verboseMode = 0
-    settings.solutionSettings.writeSolutionToFile = False
-    settings.solutionSettings.sensorsWritePeriod = step  # every step: interpolated onto t below
-    settings.linearSolverType = exudyn.LinearSolverType.EigenSparse
+    settings.solution.file.write = False
+    settings.solution.sensors.writePeriod = step  # every step: interpolated onto t below
+    settings.linearSolver.solverType = exudyn.LinearSolverType.EigenSparse
     start = time.perf_counter()
     try:
         mbs.SolveDynamic(settings)
@@ -207,76 +250,129 @@ def figure(cases, path):
     return path
 
 
+def load() -> str:
+    """The load averages over 1, 5 and 15 minutes."""
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def effort_rows(nrfe, efforts, seconds):
+    """Where a level's time goes, one line per level: steps, Newton iterations, Jacobians,
+    factorizations, the projection's constraint evaluations and the run's seconds."""
+    lines = []
+    for n, effort, s in zip(nrfe, efforts, seconds):
+        steps, jacobians = effort["steps"], effort["jacobians"]
+        # each step: its Newton iterations (one GPME solve each) and the rates at its end (one);
+        # each Jacobian 4 n_dof + 1 solves; each call of the compiled loop one more at its start
+        iterations = effort["solves"] - (4 * effort["n_dof"] + 1) * jacobians - steps
+        lines.append(f"    n_rfe {n:3d} ({effort['n_dof']:3d} dof): {steps} steps, ≤ {iterations} Newton iterations "
+                     f"({iterations / max(steps, 1):.2f} a step), {jacobians} Jacobians, {effort['factorizations']} "
+                     f"LU factorizations, {effort['projections']} constraint evaluations projecting; run {s:.2f} s"
+                     + (f", of it the compiled loop {effort['integration']:.2f} s (again in this process, final q "
+                        f"within {effort['difference']:.1e})" if "integration" in effort else ""))
+    return lines
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--omega", type=float, nargs="+", default=[4.0, 6.0, 10.0], help="final hub speeds (rad/s)")
     parser.add_argument("--nrfe", type=int, nargs="+", default=[5, 10, 20, 30], help="gpmegen's levels")
     parser.add_argument("--model", choices=tuple(MODELS), default="axial",
                         help="gpmegen's beam: stretching and bending like the reference (default), or bending only")
-    parser.add_argument("--dt", type=float, default=1e-4, help="gpmegen's step (s); 5e-4 will do for bending")
-    parser.add_argument("--method", choices=("rk4", "genalpha"), default="rk4",
-                        help="gpmegen's integrator: RK4 (its step bound by the axial modes' stability) or "
-                             "generalized-α, whose step the first bending mode alone bounds (1e-3 s)")
+    parser.add_argument("--dt", type=float, default=1e-3, help="gpmegen's step (s); RK4 needs 1e-4 (axial modes)")
+    parser.add_argument("--method", choices=("rk4", "genalpha"), default="genalpha",
+                        help="gpmegen's integrator: generalized-α, whose step the first bending mode alone bounds "
+                             "(1e-3 s), or RK4 (its step bound by the axial modes' stability)")
     parser.add_argument("--elements", type=int, default=32, help="ANCF elements of the reference")
     parser.add_argument("--step", type=float, default=5e-4, help="the reference's step (s)")
-    parser.add_argument("--coarse", type=int, nargs="*", default=[2, 4, 8, 16],
-                        help="coarser Exudyn runs (elements, ascending), for their cost")
+    parser.add_argument("--no-reference-check", action="store_true",
+                        help="skip the reference's runs with half its elements and half its step")
+    parser.add_argument("--compare", type=int, nargs="*", default=[4, 8, 16],
+                        help="Exudyn runs timed against gpmegen (elements, at --compare-step)")
+    parser.add_argument("--compare-step", type=float, default=1e-3, help="their step (s)")
+    parser.add_argument("--modified-newton", action="store_true",
+                        help="also time the compared Exudyn runs with its modified Newton")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="timed runs of each, gpmegen and Exudyn alternately; the best counts")
     parser.add_argument("--figure", type=Path, default=ROOT / "figures" / "spinup.png")
     args = parser.parse_args(argv)
+    if args.repeat < 1:
+        parser.error(f"--repeat must be at least 1, got {args.repeat}")
 
-    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} on {os.cpu_count()} cores")
-    cases = {}
+    from gpmegen.analysis.levels import pool_size
+
+    model_file, processes = MODELS[args.model], pool_size(len(set(args.nrfe)))
+    print(f"load average {load()} on {os.cpu_count()} cores")
+    build = gpmegen_build(model_file, args.nrfe, args.dt)
+    print(f"gpmegen: n_rfe {' '.join(map(str, args.nrfe))} built, compiled and loaded in {build:.1f} s wall "
+          f"(in {processes} processes; from the cache when it holds them)")
+    pools = sorted({processes, 1}, reverse=True)  # the levels at once, and one after the other
+    compared = [(elements, modified) for elements in args.compare
+                for modified in ((False, True) if args.modified_newton else (False,))]
+    cases, table = {}, []
     for omega in args.omega:
-        t, tip, seconds, wall_levels = gpmegen_runs(MODELS[args.model], omega, args.nrfe, args.dt, args.method)
-        runs = {}
-
-        def exudyn(elements, step):  # each Exudyn run once per Ωs: (values, seconds)
-            if (elements, step) not in runs:
-                runs[elements, step] = exudyn_run(omega, elements, step, t)
-            return runs[elements, step]
-
-        reference, wall = exudyn(args.elements, args.step)
+        first, walls, exudyn_walls, loads = None, {w: [] for w in pools}, {key: [] for key in compared}, []
+        for _ in range(args.repeat):  # alternately, so that both see the same load
+            loads.append(os.getloadavg()[0])
+            for workers in pools:
+                got = gpmegen_runs(model_file, omega, args.nrfe, args.dt, args.method, workers)
+                walls[workers].append((got[3], got[2], got[4]))
+                first = first or got
+            for key in compared:
+                values, seconds = exudyn_run(omega, key[0], args.compare_step, got[0], modified=key[1])
+                exudyn_walls[key].append((seconds, values))
+        t, tip = first[:2]
+        reference, seconds_reference = exudyn_run(omega, args.elements, args.step, t)
+        if reference is None:
+            print(f"\nΩs = {omega:g} rad/s: the reference's solver gave up; try another --step or --elements")
+            continue
         scale = np.max(np.abs(reference))
         print(f"\nΩs = {omega:g} rad/s: reference peak {scale:.6f} m (Exudyn, {args.elements} ANCF elements, "
-              f"step {args.step:g} s, {wall:.1f} s)")
-        for label, (elements, step) in (("half the elements", (args.elements // 2, args.step)),
-                                        ("half the step", (args.elements, args.step / 2))):
-            other, seconds_other = exudyn(elements, step)
-            change = "its solver gave up" if other is None else f"{np.max(np.abs(other - reference)) / scale:.2e}"
-            print(f"  reference with {label} ({elements} elements, step {step:g} s): changes by {change} "
-                  f"({seconds_other:.1f} s)")
-        for n, values, estimated, s in zip(args.nrfe, tip["levels"], tip["errors"], seconds):
-            print(f"  n_rfe {n:3d}: error {np.max(np.abs(values - reference)) / scale:.2e}, estimated "
-                  f"{np.max(np.abs(estimated)) / scale:.2e}  ({s:.2f} s)")
-        true = np.max(np.abs(tip["limit"] - reference)) / scale
-        estimate = np.max(np.abs(tip["limit_error"])) / scale
-        print(f"  limit:      error {true:.2e}, estimated {estimate:.2e} (ratio {estimate / true:.2f}); observed "
-              f"order {tip['order']:.2f}; gpmegen: {sum(seconds):.2f} s of runs, {wall_levels:.2f} s wall on "
-              f"{min(len(args.nrfe), os.cpu_count() or 1)} processes")
-        if "even" in tip:
-            even = np.max(np.abs(tip["even"]["limit"] - reference)) / scale
-            bound = np.max(np.abs(tip["even"]["limit_error"])) / scale
-            print(f"  limit, terms n^-2 and n^-4: error {even:.2e}, estimated {bound:.2e} (ratio {bound / even:.2f}; "
-                  f"{'from the fourth level' if len(args.nrfe) > 3 else 'a bound with three levels'})")
-            true = min(true, even)
-        matched = None
-        for elements in args.coarse:
-            coarse, seconds_coarse = exudyn(elements, args.step)
-            if coarse is None:
-                print(f"  Exudyn {elements:3d} elements: its solver gave up ({seconds_coarse:.1f} s)")
-                continue
-            error = np.max(np.abs(coarse - reference)) / scale
-            print(f"  Exudyn {elements:3d} elements: error {error:.2e} ({seconds_coarse:.1f} s)")
-            if error <= true and matched is None:
-                matched = (elements, seconds_coarse)
-        if matched:
-            print(f"  same error: Exudyn {matched[0]} elements {matched[1]:.1f} s, gpmegen's limit {wall_levels:.1f} s "
-                  f"wall ({sum(seconds):.1f} s of runs)")
+              f"step {args.step:g} s, {seconds_reference:.1f} s); load {' '.join(f'{x:.2f}' for x in loads)} "
+              f"at the start of each repeat")
+        if not args.no_reference_check:
+            for label, (elements, step) in (("half the elements", (args.elements // 2, args.step)),
+                                            ("half the step", (args.elements, args.step / 2))):
+                other, seconds_other = exudyn_run(omega, elements, step, t)
+                change = "its solver gave up" if other is None else f"{np.max(np.abs(other - reference)) / scale:.2e}"
+                print(f"  reference with {label} ({elements} elements, step {step:g} s): changes by {change} "
+                      f"({seconds_other:.1f} s)")
+        for workers, runs in walls.items():
+            best = min(runs, key=lambda w: w[0])
+            print(f"  gpmegen's levels ({args.method}, dt {args.dt:g} s) on {workers} process(es), the fastest of "
+                  f"{args.repeat}: wall {best[0]:.2f} s, its levels' runs {sum(best[1]):.2f} s in all "
+                  f"(longest {max(best[1]):.2f} s)")
+            for line in effort_rows(args.nrfe, best[2], best[1]):
+                print(line)
+        for n, values, estimated in zip(args.nrfe, tip["levels"], tip["errors"]):
+            table.append((omega, f"gpmegen n_rfe {n}", None, np.max(np.abs(values - reference)) / scale,
+                          np.max(np.abs(estimated)) / scale))
+        limits = [("gpmegen limit, term n^-2", tip)] + ([("gpmegen limit, n^-2 and n^-4", tip["even"])]
+                                                        if "even" in tip else [])
+        for (label, data), workers in ((limit, workers) for limit in limits for workers in pools):
+            table.append((omega, f"{label}, {workers} process(es)", [w[0] for w in walls[workers]],
+                          np.max(np.abs(data["limit"] - reference)) / scale,
+                          np.max(np.abs(data["limit_error"])) / scale))
+        for (elements, modified), runs in exudyn_walls.items():
+            values = runs[0][1]
+            error = np.nan if values is None else np.max(np.abs(values - reference)) / scale
+            label = f"Exudyn {elements} elements{', modified Newton' if modified else ''}"
+            table.append((omega, label, [r[0] for r in runs], error, None))
+        print(f"  observed order {tip['order']:.2f}")
         linear = modal_run(omega, t)
         print(f"  linear modal model: peak |tip| {np.nanmax(np.abs(linear)):.3g} m")
         cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": args.nrfe}
-    print(f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    print(f"\nfigure: {figure(cases, args.figure)}")
+    print(f"\nerror: max over t of |tip deflection - reference| / the reference's peak; reference: Exudyn "
+          f"{args.elements} ANCF elements, step {args.step:g} s; gpmegen {args.method} dt {args.dt:g} s; Exudyn "
+          f"step {args.compare_step:g} s, ρ∞ {EXUDYN_RHO_INF:g}, Newton rtol {EXUDYN_RTOL:g} atol {EXUDYN_ATOL:g}, "
+          f"EigenSparse; wall: best of {args.repeat} (all)")
+    print("| Ωs [rad/s] | run | wall [s] | error | estimated error |")
+    print("|---|---|---|---|---|")
+    for omega, label, seconds, error, estimated in table:
+        wall = "" if seconds is None else f"**{min(seconds):.2f}** ({', '.join(f'{s:.2f}' for s in seconds)})"
+        print(f"| {omega:g} | {label} | {wall} | {error:.2e} | {'' if estimated is None else f'{estimated:.2e}'} |")
+    print(f"load average {load()}")
+    if cases:
+        print(f"\nfigure: {figure(cases, args.figure)}")
     return 0
 
 
