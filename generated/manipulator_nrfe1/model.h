@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: ebf93beb833afa45
+Input hash: ee2ab443ff2bcbf5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -26,10 +26,9 @@ from pathlib import Path
 
 from ..errors import GpmegenError, ModelError
 from ..symbolic import derive
-from ..version import __version__
-from .functions import arguments, lower, model_functions, prepare_all
+from .functions import lower, model_functions, prepare_all
 from .printers import CASADI, CasadiPrinter
-from .render import input_hash, template_environment
+from .render import input_hash, model_context, template_environment
 
 SOURCE = "model_casadi.py"
 MANIFEST = "casadi.json"
@@ -68,8 +67,7 @@ def render_casadi(model, inputs=(), command=None) -> str:
     d = derive(model)
     inputs = check_inputs(d.chain.coordinates, inputs)
     fns = [fn for fn in model_functions(d, transforms=()) if fn.name in PRINTED]
-    names = model.parameter_names
-    printer, cache = CasadiPrinter(names), {}
+    printer, cache = CasadiPrinter(model.parameter_names), {}
     try:
         lowered = [lower(fn, d, printer, p, cache=cache) for fn, p in zip(fns, prepare_all(fns, d))]
     except (KeyError, ValueError, NotImplementedError) as exc:  # a function CasADi has no counterpart for
@@ -79,23 +77,11 @@ def render_casadi(model, inputs=(), command=None) -> str:
                          f"Heaviside, Piecewise)") from None
     return template_environment().get_template(SOURCE + ".j2").render(
         functions=lowered,
-        model=model,
-        version=__version__,
-        input_hash=input_hash(model, ("casadi",), ()),
-        command=command or f"gpmegen export ({model.name}) --format casadi",
         casadi=CASADI,
-        n_dof=d.chain.n_dof,
-        coordinates=d.chain.coordinates,
-        parameters=model.parameters,
-        parameter_names=names,
-        defaults=tuple(float(p.default) for p in model.parameters),
-        points=d.chain.points,
-        constraints=d.constraints.names,
-        constraint_orders=d.constraints.orders,
         inputs=inputs,
         input_indices=tuple(d.chain.coordinates.index(name) for name in inputs),
-        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
-                                    n_constraints=len(d.constraints.names)),
+        **model_context(model, d, input_hash(model, ("casadi",), ()),
+                        command or f"gpmegen export ({model.name}) --format casadi"),
     )
 
 

@@ -99,6 +99,29 @@ class BuildResult:
     files: dict  # file name -> size in bytes
 
 
+def model_context(model: Model, d, digest: str, command: str) -> dict:
+    """What every backend's template says of ``model`` (derived as ``d``): its name and text,
+    sizes, coordinates, parameters and defaults, points, constraints, the generator's version,
+    the input hash and the command that regenerates it, and the arguments' docs."""
+    names = d.chain.model.parameter_names
+    return dict(
+        model=model,
+        version=__version__,
+        input_hash=digest,
+        command=command,
+        n_dof=d.chain.n_dof,
+        coordinates=d.chain.coordinates,
+        parameters=model.parameters,
+        parameter_names=names,
+        defaults=tuple(float(p.default) for p in model.parameters),
+        points=d.chain.points,
+        constraints=d.constraints.names,
+        constraint_orders=d.constraints.orders,
+        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
+                                    n_constraints=len(d.constraints.names)),
+    )
+
+
 def render(model: Model, backends=("numpy",), progress=None, command=None, digest=None,
            transforms=DEFAULT_TRANSFORMS, jacobians: bool = False) -> dict[str, str]:
     """Derive ``model`` and render the requested backends; returns file name -> text.
@@ -120,21 +143,10 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     fns = model_functions(d, transforms, jacobians)
     names = d.chain.model.parameter_names
     context = dict(
-        model=model,
-        version=__version__,
-        input_hash=digest,
-        command=command or f"gpmegen build ({model.name})",
-        n_dof=d.chain.n_dof,
-        coordinates=d.chain.coordinates,
-        parameters=model.parameters,
-        parameter_names=names,
-        defaults=tuple(float(p.default) for p in model.parameters),
-        points=d.chain.points,
+        model_context(model, d, digest, command or f"gpmegen build ({model.name})"),
         bodies=d.chain.bodies,
         transforms=tuple(transforms),
         jacobians=jacobians,
-        constraints=d.constraints.names,
-        constraint_orders=d.constraints.orders,
         massive_links=d.recursive.massive,
         parent_links=d.recursive.parent,
         leaf_links=tuple(not children for children in d.chain.topology.children),
@@ -142,8 +154,6 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
                                 for j, p in enumerate(d.chain.topology.parent)),
         dependent=tuple(model.dependent) if model.dependent is not None else None,
         statuses=tuple(SolveStatus),
-        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
-                                    n_constraints=len(d.constraints.names)),
     )
     env = template_environment()
     files = {}

@@ -284,13 +284,17 @@ def _remove_abandoned(cache: Path, older_than=24 * 3600.0) -> None:
 def _run_compilers(argvs, cwd: str, say) -> list[tuple[int, str]]:
     """Run the compiler commands ``argvs`` at once in ``cwd``: (exit status, diagnostics) of each.
     With ``say``, a line every :data:`HEARTBEAT` seconds says they are still running; an
-    interruption ends them all."""
+    interruption ends them all. A compiler that cannot be started is a :class:`BuildError`."""
     runs, t0 = [], time.perf_counter()
     try:
         for k, argv in enumerate(argvs):
-            with open(Path(cwd, f"diagnostics{k}.txt"), "wb") as diagnostics:
-                runs.append(subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=diagnostics,
-                                             stderr=subprocess.STDOUT, cwd=cwd))
+            try:
+                with open(Path(cwd, f"diagnostics{k}.txt"), "wb") as diagnostics:
+                    runs.append(subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=diagnostics,
+                                                 stderr=subprocess.STDOUT, cwd=cwd))
+            except OSError as exc:
+                raise BuildError(f"cannot run the C compiler {argv[0]} ({exc.strerror}); set CC to a "
+                                 f"working C compiler or use backend='numpy'") from None
         for run in runs:
             while True:
                 try:
@@ -339,13 +343,9 @@ def _compile(compiler, flags, source: str, header: str, source_path: Path, lib_p
             Path(folder, HEADER).write_text(header, encoding="utf-8")
             Path(folder, SOLVER_HEADER).write_text(solver_sources()[SOLVER_HEADER], encoding="utf-8")
             Path(folder, "model.c").write_text(source, encoding="utf-8")
-            try:
-                results = _run_compilers(parts, folder, say)
-                if all(code == 0 for code, _ in results):
-                    results += _run_compilers([link], folder, None if parts else say)
-            except OSError as exc:
-                raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
-                                 f"working C compiler or use backend='numpy'") from None
+            results = _run_compilers(parts, folder, say)
+            if all(code == 0 for code, _ in results):
+                results += _run_compilers([link], folder, None if parts else say)
         seconds = time.perf_counter() - t0
         for argv, (returncode, diagnostics) in zip(parts + [link], results):
             if returncode != 0:
@@ -410,17 +410,13 @@ def build_solver(flags=DEFAULT_FLAGS, cache=None, progress=None, compiler=None) 
         with tempfile.TemporaryDirectory(prefix=f".{key[:16]}.", suffix=".src.tmp", dir=cache) as folder:
             for name, text in sources.items():
                 Path(folder, name).write_text(text, encoding="utf-8")
-            try:
-                results = _run_compilers(compiles, folder, progress)
-                if all(code == 0 for code, _ in results):
-                    results += _run_compilers([join], folder, None)
-                    if results[-1][0] != 0:   # a compiler without -r: the sources as one unit instead
-                        Path(folder, UNITY).write_text("".join(f'#include "{name}"\n' for name in units))
-                        compiles, join = [], [*cc, *flags, "-fPIC", "-c", UNITY, "-o", str(tmp)]
-                        results = _run_compilers([join], folder, progress)
-            except OSError as exc:
-                raise BuildError(f"cannot run the C compiler {compiler[0]} ({exc.strerror}); set CC to a "
-                                 f"working C compiler or use backend='numpy'") from None
+            results = _run_compilers(compiles, folder, progress)
+            if all(code == 0 for code, _ in results):
+                results += _run_compilers([join], folder, None)
+                if results[-1][0] != 0:   # a compiler without -r: the sources as one unit instead
+                    Path(folder, UNITY).write_text("".join(f'#include "{name}"\n' for name in units))
+                    compiles, join = [], [*cc, *flags, "-fPIC", "-c", UNITY, "-o", str(tmp)]
+                    results = _run_compilers([join], folder, progress)
         seconds = time.perf_counter() - t0
         for argv, (returncode, diagnostics) in zip(compiles + [join], results):
             if returncode != 0:
