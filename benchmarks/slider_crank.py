@@ -24,11 +24,12 @@ the tip (a quadratic axial field), and their rates.
   the rigid rod's J2; and an axial mass matrix 15 times the consistent mass of its quadratic
   axial shape functions (entries 8, 1, 2 of ρAL where ∫NᵢNⱼ gives 8/15, 1/15, 2/15), which lowers
   its axial frequency by √15 (the quasi-static stretch is unchanged: its load uses ∫N ρA).
-- Exudyn (optional, --exudyn): the same mechanism with the rod as ANCF Cable2D elements at its
-  tuned settings (benchmarks/four_bar_flexible.py), for the limit of a third model.
+- the test set's model itself, written here from its equations (galerkin_run; it reproduces the
+  published values at 0.1 s to 7 digits and more): gpmegen's midpoint deflection against it over
+  the whole 0.1 s, and what the test set's own quadratic stiffness option changes.
 
     .venv/bin/python benchmarks/slider_crank.py
-    .venv/bin/python benchmarks/slider_crank.py --nrfe 4 8 16 --exudyn 16
+    .venv/bin/python benchmarks/slider_crank.py --nrfe 4 8 --rtol 1e-8
 """
 
 from __future__ import annotations
@@ -124,24 +125,34 @@ def case(nrfe: int):
     return TestSetStart(str(MODEL), nrfe)
 
 
-def rod_geometry(names, q, nrfe: int) -> dict:
-    """The rod's crank pin B, tip R and material midpoint M (planar, m) from the coordinates
-    ``q`` named ``names``: the rfes laid from B, each sde first stretching along the rfe before
-    it, then turning."""
+def rod_geometry(names, q, nrfe: int, length: float = L2, crank: float = L1) -> dict:
+    """A planar flexible link's base B on the crank's tip, its tip R and its material midpoint M
+    (m) from the coordinates ``q`` named ``names`` (the link labelled "2", from the crank's tip at
+    θ2 against the crank θ1): its rfes laid from B, each sde first stretching along the rfe before
+    it (when the link stretches), then turning."""
     value = dict(zip(names, q))
     angle = value["theta1"] + value["theta2"]
-    pin = np.array([L1 * math.cos(value["theta1"]), L1 * math.sin(value["theta1"])])
-    lengths = [L2 / (nrfe - 1) / 2] + [L2 / (nrfe - 1)] * (nrfe - 2) + [L2 / (nrfe - 1) / 2]
+    pin = np.array([crank * math.cos(value["theta1"]), crank * math.sin(value["theta1"])])
+    delta = length / (nrfe - 1)
+    lengths = [delta / 2] + [delta] * (nrfe - 2) + [delta / 2]
     point, done, middle = pin.copy(), 0.0, None
-    for k, length in enumerate(lengths):
+    for k, piece in enumerate(lengths):
         if k:
-            point = point + value[f"u2_{k}"] * np.array([math.cos(angle), math.sin(angle)])
+            point = point + value.get(f"u2_{k}", 0.0) * np.array([math.cos(angle), math.sin(angle)])
             angle += value[f"psi2_{k}"]
         direction = np.array([math.cos(angle), math.sin(angle)])
-        if middle is None and done + length >= L2 / 2 - 1e-12:
-            middle = point + (L2 / 2 - done) * direction
-        point, done = point + length * direction, done + length
+        if middle is None and done + piece >= length / 2 - 1e-12:
+            middle = point + (length / 2 - done) * direction
+        point, done = point + piece * direction, done + piece
     return {"B": pin, "R": point, "M": middle}
+
+
+def midpoint_deflection(base, tip, middle) -> float:
+    """The midpoint's transverse deflection from the chord base → tip (m), positive on the chord's
+    left (the test set's q1)."""
+    chord = tip - base
+    normal = np.array([-chord[1], chord[0]]) / float(np.hypot(*chord))
+    return float(normal @ (middle - base))
 
 
 def rod_outputs(names, q, nrfe: int) -> dict:
@@ -150,10 +161,9 @@ def rod_outputs(names, q, nrfe: int) -> dict:
     set's q1) and the chord's stretch (the test set's q4)."""
     g = rod_geometry(names, q, nrfe)
     chord = g["R"] - g["B"]
-    length = float(np.hypot(*chord))
-    normal = np.array([-chord[1], chord[0]]) / length
     return {"phi2": math.atan2(chord[1], chord[0]), "x3": float(g["R"][0]),
-            "midpoint deflection": float(normal @ (g["M"] - g["B"])), "tip stretch": length - L2}
+            "midpoint deflection": midpoint_deflection(g["B"], g["R"], g["M"]),
+            "tip stretch": float(np.hypot(*chord)) - L2}
 
 
 def outputs_at(names, q, qd, nrfe: int) -> dict:
@@ -188,21 +198,115 @@ def extrapolated(nrfe, finals) -> dict:
     return {key: richardson.richardson(n_sde, np.array([f[key] for f in finals])) for key in COMPARED}
 
 
-def figure(t, series, nrfe, path):
-    """The midpoint's transverse deflection over time per n_rfe, the test set's value at 0.1 s."""
+# The test set's rod model (Simeon's), written here from its equations for the comparison over
+# time and for the effect of its options: rigid coordinates p = (φ1, φ2, x3), elastic q = (q1, q2:
+# the transverse sines; q3, q4: the quadratic axial field's midpoint and tip), the matrices of its
+# Galerkin rod (per unit ρAL, ρbhL... as the test set scales them) and its constraints: the rod's
+# tip (L2 + q4 along φ2) on the x0 axis at x3, φ1 = ωt.
+RHO, E, BH = 7870.0, 2.0e11, 0.008
+M2, M3, J1, J2 = RHO * BH * BH * L2, 0.075552, 0.002727, 0.0045339259
+
+
+def _galerkin_matrices():
+    """The test set's rod matrices: mass MQ, stiffness KQ, gyroscopic BQ and the vectors c1, c2,
+    c12, c21 (its integrals of the shape functions over the rod)."""
+    pi, facm, fack, facb = math.pi, RHO * BH * BH * L2, E * BH * BH / L2, BH * BH * L2
+    mq = facm * np.array([[0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 8.0, 1.0], [0, 0, 1.0, 2.0]])
+    kq = np.zeros((4, 4))
+    kq[0, 0] = fack * pi**4 / 24 * (BH / L2) ** 2
+    kq[1, 1] = fack * pi**4 * 2 / 3 * (BH / L2) ** 2
+    kq[2:, 2:] = fack * np.array([[16 / 3, -8 / 3], [-8 / 3, 7 / 3]])
+    bq = np.zeros((4, 4))
+    bq[0, 2], bq[0, 3], bq[1, 3] = -facb * 16 / pi**3, facb * (8 / pi**3 - 1 / pi), facb * 0.5 / pi
+    bq[2:, :2] = -bq[:2, 2:].T
+    c1 = facb * np.array([0, 0, 2 / 3, 1 / 6])
+    c2 = facb * np.array([2 / pi, 0, 0, 0])
+    c12 = L2 * facb * np.array([0, 0, 1 / 3, 1 / 6])
+    c21 = L2 * facb * np.array([1 / pi, -0.5 / pi, 0, 0])
+    return mq, kq, bq, c1, c2, c12, c21
+
+
+def _galerkin_rates(y, matrices, nonlinear):
+    """The test set's equations of motion (index 1: constraints at the acceleration level) at the
+    state ``y`` = (p, q, ṗ, q̇): its time derivative. ``nonlinear``: the test set's option of a
+    quadratic stiffness term (ipar(1) = 1), its geometric coupling of bending and stretch."""
+    mq, kq, bq, c1, c2, c12, c21 = matrices
+    p1, p2, _ = y[:3]
+    q, v1, v2, qd = y[3:7], y[7], y[8], y[10:14]
+    s12, c12a = math.sin(p1 - p2), math.cos(p1 - p2)
+    m = np.zeros((7, 7))
+    m[0, 0] = J1 + M2 * L1**2
+    m[0, 1] = 0.5 * L1 * L2 * M2 * c12a + RHO * L1 * (s12 * (c2 @ q) + c12a * (c1 @ q))
+    m[1, 1] = J2 + q @ mq @ q + 2 * RHO * (c12 @ q)
+    m[2, 2] = M3
+    m[0, 3:] = RHO * L1 * (-s12 * c1 + c12a * c2)
+    m[1, 3:] = RHO * c21 + RHO * (q @ bq)
+    m[3:, 3:] = mq
+    m = np.triu(m) + np.triu(m, 1).T
+    f = np.zeros(7)
+    f[0] = (-0.5 * L1 * L2 * M2 * v2**2 * s12 + RHO * L1 * v2**2 * (-s12 * (c1 @ q) + c12a * (c2 @ q))
+            - 2 * RHO * L1 * v2 * (c12a * (c1 @ qd) + s12 * (c2 @ qd)))
+    f[1] = (0.5 * L1 * L2 * M2 * v1**2 * s12 + RHO * L1 * v1**2 * (s12 * (c1 @ q) - c12a * (c2 @ q))
+            - 2 * RHO * v2 * (c12 @ qd) - 2 * v2 * (qd @ mq @ q) - RHO * (qd @ bq @ qd))
+    f[3:] = (v2**2 * (mq @ q) + RHO * (v2**2 * c12 + L1 * v1**2 * (c12a * c1 + s12 * c2) + 2 * v2 * (bq @ qd))
+             - kq @ q)
+    if nonlinear:
+        k, b = 0.5 * E * BH * BH / L2**2 * math.pi**2, 80 / (9 * math.pi**2)
+        f[3] -= k * (q[0] * q[3] - b * q[1] * (-4 * q[2] + 2 * q[3]))
+        f[4] -= k * (4 * q[1] * q[3] - b * q[0] * (-4 * q[2] + 2 * q[3]))
+        f[5] -= k * 4 * b * q[0] * q[1]
+        f[6] -= k * (0.5 * q[0] ** 2 + 2 * q[1] ** 2 - 2 * b * q[0] * q[1])
+    sp1, cp1, sp2, cp2, arm = math.sin(p1), math.cos(p1), math.sin(p2), math.cos(p2), L2 + q[3]
+    g = np.zeros((3, 7))
+    g[0, :2], g[0, 6] = (L1 * cp1, arm * cp2), sp2
+    g[1, :3], g[1, 6] = (L1 * sp1, arm * sp2, 1.0), -cp2
+    g[2, 0] = 1.0
+    extra = np.array([-L1 * sp1 * v1**2 - arm * sp2 * v2**2 + 2 * v2 * cp2 * qd[3],
+                      L1 * cp1 * v1**2 + arm * cp2 * v2**2 + 2 * v2 * sp2 * qd[3], 0.0])
+    kkt = np.block([[m, g.T], [g, np.zeros((3, 3))]])
+    w = np.linalg.solve(kkt, np.concatenate([f, -extra]))[:7]
+    return np.concatenate([y[7:], w])
+
+
+def galerkin_run(t, nonlinear=False):
+    """The test set's model from its initial values (DOP853, rtol 1e-11): the compared
+    quantities at the instants ``t`` (the midpoint deflection is q1, the tip stretch q4)."""
+    from scipy.integrate import solve_ivp
+
+    matrices = _galerkin_matrices()
+    y0 = np.concatenate([[0.0, INITIAL["phi2"], INITIAL["x3"]], INITIAL["q"],
+                         [OMEGA, INITIAL["phi2_rate"], INITIAL["x3_rate"]], INITIAL["q_rate"]])
+    sol = solve_ivp(lambda _, y: _galerkin_rates(y, matrices, nonlinear), (0.0, float(t[-1])), y0, t_eval=t,
+                    method="DOP853", rtol=1e-11, atol=1e-14)
+    y = sol.y
+    return {"phi2": y[1], "x3": y[2], "midpoint deflection": y[3], "tip stretch": y[6],
+            "phi2 rate": y[8], "x3 rate": y[9], "midpoint deflection rate": y[10]}
+
+
+def figure(t, series, nrfe, limit, galerkin, path):
+    """The midpoint's transverse deflection over time: per n_rfe, gpmegen's limit, the test set's
+    model (linear stiffness) and its published value at 0.1 s; below, the differences."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 3.6))
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 5.6), sharex=True)
+    top.plot(t * 1e3, galerkin * 1e3, "k", lw=2.5, alpha=0.4, label="IVP test set's model (2 + 2 Galerkin modes)")
     for n, s in zip(nrfe, series):
-        ax.plot(t * 1e3, s["midpoint deflection"] * 1e3, lw=0.9, label=f"gpmegen n_rfe = {n}")
-    ax.plot([T_END * 1e3], [REFERENCE["q"][0] * 1e3], "kx", ms=9, mew=2, label="IVP test set at 0.1 s")
-    ax.set_xlabel("t (ms)")
-    ax.set_ylabel("midpoint deflection (mm)")
-    ax.set_title("flexible slider-crank (Simeon): the rod's midpoint from its chord")
-    ax.legend(fontsize=7)
+        top.plot(t * 1e3, s["midpoint deflection"] * 1e3, lw=0.8, label=f"gpmegen n_rfe = {n}")
+    top.plot(t * 1e3, limit * 1e3, "k--", lw=0.9, label="gpmegen, extrapolated")
+    top.plot([T_END * 1e3], [REFERENCE["q"][0] * 1e3], "kx", ms=9, mew=2, label="test set's value at 0.1 s")
+    top.set_ylabel("midpoint deflection (mm)")
+    top.set_title("flexible slider-crank (Simeon): the rod's midpoint from its chord")
+    top.legend(fontsize=7)
+    peak = np.max(np.abs(galerkin))
+    for n, s in zip(nrfe, series):
+        bottom.semilogy(t * 1e3, np.abs(s["midpoint deflection"] - galerkin) / peak, lw=0.7, label=f"n_rfe = {n}")
+    bottom.semilogy(t * 1e3, np.abs(limit - galerkin) / peak, "k", lw=0.9, label="gpmegen limit")
+    bottom.set_ylabel("|gpmegen - test set's model| / peak")
+    bottom.set_xlabel("t (ms)")
+    bottom.legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -220,12 +324,12 @@ def main(argv=None) -> int:
     parser.add_argument("--rtol", type=float, default=1e-9, help="Radau's relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-11, help="Radau's absolute tolerance")
     parser.add_argument("--save-dt", type=float, default=2e-4, help="saved interval (s), divides 0.1 s")
-    parser.add_argument("--exudyn", type=int, nargs="*", default=[],
-                        help="also Exudyn's ANCF rod with these numbers of elements (needs exudyn)")
     parser.add_argument("--figure", type=Path, default=ROOT / "figures" / "slider_crank.png")
     args = parser.parse_args(argv)
     if min(args.nrfe) < 2 or len(set(args.nrfe)) < 2:
         parser.error(f"--nrfe needs two or more different levels of at least 2 rfes, got {args.nrfe}")
+    from gpmegen.analysis import richardson
+
     nrfe = sorted(set(args.nrfe))
     print(f"load average {load()} on {os.cpu_count()} cores")
     finals, series, t = [], [], None
@@ -241,14 +345,13 @@ def main(argv=None) -> int:
         print(f"n_rfe {n:3d} ({res['q'].shape[1]} dof): run {wall:.2f} s (with build or load "
               f"{time.perf_counter() - start:.1f} s); closure held to {np.max(np.abs(res['phi'])):.1e}")
     estimates = extrapolated(nrfe, finals)
-    exudyn_values = {}
-    if args.exudyn:
-        from four_bar_flexible import exudyn_slider_crank
-
-        for elements in args.exudyn:
-            values, seconds = exudyn_slider_crank(elements, INITIAL)
-            exudyn_values[elements] = (values, seconds)
-            print(f"Exudyn {elements} ANCF elements: {seconds:.2f} s")
+    start = time.perf_counter()
+    galerkin = galerkin_run(t)
+    nonlinear = galerkin_run(t, nonlinear=True)
+    print(f"the test set's model (written here from its equations; DOP853 rtol 1e-11, {time.perf_counter() - start:.1f}"
+          f" s for both): at 0.1 s " + ", ".join(f"{key} {galerkin[key][-1]:.10g}" for key in COMPARED))
+    print("  with its quadratic stiffness term (ipar(1) = 1, from the same start): "
+          + ", ".join(f"{key} {nonlinear[key][-1]:.6g}" for key in COMPARED))
     print(f"\nat t = {T_END} s (Radau IIA rtol {args.rtol:g} atol {args.atol:g}); difference: gpmegen - test set")
     header = "| quantity | test set | " + " | ".join(f"n_rfe {n}" for n in nrfe) + \
         " | extrapolated | its estimated error | observed order | limit - test set | (limit - test set) / test set |"
@@ -260,10 +363,20 @@ def main(argv=None) -> int:
         print(f"| {key} [{unit}] | {reference:.6g} | {cells} | {float(est.limit):.6g} | "
               f"{float(est.limit_error):.1e} | {est.order:.2f} | {float(est.limit) - reference:.2e} | "
               f"{(float(est.limit) - reference) / abs(reference):+.2%} |")
-    for elements, (values, _) in exudyn_values.items():
-        print(f"| Exudyn {elements} elements | " + " | ".join(f"{key} {values[key]:.6g}" for key in values) + " |")
+    over_time = richardson.richardson(np.array(nrfe) - 1, np.array([s["midpoint deflection"] for s in series]))
+    limit, model = over_time.limit, galerkin["midpoint deflection"]
+    peak = float(np.max(np.abs(model)))
+    print(f"\nthe midpoint deflection over the 0.1 s against the test set's model (its peak {peak:.4e} m): "
+          "max over t of |difference| / peak")
+    for n, s in zip(nrfe, series):
+        print(f"  n_rfe {n}: {np.max(np.abs(s['midpoint deflection'] - model)) / peak:.2e}")
+    print(f"  gpmegen limit: {np.max(np.abs(limit - model)) / peak:.2e} (estimated error of the limit "
+          f"{np.max(np.abs(over_time.limit_error)) / peak:.1e}, observed order {over_time.order:.2f}); "
+          f"gpmegen's peak {np.max(np.abs(limit)):.4e} m")
+    print(f"  the test set's model with its quadratic stiffness: "
+          f"{np.max(np.abs(nonlinear['midpoint deflection'] - model)) / peak:.2e}")
     print(f"load average {load()}")
-    print(f"\nfigure: {figure(t, series, nrfe, args.figure)}")
+    print(f"\nfigure: {figure(t, series, nrfe, limit, model, args.figure)}")
     return 0
 
 
