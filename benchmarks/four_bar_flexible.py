@@ -206,6 +206,7 @@ def figure(t, limit, exudyn_fine, levels, nrfe, path):
                         label=f"n_rfe = {n}")
     bottom.semilogy(t, np.abs(limit["midpoint deflection"] - exudyn_fine["midpoint deflection"]) / scale, "k",
                     lw=0.9, label="gpmegen limit")
+    bottom.set_ylim(bottom=1e-5)
     bottom.set_ylabel("|difference| / peak (Exudyn)")
     bottom.set_xlabel("t (s)")
     bottom.legend(fontsize=7)
