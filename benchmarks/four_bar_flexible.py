@@ -105,6 +105,51 @@ def rigid_start(res) -> dict:
 EXUDYN_RHO_INF, EXUDYN_RTOL = 0.9, 1e-8
 
 
+def exudyn_crank(mbs, ground, rate: float, length: float):
+    """A rigid crank in an Exudyn system, its centre at the pivot (the origin), turning about z
+    with its angle held to rate·t by a coordinate constraint (its inertia only loads the drive);
+    returns its body number."""
+    from exudyn import utilities as xu
+
+    crank = mbs.CreateRigidBody(referencePosition=[0, 0, 0], inertia=xu.InertiaCuboid(1000, [length, H, B]),
+                                initialAngularVelocity=[0, 0, rate], create2D=True, returnDict=True)
+    mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=ground)),
+                                                    mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=crank["bodyNumber"]))]))
+    fixed = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(xu.NodePointGround()), coordinate=0))
+    angle = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=crank["nodeNumber"], coordinate=2))
+
+    def law(mbs, now, item, offset):
+        return rate * now
+
+    mbs.AddObject(xu.CoordinateConstraint(markerNumbers=[fixed, angle], offset=0.0, offsetUserFunction=law))
+    return crank["bodyNumber"]
+
+
+def exudyn_solve(mbs, step: float, t_end: float, atol: float):
+    """Assemble and solve with Exudyn's generalized-α at the settings above, fixed steps: the wall
+    seconds of the solve, None when its Newton iteration gave up."""
+    import exudyn
+
+    mbs.Assemble()
+    settings = exudyn.SimulationSettings()
+    settings.timeIntegration.numberOfSteps = int(round(t_end / step))
+    settings.timeIntegration.endTime = t_end
+    settings.timeIntegration.generalizedAlpha.spectralRadius = EXUDYN_RHO_INF
+    settings.timeIntegration.newton.relativeTolerance = EXUDYN_RTOL
+    settings.timeIntegration.newton.absoluteTolerance = atol
+    settings.timeIntegration.adaptiveStep = False
+    settings.timeIntegration.verboseMode = 0
+    settings.solution.file.write = False
+    settings.solution.sensors.writePeriod = step
+    settings.linearSolver.solverType = exudyn.LinearSolverType.EigenSparse
+    start_time = time.perf_counter()
+    try:
+        mbs.SolveDynamic(settings)
+    except exudyn.SolverError:
+        return None
+    return time.perf_counter() - start_time
+
+
 def exudyn_run(elements: int, step: float, rate: float, t_end: float, start: dict, t, atol: float):
     """The four-bar in Exudyn: ``elements`` ANCF cable elements for the coupler, generalized-α at
     ``step``; the quantities at the instants ``t`` and the wall seconds of its solve (values None
@@ -116,18 +161,7 @@ def exudyn_run(elements: int, step: float, rate: float, t_end: float, start: dic
     container = exudyn.SystemContainer()
     mbs = container.AddSystem()
     ground = mbs.AddObject(xu.ObjectGround())
-    # the crank: its centre at the pivot, its angle held to rate·t (its inertia only loads the drive)
-    crank = mbs.CreateRigidBody(referencePosition=[0, 0, 0], inertia=xu.InertiaCuboid(1000, [L1, H, B]),
-                                initialAngularVelocity=[0, 0, rate], create2D=True, returnDict=True)
-    mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=ground)),
-                                                    mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=crank["bodyNumber"]))]))
-    fixed = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(xu.NodePointGround()), coordinate=0))
-    angle = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=crank["nodeNumber"], coordinate=2))
-
-    def law(mbs, time, item, offset):
-        return rate * time
-
-    mbs.AddObject(xu.CoordinateConstraint(markerNumbers=[fixed, angle], offset=0.0, offsetUserFunction=law))
+    crank = exudyn_crank(mbs, ground, rate, L1)
     # the rocker: a bar pivoted at (D, 0), its centre at L3/2 along it
     c3, s3 = math.cos(start["theta3"]), math.sin(start["theta3"])
     centre = np.array([D + L3 / 2 * c3, L3 / 2 * s3, 0.0])
@@ -154,7 +188,7 @@ def exudyn_run(elements: int, step: float, rate: float, t_end: float, start: dic
         velocity = base_velocity + w2 * np.array([-r[1], r[0]])
         mbs.SetNodeParameter(node, "initialVelocities", [*velocity, -w2 * direction[1], w2 * direction[0]])
     mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[
-        mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=crank["bodyNumber"], localPosition=[L1, 0, 0])),
+        mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=crank, localPosition=[L1, 0, 0])),
         mbs.AddMarker(xu.MarkerNodePosition(nodeNumber=nodes[0]))]))
     mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[
         mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=rocker["bodyNumber"], localPosition=[L3 / 2, 0, 0])),
@@ -162,24 +196,9 @@ def exudyn_run(elements: int, step: float, rate: float, t_end: float, start: dic
     sensors = [mbs.AddSensor(xu.SensorNode(nodeNumber=nodes[k], storeInternal=True,
                                            outputVariableType=exudyn.OutputVariableType.Position))
                for k in (0, elements // 2, elements)]
-    mbs.Assemble()
-    settings = exudyn.SimulationSettings()
-    settings.timeIntegration.numberOfSteps = int(round(t_end / step))
-    settings.timeIntegration.endTime = t_end
-    settings.timeIntegration.generalizedAlpha.spectralRadius = EXUDYN_RHO_INF
-    settings.timeIntegration.newton.relativeTolerance = EXUDYN_RTOL
-    settings.timeIntegration.newton.absoluteTolerance = atol
-    settings.timeIntegration.adaptiveStep = False
-    settings.timeIntegration.verboseMode = 0
-    settings.solution.file.write = False
-    settings.solution.sensors.writePeriod = step
-    settings.linearSolver.solverType = exudyn.LinearSolverType.EigenSparse
-    start_time = time.perf_counter()
-    try:
-        mbs.SolveDynamic(settings)
-    except exudyn.SolverError:
-        return None, time.perf_counter() - start_time
-    wall = time.perf_counter() - start_time
+    wall = exudyn_solve(mbs, step, t_end, atol)
+    if wall is None:
+        return None, float("nan")
     base_s, middle_s, tip_s = (mbs.GetSensorStoredData(s) for s in sensors)
     times = base_s[:, 0]
     rocker_angle = np.unwrap(np.arctan2(tip_s[:, 2], tip_s[:, 1] - D))

@@ -24,6 +24,9 @@ the tip (a quadratic axial field), and their rates.
   the rigid rod's J2; and an axial mass matrix 15 times the consistent mass of its quadratic
   axial shape functions (entries 8, 1, 2 of ρAL where ∫NᵢNⱼ gives 8/15, 1/15, 2/15), which lowers
   its axial frequency by √15 (the quasi-static stretch is unchanged: its load uses ∫N ρA).
+- Exudyn (--exudyn): the rod as ANCF Cable2D elements (geometrically exact, extensible),
+  started from the test set's initial values on its nodes, generalized-α at the four-bar
+  benchmark's settings; a third model, for what the two geometrically exact ones share.
 - the test set's model itself, written here from its equations (galerkin_run; it reproduces the
   published values at 0.1 s to 7 digits and more): gpmegen's midpoint deflection against it over
   the whole 0.1 s, and what the test set's own quadratic stiffness option changes.
@@ -283,9 +286,69 @@ def galerkin_run(t, nonlinear=False):
             "phi2 rate": y[8], "x3 rate": y[9], "midpoint deflection rate": y[10]}
 
 
-def figure(t, series, nrfe, limit, galerkin, path):
+def exudyn_run(elements: int, step: float, t, atol: float = 1e-6):
+    """The slider-crank in Exudyn, started from the test set's initial values: the rod as
+    ``elements`` ANCF Cable2D elements (E·A, E·I of the section, ρA; no rotary inertia), the crank
+    rigid with its angle held to ωt (benchmarks/four_bar_flexible.py), the slider a mass point
+    joined to the rod's last node and held on the x0 axis; generalized-α at ``step`` with the
+    four-bar's settings. The compared quantities (positions only) at the instants ``t`` and the
+    wall seconds of its solve; None when its Newton iteration gave up."""
+    import exudyn
+    from exudyn import utilities as xu
+    from exudyn.beams import GenerateStraightLineANCFCable2D
+    from four_bar_flexible import exudyn_crank, exudyn_solve
+
+    mbs = exudyn.SystemContainer().AddSystem()
+    ground = mbs.AddObject(xu.ObjectGround())
+    crank = exudyn_crank(mbs, ground, OMEGA, L1)
+    cable = xu.Cable2D(massPerLength=RHO * BH * BH, bendingStiffness=E * BH**4 / 12, axialStiffness=E * BH * BH)
+    nodes = GenerateStraightLineANCFCable2D(mbs, [L1, 0, 0], [L1 + L2, 0, 0], elements, cable)[0]
+    # the test set's start on the nodes: the axial field as displacement and slope, the rigid motion
+    # (the crank pin's velocity, the chord turning at φ̇2) with the transverse and axial rate fields
+    mid, tip = INITIAL["q"][2:]
+    rate2, rates = INITIAL["phi2_rate"], INITIAL["q_rate"]
+    h = 1e-7
+    for k, node in enumerate(nodes):
+        x = L2 * k / elements
+        u, du = axial(x, mid, tip), (axial(x + h, mid, tip) - axial(x - h, mid, tip)) / (2 * h)
+        u_rate = axial(x, *rates[2:])
+        du_rate = (axial(x + h, *rates[2:]) - axial(x - h, *rates[2:])) / (2 * h)
+        w_rate = float(transverse(x, rates[:2]))
+        dw_rate = float((transverse(x + h, rates[:2]) - transverse(x - h, rates[:2])) / (2 * h))
+        mbs.SetNodeParameter(node, "initialCoordinates", [float(u), 0.0, float(du), 0.0])
+        mbs.SetNodeParameter(node, "initialVelocities",
+                             [float(u_rate), OMEGA * L1 + rate2 * (x + float(u)) + w_rate,
+                              float(du_rate), dw_rate + rate2 * (1 + float(du))])
+    mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[
+        mbs.AddMarker(xu.MarkerBodyPosition(bodyNumber=crank, localPosition=[L1, 0, 0])),
+        mbs.AddMarker(xu.MarkerNodePosition(nodeNumber=nodes[0]))]))
+    slider = mbs.AddNode(xu.NodePoint2D(referenceCoordinates=[L1 + L2, 0], initialCoordinates=[tip, 0],
+                                        initialVelocities=[INITIAL["x3_rate"], 0]))
+    mbs.AddObject(xu.MassPoint2D(mass=M3, nodeNumber=slider))
+    mbs.AddObject(xu.RevoluteJoint2D(markerNumbers=[mbs.AddMarker(xu.MarkerNodePosition(nodeNumber=nodes[-1])),
+                                                    mbs.AddMarker(xu.MarkerNodePosition(nodeNumber=slider))]))
+    fixed = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(xu.NodePointGround()), coordinate=0))
+    mbs.AddObject(xu.CoordinateConstraint(markerNumbers=[
+        fixed, mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=slider, coordinate=1))]))
+    sensors = [mbs.AddSensor(xu.SensorNode(nodeNumber=nodes[k], storeInternal=True,
+                                           outputVariableType=exudyn.OutputVariableType.Position))
+               for k in (0, elements // 2, elements)]
+    wall = exudyn_solve(mbs, step, float(t[-1]), atol)
+    if wall is None:
+        return None, float("nan")
+    base, middle, end = (mbs.GetSensorStoredData(sensor) for sensor in sensors)
+    chord = end[:, 1:3] - base[:, 1:3]
+    values = {"phi2": np.arctan2(chord[:, 1], chord[:, 0]), "x3": end[:, 1],
+              "midpoint deflection": np.array([midpoint_deflection(b[1:3], e[1:3], m[1:3])
+                                               for b, m, e in zip(base, middle, end)]),
+              "tip stretch": np.hypot(chord[:, 0], chord[:, 1]) - L2}
+    return {key: np.interp(t, base[:, 0], v) for key, v in values.items()}, wall
+
+
+def figure(t, series, nrfe, limit, galerkin, path, exudyn=None):
     """The midpoint's transverse deflection over time: per n_rfe, gpmegen's limit, the test set's
-    model (linear stiffness) and its published value at 0.1 s; below, the differences."""
+    model (linear stiffness) and its published value at 0.1 s; below, the differences from the
+    test set's model, and Exudyn's (``exudyn``: its deflection, None: none) from gpmegen's limit."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -304,7 +367,11 @@ def figure(t, series, nrfe, limit, galerkin, path):
     for n, s in zip(nrfe, series):
         bottom.semilogy(t * 1e3, np.abs(s["midpoint deflection"] - galerkin) / peak, lw=0.7, label=f"n_rfe = {n}")
     bottom.semilogy(t * 1e3, np.abs(limit - galerkin) / peak, "k", lw=0.9, label="gpmegen limit")
-    bottom.set_ylabel("|gpmegen - test set's model| / peak")
+    if exudyn is not None:
+        bottom.semilogy(t * 1e3, np.abs(exudyn - limit) / peak, "C3:", lw=0.9,
+                        label="Exudyn ANCF - gpmegen limit (not the test set)")
+    bottom.set_ylim(bottom=1e-6)
+    bottom.set_ylabel("|difference from test set's model| / peak")
     bottom.set_xlabel("t (ms)")
     bottom.legend(fontsize=7)
     fig.tight_layout()
@@ -324,6 +391,9 @@ def main(argv=None) -> int:
     parser.add_argument("--rtol", type=float, default=1e-9, help="Radau's relative tolerance")
     parser.add_argument("--atol", type=float, default=1e-11, help="Radau's absolute tolerance")
     parser.add_argument("--save-dt", type=float, default=2e-4, help="saved interval (s), divides 0.1 s")
+    parser.add_argument("--exudyn", type=int, nargs="*", default=[8, 16],
+                        help="Exudyn's runs (ANCF elements, even; none: skip; needs exudyn)")
+    parser.add_argument("--exudyn-step", type=float, default=5e-6, help="their step (s)")
     parser.add_argument("--figure", type=Path, default=ROOT / "figures" / "slider_crank.png")
     args = parser.parse_args(argv)
     if min(args.nrfe) < 2 or len(set(args.nrfe)) < 2:
@@ -375,8 +445,20 @@ def main(argv=None) -> int:
           f"gpmegen's peak {np.max(np.abs(limit)):.4e} m")
     print(f"  the test set's model with its quadratic stiffness: "
           f"{np.max(np.abs(nonlinear['midpoint deflection'] - model)) / peak:.2e}")
+    exudyn = None
+    for elements in args.exudyn:
+        values, seconds = exudyn_run(elements, args.exudyn_step, t)
+        if values is None:
+            print(f"Exudyn {elements} elements: its solver gave up")
+            continue
+        middle = exudyn = values["midpoint deflection"]
+        print(f"Exudyn {elements} ANCF elements, step {args.exudyn_step:g} s ({seconds:.1f} s): at 0.1 s "
+              + ", ".join(f"{key} {values[key][-1]:.7g}" for key in values)
+              + f"; midpoint deflection - gpmegen's limit: at 0.1 s {middle[-1] - limit[-1]:.2e} m, over the run "
+              f"at most {np.max(np.abs(middle - limit)) / peak:.2e} of the peak; - the test set's model: at most "
+              f"{np.max(np.abs(middle - model)) / peak:.2e}")
     print(f"load average {load()}")
-    print(f"\nfigure: {figure(t, series, nrfe, limit, model, args.figure)}")
+    print(f"\nfigure: {figure(t, series, nrfe, limit, model, args.figure, exudyn)}")
     return 0
 
 
