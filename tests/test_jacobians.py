@@ -86,8 +86,10 @@ def test_a_model_built_without_jacobians_refuses_them_and_differences_them_in_c(
     assert relative(C_qd, A_qd, scale) < 1e-6
 
 
-# the two-armed Baxter's derivation with its Jacobians is the longest of the examples: make check-c
-LONG_EXAMPLES = {"baxter_flexible"}
+# the two-armed Baxter's derivation with its Jacobians is the longest of the examples, and the
+# slider-crank's (a closed loop, as four_bar.toml, whose check stays in make test) takes 19 s:
+# make check-c
+LONG_EXAMPLES = {"baxter_flexible", "slider_crank_flexible"}
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=(pytest.mark.long,) if p.stem in LONG_EXAMPLES else ())
