@@ -8,7 +8,9 @@ The archive holds
 - ``binaries/linux64/<model>.so``: the model's generated C (``model.c``, as gpmegen builds it),
   gpmegen's solver library (``gpmegen/csrc``) and the FMI wrapper (``gpmegen/fmi``) compiled into
   one shared library with gpmegen's flags, but for the processor: ``-march=native`` is left out, so
-  that the binary runs on any x86-64 Linux (the flags that fix the roundings are kept);
+  that the binary runs on any x86-64 Linux (the flags that fix the roundings are kept). ``model.c``
+  is compiled in its two parts as gpmegen compiles it, the solver library's object taken from the
+  C cache;
 - ``sources/``: every file of that compile, the C files listed in ``<SourceFiles>``, so that an
   importer builds the FMU for its own platform.
 
@@ -215,7 +217,7 @@ def config_header(model_name, loaded, inputs, refs, q0, qd0) -> str:
 
     lines = [
         f"/* The model {model_name} for the FMI wrapper gpmegen_fmi2.c; written by gpmegen {__version__}. */\n\n",
-        "#ifndef GPMEGEN_FMU_MODEL_H\n#define GPMEGEN_FMU_MODEL_H\n\n#include \"model.h\"\n\n",
+        "#ifndef GPMEGEN_FMU_CONFIG\n#define GPMEGEN_FMU_CONFIG\n\n#include \"model.h\"\n\n",
         "#define FMU_GUID \"@GUID@\"\n",
         f"#define N_DOF {len(loaded.coordinates)}\n#define N_CONSTRAINTS {n_constraints}\n",
         f"#define N_PARAMETERS {len(loaded.parameter_names)}\n#define N_POINTS {len(loaded.points)}\n",
@@ -285,32 +287,41 @@ def wrapper_sources() -> dict[str, str]:
     return {name: root.joinpath(name).read_text(encoding="utf-8") for name in WRAPPER}
 
 
-def binary_flags(compiler) -> tuple:
-    """gpmegen's flags of a model library without ``-march=native`` (the FMU runs on other
-    machines), with the GCC flags when the compiler is GCC, and the link flags."""
-    flags = tuple(f for f in ccompile.DEFAULT_FLAGS if not f.startswith("-march"))
-    if ccompile.is_gcc(ccompile.compiler_identity(compiler)):
-        flags += ccompile.GCC_FLAGS
-    return flags + ccompile.LINK_FLAGS
+def portable_flags() -> tuple:
+    """gpmegen's flags of a model library without ``-march=native``: the FMU runs on other machines
+    (the flags that fix the roundings are kept)."""
+    return tuple(f for f in ccompile.DEFAULT_FLAGS if not f.startswith("-march"))
 
 
 def compile_binary(sources: dict, identifier: str, progress=None) -> bytes:
-    """The FMU's shared library compiled from ``sources`` (file name → text), as bytes. The compile
-    runs in a fresh folder on relative names, so that no path of this machine enters the binary."""
+    """The FMU's shared library, as bytes: ``model.c`` of ``sources`` (file name → text) compiled
+    in its two parts as gpmegen compiles a model (:func:`gpmegen.runtime.ccompile.part_flags`), the
+    wrapper, and the solver library's object from the C cache (compiled there once per compiler and
+    flags, :func:`gpmegen.runtime.ccompile.build_solver`), all with :func:`portable_flags` (and
+    the GCC flags under GCC). The compile runs in a fresh folder on relative names, so that no path
+    of this machine enters the binary."""
     compiler = ccompile.find_compiler()
-    flags = binary_flags(compiler)
-    units = sorted(name for name in sources if name.endswith(".c"))
+    solver = ccompile.build_solver(portable_flags(), progress=progress, compiler=compiler)
+    flags = solver.flags
+    cc = [os.path.abspath(compiler[0]), *compiler[1:]]
     target = f"{identifier}.so"
-    argv = [os.path.abspath(compiler[0]), *compiler[1:], *flags, "-o", target, *units, "-lm"]
+    compiles = [[*cc, *part, "-fPIC", f"-D{ccompile.PARTS}={k}", "-c", "model.c", "-o", f"model{k}.o"]
+                for k, part in enumerate(ccompile.part_flags(flags), start=1)]
+    compiles.append([*cc, *flags, "-fPIC", "-c", WRAPPER[0], "-o", "wrapper.o"])
+    link = [*cc, *flags, *ccompile.LINK_FLAGS, "-o", target, "model1.o", "model2.o", "wrapper.o", str(solver.path),
+            "-lm"]
     with tempfile.TemporaryDirectory(prefix="gpmegen-fmu-") as folder:
         for name, text in sources.items():
             Path(folder, name).write_text(text, encoding="utf-8")
         if progress:
-            progress(f"compiling the FMU's binary ({len(units)} C files)")
-        (code, diagnostics), = ccompile._run_compilers([argv], folder, progress)
-        if code != 0:
-            raise BuildError(f"compiling the FMU's binary failed (exit {code}):\n{diagnostics[:4000]}\n"
-                             f"command: {' '.join(shlex.quote(a) for a in argv)}")
+            progress(f"compiling the FMU's binary ({identifier}.so)")
+        results = ccompile._run_compilers(compiles, folder, progress)
+        if all(code == 0 for code, _ in results):
+            results += ccompile._run_compilers([link], folder, None)
+        for argv, (code, diagnostics) in zip(compiles + [link], results):
+            if code != 0:
+                raise BuildError(f"compiling the FMU's binary failed (exit {code}):\n{diagnostics[:4000]}\n"
+                                 f"command: {' '.join(shlex.quote(a) for a in argv)}")
         return Path(folder, target).read_bytes()
 
 

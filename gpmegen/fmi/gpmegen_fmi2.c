@@ -4,6 +4,10 @@
    gpmegen.codegen.fmu_export: the sizes, the model's function names, the value references, the
    start values and the GUID of modelDescription.xml.
 
+   The model's exported names are <model name>_<function>: no name here ends like one of those
+   ("_gpme_terms", "_points", ...), and fmu_model.h's include guard does not end in "_MODEL_H" as
+   model.h's does, so that no model name meets them.
+
    The real variables live in one array v, indexed by value reference:
        q (N_DOF), qd (N_DOF)                   the continuous states, in the model's order
        der(q) (N_DOF), der(qd) (N_DOF)         their derivatives: qd and the GPME's qdd
@@ -11,7 +15,7 @@
        points (3 N_POINTS), lambda, phi (N_CONSTRAINTS each)   the outputs
        integrator step, rtol, atol             the Co-Simulation's integrator
    so that v + VR_P is the extended parameter vector [p, u] that the generated functions take (they
-   read its first N_PARAMETERS entries) and that fmu_gpme_terms below reads the inputs from: the
+   read its first N_PARAMETERS entries) and that terms_with_inputs below reads the inputs from: the
    input u_k is a generalized force added to f on coordinate INPUT_COORDINATES[k], as the
    CasADi export's u. The one integer variable, the integrator's method (0 rk4, 1 dop853), has
    value reference VR_METHOD. */
@@ -22,8 +26,8 @@
 #include <string.h>
 
 #include "gpmegen_fmi2.h"
-#include "fmu_model.h"
 #include "gpmegen_solver.h"
+#include "fmu_model.h"
 
 #define N_MOTION (2 * N_DOF)
 #define N_Y (2 * N_DOF + 2)
@@ -51,7 +55,7 @@ struct fmu_instance {
 };
 
 /* The model's GPME terms with the inputs: f += S u, u after the parameters in p. */
-static void fmu_gpme_terms(double t, const double *q, const double *qd, const double *p, double *M, double *f,
+static void terms_with_inputs(double t, const double *q, const double *qd, const double *p, double *M, double *f,
                            double *phi, double *phi_rate, double *D, double *gamma)
 {
     MODEL_GPME_TERMS(t, q, qd, p, M, f, phi, phi_rate, D, gamma);
@@ -62,23 +66,23 @@ static void fmu_gpme_terms(double t, const double *q, const double *qd, const do
 #endif
 }
 
-static int fmu_gpme_solve(double t, const double *q, const double *qd, const double *p, double *qdd, double *power);
+static int solve_with_inputs(double t, const double *q, const double *qd, const double *p, double *qdd, double *power);
 
 static const struct gpmegen_model FMU_MODEL = {
     N_DOF,
     N_CONSTRAINTS,
     FMU_CONSTRAINT_ORDERS,
-    fmu_gpme_terms,
+    terms_with_inputs,
     MODEL_CONSTRAINT_TERMS,
     MODEL_BAUMGARTE_GAINS,
     MODEL_DRIVE_FORCES,
-    fmu_gpme_solve,
+    solve_with_inputs,
     NULL,
 };
 
 /* The integrators' stage: the GPME's dense solve with the inputs (the model's own recursion has
    no inputs). */
-static int fmu_gpme_solve(double t, const double *q, const double *qd, const double *p, double *qdd, double *power)
+static int solve_with_inputs(double t, const double *q, const double *qd, const double *p, double *qdd, double *power)
 {
     double M[N_DOF * N_DOF], f[N_DOF];
     return gpmegen_gpme_solve(&FMU_MODEL, t, q, qd, p, qdd, M, f, power);
