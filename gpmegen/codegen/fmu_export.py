@@ -349,7 +349,7 @@ def fmu_files(case, inputs=(), start=None, progress=None) -> dict:
     say = progress or (lambda line: None)
     ccompile.find_compiler()  # refused in one line before the statics when there is none
     model = case.model
-    begun = case.started("c", start or case.starts[0], {}, say)
+    begun = case.started("numpy", start or case.starts[0], {}, say)   # the FMU compiles model.c itself
     loaded = begun.model
     inputs = check_inputs(loaded.coordinates, inputs)
     generated = {name: folders.read_verified(Path(loaded.folder), name) for name in MODEL_FILES}
