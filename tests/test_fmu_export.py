@@ -45,14 +45,31 @@ def fmpy():
     return fmpy
 
 
+class Exported(dict):
+    """The FMUs of the two models by name (the two-link one with an input on theta1), each
+    exported when first asked for."""
+
+    def __init__(self, folder):
+        super().__init__()
+        self.folder = folder
+
+    def __missing__(self, name):
+        with warnings.catch_warnings():   # the two-link model's start is moved onto its constraint
+            warnings.simplefilter("ignore", RuntimeWarning)
+            if name == "reference":
+                self[name] = gpmegen.export_fmu(self.folder / "reference.fmu", nrfe=1)
+            else:
+                self[name] = gpmegen.export_fmu(self.folder / "two_link.fmu", TWO_LINK, inputs=["theta1"])
+        return self[name]
+
+
 @pytest.fixture(scope="module")
 def fmus(env, tmp_path_factory):
-    """The FMUs of the two models (the two-link one with an input on theta1), by name."""
-    folder = tmp_path_factory.mktemp("fmus")
-    with warnings.catch_warnings():   # the two-link model's start is moved onto its constraint
-        warnings.simplefilter("ignore", RuntimeWarning)
-        return {"reference": gpmegen.export_fmu(folder / "reference.fmu", nrfe=1),
-                "two_link": gpmegen.export_fmu(folder / "two_link.fmu", TWO_LINK, inputs=["theta1"])}
+    return Exported(tmp_path_factory.mktemp("fmus"))
+
+
+# The reference arm's checks are the two-link model's on a larger model: they run with the long tests.
+MODELS = [pytest.param("reference", marks=pytest.mark.long), "two_link"]
 
 
 def _gpmegen_run(name, method, params=None):
@@ -77,56 +94,59 @@ def _simulate(fmpy, path, fmi_type, coordinates, start_values=None, **options):
                              **options)
 
 
-def test_fmus_are_valid(fmpy, fmus):
-    for path in fmus.values():
-        assert fmpy.validation.validate_fmu(str(path)) == []
-        description = fmpy.read_model_description(str(path))
-        assert description.modelExchange is not None and description.coSimulation is not None
-        with zipfile.ZipFile(path) as archive:
-            names = set(archive.namelist())
-            root = ET.fromstring(archive.read("modelDescription.xml"))
-        identifier = description.coSimulation.modelIdentifier
-        assert f"binaries/linux64/{identifier}.so" in names
-        for kind in ("ModelExchange", "CoSimulation"):   # every C file of the archive is listed, and only those
-            listed = {f"sources/{f.get('name')}" for f in root.find(kind).iter("File")}
-            assert listed == {name for name in names if name.startswith("sources/") and name.endswith(".c")}
-        assert {"sources/model.c", "sources/gpmegen_fmi2.c", "sources/gpme.c", "sources/rk4.c"} <= names
+@pytest.mark.parametrize("name", MODELS)
+def test_fmus_are_valid(fmpy, fmus, name):
+    path = fmus[name]
+    assert fmpy.validation.validate_fmu(str(path)) == []
+    description = fmpy.read_model_description(str(path))
+    assert description.modelExchange is not None and description.coSimulation is not None
+    with zipfile.ZipFile(path) as archive:
+        names = set(archive.namelist())
+        root = ET.fromstring(archive.read("modelDescription.xml"))
+    identifier = description.coSimulation.modelIdentifier
+    assert f"binaries/linux64/{identifier}.so" in names
+    for kind in ("ModelExchange", "CoSimulation"):   # every C file of the archive is listed, and only those
+        listed = {f"sources/{f.get('name')}" for f in root.find(kind).iter("File")}
+        assert listed == {name for name in names if name.startswith("sources/") and name.endswith(".c")}
+    assert {"sources/model.c", "sources/gpmegen_fmi2.c", "sources/gpme.c", "sources/rk4.c"} <= names
 
 
-def test_model_exchange_is_gpmegens_run(fmpy, fmus):
+@pytest.mark.parametrize("name", MODELS)
+def test_model_exchange_is_gpmegens_run(fmpy, fmus, name):
     """CVode on the FMU's derivatives against gpmegen's DOP853, both at tight tolerances; the
     outputs at the FMU's states against gpmegen's functions there."""
-    for name, path in fmus.items():
-        reference = _gpmegen_run(name, "dop853")
-        loaded = gpmegen.load(nrfe=1) if name == "reference" else gpmegen.load(
-            model=gpmegen.load_model_file(TWO_LINK))
-        constraint = loaded.constraint_names[0]
-        got = _simulate(fmpy, path, "ModelExchange", reference.coordinates,
-                        extra=["E.x", "E.y", "E.z", f"lambda_{constraint}", f"phi_{constraint}"])
-        np.testing.assert_allclose(got["time"], reference.t, atol=1e-12)
-        q, qd = _states(got, reference.coordinates)
-        assert np.abs(q - reference.q).max() < MATCH and np.abs(qd - reference.qd).max() < MATCH, name
-        k = len(got) // 2
-        t, q_k, qd_k = got["time"][k], q[k], qd[k]
-        E = loaded.point_positions(q_k)[loaded.points.index("E")]
-        np.testing.assert_allclose([got["E.x"][k], got["E.y"][k], got["E.z"][k]], E, rtol=1e-12, atol=1e-14)
-        phi = loaded.constraint_terms(t, q_k, qd_k)[0][0]
-        assert got[f"phi_{constraint}"][k] == pytest.approx(phi, abs=1e-14)
-        lam = loaded.multipliers(t, q_k, qd_k)[0]
-        assert got[f"lambda_{constraint}"][k] == pytest.approx(lam, rel=1e-8)
+    path = fmus[name]
+    reference = _gpmegen_run(name, "dop853")
+    loaded = gpmegen.load(nrfe=1) if name == "reference" else gpmegen.load(
+        model=gpmegen.load_model_file(TWO_LINK))
+    constraint = loaded.constraint_names[0]
+    got = _simulate(fmpy, path, "ModelExchange", reference.coordinates,
+                    extra=["E.x", "E.y", "E.z", f"lambda_{constraint}", f"phi_{constraint}"])
+    np.testing.assert_allclose(got["time"], reference.t, atol=1e-12)
+    q, qd = _states(got, reference.coordinates)
+    assert np.abs(q - reference.q).max() < MATCH and np.abs(qd - reference.qd).max() < MATCH, name
+    k = len(got) // 2
+    t, q_k, qd_k = got["time"][k], q[k], qd[k]
+    E = loaded.point_positions(q_k)[loaded.points.index("E")]
+    np.testing.assert_allclose([got["E.x"][k], got["E.y"][k], got["E.z"][k]], E, rtol=1e-12, atol=1e-14)
+    phi = loaded.constraint_terms(t, q_k, qd_k)[0][0]
+    assert got[f"phi_{constraint}"][k] == pytest.approx(phi, abs=1e-14)
+    lam = loaded.multipliers(t, q_k, qd_k)[0]
+    assert got[f"lambda_{constraint}"][k] == pytest.approx(lam, rel=1e-8)
 
 
+@pytest.mark.parametrize("name", MODELS)
 @pytest.mark.parametrize("method", ["rk4", "dop853"])
-def test_co_simulation_is_gpmegens_run(fmpy, fmus, method):
+def test_co_simulation_is_gpmegens_run(fmpy, fmus, method, name):
     """fmi2DoStep by the solver library's RK4 (gpmegen's step of 0.1 ms) or DOP853 (tolerances set
     as parameters), against gpmegen's run by the same method."""
-    for name, path in fmus.items():
-        reference = _gpmegen_run(name, method)
-        settings = {"integrator_method": 0} if method == "rk4" else {
-            "integrator_method": 1, "integrator_rtol": TIGHT["rtol"], "integrator_atol": TIGHT["atol"]}
-        got = _simulate(fmpy, path, "CoSimulation", reference.coordinates, settings)
-        q, qd = _states(got, reference.coordinates)
-        assert np.abs(q - reference.q).max() < MATCH and np.abs(qd - reference.qd).max() < MATCH, (name, method)
+    path = fmus[name]
+    reference = _gpmegen_run(name, method)
+    settings = {"integrator_method": 0} if method == "rk4" else {
+        "integrator_method": 1, "integrator_rtol": TIGHT["rtol"], "integrator_atol": TIGHT["atol"]}
+    got = _simulate(fmpy, path, "CoSimulation", reference.coordinates, settings)
+    q, qd = _states(got, reference.coordinates)
+    assert np.abs(q - reference.q).max() < MATCH and np.abs(qd - reference.qd).max() < MATCH, (name, method)
 
 
 def test_input_and_parameter_change_the_run_as_in_gpmegen(fmpy, fmus):
