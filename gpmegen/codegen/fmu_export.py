@@ -48,6 +48,7 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
+from .. import limits
 from ..errors import BuildError, ModelError
 from ..runtime import ccompile
 from ..version import __version__
@@ -287,6 +288,17 @@ def wrapper_sources() -> dict[str, str]:
     return {name: root.joinpath(name).read_text(encoding="utf-8") for name in WRAPPER}
 
 
+def stack_bytes(n: int, m: int) -> int:
+    """Bytes of stack (an upper bound) of the FMU's calls for a model of ``n`` coordinates and ``m``
+    constraints: the solver library's RK4 or DOP853 (:func:`gpmegen.runtime.cstack.call_bytes`),
+    whose stages solve the GPME through the wrapper's own M and f (n² + n doubles), and
+    :data:`gpmegen.runtime.cstack.RESERVE`."""
+    from ..runtime import cstack
+
+    calls = max(cstack.call_bytes(call, n, m, False) for call in ("rk4", "dop853"))
+    return calls + 8 * (n * n + n) + cstack.RESERVE
+
+
 def portable_flags() -> tuple:
     """gpmegen's flags of a model library without ``-march=native``: the FMU runs on other machines
     (the flags that fix the roundings are kept)."""
@@ -360,7 +372,10 @@ def fmu_files(case, inputs=(), start=None, progress=None) -> dict:
     fmu_guid = guid(sources)
     sources[CONFIG] = config.replace("@GUID@", fmu_guid)
     c_files = sorted(name for name in sources if name.endswith(".c"))
+    limits.check_compile(len(generated["model.c"].encode()), Path(loaded.folder) / "model.c")
     binary = compile_binary(sources, model.name, say)
+    say(f"the FMU keeps up to {stack_bytes(loaded.n_dof, len(loaded.constraint_names)) / 1024:.0f} KiB of scratch "
+        f"arrays on the stack of the thread that calls it")
     description = model_description(model, model.name, fmu_guid, lay, c_files)
     files = {"modelDescription.xml": description.encode("utf-8"),
              f"binaries/{PLATFORM}/{model.name}.so": binary}

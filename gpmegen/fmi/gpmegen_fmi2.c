@@ -637,13 +637,14 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
     int status;
     if (c->method == METHOD_RK4) {
         const long n = steps_over(communicationStepSize, v[VR_STEP]);
-        double t_out[2], q_out[2 * N_DOF], qd_out[2 * N_DOF], w_out[4], w0[2] = {0.0, 0.0};
-        long saved;
+        /* saving every n-th step: the start and the end (3 rows, the bound gpmegen_rk4 documents) */
+        double t_out[3], q_out[3 * N_DOF], qd_out[3 * N_DOF], w_out[6], w0[2] = {0.0, 0.0};
+        long saved = 0;
         status = gpmegen_rk4(&FMU_MODEL, t0, v[VR_STEP], n, t1, 0, n, n, v + VR_Q, v + VR_QD, w0, p, t_out, q_out,
                              qd_out, w_out, &saved);
         if (status == GPMEGEN_OK) {
-            memcpy(v + VR_Q, q_out + N_DOF, N_DOF * sizeof(double));
-            memcpy(v + VR_QD, qd_out + N_DOF, N_DOF * sizeof(double));
+            memcpy(v + VR_Q, q_out + (saved - 1) * N_DOF, N_DOF * sizeof(double));
+            memcpy(v + VR_QD, qd_out + (saved - 1) * N_DOF, N_DOF * sizeof(double));
         }
     } else {
         double y[N_Y], y_out[N_Y];
