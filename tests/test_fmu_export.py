@@ -260,3 +260,13 @@ def test_sources_rebuild_the_binary(fmpy, fmus, tmp_path):
             for path in (original, rebuilt)]
     for name in ("theta1", "theta2", "theta1_dot", "theta2_dot"):
         np.testing.assert_allclose(runs[1][name], runs[0][name], rtol=0, atol=1e-12)
+
+
+@pytest.mark.long
+def test_a_name_the_fmu_has_already_is_refused_in_one_line(env, tmp_path):
+    model = Model("clash", (Parameter("integrator_step", 1.0),),
+                  (Joint("a", "revolute", "z"), Body("b", shapes.point_mass(1.0, (1, 0, 0)))),
+                  gravity=(0, -9.81, 0))
+    with pytest.raises(gpmegen.ModelError, match="two variables named 'integrator_step'") as caught:
+        gpmegen.export_fmu(tmp_path / "clash.fmu", model)
+    assert "\n" not in str(caught.value) and not (tmp_path / "clash.fmu").exists()
