@@ -111,6 +111,28 @@ def test_fmus_are_valid(fmpy, fmus, name):
     assert {"sources/model.c", "sources/gpmegen_fmi2.c", "sources/gpme.c", "sources/rk4.c"} <= names
 
 
+def test_model_structure_names_what_each_unknown_depends_on(fmus):
+    """A point's position and a constraint's value depend on the states alone, λ and q̈ on the
+    input too (so that a tool may feed a point back to the input without an algebraic loop), and
+    der(q) on q̇ alone."""
+    with zipfile.ZipFile(fmus["two_link"]) as archive:
+        root = ET.fromstring(archive.read("modelDescription.xml"))
+    names = [v.get("name") for v in root.iter("ScalarVariable")]
+    index = {name: str(k) for k, name in enumerate(names, start=1)}
+    states = [index[n] for n in ("theta1", "theta2", "theta1_dot", "theta2_dot")]
+
+    def depends(tag, name):
+        (unknown,) = [u for u in root.find("ModelStructure").find(tag) if u.get("index") == index[name]]
+        return unknown.get("dependencies").split()
+
+    for axis in "xyz":
+        assert depends("Outputs", f"E.{axis}") == states[:2]
+    assert depends("Outputs", "phi_height") == states
+    assert depends("Outputs", "lambda_height") == states + [index["u_theta1"]]
+    assert depends("Derivatives", "der(theta2)") == [index["theta2_dot"]]
+    assert depends("Derivatives", "der(theta2_dot)") == states + [index["u_theta1"]]
+
+
 @pytest.mark.parametrize("name", MODELS)
 def test_model_exchange_is_gpmegens_run(fmpy, fmus, name):
     """CVode on the FMU's derivatives against gpmegen's DOP853, both at tight tolerances; the

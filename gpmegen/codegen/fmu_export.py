@@ -130,6 +130,7 @@ class Layout:
     states: list       # indices (from 1) of the states
     derivatives: list  # indices (from 1) of their derivatives
     outputs: list      # indices (from 1) of the outputs
+    dependencies: dict  # index of an output or derivative -> the indices of the states and inputs it depends on
 
 
 def layout(model, loaded, q0, qd0, inputs, lambda_units: dict) -> Layout:
@@ -190,7 +191,16 @@ def layout(model, loaded, q0, qd0, inputs, lambda_units: dict) -> Layout:
     states = [index[v.name] for v in variables[refs["VR_Q"]:refs["VR_DQ"]]]
     derivatives = [index[v.name] for v in variables[refs["VR_DQ"]:refs["VR_P"]]]
     outputs = [index[v.name] for v in variables if v.causality == "output"]
-    return Layout(variables, refs, states, derivatives, outputs)
+    inputs_at = [index[v.name] for v in variables if v.causality == "input"]
+    # q̇ is the velocity state alone; q̈ and λ take everything (the inputs enter f); a point's position
+    # is a function of q, a constraint's value of q and q̇ (and t): neither is fed through from an input,
+    # so that a tool closes a loop from them to the inputs without an algebraic loop
+    dependencies = {derivatives[i]: [states[n + i]] for i in range(n)}
+    dependencies.update({k: states + inputs_at for k in derivatives[n:]})
+    dependencies.update({index[v.name]: states[:n] for v in variables[refs["VR_POINTS"]:refs["VR_LAMBDA"]]})
+    dependencies.update({index[v.name]: states + inputs_at for v in variables[refs["VR_LAMBDA"]:refs["VR_PHI"]]})
+    dependencies.update({index[v.name]: list(states) for v in variables[refs["VR_PHI"]:refs["VR_STEP"]]})
+    return Layout(variables, refs, states, derivatives, outputs, dependencies)
 
 
 def _unit(text: str) -> str:
@@ -274,10 +284,15 @@ def model_description(model, identifier, fmu_guid, lay: Layout, c_files) -> str:
         lines.append(f"    <!-- {k} -->\n    <ScalarVariable {' '.join(attrs)}>\n"
                      f"      <{v.kind}{''.join(' ' + a for a in inner)}/>\n    </ScalarVariable>\n")
     lines.append("  </ModelVariables>\n  <ModelStructure>\n")
-    for tag, indices in (("Outputs", lay.outputs), ("Derivatives", lay.derivatives),
-                         ("InitialUnknowns", sorted(lay.outputs + lay.derivatives))):
-        if indices:
-            lines += [f"    <{tag}>\n", *(f'      <Unknown index="{k}"/>\n' for k in indices), f"    </{tag}>\n"]
+    def unknown(k, known):
+        listed = "" if known is None else f' dependencies="{" ".join(map(str, known))}"'
+        return f'      <Unknown index="{k}"{listed}/>\n'
+
+    for tag, indices, known in (("Outputs", lay.outputs, lay.dependencies),
+                                ("Derivatives", lay.derivatives, lay.dependencies),
+                                ("InitialUnknowns", sorted(lay.outputs + lay.derivatives), {})):
+        if indices:   # the initial unknowns without dependencies: on everything (the parameters too)
+            lines += [f"    <{tag}>\n", *(unknown(k, known.get(k)) for k in indices), f"    </{tag}>\n"]
     lines.append("  </ModelStructure>\n</fmiModelDescription>\n")
     return "".join(lines)
 
