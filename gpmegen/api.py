@@ -10,6 +10,7 @@
 - the model's elements (:class:`Model`, :class:`Joint`, :class:`FlexibleLink`, ...) and the
   reference case (:func:`reference_model`);
 - :func:`export_casadi`: the model's functions as CasADi functions, saved as ``.casadi`` files;
+- :func:`export_fmu`: the model as an FMU (FMI 2.0 Model Exchange and Co-Simulation);
 - :func:`linearize`: the state-space model ``ẋ = A x + B u`` about the statics or at instants of a run;
 - :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
 - the errors, one type per failure family (:class:`GpmegenError` and its subclasses).
@@ -242,6 +243,23 @@ def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) 
     return case.located(lambda: casadi_export.export(case.model, folder, tuple(inputs), overwrite=overwrite))
 
 
+def export_fmu(out, model=None, *, nrfe=None, inputs=(), start=None, overwrite=False, directory=None,
+               progress=None):
+    """The model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one archive), as
+    ``gpmegen export --format fmu`` writes it into the file ``out`` (``NAME.fmu``;
+    :mod:`gpmegen.codegen.fmu_export`): its states q and q̇, the GPME's q̈, the points, the
+    multipliers λ and the constraints' values as outputs, the parameters (tunable) and an input
+    ``u_<coordinate>`` (a generalized force) on each coordinate of ``inputs``; its start values are
+    :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``,
+    ``nrfe``, ``directory``, ``progress`` as :func:`statics`; ``overwrite`` replaces an earlier FMU.
+    Needs a C compiler. Returns the FMU's path."""
+    from .codegen import fmu_export
+
+    case, start = _started(model, nrfe, start, directory)
+    return case.located(lambda: fmu_export.export(case, out, tuple(inputs), overwrite, start,
+                                                  _messages(progress)))
+
+
 def linearize(model=None, *, nrfe=None, start=None, params=None, backend=None, directory=None, progress=None,
               at=None, times=None, inputs=None):
     """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.linear.LinearModel`), as
@@ -276,5 +294,5 @@ __all__ = [
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text", "linearize",
+    "import_urdf", "urdf_text", "linearize", "export_casadi", "export_fmu",
 ]

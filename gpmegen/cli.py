@@ -259,8 +259,10 @@ def cmd_export(args) -> int:
     out = Path(args.out)
     if args.format == "casadi":
         return _export_casadi(case, out, args)
+    if args.format == "fmu":
+        return _export_fmu(case, out, args)
     if args.inputs:
-        raise UsageError("--inputs is for --format casadi (a URDF holds no inputs); leave it out")
+        raise UsageError("--inputs is for --format casadi and fmu (a URDF holds no inputs); leave it out")
     if out.is_dir():
         raise UsageError(f"--out {out} is a folder; give the file to write, e.g. --out {out / 'arm.urdf'}")
     outputs.check([out], [args.model_file], args.overwrite)
@@ -282,6 +284,18 @@ def _export_casadi(case, out, args) -> int:
                                           args.overwrite))
     print(f"wrote {out}: {case.model.name} as CasADi functions {', '.join(made)} (.casadi) and their source "
           f"{casadi_export.SOURCE}")
+    return 0
+
+
+def _export_fmu(case, out, args) -> int:
+    """``export --format fmu``: the model as an FMU (FMI 2.0 Model Exchange and Co-Simulation) in the file ``out``."""
+    from .codegen import fmu_export
+
+    outputs.check([out], [args.model_file], overwrite=True)  # never over the model file
+    made = case.located(functools.partial(fmu_export.export, case, out, args.inputs or (), args.overwrite,
+                                          progress=progress))
+    print(f"wrote {made}: {case.model.name} as an FMU (FMI 2.0 Model Exchange and Co-Simulation, "
+          f"binary for {fmu_export.PLATFORM} and sources)")
     return 0
 
 
@@ -785,18 +799,20 @@ def build_parser() -> argparse.ArgumentParser:
                         "integrators use central differences)")
     b.set_defaults(func=cmd_build)
 
-    ex = command("export", "the discretized chain as a URDF robot, or the model's functions for CasADi")
+    ex = command("export", "the discretized chain as a URDF robot, the model's functions for CasADi, or an FMU")
     ex.add_argument("model_file", nargs="?", type=path_argument,
                     help="a model description (.toml or .urdf); default: the reference manipulator")
-    ex.add_argument("--format", choices=("urdf", "casadi"), required=True,
-                    help="the format to write: urdf (a file), or casadi (a folder of CasADi functions)")
+    ex.add_argument("--format", choices=("urdf", "casadi", "fmu"), required=True,
+                    help="the format to write: urdf (a file), casadi (a folder of CasADi functions) or fmu (an "
+                         "FMI 2.0 FMU, a file NAME.fmu)")
     ex.add_argument("--nrfe", type=rfe_count, default=None,
                     help="number of rigid finite elements (1: rigid; default 5, or the file's)")
     ex.add_argument("--out", type=path_argument, required=True,
-                    help="the file to write, e.g. arm.urdf; with --format casadi, the folder, e.g. arm_casadi")
+                    help="the file to write, e.g. arm.urdf or arm.fmu; with --format casadi, the folder, e.g. "
+                         "arm_casadi")
     ex.add_argument("--inputs", type=input_names, default=None, metavar="NAME,NAME",
-                    help="--format casadi: coordinates that take an input u (a generalized force, added to the "
-                         "model's drives), in the order of u; default none")
+                    help="--format casadi and fmu: coordinates that take an input u (a generalized force, added "
+                         "to the model's drives), in the order of u; default none")
     ex.set_defaults(func=cmd_export)
 
     def study_options(p, levels=False):

@@ -73,7 +73,16 @@ same derivation as the NumPy and C code: qdd(t, q, qd, u, p) (the GPME's acceler
 by CasADi so that it can differentiate them), M(q, p), f(t, q, qd, u, p), Phi, Phi_rate, D,
 gamma (t, q, qd, p), points(q, p) and energies(q, qd, p), each saved by CasADi's Function.save as
 <name>.casadi. u holds a generalized force on each coordinate named by --inputs, added to the
-model's drives; p the parameter values. Needs casadi: pip install 'gpmegen[casadi]'.""",
+model's drives; p the parameter values. Needs casadi: pip install 'gpmegen[casadi]'.
+
+With --format fmu, the model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one file) for
+Simulink, OpenModelica, Dymola and other FMI importers: states q, qd and their derivatives (the
+GPME's qdd with its Baumgarte terms), an input u_<coordinate> (a generalized force) on each
+coordinate named by --inputs, the parameters (tunable), and as outputs the points' positions, the
+multipliers lambda and the constraints' values. Co-Simulation steps with RK4 (integrator_step) or
+DOP853 (integrator_method 1). It starts where 'gpmegen simulate' starts, with its parameter values.
+The binary is built here for linux64 with gpmegen's flags (no -march=native); the C sources are
+inside to build it elsewhere. Needs a C compiler.""",
     "demo": """\
 The paper's study: the rigid (n_rfe = 1) and flexible (n_rfe = 5) arms, 10 s of constrained
 motion from the locked-joint statics, and their figures.""",
@@ -196,11 +205,13 @@ examples:
   gpmegen export --format urdf --nrfe 5 --out arm.urdf
   gpmegen export examples/planar_two_link.toml --format urdf --out planar.urdf
   gpmegen export examples/flexible_arm.toml --format casadi --inputs theta1 --out arm_casadi
+  gpmegen export examples/flexible_arm.toml --format fmu --inputs theta1 --out arm.fmu
 
 files written:
   --out (written whole or not at all); with --format casadi the folder --out: <name>.casadi of each
   function, model_casadi.py (their source) and casadi.json (the order of q, p and u, the parameter
-  defaults)""",
+  defaults); with --format fmu the file --out (NAME.fmu): modelDescription.xml,
+  binaries/linux64/<model>.so and sources/""",
     "demo": """\
 examples:
   gpmegen demo
