@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: ee2ab443ff2bcbf5
+Input hash: 4ff42ce1011b98e9
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

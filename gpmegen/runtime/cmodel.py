@@ -152,7 +152,7 @@ class CEvaluator:
                 f"split q; set the model's 'dependent' coordinates"
             )
         dep, ind = (tuple(np.asarray(part).tolist()) for part in (model.dependent, model.independent))
-        if sorted(dep + ind) != list(range(self.n)) or len(dep) != self.m:
+        if sorted(dep + ind) != list(range(self.n)) or (len(dep) > self.m if model.redundant else len(dep) != self.m):
             raise ModelError(
                 f"dependent {dep} and independent {ind} must split the {self.n} coordinates, with one "
                 f"dependent coordinate per constraint ({self.m})"
