@@ -91,7 +91,7 @@ _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:
     sys.path.insert(0, _HERE)
 
-from test_closures import L1, L2, L3, exact_four_bar, four_bar_text  # noqa: E402
+from test_closures import L1, L2, L3, TILTED, exact_four_bar, four_bar_text  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 # the example's masses; the crank, free, held by a spring k1 to its rest angle and a damper c1
@@ -112,13 +112,23 @@ def loop_potential(theta1):
     return G * (M1 * y1 + M2 * y2 + M3 * y3) + K1 * (theta1 - REST) ** 2 / 2
 
 
-@pytest.fixture(scope="module")
-def sprung(tmp_path_factory):
-    """The four-bar example with its crank free, on a spring and a damper: the path of its file
-    and a folder to build into."""
+@pytest.fixture(scope="module", params=["planar", "tilted"])
+def sprung(request, tmp_path_factory):
+    """The four-bar example with its crank free, on a spring and a damper (planar; or in its
+    plane turned about x0 with gravity, closed by the revolute whose rows are then redundant, the
+    same mechanism): the path of its file and a folder to build into."""
     folder = tmp_path_factory.mktemp("sprung")
     path = folder / "four_bar_sprung.toml"
-    path.write_text(four_bar_text(**SPRUNG))
+    if request.param == "planar":
+        path.write_text(four_bar_text(**SPRUNG))
+    else:
+        text = four_bar_text(**TILTED)
+        for old, new in SPRUNG.items():
+            if "name" in old:
+                old, new = 'name = "four_bar_tilted"', 'name = "four_bar_tilted_sprung"'
+            assert text.count(old) == 1
+            text = text.replace(old, new)
+        path.write_text(text)
     return path, str(folder / "generated")
 
 
@@ -184,15 +194,10 @@ def reduced_motion_jacobian(model, t, q, qd):
     return J
 
 
-@pytest.mark.parametrize("which", ["sprung", "flexible"])
-def test_linearize_on_a_loop_is_the_derivative_of_the_reduced_motion(sprung, which, tmp_path):
-    """linearize about the constrained statics of the rigid four-bar (crank on a spring and a
-    damper) and of the flexible four-bar (crank prescribed, turning): the state matrix's
+def check_linear_model(path, folder):
+    """linearize about the constrained statics of the model file ``path``: the state matrix's
     acceleration rows against central differences of the motion on the loop, the states its
-    independent coordinates and rates."""
-    path, folder = sprung
-    if which == "flexible":
-        path = ROOT / "examples" / "four_bar_flexible.toml"
+    independent coordinates and rates; returns the linear model."""
     lin = gpmegen.linearize(str(path), start="constrained", backend="numpy", directory=folder)
     model = gpmegen.load(model=read_model_file(path).model, backend="numpy", directory=folder, jacobians=True)
     independent = [model.index(name) for name in lin.states[:len(lin.states) // 2]]
@@ -203,6 +208,22 @@ def test_linearize_on_a_loop_is_the_derivative_of_the_reduced_motion(sprung, whi
     scale = np.abs(expected).max()
     assert scale > 1.0
     np.testing.assert_allclose(lin.A[k:], expected, rtol=0, atol=1e-6 * scale)
-    if which == "sprung":
-        assert lin.states == ("theta1", "theta1_dot")
-        assert lin.A[1, 1] < 0   # the damper
+    return lin
+
+
+def test_linearize_on_the_four_bar_is_the_derivative_of_its_motion_on_the_loop(sprung):
+    """The four-bar with its crank on a spring and a damper (planar, and turned with redundant
+    rows): one state and its rate, the damper's damping, the undamped frequency that of the
+    constrained mode."""
+    lin = check_linear_model(*sprung)
+    assert lin.states == ("theta1", "theta1_dot")
+    assert lin.A[1, 1] < 0   # the damper
+
+
+def test_linearize_on_the_flexible_four_bar_is_the_derivative_of_its_motion_on_the_loop(tmp_path):
+    """The flexible four-bar (crank prescribed, turning at the statics): its coupler's elastic
+    coordinates are the states."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModelWarning)
+        lin = check_linear_model(ROOT / "examples" / "four_bar_flexible.toml", str(tmp_path / "generated"))
+    assert lin.states[:2] == ("psi2_1", "psi2_2")

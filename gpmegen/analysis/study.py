@@ -183,7 +183,8 @@ def check_redundant(model, q, closures, t=0.0, warn=True):
     a combination that vanishes (each closure's by the closure; ``closures``: closure name -> its
     row names) and says that the reactions shown are the minimum-norm ones, and the model is
     returned marked (:meth:`gpmegen.runtime.model.LoadedModel.with_redundant_rows`), its dependent
-    coordinates chosen on the independent rows at ``q``. Rows that cannot hold together (a loop
+    coordinates those it has when they are one per independent row and regular there, else chosen
+    on the independent rows at ``q``. Rows that cannot hold together (a loop
     that cannot close) are refused where the start moves ``q`` onto them. Otherwise ``model``."""
     if not len(model.constraint_names) or len(model.actuators):
         return model
@@ -194,6 +195,10 @@ def check_redundant(model, q, closures, t=0.0, warn=True):
     if rank == D.shape[0]:
         return model
     chosen = partition.choose_dependent(D, rank)
+    if model.dependent is not None and len(model.dependent) == rank:   # the model's own, where regular
+        kept = D[gpme.independent_rows(D)]
+        if partition.condition(kept, model.dependent) <= partition.ILL_CONDITIONED:
+            chosen = model.dependent
     if not warn:
         return model.with_redundant_rows(chosen)
     U, sigma, _ = np.linalg.svd(D)

@@ -37,8 +37,11 @@ def constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders):
 
 
 def tangent_basis(D, dependent, independent):
-    """``B`` (n, n - m): columns span the velocities allowed by the constraints."""
+    """``B`` (n, n - m): columns span the velocities allowed by the constraints. With fewer
+    ``dependent`` coordinates than rows (redundant rows), from D's :func:`independent_rows`."""
     n = D.shape[1]
+    if len(dependent) < D.shape[0]:
+        D = D[independent_rows(D)]
     B = np.zeros((n, len(independent)))
     B[independent, np.arange(len(independent))] = 1.0
     try:

@@ -128,6 +128,20 @@ class Evaluator(Protocol):
         """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
 
 
+def redundant_acceleration_jacobians(evaluator, t, q, qd, model):
+    """(q̈, ∂q̈/∂q, ∂q̈/∂q̇) of a model whose constraint rows are redundant (``model.redundant``),
+    from ``evaluator``'s generated functions: the rows independent at the state, with their
+    multipliers (unique there), the others' zero; near the state those rows hold the same
+    motions as all of them."""
+    qdd, M, f = evaluator.motion(t, q, qd, model)
+    D = evaluator.constraint_terms(t, q, qd, model.p)[2]
+    rows = gpme.independent_rows(D)
+    lam = np.zeros(len(D))
+    lam[rows] = gpme.multipliers(M, f, qdd, D[rows])
+    F_q, F_qd, C_q, C_qd = evaluator.residual_jacobians(t, q, qd, qdd, lam, model.p)
+    return qdd, *jacobians.acceleration_jacobians(M, D[rows].T, D[rows], F_q, F_qd, C_q[rows], C_qd[rows])
+
+
 class NumpyEvaluator:
     """:class:`Evaluator` over a generated NumPy module; the GPME solved by :mod:`.gpme`."""
 
@@ -202,7 +216,9 @@ class NumpyEvaluator:
     def acceleration_jacobians(self, t, q, qd, model):
         qdd, M, f = self.motion(t, q, qd, model)
         D = self.constraint_terms(t, q, qd, model.p)[2]
-        lam = gpme.multipliers(M, f, qdd, D, model.redundant)
+        if model.redundant:
+            return redundant_acceleration_jacobians(self, t, q, qd, model)
+        lam = gpme.multipliers(M, f, qdd, D)
         return qdd, *jacobians.acceleration_jacobians(M, D.T, D, *self.residual_jacobians(t, q, qd, qdd, lam, model.p))
 
     def rk4(self, model, g, k_from, k_to, save_every, y0):
