@@ -547,6 +547,7 @@ def test_redundant_rows_give_the_point_closed_accelerations_and_minimum_norm_rea
         assert np.abs(null.T @ lam).max() < 1e-10 * np.abs(lam).max()
 
 
+@pytest.mark.long   # a model of its own compiled (about 12 s); the NumPy solve is checked above
 @pytest.mark.requires_cc
 @pytest.mark.parametrize("method", ["rk4", "genalpha", "dop853", "radau"])
 def test_redundant_rows_run_on_the_c_backend(tilted_run, tilted_path, env, method):

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 4ff42ce1011b98e9
+Input hash: 9cbb1be4e8e3ccee
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -61,7 +61,7 @@ struct gpmegen_model {
                                     double *C_qd);
     /* 1: the constraint rows may be redundant (the model closes loops, whose rows can be more than
        its motion needs): where D loses rank the solves keep its independent rows; 0 (a model
-       that closes no loop; the initializer of MODEL leaves it out): D losing rank is singular */
+       that closes no loop): D losing rank is singular */
     int redundant_rows;
 };
 
