@@ -83,14 +83,13 @@ int gpmegen_elimination_step(int N_DOF, double *D, double *c, int m, int k, doub
    rows that are independent but nearly dependent that a run could use (their X grows as 1/pivot). */
 #define GPMEGEN_RANK_TOLERANCE 1e-10
 
-/* The rank of the constraint rows D qdd = c (D: NC x N_DOF row-major, c: NC), for a model whose
-   rows may be redundant (redundant_rows; else D losing rank is GPMEGEN_SINGULAR, as the
-   elimination says), by Gaussian
-   elimination with complete pivoting (gpmegen_elimination_step), stopped at the first pivot at or
-   below N_DOF * DBL_EPSILON times D's largest entry (the test of that function; the rows left are
-   then exact-arithmetic combinations of the pivoted ones up to round-off). dependent[a] is the
-   coordinate of the a-th pivot. Rows left over, with their pivots above that test but below
-   GPMEGEN_RANK_TOLERANCE of D's largest entry, are redundant too. The accelerations come from the
+/* The rank of the constraint rows D qdd = c (D: NC x N_DOF row-major, c: NC) by Gaussian
+   elimination with complete pivoting (gpmegen_elimination_step); dependent[a] is the coordinate
+   of the a-th pivot. A model whose rows cannot be redundant (redundant_rows 0) stops as that
+   function says: a pivot at or below N_DOF * DBL_EPSILON times D's largest entry is
+   GPMEGEN_SINGULAR. A model whose rows may be (redundant_rows 1) stops its elimination there
+   with the rank found, or at a pivot at or below GPMEGEN_RANK_TOLERANCE times D's largest entry:
+   the rows left are combinations of the pivoted ones up to round-off. The accelerations come from the
    pivoted rows alone: they are unique when the redundant rows are consistent (their right sides,
    once eliminated, vanish), which the start checks on Phi (a loop that cannot close is refused
    there) and a run keeps by watching the constraints' violation (rows that drift apart stop it).
