@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: ee2ab443ff2bcbf5
+Input hash: 9cbb1be4e8e3ccee
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

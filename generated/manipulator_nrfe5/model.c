@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5118a0fd41164410
+Input hash: 1c5b5b609845781c
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "5118a0fd41164410"; }
+const char *manipulator_nrfe5_input_hash(void) { return "1c5b5b609845781c"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -6264,6 +6264,7 @@ static const struct gpmegen_model MODEL = {
     manipulator_nrfe5_drive_forces,
     gpme_recursive,
     NULL,
+    0,  /* redundant_rows: 1 where closures' rows may be redundant */
 };
 
 /* ---- GPME by the articulated-body recursion ------------------------------------------------ */

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5118a0fd41164410
+Input hash: 1c5b5b609845781c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

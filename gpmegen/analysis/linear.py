@@ -119,10 +119,14 @@ def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
     M, _, _, _, D, _ = model.gpme_terms(t, q, qd)
     qdd = model.accelerations(t, q, qd)
     S = gpme.selection(n, [model.index(name) for name in inputs])
+    # redundant rows (model.redundant): those independent at the state, which near it hold the
+    # same configurations as all of them
+    rows = gpme.independent_rows(D) if model.redundant else np.arange(len(D))
+    D = D[rows]
     if len(D):
         N = gpme.tangent_basis(D, dep, ind)
         V = np.zeros((n, len(ind)))
-        V[dep] = -np.linalg.solve(D[:, dep], rate_jacobian(model, t, q, qd) @ N)
+        V[dep] = -np.linalg.solve(D[:, dep], rate_jacobian(model, t, q, qd)[rows] @ N)
         K = np.vstack([N.T @ M, D])
         forced = np.linalg.solve(K, np.vstack([N.T @ S, np.zeros((len(D), S.shape[1]))]))
     else:

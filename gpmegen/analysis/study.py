@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import limits
-from ..errors import ModelError, SimulationError
+from ..errors import ModelError, ModelWarning, SimulationError
 from ..runtime import gpme, integrate, internal, partition, statics
 from ..status import Ending, Outcome
 from . import energy as energy_balance
@@ -90,7 +90,10 @@ def project_velocities(model, q, qd, t=0.0):
     for _ in range(2):  # affine in qd: one step solves it, the second removes round-off
         r, D = velocity_residual(model, t, q, qd)
         try:
-            qd[dep] -= np.linalg.solve(D[:, dep], r)
+            if len(dep) == D.shape[0]:
+                qd[dep] -= np.linalg.solve(D[:, dep], r)
+            else:   # redundant rows: the dependent coordinates of the independent ones
+                qd[dep] -= np.linalg.lstsq(D[:, dep], r, rcond=None)[0]
         except np.linalg.LinAlgError:
             raise SimulationError(
                 f"model {model.module.MODEL}: the dependent block D_dc of the constraint Jacobian is singular at the "
@@ -172,35 +175,52 @@ def consistent(model, q, qd, t=0.0, hint=None, given_qd=None, closures=None) -> 
                  {"q": q_moved, "qd": largest_change(model, qd, qd_on, given_qd)}, assembled)
 
 
-# Below this fraction of the largest singular value of the constraint Jacobian, a singular value
-# counts as zero: the rows are redundant (:func:`check_redundant`).
-REDUNDANT = 1e-9
-
-
-def check_redundant(model, q, closures, t=0.0):
-    """Refuse (ModelError, one line) a start ``q`` where the rows of a closure are redundant with
-    the others or among themselves: the constraint Jacobian ``D`` has a rank below its number of
-    rows (singular values below :data:`REDUNDANT` times the largest), and a closure's rows take
-    part in a combination that vanishes. ``closures``: closure name -> its row names."""
-    if not closures:
-        return
+def check_redundant(model, q, closures, t=0.0, warn=True):
+    """``model`` as it solves at a start ``q`` where the constraint rows are redundant: the
+    constraint Jacobian ``D`` has a rank below its number of rows
+    (:func:`gpmegen.runtime.gpme.rank`, relative to D's scale), as where a loop is closed more often
+    than its motion needs. Then (with ``warn``) one :class:`ModelWarning` line names the rows that take part in
+    a combination that vanishes (each closure's by the closure; ``closures``: closure name -> its
+    row names) and says that the reactions shown are the minimum-norm ones, and the model is
+    returned marked (:meth:`gpmegen.runtime.model.LoadedModel.with_redundant_rows`), its dependent
+    coordinates those it has when they are one per independent row and regular there, else chosen
+    on the independent rows at ``q``. Rows that cannot hold together (a loop
+    that cannot close) are refused where the start moves ``q`` onto them. Otherwise ``model``."""
+    if not len(model.constraint_names) or len(model.actuators):
+        return model
     _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof))
     if not np.all(np.isfinite(D)) or not D.size:
-        return
-    U, sigma, _ = np.linalg.svd(D)
-    rank = int(np.sum(sigma > REDUNDANT * max(sigma[0], 1e-300)))
+        return model
+    rank = gpme.rank(D)
     if rank == D.shape[0]:
-        return
+        return model
+    chosen = partition.choose_dependent(D, rank)
+    if model.dependent is not None and len(model.dependent) == rank:   # the model's own, where regular
+        kept = D[gpme.independent_rows(D)]
+        if partition.condition(kept, model.dependent) <= partition.ILL_CONDITIONED:
+            chosen = model.dependent
+    if not warn:
+        return model.with_redundant_rows(chosen)
+    U, sigma, _ = np.linalg.svd(D)
     null = U[:, rank:]   # combinations of rows whose gradients cancel
     taking = np.linalg.norm(null, axis=1) > 1e-6
     names = list(model.constraint_names)
-    for name, rows in closures.items():
+    parts, named = [], set()
+    for name, rows in (closures or {}).items():
         involved = [row for row in rows if taking[names.index(row)]]
+        named.update(rows)
         if involved:
-            raise ModelError(
-                f"closure {name!r}: its rows {', '.join(involved)} are redundant at the start (the constraint "
-                f"Jacobian has rank {rank} for {D.shape[0]} rows): the loop is closed more often than the motion "
-                f"allows; use type = \"point\" or a closure of fewer rows")
+            parts.append(f"closure {name!r}: its rows {', '.join(involved)}")
+    others = [row for row, takes in zip(names, taking) if takes and row not in named]
+    if others:
+        parts.append(f"the constraints {', '.join(others)}")
+    import warnings
+
+    warnings.warn(
+        f"{' and '.join(parts)} are redundant at the start (the constraint Jacobian has rank {rank} for "
+        f"{D.shape[0]} rows): the accelerations come from the independent rows; the reactions are not unique, "
+        f"and those shown are the minimum-norm ones", ModelWarning, stacklevel=2)
+    return model.with_redundant_rows(chosen)
 
 
 def vector_of(model, values: dict) -> np.ndarray:
@@ -217,19 +237,23 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
     optionally the locked statics first (``start="locked"``), then made consistent
     (:func:`consistent`); ``start="constrained"`` then solves the constrained equilibrium (the
     velocities are projected again there). ``closures`` (closure name -> its row names): the
-    loops are assembled from the rough ``initial``, refused where their rows are redundant
-    (:func:`check_redundant`, before and after)."""
+    loops are assembled from the rough ``initial``; rows that are redundant there are kept with
+    one warning (:func:`check_redundant`, before and after)."""
     if start not in ("none", "locked", "constrained"):
         raise ValueError(f"unknown start {start!r}: use 'none', 'locked' or 'constrained'")
     q = vector_of(model, initial)
-    check_redundant(model, q, closures)
+    marked = check_redundant(model, q, closures)
+    warned, model = marked is not model, marked
     if model.dependent is None:
         model = partition.partition_at(model, q)
     if start == "locked":
         q = statics.locked(model, q)
     begun = consistent(model, q, vector_of(model, velocities or {}), given_qd=frozenset(velocities or ()),
                        closures=closures)
-    check_redundant(model, begun.q, closures)
+    marked = check_redundant(model, begun.q, closures, warn=not warned)
+    if marked is not model:   # the rows found redundant only once assembled, or the partition chosen there
+        model = begun.model = marked
+        begun.qd = project_velocities(model, begun.q, begun.qd)
     if start == "constrained":
         begun.q = statics.constrained(model, begun.q)
         begun.qd = project_velocities(model, begun.q, begun.qd)
@@ -364,7 +388,7 @@ def collect(model, t, y, status, settings) -> dict:
             D = model.constraint_terms(t[k], q[k], qd[k])[2]
             qdd[k], M, f = model.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
-            lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D)
+            lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D, model.redundant)
         energy[k] = model.energies(q[k], qd[k])
     finite = np.flatnonzero(np.all(np.isfinite(y[:, :2 * n]), axis=1))
     dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)

@@ -95,14 +95,21 @@ static int held_rows(const struct gpmegen_model *model, double t, const double *
 /* dx (N_DOF) with D dx = -r (D: m x N_DOF row-major, r: m; both overwritten) that moves only m
    coordinates: the pivots of gpmegen_elimination_step(), as the GPME's dense solve chooses its
    dependent coordinates (the largest entry of the rows left), so the correction stays
-   well conditioned wherever the model's fixed partition would not. Returns the status of
-   gpmegen_elimination_step(). */
-static int pivot_correction(int N_DOF, int N_CONSTRAINTS, int m, double *D, double *r, double *dx)
+   well conditioned wherever the model's fixed partition would not. For a model whose rows may be
+   redundant (redundant_rows), rows past the rank (the pivot of row k at or below the
+   elimination's threshold, k > 0: D has rank k) are left out, the
+   correction made from the independent ones. Returns the status of gpmegen_elimination_step(). */
+static int pivot_correction(int N_DOF, int N_CONSTRAINTS, int redundant_rows, int m, double *D, double *r,
+                            double *dx)
 {
     int column[N_CONSTRAINTS] ALIGNED;
     double tiny = 0.0;
     for (int k = 0; k < m; ++k) {
         const int status = gpmegen_elimination_step(N_DOF, D, r, m, k, &tiny, &column[k]);
+        if (redundant_rows && status == GPMEGEN_SINGULAR && k > 0) {  /* rows k.. are redundant: the pivoted ones move q */
+            m = k;
+            break;
+        }
         if (status != GPMEGEN_OK) {
             return status;
         }
@@ -157,7 +164,7 @@ static int project_state(const struct gpmegen_model *model, double t, double *y,
         if (iteration == PROJECTION_ITERATIONS) {
             return GPMEGEN_NO_CONVERGENCE;
         }
-        if ((status = pivot_correction(N_DOF, N_CONSTRAINTS, m, D, r, dx)) != GPMEGEN_OK) {
+        if ((status = pivot_correction(N_DOF, N_CONSTRAINTS, model->redundant_rows, m, D, r, dx)) != GPMEGEN_OK) {
             return status;
         }
         int moved = 0;
@@ -173,7 +180,7 @@ static int project_state(const struct gpmegen_model *model, double t, double *y,
     if ((m = held_rows(model, t, q, qd, p, 1, D, r)) == 0) {
         return GPMEGEN_OK;
     }
-    if ((status = pivot_correction(N_DOF, N_CONSTRAINTS, m, D, r, dx)) != GPMEGEN_OK) {
+    if ((status = pivot_correction(N_DOF, N_CONSTRAINTS, model->redundant_rows, m, D, r, dx)) != GPMEGEN_OK) {
         return status;
     }
     for (int j = 0; j < N_DOF; ++j) {

@@ -76,31 +76,64 @@ int gpmegen_elimination_step(int N_DOF, double *D, double *c, int m, int k, doub
     return GPMEGEN_OK;
 }
 
-/* The constraint rows D qdd = c (D: N_CONSTRAINTS x N_DOF row-major, c: N_CONSTRAINTS) solved
-   for the dependent accelerations, qdd_dc = x_c - X qdd_ic, by Gaussian elimination with
-   complete pivoting: dependent[a] is the coordinate of the a-th pivot, independent the others in
-   increasing order, X[a * NX + j] (NX = N_INDEPENDENT + 1) = (D_dc^-1 D_ic)_aj and
-   X[a * NX + N_INDEPENDENT] = (D_dc^-1 c)_a. Each pivot is the largest entry of the rows not
-   pivoted yet (the elimination leaves exact zeros in the columns already chosen), so
-   |X_aj| <= 2^(N_CONSTRAINTS - 1 - a): the basis B = [I; -X] of the allowed motions stays well
-   conditioned. D and c are overwritten. Returns GPMEGEN_NONFINITE when an entry of D is not
-   finite, GPMEGEN_SINGULAR when D has lost rank (a pivot at or below N_DOF * DBL_EPSILON times
-   its largest entry), else GPMEGEN_OK. */
-static int constraint_basis(int N_DOF, int NC, double *D, double *c, int *dependent, int *independent, double *X)
+/* Below this fraction of the largest entry of D, a pivot of the elimination counts as zero: the
+   rows left are combinations of those pivoted (D's rank is the number of pivots before it). It is
+   relative to D's scale, and above the round-off that the elimination leaves in a row that is a
+   combination of others (a few N_DOF * DBL_EPSILON of D's largest entry), far below any pivot of
+   rows that are independent but nearly dependent that a run could use (their X grows as 1/pivot). */
+#define GPMEGEN_RANK_TOLERANCE 1e-10
+
+/* The rank of the constraint rows D qdd = c (D: NC x N_DOF row-major, c: NC) by Gaussian
+   elimination with complete pivoting (gpmegen_elimination_step); dependent[a] is the coordinate
+   of the a-th pivot. A model whose rows cannot be redundant (redundant_rows 0) stops as that
+   function says: a pivot at or below N_DOF * DBL_EPSILON times D's largest entry is
+   GPMEGEN_SINGULAR. A model whose rows may be (redundant_rows 1) stops its elimination there
+   with the rank found, or at a pivot at or below GPMEGEN_RANK_TOLERANCE times D's largest entry:
+   the rows left are combinations of the pivoted ones up to round-off. The accelerations come from the
+   pivoted rows alone: they are unique when the redundant rows are consistent (their right sides,
+   once eliminated, vanish), which the start checks on Phi (a loop that cannot close is refused
+   there) and a run keeps by watching the constraints' violation (rows that drift apart stop it).
+   D and c are overwritten. *rank: the number of pivots (NC when D has full rank: then nothing
+   differs from the elimination of full-rank rows). Returns GPMEGEN_NONFINITE when an entry of D is
+   not finite, GPMEGEN_SINGULAR when no row has a pivot (D vanishes), else GPMEGEN_OK. */
+static int constraint_rank(int N_DOF, int NC, int redundant_rows, double *D, double *c, int *dependent, int *rank)
 {
-    const int NI = N_DOF - NC, NX = NI + 1;
-    double tiny = 0.0;
+    double tiny = 0.0, largest = 0.0;
     for (int k = 0; k < NC; ++k) {
         const int status = gpmegen_elimination_step(N_DOF, D, c, NC, k, &tiny, &dependent[k]);
+        if (k == 0) {
+            largest = tiny / ((double)N_DOF * DBL_EPSILON);
+        }
+        if (redundant_rows && k > 0 && (status == GPMEGEN_SINGULAR
+                                        || (status == GPMEGEN_OK && fabs(D[k * N_DOF + dependent[k]])
+                                                                    <= GPMEGEN_RANK_TOLERANCE * largest))) {
+            *rank = k;
+            return GPMEGEN_OK;
+        }
         if (status != GPMEGEN_OK) {
             return status;
         }
     }
+    *rank = NC;
+    return GPMEGEN_OK;
+}
+
+/* The independent rows of D qdd = c left by constraint_rank() (the first NR rows, pivots
+   dependent[0..NR-1]) solved for the dependent accelerations, qdd_dc = x_c - X qdd_ic:
+   independent holds the coordinates that are not pivots in increasing order,
+   X[a * NX + j] (NX = N_DOF - NR + 1) = (D_dc^-1 D_ic)_aj and X[a * NX + NX - 1] = (D_dc^-1 c)_a.
+   Each pivot is the largest entry of the rows not pivoted yet (the elimination leaves exact zeros
+   in the columns already chosen), so |X_aj| <= 2^(NR - 1 - a): the basis B = [I; -X] of the
+   allowed motions stays well conditioned. */
+static void constraint_basis(int N_DOF, int NR, const double *D, const double *c, const int *dependent,
+                             int *independent, double *X)
+{
+    const int NI = N_DOF - NR, NX = NI + 1;
     int is_dependent[N_DOF] ALIGNED;
     for (int j = 0; j < N_DOF; ++j) {
         is_dependent[j] = 0;
     }
-    for (int a = 0; a < NC; ++a) {
+    for (int a = 0; a < NR; ++a) {
         is_dependent[dependent[a]] = 1;
     }
     for (int j = 0, i = 0; j < N_DOF; ++j) {
@@ -109,15 +142,15 @@ static int constraint_basis(int N_DOF, int NC, double *D, double *c, int *depend
         }
     }
     /* back substitution through the triangle the pivots left in the dependent columns */
-    for (int a = 0; a < NC; ++a) {
+    for (int a = 0; a < NR; ++a) {
         for (int j = 0; j < NI; ++j) {
             X[a * NX + j] = D[a * N_DOF + independent[j]];
         }
         X[a * NX + NI] = c[a];
     }
-    for (int a = NC - 1; a >= 0; --a) {
+    for (int a = NR - 1; a >= 0; --a) {
         const double *row = D + a * N_DOF;
-        for (int b = a + 1; b < NC; ++b) {
+        for (int b = a + 1; b < NR; ++b) {
             const double u = row[dependent[b]];
             for (int j = 0; j < NX; ++j) {
                 X[a * NX + j] -= u * X[b * NX + j];
@@ -128,7 +161,6 @@ static int constraint_basis(int N_DOF, int NC, double *D, double *c, int *depend
             X[a * NX + j] *= inv;
         }
     }
-    return GPMEGEN_OK;
 }
 
 /* qdd (N_DOF) = M^-1 f: the model has no programmed constraints and *power, that of the
@@ -177,7 +209,11 @@ static int unconstrained_solve(const struct gpmegen_model *model, double t, cons
    *power receives the power of the constraint forces, qd . (M qdd - f) = (M^T qd) . qdd - qd . f:
    M^T qd does not wait for the solve, so it runs beside the factorization.
    A model without constraints: qdd = M^-1 f and *power = 0.
-   Returns GPMEGEN_OK; GPMEGEN_SINGULAR when D has lost rank or B^T M B is singular;
+   Redundant rows (D of rank below its number of rows, constraint_rank()): the rows pivoted before
+   the rank is reached are the constraint rows here, the others are left out (the accelerations
+   are those of every consistent set of rows; the multipliers are not unique, and are computed
+   apart as the minimum-norm ones).
+   Returns GPMEGEN_OK; GPMEGEN_SINGULAR when D vanishes or B^T M B is singular;
    GPMEGEN_NONFINITE when a term is not finite. */
 int gpmegen_gpme_solve(const struct gpmegen_model *model, double t, const double *q, const double *qd,
                        const double *p, double *qdd, double *M, double *f, double *power)
@@ -185,17 +221,12 @@ int gpmegen_gpme_solve(const struct gpmegen_model *model, double t, const double
     if (model->n_constraints == 0) {
         return unconstrained_solve(model, t, q, qd, p, qdd, M, f, power);
     }
-    const int N_DOF = model->n_dof, NC = model->n_constraints, NI = N_DOF - NC, NX = NI + 1;
-    double phi[NC] ALIGNED, phi_rate[NC] ALIGNED, D[NC * N_DOF] ALIGNED, gam[NC] ALIGNED;
-    double alpha[NC] ALIGNED, beta[NC] ALIGNED, c[NC] ALIGNED;
-    int dependent[NC] ALIGNED, independent[AT_LEAST_1(NI)] ALIGNED;
-    double X[NC * NX] ALIGNED;  /* [X | x_c] = D_dc^-1 [D_ic | c] */
-    double W[NC * NX] ALIGNED;  /* [W | w] */
-    double R[AT_LEAST_1(NI * NI)] ALIGNED;
-    double inv_d[AT_LEAST_1(NI)] ALIGNED, z[AT_LEAST_1(NI)] ALIGNED;
+    const int N_DOF = model->n_dof, NM = model->n_constraints;
+    double phi[NM] ALIGNED, phi_rate[NM] ALIGNED, D[NM * N_DOF] ALIGNED, gam[NM] ALIGNED;
+    double alpha[NM] ALIGNED, beta[NM] ALIGNED, c[NM] ALIGNED;
+    int dependent[NM] ALIGNED;
     double m_qd[N_DOF] ALIGNED, qd_f = 0.0;
-    double m_id[NC] ALIGNED;
-    int status;
+    int status, NC;
 
     model->gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
     model->baumgarte_gains(p, alpha, beta);
@@ -212,9 +243,18 @@ int gpmegen_gpme_solve(const struct gpmegen_model *model, double t, const double
         }
     }
     gpmegen_constraint_rhs(model, phi, phi_rate, gam, alpha, beta, c);
-    if ((status = constraint_basis(N_DOF, NC, D, c, dependent, independent, X)) != GPMEGEN_OK) {
+    /* NC: the rank of D, the number of rows kept (all NM of them unless some are redundant) */
+    if ((status = constraint_rank(N_DOF, NM, model->redundant_rows, D, c, dependent, &NC)) != GPMEGEN_OK) {
         return status;
     }
+    const int NI = N_DOF - NC, NX = NI + 1;
+    int independent[AT_LEAST_1(NI)] ALIGNED;
+    double X[NC * NX] ALIGNED;  /* [X | x_c] = D_dc^-1 [D_ic | c] */
+    double W[NC * NX] ALIGNED;  /* [W | w] */
+    double R[AT_LEAST_1(NI * NI)] ALIGNED;
+    double inv_d[AT_LEAST_1(NI)] ALIGNED, z[AT_LEAST_1(NI)] ALIGNED;
+    double m_id[NC] ALIGNED;
+    constraint_basis(N_DOF, NC, D, c, dependent, independent, X);
     for (int a = 0; a < NC; ++a) {
         const double *row = M + dependent[a] * N_DOF;
         for (int j = 0; j < NI; ++j) {

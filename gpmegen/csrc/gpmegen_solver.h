@@ -59,6 +59,10 @@ struct gpmegen_model {
     void (*gpme_residual_jacobians)(double t, const double *q, const double *qd, const double *a,
                                     const double *lam, const double *p, double *F_q, double *F_qd, double *C_q,
                                     double *C_qd);
+    /* 1: the constraint rows may be redundant (the model closes loops, whose rows can be more than
+       its motion needs): where D loses rank the solves keep its independent rows; 0 (a model
+       that closes no loop): D losing rank is singular */
+    int redundant_rows;
 };
 
 /* The small kernels that the model's recursion shares with the library's dense solve: defined

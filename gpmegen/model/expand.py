@@ -355,7 +355,9 @@ def _check_dependent(model: Model, coordinates: list):
         if name in model.dependent[:k]:
             raise ModelError(f"dependent coordinate {name!r} is listed twice; name each dependent coordinate once",
                              ("dependent", k))
-    if len(model.dependent) != len(model.constraints):
+    # a closure's rows may be redundant (found at the start): then one per independent row, fewer
+    fewer = bool(model.closures) and len(model.dependent) < len(model.constraints)
+    if len(model.dependent) != len(model.constraints) and not fewer:
         raise ModelError(f"{len(model.constraints)} constraint(s) need as many dependent coordinates, "
                          f"{len(model.dependent)} given; list one per constraint or write \"auto\"", ("dependent",))
 

@@ -152,7 +152,7 @@ class CEvaluator:
                 f"split q; set the model's 'dependent' coordinates"
             )
         dep, ind = (tuple(np.asarray(part).tolist()) for part in (model.dependent, model.independent))
-        if sorted(dep + ind) != list(range(self.n)) or len(dep) != self.m:
+        if sorted(dep + ind) != list(range(self.n)) or (len(dep) > self.m if model.redundant else len(dep) != self.m):
             raise ModelError(
                 f"dependent {dep} and independent {ind} must split the {self.n} coordinates, with one "
                 f"dependent coordinate per constraint ({self.m})"
@@ -287,6 +287,10 @@ class CEvaluator:
         return F_q, F_qd, C_q[:m], C_qd[:m]
 
     def acceleration_jacobians(self, t, q, qd, model):
+        if model.redundant:   # the C solve's KKT system takes independent rows only
+            from .model import redundant_acceleration_jacobians
+
+            return redundant_acceleration_jacobians(self, t, q, qd, model)
         self._check_stack("jacobian")
         scratch, q_c, qd_c = self._state(q, qd)
         dep, _ = self._partition_pointers(model)

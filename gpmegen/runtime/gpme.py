@@ -15,8 +15,17 @@ solved together for ``q̈`` (n,).
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 
 from ..errors import SimulationError
+
+# Below this fraction of the largest pivot (|R_00| of a QR factorization with column pivoting of
+# Dᵀ: D's scale), a row of D counts as a combination of the rows before it, so D's rank is the
+# number of pivots above it. Relative to D's scale, well above the round-off a row that is a
+# combination of others keeps (a few machine epsilons of D's largest entry), far below a pivot of
+# rows independent but nearly dependent that a run could use. The C solve's threshold
+# (csrc/gpme.c GPMEGEN_RANK_TOLERANCE) is the same.
+RANK_TOLERANCE = 1e-10
 
 
 def constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders):
@@ -28,8 +37,11 @@ def constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders):
 
 
 def tangent_basis(D, dependent, independent):
-    """``B`` (n, n - m): columns span the velocities allowed by the constraints."""
+    """``B`` (n, n - m): columns span the velocities allowed by the constraints. With fewer
+    ``dependent`` coordinates than rows (redundant rows), from D's :func:`independent_rows`."""
     n = D.shape[1]
+    if len(dependent) < D.shape[0]:
+        D = D[independent_rows(D)]
     B = np.zeros((n, len(independent)))
     B[independent, np.arange(len(independent))] = 1.0
     try:
@@ -42,24 +54,56 @@ def tangent_basis(D, dependent, independent):
     return B
 
 
-def accelerations(M, f, phi, phi_rate, D, gamma, alpha, beta, orders, dependent, independent):
-    """q̈ (n,) from the GPME; without constraints, ``M⁻¹ f``."""
+def independent_rows(D) -> np.ndarray:
+    """Indices (sorted) of rows of ``D`` (m, n) that are independent and span its rows: the
+    pivots of a QR factorization with column pivoting of ``Dᵀ`` above :data:`RANK_TOLERANCE`
+    times the first; all m rows when D has full rank."""
+    D = np.asarray(D, dtype=float)
+    if D.shape[0] == 0:
+        return np.arange(0)
+    _, R, pivots = scipy.linalg.qr(D.T, mode="economic", pivoting=True)
+    diagonal = np.abs(np.diag(R))
+    rank = int(np.sum(diagonal > RANK_TOLERANCE * max(diagonal[0], np.finfo(float).tiny)))
+    return np.sort(pivots[:rank])
+
+
+def rank(D) -> int:
+    """The numerical rank of ``D`` (m, n): the number of :func:`independent_rows`."""
+    return len(independent_rows(D))
+
+
+def accelerations(M, f, phi, phi_rate, D, gamma, alpha, beta, orders, dependent, independent, redundant=False):
+    """q̈ (n,) from the GPME; without constraints, ``M⁻¹ f``. ``redundant``: the rows of ``D``
+    may be redundant (a loop closed more often than its motion needs): the rows kept are the
+    :func:`independent_rows` at this state, with dependent coordinates chosen on them here (the
+    ``dependent``, ``independent`` given are not used); the accelerations are unique when the rows
+    left out are consistent with those kept."""
     if D.shape[0] == 0:
         return np.linalg.solve(M, f)
+    if redundant:
+        from .partition import choose_dependent
+
+        rows = independent_rows(D)
+        phi, phi_rate, D, gamma = phi[rows], phi_rate[rows], D[rows], gamma[rows]
+        alpha, beta, orders = np.asarray(alpha)[rows], np.asarray(beta)[rows], np.asarray(orders)[rows]
+        dependent = choose_dependent(D)
+        independent = np.setdiff1d(np.arange(D.shape[1]), dependent)
     B = tangent_basis(D, dependent, independent)
     A = np.vstack([B.T @ M, D])
     b = np.concatenate([B.T @ f, constraint_rhs(phi, phi_rate, gamma, alpha, beta, orders)])
     return np.linalg.solve(A, b)
 
 
-def multipliers(M, f, qdd, D):
+def multipliers(M, f, qdd, D, redundant=False):
     """λ (m,) of the ideal realization ``M q̈ - f = Dᵀλ``: the least-squares solution of
     ``Dᵀλ = M q̈ - f`` (exact when ``q̈`` solves the GPME, whose residual lies in the range of
     ``Dᵀ``). Units: a generalized force per unit of the constraint (J/[Φ] for a position
-    constraint, W/[Ψ] for a first-order one)."""
+    constraint, W/[Ψ] for a first-order one). ``redundant``: D may have redundant rows, so λ is
+    not unique: the minimum-norm solution, singular values of D at or below
+    :data:`RANK_TOLERANCE` times the largest counted as zero."""
     if D.shape[0] == 0:
         return np.zeros(0)
-    return np.linalg.lstsq(D.T, M @ qdd - f, rcond=None)[0]
+    return np.linalg.lstsq(D.T, M @ qdd - f, rcond=RANK_TOLERANCE if redundant else None)[0]
 
 
 def selection(n, actuators):

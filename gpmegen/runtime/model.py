@@ -128,6 +128,20 @@ class Evaluator(Protocol):
         """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
 
 
+def redundant_acceleration_jacobians(evaluator, t, q, qd, model):
+    """(q̈, ∂q̈/∂q, ∂q̈/∂q̇) of a model whose constraint rows are redundant (``model.redundant``),
+    from ``evaluator``'s generated functions: the rows independent at the state, with their
+    multipliers (unique there), the others' zero; near the state those rows hold the same
+    motions as all of them."""
+    qdd, M, f = evaluator.motion(t, q, qd, model)
+    D = evaluator.constraint_terms(t, q, qd, model.p)[2]
+    rows = gpme.independent_rows(D)
+    lam = np.zeros(len(D))
+    lam[rows] = gpme.multipliers(M, f, qdd, D[rows])
+    F_q, F_qd, C_q, C_qd = evaluator.residual_jacobians(t, q, qd, qdd, lam, model.p)
+    return qdd, *jacobians.acceleration_jacobians(M, D[rows].T, D[rows], F_q, F_qd, C_q[rows], C_qd[rows])
+
+
 class NumpyEvaluator:
     """:class:`Evaluator` over a generated NumPy module; the GPME solved by :mod:`.gpme`."""
 
@@ -174,7 +188,7 @@ class NumpyEvaluator:
     def motion(self, t, q, qd, model):
         M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd, model.p)
         qdd = gpme.accelerations(M, f, phi, phid, D, gamma, model.alpha, model.beta, model.constraint_orders,
-                                 model.dependent, model.independent)
+                                 model.dependent, model.independent, model.redundant)
         return qdd, M, f
 
     def accelerations(self, t, q, qd, model):
@@ -202,6 +216,8 @@ class NumpyEvaluator:
     def acceleration_jacobians(self, t, q, qd, model):
         qdd, M, f = self.motion(t, q, qd, model)
         D = self.constraint_terms(t, q, qd, model.p)[2]
+        if model.redundant:
+            return redundant_acceleration_jacobians(self, t, q, qd, model)
         lam = gpme.multipliers(M, f, qdd, D)
         return qdd, *jacobians.acceleration_jacobians(M, D.T, D, *self.residual_jacobians(t, q, qd, qdd, lam, model.p))
 
@@ -247,6 +263,9 @@ class LoadedModel:
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
+        # True: the constraint rows may be redundant (with_redundant_rows); a model file that closes
+        # loops lists fewer dependent coordinates than rows when it knows some are
+        self.redundant = self.dependent is not None and len(self.dependent) < len(self.constraint_names)
         self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
     def _bind(self, values: dict, overrides: dict, check_all: bool = False) -> None:
@@ -282,11 +301,13 @@ class LoadedModel:
         return frozen(np.array(dep, dtype=int)), frozen(np.array(ind, dtype=int))
 
     def with_partition(self, dependent) -> LoadedModel:
-        """The same model with the coordinates at indices ``dependent`` (one per constraint) as
-        the dependent ones."""
+        """The same model with the coordinates at indices ``dependent`` (one per constraint; with
+        redundant rows, :meth:`with_redundant_rows`, one per independent row) as the dependent
+        ones."""
         dep = sorted(int(k) for k in dependent)
         distinct = len(set(dep)) == len(dep) and all(0 <= k < self.n_dof for k in dep)
-        if len(dep) != len(self.constraint_names) or not distinct:
+        count_ok = len(dep) <= len(self.constraint_names) if self.redundant else len(dep) == len(self.constraint_names)
+        if not count_ok or not distinct:
             raise ModelError(
                 f"need {len(self.constraint_names)} distinct dependent coordinate indices below {self.n_dof}, "
                 f"got {dependent!r}"
@@ -295,6 +316,16 @@ class LoadedModel:
         other.dependent = frozen(np.array(dep, dtype=int))
         other.independent = frozen(np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int))
         return other
+
+    def with_redundant_rows(self, dependent) -> LoadedModel:
+        """The same model for constraint rows that are redundant (``D`` of rank below its number
+        of rows, the rows consistent): each solve keeps the independent rows at its state
+        (:func:`gpmegen.runtime.gpme.independent_rows`), the multipliers are the minimum-norm
+        ones, and ``dependent`` (indices, one per independent row) is the partition."""
+        other = copy.copy(self)
+        other.redundant = True
+        other.__dict__.pop("_accelerations_call", None)
+        return other.with_partition(dependent)
 
     def with_actuators(self, names) -> LoadedModel:
         """The same model with the programmed constraints realized by inputs ``u`` on the named
@@ -541,7 +572,7 @@ class LoadedModel:
         """λ (m,) of the ideal realization at ``(t, q, qd)`` (:func:`gpmegen.runtime.gpme.multipliers`)."""
         qdd, M, f = self.motion(t, q, qd)
         D = self.constraint_terms(t, q, qd)[2]
-        return gpme.multipliers(M, f, qdd, D)
+        return gpme.multipliers(M, f, qdd, D, self.redundant)
 
     def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=(0.0, 0.0), steps=None):
         """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid

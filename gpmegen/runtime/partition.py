@@ -11,16 +11,18 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import SimulationError
+from . import gpme
 
 # Above this condition number of D_dc the partition is reported as ill-conditioned.
 ILL_CONDITIONED = 1e8
 
 
-def choose_dependent(D) -> np.ndarray:
-    """Indices (sorted) of the dependent coordinates: the first ``m`` pivots of a QR
-    factorization with column pivoting of ``D`` (m, n)."""
+def choose_dependent(D, count=None) -> np.ndarray:
+    """Indices (sorted) of the dependent coordinates: the first ``count`` (default ``m``) pivots
+    of a QR factorization with column pivoting of ``D`` (m, n); with redundant rows, ``count`` is
+    D's rank."""
     D = np.asarray(D, dtype=float)
-    m = D.shape[0]
+    m = D.shape[0] if count is None else count
     if m == 0:
         return np.arange(0)
     _, _, pivots = scipy.linalg.qr(D, mode="economic", pivoting=True)
@@ -44,7 +46,7 @@ def partition_at(model, q, t=0.0, qd=None):
     qd = np.zeros(model.n_dof) if qd is None else qd
     _, _, D, _ = model.constraint_terms(t, q, qd)
     check_second_order_rows(model, D, t, qd)
-    return model.with_partition(choose_dependent(D))
+    return model.with_partition(choose_dependent(D, gpme.rank(D) if model.redundant else None))
 
 
 def check_second_order_rows(model, D, t, qd):
@@ -90,7 +92,7 @@ class Watch:
             return model
         names = tuple(model.coordinates[k] for k in model.dependent)
         if self.repartition:
-            self.model = model.with_partition(choose_dependent(D))
+            self.model = model.with_partition(choose_dependent(D, gpme.rank(D) if model.redundant else None))
             new = tuple(model.coordinates[k] for k in self.model.dependent)
             if new != names:
                 self.events.append((float(t), names, new))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import StaticsError
+from . import gpme
 
 GRAVITY_STEPS = (0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 9.81)
 
@@ -119,7 +120,11 @@ def constrained(model, q_start, hold=None, t=0.0, gravity_parameter="g", steps=G
         hold = [k for k in range(n) if k not in springs and k not in dependent]
     free = np.array([k for k in range(n) if k not in set(hold)], dtype=int)
     qd = np.zeros(n)
-    m_c = len(model.constraint_names)
+    # with redundant rows (model.redundant) the rows independent at the start: near it they hold
+    # the same configurations as all of them, and their multipliers are unique
+    rows = (gpme.independent_rows(model.constraint_terms(t, q, qd)[2]) if model.redundant
+            else np.arange(len(model.constraint_names)))
+    m_c = len(rows)
     lam = np.zeros(m_c)
     for g, m in _steps(model, gravity_parameter, steps):
         def split(x):
@@ -130,13 +135,13 @@ def constrained(model, q_start, hold=None, t=0.0, gravity_parameter="g", steps=G
         def residual(x, m=m):
             qq, lm = split(x)
             phi, _, D, _ = m.constraint_terms(t, qq, qd)
-            return np.concatenate([m.static_residual(qq)[free] - D[:, free].T @ lm, phi])
+            return np.concatenate([m.static_residual(qq)[free] - D[np.ix_(rows, free)].T @ lm, phi[rows]])
 
         def jacobian(x, m=m):
             qq, _ = split(x)
             _, _, D, _ = m.constraint_terms(t, qq, qd)
             K = m.stiffness_jacobian(qq)[np.ix_(free, free)]
-            Df = D[:, free]
+            Df = D[np.ix_(rows, free)]
             return np.block([[K, -Df.T], [Df, np.zeros((m_c, m_c))]])
 
         scale = tol * max(1.0, _force_scale(m, q))

@@ -98,9 +98,9 @@ static int tied_recursive(double t, const double *q, const double *qd, const dou
 }
 
 static const struct gpmegen_model FREE = {2, 0, NULL, free_terms, no_constraint_terms, no_gains, no_drive,
-                                          free_recursive, NULL};
+                                          free_recursive, NULL, 0};
 static const struct gpmegen_model TIED = {2, 1, ORDERS, tied_terms, tied_constraint_terms, gains, no_drive,
-                                          tied_recursive, NULL};
+                                          tied_recursive, NULL, 0};
 
 /* The largest error of q against the exact motion at t from q(0) = q0, qd(0) = 0. */
 static double motion_error(const struct gpmegen_model *model, const double *q, double t, const double *q0)
