@@ -183,3 +183,16 @@ def test_a_drive_of_an_acceleration_is_refused_from_python():
                                          "acceleration x_ddot") as caught:
         expand(accelerated)
     assert "\n" not in str(caught.value)
+
+
+def test_the_casadi_export_carries_the_law():
+    casadi = pytest.importorskip("casadi")
+    from gpmegen.codegen import casadi_export
+
+    model = gpmegen.load_model_file(MODELS / "pd_slider.toml")
+    qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]
+    T, Q, QD, U = casadi.SX.sym("t"), casadi.SX.sym("q"), casadi.SX.sym("qd"), casadi.SX.sym("u", 0)
+    p = [2.0, 50.0, 4.0, 0.3, 1e9]   # m, kp, kd, x_ref, u_max
+    rate = casadi.Function("rate", [T, Q, QD, U], [casadi.jacobian(qdd(T, Q, QD, U, p), casadi.vertcat(Q, QD))])
+    assert float(qdd(0.0, 0.1, 0.5, [], p)) == pytest.approx(4.0, rel=1e-15)
+    np.testing.assert_allclose(np.asarray(rate(0.0, 0.1, 0.5, [])), [[-25.0, -2.0]], rtol=1e-15)

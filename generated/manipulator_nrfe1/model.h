@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: bbedd4e109556471
+Input hash: b5adc36d7605bcc1
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 295417180a04c0fd
+Input hash: 94d5d92154af3612
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
