@@ -196,3 +196,11 @@ def test_the_casadi_export_carries_the_law():
     rate = casadi.Function("rate", [T, Q, QD, U], [casadi.jacobian(qdd(T, Q, QD, U, p), casadi.vertcat(Q, QD))])
     assert float(qdd(0.0, 0.1, 0.5, [], p)) == pytest.approx(4.0, rel=1e-15)
     np.testing.assert_allclose(np.asarray(rate(0.0, 0.1, 0.5, [])), [[-25.0, -2.0]], rtol=1e-15)
+
+
+def test_the_linear_model_is_the_closed_loop(env):
+    linear = gpmegen.linearize(str(MODELS / "pd_slider.toml"), backend="numpy", params={"u_max": 1e9})
+    np.testing.assert_allclose(linear.A, [[0.0, 1.0], [-50.0 / 2.0, -4.0 / 2.0]], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(linear.B, [[0.0], [1.0 / 2.0]], rtol=1e-12, atol=1e-12)   # the input on top of the law
+    poles = np.sort_complex(linear.eigenvalues)
+    np.testing.assert_allclose(poles, [-1.0 - 24 ** 0.5 * 1j, -1.0 + 24 ** 0.5 * 1j], rtol=1e-12)
