@@ -99,7 +99,7 @@ def test_functions_agree_with_numpy(pairs, key):
         assert _rel(c.static_residual(q), n.static_residual(q)) <= 1e-12
         assert _rel(c.stiffness_jacobian(q), n.stiffness_jacobian(q)) <= 1e-12
         assert _rel(c.energies(q, qd), n.energies(q, qd)) <= 1e-12
-        assert _rel(c.drive_forces(t), n.drive_forces(t)) <= 1e-12
+        assert _rel(c.drive_forces(t, q, qd), n.drive_forces(t, q, qd)) <= 1e-12
         assert _rel(c.end_effector(q), n.end_effector(q)) <= 1e-12
         for a, b in zip(c.gpme_terms(t, q, qd), n.gpme_terms(t, q, qd)):
             assert a.shape == b.shape and _rel(a, b) <= 1e-12

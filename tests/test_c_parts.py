@@ -43,7 +43,7 @@ def _calls(ffi, lib, n, n_parameters, t, q, qd, p):
     lib.forces(t, ptr(q), ptr(qd), ptr(p), ptr(buffers["f"]))
     lib.static_residual(*args, ptr(buffers["r"]))
     lib.stiffness_jacobian(*args, ptr(buffers["K"]))
-    lib.drive_forces(t, ptr(p), ptr(buffers["Q"]))
+    lib.drive_forces(t, ptr(q), ptr(qd), ptr(p), ptr(buffers["Q"]))
     lib.points(*args, ptr(buffers["P"]))
     lib.energies(ptr(q), ptr(qd), ptr(p), ptr(buffers["e"]))
     lib.constraint_terms(t, ptr(q), ptr(qd), ptr(p), *map(ptr, terms))

@@ -25,6 +25,7 @@ from gpmegen.model.chain import (
     TIME,
     CircularSection,
     Constraint,
+    Drive,
     FlexibleLink,
     Joint,
     Model,
@@ -33,6 +34,8 @@ from gpmegen.model.chain import (
     RectangularSection,
     point_symbols,
     point_velocity_symbols,
+    symbol,
+    velocity_symbol,
 )
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, cprobe
@@ -70,6 +73,8 @@ def _three_links():
         constraints=(Constraint("height", y - sp.Rational(1, 10) * sp.sin(TIME), 0, 20, 20),
                      Constraint("heading", vx * sp.sin(P["w"] * TIME) - vy * sp.cos(P["w"] * TIME), 1, 20)),
         dependent=("a2", "s3"),
+        # a feedback law of a coordinate, its velocity and the point's position and velocity
+        drives=(Drive("a1", -20 * symbol("a1") - 2 * velocity_symbol("a1") - 5 * sp.Max(-1, sp.Min(1, x * vy))),),
     )
 
 

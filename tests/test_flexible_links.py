@@ -366,7 +366,7 @@ def test_a_prescribed_joint_follows_its_law(env, tmp_path):
 
 
 @pytest.mark.parametrize("joint, top, constraints, words", [
-    ('prescribed = "W*t + theta1"', "", "", "coordinate 'theta1' may appear only in constraints"),
+    ('prescribed = "W*t + theta1"', "", "", "coordinate 'theta1' may appear only in drives and constraints"),
     ('prescribed = "W*t"', 'dependent = ["theta1"]', "", "dependent[0]: 'theta1' is prescribed"),
     ('prescribed = "W*t"', "", '[[constraints]]\nname = "tip"\nexpression = "y_E - 0.1"\n',
      "list the dependent coordinates of the [[constraints]]"),

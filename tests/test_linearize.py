@@ -89,7 +89,7 @@ def test_input_matrix_is_the_derivative_of_the_accelerations_in_the_drive(rest):
     h = 1e-3
     up, down = (model.with_params(tdr0=model.params["tdr0"] + s) for s in (h, -h))
     dq = (up.accelerations(t, q, qd) - down.accelerations(t, q, qd)) / (2 * h)
-    dQ = (up.drive_forces(t) - down.drive_forces(t)) / (2 * h)
+    dQ = (up.drive_forces(t, q, qd) - down.drive_forces(t, q, qd)) / (2 * h)
     assert np.count_nonzero(dQ) == 1 and dQ[model.index("theta1")] != 0
     ind = model.partitioned(t, q).independent
     k = len(ind)

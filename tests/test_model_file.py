@@ -163,7 +163,7 @@ BAD = [
     ("unknown-symbol", [('"y_E - 0.1"', '"y_E - h_max"')], "h_max", "constraints[0].expression",
      "unknown name 'h_max'"),
     ("coordinate-in-chain", [('radius = 0.01 }\ndensity', 'radius = "0.01 + theta1" }\ndensity')], "circular",
-     "chain[2].section.radius", "may appear only in constraints"),
+     "chain[2].section.radius", "may appear only in drives and constraints"),
     ("no-coordinate", [('"y_E - 0.1"', '"t - 1"')], "t - 1", "constraints[0].expression",
      "does not depend on any coordinate"),
     ("fixed-point", [('[[chain]]\njoint = "theta1"', '[[chain]]\npoint = "B"\n\n[[chain]]\njoint = "theta1"'),
@@ -229,8 +229,19 @@ BAD = [
                                    'coordinate = "theta1"\nexpression = "2"\n\n[initial]')],
      'coordinate = "theta1"\nexpression = "2"', "drives[1].coordinate",
      "a second drive on 'theta1'; add the two expressions in one drive (the other is drives[0].coordinate, line 40)"),
-    ("drive-coordinate", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "-theta1"\n\n[initial]')],
-     '"-theta1"', "drives[0].expression", "may appear only in constraints"),
+    ("drive-acceleration", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "-theta1_ddot"\n\n'
+                                         '[initial]')],
+     '"-theta1_ddot"', "drives[0].expression", "a drive's law may use positions and velocities, not the "
+     "acceleration theta1_ddot"),
+    ("drive-point-acceleration", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "-ax_E"\n\n'
+                                               '[initial]')],
+     '"-ax_E"', "drives[0].expression", "not the point acceleration ax_E"),
+    ("drive-unknown-name", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "-kp*theta1"\n\n'
+                                         '[initial]')],
+     '"-kp*theta1"', "drives[0].expression", "unknown name 'kp'"),
+    ("drive-unsafe", [("[initial]", '[[drives]]\ncoordinate = "theta1"\nexpression = "theta1.__class__"\n\n'
+                                   '[initial]')],
+     "__class__", "drives[0].expression", "is not allowed"),
     ("text-injection", [('description = "one joint and a flexible link"', "description = 'x \"\"\" y'")],
      "description", "description", "cannot carry in a comment"),
     ("huge-power", [('"y_E - 0.1"', '"y_E - 9^9^9^9"')], "9^9^9^9", "constraints[0].expression", "too large"),

@@ -251,10 +251,12 @@ def test_file_drives_print_and_evaluate_right_on_both_backends(env, tmp_path):
     assert ternaries and all(line.endswith(";") for line in ternaries)   # each on one line
     assert "Heaviside" not in source and "Piecewise" not in source
     order = [c.index(name) for name in ("theta1", "psi1_1", "theta1_1", "phi1_1")]
+    rest = np.zeros(c.n_dof)
     for time in (0.0, 0.1, T_SWITCH, 0.3, 2 * T_SWITCH, 0.6, 3 * T_SWITCH, 1.0):
         expected = expected_drives(time)
-        assert np.array_equal(c.drive_forces(time)[order], numpy_model.drive_forces(time)[order]), time
-        assert _close(c.drive_forces(time)[order], expected, 1e-14), (time, c.drive_forces(time)[order], expected)
+        drives = c.drive_forces(time, rest, rest)
+        assert np.array_equal(drives[order], numpy_model.drive_forces(time, rest, rest)[order]), time
+        assert _close(drives[order], expected, 1e-14), (time, drives[order], expected)
 
 
 def test_file_piecewise_law_is_the_min_law(hubs, tmp_path, rng):

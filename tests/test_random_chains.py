@@ -416,7 +416,7 @@ def check_agreement(loaded, chain, R0, states):
         assert part(0.5 * (f_full + f_minus) - f_rest, h_ref) < REL_TOL, "velocity term"
         assert part(0.5 * (f_full - f_minus), -Dqd) < REL_TOL, "damping"
         # drive
-        Q_pkg = np.asarray(loaded.drive_forces(t), dtype=float)
+        Q_pkg = np.asarray(loaded.drive_forces(t, q, qd), dtype=float)
         assert part(Q_pkg, Q_ref) < REL_TOL, ("drive", Q_pkg, Q_ref)
         # gravity + springs, and gravity alone where no spring is stretched
         assert part(f_rest - Q_pkg, -(g_ref + Cq)) < REL_TOL, "gravity + springs"

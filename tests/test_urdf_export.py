@@ -52,7 +52,7 @@ def test_exported_arm_agrees_with_gpmegen(exported, rng):
         M = np.triu(M) + np.triu(M, 1).T
         np.testing.assert_allclose(loaded.mass_matrix(q), M, rtol=0, atol=1e-10 * np.abs(M).max())
         nle = pin.rnea(model, data, x, qd, np.zeros(n))
-        f = loaded.forces(0.0, q, qd) - loaded.drive_forces(0.0)
+        f = loaded.forces(0.0, q, qd) - loaded.drive_forces(0.0, q, qd)
         expected = -nle - K * q - D * qd
         np.testing.assert_allclose(f, expected, rtol=0, atol=1e-10 * np.abs(expected).max())
         pin.framesForwardKinematics(model, data, x)
@@ -72,7 +72,7 @@ def test_export_and_import_give_back_the_model(exported, env, rng):
         q, qd = rng.uniform(-0.5, 0.5, loaded.n_dof), rng.uniform(-1, 1, loaded.n_dof)
         M = loaded.mass_matrix(q)
         np.testing.assert_allclose(again.mass_matrix(q), M, rtol=0, atol=1e-10 * np.abs(M).max())
-        f = loaded.forces(0.0, q, qd) - loaded.drive_forces(0.0)
+        f = loaded.forces(0.0, q, qd) - loaded.drive_forces(0.0, q, qd)
         np.testing.assert_allclose(again.forces(0.0, q, qd), f, rtol=0, atol=1e-10 * np.abs(f).max())
         np.testing.assert_allclose(again.point_positions(q)[rows], loaded.point_positions(q), rtol=0, atol=1e-12)
 

@@ -33,7 +33,7 @@ def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, prog
     progress(f"stable inversion on [{t0 - pre:g}, {t1 + post:g}] s from {nodes} mesh nodes")
     inv = inversion.stable_inversion(model, q0, t0, t1, pre, post, nodes=nodes, progress=progress)
     n = model.n_dof
-    drive = np.array([model.drive_forces(t) for t in inv.t])
+    drive = np.array([model.drive_forces(t, q, qd) for t, q, qd in zip(inv.t, inv.q, inv.qd)])
     inputs = np.zeros((len(inv.t), n))
     inputs[:, model.actuators] = inv.u
     y = np.column_stack([inv.q, inv.qd, work(inv.t, inv.qd, drive), work(inv.t, inv.qd, inputs)])

@@ -382,7 +382,7 @@ def collect(model, t, y, status, settings) -> dict:
     actuated = len(model.actuators) > 0
     for k in range(samples):
         E[k] = model.end_effector(q[k])
-        drive[k] = model.drive_forces(t[k])
+        drive[k] = model.drive_forces(t[k], q[k], qd[k]) if np.all(np.isfinite(y[k, :2 * n])) else np.nan
         if np.all(np.isfinite(y[k, :2 * n])):  # the state (the model's functions refuse one not finite)
             phi[k] = model.constraint_values(t[k], q[k], qd[k])
             D = model.constraint_terms(t[k], q[k], qd[k])[2]

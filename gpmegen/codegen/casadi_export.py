@@ -13,7 +13,8 @@ source is written beside the functions it makes, each saved by CasADi's ``Functi
 - ``points(q, p)``: the named points' positions in {0}; ``energies(q, qd, p)``.
 
 ``u`` holds inputs: a generalized force on each coordinate named in ``inputs`` (an actuator
-torque or force), added to the model's own drives (expressions of ``t`` and the parameters).
+torque or force), added to the model's own drives (laws of ``t``, the parameters and, as
+feedback laws, the state).
 """
 
 from __future__ import annotations

@@ -133,7 +133,7 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bo
     qd = sp.Matrix(kin.qd)
     kinetic = (qd.T * dyn.mass_matrix * qd)[0, 0] / 2
     mass = _out("M", dyn.mass_matrix, "mass matrix M(q), symmetric")
-    forces = _out("f", dyn.forces, "generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping", vector=True)
+    forces = _out("f", dyn.forces, "generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping", vector=True)
     constraint_outputs = (
         _out("phi", con.value, "constraint values phi in CONSTRAINTS order", vector=True),
         _out("phi_rate", con.rate, "their rates d(phi)/dt", vector=True),
@@ -149,8 +149,9 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bo
                  (_out("r", dyn.gravity_terms + dyn.spring_forces, "g(q) + C q", vector=True),)),
         Function("stiffness_jacobian", "Tangent stiffness K = d(g + C q)/dq, from T_ij.", ("q", "p"),
                  (_out("K", dyn.stiffness_jacobian, "K[i, j] = d(g + C q)_i / dq_j"),)),
-        Function("drive_forces", "Drive forces Q(t).", ("t", "p"),
-                 (_out("Q", dyn.drive_forces, "drive forces Q(t)", vector=True),), hot=True),
+        Function("drive_forces", "Drive forces Q(t, q, qd): the drives' laws, feedback included.",
+                 ("t", "q", "qd", "p"),
+                 (_out("Q", dyn.drive_forces, "drive forces Q(t, q, qd)", vector=True),), hot=True),
         Function("points", "Positions of the named points in {0}.", ("q", "p"),
                  (Output("P", (points.shape[0], 3), tuple(points),
                          "positions (m), one row per point in POINTS order: x, y, z in {0}"),)),
@@ -182,7 +183,7 @@ def _recursive_function(d: Derivation, constraint_outputs) -> Function:
               "of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2)"),
          _out("b", rec.bias, "bias force of each link (torque about the origin, N m; force, N): its rate of "
               "momentum at qdd = 0 plus its weight"),
-         _out("tau", rec.joint_forces, "joint forces Q(t) - C q - damping", vector=True))
+         _out("tau", rec.joint_forces, "joint forces Q(t, q, qd) - C q - damping", vector=True))
         + constraint_outputs, hot=True)
 
 

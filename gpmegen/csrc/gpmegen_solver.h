@@ -47,8 +47,8 @@ struct gpmegen_model {
     void (*constraint_terms)(double t, const double *q, const double *qd, const double *p, double *phi,
                              double *phi_rate, double *D, double *gamma);
     void (*baumgarte_gains)(const double *p, double *alpha, double *beta);
-    /* drive forces Q(t) (n_dof) */
-    void (*drive_forces)(double t, const double *p, double *Q);
+    /* drive forces Q(t, q, qd) (n_dof): the drives' laws, feedback included */
+    void (*drive_forces)(double t, const double *q, const double *qd, const double *p, double *Q);
     /* qdd (n_dof) from the GPME in O(n_dof) (the model's own recursion over its tree, which
        falls back to gpmegen_gpme_solve) and *power, that of the constraint forces */
     int (*gpme_recursive)(double t, const double *q, const double *qd, const double *p, double *qdd,

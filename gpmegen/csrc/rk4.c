@@ -13,7 +13,7 @@ int gpmegen_stage(const struct gpmegen_model *model, double t, const double *q, 
     if (status != GPMEGEN_OK) {
         return status;
     }
-    model->drive_forces(t, p, Q);
+    model->drive_forces(t, q, qd, p, Q);
     power[0] = 0.0;
     for (int i = 0; i < N_DOF; ++i) {
         power[0] += qd[i] * Q[i];

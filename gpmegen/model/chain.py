@@ -268,7 +268,10 @@ class FlexibleLink:
 
 @dataclass(frozen=True)
 class Drive:
-    """A generalized force (N·m or N) on ``coordinate``, an expression of ``t`` and parameters."""
+    """A generalized force (N·m or N) on ``coordinate``, an expression of ``t``, parameters and,
+    as a feedback law, of the state: coordinates, their velocities ``<name>_dot``, points'
+    positions ``x_P`` and velocities ``vx_P`` (:func:`symbol`, :func:`velocity_symbol`,
+    :func:`point_symbols`, :func:`point_velocity_symbols`); never of accelerations."""
 
     coordinate: str
     expression: sp.Expr

@@ -64,6 +64,15 @@ class FlatChain:
         return tuple(e.name for e in self.elements if isinstance(e, Body))
 
 
+def _free_symbols(expr) -> set:
+    """The free symbols of ``expr``, none when it is not an expression (:func:`_check_expression`
+    says so)."""
+    try:
+        return sp.sympify(expr).free_symbols
+    except (sp.SympifyError, TypeError):
+        return set()
+
+
 def _check_expression(expr, allowed: set, where: str, subject: tuple):
     try:
         expr = sp.sympify(expr)
@@ -279,7 +288,14 @@ def _check_derived_names(flat, names: _Names):
             made[name] = (owner, meaning, path)
 
 
-def _check_drives(model: Model, coordinates: list, constant: set):
+def _check_drives(model: Model, coordinates: list, points: list, constant: set):
+    """Each drive on a known coordinate, once; its law of t, parameters and the state a
+    first-order constraint may name (coordinates, their velocities, points' positions and
+    velocities), never of accelerations."""
+    state = {f(c) for c in coordinates for f in (symbol, velocity_symbol)}
+    state |= {s for name in points for f in (point_symbols, point_velocity_symbols) for s in f(name)}
+    accelerations = {acceleration_symbol(c) for c in coordinates}
+    accelerations |= {s for name in points for s in point_acceleration_symbols(name)}
     first: dict[str, tuple] = {}
     for k, drive in enumerate(model.drives):
         path = ("drives", k)
@@ -292,7 +308,13 @@ def _check_drives(model: Model, coordinates: list, constant: set):
             raise ModelError(f"a second drive on {drive.coordinate!r}; add the two expressions in one drive",
                              path + ("coordinate",), first[drive.coordinate])
         first[drive.coordinate] = path + ("coordinate",)
-        _check_expression(drive.expression, constant | {TIME}, f"drive on {drive.coordinate!r}", path + ("expression",))
+        where = f"drive on {drive.coordinate!r}"
+        used = sorted(str(s) for s in _free_symbols(drive.expression) & accelerations)
+        if used:
+            raise ModelError(f"{where}: a drive's law may use positions and velocities, not the acceleration "
+                             f"{used[0]} (a force that depends on the accelerations changes the mass matrix); remove "
+                             f"it", path + ("expression",))
+        _check_expression(drive.expression, constant | {TIME} | state, where, path + ("expression",))
 
 
 ORDERS = {0: "position", 1: "first order, linear in velocities", 2: "second order, linear in accelerations"}
@@ -382,7 +404,7 @@ def expand(model: Model) -> FlatChain:
     _check_derived_names(flat, names)
     for i, v in enumerate(model.gravity):
         _check_expression(v, constant, "gravity", ("gravity", i))
-    _check_drives(model, coordinates, constant)
+    _check_drives(model, coordinates, points, constant)
     _check_constraints(model, flat, coordinates, names)
     elements = tuple(e for _, e in flat)
     tree = topology(elements)

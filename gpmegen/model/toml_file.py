@@ -39,7 +39,7 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     point = "E"                           #   point: name, position (m) in the current frame
     position = ["L3", 0, 0]
 
-    [[drives]]                            # generalized force on a coordinate, of t and parameters
+    [[drives]]                            # generalized force on a coordinate: t, parameters, the state
     coordinate = "theta1"
     expression = "tdr0*Min(t/t0, 1)^3*(10 - 15*Min(t/t0, 1) + 6*Min(t/t0, 1)^2)"
 
@@ -65,9 +65,9 @@ web_thickness), or ``stiffness`` (EIz, EIy, GJ, rhoA, optional rhoIz, rhoIy, EA;
 gives no density, moduli nor torsion_constant).
 
 Quantities are numbers or expression strings. Chain quantities, gravity, Baumgarte gains and
-initial values may use parameters; drives also ``t``; constraints also coordinates, points
-``x_P, y_P, z_P`` and, when ``order = 1``, velocities ``<coordinate>_dot`` and
-``vx_P, vy_P, vz_P``. Functions: sin cos tan exp log sqrt Abs Min Max atan2 Heaviside
+initial values may use parameters; drives and constraints also ``t``, coordinates and points
+``x_P, y_P, z_P``; drives (feedback laws) and constraints of ``order = 1`` also velocities
+``<coordinate>_dot`` and ``vx_P, vy_P, vz_P``. Functions: sin cos tan exp log sqrt Abs Min Max atan2 Heaviside
 Piecewise; constant pi; operators ``+ - * / ** ^ ( ) ,``; comparisons ``< <= > >=`` and ``True``
 only as the conditions of ``Piecewise((value, t < T), ..., (value, True))`` pairs. Expressions
 are checked lexically, by name and for where comparisons stand before SymPy's parser sees them,

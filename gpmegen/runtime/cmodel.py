@@ -184,9 +184,10 @@ class CEvaluator:
         self.lib.stiffness_jacobian(self._ptr(q), self._params(p), self._ptr(K))
         return K
 
-    def drive_forces(self, t, p):
+    def drive_forces(self, t, q, qd, p):
+        _, q_c, qd_c = self._state(q, qd)
         Q = np.empty(self.n)
-        self.lib.drive_forces(float(t), self._params(p), self._ptr(Q))
+        self.lib.drive_forces(float(t), q_c, qd_c, self._params(p), self._ptr(Q))
         return Q
 
     def points(self, q, p):

@@ -92,7 +92,7 @@ def state_derivative(model):
     def rhs(t, y):
         q, qd = y[:n], y[n:2 * n]
         qdd, M, f = model.motion(t, q, qd)
-        drive = model.drive_forces(t)
+        drive = model.drive_forces(t, q, qd)
         reaction = M @ qdd - f
         return np.concatenate([qd, qdd, [qd @ drive, qd @ reaction]])
 

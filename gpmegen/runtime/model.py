@@ -77,7 +77,7 @@ class Evaluator(Protocol):
     def forces(self, t, q, qd, p): ...
     def static_residual(self, q, p): ...
     def stiffness_jacobian(self, q, p): ...
-    def drive_forces(self, t, p): ...
+    def drive_forces(self, t, q, qd, p): ...
     def points(self, q, p): ...
     def transforms(self, q, p, kind): ...
     def constraint_terms(self, t, q, qd, p): ...
@@ -167,8 +167,8 @@ class NumpyEvaluator:
     def stiffness_jacobian(self, q, p):
         return call(self.module, "stiffness_jacobian", self._q(q), p)
 
-    def drive_forces(self, t, p):
-        return call(self.module, "drive_forces", t, p)
+    def drive_forces(self, t, q, qd, p):
+        return call(self.module, "drive_forces", t, self._q(q), self._qd(qd), p)
 
     def points(self, q, p):
         return call(self.module, "points", self._q(q), p)
@@ -375,7 +375,7 @@ class LoadedModel:
         return self.evaluator.mass_matrix(q, self.p)
 
     def forces(self, t, q, qd):
-        """f = Q(t) + h(q, qd) - g(q) - C q - damping, (n,)."""
+        """f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping, (n,)."""
         batch, (t, q, qd) = self._state(t, q, qd)
         if batch:
             return self.evaluator.forces_batch(t, q, qd, self.p)
@@ -389,9 +389,9 @@ class LoadedModel:
         """K = ∂(g + C q)/∂q, (n, n)."""
         return self.evaluator.stiffness_jacobian(q, self.p)
 
-    def drive_forces(self, t):
-        """Q(t), (n,)."""
-        return self.evaluator.drive_forces(t, self.p)
+    def drive_forces(self, t, q, qd):
+        """Q(t, q, q̇), (n,): the drives' laws at the state, feedback included."""
+        return self.evaluator.drive_forces(t, q, qd, self.p)
 
     def point_positions(self, q):
         """Positions of the named points in {0}, (n_points, 3), m."""

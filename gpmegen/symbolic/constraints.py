@@ -68,9 +68,9 @@ class _Symbols:
     accelerations enter ``D`` (``velocity_column`` and ``acceleration_column``: symbol -> j;
     ``velocity_jacobian`` and ``acceleration_jacobian``: symbol -> (n,) components). The axes of
     points' frames (:func:`gpmegen.model.chain.axis_symbols`, a closure's) are defined only
-    where ``constraints`` use them."""
+    where ``expressions`` use them."""
 
-    def __init__(self, kin: Kinematics, constraints):
+    def __init__(self, kin: Kinematics, expressions):
         n = self.n = len(kin.q)
         names = kin.chain.coordinates
         internal = self.internal = {}
@@ -92,7 +92,7 @@ class _Symbols:
                 rate_of[xs[k]] = vs[k]
                 rate_of[vs[k]] = accs[k]
                 self.velocity_jacobian[vs[k]] = self.acceleration_jacobian[a] = [pt.jacobian[j][k] for j in range(n)]
-        used = {s for c in constraints for s in sp.sympify(c.expression).free_symbols}
+        used = {s for e in expressions for s in sp.sympify(e).free_symbols}
         for pname, pt in kin.points.items():
             for axis in AXES:
                 es = axis_symbols(pname, axis)
@@ -137,13 +137,21 @@ class _Symbols:
         return [v.xreplace(self.internal) for v in row]
 
 
+def state_expressions(kin: Kinematics, expressions) -> list:
+    """``expressions`` of the user's state symbols (coordinates, ``<name>_dot``, points'
+    positions and velocities, as a first-order constraint names them; a drive's feedback law)
+    in the kinematics' internal symbols, switches kept as written."""
+    symbols = _Symbols(kin, expressions)
+    return [sp.sympify(e).xreplace(symbols.internal) for e in expressions]
+
+
 def constant_rows(kin: Kinematics, constraints) -> list[str]:
     """For each position constraint: "zero" where it vanishes identically on the chain (its value
     and its row of ``D`` are exact zeros once written in the kinematics' intermediates: a
     closure's out-of-plane rows in a planar linkage), "constant" where its row of ``D`` does but
     its value does not, else "". Defines intermediates in ``kin.program``: give it a program of
     its own."""
-    symbols = _Symbols(kin, constraints)
+    symbols = _Symbols(kin, [c.expression for c in constraints])
     out = []
     for c in constraints:
         expr = as_piecewise(c.expression)
@@ -158,7 +166,7 @@ def constant_rows(kin: Kinematics, constraints) -> list[str]:
 def derive(kin: Kinematics, constraints) -> ConstraintTerms:
     """Terms of the programmed constraints on the chain whose kinematics is ``kin``."""
     define = kin.program.define
-    symbols = _Symbols(kin, constraints)
+    symbols = _Symbols(kin, [c.expression for c in constraints])
     internal, rate, jacobian_row = symbols.internal, symbols.rate, symbols.jacobian_row
     velocity_column, acceleration_column = symbols.velocity_column, symbols.acceleration_column
     velocity_jacobian, acceleration_jacobian = symbols.velocity_jacobian, symbols.acceleration_jacobian

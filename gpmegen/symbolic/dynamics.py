@@ -26,6 +26,7 @@ import sympy as sp
 
 from ..model.topology import GROUND
 from .algebra import cross, dot, mul
+from .constraints import state_expressions
 from .kinematics import Kinematics
 
 
@@ -38,8 +39,8 @@ class Dynamics:
     gravity_terms: sp.Matrix      # g (n,)
     spring_forces: sp.Matrix      # C q (n,)
     damping_forces: sp.Matrix     # (n,)
-    drive_forces: sp.Matrix       # Q(t) (n,)
-    stiffness_jacobian: sp.Matrix  # ∂(g + C q - Q)/∂q (n, n)
+    drive_forces: sp.Matrix       # Q(t, q, q̇) (n,): the drives' laws, feedback included
+    stiffness_jacobian: sp.Matrix  # ∂(g + C q)/∂q (n, n), drives off
     potential_energy: sp.Expr     # gravity part, J
     spring_energy: sp.Expr        # J
     columns: tuple = ()           # (n_j, l_j) per joint: m_ij = ω_i·n_j + v_i·l_j for i supporting j
@@ -183,8 +184,9 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
         K[j, j] = K[j, j] + jt.stiffness
     index = {jt.name: j for j, jt in enumerate(kin.joints)}
     drive = sp.zeros(n, 1)
-    for d in drives:
-        drive[index[d.coordinate]] += sp.sympify(d.expression)
+    laws = state_expressions(kin, [d.expression for d in drives])   # feedback laws name the state
+    for d, law in zip(drives, laws):
+        drive[index[d.coordinate]] += law
 
     potential = -sum((dot(gvec, c) for _, _, c, *_ in per_body), sp.S.Zero)
     spring_energy = sum((jt.stiffness * (kin.q[j] - jt.rest) ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)

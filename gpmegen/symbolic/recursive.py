@@ -14,7 +14,7 @@ the ground never move and enter no link. Per joint or link:
 - its bias force ``b_j = I_j (a_j⁰ - (0, g⃗)) + V_j ×* I_j V_j``: the rate of momentum of the
   link at ``q̈ = 0`` (``a_j⁰`` the velocity-product part of its spatial acceleration, as
   :mod:`.dynamics` forms it for ``h``) plus its weight, as a force ``(n, f)``;
-- the joint forces ``τ = Q(t) - C q - D q̇`` (drives, springs, dampers).
+- the joint forces ``τ = Q(t, q, q̇) - C q - D q̇`` (drives, springs, dampers).
 
 With the link accelerations ``a_j = a_j⁰ - (0, g⃗) + Σ_{k supporting j} S_k q̈_k`` the link forces
 are ``I_j Σ_{k supporting j} S_k q̈_k + b_j``, so the recursion works on ``q̈`` alone, from a base at rest:

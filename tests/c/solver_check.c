@@ -75,9 +75,9 @@ static void no_gains(const double *p, double *alpha, double *beta)
     (void)p, (void)alpha, (void)beta;
 }
 
-static void no_drive(double t, const double *p, double *Q)
+static void no_drive(double t, const double *q, const double *qd, const double *p, double *Q)
 {
-    (void)t, (void)p;
+    (void)t, (void)q, (void)qd, (void)p;
     Q[0] = 0.0, Q[1] = 0.0;
 }
 

@@ -35,9 +35,9 @@ static void gains(const double *p, double *alpha, double *beta)
     (void)p, (void)alpha, (void)beta;
 }
 
-static void drive(double t, const double *p, double *Q)
+static void drive(double t, const double *q, const double *qd, const double *p, double *Q)
 {
-    (void)t, (void)p;
+    (void)t, (void)q, (void)qd, (void)p;
     memset(Q, 0, sizeof(double) * (size_t)N);
 }
 

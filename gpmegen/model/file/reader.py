@@ -122,6 +122,7 @@ class Reader:
         self.moving_points: set[str] = set()
         self.labels: dict[str, tuple] = {}
         self.prescribed: dict[str, tuple] = {}   # coordinate -> (law of t, path of its field)
+        self.reading_drive = False   # names are read for a drive's law (positions and velocities only)
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -253,10 +254,14 @@ class Reader:
             return (f"parameter values are numbers and cannot refer to parameter {name!r}; write the "
                     f"number, or the expression where the value is used")
         if name in self.coordinates:
-            return f"coordinate {name!r} may appear only in constraints; use parameters (and t in drives) here"
+            return (f"coordinate {name!r} may appear only in drives and constraints; use parameters (and t in "
+                    f"drives) here")
         for suffix, (quantity, orders) in (("_ddot", _RATES["a"]), ("_dot", _RATES["v"])):
             if name.endswith(suffix):
                 base = name[:-len(suffix)]
+                if base in self.coordinates and self.reading_drive:
+                    return (f"a drive's law may use positions and velocities, not the {quantity} {name} (a force "
+                            f"that depends on the accelerations changes the mass matrix); remove it")
                 if base in self.coordinates:
                     return f"the {quantity} {name} may appear only in {orders} or remove it"
                 return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
@@ -266,8 +271,11 @@ class Reader:
                 kind = point.group(1)[0]
                 if kind in _RATES and symbol(f"x_{point.group(2)}") in scope.values():
                     quantity, orders = _RATES[kind]
+                    if self.reading_drive:
+                        return (f"a drive's law may use positions and velocities, not the point {quantity} {name} "
+                                f"(a force that depends on the accelerations changes the mass matrix); remove it")
                     return f"the point {quantity} {name} may appear only in {orders} or remove it"
-                return f"point coordinate {name} may appear only in constraints; remove it"
+                return f"point coordinate {name} may appear only in drives and constraints; remove it"
             known = ", ".join(self.points) or "none"
             return (f"{name!r} names no declared point {point.group(2)!r} (points: {known}); declare the "
                     f"point with a [[chain]] point = \"{point.group(2)}\" element or fix the name")
@@ -588,13 +596,17 @@ class Reader:
 
     def read_drives(self, items):
         self.array(items, ("drives",), what="list of [[drives]] tables")
-        scope = {**self.params, "t": TIME}
+        scope = self.constraint_scope(1)   # a feedback law: t, parameters, positions and velocities
         drives = []
         for k, item in enumerate(items):
             path = ("drives", k)
             self.table(item, path, ("coordinate", "expression"), ("coordinate", "expression"), "drive")
             coordinate = self.string(item["coordinate"], path + ("coordinate",), "a coordinate name in quotes")
-            drives.append(Drive(coordinate, self.quantity(item["expression"], path + ("expression",), scope)))
+            self.reading_drive = True
+            try:
+                drives.append(Drive(coordinate, self.quantity(item["expression"], path + ("expression",), scope)))
+            finally:
+                self.reading_drive = False
         return tuple(drives)
 
     def constraint_scope(self, order):
