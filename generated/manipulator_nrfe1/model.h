@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 9cbb1be4e8e3ccee
+Input hash: 63baa9738db62c9c
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -85,7 +85,7 @@ void manipulator_nrfe1_mass_matrix_batch(long n, const double *q, const double *
    q: (3,) coordinates in COORDINATES order
    qd: (3,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
-   out_f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+   out_f: (3,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
 */
 void manipulator_nrfe1_forces(double t, const double *q, const double *qd, const double *p, double *out_f);
 
@@ -109,12 +109,14 @@ void manipulator_nrfe1_static_residual(const double *q, const double *p, double 
 */
 void manipulator_nrfe1_stiffness_jacobian(const double *q, const double *p, double *out_K);
 
-/* Drive forces Q(t).
+/* Drive forces Q(t, q, qd): the drives' laws, feedback included.
    t: time (s)
+   q: (3,) coordinates in COORDINATES order
+   qd: (3,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
-   out_Q: (3,) drive forces Q(t)
+   out_Q: (3,) drive forces Q(t, q, qd)
 */
-void manipulator_nrfe1_drive_forces(double t, const double *p, double *out_Q);
+void manipulator_nrfe1_drive_forces(double t, const double *q, const double *qd, const double *p, double *out_Q);
 
 /* Positions of the named points in {0}.
    q: (3,) coordinates in COORDINATES order
@@ -162,7 +164,7 @@ void manipulator_nrfe1_energies(const double *q, const double *qd, const double 
    qd: (3,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
    out_M: (3, 3) mass matrix M(q), symmetric, row-major
-   out_f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+   out_f: (3,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
    out_phi: (2,) constraint values phi in CONSTRAINTS order
    out_phi_rate: (2,) their rates d(phi)/dt
    out_jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
@@ -178,7 +180,7 @@ void manipulator_nrfe1_gpme_terms(double t, const double *q, const double *qd, c
    out_S: (3, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
    out_I: (3, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
    out_b: (3, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
-   out_tau: (3,) joint forces Q(t) - C q - damping
+   out_tau: (3,) joint forces Q(t, q, qd) - C q - damping
    out_phi: (2,) constraint values phi in CONSTRAINTS order
    out_phi_rate: (2,) their rates d(phi)/dt
    out_jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major

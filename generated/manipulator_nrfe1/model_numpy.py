@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 9cbb1be4e8e3ccee
+Input hash: 63baa9738db62c9c
 n_dof = 3; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -43,7 +43,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe1'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '9cbb1be4e8e3ccee'
+INPUT_HASH = '63baa9738db62c9c'
 N_DOF = 3
 COORDINATES = ('theta1', 'psi2', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -181,7 +181,7 @@ def forces(t, q, qd, p):
         qd: (3,) velocities in COORDINATES order
         p: (25,) parameter values in PARAMETERS order
     Returns:
-        f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+        f: (3,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
     """
     q = np.asarray(q, dtype=float).tolist()
     qd = np.asarray(qd, dtype=float).tolist()
@@ -418,14 +418,16 @@ def stiffness_jacobian(q, p):
 
 
 
-def drive_forces(t, p):
-    """Drive forces Q(t).
+def drive_forces(t, q, qd, p):
+    """Drive forces Q(t, q, qd): the drives' laws, feedback included.
 
     Arguments:
         t: time (s)
+        q: (3,) coordinates in COORDINATES order
+        qd: (3,) velocities in COORDINATES order
         p: (25,) parameter values in PARAMETERS order
     Returns:
-        Q: (3,) drive forces Q(t)
+        Q: (3,) drive forces Q(t, q, qd)
     """
     p = np.asarray(p, dtype=float).tolist()
     _p_tdr0 = p[15]
@@ -716,7 +718,7 @@ def gpme_terms(t, q, qd, p):
         p: (25,) parameter values in PARAMETERS order
     Returns:
         M: (3, 3) mass matrix M(q), symmetric, row-major
-        f: (3,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+        f: (3,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
         phi: (2,) constraint values phi in CONSTRAINTS order
         phi_rate: (2,) their rates d(phi)/dt
         jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major
@@ -930,7 +932,7 @@ def recursive_terms(t, q, qd, p):
         S: (3, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
         I: (3, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
         b: (3, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
-        tau: (3,) joint forces Q(t) - C q - damping
+        tau: (3,) joint forces Q(t, q, qd) - C q - damping
         phi: (2,) constraint values phi in CONSTRAINTS order
         phi_rate: (2,) their rates d(phi)/dt
         jacobian: (2, 3) constraint matrix D, one row per constraint, one column per coordinate, row-major

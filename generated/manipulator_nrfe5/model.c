@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1c5b5b609845781c
+Input hash: 157f07462cb10e36
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "1c5b5b609845781c"; }
+const char *manipulator_nrfe5_input_hash(void) { return "157f07462cb10e36"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -869,7 +869,7 @@ void manipulator_nrfe5_mass_matrix_batch(long n, const double *q, const double *
    q: (15,) coordinates in COORDINATES order
    qd: (15,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
-   out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+   out_f: (15,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
 */
 void manipulator_nrfe5_forces(double t, const double *q, const double *qd, const double *p, double *out_f)
 {
@@ -2361,13 +2361,17 @@ void manipulator_nrfe5_stiffness_jacobian(const double *q, const double *p, doub
 
 
 #ifdef HOT_PART
-/* Drive forces Q(t).
+/* Drive forces Q(t, q, qd): the drives' laws, feedback included.
    t: time (s)
+   q: (15,) coordinates in COORDINATES order
+   qd: (15,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
-   out_Q: (15,) drive forces Q(t)
+   out_Q: (15,) drive forces Q(t, q, qd)
 */
-void manipulator_nrfe5_drive_forces(double t, const double *p, double *out_Q)
+void manipulator_nrfe5_drive_forces(double t, const double *q, const double *qd, const double *p, double *out_Q)
 {
+    (void)q;
+    (void)qd;
     const double _p_tdr0 = p[15];
     const double _p_t0 = p[16];
     const double _x1054 = fmin(1.0, t/_p_t0);
@@ -3636,7 +3640,7 @@ void manipulator_nrfe5_energies(const double *q, const double *qd, const double 
    qd: (15,) velocities in COORDINATES order
    p: (25,) parameter values in PARAMETERS order
    out_M: (15, 15) mass matrix M(q), symmetric, row-major
-   out_f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+   out_f: (15,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
    out_phi: (2,) constraint values phi in CONSTRAINTS order
    out_phi_rate: (2,) their rates d(phi)/dt
    out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
@@ -4903,7 +4907,7 @@ void manipulator_nrfe5_gpme_terms(double t, const double *q, const double *qd, c
    out_S: (15, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
    out_I: (15, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
    out_b: (15, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
-   out_tau: (15,) joint forces Q(t) - C q - damping
+   out_tau: (15,) joint forces Q(t, q, qd) - C q - damping
    out_phi: (2,) constraint values phi in CONSTRAINTS order
    out_phi_rate: (2,) their rates d(phi)/dt
    out_jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major

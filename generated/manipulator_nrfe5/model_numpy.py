@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 1c5b5b609845781c
+Input hash: 157f07462cb10e36
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -55,7 +55,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe5'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = '1c5b5b609845781c'
+INPUT_HASH = '157f07462cb10e36'
 N_DOF = 15
 COORDINATES = ('theta1', 'psi2', 'psi2_1', 'theta2_1', 'phi2_1', 'psi2_2', 'theta2_2', 'phi2_2', 'psi2_3', 'theta2_3', 'phi2_3', 'psi2_4', 'theta2_4', 'phi2_4', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')
@@ -685,7 +685,7 @@ def forces(t, q, qd, p):
         qd: (15,) velocities in COORDINATES order
         p: (25,) parameter values in PARAMETERS order
     Returns:
-        f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+        f: (15,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
     """
     q = np.asarray(q, dtype=float).tolist()
     qd = np.asarray(qd, dtype=float).tolist()
@@ -1960,14 +1960,16 @@ def stiffness_jacobian(q, p):
 
 
 
-def drive_forces(t, p):
-    """Drive forces Q(t).
+def drive_forces(t, q, qd, p):
+    """Drive forces Q(t, q, qd): the drives' laws, feedback included.
 
     Arguments:
         t: time (s)
+        q: (15,) coordinates in COORDINATES order
+        qd: (15,) velocities in COORDINATES order
         p: (25,) parameter values in PARAMETERS order
     Returns:
-        Q: (15,) drive forces Q(t)
+        Q: (15,) drive forces Q(t, q, qd)
     """
     p = np.asarray(p, dtype=float).tolist()
     _p_tdr0 = p[15]
@@ -3196,7 +3198,7 @@ def gpme_terms(t, q, qd, p):
         p: (25,) parameter values in PARAMETERS order
     Returns:
         M: (15, 15) mass matrix M(q), symmetric, row-major
-        f: (15,) generalized forces f = Q(t) + h(q, qd) - g(q) - C q - damping
+        f: (15,) generalized forces f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping
         phi: (2,) constraint values phi in CONSTRAINTS order
         phi_rate: (2,) their rates d(phi)/dt
         jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major
@@ -4240,7 +4242,7 @@ def recursive_terms(t, q, qd, p):
         S: (15, 6) world twist (omega, v at the origin) of each joint's axis, in COORDINATES order, row-major
         I: (15, 10) spatial inertia of each link (the bodies joint j moves directly: none of its children's) about the origin: m (kg), c = m r_C (kg m), I_O xx, xy, xz, yy, yz, zz (kg m^2), row-major
         b: (15, 6) bias force of each link (torque about the origin, N m; force, N): its rate of momentum at qdd = 0 plus its weight, row-major
-        tau: (15,) joint forces Q(t) - C q - damping
+        tau: (15,) joint forces Q(t, q, qd) - C q - damping
         phi: (2,) constraint values phi in CONSTRAINTS order
         phi_rate: (2,) their rates d(phi)/dt
         jacobian: (2, 15) constraint matrix D, one row per constraint, one column per coordinate, row-major

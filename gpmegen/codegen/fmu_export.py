@@ -217,8 +217,9 @@ def guid(texts: dict) -> str:
     return "{" + str(uuid.UUID(bytes=h.digest()[:16], version=4)) + "}"
 
 
-def config_header(model_name, loaded, inputs, refs, q0, qd0) -> str:
-    """fmu_model.h: what the wrapper takes of the model (its names are identifiers; no free text)."""
+def config_header(model_name, loaded, inputs, refs, q0, qd0, redundant_rows=False) -> str:
+    """fmu_model.h: what the wrapper takes of the model (its names are identifiers; no free text);
+    ``redundant_rows``: the model closes loops, whose rows may be more than its motion needs."""
     n_constraints = len(loaded.constraint_names)
     index = {name: k for k, name in enumerate(loaded.coordinates)}
 
@@ -232,7 +233,7 @@ def config_header(model_name, loaded, inputs, refs, q0, qd0) -> str:
         "#define FMU_GUID \"@GUID@\"\n",
         f"#define N_DOF {len(loaded.coordinates)}\n#define N_CONSTRAINTS {n_constraints}\n",
         f"#define N_PARAMETERS {len(loaded.parameter_names)}\n#define N_POINTS {len(loaded.points)}\n",
-        f"#define N_INPUTS {len(inputs)}\n",
+        f"#define N_INPUTS {len(inputs)}\n#define REDUNDANT_ROWS {int(bool(redundant_rows))}\n",
         *(f"#define {name} {value}\n" for name, value in refs.items()),
         *(f"#define MODEL_{part.upper()} {model_name}_{part}\n"
           for part in ("gpme_terms", "constraint_terms", "baumgarte_gains", "drive_forces", "points")),
@@ -382,7 +383,8 @@ def fmu_files(case, inputs=(), start=None, progress=None) -> dict:
     generated = {name: folders.read_verified(Path(loaded.folder), name) for name in MODEL_FILES}
     lambda_units = driving.lambda_units(model, case.metadata(loaded).get("constraint_units", {}))
     lay = layout(model, loaded, begun.q, begun.qd, inputs, lambda_units)
-    config = config_header(model.name, loaded, inputs, lay.references, begun.q, begun.qd)
+    config = config_header(model.name, loaded, inputs, lay.references, begun.q, begun.qd,
+                           redundant_rows=bool(model.closures))
     sources = {**generated, **ccompile.solver_sources(), **wrapper_sources(), CONFIG: config}
     fmu_guid = guid(sources)
     sources[CONFIG] = config.replace("@GUID@", fmu_guid)

@@ -78,6 +78,7 @@ static const struct gpmegen_model FMU_MODEL = {
     MODEL_DRIVE_FORCES,
     solve_with_inputs,
     NULL,
+    REDUNDANT_ROWS,
 };
 
 /* The integrators' stage: the GPME's dense solve with the inputs (the model's own recursion has
