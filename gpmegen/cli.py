@@ -552,6 +552,7 @@ def cmd_demo(args) -> int:
 def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
     from .analysis import modes, modes_output
+    from .runtime import statics
 
     out = Path(args.out)
     case = _case(args.model_file, args.nrfe)
@@ -560,11 +561,20 @@ def cmd_modes(args) -> int:
     outputs.writable_folder(out)
     start = "locked" if args.lock == "joints" else "constrained"
     begun = case.started("numpy", start, dict(args.param or []), progress)
+    # A rigid model (or one whose springs the constraints hold) has nothing to vibrate: said in
+    # one line, before anything is written, rather than an empty table and a figure that fails.
+    nothing = (f"{case.label} has no mode with --lock {args.lock}: no coordinate that carries a spring "
+               f"(a flexible link's sde, a sprung joint) is free to move")
+    fix = "make a link flexible or give a joint a spring"
     if args.lock == "joints":
+        if statics.spring_coordinates(begun.model, begun.q).size == 0:
+            raise UsageError(f"{nothing}; {fix}")
         _, result = modes.locked_modes(begun.model, begun.q)
         where = "joints locked at the start"
     else:
         result = modes.constrained_modes(begun.model, begun.q)
+        if len(result.frequencies) == 0:
+            raise UsageError(f"{nothing} along the constraints; {fix}, or use --lock joints")
         where = "programmed constraints holding (constrained equilibrium, joints without springs held)"
     print(f"{case.label}, {where}:")
     print(result.format(args.count))

@@ -134,3 +134,16 @@ def test_the_mode_shapes_title_sits_on_the_highest_panel(tmp_path, monkeypatch):
     monkeypatch.undo()
     for fig in figures:
         plt.close(fig)
+
+
+def test_a_model_with_nothing_to_vibrate_is_refused_in_one_line_and_writes_nothing(tmp_path, capsys):
+    """The rigid four-bar has no spring: neither locking gives a mode. One line each (not an empty
+    table and a figure that fails), naming the model and the fix; no file written."""
+    four_bar = str(Path(__file__).resolve().parents[1] / "examples" / "four_bar.toml")
+    for lock in ("joints", "constraints"):
+        assert main(["modes", four_bar, "--lock", lock, "--out", str(tmp_path)]) != 0
+        last = capsys.readouterr().err.strip().splitlines()[-1]
+        assert last.startswith("gpmegen modes: error: ") and "four_bar" in last, last
+        assert f"no mode with --lock {lock}" in last and "make a link flexible" in last, last
+        assert "internal error" not in last
+    assert list(tmp_path.iterdir()) == []
