@@ -214,10 +214,10 @@ class NumpyEvaluator:
         return call(self.module, "gpme_residual_jacobians", t, self._q(q), self._qd(qd), a, lam, p)
 
     def acceleration_jacobians(self, t, q, qd, model):
-        qdd, M, f = self.motion(t, q, qd, model)
-        D = self.constraint_terms(t, q, qd, model.p)[2]
         if model.redundant:
             return redundant_acceleration_jacobians(self, t, q, qd, model)
+        qdd, M, f = self.motion(t, q, qd, model)
+        D = self.constraint_terms(t, q, qd, model.p)[2]
         lam = gpme.multipliers(M, f, qdd, D)
         return qdd, *jacobians.acceleration_jacobians(M, D.T, D, *self.residual_jacobians(t, q, qd, qdd, lam, model.p))
 
