@@ -11,6 +11,8 @@
 from __future__ import annotations
 
 import ast
+import dataclasses
+import functools
 import subprocess
 import tempfile
 from pathlib import Path
@@ -126,13 +128,21 @@ def _python_code(source: str) -> str:
 @example(description='"""\nimport os\n"""', command="\\", unit='\\"""', doc="*/")
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_defect1_free_text_stays_in_its_comment_and_docstring(description, command, unit, doc):
-    neutral = _tiny_model()
     model = _tiny_model(description, unit, doc)
     files = _without_hash(render(model, BACKENDS, command=command), model)
-    reference = _without_hash(render(neutral, BACKENDS, command=""), neutral)
-    assert _c_tokens(files) == _c_tokens(reference)
-    assert _python_code(files["model_numpy.py"]) == _python_code(reference["model_numpy.py"])
+    c_tokens, python_code = _neutral_code()
+    assert _c_tokens(files) == c_tokens
+    assert _python_code(files["model_numpy.py"]) == python_code
     assert all(text.isascii() for text in files.values())
+
+
+@functools.cache
+def _neutral_code() -> tuple:
+    """What the compiler and Python see of the tiny model without free text: the same for every
+    example, so made once."""
+    neutral = _tiny_model()
+    reference = _without_hash(render(neutral, BACKENDS, command=""), neutral)
+    return _c_tokens(reference), _python_code(reference["model_numpy.py"])
 
 
 EXPLOIT_MODEL = """\
@@ -252,6 +262,28 @@ def test_defect2_name_with_a_final_line_break_is_refused(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("name", ["gpmegen", "GPMEGEN", "gpmegen_arm", "Gpmegen_model"])
+def test_defect2_a_model_named_in_the_solver_librarys_c_namespace_is_refused(name, tmp_path, capsys):
+    # A model's name prefixes its C names: a model named gpmegen declared gpmegen_gpme_jacobian
+    # again, its C did not compile, and the command fell back to NumPy with the compiler's errors.
+    with pytest.raises(ModelError, match=f"model name '{name}' would prefix its C names with '{name}_', the "
+                                         r"solver library's own \(gpmegen_rk4, GPMEGEN_OK, ...\): choose another "
+                                         f"name, e.g. 'my_{name}'"):
+        expand(dataclasses.replace(_tiny_model(), name=name))
+    path = tmp_path / "arm.toml"
+    path.write_text((ROOT / "examples" / "planar_two_link.toml").read_text()
+                    .replace('name = "planar_two_link_nrfe{nrfe}"', f'name = "{name}"', 1))
+    assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"name: model name '{name}' would prefix its C names" in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_defect2_names_beside_the_solver_librarys_namespace_are_models_like_any():
+    for name in ("gpmegenic", "my_gpmegen", "gpmegen2"):
+        assert expand(dataclasses.replace(_tiny_model(), name=name)).coordinates == ("a",)
+
+
 @pytest.mark.parametrize("coordinate, taken", [("x_P", "coordinate x of point 'P'"),
                                                ("a_dot", "velocity of coordinate 'a'")])
 def test_defect2_coordinate_named_like_a_constraint_symbol_is_refused(coordinate, taken):
@@ -331,13 +363,13 @@ def test_defect3_c_file_changed_after_loading_the_module_is_not_compiled(tmp_pat
 
 
 @pytest.mark.requires_cc
-def test_defect3_the_compiler_gets_the_text_that_was_read_not_the_file(tmp_path):
+def test_defect3_the_compiler_gets_the_text_that_was_read_not_the_file(tmp_path, fresh_cache):
     header = "const char *m_input_hash(void);\nint m_f(void);\n"
     source = "#include \"model.h\"\nconst char *m_input_hash(void) { return \"\"; }\nint m_f(void) { return %d; }\n"
     path = tmp_path / "model.c"
     path.write_text(source % 1)  # the file changed after its text was read and checked
     (tmp_path / "model.h").write_text("#error the header's file, not its text\n")
-    _, lib, _ = ccompile.load_library(path, cache=tmp_path / "cache", text=source % 2, header=header)
+    _, lib, _ = ccompile.load_library(path, cache=fresh_cache, text=source % 2, header=header)
     assert lib.f() == 2
 
 

@@ -488,3 +488,13 @@ def test_a_model_file_adds_the_mimic_constraints_after_its_own(tmp_path):
     model = read_model_file(path).model
     assert [c.name for c in model.constraints] == ["hold", "mimic_elbow"]
     assert model.dependent == ("shoulder", "elbow")
+
+
+def test_a_robot_named_in_the_solver_librarys_c_namespace_is_renamed(tmp_path):
+    """A robot's name becomes the model's, the prefix of its C names: 'gpmegen' would declare the
+    solver library's names again, so it is renamed as a name that cannot be code is."""
+    path = tmp_path / "robot.urdf"
+    path.write_text(RENAMED.replace('name="2dof_planar"', 'name="gpmegen"'))
+    with pytest.warns(UserWarning, match="robot 'gpmegen' -> robot_gpmegen"):
+        robot = import_urdf(path)
+    assert robot.model.name == "robot_gpmegen" and expand(robot.model).coordinates == robot.coordinates

@@ -57,6 +57,22 @@ def check_name(name: str, what: str, bare: bool = False, subject: tuple = ()) ->
     return name
 
 
+#: The solver library's C namespace (functions ``gpmegen_*``, macros ``GPMEGEN_*``). A model's
+#: name is the prefix of its exported C names (``<name>_rk4``), so a name that is this word or
+#: begins with it and ``_`` would declare the library's own names again.
+SOLVER_NAMESPACE = "gpmegen"
+
+
+def check_model_name(name: str, subject: tuple = ()) -> str:
+    """Return ``name`` if it can name a model: a safe identifier (:func:`check_name`) outside the
+    solver library's C namespace; else raise ModelError naming the fix."""
+    check_name(name, "model name", subject=subject)
+    if name.lower() == SOLVER_NAMESPACE or name.lower().startswith(SOLVER_NAMESPACE + "_"):
+        raise ModelError(f"model name {name!r} would prefix its C names with '{name}_', the solver library's own "
+                         f"(gpmegen_rk4, GPMEGEN_OK, ...): choose another name, e.g. 'my_{name}'", subject)
+    return name
+
+
 def symbol(name: str) -> sp.Symbol:
     """The real SymPy symbol of a parameter or coordinate name."""
     return sp.Symbol(name, real=True)

@@ -26,6 +26,7 @@ from .chain import (
     Point,
     acceleration_symbol,
     axis_symbols,
+    check_model_name,
     check_name,
     closure_rows,
     point_acceleration_symbols,
@@ -387,7 +388,7 @@ def _check_dependent(model: Model, coordinates: list):
 def expand(model: Model) -> FlatChain:
     """Validate ``model`` and expand its flexible links; raise ModelError naming the fault, with
     the path of its field as ``subject``."""
-    check_name(model.name, "model name", subject=("name",))
+    check_model_name(model.name, subject=("name",))
     names = _Names()
     for p in model.parameters:
         names.claim(p.name, "parameter", ("parameters", p.name))

@@ -46,6 +46,7 @@ from .chain import (
     Offset,
     Parameter,
     Point,
+    check_model_name,
     check_name,
     symbol,
 )
@@ -205,14 +206,14 @@ def _check_link_named(tree: UrdfTree, link: str):
 def _check_names(tree: UrdfTree, name: str):
     """A model name given in place of the robot's: the rules of model files."""
     try:
-        check_name(name, "model name")
+        check_model_name(name)
     except ModelError as exc:
         raise tree.error(f"{exc}") from None
 
 
-def _valid(name: str, bare: bool) -> bool:
+def _valid(name: str, bare: bool, kind: str = "") -> bool:
     try:
-        check_name(name, "", bare=bare)
+        check_model_name(name) if kind == "robot" else check_name(name, "", bare=bare)
     except ModelError:
         return False
     return True
@@ -233,13 +234,13 @@ def valid_names(tree: UrdfTree, robot: str | None, moving: list, reserved: tuple
     taken = {old for kind, old, bare, _ in wanted if kind != "robot" and _valid(old, bare)} | set(reserved)
     renamed = []
     for kind, old, bare, longest in wanted:
-        if _valid(old, bare) and len(old) <= longest and not (kind == "link" and old in reserved):
+        if _valid(old, bare, kind) and len(old) <= longest and not (kind == "link" and old in reserved):
             continue
         stem = re.sub(r"[^A-Za-z0-9_]+", "_", str(old)).strip("_")
-        if not stem[:1].isalpha() or not _valid(stem[:longest], bare):
+        if not stem[:1].isalpha() or not _valid(stem[:longest], bare, kind):
             stem = f"{kind}_{stem}".rstrip("_")
         new, k = stem[:longest], 1
-        while new in taken or not _valid(new, bare):
+        while new in taken or not _valid(new, bare, kind):
             k += 1
             new = f"{stem[:longest - len(str(k)) - 1]}_{k}"
         taken.add(new)
