@@ -9,7 +9,8 @@
   so: a test that calls ``gpmegen.codegen.render`` itself, or a child process, derives afresh.
 - One C cache for the whole run (:func:`shared_cache`), shared by the workers: a model compiled
   (and checked in a child process) by one module is reused by every other. A test that must
-  see a compile happen gives ``GPMEGEN_CACHE`` (or ``cache=``) a folder of its own.
+  see a compile happen gives ``GPMEGEN_CACHE`` (or ``cache=``) a folder of its own:
+  :func:`fresh_cache`, which already holds the solver library, unless the test is about that.
 - ``env`` (per module): a private generated folder and the shared C cache, set in the
   environment; ``rigid``/``flexible``: the reference arm at n_rfe 1 and 5 (NumPy backend), loaded
   once per worker from the committed snapshots (``generated_elsewhere``).
@@ -84,6 +85,23 @@ def shared_cache(tmp_path_factory):
     compiles is what another would, and a library is written by rename, so a worker never sees
     half of one)."""
     return shared_folder(tmp_path_factory, "c-cache")
+
+
+@pytest.fixture
+def fresh_cache(tmp_path, shared_cache):
+    """A new C cache for one test, empty but for the solver library's object: compiled once per
+    run into the shared cache (one worker compiles, the other waits) and copied, bytes and record,
+    so a test that must see a model compile happen does not pay for the solver library's too
+    (about 4 s of CPU each). Tests of the solver library's own compile use an empty folder."""
+    from gpmegen.folder import FolderLock
+
+    with FolderLock(shared_cache / "solver"):
+        solver = ccompile.build_solver(cache=shared_cache)
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    for path in (solver.path, solver.path.with_suffix(".json")):
+        atomic_write_bytes(cache / path.name, path.read_bytes())
+    return cache
 
 
 def _tunables() -> list:

@@ -257,8 +257,8 @@ def test_compiles_without_warnings(pairs, key, tmp_path):
     assert run.stderr == ""
 
 
-def test_cache_hit_and_compile_time(source, tmp_path):
-    cache = tmp_path / "cache"
+def test_cache_hit_and_compile_time(source, fresh_cache):
+    cache = fresh_cache
     first = ccompile.build_library(source, cache=cache)
     assert first.compiled and first.compile_seconds > 0 and first.path.exists()
     second = ccompile.build_library(source, cache=cache)
@@ -277,8 +277,8 @@ def test_second_load_does_not_recompile(pairs):
     assert c.library.path == again.library.path and not again.compiled and again.compile_seconds > 0
 
 
-def test_stale_source_builds_a_new_library(source, tmp_path):
-    cache = tmp_path / "cache"
+def test_stale_source_builds_a_new_library(source, fresh_cache):
+    cache = fresh_cache
     first = ccompile.build_library(source, cache=cache)
     source.write_text(source.read_text() + "\n/* changed */\n")
     second = ccompile.build_library(source, cache=cache)
@@ -286,8 +286,8 @@ def test_stale_source_builds_a_new_library(source, tmp_path):
     assert ccompile.build_library(source, cache=cache, flags=(*ccompile.DEFAULT_FLAGS, "-O3")).compiled
 
 
-def test_truncated_library_is_rebuilt(source, tmp_path):
-    cache = tmp_path / "cache"
+def test_truncated_library_is_rebuilt(source, fresh_cache):
+    cache = fresh_cache
     first = ccompile.build_library(source, cache=cache)
     data = first.path.read_bytes()
     first.path.write_bytes(data[: len(data) // 2])
@@ -297,9 +297,9 @@ def test_truncated_library_is_rebuilt(source, tmp_path):
     assert lib.n_dof() == 3
 
 
-def test_unloadable_library_is_rebuilt(source, tmp_path):
+def test_unloadable_library_is_rebuilt(source, fresh_cache):
     """A library whose recorded digest matches but which is no shared object at all."""
-    cache = tmp_path / "cache"
+    cache = fresh_cache
     first = ccompile.build_library(source, cache=cache)
     first.path.write_bytes(b"not an ELF file")
     meta_path = cache / f"{first.key}.json"
@@ -342,13 +342,13 @@ def test_no_compiler_on_path(pairs, tmp_path, monkeypatch):
         gpmegen.load(nrfe=1, backend="c")
 
 
-def test_compile_error_is_a_build_error(tmp_path):
+def test_compile_error_is_a_build_error(tmp_path, fresh_cache):
     bad = tmp_path / "model.c"
     (tmp_path / "model.h").write_text("int m_f(void);\n")
     bad.write_text("#include \"model.h\"\nint m_f(void) { return }\n")
     with pytest.raises(BuildError, match="compiling .*model.c failed"):
-        ccompile.build_library(bad, cache=tmp_path / "cache")
-    assert not [p for p in (tmp_path / "cache").iterdir() if not p.name.startswith(ccompile.SOLVER_PREFIX)]
+        ccompile.build_library(bad, cache=fresh_cache)
+    assert not [p for p in fresh_cache.iterdir() if not p.name.startswith(ccompile.SOLVER_PREFIX)]
 
 
 def test_cache_directory_default_and_override(monkeypatch, tmp_path):

@@ -80,13 +80,13 @@ def test_the_cffi_declarations_are_the_header_without_preprocessor_lines(built):
 
 
 @pytest.mark.requires_cc
-def test_the_library_binds_its_functions_under_their_short_names(built, tmp_path):
-    _, lib, _ = ccompile.load_library(built[2] / "model.c", cache=tmp_path / "cache")
+def test_the_library_binds_its_functions_under_their_short_names(built, shared_cache):
+    _, lib, _ = ccompile.load_library(built[2] / "model.c", cache=shared_cache)
     assert lib.n_dof() == 6 and not hasattr(lib, "manipulator_nrfe2_n_dof")
 
 
 @pytest.mark.requires_cc
-def test_two_models_link_into_one_program(built, tmp_path):
+def test_two_models_link_into_one_program(built, tmp_path, shared_cache):
     """Each exported name carries its model's prefix and the rest is static: two models'
     C files compile and link beside a main() that calls both."""
     calls, expected = [], []
@@ -111,7 +111,7 @@ def test_two_models_link_into_one_program(built, tmp_path):
     program = tmp_path / "two_models"
     cc = ccompile.find_compiler()
     sources = [str(folder / "model.c") for folder in built.values()]
-    solver = str(ccompile.build_solver(cache=tmp_path / "cache").path)  # one copy serves both models
+    solver = str(ccompile.build_solver(cache=shared_cache).path)  # one copy serves both models
     link = subprocess.run([*cc, "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(built[1].parent),
                            f"-I{ccompile.solver_include()}", str(main), *sources, solver, "-lm", "-o", str(program)],
                           capture_output=True, text=True)
@@ -123,9 +123,9 @@ def test_two_models_link_into_one_program(built, tmp_path):
 
 
 @pytest.mark.requires_cc
-def test_a_compiler_named_relative_to_the_callers_folder_still_compiles(built, tmp_path, monkeypatch):
+def test_a_compiler_named_relative_to_the_callers_folder_still_compiles(built, tmp_path, fresh_cache, monkeypatch):
     """The compiler runs in a private folder holding the header: a relative $CC still names it."""
     (tmp_path / "mycc").symlink_to(ccompile.find_compiler()[0])
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("CC", "./mycc")
-    assert ccompile.build_library(built[1] / "model.c", cache=tmp_path / "cache").compiled
+    assert ccompile.build_library(built[1] / "model.c", cache=fresh_cache).compiled

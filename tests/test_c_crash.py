@@ -90,8 +90,9 @@ def _library_meta(cache: Path) -> Path:
     return meta
 
 
-def _crashing_library(tmp_path, folder) -> Path:
-    """The library of ``folder/model.c`` whose ``points`` dies with SIGSEGV."""
+def _crashing_library(tmp_path, folder, cache) -> Path:
+    """The library of ``folder/model.c`` whose ``points`` dies with SIGSEGV, linked with the
+    solver library of ``cache``."""
     compiler = ccompile.find_compiler()
     crash = tmp_path / "crash.c"
     points = f"{folder.name}_points"  # the exported name: the model's name is its prefix
@@ -101,7 +102,7 @@ def _crashing_library(tmp_path, folder) -> Path:
     subprocess.run([*compiler, "-O1", "-fPIC", f"-D{points}=points_replaced", f"-I{ccompile.solver_include()}", "-c",
                     "-o", model, folder / "model.c"], check=True, capture_output=True)
     library = tmp_path / "crashing.so"
-    solver = ccompile.build_solver(cache=tmp_path / "cache").path
+    solver = ccompile.build_solver(cache=cache).path
     subprocess.run([*compiler, "-shared", "-fPIC", "-o", library, model, crash, solver, "-lm"], check=True,
                    capture_output=True)
     return library
@@ -110,17 +111,17 @@ def _crashing_library(tmp_path, folder) -> Path:
 def test_a_crash_in_the_test_run_is_reported_with_the_function(tmp_path, env):
     rigid = gpmegen.load(nrfe=1, backend="numpy")
     folder = Path(rigid.folder)
-    verdict = cprobe.check_in_child(_crashing_library(tmp_path, folder), folder / "model.c",
+    verdict = cprobe.check_in_child(_crashing_library(tmp_path, folder, env[1]), folder / "model.c",
                                     folder / "model_numpy.py")
     assert verdict == "the test process was killed by SIGSEGV in points()"
     assert cprobe.check_in_child(ccompile.build_library(folder / "model.c", cache=env[1]).path,
                                  folder / "model.c", folder / "model_numpy.py") is None
 
 
-def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env):
+def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env, fresh_cache):
     rigid = gpmegen.load(nrfe=1, backend="numpy")
     source = Path(rigid.folder) / "model.c"
-    cache = tmp_path / "cache"
+    cache = fresh_cache
     calls = []
 
     def failing(library):
@@ -136,13 +137,13 @@ def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env):
     assert meta["check"].startswith("the test process was killed")
 
 
-def test_a_test_run_that_cannot_start_leaves_no_verdict(tmp_path, env):
+def test_a_test_run_that_cannot_start_leaves_no_verdict(tmp_path, env, fresh_cache):
     """A test process whose Python cannot start (its environment torn down under it, as a removed
     virtual environment does) says nothing of the library: it used to be recorded as the
     library's failure, so every later load of that library, in any environment, was refused."""
     rigid = gpmegen.load(nrfe=1, backend="numpy")
     folder = Path(rigid.folder)
-    cache = tmp_path / "cache"
+    cache = fresh_cache
 
     def broken(library):
         return cprobe.check_in_child(library, folder / "model.c", folder / "model_numpy.py",

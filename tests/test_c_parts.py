@@ -16,13 +16,14 @@ from gpmegen.runtime import ccompile
 pytestmark = pytest.mark.requires_cc
 
 
-def _whole_library(folder: Path, tmp_path: Path) -> Path:
-    """model.c of ``folder`` compiled as one translation unit with the default flags."""
+def _whole_library(folder: Path, tmp_path: Path, cache: Path) -> Path:
+    """model.c of ``folder`` compiled as one translation unit with the default flags, linked with
+    the solver library of ``cache``."""
     compiler = ccompile.find_compiler()
     flags = ccompile.DEFAULT_FLAGS + (ccompile.GCC_FLAGS if ccompile.is_gcc(ccompile.compiler_identity(compiler))
                                       else ())
     library = tmp_path / "whole.so"
-    solver = ccompile.build_solver(cache=tmp_path / "cache").path
+    solver = ccompile.build_solver(cache=cache).path
     subprocess.run([*compiler, *flags, *ccompile.LINK_FLAGS, f"-I{ccompile.solver_include()}", "-o", str(library),
                     str(folder / "model.c"), str(solver), "-lm"], check=True, capture_output=True)
     return library
@@ -58,7 +59,7 @@ def test_the_parts_give_the_bits_of_the_whole_file(env, tmp_path):
     folder = Path(model.folder)
     header = (folder / ccompile.HEADER).read_text()
     assert ccompile.part_flags(model.library.flags)[1] != tuple(model.library.flags)  # really two levels
-    whole_ffi, whole = ccompile.open_library(_whole_library(folder, tmp_path), header)
+    whole_ffi, whole = ccompile.open_library(_whole_library(folder, tmp_path, env[1]), header)
     rng = np.random.default_rng(7)
     for _ in range(5):
         q = 0.4 * rng.standard_normal(model.n_dof)

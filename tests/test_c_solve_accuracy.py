@@ -28,10 +28,10 @@ from precise_solve import EPS, ill_conditioned_states, solve_errors  # noqa: E40
 
 
 @pytest.fixture(scope="module")
-def arm(tmp_path_factory):
-    """The flexible arm's C backend, compiled into a private cache."""
+def arm(shared_cache):
+    """The flexible arm's C backend (compiled once per run, in the shared cache)."""
     with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("GPMEGEN_CACHE", str(tmp_path_factory.mktemp("c-cache")))
+        mp.setenv("GPMEGEN_CACHE", str(shared_cache))
         mp.delenv("CC", raising=False)
         yield gpmegen.load(nrfe=5, backend="c")
 

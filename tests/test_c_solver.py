@@ -27,7 +27,7 @@ def _run_checks(tmp_path: Path, flags, solver=None) -> subprocess.CompletedProce
     return subprocess.run([str(program)], capture_output=True, text=True, timeout=300)
 
 
-def test_the_solver_library_passes_its_c_checks(tmp_path):
+def test_the_solver_library_passes_its_c_checks(tmp_path, fresh_cache):  # the run's object, in tmp_path / "cache"
     run = _run_checks(tmp_path, ccompile.DEFAULT_FLAGS)
     lines = run.stdout.splitlines()
     assert run.returncode == 0 and not [line for line in lines if not line.startswith("ok ")], run.stdout
@@ -99,7 +99,7 @@ def test_a_cache_folder_without_room_for_the_solver_object_is_one_line(tmp_path,
                                       f"(Permission denied); set GPMEGEN_CACHE to a writable folder")
 
 
-def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path):
+def test_a_model_library_links_the_solver_object_of_its_flags(tmp_path, fresh_cache):  # tmp_path / "cache"
     """The model library's key names the solver's: a changed solver builds the model again."""
     source = tmp_path / "model.c"
     folder = Path(__file__).resolve().parents[1] / "generated" / "manipulator_nrfe1"

@@ -21,9 +21,9 @@ N = 160  # Radau's kept matrices alone, 5 n^2 doubles, are 1 MiB: twice RESERVE
 
 
 @pytest.fixture(scope="module")
-def probe(tmp_path_factory):
+def probe(tmp_path_factory, shared_cache):
     folder = tmp_path_factory.mktemp("stack")
-    solver = ccompile.build_solver(cache=folder / "cache")
+    solver = ccompile.build_solver(cache=shared_cache)
     program = folder / "stack_probe"
     subprocess.run([*ccompile.find_compiler(), *solver.flags, f"-I{ccompile.solver_include()}", "-o", str(program),
                     str(PROBE), str(solver.path), "-lm"], check=True, capture_output=True, text=True)

@@ -162,7 +162,7 @@ def test_a_read_only_output_folder_is_named_with_its_cause_not_a_temporary_file(
 
 # ---- one place for models: where build writes, the other commands look -----------------------
 
-def test_outside_the_checkout_simulate_uses_the_folder_build_made(tmp_path):
+def test_outside_the_checkout_simulate_uses_the_folder_build_made(tmp_path, fresh_cache):
     """Outside the source checkout, ``build`` wrote ``./generated/`` while ``simulate`` derived
     the model again into another folder (the checkout's ``generated/`` or the user cache)."""
     import subprocess
@@ -174,7 +174,7 @@ def test_outside_the_checkout_simulate_uses_the_folder_build_made(tmp_path):
     work.mkdir()
     shutil.copy(TIP_LAW, work / "arm.toml")
     env = {k: v for k, v in os.environ.items() if k != "GPMEGEN_GENERATED"}
-    env.update(GPMEGEN_CACHE=str(tmp_path / "cache"), XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    env.update(GPMEGEN_CACHE=str(fresh_cache), XDG_CACHE_HOME=str(tmp_path / "xdg"))
     checkout_before = sorted(p.name for p in (CHECKOUT / "generated").iterdir()) if CHECKOUT else []
 
     def gpmegen(*argv):

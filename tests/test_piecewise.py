@@ -63,11 +63,11 @@ def hub_model(name, law, drives=()):
 
 
 @pytest.fixture(scope="module")
-def env(tmp_path_factory):
-    """A private generated folder and C cache for the whole module."""
+def env(tmp_path_factory, shared_cache):
+    """A private generated folder for the whole module, and the run's shared C cache."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("GPMEGEN_GENERATED", str(tmp_path_factory.mktemp("generated")))
-        mp.setenv("GPMEGEN_CACHE", str(tmp_path_factory.mktemp("c-cache")))
+        mp.setenv("GPMEGEN_CACHE", str(shared_cache))
         yield
 
 

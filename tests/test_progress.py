@@ -15,8 +15,8 @@ from gpmegen.runtime import ccompile
 
 
 @pytest.mark.requires_cc
-def test_building_and_compiling_say_what_they_do(env, monkeypatch, tmp_path):
-    monkeypatch.setenv("GPMEGEN_CACHE", str(tmp_path / "cache"))  # a cache of its own: the compile happens here
+def test_building_and_compiling_say_what_they_do(env, monkeypatch, fresh_cache):
+    monkeypatch.setenv("GPMEGEN_CACHE", str(fresh_cache))  # a cache of its own: the compile happens here
     monkeypatch.setattr(ccompile, "HEARTBEAT", 0.01)  # a line at every poll of a ~1 s compile
     lines = []
     gpmegen.load(nrfe=1, backend="c", progress=lines.append)
