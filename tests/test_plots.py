@@ -147,15 +147,42 @@ def test_energy_terms_and_the_balance_error_have_panels_of_their_own(pair):
     assert np.abs(expected).max() < 1e-6 * np.abs(rigid["work_constraints"]).max()
 
 
+@pytest.mark.long
 def test_figures_are_png_at_200_dpi_pdf_and_svg_and_the_same_bytes_every_time(pair, tmp_path):
-    from PIL import Image
-
     _, loaded = pair
     first = plots.plot_all(loaded, tmp_path / "a", ("png", "pdf", "svg"))
     second = plots.plot_all(loaded, tmp_path / "b", ("png", "pdf", "svg"))
     assert {p.name for p in first} == {f"{stem}.{fmt}" for stem, _ in plots.figures(loaded)
                                        for fmt in ("png", "pdf", "svg")}
-    for a, b in zip(first, second):
+    _same_bytes_and_formats(first, second)
+
+
+def test_a_figure_is_png_at_200_dpi_pdf_and_svg_and_the_same_bytes_every_time(pair, tmp_path):
+    """The formats and their sameness on the first figure, drawn twice as plot_all draws it (every
+    figure: the test above, in make check-c)."""
+    from gpmegen.fileio import atomic_write_all
+
+    _, loaded = pair
+    runs = plots.distinguished(loaded)
+    plt, style = plots._pyplot(), plots.styles(runs)
+    stem, draw = plots.figures(runs)[0]
+
+    def write(folder):
+        fig = draw(plt, runs, style)
+        try:
+            return atomic_write_all({folder / f"{stem}.{fmt}": plots._saver(fig, fmt) for fmt in plots.FORMATS})
+        finally:
+            plt.close(fig)
+
+    _same_bytes_and_formats(write(tmp_path / "a"), write(tmp_path / "b"))
+
+
+def _same_bytes_and_formats(first: list, second: list) -> None:
+    """The files of two drawings are byte for byte the same, PNG at 200 dpi, PDF and SVG without dates."""
+    from PIL import Image
+
+    assert {p.suffix for p in first} == {".png", ".pdf", ".svg"}
+    for a, b in zip(first, second, strict=True):
         assert a.read_bytes() == b.read_bytes(), a.name
     for path in first:
         data = path.read_bytes()
@@ -255,22 +282,35 @@ BROKEN_TEX = r"$\frac{a$"
 NESTED = "$" + "{" * 3000 + "x" + "}" * 3000 + "$"
 
 
-def test_text_from_a_results_file_is_drawn_as_it_is_never_read_as_tex(pair, tmp_path, capsys):
+ODD_META = {"label": BROKEN_TEX, "start_tag": NESTED, "joint_labels": {"theta1": NESTED},
+            "prescribed": {"axis": 1, "label": BROKEN_TEX}, "constraint_units": {"circle": NESTED},
+            "figures": {"path": BROKEN_TEX}, "force_units": {"theta1": NESTED}, "lambda_units": {"height": NESTED}}
+
+
+@pytest.mark.long
+def test_text_from_a_results_file_is_drawn_as_it_is_in_every_figure(pair, tmp_path, capsys):
+    """Every figure plot writes, of a results file whose texts are broken TeX and 3,000 nested
+    braces (the test below looks at one figure's text, in make test)."""
+    _, (rigid, _) = pair
+    path = tmp_path / "odd.npz"
+    results_io.save(_with_meta(rigid, **ODD_META), path)
+    assert main(["plot", str(path), "--out", str(tmp_path / "figures")]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "" and len(captured.out.split()) == len(plots.figures([rigid]))
+
+
+def test_text_from_a_results_file_is_drawn_as_it_is_never_read_as_tex(pair, tmp_path):
     """A run label with broken TeX was an internal error (matplotlib's ParseSyntaxException), and
     one of 3,000 nested braces a RecursionError: text from a results file is drawn literally
     (the reference case's start tag, $E'_r$, stays mathtext where it parses)."""
     _, (rigid, _) = pair
-    meta = {"label": BROKEN_TEX, "start_tag": NESTED, "joint_labels": {"theta1": NESTED},
-            "prescribed": {"axis": 1, "label": BROKEN_TEX}, "constraint_units": {"circle": NESTED},
-            "figures": {"path": BROKEN_TEX}, "force_units": {"theta1": NESTED}, "lambda_units": {"height": NESTED}}
     path = tmp_path / "odd.npz"
-    results_io.save(_with_meta(rigid, **meta), path)
-    out = tmp_path / "figures"
-    assert main(["plot", str(path), "--out", str(out)]) == 0
-    captured = capsys.readouterr()
-    assert captured.err == "" and len(captured.out.split()) == len(plots.figures([rigid]))
-    fig = plots.joint_coordinates(plots._pyplot(), [results_io.load(path)], plots.styles([rigid]))
+    results_io.save(_with_meta(rigid, **ODD_META), path)
+    plt = plots._pyplot()
+    fig = plots.joint_coordinates(plt, [results_io.load(path)], plots.styles([rigid]))
+    fig.canvas.draw()  # where TeX would be parsed, and fail
     [shown] = fig.legends[0].get_texts()
+    plt.close(fig)
     assert shown._preprocess_math(shown.get_text()) == (BROKEN_TEX, False)  # drawn as it is, not as TeX
     nested = plots.label(_with_meta(rigid, label=NESTED))
     assert nested == plots.literal(NESTED) and not matplotlib.cbook.is_math_text(nested)
