@@ -45,6 +45,7 @@ from .model import (
     Offset,
     Parameter,
     Point,
+    Signal,
     reference_model,
 )
 from .model.requirements import requirements
@@ -291,7 +292,7 @@ def linearize(model=None, *, nrfe=None, start=None, params=None, backend=None, d
 
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
-    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "export_casadi", "export_fmu",
