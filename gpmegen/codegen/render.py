@@ -15,6 +15,7 @@ from pathlib import Path
 import jinja2
 
 from .. import limits
+from ..errors import ModelError
 from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
 from ..status import SolveStatus
@@ -88,6 +89,16 @@ def input_hash(model: Model, backends, transforms=DEFAULT_TRANSFORMS, jacobians:
     if jacobians:
         h.update(b"jacobians")
     return h.hexdigest()[:16]
+
+
+def check_no_signals(model, export: str) -> None:
+    """Refuse, in one line, the export (``export``: what it makes) of a model whose drives read
+    table signals: the tables are read at run time by gpmegen's runtime, which an export leaves
+    behind."""
+    if model is not None and model.signals:
+        names = ", ".join(s.name for s in model.signals)
+        raise ModelError(f"model {model.name}: its drives read the table signals {names}, which gpmegen's runtime "
+                         f"supplies and {export} cannot carry; drive the model through its inputs instead (--inputs)")
 
 
 @dataclass
