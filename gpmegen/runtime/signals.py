@@ -76,8 +76,8 @@ def table(name: str, t, y, source: str = "") -> Table:
     steps = np.diff(t)
     if np.any(steps <= 0):
         k = int(np.flatnonzero(steps <= 0)[0])
-        raise ModelError(f"{what}: t is not strictly increasing (t[{k}] = {t[k]!r}, t[{k + 1}] = {t[k + 1]!r}); "
-                         f"give samples at increasing times")
+        raise ModelError(f"{what}: t is not strictly increasing (t[{k}] = {float(t[k])!r}, "
+                         f"t[{k + 1}] = {float(t[k + 1])!r}); give samples at increasing times")
     t.flags.writeable = False
     y.flags.writeable = False
     return Table(name, t, y, source)
@@ -128,6 +128,16 @@ def read_results(path, wanted=()) -> dict:
                          f"{remake}") from None
 
 
+def entries(path) -> list[str]:
+    """The names of the arrays of the NPZ at ``path`` other than :data:`READ` (none read)."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            names = [info.filename.removesuffix(".npy") for info in zf.infolist()]
+    except (OSError, zipfile.BadZipFile):
+        return []
+    return [name for name in names if name not in READ]
+
+
 def read(signal, data: dict | None = None) -> Table:
     """The table of ``signal`` (:class:`gpmegen.model.Signal`): its column of its results file
     (``data``: that file's arrays, when read already), checked (:func:`table`)."""
@@ -137,7 +147,7 @@ def read(signal, data: dict | None = None) -> Table:
                          f"'gpmegen simulate'")
     values = column(data, signal.column)
     if values is None:
-        offered = ", ".join(columns(data)) or "none"
+        offered = ", ".join(dict.fromkeys(columns(data) + entries(signal.table))) or "none"
         raise ModelError(f"{signal.table}: no column {signal.column!r} for signal {signal.name!r}; its columns are "
                          f"{offered}")
     return table(signal.name, np.ravel(data["t"]), values, signal.table)
