@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 63baa9738db62c9c
+Input hash: 7a6c76b8c197fa87
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
