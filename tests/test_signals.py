@@ -174,6 +174,24 @@ def test_feedforward_adds_to_a_feedback_law(env, files, actuated_run, tmp_path):
         assert loaded.drive_forces(t, [x], [0.0])[0] == pytest.approx(law + ff, rel=1e-14)
 
 
+def test_a_built_folder_reads_its_tables_as_its_manifest_names_them(env, files, tmp_path):
+    model = gpmegen.load_model_file(files / "table.toml")
+    gpmegen.load(model=model, backend="numpy", directory=tmp_path)
+    run = gpmegen.simulate(tmp_path / "table_cart", t_end=0.5, dt=1e-2, backend="numpy")
+    assert run["drive_forces"][:, 0] == pytest.approx(np.interp(run.t, np.linspace(0.0, 2.0, 41),
+                                                                np.sin(W * np.linspace(0.0, 2.0, 41))), abs=1e-15)
+
+
+def test_the_command_line_feeds_a_run_forward(env, files, actuated_run, capsys):
+    out = files / "fed.npz"
+    assert cli.main(["simulate", str(files / "plant.toml"), "--feedforward", str(files / "servo.npz"), "--t-end",
+                     "0.1", "--dt", "1e-3", "--backend", "numpy", "--out", str(out)]) == 0
+    assert "plant_ff" in capsys.readouterr().out
+    fed = gpmegen.Results.load(out)
+    assert fed.meta["feedforward"] == str((files / "servo.npz").resolve())
+    assert np.array_equal(fed["drive_forces"][:, 0], actuated_run["u"][:101, 0])
+
+
 # ---- refusals ------------------------------------------------------------------------------
 
 def _refused(folder, text, capsys, *args) -> str:
