@@ -254,6 +254,10 @@ class Reader:
     def unknown(self, name, scope) -> str:
         """Why ``name`` is not in ``scope``, and what would fix it."""
         coordinate_list = ", ".join(self.coordinates[:12]) + (", ..." if len(self.coordinates) > 12 else "")
+        if name in self.table_signals:
+            return (f"signal {name!r} is read from a table, so it may appear only in drives (a constraint needs "
+                    f"the time derivatives of its law, which a table does not give); write the signal as an "
+                    f"expression of t, or use it in a drive")
         if name == "t":
             return "time t may appear only in drives and constraints; use parameters here"
         if name in self.params:
@@ -285,10 +289,6 @@ class Reader:
             known = ", ".join(self.points) or "none"
             return (f"{name!r} names no declared point {point.group(2)!r} (points: {known}); declare the "
                     f"point with a [[chain]] point = \"{point.group(2)}\" element or fix the name")
-        if name in self.table_signals:
-            return (f"signal {name!r} is read from a table, so it may appear only in drives (a constraint needs "
-                    f"the time derivatives of its law, which a table does not give); write the signal as an "
-                    f"expression of t, or use it in a drive")
         close = difflib.get_close_matches(name, [*scope, *FUNCTIONS, *CONSTANTS], 1)
         hint = f"did you mean {close[0]!r}? or " if close else ""
         return f"unknown name {name!r}; {hint}declare it under [parameters]"
