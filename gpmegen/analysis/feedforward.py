@@ -46,12 +46,12 @@ def model(plant, run):
     coordinates when an input acts on a coordinate the plant lacks."""
     from ..model.expand import expand
 
-    run = Path(run).resolve()
-    acting = inputs(run)
+    given, run = run, Path(run).resolve()
+    acting = inputs(given)
     coordinates = list(expand(plant).coordinates)
     missing = [name for name in acting if name not in coordinates]
     if missing:
-        raise ModelError(f"{run}: its inputs act on {', '.join(acting)}, but the plant {plant.name} has no "
+        raise ModelError(f"{given}: its inputs act on {', '.join(acting)}, but the plant {plant.name} has no "
                          f"coordinate {', '.join(missing)} (its coordinates: {', '.join(coordinates)}); feed the run "
                          f"into a plant with coordinates of those names")
     taken = {p.name for p in plant.parameters} | set(coordinates) | {s.name for s in plant.signals}
