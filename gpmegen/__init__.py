@@ -10,7 +10,7 @@ What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.lo
 # (gpmegen/entry.py), so every name, __version__ included, is looked up when first used.
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
-    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "export_casadi",

@@ -45,6 +45,7 @@ from .model import (
     Offset,
     Parameter,
     Point,
+    Signal,
     reference_model,
 )
 from .model.requirements import requirements
@@ -208,19 +209,24 @@ def statics(model=None, *, nrfe=None, start=None, params=None, backend=None, dir
 
 def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=None, method="rk4",
              params=None, backend=None, repartition=False, directory=None, progress=None, save_dt=None,
-             rtol=None, atol=None, rho_inf=None):
+             rtol=None, atol=None, rho_inf=None, feedforward=None):
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
     :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
     and ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in 1 ms, whatever the
     method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method`` ("rk4"; on the C backend
     "genalpha", implicit with step ``dt`` and damping ``rho_inf``, "dop853", adaptive, or "radau",
     implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
-    ``atol`` (adaptive methods), ``repartition``. A run that stops
+    ``atol`` (adaptive methods), ``repartition``. ``feedforward``: a results file of an actuated
+    realization (or a stable inversion) whose inputs ``u`` are added to the drives of the model's
+    coordinates of the same names, read as table signals (:mod:`gpmegen.analysis.feedforward`;
+    ``model`` a model file or a :class:`Model`). A run that stops
     early (diverges) is returned with its ``status`` saying why."""
     from .analysis import runs
 
     backend = _backend(backend, progress)
     case, start = _started(model, nrfe, start, directory)
+    if feedforward is not None:
+        case = case.feed_forward(feedforward)
     if save_every is None:
         save_every = integrate.default_save_every(dt)
     done = runs.run(case, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
@@ -291,7 +297,7 @@ def linearize(model=None, *, nrfe=None, start=None, params=None, backend=None, d
 
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
-    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Constraint",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "export_casadi", "export_fmu",

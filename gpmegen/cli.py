@@ -412,6 +412,8 @@ def cmd_simulate(args) -> int:
     if args.extrapolate or len(args.nrfe or ()) > 1:
         given = [option for option, value in (("--save-dt", args.save_dt), ("--rtol", args.rtol),
                                               ("--atol", args.atol), ("--rho-inf", args.rho_inf)) if value is not None]
+        if args.feedforward is not None:
+            given.append("--feedforward")
         if given:
             raise UsageError(f"{', '.join(given)}: not taken by runs at several --nrfe, which save every --dt x "
                              f"--save-every with the methods' defaults; leave {'them' if len(given) > 1 else 'it'} out")
@@ -420,6 +422,8 @@ def cmd_simulate(args) -> int:
     from .analysis.results import default_name
 
     case = _case(args.model_file, args.nrfe)
+    if args.feedforward is not None:
+        case = case.feed_forward(args.feedforward)
     start = _start(case, args.statics)
     actuated = () if args.actuated == ["none"] else args.actuated
     name = default_name(case.results_stem, start, args.method, case.actuators if actuated is None else actuated)
@@ -427,7 +431,8 @@ def cmd_simulate(args) -> int:
     _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
                     dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
                     actuated=actuated, internal_dynamics=args.internal_dynamics, save_dt=args.save_dt,
-                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf, inputs=[args.model_file])
+                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf,
+                    inputs=[args.model_file] + ([args.feedforward] if args.feedforward is not None else []))
     return 0
 
 
@@ -878,6 +883,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
                         "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
                         "actuators (--actuated none: ideally), else none")
+    s.add_argument("--feedforward", type=path_argument, default=None, metavar="RUN.npz",
+                   help="add the inputs u of an actuated run (simulate --actuated, or invert) to the drives of the "
+                        "model's coordinates of the same names, interpolated linearly in t")
     s.add_argument("--internal-dynamics", action="store_true",
                    help="with an actuated realization: save the linearized internal dynamics' eigenvalues at "
                         "every saved sample (internal_eigenvalues)")

@@ -127,6 +127,7 @@ examples:
   gpmegen simulate --nrfe 2 --method radau --rtol 1e-6 --param E2=7e14 --param G2=2.6e14 --param d2=100   (stiff links)
   gpmegen simulate --nrfe 5 --param tdr0=2*pi --param d2=0.01
   gpmegen simulate --nrfe 1 --actuated psi2 x3     (inputs on psi2 and x3 realize the constraints)
+  gpmegen simulate tests/models/cart.toml --feedforward results/servo.npz   (that run's inputs u drive the cart)
   gpmegen simulate examples/planar_two_link.toml --t-end 4 --out results/planar.npz
   gpmegen simulate examples/spinup.toml --nrfe 5 10 20 --extrapolate --t-end 20 --dt 1e-4
   gpmegen simulate examples/spinup.toml --nrfe 5 10 --extrapolate --workers 1   (levels one after the other)

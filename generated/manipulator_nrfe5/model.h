@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 4b6b448d3c954981
+Input hash: ffba151bf947d361
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

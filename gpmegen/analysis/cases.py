@@ -28,6 +28,14 @@ class Case:
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
         return action()
 
+    def feed_forward(self, run):
+        """This case driven by the inputs of the run at ``run``: a model of the user's only
+        (:class:`ModelCase`), whose drives can be rewritten."""
+        from ..errors import ModelError
+
+        raise ModelError(f"{self.label}: feedforward drives a model file or a gpmegen.Model (its drives are "
+                         f"rewritten); give the plant's model file")
+
     @property
     def source(self):
         """The symbolic model where the case has it (None: a built folder's code alone)."""
@@ -119,13 +127,32 @@ class ModelCase(Case):
 
     starts = ("none", "locked", "constrained")
     start_refusal = "a model of your own starts with --statics none, locked or constrained"
+    feedforward = None  # a results file whose inputs u drive the model (feed_forward)
 
     def __init__(self, model=None):
         self._model = model
 
     @property
     def model(self):
-        return self._model
+        return self.fed(self._model)
+
+    def feed_forward(self, run) -> ModelCase:
+        """This case with the inputs ``u`` of the run at ``run`` (a results file) added to its
+        drives (:mod:`gpmegen.analysis.feedforward`), checked now."""
+        self.feedforward = run
+        self.__dict__.pop("_fed", None)
+        _ = self.model  # the run read and matched to the coordinates now, not at the start
+        return self
+
+    def fed(self, model):
+        """``model`` with the feedforward's inputs, made once."""
+        if self.feedforward is None:
+            return model
+        if "_fed" not in self.__dict__:
+            from . import feedforward
+
+            self.__dict__["_fed"] = feedforward.model(model, self.feedforward)
+        return self.__dict__["_fed"]
 
     @property
     def command(self) -> str | None:
@@ -148,6 +175,13 @@ class ModelCase(Case):
         """The start configuration and velocities before they are made consistent: coordinate
         name -> value (rad, m; rad/s, m/s) at the parameter values ``params``."""
         return {}, {}
+
+    def metadata(self, model) -> dict:
+        """As :meth:`Case.metadata`, and the results file fed forward (``feedforward``), if any."""
+        meta = super().metadata(model)
+        if self.feedforward is not None:
+            meta["feedforward"] = str(Path(self.feedforward).resolve())
+        return meta
 
     def start(self, backend, start, overrides, progress):
         """The loaded model's consistent start (:class:`gpmegen.analysis.study.Start`) from
@@ -179,7 +213,7 @@ class FileCase(ModelCase):
 
     @property
     def model(self):
-        return self.file.model
+        return self.fed(self.file.model)
 
     @property
     def command(self) -> str:
@@ -187,7 +221,7 @@ class FileCase(ModelCase):
 
     @property
     def label(self) -> str:
-        return Path(self.path).stem
+        return Path(self.path).stem + ("_ff" if self.feedforward is not None else "")
 
     @property
     def actuators(self) -> tuple:

@@ -283,6 +283,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     refusal = integrate.compiled_only(method, model.backend, bool(len(model.actuators)))
     if refusal:
         raise SimulationError(refusal)
+    model.check_signal_span(0.0, t_end)
     if method == "rk4" and save_dt is not None:
         save_every = integrate.save_steps(dt, save_dt)
         if save_every is None:

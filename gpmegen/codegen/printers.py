@@ -2,7 +2,9 @@
 
 The generator's own symbols keep their names (``_x12``, ``_q_theta1``, ``_qd_x3``; see
 :mod:`gpmegen.symbolic.names`) and so does time ``t``; parameters print as the locals that hold
-them, ``_p_<name>``. Integer powers print as products, which is both exact and fast. Piecewise
+them, ``_p_<name>``; a table signal prints as the call of the function that the runtime supplies,
+``_signal(k, t)`` (Python) and ``gpmegen_signal(k, t)`` (C), ``k`` its index in the model's
+signals. Integer powers print as products, which is both exact and fast. Piecewise
 prints as conditional expressions (Python) and ternaries (C); Heaviside(0) is 1/2 in both, or its
 second argument.
 """
@@ -28,14 +30,17 @@ def _small_power(printer, expr):
 class PythonPrinter(PythonCodePrinter):
     """Scalar Python using the ``math`` module."""
 
-    def __init__(self, parameters):
+    def __init__(self, parameters, signals=()):
         # order="none": print terms in SymPy's canonical argument order instead of sorting them
         # again for display, which costs most of the printing time and changes nothing
         super().__init__({"fully_qualified_modules": True, "standard": "python3", "order": "none"})
         self._parameters = set(parameters)
+        self._signals = {name: k for k, name in enumerate(signals)}
 
     def _print_Symbol(self, expr):
         name = expr.name
+        if name in self._signals:
+            return f"{names.SIGNAL_FUNCTION}({self._signals[name]}, t)"
         return names.parameter_local(name) if name in self._parameters else name
 
     def _print_Pow(self, expr, rational=False):
@@ -51,12 +56,15 @@ class PythonPrinter(PythonCodePrinter):
 class CPrinter(C99CodePrinter):
     """C99 with ``math.h``; π as a literal so no feature macro is needed."""
 
-    def __init__(self, parameters):
+    def __init__(self, parameters, signals=()):
         super().__init__({"order": "none"})
         self._parameters = set(parameters)
+        self._signals = {name: k for k, name in enumerate(signals)}
 
     def _print_Symbol(self, expr):
         name = expr.name
+        if name in self._signals:
+            return f"gpmegen_signal({self._signals[name]}, t)"
         return names.parameter_local(name) if name in self._parameters else name
 
     def _print_Pow(self, expr, rational=False):

@@ -15,10 +15,12 @@ from pathlib import Path
 import jinja2
 
 from .. import limits
+from ..errors import ModelError
 from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
 from ..status import SolveStatus
 from ..symbolic import derive
+from ..symbolic.names import SIGNAL_FUNCTION
 from ..symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from ..version import __version__
 from .comments import comment_text
@@ -89,6 +91,16 @@ def input_hash(model: Model, backends, transforms=DEFAULT_TRANSFORMS, jacobians:
     return h.hexdigest()[:16]
 
 
+def check_no_signals(model, export: str) -> None:
+    """Refuse, in one line, the export (``export``: what it makes) of a model whose drives read
+    table signals: the tables are read at run time by gpmegen's runtime, which an export leaves
+    behind."""
+    if model is not None and model.signals:
+        names = ", ".join(s.name for s in model.signals)
+        raise ModelError(f"model {model.name}: its drives read the table signals {names}, which gpmegen's runtime "
+                         f"supplies and {export} cannot carry; drive the model through its inputs instead (--inputs)")
+
+
 @dataclass
 class BuildResult:
     model: str
@@ -154,10 +166,13 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
                                 for j, p in enumerate(d.chain.topology.parent)),
         dependent=tuple(model.dependent) if model.dependent is not None else None,
         statuses=tuple(SolveStatus),
+        signals=tuple(s.name for s in model.signals),
+        signal_function=SIGNAL_FUNCTION,
     )
     env = template_environment()
     files = {}
-    printers = {"numpy": PythonPrinter(names), "c": CPrinter(names)}
+    signals = context["signals"]
+    printers = {"numpy": PythonPrinter(names, signals), "c": CPrinter(names, signals)}
     say(f"common subexpressions of {len(fns)} functions")
     prepared = prepare_all(fns, d)
     for backend in backends:
@@ -182,6 +197,8 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         "dependent": list(model.dependent) if model.dependent is not None else None,
         "files": {name: hashlib.sha256(text.encode()).hexdigest() for name, text in sorted(files.items())},
     }
+    if model.signals:   # where a run of the folder alone reads the tables
+        manifest["signals"] = [{"name": s.name, "table": s.table, "column": s.column} for s in model.signals]
     files[MANIFEST] = json.dumps(manifest, indent=2, sort_keys=True) + "\n"
     return files
 

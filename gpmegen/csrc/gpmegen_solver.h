@@ -186,4 +186,16 @@ GPMEGEN_HIDDEN int gpmegen_genalpha(const struct gpmegen_model *model, double t0
                                     const double *t_save, const double *p, double *y_out, long *n_saved,
                                     long *counts);
 
+/* Table signals: reference signals of time that a model's drives name, each a table of samples
+   (t_k, y_k), t strictly increasing, that the runtime reads from a file and sets before a run
+   (gpmegen.runtime.signals); the generated code calls gpmegen_signal(k, t). The value is the
+   linear interpolation between the two samples about t (the samples' own values at them), held
+   at the ends; NAN for a signal not set. At most GPMEGEN_MAX_SIGNALS (gpmegen.model.chain.
+   MAX_SIGNALS) per model library; the tables are the library's (one per process), and only
+   pointers are kept: the caller keeps the arrays alive. gpmegen_set_signal returns GPMEGEN_OK, or
+   GPMEGEN_BAD_ARGUMENTS (k out of range, n < 2, NULL arrays; n = 0 with NULL arrays unsets). */
+#define GPMEGEN_MAX_SIGNALS 32
+GPMEGEN_HIDDEN int gpmegen_set_signal(int k, long n, const double *t, const double *y);
+GPMEGEN_HIDDEN double gpmegen_signal(int k, double t);
+
 #endif

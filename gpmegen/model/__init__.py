@@ -12,10 +12,11 @@ from .chain import (
     Offset,
     Parameter,
     Point,
+    Signal,
 )
 from .reference import reference_model
 
 __all__ = [
     "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "Joint", "Model", "Offset",
-    "Parameter", "Point", "reference_model",
+    "Parameter", "Point", "Signal", "reference_model",
 ]

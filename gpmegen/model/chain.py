@@ -293,6 +293,30 @@ class Drive:
     expression: sp.Expr
 
 
+#: The most table signals one model may have (the solver library keeps their tables in an array
+#: of this size: ``GPMEGEN_MAX_SIGNALS`` of ``gpmegen_solver.h``).
+MAX_SIGNALS = 32
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A reference signal of time read from a table at run time: ``table``, the path of a
+    results file (``.npz``, absolute or relative to the working directory), and ``column``, the
+    column of it (``u_<coordinate>``, ``lambda_<constraint>``, ``<coordinate>``,
+    ``<coordinate>_dot``, ``drive_<coordinate>``), interpolated linearly in t
+    (:mod:`gpmegen.runtime.signals`). A drive's law names it by ``name`` (its :func:`symbol`);
+    the generated code calls it as a function of t that the runtime supplies. (A signal given by
+    an expression is no Signal: the model file writes its expression where its name stands.)"""
+
+    name: str
+    table: str
+    column: str
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return symbol(self.name)
+
+
 @dataclass(frozen=True)
 class Constraint:
     """A programmed constraint.
@@ -393,7 +417,8 @@ class Model:
     ``gravity`` is the gravitational acceleration vector in {0} (m/s²) as expressions;
     ``dependent`` names the dependent coordinates of the constraint partition (``None``: chosen
     automatically at run time). ``closures``: the loops closed (:class:`Closure`), whose rows
-    are among ``constraints``.
+    are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
+    name.
     """
 
     name: str
@@ -405,6 +430,7 @@ class Model:
     dependent: tuple | None = None
     description: str = ""
     closures: tuple = ()
+    signals: tuple = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

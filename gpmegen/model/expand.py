@@ -16,6 +16,7 @@ from .chain import (
     CLOSURE_TYPES,
     GROUND_NAME,
     JOINT_KINDS,
+    MAX_SIGNALS,
     TIME,
     Body,
     Branch,
@@ -24,6 +25,7 @@ from .chain import (
     Model,
     Offset,
     Point,
+    Signal,
     acceleration_symbol,
     axis_symbols,
     check_model_name,
@@ -104,7 +106,7 @@ class _Names:
         self.seen: dict[str, tuple[str, tuple]] = {}
 
     def claim(self, name, what, path):
-        check_name(name, what, bare=what in ("parameter", "coordinate"), subject=path)
+        check_name(name, what, bare=what in ("parameter", "coordinate", "signal"), subject=path)
         if name in self.seen:
             other, other_path = self.seen[name]
             raise ModelError(f"{what} {name!r} duplicates the {other} of the same name; rename one", path,
@@ -289,6 +291,34 @@ def _check_derived_names(flat, names: _Names):
             made[name] = (owner, meaning, path)
 
 
+def _check_signals(model: Model, coordinates: list, points: list, names: _Names) -> set:
+    """The table signals: at most :data:`MAX_SIGNALS`, each a name of its own in expressions (no
+    parameter's, coordinate's, point's or other model name, not ``t`` nor a name expressions give
+    to velocities, accelerations and points' coordinates), a table path and a column. Returns
+    their symbols."""
+    if len(model.signals) > MAX_SIGNALS:
+        raise ModelError(f"{len(model.signals)} signals read from tables, at most {MAX_SIGNALS}; join runs into "
+                         f"fewer", ("signals",))
+    derived = {"t"} | {f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot")}
+    derived |= {s.name for name in points
+                for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(name)}
+    for k, signal in enumerate(model.signals):
+        path = ("signals", k)
+        if not isinstance(signal, Signal):
+            raise ModelError(f"signals[{k}] is a {type(signal).__name__}, not a Signal; make it "
+                             f"gpmegen.Signal(name, table, column)", path)
+        if signal.name in derived:
+            raise ModelError(f"signal {signal.name!r} has the name of a time, velocity, acceleration or point "
+                             f"coordinate in expressions; choose another name", path + ("name",))
+        names.claim(signal.name, "signal", path + ("name",))
+        for key in ("table", "column"):
+            value = getattr(signal, key)
+            if not isinstance(value, str) or not value:
+                raise ModelError(f"signal {signal.name!r}: its {key} must be a non-empty string, got {value!r}",
+                                 path + (key,))
+    return {s.symbol for s in model.signals}
+
+
 def _check_drives(model: Model, coordinates: list, points: list, constant: set):
     """Each drive on a known coordinate, once; its law of t, parameters and the state a
     first-order constraint may name (coordinates, their velocities, points' positions and
@@ -315,7 +345,8 @@ def _check_drives(model: Model, coordinates: list, points: list, constant: set):
             raise ModelError(f"{where}: a drive's law may use positions and velocities, not the acceleration "
                              f"{used[0]} (a force that depends on the accelerations changes the mass matrix); remove "
                              f"it", path + ("expression",))
-        _check_expression(drive.expression, constant | {TIME} | state, where, path + ("expression",))
+        signals = {s.symbol for s in model.signals}
+        _check_expression(drive.expression, constant | {TIME} | state | signals, where, path + ("expression",))
 
 
 ORDERS = {0: "position", 1: "first order, linear in velocities", 2: "second order, linear in accelerations"}
@@ -403,6 +434,7 @@ def expand(model: Model) -> FlatChain:
     if not coordinates:
         raise ModelError(f"model {model.name!r} has no joints: add at least one joint", ("chain",))
     _check_derived_names(flat, names)
+    _check_signals(model, coordinates, points, names)
     for i, v in enumerate(model.gravity):
         _check_expression(v, constant, "gravity", ("gravity", i))
     _check_drives(model, coordinates, points, constant)

@@ -18,12 +18,15 @@ from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
 from . import ccompile, cprobe, cstack, fastcall, integrate
-from .model import TRANSFORM_FUNCTIONS, LoadedModel, vector
+from .model import TRANSFORM_FUNCTIONS, LoadedModel, NumpyEvaluator, vector
 
 #: The number of coordinates from which a single fast call lets other threads run while its C
 #: does. Releasing and taking back the GIL costs about 0.05 µs a call: 5% of the C at n_rfe = 5
 #: (15 coordinates, 1 µs), under 1% from 30 (5 µs and more), where threads can gain.
 RELEASE_GIL_FROM = 30
+
+#: The tables whose pointers each loaded library holds (library path -> arrays), kept alive here.
+_SIGNAL_ARRAYS: dict = {}
 
 
 class CModel(LoadedModel):
@@ -81,6 +84,7 @@ class CEvaluator:
         self._partition_c = (None, None, None, None)
         self._params_c = (None, None)
         self._scratch = threading.local()
+        self._numpy_signals = NumpyEvaluator(module)
 
     # --- marshalling ------------------------------------------------------------------------
     # A call costs what the C costs plus this marshalling (a few 0.1 µs per array), so what can be
@@ -158,6 +162,23 @@ class CEvaluator:
                 f"dependent coordinate per constraint ({self.m})"
             )
         return tuple(np.array(part or (0,), dtype=np.intc) for part in (dep, ind))
+
+    def set_signals(self, tables):
+        """Set the library's tables of the signals (and the NumPy module's, which sizes the
+        outputs and serves what the library does not): pointers to the tables' arrays, which
+        this evaluator keeps."""
+        self._numpy_signals.set_signals(tables)
+        kept = []
+        for k, table in enumerate(tables):
+            t, y = (np.ascontiguousarray(a, dtype=float) for a in (table.t, table.y))
+            t_c, y_c = self.ffi.from_buffer("double[]", t), self.ffi.from_buffer("double[]", y)
+            if self.lib.set_signal(k, len(t), t_c, y_c) != 0:
+                raise SimulationError(f"model {self.model_name}: the library refused the table of signal "
+                                      f"{table.name!r}; rebuild it with 'gpmegen build --force'")
+            kept.append((t, y, t_c, y_c))
+        # kept with the library (one per process and path), not this evaluator: another model of
+        # the same library may outlive it and still call the signals
+        _SIGNAL_ARRAYS[str(self.library.path)] = tuple(kept)
 
     # --- the generated functions -------------------------------------------------------------
     def mass_matrix(self, q, p):

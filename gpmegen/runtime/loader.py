@@ -93,5 +93,21 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
                               f"'{rebuild} --force'")
     if backend == "c":
         from .cmodel import CModel
-        return CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
-    return LoadedModel(module, params, "numpy", folder, requirements)
+        loaded = CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
+    else:
+        loaded = LoadedModel(module, params, "numpy", folder, requirements)
+    return with_tables(loaded, folder) if loaded.signal_names else loaded
+
+
+def with_tables(loaded, folder):
+    """``loaded`` with the tables of its signals read from the files its folder's manifest
+    names (:mod:`gpmegen.runtime.signals`)."""
+    from ..folder import read_manifest
+    from ..model.chain import Signal
+    from . import signals
+
+    entries = (read_manifest(Path(folder)) or {}).get("signals", [])
+    if [e.get("name") for e in entries] != list(loaded.signal_names):
+        raise StaleModelError(f"{folder}: its manifest does not name the tables of the signals "
+                              f"{', '.join(loaded.signal_names)}; build it again with 'gpmegen build --force'")
+    return loaded.with_signals(signals.read_all(Signal(e["name"], e["table"], e["column"]) for e in entries))

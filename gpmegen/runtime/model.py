@@ -18,7 +18,8 @@ import numpy as np
 
 from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
-from . import finite, gpme, integrate, jacobians
+from ..symbolic.names import SIGNAL_FUNCTION
+from . import finite, gpme, integrate, jacobians, signals
 from .batch import is_batch, rows, stacked, states
 
 # What a failing generated function did, by the exception Python's math raised.
@@ -221,6 +222,10 @@ class NumpyEvaluator:
         lam = gpme.multipliers(M, f, qdd, D)
         return qdd, *jacobians.acceleration_jacobians(M, D.T, D, *self.residual_jacobians(t, q, qd, qdd, lam, model.p))
 
+    def set_signals(self, tables):
+        """Set the module's signal function to the linear interpolation of ``tables``."""
+        setattr(self.module, SIGNAL_FUNCTION, signals.numpy_function(tables))
+
     def rk4(self, model, g, k_from, k_to, save_every, y0):
         return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
 
@@ -263,6 +268,8 @@ class LoadedModel:
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
+        self.signal_names: tuple = tuple(getattr(module, "SIGNALS", ()))
+        self.signal_tables: tuple = ()  # the tables of the signals, once bound (with_signals)
         # True: the constraint rows may be redundant (with_redundant_rows); a model file that closes
         # loops lists fewer dependent coordinates than rows when it knows some are
         self.redundant = self.dependent is not None and len(self.dependent) < len(self.constraint_names)
@@ -344,6 +351,29 @@ class LoadedModel:
         other = copy.copy(self)
         other.actuators = frozen(np.array([self.coordinates.index(name) for name in names], dtype=int))
         return other
+
+    def with_signals(self, tables) -> LoadedModel:
+        """The same model with its table signals (:attr:`signal_names`) read from ``tables``
+        (:class:`gpmegen.runtime.signals.Table`, one per signal in that order), which the generated
+        functions then call. The tables are set in the loaded module and library themselves: for
+        every model of this folder in the process, until other tables are bound."""
+        tables = tuple(tables)
+        names = tuple(t.name for t in tables)
+        if names != self.signal_names:
+            raise ModelError(f"model {self.module.MODEL} has the signals {', '.join(self.signal_names) or 'none'}; "
+                             f"give one table for each, in that order (got {', '.join(names) or 'none'})")
+        if tables:
+            self.evaluator.set_signals(tables)
+        other = copy.copy(self)
+        other.signal_tables = tables
+        return other
+
+    def check_signal_span(self, t0: float, t_end: float) -> None:
+        """Refuse, in one line, a run over ``[t0, t_end]`` that leaves a signal's table."""
+        if self.signal_names and not self.signal_tables:
+            raise SimulationError(f"model {self.module.MODEL}'s signals {', '.join(self.signal_names)} have no tables; "
+                                  f"load it with gpmegen.load(model=...) or bind them with with_signals()")
+        signals.check_span(self.signal_tables, t0, t_end)
 
     def with_params(self, **overrides) -> LoadedModel:
         """The same model (same generated code, compiled library and partition) with some

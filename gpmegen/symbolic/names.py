@@ -14,6 +14,10 @@ import sympy as sp
 
 PREFIX = "_"
 
+#: The function of a generated NumPy module that gives a table signal's value, ``_signal(k, t)``:
+#: the runtime supplies it (:mod:`gpmegen.runtime.signals`).
+SIGNAL_FUNCTION = f"{PREFIX}signal"
+
 
 def intermediate(k: int) -> sp.Symbol:
     """The ``k``-th intermediate quantity of a derivation or of a generated function: ``_x<k>``."""

@@ -11,6 +11,7 @@ import keyword
 import math
 import re
 import sys
+from pathlib import Path
 
 import sympy as sp
 
@@ -22,6 +23,7 @@ from ..chain import (
     CLOSURE_TYPES,
     GROUND_NAME,
     JOINT_KINDS,
+    MAX_SIGNALS,
     PAPER_FREEDOMS,
     TIME,
     Body,
@@ -38,6 +40,7 @@ from ..chain import (
     Parameter,
     Point,
     RectangularSection,
+    Signal,
     StiffnessSection,
     TubeSection,
     acceleration_symbol,
@@ -67,7 +70,8 @@ _RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "closures", "initial", "actuators", "urdf")
+            "chain", "drives", "constraints", "closures", "initial", "actuators", "urdf", "signals")
+SIGNAL_KEYS = ("name", "expression", "table", "column")
 CLOSURE_KEYS = ("name", "points", "type", "axis", "alpha", "beta")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
 SHAPE_KEYS = {
@@ -123,6 +127,8 @@ class Reader:
         self.labels: dict[str, tuple] = {}
         self.prescribed: dict[str, tuple] = {}   # coordinate -> (law of t, path of its field)
         self.reading_drive = False   # names are read for a drive's law (positions and velocities only)
+        self.signal_expressions: dict[str, sp.Expr] = {}   # a signal given by an expression: name -> it
+        self.table_signals: dict[str, Signal] = {}   # a signal read from a table: name -> it
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -248,6 +254,10 @@ class Reader:
     def unknown(self, name, scope) -> str:
         """Why ``name`` is not in ``scope``, and what would fix it."""
         coordinate_list = ", ".join(self.coordinates[:12]) + (", ..." if len(self.coordinates) > 12 else "")
+        if name in self.table_signals:
+            return (f"signal {name!r} is read from a table, so it may appear only in drives (a constraint needs "
+                    f"the time derivatives of its law, which a table does not give); write the signal as an "
+                    f"expression of t, or use it in a drive")
         if name == "t":
             return "time t may appear only in drives and constraints; use parameters here"
         if name in self.params:
@@ -319,6 +329,7 @@ class Reader:
             chain = self.read_chain(data["chain"])
         up = [0, 0, "-g"] if "urdf" in data else [0, 0, 0]   # URDF robots are described z up
         gravity = self.read_vector(data.get("gravity", up), ("gravity",), self.params)
+        signals = self.read_signals(data.get("signals", []))
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
         closures = self.read_closures(data.get("closures", []), constraints, chain)
@@ -333,6 +344,7 @@ class Reader:
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, closures=closures,
+            signals=signals,
         )
         if closures:
             model = self.drop_vanishing(model, chain)
@@ -594,9 +606,70 @@ class Reader:
         self.points.append(name)
         return Point(name, position)
 
+    def expression_names(self) -> dict:
+        """What every name of an expression stands for beside parameters and t: coordinates,
+        their velocities and accelerations, points' positions, velocities and accelerations (the
+        names a signal may not take, each with what it is)."""
+        names = {name: "parameter" for name in self.params}
+        names["t"] = "time"
+        for c in self.coordinates:
+            names.update({c: "coordinate", f"{c}_dot": f"the velocity of coordinate {c!r}",
+                          f"{c}_ddot": f"the acceleration of coordinate {c!r}"})
+        for point in self.points:
+            for f, kind in ((point_symbols, "position"), (point_velocity_symbols, "velocity"),
+                            (point_acceleration_symbols, "acceleration")):
+                names.update({s.name: f"a {kind} coordinate of point {point!r}" for s in f(point)})
+        return names
+
+    def read_signals(self, items) -> tuple:
+        """The ``[[signals]]``: each a name for a law of t and parameters (``expression``, written
+        where the name stands) or for a column of a results file (``table``, ``column``), read at
+        run time (:class:`Signal`)."""
+        self.array(items, ("signals",), what="list of [[signals]] tables")
+        taken = self.expression_names()
+        seen: dict[str, tuple] = {}
+        for k, item in enumerate(items):
+            path = ("signals", k)
+            self.table(item, path, SIGNAL_KEYS, ("name",), "signal")
+            name = self.name(item["name"], path + ("name",), "signal", bare=True)
+            if name in taken:
+                self.fail(path + ("name",), f"signal {name!r} has the name of {taken[name]} in expressions; "
+                                            f"choose another name")
+            if name in seen:
+                self.fail(path + ("name",), f"a second signal {name!r} (the first at line "
+                                            f"{self.locator.line(seen[name])}); choose another name")
+            seen[name] = path + ("name",)
+            if ("expression" in item) == ("table" in item):
+                self.fail(path, "give a signal either expression = \"...\" (a law of t and parameters) or "
+                                "table = \"run.npz\" with column = \"...\", not both nor neither")
+            if "expression" in item:
+                if "column" in item:
+                    self.fail(path + ("column",), "column belongs with table; remove it")
+                scope = {**self.params, "t": TIME, **self.signal_expressions}
+                self.signal_expressions[name] = self.quantity(item["expression"], path + ("expression",), scope)
+                continue
+            if len(self.table_signals) == MAX_SIGNALS:
+                self.fail(path, f"more than {MAX_SIGNALS} signals read from tables; join runs into fewer")
+            if "column" not in item:
+                self.fail(path, "missing required key 'column'; add column = \"u_<coordinate>\" (the column of "
+                                "the table to read)")
+            table = self.string(item["table"], path + ("table",), "a results file's path in quotes")
+            column = self.string(item["column"], path + ("column",), "a column name in quotes")
+            if not table:
+                self.fail(path + ("table",), "the table's path is empty; give a results file (.npz)")
+            where = Path(table) if Path(table).is_absolute() else Path(self.file).resolve().parent / table
+            self.table_signals[name] = Signal(name, str(where), column)
+        return tuple(self.table_signals.values())
+
+    def signal_scope(self) -> dict:
+        """The signals' names as expressions take them: an expression signal's law, a table
+        signal's symbol."""
+        return {**self.signal_expressions, **{name: s.symbol for name, s in self.table_signals.items()}}
+
     def read_drives(self, items):
         self.array(items, ("drives",), what="list of [[drives]] tables")
-        scope = self.constraint_scope(1)   # a feedback law: t, parameters, positions and velocities
+        # a feedback law: t, parameters, positions and velocities; and the signals
+        scope = {**self.constraint_scope(1), **self.signal_scope()}
         drives = []
         for k, item in enumerate(items):
             path = ("drives", k)
@@ -633,7 +706,8 @@ class Reader:
                        "constraint")
             name = self.name(item["name"], path + ("name",), "constraint")
             order = item.get("order", 0)   # its values: expand()
-            expr = self.quantity(item["expression"], path + ("expression",), self.constraint_scope(order))
+            expr = self.quantity(item["expression"], path + ("expression",),
+                                 {**self.constraint_scope(order), **self.signal_expressions})
             if not (expr.free_symbols & moving):
                 self.fail(path + ("expression",), f"the constraint {expr} = 0 does not depend on any coordinate "
                                                   f"(it names no coordinate and no point that a joint moves), so "
