@@ -642,7 +642,8 @@ class Reader:
                     self.fail(path + (key,), f"force {name!r}: a {kind} takes no {key}; remove it, or use the type "
                                              f"that has it")
             if not any(key in item for key in needed):
-                self.fail(path, f"force {name!r}: a {kind} needs " + " or ".join(needed) + "; add "
+                article = "an" if kind[0] in "aeiou" else "a"
+                self.fail(path, f"force {name!r}: {article} {kind} needs " + " or ".join(needed) + "; add "
                                 + " = ... or ".join(needed) + " = ...")
             if kind == "spring-damper" and "stiffness" in item and "rest_length" not in item:
                 self.fail(path, f"force {name!r}: a spring needs its rest_length (m) with its stiffness; add "
