@@ -404,3 +404,20 @@ def test_generated_code_is_deterministic(env):
     first, second = render(model, ("numpy", "c")), render(model, ("numpy", "c"))
     assert first == second
     assert "force_elements" in first["model.h"] and "FORCES = ('spring',)" in first["model_numpy.py"]
+
+
+# --- where the points meet ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_points_meeting_in_a_run_stop_it_naming_the_element(hanger, backend):
+    # no gravity, no spring: the mass rises at 1 m/s and meets A (0.5 m up) exactly in the last
+    # stage of the fourth step of 0.125 s (all binary fractions), where e = d/L is 0/0
+    model = _on(hanger, backend).with_params(g=0.0, k=0.0)
+    t, y, outcome = integrate.rk4(model, np.zeros(1), np.ones(1), 1.0, 0.125)
+    assert not outcome.complete and t[-1] == 0.375
+    assert ("non-finite state" in str(outcome) and "the shortest force element, 'spring', was 0.125 m long at "
+            "t = 0.375 s (at length 0 its direction is undefined and its force NaN: keep its points apart)"
+            in str(outcome))
+    with pytest.raises(gpmegen.errors.SimulationError, match="force element 'spring' has length 0 at the start: its "
+                                                             "points 'A' and 'B' meet"):
+        integrate.rk4(model, np.array([H]), np.zeros(1), 1.0, 0.125)

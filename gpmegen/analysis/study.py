@@ -294,6 +294,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
+    model.check_forces_apart(q0)   # before the start's modes, which its undefined force would spoil
     omega = None  # the natural frequency that bounds the method's steps, when one does
     if t_end > 0 and not limits.are_lifted():  # t_end 0: no step
         if method in limits.NEEDS_FREQUENCY:

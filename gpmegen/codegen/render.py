@@ -118,6 +118,7 @@ def model_context(model: Model, d, digest: str, command: str) -> dict:
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         forces=tuple(f.name for f in model.forces),
+        force_points=tuple(tuple(f.points) for f in model.forces),
         arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
                                     n_constraints=len(d.constraints.names)),
     )

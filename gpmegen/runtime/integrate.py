@@ -208,9 +208,10 @@ CHUNK_SECONDS = 0.05
 
 
 def check_start(model, t0, q0, qd0):
-    """Refuse a start where the row of a second-order constraint vanishes (at rest, for a path
-    curvature), with SimulationError naming it; other singular starts end the run at its first
-    step with their own message."""
+    """Refuse a start where a force element's points meet or the row of a second-order
+    constraint vanishes (at rest, for a path curvature), with SimulationError naming it; other
+    singular starts end the run at its first step with their own message."""
+    model.check_forces_apart(q0)
     check_second_order_rows(model, model.constraint_terms(t0, q0, qd0)[2], t0, qd0)
 
 

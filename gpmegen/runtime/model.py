@@ -266,6 +266,7 @@ class LoadedModel:
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
         # the force elements between points (a model without has no FORCES)
         self.force_names: tuple = tuple(getattr(module, "FORCES", ()))
+        self.force_points: tuple = tuple(tuple(p) for p in getattr(module, "FORCE_POINTS", ()))
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
@@ -406,6 +407,19 @@ class LoadedModel:
         if not self.force_names:
             return np.zeros((0, 3))
         return np.asarray(self.evaluator.force_elements(t, q, qd, self.p), float).reshape(len(self.force_names), 3)
+
+    def check_forces_apart(self, q) -> None:
+        """Refuse, with one SimulationError line, a configuration ``q`` where a force element's two
+        points meet (length 0: its line, and so its force, is undefined there)."""
+        if not self.force_names:
+            return
+        position = dict(zip(self.points, self.point_positions(q)))
+        for name, (a, b) in zip(self.force_names, self.force_points):
+            length = float(np.linalg.norm(position[b] - position[a]))
+            if not length > 0:
+                raise SimulationError(f"force element {name!r} has length {length:g} at the start: its points {a!r} "
+                                      f"and {b!r} meet, where its line and its force are undefined; start with them "
+                                      f"apart")
 
     def point_positions(self, q):
         """Positions of the named points in {0}, (n_points, 3), m."""
