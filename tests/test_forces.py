@@ -421,3 +421,20 @@ def test_points_meeting_in_a_run_stop_it_naming_the_element(hanger, backend):
     with pytest.raises(gpmegen.errors.SimulationError, match="force element 'spring' has length 0 at the start: its "
                                                              "points 'A' and 'B' meet"):
         integrate.rk4(model, np.array([H]), np.zeros(1), 1.0, 0.125)
+
+
+@pytest.mark.long
+@pytest.mark.requires_cc
+@pytest.mark.parametrize("name", ["arm.toml", "four_bar.toml"])
+def test_the_c_backend_and_its_recursion_agree_with_numpy(env, files, name):
+    # the C solve runs the articulated-body recursion, whose joint forces hold the elements
+    model = gpmegen.load_model_file(files / name)
+    numpy_model, c_model = (gpmegen.load(model=model, backend=b) for b in ("numpy", "c"))
+    for q, qd in _states(numpy_model, seed=13):
+        scale = np.abs(numpy_model.accelerations(0.0, q, qd)).max()
+        np.testing.assert_allclose(c_model.accelerations(0.0, q, qd), numpy_model.accelerations(0.0, q, qd),
+                                   rtol=1e-10, atol=1e-10 * scale)
+        np.testing.assert_allclose(c_model.force_elements(0.0, q, qd), numpy_model.force_elements(0.0, q, qd),
+                                   rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(c_model.stiffness_jacobian(q), numpy_model.stiffness_jacobian(q), rtol=1e-12,
+                                   atol=1e-12 * np.abs(numpy_model.stiffness_jacobian(q)).max())

@@ -13,7 +13,8 @@ With the world pseudo-inertia of body ``b``, ``J_b = T_b H_b T_bᵀ = [[Σ, c], 
   bodies joint ``i`` moves of ``I_b a_b + V_b ×* I_b V_b`` (rate of momentum at ``q̈ = 0``);
 - ``g_i = ∂E_p/∂q_i = -g⃗·l_i``, ``E_p = -g⃗·Σ c_b``;
 - stiffness Jacobian ``K_ij = ∂(g + C q)_i/∂q_j = -g⃗·(ω_i × l_j) + C_ij`` for ``i`` supporting
-  ``j`` (from ``T_ij = Δ_i Δ_j T``), symmetric, zero where ``m_ij`` is.
+  ``j`` (from ``T_ij = Δ_i Δ_j T``), symmetric, zero where ``m_ij`` is, but for the springs of
+  force elements between points (:mod:`.forces`), which may couple joints of two branches.
 
 In a serial chain joint ``i`` supports every later joint, and the sums run over ``j ≥ i``.
 """
