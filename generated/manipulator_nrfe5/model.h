@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 157f07462cb10e36
+Input hash: bbcb6289f0a6e9d3
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
