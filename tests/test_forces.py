@@ -438,3 +438,15 @@ def test_the_c_backend_and_its_recursion_agree_with_numpy(env, files, name):
                                    rtol=1e-13, atol=1e-13)
         np.testing.assert_allclose(c_model.stiffness_jacobian(q), numpy_model.stiffness_jacobian(q), rtol=1e-12,
                                    atol=1e-12 * np.abs(numpy_model.stiffness_jacobian(q)).max())
+
+
+def test_the_casadi_export_carries_the_element():
+    pytest.importorskip("casadi")
+    from gpmegen.codegen import casadi_export
+
+    model = gpmegen.load_model_file(HANGER)
+    qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]
+    y, rate, c = -0.01, 0.3, 3.0
+    F = K * y - c * rate            # k (L0 - L) - c L̇ with L = H - y, L̇ = -ẏ
+    p = [G, MASS, K, c, H]          # g, m, k, c, H
+    assert float(qdd(0.0, y, rate, [], p)) == pytest.approx((-MASS * G - F) / MASS, rel=1e-14)
