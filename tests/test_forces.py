@@ -447,6 +447,6 @@ def test_the_casadi_export_carries_the_element():
     model = gpmegen.load_model_file(HANGER)
     qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]
     y, rate, c = -0.01, 0.3, 3.0
-    F = K * y - c * rate            # k (L0 - L) - c L̇ with L = H - y, L̇ = -ẏ
+    F = K * y + c * rate            # k (L0 - L) - c L̇ with L = H - y, L̇ = -ẏ
     p = [G, MASS, K, c, H]          # g, m, k, c, H
     assert float(qdd(0.0, y, rate, [], p)) == pytest.approx((-MASS * G - F) / MASS, rel=1e-14)
