@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: b78169d1e3c43a8e
+Input hash: 2ae11190d73d0aab
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: bbcb6289f0a6e9d3
+Input hash: 3ef7e6f52d029ecb
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
