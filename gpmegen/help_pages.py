@@ -66,7 +66,8 @@ Write the model's discretized chain as a URDF robot at the parameter defaults: r
 their inertials and a box of the same mass and principal moments as visual, each sde as
 consecutive revolute joints with massless links between, named points as fixed links. Springs and
 dampers, which URDF cannot hold, are in the extension element <gpmegen:spring stiffness damping>
-(namespace urn:gpmegen:urdf:1) of each joint; gravity and constraints are not exported.
+(namespace urn:gpmegen:urdf:1) of each joint; gravity, constraints and forces between points are
+not exported.
 
 With --format casadi, the model's functions for CasADi (MPC, trajectory optimization), from the
 same derivation as the NumPy and C code: qdd(t, q, qd, u, p) (the GPME's accelerations, solved

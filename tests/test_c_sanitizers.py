@@ -22,11 +22,14 @@ import sympy as sp
 import gpmegen
 from gpmegen.model import reference_model
 from gpmegen.model.chain import (
+    GROUND_NAME,
     TIME,
+    Branch,
     CircularSection,
     Constraint,
     Drive,
     FlexibleLink,
+    ForceElement,
     Joint,
     Model,
     Parameter,
@@ -68,13 +71,17 @@ def _three_links():
         name="three_links", parameters=parameters,
         chain=(Joint("a1", "revolute", "z"), link("1", RectangularSection(P["b"], P["h"]), 2),
                Joint("a2", "revolute", "y"), link("2", CircularSection(P["r"]), 3),
-               Joint("s3", "prismatic", "x"), link("3", RectangularSection(P["b"], P["h"]), 2), Point("E")),
+               Joint("s3", "prismatic", "x"), link("3", RectangularSection(P["b"], P["h"]), 2), Point("E"),
+               Branch(GROUND_NAME), Point("G", (sp.Rational(1, 10), sp.Rational(3, 10), sp.Rational(1, 20)))),
         gravity=(0, -9.81, 0),
         constraints=(Constraint("height", y - sp.Rational(1, 10) * sp.sin(TIME), 0, 20, 20),
                      Constraint("heading", vx * sp.sin(P["w"] * TIME) - vy * sp.cos(P["w"] * TIME), 1, 20)),
         dependent=("a2", "s3"),
         # a feedback law of a coordinate, its velocity and the point's position and velocity
         drives=(Drive("a1", -20 * symbol("a1") - 2 * velocity_symbol("a1") - 5 * sp.Max(-1, sp.Min(1, x * vy))),),
+        # forces between a ground point and E: a spring-damper and an actuator's feedback law
+        forces=(ForceElement("strut", ("E", "G"), "spring-damper", 50, sp.Rational(3, 10), sp.Rational(1, 2)),
+                ForceElement("push", ("G", "E"), "actuator", force=-3 * vy + sp.sin(TIME))),
     )
 
 

@@ -17,6 +17,7 @@ import pytest
 import sympy as sp
 
 import gpmegen
+from gpmegen.analysis import energy
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
 from gpmegen.runtime import integrate
@@ -204,3 +205,14 @@ def test_the_linear_model_is_the_closed_loop(env):
     np.testing.assert_allclose(linear.B, [[0.0], [1.0 / 2.0]], rtol=1e-12, atol=1e-12)   # the input on top of the law
     poles = np.sort_complex(linear.eigenvalues)
     np.testing.assert_allclose(poles, [-1.0 - 24 ** 0.5 * 1j, -1.0 + 24 ** 0.5 * 1j], rtol=1e-12)
+
+
+def test_a_laws_velocity_gain_is_counted_once_in_the_energy_balance(env):
+    # The dampers' matrix, -∂f/∂q̇, took the law's -kd q̇ for a damper: its work was counted in
+    # work_dampers and again in work_drive, which integrates the law's power with the state.
+    run = gpmegen.simulate(str(MODELS / "pd_slider.toml"), t_end=1.0, dt=1e-3, backend="numpy",
+                           params={"u_max": 1e9})
+    assert np.abs(run["work_dampers"]).max() == 0.0
+    assert np.abs(run["work_drive"]).max() > 0.5   # J: the law's work, its braking included
+    residual = energy.balance_residual(run.arrays)
+    assert np.abs(residual).max() < 1e-9 * np.abs(run["work_drive"]).max()

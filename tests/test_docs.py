@@ -203,8 +203,9 @@ def test_command_line_page_is_the_one_its_parser_and_help_pages_make():
 
 def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     """The help pages of plot and demo list the figures from the list the plots are drawn from;
-    real plots of a run that holds everything but closed loops (the flexible arm) and of one that
-    closes a loop (the four-bar) write exactly those together."""
+    real plots of a run that holds everything but closed loops and forces between points (the
+    flexible arm), of one that closes a loop (the four-bar) and of one with a force element (the
+    hung mass) write exactly those together."""
     from gpmegen import cli_docs
     from gpmegen.analysis.figure_list import FIGURES
     from gpmegen.cli import main
@@ -222,8 +223,14 @@ def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     assert main(["simulate", str(ROOT / "examples" / "four_bar.toml"), "--t-end", "0.002", "--dt", "1e-4",
                  "--save-every", "5", "--backend", "numpy", "--out", str(loop)]) == 0
     assert main(["plot", str(loop), "--out", str(tmp_path / "loop_figures")]) == 0
-    written = {p.name for folder in (out, tmp_path / "loop_figures") for p in folder.iterdir()}
-    assert "closure_reactions.png" not in {p.name for p in out.iterdir()}
+    hung = tmp_path / "hung.npz"
+    assert main(["simulate", str(ROOT / "tests" / "models" / "spring_hanger.toml"), "--t-end", "0.002", "--dt",
+                 "1e-4", "--save-every", "5", "--backend", "numpy", "--out", str(hung)]) == 0
+    assert main(["plot", str(hung), "--out", str(tmp_path / "hung_figures")]) == 0
+    assert "force_elements.png" in {p.name for p in (tmp_path / "hung_figures").iterdir()}
+    written = {p.name for folder in (out, tmp_path / "loop_figures", tmp_path / "hung_figures")
+               for p in folder.iterdir()}
+    assert not {"closure_reactions.png", "force_elements.png"} & {p.name for p in out.iterdir()}
     assert sorted(written) == sorted(f"{figure.stem}.png" for figure in FIGURES)
 
 

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 2fdefc3c90e81917
+Input hash: 3a9ed73d6bf676e5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

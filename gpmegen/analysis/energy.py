@@ -1,11 +1,15 @@
 """The energy balance of a run: ``ΔT + ΔV_gravity + ΔV_springs = W_drive + W_constraints +
-W_dampers``. Joint and sde springs are potential energy, drives and the constraint forces do work
+W_dampers``. Joint and sde springs, and the springs of force elements, are potential energy;
+drives (with the force elements' dampers and actuators) and the constraint forces do work
 (integrated with the motion), and the dampers' work ``W_dampers = -∫ q̇ᵀ C_d q̇ dt ≤ 0`` is a term
 of the balance, not an error: the residual is what remains.
 
-``C_d`` is the dampers' matrix, ``-∂f/∂q̇`` by central differences about ``q̇ = 0``: the velocity
-terms are quadratic in ``q̇`` and cancel exactly, so only the viscous dampers remain (constants
-of the model). ``W_dampers`` is integrated over the saved samples: on each interval ``q̇`` is the
+``C_d`` is the dampers' matrix, ``-∂(f - Q)/∂q̇`` by central differences about ``q̇ = 0``: the
+velocity terms are quadratic in ``q̇`` and cancel exactly, so only the joints' and sdes' viscous
+dampers remain (constants of the model). The drives' ``Q`` is left out: a feedback law's
+velocity terms, and the force elements' dampers and actuators that ``Q`` holds
+(:mod:`gpmegen.symbolic.forces`), do work that the integrators integrate with the state in
+``W_drive``. ``W_dampers`` is integrated over the saved samples: on each interval ``q̇`` is the
 cubic Hermite interpolant of the saved ``q̇`` and ``q̈``, and the power, a polynomial of degree 6
 in time there, is integrated exactly by 4-point Gauss–Legendre. Its error is that of the
 interpolant, ``O(Δt⁴)`` in the save interval: the residual stays at the integrator's level where
@@ -23,13 +27,18 @@ _NODES, _WEIGHTS = (_NODES + 1) / 2, _WEIGHTS / 2  # on [0, 1]
 
 
 def damping_matrix(model, t, q) -> np.ndarray:
-    """The dampers' matrix ``C_d`` (n, n), N·m·s/rad or N·s/m, of ``model`` at ``(t, q)``."""
+    """The dampers' matrix ``C_d`` (n, n), N·m·s/rad or N·s/m, of ``model`` at ``(t, q)``: the
+    joints' and sdes' dampers, the drives' ``Q`` left out (its work is ``W_drive``)."""
     n = model.n_dof
     C = np.empty((n, n))
+
+    def passive(qd):
+        return model.forces(t, q, qd) - model.drive_forces(t, q, qd)
+
     for j in range(n):
         e = np.zeros(n)
         e[j] = STEP
-        C[:, j] = -(model.forces(t, q, e) - model.forces(t, q, -e)) / (2 * STEP)
+        C[:, j] = -(passive(e) - passive(-e)) / (2 * STEP)
     return C
 
 

@@ -51,6 +51,11 @@ def _closures(runs) -> bool:
     return _multipliers(runs) and any(str(key).startswith("closure_") for r in runs for key in r)
 
 
+def _forces(runs) -> bool:
+    names = [tuple(str(n) for n in r["force_names"]) if "force_names" in r else () for r in runs]
+    return bool(names[0]) and all(n == names[0] for n in names)
+
+
 FIGURES = (
     Figure("joint_coordinates", "the joint coordinates against time", None, _always),
     Figure("end_effector", "the coordinates of the end-effector against time", None, _always),
@@ -59,6 +64,8 @@ FIGURES = (
            "when the model has programmed constraints", _constraints),
     Figure("energy_balance", "each energy term, the work of drive, constraints and dampers, and the residual",
            "when the results hold the energies", _energies),
+    Figure("force_elements", "each force element's length, rate and force against time",
+           "when the model has forces between points ([[forces]]) and the runs the same ones", _forces),
     Figure("driving_functions", "drive plus the constraints' reaction on each joint",
            "when the results hold the driving functions", _driving),
     Figure("elastic_deformation", "the deflection of the end-effector and the moments at the sdes",

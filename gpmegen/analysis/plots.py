@@ -449,6 +449,25 @@ def energy_balance(plt, runs, style):
     return fig
 
 
+def force_elements(plt, runs, style):
+    """Each force element between points in a column of three panels: its length, rate and force
+    (positive pushing its points apart) against time."""
+    names = [str(n) for n in runs[0]["force_names"]]
+    fig, axes = _figure(plt, 3, len(names), 6.5, width=max(8.0, 4.0 * len(names)), sharex=True)
+    for j, name in enumerate(names):
+        for r, s in zip(runs, style):
+            column = [str(n) for n in r["force_names"]].index(name)
+            for i in range(3):
+                axes[i, j].plot(r["t"], r["force_elements"][:, column, i], **_line(s), lw=1.2)
+        for i, quantity in enumerate(("L [m]", "dL/dt [m/s]", "F [N]")):
+            axes[i, j].set_ylabel(literal(f"{name}: {quantity}"))
+            axes[i, j].grid(True, alpha=0.3)
+        axes[-1, j].set_xlabel("t [s]")
+    _finish(fig, _title(runs, "Forces between points"), _run_handles(runs, style),
+            "Length, rate and force of each force element; F > 0 pushes its two points apart.")
+    return fig
+
+
 def figures(runs) -> list:
     """The (stem, draw) of the figures ``runs`` can make, in the order and under the conditions of
     :data:`gpmegen.analysis.figure_list.FIGURES`: draw(plt, runs, styles) -> Figure."""
@@ -456,7 +475,7 @@ def figures(runs) -> list:
 
     draws = {"joint_coordinates": joint_coordinates, "end_effector": end_effector, "path": path,
              "constraint_violation": constraint_violation, "energy_balance": energy_balance,
-             **driving_plots.DRAWS}
+             "force_elements": force_elements, **driving_plots.DRAWS}
     return [(stem, draws[stem]) for stem in figure_list.stems(runs)]
 
 

@@ -13,7 +13,10 @@ before): ``qdd`` (k, n) q̈, ``constraint_forces`` (k, n) ``M q̈ - f``, and eit
 (k, m) with ``point_forces`` (k, n_points, 3) N (ideal realization) or ``u`` (k, m) with
 ``actuators`` (m,) names (actuated realization); their units are in ``meta``. A model with
 closed loops adds each closure's reaction, ``closure_<name>_force`` and ``closure_<name>_moment``
-(k, 3) in {0}, described by ``meta["closures"]``.
+(k, 3) in {0}, described by ``meta["closures"]``. A model with force elements between points adds
+``force_names`` (f,) and ``force_elements`` (k, f, 3): each element's length L (m), its rate
+(m/s) and its force (N, positive pushing its two points apart), also in the CSV as
+``L_<name> [m]``, ``Ldot_<name> [m/s]`` and ``F_<name> [N]``.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ PER_SAMPLE = ("t", "q", "qd", "end_effector", "phi", "tau_drive")
 ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "drive_forces", "constraint_forces",
                       "lambda", "point_forces", "u", "actuators", "kinetic_energy", "gravity_energy", "spring_energy",
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
-                      "internal_eigenvalues")
+                      "internal_eigenvalues", "force_names", "force_elements")
 #: A closure's reaction (:mod:`gpmegen.analysis.closures`): ``closure_<name>_force`` and
 #: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
 CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")
@@ -123,6 +126,16 @@ def driving_columns(results: dict) -> tuple[list, list]:
     return names, arrays
 
 
+def force_columns(results: dict) -> tuple[list, list]:
+    """The CSV's columns of the force elements between points: each one's length, rate and
+    force. Returns (names, arrays (k, j))."""
+    if "force_elements" not in results or not len(results["force_names"]):
+        return [], []
+    names = [f"{label}_{name} [{unit}]" for name in results["force_names"]
+             for label, unit in (("L", "m"), ("Ldot", "m/s"), ("F", "N"))]
+    return names, [results["force_elements"].reshape(len(results["t"]), -1)]
+
+
 def save(results: dict, path, csv: bool = True) -> list[Path]:
     """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E, Φ and the driving
     functions (:func:`driving_columns`) beside it,
@@ -139,6 +152,8 @@ def save(results: dict, path, csv: bool = True) -> list[Path]:
         cons = [f"phi_{c}" for c in results.get("constraint_names", [])]
         state = "complete" if status == "complete" else f"partial ({' '.join(status.split())})"
         columns, driving = driving_columns(results)
+        elements = force_columns(results)
+        columns, driving = columns + elements[0], driving + elements[1]
         header = (f"# {FORMAT} run {run_id}: {state}\n"
                   + ",".join(["t"] + names + [f"{c}_dot" for c in names] + ["x_E", "y_E", "z_E"] + cons
                              + ["tau_drive"] + columns))

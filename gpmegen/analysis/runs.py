@@ -111,6 +111,15 @@ class Results:
         """The velocity of coordinate ``name`` over time, (k,) rad/s or m/s."""
         return self.qd[:, self._column(name)]
 
+    def force(self, name: str):
+        """The force element ``name`` over time, (k, 3): its length L (m), rate dL/dt (m/s) and
+        force (N, positive pushing its two points apart)."""
+        names = tuple(str(f) for f in self.arrays.get("force_names", ()))
+        if name not in names:
+            raise KeyError(f"{name!r} is not a force element of this run; its force elements are "
+                           f"{', '.join(names) or 'none'}")
+        return self.arrays["force_elements"][:, names.index(name)]
+
     def save(self, path, overwrite: bool = False) -> list:
         """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
         see :func:`gpmegen.analysis.results.save`); an earlier run's results there are replaced

@@ -295,6 +295,7 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
+    model.check_forces_apart(q0)   # before the start's modes, which its undefined force would spoil
     omega = None  # the natural frequency that bounds the method's steps, when one does
     if t_end > 0 and not limits.are_lifted():  # t_end 0: no step
         if method in limits.NEEDS_FREQUENCY:
@@ -369,7 +370,8 @@ def _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, ato
 def collect(model, t, y, status, settings) -> dict:
     """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
     constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
-    actuated one), energies and the dampers' work (:mod:`gpmegen.analysis.energy`)."""
+    actuated one), energies, the dampers' work (:mod:`gpmegen.analysis.energy`) and each force
+    element's length, rate and force."""
     n, m = model.n_dof, len(model.constraint_names)
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
@@ -380,6 +382,7 @@ def collect(model, t, y, status, settings) -> dict:
     reaction = np.zeros((samples, n))
     lam = np.full((samples, m), np.nan)
     energy = np.zeros((samples, 3))
+    elements = np.full((samples, len(model.force_names), 3), np.nan)
     actuated = len(model.actuators) > 0
     for k in range(samples):
         E[k] = model.end_effector(q[k])
@@ -390,6 +393,7 @@ def collect(model, t, y, status, settings) -> dict:
             qdd[k], M, f = model.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D, model.redundant)
+            elements[k] = model.force_elements(t[k], q[k], qd[k])
         energy[k] = model.energies(q[k], qd[k])
     finite = np.flatnonzero(np.all(np.isfinite(y[:, :2 * n]), axis=1))
     dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)
@@ -405,6 +409,7 @@ def collect(model, t, y, status, settings) -> dict:
         "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
         "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1], "work_dampers": dampers,
         "status": np.array(status),
+        **({"force_names": np.array(model.force_names), "force_elements": elements} if model.force_names else {}),
         "meta": results_io.encode({
             "model": model.module.MODEL, "coordinates": list(model.coordinates),
             "constraint_names": list(model.constraint_names), "backend": model.backend,

@@ -168,7 +168,22 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bo
                  ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs),
         _recursive_function(d, constraint_outputs),
     ]
-    return fns + ([_jacobian_function(d)] if jacobians else []) + transform_functions(d, transforms)
+    return (fns + _force_functions(d) + ([_jacobian_function(d)] if jacobians else [])
+            + transform_functions(d, transforms))
+
+
+def _force_functions(d: Derivation) -> list[Function]:
+    """The readings of the force elements between points (:mod:`gpmegen.symbolic.forces`), for
+    a model that has them (a model without keeps the functions it always had)."""
+    terms = d.dynamics.elements
+    if terms is None:
+        return []
+    values = [v for row in zip(terms.length, terms.rate, terms.force) for v in row]
+    return [Function("force_elements", "Length, rate and force of each force element between points.",
+                     ("t", "q", "qd", "p"),
+                     (Output("F", (len(terms.length), 3), tuple(values),
+                             "one row per element in FORCES order: length L (m), its rate (m/s) and the force "
+                             "(N, positive pushing the two points apart)"),))]
 
 
 def _recursive_function(d: Derivation, constraint_outputs) -> Function:

@@ -129,6 +129,8 @@ def model_context(model: Model, d, digest: str, command: str) -> dict:
         points=d.chain.points,
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
+        forces=tuple(f.name for f in model.forces),
+        force_points=tuple(tuple(f.points) for f in model.forces),
         arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
                                     n_constraints=len(d.constraints.names)),
     )
@@ -194,6 +196,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         "transforms": list(transforms),
         "jacobians": jacobians,
         "constraints": list(d.constraints.names),
+        **({"forces": [f.name for f in model.forces]} if model.forces else {}),
         "dependent": list(model.dependent) if model.dependent is not None else None,
         "files": {name: hashlib.sha256(text.encode()).hexdigest() for name, text in sorted(files.items())},
     }

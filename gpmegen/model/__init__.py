@@ -7,6 +7,7 @@ from .chain import (
     Constraint,
     Drive,
     FlexibleLink,
+    ForceElement,
     Joint,
     Model,
     Offset,
@@ -17,6 +18,6 @@ from .chain import (
 from .reference import reference_model
 
 __all__ = [
-    "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "Joint", "Model", "Offset",
+    "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "ForceElement", "Joint", "Model", "Offset",
     "Parameter", "Point", "Signal", "reference_model",
 ]

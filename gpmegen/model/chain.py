@@ -407,6 +407,28 @@ class Closure:
                      for label in (self.rows if labels is None else labels))
 
 
+FORCE_TYPES = ("spring-damper", "actuator")
+
+
+@dataclass(frozen=True)
+class ForceElement:
+    """A force along the line between two points (either may be on the ground), ``points``
+    ``(A, B)``: with ``d = r_B - r_A`` in {0}, its length ``L = |d|``, direction ``e = d/L`` and
+    rate ``L̇ = e·(v_B - v_A)``, a force ``F`` (N) that **pushes A and B apart when positive**
+    (``F e`` on B, ``-F e`` on A; negative: tension). ``kind`` "spring-damper":
+    ``F = stiffness (rest_length - L) - damping L̇`` (expressions of parameters; the spring
+    stores ``stiffness (L - rest_length)²/2``); "actuator": ``F = force``, a law of ``t``,
+    parameters and the state as a drive's feedback law names it, never of accelerations."""
+
+    name: str
+    points: tuple
+    kind: str = "spring-damper"
+    stiffness: sp.Expr = sp.S.Zero
+    rest_length: sp.Expr = sp.S.Zero
+    damping: sp.Expr = sp.S.Zero
+    force: sp.Expr = sp.S.Zero
+
+
 Chain = tuple
 
 
@@ -418,7 +440,7 @@ class Model:
     ``dependent`` names the dependent coordinates of the constraint partition (``None``: chosen
     automatically at run time). ``closures``: the loops closed (:class:`Closure`), whose rows
     are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
-    name.
+    name. ``forces``: the forces between points (:class:`ForceElement`).
     """
 
     name: str
@@ -431,6 +453,7 @@ class Model:
     description: str = ""
     closures: tuple = ()
     signals: tuple = ()
+    forces: tuple = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -14,6 +14,7 @@ from ..errors import ModelError
 from .chain import (
     AXES,
     CLOSURE_TYPES,
+    FORCE_TYPES,
     GROUND_NAME,
     JOINT_KINDS,
     MAX_SIGNALS,
@@ -319,14 +320,30 @@ def _check_signals(model: Model, coordinates: list, points: list, names: _Names)
     return {s.symbol for s in model.signals}
 
 
-def _check_drives(model: Model, coordinates: list, points: list, constant: set):
-    """Each drive on a known coordinate, once; its law of t, parameters and the state a
-    first-order constraint may name (coordinates, their velocities, points' positions and
-    velocities), never of accelerations."""
+def _state_symbols(coordinates: list, points: list) -> tuple[set, set]:
+    """The symbols a feedback law may name (coordinates, their velocities, points' positions and
+    velocities) and the accelerations it may not."""
     state = {f(c) for c in coordinates for f in (symbol, velocity_symbol)}
     state |= {s for name in points for f in (point_symbols, point_velocity_symbols) for s in f(name)}
     accelerations = {acceleration_symbol(c) for c in coordinates}
     accelerations |= {s for name in points for s in point_acceleration_symbols(name)}
+    return state, accelerations
+
+
+def _check_law(expr, allowed: set, accelerations: set, where: str, subject: tuple, whose="a drive's"):
+    """A feedback law (a drive's, an actuator's): of ``allowed``, never of ``accelerations``."""
+    used = sorted(str(s) for s in _free_symbols(expr) & accelerations)
+    if used:
+        raise ModelError(f"{where}: {whose} law may use positions and velocities, not the acceleration {used[0]} "
+                         f"(a force that depends on the accelerations changes the mass matrix); remove it", subject)
+    _check_expression(expr, allowed, where, subject)
+
+
+def _check_drives(model: Model, coordinates: list, points: list, constant: set):
+    """Each drive on a known coordinate, once; its law of t, parameters and the state a
+    first-order constraint may name (coordinates, their velocities, points' positions and
+    velocities), never of accelerations."""
+    state, accelerations = _state_symbols(coordinates, points)
     first: dict[str, tuple] = {}
     for k, drive in enumerate(model.drives):
         path = ("drives", k)
@@ -339,14 +356,9 @@ def _check_drives(model: Model, coordinates: list, points: list, constant: set):
             raise ModelError(f"a second drive on {drive.coordinate!r}; add the two expressions in one drive",
                              path + ("coordinate",), first[drive.coordinate])
         first[drive.coordinate] = path + ("coordinate",)
-        where = f"drive on {drive.coordinate!r}"
-        used = sorted(str(s) for s in _free_symbols(drive.expression) & accelerations)
-        if used:
-            raise ModelError(f"{where}: a drive's law may use positions and velocities, not the acceleration "
-                             f"{used[0]} (a force that depends on the accelerations changes the mass matrix); remove "
-                             f"it", path + ("expression",))
         signals = {s.symbol for s in model.signals}
-        _check_expression(drive.expression, constant | {TIME} | state | signals, where, path + ("expression",))
+        _check_law(drive.expression, constant | {TIME} | state | signals, accelerations,
+                   f"drive on {drive.coordinate!r}", path + ("expression",))
 
 
 ORDERS = {0: "position", 1: "first order, linear in velocities", 2: "second order, linear in accelerations"}
@@ -442,6 +454,7 @@ def expand(model: Model) -> FlatChain:
     elements = tuple(e for _, e in flat)
     tree = topology(elements)
     _check_closures(model, points, tree, names)
+    _check_forces(model, coordinates, points, tree, names)
     _check_dependent(model, coordinates)
     return FlatChain(model, elements, tuple(coordinates), tree)
 
@@ -482,3 +495,47 @@ def _check_closures(model: Model, points: list, tree, names: _Names):
                 raise ModelError(f"closure {closure.name!r}: its row {label!r} is not among the model's constraints "
                                  f"as the closure writes it; make the model with Closure.constraints()",
                                  path + ("rows",))
+
+
+#: The keys each type of force element needs (one of them at least) and may have.
+FORCE_KEYS = {"spring-damper": (("stiffness", "damping"), ("stiffness", "rest_length", "damping")),
+              "actuator": (("force",), ("force",))}
+
+
+def _check_forces(model: Model, coordinates: list, points: list, tree, names: _Names):
+    """Each force element: a free name, a known type, two points of the chain on different bodies
+    (one may be on the ground), its quantities of parameters (an actuator's law also of t and
+    the state, never of accelerations)."""
+    constant = {p.symbol for p in model.parameters}
+    state, accelerations = _state_symbols(coordinates, points)
+    for k, element in enumerate(model.forces):
+        path = ("forces", k)
+        names.claim(element.name, "force", path + ("name",))
+        where = f"force {element.name!r}"
+        if element.kind not in FORCE_TYPES:
+            close = difflib.get_close_matches(str(element.kind), FORCE_TYPES, 1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise ModelError(f"{where}: unknown type {element.kind!r}; {hint}use "
+                             + ", ".join(f'"{kind}"' for kind in FORCE_TYPES), path + ("type",))
+        if len(element.points) != 2:
+            raise ModelError(f"{where}: give two points, got {len(element.points)}; write points = [\"A\", \"B\"]",
+                             path + ("points",))
+        for j, point in enumerate(element.points):
+            if point not in points:
+                close = difflib.get_close_matches(str(point), points, 1)
+                hint = f"did you mean {close[0]!r}? or " if close else ""
+                raise ModelError(f"{where}: no point {point!r} (points: {', '.join(points) or 'none'}); {hint}declare "
+                                 f"it with a [[chain]] point element", path + ("points", j))
+        if element.points[0] == element.points[1]:
+            raise ModelError(f"{where}: the point {element.points[0]!r} is named twice, so the force has no line; "
+                             f"name two different points", path + ("points", 1))
+        moved = [tree.point_joint[points.index(point)] for point in element.points]
+        if moved[0] == moved[1]:
+            on = "the ground" if moved[0] < 0 else "the same body"
+            raise ModelError(f"{where}: points {element.points[0]!r} and {element.points[1]!r} are both on {on}, so "
+                             f"its length never changes and its force does no work; put the points on two different "
+                             f"bodies", path + ("points",))
+        for key in ("stiffness", "rest_length", "damping"):
+            _check_expression(getattr(element, key), constant, f"{where} {key}", path + (key,))
+        _check_law(element.force, constant | {TIME} | state, accelerations, where, path + ("force",),
+                   "an actuator's")

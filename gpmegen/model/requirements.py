@@ -45,6 +45,7 @@ NAMES = {
     "rhoIz": ("rotary inertia rhoIz", "rotary inertias"), "rhoIy": ("rotary inertia rhoIy", "rotary inertias"),
     "polar": ("polar rotary inertia", "rotary inertias rhoIz + rhoIy of a link free to twist (phi in freedoms)"),
     "stiffness": ("stiffness", "stiffnesses"), "damping": ("damping coefficient", "damping coefficients"),
+    "rest_length": ("rest length", "rest lengths"),
     "alpha": ("Baumgarte gain alpha", "Baumgarte gains"), "beta": ("Baumgarte gain beta", "Baumgarte gains"),
 }
 
@@ -137,6 +138,9 @@ def requirements(model: Model) -> tuple[Requirement, ...]:
         if isinstance(c, Constraint):
             out += [Requirement(sp.sympify(getattr(c, key)), NONNEGATIVE, "constraint", c.name, (key,),
                                 ("constraints", k)) for key in ("alpha", "beta")]
+    for k, element in enumerate(getattr(model, "forces", ())):
+        out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "force", element.name, (key,),
+                            ("forces", k)) for key in ("stiffness", "rest_length", "damping")]
     return tuple(out)
 
 

@@ -51,6 +51,14 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     alpha = "alpha_circle"
     beta = "beta_circle"
 
+    [[forces]]                            # along the line of two points; F > 0 pushes them apart
+    name = "cylinder"                     # spring-damper: F = k (L0 - L) - c dL/dt
+    points = ["A", "E"]                   # (stiffness with rest_length, damping); actuator:
+    type = "spring-damper"                # force = a law of t, parameters and the state
+    stiffness = "k_c"
+    rest_length = "L0"
+    damping = "c_c"
+
     [initial]                             # start configuration; unnamed coordinates are 0
     q = { theta1 = 0, psi2 = "pi/4" }
     qd = { theta1 = 0.1 }                 # start velocities (rad/s, m/s); dependent ones are solved

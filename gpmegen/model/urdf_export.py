@@ -9,7 +9,8 @@ principal moments; an sde's rotations are consecutive joints, so the links betwe
 zero mass. Named points are links fixed to theirs. A joint's spring and damper, which URDF cannot
 hold, are written in the extension element ``<gpmegen:spring stiffness="..." damping="..."
 rest="..."/>`` (namespace :data:`NAMESPACE`; N·m/rad and N·m·s/rad, or N/m and N·s/m) inside the
-``<joint>``, the damper also as URDF's own ``<dynamics damping>``. Gravity and constraints are not exported.
+``<joint>``, the damper also as URDF's own ``<dynamics damping>``. Gravity, constraints and forces
+between points are not exported.
 """
 
 from __future__ import annotations

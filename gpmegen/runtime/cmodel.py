@@ -74,6 +74,7 @@ class CEvaluator:
         self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
         self.n_parameters = len(module.PARAMETERS)
         self.n_bodies = len(getattr(module, "BODIES", ()))
+        self.n_forces = len(getattr(module, "FORCES", ()))
         if self.lib.n_dof() != self.n or self.lib.n_parameters() != self.n_parameters:
             raise BuildError(f"{source} does not match {module_path}; rebuild with 'gpmegen build --force'")
         self.shape = (self.n,)
@@ -210,6 +211,12 @@ class CEvaluator:
         Q = np.empty(self.n)
         self.lib.drive_forces(float(t), q_c, qd_c, self._params(p), self._ptr(Q))
         return Q
+
+    def force_elements(self, t, q, qd, p):
+        _, q_c, qd_c = self._state(q, qd)
+        F = np.empty((max(1, self.n_forces), 3))
+        self.lib.force_elements(float(t), q_c, qd_c, self._params(p), self._ptr(F))
+        return F[:self.n_forces]
 
     def points(self, q, p):
         q = self._vec(q, "q")

@@ -208,9 +208,10 @@ CHUNK_SECONDS = 0.05
 
 
 def check_start(model, t0, q0, qd0):
-    """Refuse a start where the row of a second-order constraint vanishes (at rest, for a path
-    curvature), with SimulationError naming it; other singular starts end the run at its first
-    step with their own message."""
+    """Refuse a start where a force element's points meet or the row of a second-order
+    constraint vanishes (at rest, for a path curvature), with SimulationError naming it; other
+    singular starts end the run at its first step with their own message."""
+    model.check_forces_apart(q0)
     check_second_order_rows(model, model.constraint_terms(t0, q0, qd0)[2], t0, qd0)
 
 
@@ -284,6 +285,8 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
                         # non-finite (or a step that failed) may be a motion that left the workspace
                         reach = None if status == SolveStatus.SINGULAR else out_of_reach(model, *last, g.time(end))
                         outcome = reach or Outcome.failed(last[0], status)
+                        if status == SolveStatus.NONFINITE and model.force_names:
+                            outcome = Outcome.diverged(outcome.t, outcome.why + shortest_force(model, *last))
                         break
                     if carry is None and len(t):
                         bar.update(t[-1] - g.t0)
@@ -301,6 +304,20 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
         finally:
             bar.close()
     return np.concatenate(ts), np.concatenate(ys), outcome or Outcome(Ending.COMPLETE, g.t_end)
+
+
+def shortest_force(model, t_last: float, y_last) -> str:
+    """What a run that went non-finite says of the model's force elements between points: the
+    shortest one at its last saved state (a force element's direction is undefined where its
+    points meet, and its force there is NaN)."""
+    n = model.n_dof
+    try:
+        lengths = model.force_elements(t_last, y_last[:n], y_last[n:2 * n])[:, 0]
+    except SimulationError:
+        return ""
+    k = int(np.nanargmin(lengths)) if np.any(np.isfinite(lengths)) else 0
+    return (f"; the shortest force element, {model.force_names[k]!r}, was {lengths[k]:.3g} m long at "
+            f"t = {t_last:.6g} s (at length 0 its direction is undefined and its force NaN: keep its points apart)")
 
 
 def _last_saved(ts, ys) -> tuple:

@@ -79,6 +79,7 @@ class Evaluator(Protocol):
     def static_residual(self, q, p): ...
     def stiffness_jacobian(self, q, p): ...
     def drive_forces(self, t, q, qd, p): ...
+    def force_elements(self, t, q, qd, p): ...
     def points(self, q, p): ...
     def transforms(self, q, p, kind): ...
     def constraint_terms(self, t, q, qd, p): ...
@@ -170,6 +171,9 @@ class NumpyEvaluator:
 
     def drive_forces(self, t, q, qd, p):
         return call(self.module, "drive_forces", t, self._q(q), self._qd(qd), p)
+
+    def force_elements(self, t, q, qd, p):
+        return call(self.module, "force_elements", t, self._q(q), self._qd(qd), p)
 
     def points(self, q, p):
         return call(self.module, "points", self._q(q), p)
@@ -265,6 +269,9 @@ class LoadedModel:
         self.bodies: tuple = tuple(getattr(module, "BODIES", ()))
         self.transforms_built: tuple = tuple(getattr(module, "TRANSFORMS", ()))
         self.constraint_names: tuple = tuple(module.CONSTRAINTS)
+        # the force elements between points (a model without has no FORCES)
+        self.force_names: tuple = tuple(getattr(module, "FORCES", ()))
+        self.force_points: tuple = tuple(tuple(p) for p in getattr(module, "FORCE_POINTS", ()))
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
@@ -422,6 +429,27 @@ class LoadedModel:
     def drive_forces(self, t, q, qd):
         """Q(t, q, q̇), (n,): the drives' laws at the state, feedback included."""
         return self.evaluator.drive_forces(t, q, qd, self.p)
+
+    def force_elements(self, t, q, qd):
+        """Each force element's length (m), rate (m/s) and force (N, positive pushing its two
+        points apart) at the state, (n_forces, 3) in :attr:`force_names` order; (0, 3) for a
+        model without force elements."""
+        if not self.force_names:
+            return np.zeros((0, 3))
+        return np.asarray(self.evaluator.force_elements(t, q, qd, self.p), float).reshape(len(self.force_names), 3)
+
+    def check_forces_apart(self, q) -> None:
+        """Refuse, with one SimulationError line, a configuration ``q`` where a force element's two
+        points meet (length 0: its line, and so its force, is undefined there)."""
+        if not self.force_names:
+            return
+        position = dict(zip(self.points, self.point_positions(q)))
+        for name, (a, b) in zip(self.force_names, self.force_points):
+            length = float(np.linalg.norm(position[b] - position[a]))
+            if not length > 0:
+                raise SimulationError(f"force element {name!r} has length {length:g} at the start: its points {a!r} "
+                                      f"and {b!r} meet, where its line and its force are undefined; start with them "
+                                      f"apart")
 
     def point_positions(self, q):
         """Positions of the named points in {0}, (n_points, 3), m."""

@@ -33,7 +33,7 @@ def derive(model) -> Derivation:
     chain = expand(model)
     program = Program()
     kin = forward(chain, program)
-    dyn = _dynamics.derive(kin, model.gravity, model.drives)
+    dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces)
     con = _constraints.derive(kin, model.constraints)
     rec = _recursive.derive(kin, dyn, model.gravity)
     return Derivation(chain, program, kin, dyn, con, rec)

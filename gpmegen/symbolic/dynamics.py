@@ -13,7 +13,8 @@ With the world pseudo-inertia of body ``b``, ``J_b = T_b H_b T_bᵀ = [[Σ, c], 
   bodies joint ``i`` moves of ``I_b a_b + V_b ×* I_b V_b`` (rate of momentum at ``q̈ = 0``);
 - ``g_i = ∂E_p/∂q_i = -g⃗·l_i``, ``E_p = -g⃗·Σ c_b``;
 - stiffness Jacobian ``K_ij = ∂(g + C q)_i/∂q_j = -g⃗·(ω_i × l_j) + C_ij`` for ``i`` supporting
-  ``j`` (from ``T_ij = Δ_i Δ_j T``), symmetric, zero where ``m_ij`` is.
+  ``j`` (from ``T_ij = Δ_i Δ_j T``), symmetric, zero where ``m_ij`` is, but for the springs of
+  force elements between points (:mod:`.forces`), which may couple joints of two branches.
 
 In a serial chain joint ``i`` supports every later joint, and the sums run over ``j ≥ i``.
 """
@@ -25,6 +26,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model.topology import GROUND
+from . import forces as _forces
 from .algebra import cross, dot, mul
 from .constraints import state_expressions
 from .kinematics import Kinematics
@@ -47,6 +49,7 @@ class Dynamics:
     bodies: tuple = ()            # (joint, m, c, I, n, l) per body: the joint that moves it (-1: the
                                   # ground), mass, first moment and inertia about {0}'s origin, rate of
                                   # momentum at q̈ = 0 (torque n about the origin, force l)
+    elements: _forces.ForceTerms | None = None  # the force elements' terms, already in the slots above
 
     def mass_product(self, kin: Kinematics, a: sp.Matrix, define_all) -> sp.Matrix:
         """``M a`` (n,) for a vector ``a`` (n,) of expressions, in O(n) intermediates:
@@ -119,9 +122,11 @@ def _add_composite(total, part, define, define_all):
             define_all(total[3] + torque), define_all(total[4] + force))
 
 
-def derive(kin: Kinematics, gravity, drives) -> Dynamics:
+def derive(kin: Kinematics, gravity, drives, forces=()) -> Dynamics:
     """Dynamics of the chain whose kinematics is ``kin``; ``gravity`` is the vector g⃗ in {0}
-    (expressions), ``drives`` a sequence of Drive."""
+    (expressions), ``drives`` a sequence of Drive, ``forces`` of ForceElement
+    (:mod:`.forces`: their springs join the joints' springs, their dampers and actuators the
+    drives)."""
     program = kin.program
     define, define_all = program.define, program.define_all
     n = len(kin.joints)
@@ -190,4 +195,10 @@ def derive(kin: Kinematics, gravity, drives) -> Dynamics:
 
     potential = -sum((dot(gvec, c) for _, _, c, *_ in per_body), sp.S.Zero)
     spring_energy = sum((jt.stiffness * (kin.q[j] - jt.rest) ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
-    return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body))
+    elements = None
+    if forces:
+        elements = _forces.derive(kin, forces)
+        spring, drive, K = spring + elements.spring, drive + elements.applied, K + elements.stiffness
+        spring_energy += elements.potential
+    return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body),
+                    elements)

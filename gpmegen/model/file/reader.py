@@ -21,6 +21,7 @@ from .. import shapes
 from ..chain import (
     AXES,
     CLOSURE_TYPES,
+    FORCE_TYPES,
     GROUND_NAME,
     JOINT_KINDS,
     MAX_SIGNALS,
@@ -33,6 +34,7 @@ from ..chain import (
     Constraint,
     Drive,
     FlexibleLink,
+    ForceElement,
     ISection,
     Joint,
     Model,
@@ -52,7 +54,7 @@ from ..chain import (
     symbol,
     velocity_symbol,
 )
-from ..expand import expand
+from ..expand import FORCE_KEYS, expand
 from ..requirements import evaluate, requirements, violation
 from ..rfem import check_freedoms, check_link, check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
@@ -70,7 +72,7 @@ _RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "closures", "initial", "actuators", "urdf", "signals")
+            "chain", "drives", "constraints", "closures", "forces", "initial", "actuators", "urdf", "signals")
 SIGNAL_KEYS = ("name", "expression", "table", "column")
 CLOSURE_KEYS = ("name", "points", "type", "axis", "alpha", "beta")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
@@ -126,7 +128,8 @@ class Reader:
         self.moving_points: set[str] = set()
         self.labels: dict[str, tuple] = {}
         self.prescribed: dict[str, tuple] = {}   # coordinate -> (law of t, path of its field)
-        self.reading_drive = False   # names are read for a drive's law (positions and velocities only)
+        self.reading_drive = ""   # names are read for a law ("a drive's", "an actuator's": positions and
+        # velocities only)
         self.signal_expressions: dict[str, sp.Expr] = {}   # a signal given by an expression: name -> it
         self.table_signals: dict[str, Signal] = {}   # a signal read from a table: name -> it
 
@@ -270,8 +273,8 @@ class Reader:
             if name.endswith(suffix):
                 base = name[:-len(suffix)]
                 if base in self.coordinates and self.reading_drive:
-                    return (f"a drive's law may use positions and velocities, not the {quantity} {name} (a force "
-                            f"that depends on the accelerations changes the mass matrix); remove it")
+                    return (f"{self.reading_drive} law may use positions and velocities, not the {quantity} {name} "
+                            f"(a force that depends on the accelerations changes the mass matrix); remove it")
                 if base in self.coordinates:
                     return f"the {quantity} {name} may appear only in {orders} or remove it"
                 return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
@@ -282,8 +285,9 @@ class Reader:
                 if kind in _RATES and symbol(f"x_{point.group(2)}") in scope.values():
                     quantity, orders = _RATES[kind]
                     if self.reading_drive:
-                        return (f"a drive's law may use positions and velocities, not the point {quantity} {name} "
-                                f"(a force that depends on the accelerations changes the mass matrix); remove it")
+                        return (f"{self.reading_drive} law may use positions and velocities, not the point "
+                                f"{quantity} {name} (a force that depends on the accelerations changes the mass "
+                                f"matrix); remove it")
                     return f"the point {quantity} {name} may appear only in {orders} or remove it"
                 return f"point coordinate {name} may appear only in drives and constraints; remove it"
             known = ", ".join(self.points) or "none"
@@ -341,10 +345,11 @@ class Reader:
             dependent = None if dependent is None else tuple(dependent) + robot.dependent
         initial, initial_qd = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
+        forces = self.read_forces(data.get("forces", []), self.taken_names(chain, constraints, closures))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, closures=closures,
-            signals=signals,
+            signals=signals, forces=forces,
         )
         if closures:
             model = self.drop_vanishing(model, chain)
@@ -355,6 +360,8 @@ class Reader:
             if "urdf" in data and exc.subject[:1] == ("chain",):
                 raise chain_error(self, exc) from None
             raise located(exc, self.file, self.locator, chain) from None
+        if forces:
+            self.check_forces(model)
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
                          limits=robot.limits if robot is not None else {})
@@ -675,12 +682,77 @@ class Reader:
             path = ("drives", k)
             self.table(item, path, ("coordinate", "expression"), ("coordinate", "expression"), "drive")
             coordinate = self.string(item["coordinate"], path + ("coordinate",), "a coordinate name in quotes")
-            self.reading_drive = True
-            try:
-                drives.append(Drive(coordinate, self.quantity(item["expression"], path + ("expression",), scope)))
-            finally:
-                self.reading_drive = False
+            drives.append(Drive(coordinate, self.law(item["expression"], path + ("expression",), "a drive's", scope)))
         return tuple(drives)
+
+    def law(self, value, path, whose, scope=None):
+        """A feedback law (``whose``: "a drive's", "an actuator's"): of t, parameters, positions
+        and velocities (``scope``, when given: those names and more, a drive's signals)."""
+        self.reading_drive = whose
+        try:
+            return self.quantity(value, path, scope if scope is not None else self.constraint_scope(1))
+        finally:
+            self.reading_drive = ""
+
+    def read_forces(self, items, taken) -> tuple:
+        """The ``[[forces]]`` as :class:`ForceElement`: each name free among the file's names
+        (``taken``: name -> what it is), its type with the keys it needs, two points of the chain."""
+        self.array(items, ("forces",), what="list of [[forces]] tables")
+        forces = []
+        for k, item in enumerate(items):
+            path = ("forces", k)
+            self.table(item, path, ("name", "points", "type", "stiffness", "rest_length", "damping", "force"),
+                       ("name", "points", "type"), "force")
+            name = self.name(item["name"], path + ("name",), "force")
+            if name in taken:
+                self.fail(path + ("name",), f"force {name!r}: the name is already taken by a {taken[name]}; "
+                                            f"rename the force")
+            taken[name] = "force"
+            kind = self.choice(item["type"], path + ("type",), FORCE_TYPES, "force type")
+            needed, allowed = FORCE_KEYS[kind]
+            for key in ("stiffness", "rest_length", "damping", "force"):
+                if key in item and key not in allowed:
+                    self.fail(path + (key,), f"force {name!r}: a {kind} takes no {key}; remove it, or use the type "
+                                             f"that has it")
+            if not any(key in item for key in needed):
+                article = "an" if kind[0] in "aeiou" else "a"
+                self.fail(path, f"force {name!r}: {article} {kind} needs " + " or ".join(needed) + "; add "
+                                + " = ... or ".join(needed) + " = ...")
+            if kind == "spring-damper" and "stiffness" in item and "rest_length" not in item:
+                self.fail(path, f"force {name!r}: a spring needs its rest_length (m) with its stiffness; add "
+                                f"rest_length = ...")
+            self.array(item["points"], path + ("points",), 2, "list of two point names")
+            points = tuple(self.string(p, path + ("points", j), "a point name in quotes")
+                           for j, p in enumerate(item["points"]))
+            for j, point in enumerate(points):
+                if point not in self.points:
+                    close = difflib.get_close_matches(point, self.points, 1)
+                    hint = f"did you mean {close[0]!r}? or " if close else ""
+                    self.fail(path + ("points", j), f"force {name!r}: no point {point!r}; {hint}declare it with a "
+                                                    f"[[chain]] point = \"{point}\" element")
+            if points[0] == points[1]:
+                self.fail(path + ("points", 1), f"force {name!r}: the point {points[0]!r} is named twice, so the "
+                                                f"force has no line; name two different points")
+            values = {key: self.quantity(item[key], path + (key,), self.params)
+                      for key in ("stiffness", "rest_length", "damping") if key in item}
+            if kind == "actuator":
+                values["force"] = self.law(item["force"], path + ("force",), "an actuator's")
+            forces.append(ForceElement(name, points, kind, **values))
+        return tuple(forces)
+
+    def check_forces(self, model):
+        """Refuse a force element whose points coincide in every configuration (derived from
+        the kinematics, as the build would)."""
+        import dataclasses
+
+        from ...symbolic.forces import check_coincident
+        from ...symbolic.kinematics import forward
+        from ...symbolic.program import Program
+
+        try:
+            check_coincident(forward(expand(dataclasses.replace(model, dependent=None)), Program()), model.forces)
+        except ModelError as exc:
+            raise located(exc, self.file, self.locator) from None
 
     def constraint_scope(self, order):
         """The names a constraint of ``order`` may use: parameters, t, coordinates and point
@@ -725,17 +797,23 @@ class Reader:
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
 
+    def taken_names(self, chain, constraints, closures=()) -> dict:
+        """The file's names so far (parameters, coordinates, points, bodies, constraints, closures
+        and their rows), each with what it names."""
+        bodies = [part.name for element in chain
+                  for part in (discretize(element) if isinstance(element, FlexibleLink) else (element,))
+                  if isinstance(part, Body)]
+        return {**{name: "parameter" for name in self.params}, **{name: "coordinate" for name in self.coordinates},
+                **{name: "point" for name in self.points}, **{name: "body" for name in bodies},
+                **{c.name: "constraint" for c in constraints},
+                **{name: "closure" for closure in closures for name in (closure.name,)}}
+
     def read_closures(self, items, constraints, chain) -> tuple:
         """The ``[[closures]]`` as :class:`Closure` with all the rows of their type (the ones that
         vanish identically are dropped later: :meth:`drop_vanishing`); each name, and the names of
         the rows it writes, checked against every name of the file."""
         self.array(items, ("closures",), what="list of [[closures]] tables")
-        bodies = [part.name for element in chain
-                  for part in (discretize(element) if isinstance(element, FlexibleLink) else (element,))
-                  if isinstance(part, Body)]
-        taken = {**{name: "parameter" for name in self.params}, **{name: "coordinate" for name in self.coordinates},
-                 **{name: "point" for name in self.points}, **{name: "body" for name in bodies},
-                 **{c.name: "constraint" for c in constraints}}
+        taken = self.taken_names(chain, constraints)
         closures = []
         for k, item in enumerate(items):
             path = ("closures", k)
