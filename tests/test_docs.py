@@ -201,31 +201,53 @@ def test_command_line_page_is_the_one_its_parser_and_help_pages_make():
     assert committed == cli_docs.page(), "docs/command-line.md is out of date: make docs"
 
 
-def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
-    """The help pages of plot and demo list the figures from the list the plots are drawn from;
-    real plots of a run that holds everything but closed loops and forces between points (the
+def _three_runs(tmp_path) -> tuple:
+    """Short runs of a model that has everything but closed loops and forces between points (the
     flexible arm), of one that closes a loop (the four-bar) and of one with a force element (the
-    hung mass) write exactly those together."""
-    from gpmegen import cli_docs
-    from gpmegen.analysis.figure_list import FIGURES
+    hung mass): their results files."""
     from gpmegen.cli import main
+
+    run = tmp_path / "run.npz"
+    assert main(["simulate", "--nrfe", "5", "--t-end", "0.002", "--dt", "1e-4", "--save-every", "5",
+                 "--backend", "numpy", "--out", str(run)]) == 0  # the flexible arm: every figure applies
+    loop = tmp_path / "loop.npz"
+    assert main(["simulate", str(ROOT / "examples" / "four_bar.toml"), "--t-end", "0.002", "--dt", "1e-4",
+                 "--save-every", "5", "--backend", "numpy", "--out", str(loop)]) == 0
+    hung = tmp_path / "hung.npz"
+    assert main(["simulate", str(ROOT / "tests" / "models" / "spring_hanger.toml"), "--t-end", "0.002", "--dt",
+                 "1e-4", "--save-every", "5", "--backend", "numpy", "--out", str(hung)]) == 0
+    return run, loop, hung
+
+
+def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
+    """The help pages of plot and demo list the figures from the list the plots are drawn from,
+    and the three runs between them have every figure of the list, each its own (the test below
+    draws them, in make check-c)."""
+    from gpmegen import cli_docs
+    from gpmegen.analysis import plots
+    from gpmegen.analysis import results as results_io
+    from gpmegen.analysis.figure_list import FIGURES
 
     page = cli_docs.page()
     for command in ("plot", "demo"):
         help_text = page.split(f"## gpmegen {command}\n", 1)[1].split("\n## ", 1)[0]
         assert all(f"  {figure.stem}: " in help_text for figure in FIGURES), command
-    run = tmp_path / "run.npz"
-    assert main(["simulate", "--nrfe", "5", "--t-end", "0.002", "--dt", "1e-4", "--save-every", "5",
-                 "--backend", "numpy", "--out", str(run)]) == 0  # the flexible arm: every figure applies
+    stems = [{stem for stem, _ in plots.figures([results_io.load(path)])} for path in _three_runs(tmp_path)]
+    assert not {"closure_reactions", "force_elements"} & stems[0]
+    assert "closure_reactions" in stems[1] and "force_elements" in stems[2]
+    assert sorted(set().union(*stems)) == sorted(figure.stem for figure in FIGURES)
+
+
+@pytest.mark.long
+def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
+    """Real plots of the three runs write exactly the figures of the list between them."""
+    from gpmegen.analysis.figure_list import FIGURES
+    from gpmegen.cli import main
+
+    run, loop, hung = _three_runs(tmp_path)
     out = tmp_path / "figures"
     assert main(["plot", str(run), "--out", str(out)]) == 0
-    loop = tmp_path / "loop.npz"
-    assert main(["simulate", str(ROOT / "examples" / "four_bar.toml"), "--t-end", "0.002", "--dt", "1e-4",
-                 "--save-every", "5", "--backend", "numpy", "--out", str(loop)]) == 0
     assert main(["plot", str(loop), "--out", str(tmp_path / "loop_figures")]) == 0
-    hung = tmp_path / "hung.npz"
-    assert main(["simulate", str(ROOT / "tests" / "models" / "spring_hanger.toml"), "--t-end", "0.002", "--dt",
-                 "1e-4", "--save-every", "5", "--backend", "numpy", "--out", str(hung)]) == 0
     assert main(["plot", str(hung), "--out", str(tmp_path / "hung_figures")]) == 0
     assert "force_elements.png" in {p.name for p in (tmp_path / "hung_figures").iterdir()}
     written = {p.name for folder in (out, tmp_path / "loop_figures", tmp_path / "hung_figures")
@@ -403,7 +425,13 @@ def untouched_checkout():
     assert _git_status() == before, "a documented command changed files of the checkout"
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES[1:] if _runnable(p)], ids=lambda p: str(p.relative_to(ROOT)))
+# Pages whose blocks build and compile several models of their own, export FMUs or run studies
+# (10-40 s of CPU each): they run in make check-c, the other pages in make test.
+LONG_PAGES = ("tutorial.md", "integrators.md", "exports.md", "studies.md")
+
+
+@pytest.mark.parametrize("page", [pytest.param(p, marks=[pytest.mark.long] if p.name in LONG_PAGES else [])
+                                  for p in PAGES[1:] if _runnable(p)], ids=lambda p: str(p.relative_to(ROOT)))
 def test_every_code_block_of_the_page_runs_as_pasted(page, tmp_path, shared_cache, untouched_checkout):
     _copy_inputs(tmp_path)
     _run_blocks(_runnable(page), tmp_path, _environment(shared_cache))
