@@ -44,6 +44,7 @@ def test_no_generated_c_function_computes_more_than_a_block():
 
 
 @pytest.mark.requires_cc
+@pytest.mark.long   # compiles the model twice; the blocks' sizes are checked in make test
 def test_blocks_give_the_bits_of_one_block(env, tmp_path, monkeypatch):
     model = reference_model(2)
     libraries = {}

@@ -108,6 +108,7 @@ def _crashing_library(tmp_path, folder, cache) -> Path:
     return library
 
 
+@pytest.mark.long   # compiles a crashing copy of the model; a failed check remembered is in make test
 def test_a_crash_in_the_test_run_is_reported_with_the_function(tmp_path, env):
     rigid = gpmegen.load(nrfe=1, backend="numpy")
     folder = Path(rigid.folder)

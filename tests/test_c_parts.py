@@ -54,6 +54,7 @@ def _calls(ffi, lib, n, n_parameters, t, q, qd, p):
     return list(buffers.values()) + terms
 
 
+@pytest.mark.long   # the model compiled whole besides its parts
 def test_the_parts_give_the_bits_of_the_whole_file(env, tmp_path):
     model = gpmegen.load(nrfe=3, backend="c")
     folder = Path(model.folder)

@@ -34,6 +34,7 @@ def test_the_solver_library_passes_its_c_checks(tmp_path, fresh_cache):  # the r
     assert len(lines) == 19, run.stdout  # every check ran
 
 
+@pytest.mark.long   # the solver library compiled as one unit and checked
 def test_a_compiler_without_partial_links_compiles_the_library_as_one_unit(tmp_path):
     """A compiler that refuses ``-r`` (the join of the sources' objects) gets the sources as one
     translation unit instead: the object passes the same checks."""
@@ -67,6 +68,7 @@ def test_the_solver_sources_compile_without_warnings(tmp_path):
             assert run.returncode == 0 and run.stderr == "", (name, run.stderr)
 
 
+@pytest.mark.long   # three compiles of the solver library
 def test_the_solver_object_is_built_once_and_rebuilt_when_damaged(tmp_path):
     cache = tmp_path / "cache"
     first = ccompile.build_solver(cache=cache)

@@ -208,6 +208,7 @@ def test_a_model_without_flexible_link_is_refused_before_any_run(tmp_path, capsy
 
 
 @pytest.mark.requires_cc
+@pytest.mark.long   # every level run twice; the levels in one process are in make test
 def test_levels_run_on_a_pool_of_processes_give_the_bytes_of_levels_run_one_after_the_other(env):
     """The levels are independent runs of the same generated code: on two processes they give
     the results, and so the extrapolation, that they give in this process, bit for bit."""

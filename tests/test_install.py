@@ -107,6 +107,7 @@ def test_wheel_holds_every_file_of_the_package(built):
     assert not missing, f"missing from the wheel (a package not found, or data not in package-data): {missing}"
 
 
+@pytest.mark.long   # a fresh environment with the wheel installed; the wheel's contents are checked in make test
 def test_installed_wheel_builds_runs_and_loads_outside_the_checkout(built, tmp_path):
     bin_dir = _fresh_environment(tmp_path, built[0])
     work = tmp_path / "work"

@@ -61,8 +61,9 @@ def check_against_differences(model, t, q, qd):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_reference_arm_equals_finite_differences(env, rng, backend):
-    # n_rfe 1 is examples/manipulator.toml below
-    model = gpmegen.load(nrfe=3, backend=backend, jacobians=True)
+    # n_rfe 1 is examples/manipulator.toml below; n_rfe 2 has the sdes' rotations and their
+    # springs (one sde), at a fraction of the derivation of n_rfe 3
+    model = gpmegen.load(nrfe=2, backend=backend, jacobians=True)
     check_against_differences(model, *random_state(model, rng))
 
 
@@ -86,10 +87,11 @@ def test_a_model_built_without_jacobians_refuses_them_and_differences_them_in_c(
     assert relative(C_qd, A_qd, scale) < 1e-6
 
 
-# the two-armed Baxter's derivation with its Jacobians is the longest of the examples, and the
-# slider-crank's (a closed loop, as four_bar.toml, whose check stays in make test) takes 19 s:
-# make check-c
-LONG_EXAMPLES = {"baxter_flexible", "slider_crank_flexible"}
+# the two-armed Baxter's derivation with its Jacobians is the longest of the examples, the
+# slider-crank's (a closed loop, as four_bar.toml, whose check stays in make test) takes 19 s,
+# the flexible Panda's 20-30 s and the six-joint arm's 9-13 s (the spatial chain of manipulator
+# and planar_two_link stays): make check-c
+LONG_EXAMPLES = {"baxter_flexible", "slider_crank_flexible", "panda_flexible", "spatial_six_joint"}
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=(pytest.mark.long,) if p.stem in LONG_EXAMPLES else ())

@@ -47,6 +47,7 @@ def nonlinear_deviation(model, lin, x0, eps, t_end, dt):
     return t, run(eps)[1] - base
 
 
+@pytest.mark.long   # a series of nonlinear runs; the state matrix against differences is in make test
 def test_small_perturbations_follow_the_linear_model_to_second_order(rest, rng):
     lin, model = rest
     model = model.partitioned(0.0, lin.q)

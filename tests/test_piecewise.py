@@ -98,7 +98,10 @@ def _close(a, b, tol):
     return np.max(np.abs(np.asarray(a) - np.asarray(b))) <= tol * max(1.0, np.max(np.abs(np.asarray(b))))
 
 
-@pytest.mark.parametrize("law", list(LAWS))
+# the spin-up law's three models (the piecewise one and its branches) are built in make check-c;
+# the ramp's in make test
+@pytest.mark.parametrize("law", [pytest.param(law, marks=[pytest.mark.long] if law == "spin_up" else [])
+                                 for law in LAWS])
 def test_terms_on_each_side_are_the_branch_models_on_both_backends(law, hubs, rng):
     """Φ, Φ̇, D, γ of the piecewise model are those of the branch model of the side the time is
     on (derivatives taken branch by branch, no impulse), and the C module computes what the
@@ -118,6 +121,7 @@ def test_terms_on_each_side_are_the_branch_models_on_both_backends(law, hubs, rn
             assert _close(model.accelerations(time, q, qd), numpy_branch.accelerations(time, q, qd), 1e-10)
 
 
+@pytest.mark.long
 def test_spin_up_runs_like_its_two_branches_switched_at_T(hubs):
     """A law that is C1 at the switch (its Φ̈ even continuous): RK4 on the piecewise model
     against the first branch to T and the second from its state on, in C and NumPy."""

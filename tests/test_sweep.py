@@ -114,6 +114,7 @@ def _wait_for(condition, seconds, what):
         time.sleep(0.05)
 
 
+@pytest.mark.long   # a Dask cluster of processes started by hand; the LocalCluster test above is in make test
 @pytest.mark.requires_cc
 def test_scheduler_and_workers_in_their_own_processes_give_the_same_summary(reference, tmp_path):
     from distributed import Client
@@ -199,6 +200,7 @@ def test_a_worker_that_dies_is_that_runs_outcome_and_the_sweep_goes_on(tmp_path)
     assert outcomes.read_csv(out / "summary.csv")["status"] == ["complete"] * 3
 
 
+@pytest.mark.long   # the local pool's worker that dies is in make test
 @pytest.mark.requires_cc
 def test_a_dask_worker_that_dies_is_that_runs_outcome_and_the_sweep_goes_on(tmp_path, monkeypatch):
     """On a cluster the lost worker was an internal error (KeyError: 'wall_s') too."""

@@ -291,7 +291,7 @@ def _states(n, rng, count=4):
         yield rng.uniform(-1.5, 1.5, n), rng.uniform(-2.0, 2.0, n)
 
 
-@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("seed", [pytest.param(s, marks=[pytest.mark.long] if s > 3 else []) for s in SEEDS])
 def test_random_trees_agree_with_pinocchio(env, seed):
     """M against crba, the gravity and velocity parts of f against rnea, the points against
     Pinocchio's frames, and M_ij exactly 0 where neither joint supports the other."""
@@ -374,7 +374,7 @@ def test_the_mass_product_over_subtrees_and_ancestors_is_m_times_a(seed):
 
 
 @pytest.mark.requires_cc
-@pytest.mark.parametrize("seed", SEEDS[:4])
+@pytest.mark.parametrize("seed", [pytest.param(s, marks=[pytest.mark.long] if s > 2 else []) for s in SEEDS[:4]])
 def test_the_c_recursion_on_trees_agrees_with_pinocchio_aba(env, seed):
     """The articulated-body recursion of the C backend, walking the parent array, against
     pinocchio.aba and against the dense C solve."""
