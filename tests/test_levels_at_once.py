@@ -1,6 +1,7 @@
 """Levels run at once: on threads of this process where the loops are compiled (they release
 Python's lock), else on a pool of processes; either way the bytes of the levels run one after
-the other, and each level keeps the model its run loaded."""
+the other, and each level keeps the model its run loaded. A generated module loaded again runs
+the code compiled the first time."""
 
 from __future__ import annotations
 
@@ -40,3 +41,17 @@ def test_levels_at_once_are_the_levels_one_after_the_other(env, backend, where):
         assert other.loaded.n_dof == one.loaded.n_dof == len(other.results["coordinates"])
         for key in KEYS:
             assert np.array_equal(one.results[key], other.results[key]), (backend, one.nrfe, key)
+
+
+def test_a_generated_module_loaded_again_runs_the_code_compiled_from_its_text(tmp_path):
+    """A process that loads one model again runs the code compiled the first time; other text
+    (another module, or the same file changed) is compiled anew."""
+    from gpmegen.runtime import loader
+
+    path = tmp_path / "model_numpy.py"
+    first = loader._code("X = 1\n", path)
+    assert loader._code("X = 1\n", path) is first
+    assert loader._code("X = 2\n", path) is not first
+    namespace = {}
+    exec(loader._code("X = 2\n", path), namespace)
+    assert namespace["X"] == 2
