@@ -7,7 +7,9 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 
 - gpmegen: examples/spinup_axial.toml (sdes that bend and stretch; --model bending:
   examples/spinup.toml, inextensible) at several n_rfe (generalized-α at 1e-3 s by default, or
-  RK4 with --method rk4 --dt 1e-4), extrapolated to n_rfe → ∞ (gpmegen.analysis.extrapolate);
+  RK4 with --method rk4 --dt 1e-4), extrapolated to n_rfe → ∞ (gpmegen.analysis.extrapolate),
+  refined with the levels of --refine one at a time while the limit's own estimate of its error
+  is above --tolerance;
 - reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
   generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed;
 - Exudyn as its users would tune it (EXUDYN_RHO_INF, EXUDYN_RTOL, EXUDYN_ATOL, sparse solver) at
@@ -17,7 +19,8 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 
 Builds the levels first (the time printed: from an empty cache the derivation and compile, else
 the loading). Then per Ωs, --repeat times alternately so that both see the same load: gpmegen's
-levels at once on the cores and one after the other in this process, and each compared Exudyn run.
+levels at once on the cores (threads of this process: the compiled loops release Python's lock)
+and one after the other, each with its extrapolations and refinement, and each compared Exudyn run.
 Prints the reference's own convergence (how much it changes with half its elements and with half
 its step), where gpmegen's time goes per level (steps, Newton iterations, Jacobians, LU
 factorizations, the projection's constraint evaluations, the run's seconds and those of the
@@ -76,27 +79,42 @@ def gpmegen_build(model_file, nrfe, dt):
     return time.perf_counter() - start
 
 
-def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None):
+def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None, refine=(), tolerance=None, loops=True):
     """The tip's deflection in the hub frame at each n_rfe and extrapolated: (t, data, seconds of
-    each level's run, wall seconds of all, the levels run at once on the cores, and each level's
-    effort: the counts of its integrator and, for generalized-α, the seconds of its compiled loop
-    alone); ``workers``: processes (default one per core). Build the levels first (:func:`gpmegen_build`)."""
+    each level's run, wall seconds of all (the runs, the extrapolations and any refinement),
+    the levels run at once on the cores, and each level's effort: the counts of its integrator
+    and, for generalized-α, the seconds of its compiled loop alone); ``workers``: processes or
+    threads (default one per core). While the limit of two terms estimates its error above
+    ``tolerance`` (relative to its peak), the next level of ``refine`` is run and the levels
+    extrapolated again (``data["nrfe"]``: the levels used); ``loops``: time each level's compiled
+    loop alone, after the wall (:func:`integration_seconds`). Build the levels first
+    (:func:`gpmegen_build`)."""
     from gpmegen.analysis import extrapolate
     from gpmegen.analysis.levels import simulate_levels
     from gpmegen.analysis.results import metadata
 
+    def run(levels_nrfe):
+        return simulate_levels(model_file, levels_nrfe, T_END, dt, save_every=int(round(SAVED / dt)), method=method,
+                               backend="c", params={"Omega": omega}, workers=workers)
+
     start = time.perf_counter()
-    levels = simulate_levels(model_file, nrfe, T_END, dt, save_every=int(round(SAVED / dt)), method=method,
-                             backend="c", params={"Omega": omega}, workers=workers)
+    levels, more = run(nrfe), list(refine)
+    while True:
+        tip = in_hub(extrapolate.extrapolate(levels, ["points"]), omega)
+        if len(levels) >= 3:
+            tip["even"] = in_hub(extrapolate.extrapolate(levels, ["points"], terms=2), omega)
+        estimated = (np.max(np.abs(tip["even"]["limit_error"])) / np.max(np.abs(tip["even"]["limit"]))
+                     if "even" in tip else np.inf)
+        if not more or tolerance is None or estimated <= tolerance:
+            break
+        levels = levels + run([more.pop(0)])
     wall = time.perf_counter() - start
     seconds = [level.seconds for level in levels]
     efforts = [dict(metadata(level.results)["settings"]["effort"], n_dof=level.loaded.n_dof) for level in levels]
-    if method == "genalpha":
+    if method == "genalpha" and loops:
         for effort, level in zip(efforts, levels):
             effort["integration"], effort["difference"] = integration_seconds(level, dt)
-    tip = in_hub(extrapolate.extrapolate(levels, ["points"]), omega)
-    if len(levels) >= 3:
-        tip["even"] = in_hub(extrapolate.extrapolate(levels, ["points"], terms=2), omega)
+    tip["nrfe"] = [level.nrfe for level in levels]
     return tip["t"], tip, seconds, wall, efforts
 
 
@@ -276,6 +294,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--omega", type=float, nargs="+", default=[4.0, 6.0, 10.0], help="final hub speeds (rad/s)")
     parser.add_argument("--nrfe", type=int, nargs="+", default=[5, 10, 20, 30], help="gpmegen's levels")
+    parser.add_argument("--refine", type=int, nargs="*", default=[40],
+                        help="levels added one at a time while the limit's estimated error is above --tolerance")
+    parser.add_argument("--tolerance", type=float, default=2e-5,
+                        help="the error asked of gpmegen's limit (n^-2 and n^-4), estimated, relative to its peak")
     parser.add_argument("--model", choices=tuple(MODELS), default="axial",
                         help="gpmegen's beam: stretching and bending like the reference (default), or bending only")
     parser.add_argument("--dt", type=float, default=1e-3, help="gpmegen's step (s); RK4 needs 1e-4 (axial modes)")
@@ -302,9 +324,9 @@ def main(argv=None) -> int:
 
     model_file, processes = MODELS[args.model], pool_size(len(set(args.nrfe)))
     print(f"load average {load()} on {os.cpu_count()} cores")
-    build = gpmegen_build(model_file, args.nrfe, args.dt)
-    print(f"gpmegen: n_rfe {' '.join(map(str, args.nrfe))} built, compiled and loaded in {build:.1f} s wall "
-          f"(in {processes} processes; from the cache when it holds them)")
+    build = gpmegen_build(model_file, args.nrfe + args.refine, args.dt)
+    print(f"gpmegen: n_rfe {' '.join(map(str, args.nrfe + args.refine))} built, compiled and loaded in {build:.1f} s "
+          f"wall (from the cache when it holds them)")
     pools = sorted({processes, 1}, reverse=True)  # the levels at once, and one after the other
     compared = [(elements, modified) for elements in args.compare
                 for modified in ((False, True) if args.modified_newton else (False,))]
@@ -314,13 +336,15 @@ def main(argv=None) -> int:
         for _ in range(args.repeat):  # alternately, so that both see the same load
             loads.append(os.getloadavg()[0])
             for workers in pools:
-                got = gpmegen_runs(model_file, omega, args.nrfe, args.dt, args.method, workers)
+                got = gpmegen_runs(model_file, omega, args.nrfe, args.dt, args.method, workers, args.refine,
+                                   args.tolerance, loops=first is None)
                 walls[workers].append((got[3], got[2], got[4]))
                 first = first or got
             for key in compared:
                 values, seconds = exudyn_run(omega, key[0], args.compare_step, got[0], modified=key[1])
                 exudyn_walls[key].append((seconds, values))
         t, tip = first[:2]
+        used = tip["nrfe"]
         reference, seconds_reference = exudyn_run(omega, args.elements, args.step, t)
         if reference is None:
             print(f"\nΩs = {omega:g} rad/s: the reference's solver gave up; try another --step or --elements")
@@ -338,18 +362,20 @@ def main(argv=None) -> int:
                       f"({seconds_other:.1f} s)")
         for workers, runs in walls.items():
             best = min(runs, key=lambda w: w[0])
-            print(f"  gpmegen's levels ({args.method}, dt {args.dt:g} s) on {workers} process(es), the fastest of "
-                  f"{args.repeat}: wall {best[0]:.2f} s, its levels' runs {sum(best[1]):.2f} s in all "
-                  f"(longest {max(best[1]):.2f} s)")
-            for line in effort_rows(args.nrfe, best[2], best[1]):
+            print(f"  gpmegen's levels n_rfe {' '.join(map(str, used))} ({args.method}, dt {args.dt:g} s) "
+                  f"{workers} at once, the fastest of {args.repeat}: wall {best[0]:.2f} s (runs and extrapolations), "
+                  f"its levels' runs {sum(best[1]):.2f} s in all (longest {max(best[1]):.2f} s)")
+            # the counts are those of every repeat; the compiled loops were timed after the first run
+            for line in effort_rows(used, first[4], best[1]):
                 print(line)
-        for n, values, estimated in zip(args.nrfe, tip["levels"], tip["errors"]):
+        for n, values, estimated in zip(used, tip["levels"], tip["errors"]):
             table.append((omega, f"gpmegen n_rfe {n}", None, np.max(np.abs(values - reference)) / scale,
                           np.max(np.abs(estimated)) / scale))
         limits = [("gpmegen limit, term n^-2", tip)] + ([("gpmegen limit, n^-2 and n^-4", tip["even"])]
                                                         if "even" in tip else [])
         for (label, data), workers in ((limit, workers) for limit in limits for workers in pools):
-            table.append((omega, f"{label}, {workers} process(es)", [w[0] for w in walls[workers]],
+            table.append((omega, f"{label}, n_rfe {' '.join(map(str, used))}, {workers} at once",
+                          [w[0] for w in walls[workers]],
                           np.max(np.abs(data["limit"] - reference)) / scale,
                           np.max(np.abs(data["limit_error"])) / scale))
         for (elements, modified), runs in exudyn_walls.items():
@@ -360,7 +386,7 @@ def main(argv=None) -> int:
         print(f"  observed order {tip['order']:.2f}")
         linear = modal_run(omega, t)
         print(f"  linear modal model: peak |tip| {np.nanmax(np.abs(linear)):.3g} m")
-        cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": args.nrfe}
+        cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": used}
     print(f"\nerror: max over t of |tip deflection - reference| / the reference's peak; reference: Exudyn "
           f"{args.elements} ANCF elements, step {args.step:g} s; gpmegen {args.method} dt {args.dt:g} s; Exudyn "
           f"step {args.compare_step:g} s, ρ∞ {EXUDYN_RHO_INF:g}, Newton rtol {EXUDYN_RTOL:g} atol {EXUDYN_ATOL:g}, "

@@ -897,8 +897,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "D/n_sde^4, from three levels or more; for motions whose phase error is large at the coarser "
                         "levels)")
     s.add_argument("--workers", type=positive_int, default=None,
-                   help="with --extrapolate: local processes running the levels at once (default: one per core, "
-                        "at most one per level; 1 runs them in this process)")
+                   help="with --extrapolate: levels run at once, on threads of this process where their loops "
+                        "are compiled, else on local processes (default: one per core, at most one per level; 1 "
+                        "runs them one after the other in this process)")
     s.set_defaults(func=cmd_simulate)
 
     inv = command("invert", "stable inversion: bounded inputs of the actuated realization, with pre- and "
@@ -978,7 +979,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--terms", type=int, choices=(1, 2), default=1,
                    help="with --output: terms of the discretization error removed, as for simulate --extrapolate")
     c.add_argument("--workers", type=positive_int, default=None,
-                   help="with --output: local processes running the levels at once (default: one per core)")
+                   help="with --output: levels run at once, on threads or local processes as for simulate "
+                        "--extrapolate (default: one per core)")
     c.add_argument("--static", choices=("linear", "nonlinear"), default="linear",
                    help="static deflection from the linear stiffness solve or full Newton–Raphson")
     c.add_argument("--param", type=parameter_override, action="append", metavar="NAME=VALUE",

@@ -57,6 +57,10 @@ def test_batch_is_bit_for_bit_the_single_calls(models, backend):
         "mass_matrix": (lambda t, q, qd: model.mass_matrix(q), (n, n)),
         "forces": (model.forces, (n,)),
         "accelerations": (model.accelerations, (n,)),
+        "drive_forces": (model.drive_forces, (n,)),
+        "point_positions": (lambda t, q, qd: model.point_positions(q), (len(model.points), 3)),
+        "end_effector": (lambda t, q, qd: model.end_effector(q), (3,)),
+        "energies": (lambda t, q, qd: model.energies(q, qd), (3,)),
     }
     for name, (fn, shape) in calls.items():
         batched = fn(t, q, qd)

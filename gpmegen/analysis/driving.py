@@ -29,19 +29,22 @@ COORDINATE_UNITS = {"revolute": "rad", "prismatic": "m"}
 LENGTH_POWERS = {1: "m", 2: "m²", 3: "m³"}
 
 
-def force_units(model) -> dict:
-    """Unit of the generalized force on each coordinate of the symbolic ``model``."""
-    return {e.name: FORCE_UNITS[e.kind] for e in expand(model).elements if isinstance(e, Joint)}
+def force_units(model, expanded=None) -> dict:
+    """Unit of the generalized force on each coordinate of the symbolic ``model`` (``expanded``:
+    its :func:`gpmegen.model.expand.expand` where the caller has it)."""
+    elements = (expand(model) if expanded is None else expanded).elements
+    return {e.name: FORCE_UNITS[e.kind] for e in elements if isinstance(e, Joint)}
 
 
-def expression_unit(model, constraint) -> str | None:
+def expression_unit(model, constraint, expanded=None) -> str | None:
     """The unit of ``constraint``'s expression where its form tells it, else None: one
     coordinate (its velocity, first order) with coefficient ±1 beside a law of time and
     parameters (a prescribed joint: rad or m; rad/s or m/s); or a polynomial in the coordinates
     of points (first order: their velocities) whose terms in them have one degree d and numbers
-    as coefficients (m^d; m/s). Parameters carry no units, so these are the forms that fix it."""
+    as coefficients (m^d; m/s). Parameters carry no units, so these are the forms that fix it.
+    ``expanded``: as in :func:`force_units`."""
     expr = sp.sympify(constraint.expression)
-    expanded = expand(model)
+    expanded = expand(model) if expanded is None else expanded
     kinds = {e.name: e.kind for e in expanded.elements if isinstance(e, Joint)}
     if constraint.order == 0:
         coordinates = {symbol(name): COORDINATE_UNITS[kind] for name, kind in kinds.items()}
@@ -66,14 +69,15 @@ def expression_unit(model, constraint) -> str | None:
     return None
 
 
-def joint_laws(model) -> dict:
+def joint_laws(model, expanded=None) -> dict:
     """Coordinate → (constraint name, ±1) for each position constraint of the form ``±q - law(t)``
     on that coordinate alone (a prescribed joint): its reaction ``Dᵀλ`` is ``±λ`` on that joint
     and nothing elsewhere, the joint's motor. The reactions of the other constraints on that joint
-    (a slider's guide on a crank) are not its motor's."""
-    kinds = {e.name for e in expand(model).elements if isinstance(e, Joint)}
+    (a slider's guide on a crank) are not its motor's. ``expanded``: as in :func:`force_units`."""
+    expanded = expand(model) if expanded is None else expanded
+    kinds = {e.name for e in expanded.elements if isinstance(e, Joint)}
     coordinates = {symbol(name): name for name in kinds}
-    points = {s for p in expand(model).points for s in point_symbols(p)}
+    points = {s for p in expanded.points for s in point_symbols(p)}
     laws = {}
     for c in model.constraints:
         expr = sp.sympify(c.expression)
@@ -86,24 +90,24 @@ def joint_laws(model) -> dict:
     return laws
 
 
-def lambda_units(model, constraint_units: dict) -> dict:
+def lambda_units(model, constraint_units: dict, expanded=None) -> dict:
     """Unit of each constraint's λ from the unit of its expression: ``constraint_units`` (name →
     unit) where the case gives it, else a closure's row's (a coincidence or slide row is a length,
     its λ a force; an orientation row a cosine, its λ a moment), else :func:`expression_unit`,
-    else "generalized"."""
+    else "generalized". ``expanded``: as in :func:`force_units`."""
     looped = {closure.row_name(label): "m" if len(label) == 1 or label.endswith("1") else "rad"
               for closure in model.closures for label in closure.rows}
     return {c.name: LAMBDA_UNITS.get((c.order, constraint_units.get(c.name) or looped.get(c.name)
-                                      or expression_unit(model, c)), GENERALIZED)
+                                      or expression_unit(model, c, expanded)), GENERALIZED)
             for c in model.constraints}
 
 
-def point_constraints(model) -> dict:
+def point_constraints(model, expanded=None) -> dict:
     """Point name → indices of the position constraints written on that point's coordinates
-    alone (besides time and parameters)."""
+    alone (besides time and parameters). ``expanded``: as in :func:`force_units`."""
     params = {p.symbol for p in model.parameters}
     found = {}
-    for point in expand(model).points:
+    for point in (expand(model) if expanded is None else expanded).points:
         allowed = set(point_symbols(point)) | params | {TIME}
         rows = [i for i, c in enumerate(model.constraints)
                 if c.order == 0 and sp.sympify(c.expression).free_symbols <= allowed
@@ -123,14 +127,15 @@ def point_force_function(model, point: str, rows):
     return lambda t, r, p, lam: np.asarray(evaluate(t, r, p), dtype=float).T @ np.asarray(lam)[rows]
 
 
-def point_forces(model, loaded, t, q, lam) -> dict:
+def point_forces(model, loaded, t, q, lam, expanded=None) -> dict:
     """Point name → (k, 3) forces in {0} (N) that realize the constraints on it, at the saved
-    samples ``t`` (k,), ``q`` (k, n) with multipliers ``lam`` (k, m)."""
+    samples ``t`` (k,), ``q`` (k, n) with multipliers ``lam`` (k, m). ``expanded``: as in
+    :func:`force_units`."""
     out = {}
-    for point, rows in point_constraints(model).items():
+    for point, rows in point_constraints(model, expanded).items():
         force = point_force_function(model, point, rows)
-        index = loaded.points.index(point)
-        out[point] = np.array([force(t[k], loaded.point_positions(q[k])[index], loaded.p, lam[k])
+        positions = loaded.point_positions(q)[:, loaded.points.index(point)] if len(t) else np.zeros((0, 3))
+        out[point] = np.array([force(t[k], positions[k], loaded.p, lam[k])
                                for k in range(len(t))]).reshape(len(t), 3)
     return out
 
@@ -147,8 +152,7 @@ def deformation(loaded, q, elastic=None) -> dict:
         elastic = np.flatnonzero(np.abs(np.diag(C)) > 0)
     rigid = q.copy()
     rigid[:, elastic] = 0.0
-    deflection = np.array([loaded.end_effector(q[k]) - loaded.end_effector(rigid[k]) for k in range(len(q))])
-    return {"spring_forces": q @ C.T, "deflection": deflection.reshape(len(q), 3)}
+    return {"spring_forces": q @ C.T, "deflection": loaded.end_effector(q) - loaded.end_effector(rigid)}
 
 
 #: The largest rotation (rad) of one sde that the RFEM's linear springs describe as a beam: its
@@ -195,11 +199,12 @@ def annotate(results: dict, model, loaded) -> dict:
     arrays = deformation(loaded, results["q"], elastic) if loaded.points and len(results["t"]) else {}
     if model is None:  # generated code without its model (a built folder): forces in generalized units
         return results_io.annotate(results, {}, arrays)
-    units = {"force_units": force_units(model),
-             "lambda_units": lambda_units(model, meta.get("constraint_units", {})),
-             "joint_laws": {name: list(law) for name, law in joint_laws(model).items()}}
+    expanded = expand(model)  # once for all that follows
+    units = {"force_units": force_units(model, expanded),
+             "lambda_units": lambda_units(model, meta.get("constraint_units", {}), expanded),
+             "joint_laws": {name: list(law) for name, law in joint_laws(model, expanded).items()}}
     if "lambda" in results:
-        forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"])
+        forces = point_forces(model, loaded, results["t"], results["q"], results["lambda"], expanded)
         units["force_points"] = list(forces)
         if forces:
             arrays["point_forces"] = np.stack(list(forces.values()), axis=1)

@@ -111,27 +111,28 @@ def select(requested, joints, points) -> list[Selection]:
 def _velocities(loaded, q, qd):
     """Point velocities (N, n_points, 3) by central differences of the positions along qd,
     with a step that moves the coordinates by 1e-6 (error ~1e-12 relative)."""
-    out = np.zeros((len(q), len(loaded.points), 3))
-    for k in range(len(q)):
-        h = 1e-6 / max(float(np.max(np.abs(qd[k]))), 1e-300)
-        out[k] = (loaded.point_positions(q[k] + h * qd[k]) - loaded.point_positions(q[k] - h * qd[k])) / (2 * h)
-    return out
+    h = (1e-6 / np.maximum(np.max(np.abs(qd), axis=1), 1e-300))[:, None]
+    return (loaded.point_positions(q + h * qd) - loaded.point_positions(q - h * qd)) / (2 * h[:, :, None])
 
 
-def outputs(level: Level) -> dict:
-    """The comparable outputs of one level (see the module's doc), keyed by :data:`OUTPUTS`."""
+def outputs(level: Level, names=OUTPUTS) -> dict:
+    """The comparable outputs ``names`` of one level (see the module's doc; default all of
+    :data:`OUTPUTS`), keyed by name; the others are not evaluated."""
     loaded, res = level.loaded, level.results
     joints = [loaded.index(name) for name in joint_names(level.model)]
-    elastic = np.zeros(loaded.n_dof, dtype=bool)
-    elastic[elastic_coordinates(level.model, loaded)] = True
     q, qd = res["q"], res["qd"]
-    points = np.array([loaded.point_positions(x) for x in q])
-    rigid = np.array([loaded.point_positions(np.where(elastic, 0.0, x)) for x in q])
-    return {
-        "joints": q[:, joints], "joint_velocities": qd[:, joints],
-        "points": points, "point_velocities": _velocities(loaded, q, qd), "deflections": points - rigid,
-        "drive_forces": res["drive_forces"][:, joints], "constraint_forces": res["constraint_forces"][:, joints],
-    }
+    out = {"joints": lambda: q[:, joints], "joint_velocities": lambda: qd[:, joints],
+           "drive_forces": lambda: res["drive_forces"][:, joints],
+           "constraint_forces": lambda: res["constraint_forces"][:, joints],
+           "point_velocities": lambda: _velocities(loaded, q, qd)}
+    if "points" in names or "deflections" in names:
+        points = loaded.point_positions(q)
+        out["points"] = lambda: points
+        if "deflections" in names:
+            elastic = np.zeros(loaded.n_dof, dtype=bool)
+            elastic[elastic_coordinates(level.model, loaded)] = True
+            out["deflections"] = lambda: points - loaded.point_positions(np.where(elastic, 0.0, q))
+    return {name: out[name]() for name in names}
 
 
 def check_flexible(model) -> None:
@@ -213,7 +214,7 @@ def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER, ter
     names = check_requested(requested)
     check_comparable(levels)
     t, grid = common_grid(levels)
-    per_level = [outputs(level) for level in levels]
+    per_level = [outputs(level, names) for level in levels]
     data = {"t": t, "nrfe": np.array([level.nrfe for level in levels]), "n_sde": n_sde, "grid": np.array(grid),
             "joint_names": np.array(joint_names(levels[0].model)), "point_names": np.array(levels[0].loaded.points)}
     for name in names:

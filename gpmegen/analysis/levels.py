@@ -1,13 +1,18 @@
 """The same motion of one model at several discretizations (*levels*, one per ``n_rfe``), run with
-the same settings, one after the other or at once on a pool of local processes (the levels are
-independent runs; :func:`gpmegen.analysis.sweep.pools.local_pool`). A level's results are the
-same bytes either way: the same run (:func:`gpmegen.analysis.runs.run`) of the same generated code.
+the same settings, one after the other or at once (the levels are independent runs). At once:
+where the runs' loops are compiled (:func:`compiled_loops`), which let go of Python's lock while
+they integrate, on threads of this process, which neither start processes nor load the models a
+second time; else on a pool of local processes (:func:`gpmegen.analysis.sweep.pools.local_pool`).
+A level's results are the same bytes every way: the same run (:func:`gpmegen.analysis.runs.run`)
+of the same generated code.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -68,14 +73,22 @@ def prepare(task: LevelTask) -> None:
         cases.case_for(task.model_file, task.nrfe).load(task.backend, dict(task.params), _quiet)
 
 
+def _run(task: LevelTask, case) -> runs.Run:
+    """The level's run of ``case`` (and its results written to ``task.out``)."""
+    with limits.lifted() if task.no_limits else contextlib.nullcontext():
+        return runs.run(case, task.start, task.t_end, task.dt, task.save_every, task.method, task.backend,
+                        dict(task.params), task.out, _quiet)
+
+
+def _row(run: runs.Run) -> dict:
+    return {"status": str(run.results["status"]), "results": run.results, "seconds": run.wall,
+            "written": [str(path) for path in run.written]}
+
+
 def perform(task: LevelTask) -> dict:
     """Make the level's run (and write it to ``task.out``); returns its ``results``, wall
     ``seconds`` and the files ``written``."""
-    with limits.lifted() if task.no_limits else contextlib.nullcontext():
-        run = runs.run(cases.case_for(task.model_file, task.nrfe), task.start, task.t_end, task.dt,
-                       task.save_every, task.method, task.backend, dict(task.params), task.out, _quiet)
-    return {"status": str(run.results["status"]), "results": run.results, "seconds": run.wall,
-            "written": [str(path) for path in run.written]}
+    return _row(_run(task, cases.case_for(task.model_file, task.nrfe)))
 
 
 def level_path(out, nrfe) -> Path | None:
@@ -87,25 +100,77 @@ def level_path(out, nrfe) -> Path | None:
 
 
 def pool_size(levels: int, workers: int | None = None) -> int:
-    """Processes for ``levels`` runs: ``workers``, else one per core, never more than the levels."""
+    """Processes (or threads) for ``levels`` runs: ``workers``, else one per core, never more than
+    the levels."""
     return max(1, min(levels, workers or os.cpu_count() or 1))
+
+
+def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
+    """Whether runs of ``method`` on ``backend`` integrate in compiled loops, which release
+    Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
+    the compiled methods on the C backend, unless the constraints are realized by inputs (the
+    actuated realization steps in Python)."""
+    from ..runtime import integrate
+
+    return backend == "c" and method in ("rk4", *integrate.COMPILED) and not actuated
+
+
+def _on_threads(tasks, levels_cases, size) -> list:
+    """The runs of ``tasks`` (``levels_cases``: n_rfe -> case) on ``size`` threads of this
+    process, the finest levels first (the longest runs: so the threads end together); returns
+    each task's :class:`gpmegen.analysis.runs.Run` in the order of ``tasks``, or raises the first
+    task's error. No thread draws a progress bar (``sys.stderr`` is no terminal meanwhile)."""
+    from .sweep.workers import NotATerminal
+
+    pending = sorted(tasks, key=lambda task: -task.nrfe)
+    finished, lock = {}, threading.Lock()
+
+    def work():
+        while True:
+            with lock:
+                if not pending:
+                    return
+                task = pending.pop(0)
+            try:
+                finished[task.nrfe] = (_run(task, levels_cases[task.nrfe]), None)
+            except BaseException as exc:  # raised in the calling thread below
+                finished[task.nrfe] = (None, exc)
+
+    threads = [threading.Thread(target=work, daemon=True) for _ in range(size)]
+    stderr, sys.stderr = sys.stderr, NotATerminal(sys.stderr)
+    try:
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            while thread.is_alive():  # in slices, so that Ctrl-C reaches this thread
+                thread.join(0.1)
+    finally:
+        sys.stderr = stderr
+    for task in tasks:
+        run, error = finished[task.nrfe]
+        if error is not None:
+            raise error
+    return [finished[task.nrfe][0] for task in tasks]
 
 
 def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, overrides, out, progress,
                workers=None) -> list[Level]:
     """The run of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` with
     the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path` of
-    ``out`` (None: kept in memory only), on :func:`pool_size` processes (1: in this process).
-    Returns the :class:`Level` of each, by ascending ``nrfe``."""
+    ``out`` (None: kept in memory only), :func:`pool_size` at once (1: one after the other in
+    this process): on as many threads of this process where the loops are compiled
+    (:func:`compiled_loops`), else on as many processes. Returns the :class:`Level` of each, by
+    ascending ``nrfe``."""
     from .extrapolate import check_same_model
     from .sweep import pools
 
-    check_same_model({n: cases.case_for(model_file, n).model for n in sorted(set(nrfe))})
+    levels_cases = {n: cases.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
+    check_same_model({n: case.model for n, case in levels_cases.items()})
     tasks = [LevelTask(None if model_file is None else str(model_file), n, start, t_end, dt, save_every, method,
                        backend, tuple(sorted(overrides.items())),
                        None if out is None else str(level_path(out, n)), limits.are_lifted())
              for n in sorted(set(nrfe))]
-    done = {}
+    done, started = {}, {}
 
     def record(task, row):
         if row["status"] == "died":  # the others' errors are raised
@@ -115,16 +180,24 @@ def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, 
         progress(f"n_rfe = {task.nrfe}: t = {row['results']['t'][-1]:.6g} s in {row['seconds']:.1f} s{written}")
 
     size = pool_size(len(tasks), workers)
-    if size == 1:
-        for task in tasks:
-            record(task, perform(task))
+    actuated = any(len(case.actuators) for case in levels_cases.values())
+    if size == 1 or compiled_loops(method, backend, actuated):  # the run's own loaded model is the level's
+        if size > 1:
+            progress(f"{len(tasks)} levels on {size} threads")
+        done_runs = ([_run(task, levels_cases[task.nrfe]) for task in tasks] if size == 1
+                     else _on_threads(tasks, levels_cases, size))
+        for task, run in zip(tasks, done_runs):
+            started[task.nrfe] = run.started
+            record(task, _row(run))
     else:
         progress(f"{len(tasks)} levels on {size} processes")
         pools.local_pool(tasks, record, size, prepare=prepare, perform=perform)
     levels = []
     for task in tasks:
-        case = cases.case_for(task.model_file, task.nrfe)
-        loaded = case.started(backend, start, dict(overrides), _quiet).model  # built by the run: loads at once
+        case = levels_cases[task.nrfe]
+        loaded = started.get(task.nrfe)
+        if loaded is None:  # run in another process: loaded here (built by the run: loads at once)
+            loaded = case.started(backend, start, dict(overrides), _quiet).model
         levels.append(Level(task.nrfe, case.model, loaded, done[task.nrfe]["results"], done[task.nrfe]["seconds"],
                             case.start_constants))
     return levels
@@ -134,10 +207,11 @@ def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", bac
                     start="none", workers=None) -> list[Level]:
     """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
     started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
-    overrides ``params``, on ``workers`` processes (default: one per core, at most one per
-    level). Pass the levels to :func:`gpmegen.analysis.extrapolate.extrapolate`."""
+    overrides ``params``, ``workers`` at once (default: one per core, at most one per level; on
+    threads or processes, see :func:`run_levels`). Pass the levels to
+    :func:`gpmegen.analysis.extrapolate.extrapolate`."""
     return run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
                       _quiet, workers)
 
 
-__all__ = ["Level", "LevelTask", "level_path", "pool_size", "run_levels", "simulate_levels"]
+__all__ = ["Level", "LevelTask", "compiled_loops", "level_path", "pool_size", "run_levels", "simulate_levels"]

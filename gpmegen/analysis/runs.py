@@ -14,13 +14,15 @@ from . import results as results_io
 
 @dataclass
 class Run:
-    """A finished (or stopped) run: the loaded ``model``, its ``results``, the files ``written``
-    and the ``wall`` time of the integration in s."""
+    """A finished (or stopped) run: the loaded ``model``, its ``results``, the files ``written``,
+    the ``wall`` time of the integration in s and the loaded model as the start left it
+    (``started``: before the actuators of the run were set on it)."""
 
     model: object
     results: dict
     written: list
     wall: float
+    started: object = None
 
 
 def check(case, t_end, dt, save_every, method, backend, save_dt=None) -> None:
@@ -65,7 +67,7 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
         warning = driving.large_rotation(case.source, model, res["t"], res["q"])
         if warning:
             progress(warning)
-    return Run(model, res, results_io.save(res, out) if out is not None else [], wall)
+    return Run(model, res, results_io.save(res, out) if out is not None else [], wall, begun.model)
 
 
 class Results:

@@ -371,31 +371,22 @@ def collect(model, t, y, status, settings) -> dict:
     """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
     constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
     actuated one), energies, the dampers' work (:mod:`gpmegen.analysis.energy`) and each force
-    element's length, rate and force."""
-    n, m = model.n_dof, len(model.constraint_names)
+    element's length, rate and force. Evaluated
+    for all samples at once (:func:`_derived_together`) where the run's model allows it, else
+    sample by sample (:func:`_derived_each`): the same values, to round-off."""
+    n = model.n_dof
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
-    E = np.zeros((samples, 3))
-    phi = np.full((samples, m), np.nan)
-    drive = np.zeros((samples, n))
-    qdd = np.full((samples, n), np.nan)
-    reaction = np.zeros((samples, n))
-    lam = np.full((samples, m), np.nan)
-    energy = np.zeros((samples, 3))
-    elements = np.full((samples, len(model.force_names), 3), np.nan)
     actuated = len(model.actuators) > 0
-    for k in range(samples):
-        E[k] = model.end_effector(q[k])
-        drive[k] = model.drive_forces(t[k], q[k], qd[k]) if np.all(np.isfinite(y[k, :2 * n])) else np.nan
-        if np.all(np.isfinite(y[k, :2 * n])):  # the state (the model's functions refuse one not finite)
-            phi[k] = model.constraint_values(t[k], q[k], qd[k])
-            D = model.constraint_terms(t[k], q[k], qd[k])[2]
-            qdd[k], M, f = model.motion(t[k], q[k], qd[k])
-            reaction[k] = M @ qdd[k] - f
-            lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D, model.redundant)
-            elements[k] = model.force_elements(t[k], q[k], qd[k])
-        energy[k] = model.energies(q[k], qd[k])
-    finite = np.flatnonzero(np.all(np.isfinite(y[:, :2 * n]), axis=1))
+    ok = np.all(np.isfinite(y[:, :2 * n]), axis=1)  # the states the model's functions accept
+    derived = _derived_together(model, t, q, qd, ok) if samples else None
+    if derived is None:
+        derived = _derived_each(model, t, q, qd, ok)
+    E, drive, phi, qdd, reaction, lam, energy = derived
+    finite = np.flatnonzero(ok)
+    elements = np.full((samples, len(model.force_names), 3), np.nan)
+    for k in finite if model.force_names else ():
+        elements[k] = model.force_elements(t[k], q[k], qd[k])
     dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)
                if len(finite) else np.full(samples, np.nan))
     realization = ({"u": lam, "actuators": np.array([model.coordinates[k] for k in model.actuators])} if actuated
@@ -417,3 +408,58 @@ def collect(model, t, y, status, settings) -> dict:
             "params": {name: float(value) for name, value in model.params.items()},
         }),
     }
+
+
+def _derived_each(model, t, q, qd, ok):
+    """:func:`collect`'s derived quantities, one sample at a time: ``(E, drive, Φ, q̈, M q̈ - f,
+    λ or u, energies)``; a sample whose GPME has no solution raises."""
+    samples, n, m = len(t), model.n_dof, len(model.constraint_names)
+    E = np.zeros((samples, 3))
+    phi = np.full((samples, m), np.nan)
+    drive = np.zeros((samples, n))
+    qdd = np.full((samples, n), np.nan)
+    reaction = np.zeros((samples, n))
+    lam = np.full((samples, m), np.nan)
+    energy = np.zeros((samples, 3))
+    actuated = len(model.actuators) > 0
+    for k in range(samples):
+        E[k] = model.end_effector(q[k])
+        drive[k] = model.drive_forces(t[k], q[k], qd[k]) if ok[k] else np.nan
+        if ok[k]:  # the state (the model's functions refuse one not finite)
+            phi[k] = model.constraint_values(t[k], q[k], qd[k])
+            D = model.constraint_terms(t[k], q[k], qd[k])[2]
+            qdd[k], M, f = model.motion(t[k], q[k], qd[k])
+            reaction[k] = M @ qdd[k] - f
+            lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D, model.redundant)
+        energy[k] = model.energies(q[k], qd[k])
+    return E, drive, phi, qdd, reaction, lam, energy
+
+
+def _derived_together(model, t, q, qd, ok):
+    """:func:`_derived_each`'s quantities by batched evaluation (one call into C, or one per
+    sample from one view of each array; the multipliers by one stacked pseudo-inverse); None
+    where they are made sample by sample: an actuated realization, a partition not chosen yet,
+    or a sample whose GPME has no solution (which the other path reports)."""
+    if len(model.actuators) or model.dependent is None:
+        return None
+    samples, n, m = len(t), model.n_dof, len(model.constraint_names)
+    phi = np.full((samples, m), np.nan)
+    drive = np.full((samples, n), np.nan)
+    qdd = np.full((samples, n), np.nan)
+    reaction = np.zeros((samples, n))
+    lam = np.full((samples, m), np.nan)
+    if np.any(ok):
+        tk, qk, qdk = t[ok], q[ok], qd[ok]
+        try:
+            a = model.accelerations(tk, qk, qdk)
+        except SimulationError:
+            return None
+        values, _, D, gamma = model.constraint_terms(tk, qk, qdk)
+        # a second-order constraint's value is D q̈ + γ (see LoadedModel.constraint_values)
+        phi[ok] = np.where(model.constraint_orders == 2, np.matmul(D, a[..., None])[..., 0] + gamma, values)
+        drive[ok] = model.drive_forces(tk, qk, qdk)
+        M, f = model.mass_matrix(qk), model.forces(tk, qk, qdk)
+        qdd[ok] = a
+        reaction[ok] = np.matmul(M, a[..., None])[..., 0] - f
+        lam[ok] = gpme.multipliers(M, f, a, D, model.redundant)
+    return model.end_effector(q), drive, phi, qdd, reaction, lam, model.energies(q, qd)

@@ -347,6 +347,28 @@ class CEvaluator:
                                         *map(self._ptr, outputs))
         return tuple(a[:, :self.m] for a in outputs)
 
+    # the functions C has no batched form of: one call per state, stepping pointers through one
+    # view of each array (the marshalling of a single call, a few µs, once per array)
+    def _each(self, function, out, p, *arrays, t=None):
+        """``out`` (N, ...) filled by ``function([t_k,] row_k of each array..., p, out_k)``."""
+        params, target = self._params(p), self._ptr(out)
+        views = [(self._ptr(a), a.shape[1]) for a in arrays]
+        size = out[0].size
+        for k in range(len(out)):
+            rows = [view + k * width for view, width in views]
+            function(*(() if t is None else (float(t[k]),)), *rows, params, target + k * size)
+        return out
+
+    def points_batch(self, q, p):
+        P = self._each(self.lib.points, np.empty((len(q), max(1, self.n_points), 3)), p, q)
+        return P[:, :self.n_points]
+
+    def energies_batch(self, q, qd, p):
+        return self._each(self.lib.energies, np.empty((len(q), 3)), p, q, qd)
+
+    def drive_forces_batch(self, t, q, qd, p):
+        return self._each(self.lib.drive_forces, np.empty((len(q), self.n)), p, q, qd, t=t)
+
     def accelerations_batch(self, t, q, qd, model):
         dep, ind = self._partition_pointers(model)
         qdd, status = np.empty((len(q), self.n)), self.ffi.new("int *")

@@ -100,9 +100,15 @@ def multipliers(M, f, qdd, D, redundant=False):
     ``Dᵀ``). Units: a generalized force per unit of the constraint (J/[Φ] for a position
     constraint, W/[Ψ] for a first-order one). ``redundant``: D may have redundant rows, so λ is
     not unique: the minimum-norm solution, singular values of D at or below
-    :data:`RANK_TOLERANCE` times the largest counted as zero."""
-    if D.shape[0] == 0:
-        return np.zeros(0)
+    :data:`RANK_TOLERANCE` times the largest counted as zero. A batch (``M`` (N, n, n), ``f``,
+    ``qdd`` (N, n), ``D`` (N, m, n)) gives (N, m): the same solutions by the pseudo-inverse of
+    each ``Dᵀ`` with the same cut-off (to round-off)."""
+    if D.shape[-2] == 0:
+        return np.zeros(D.shape[:-1])
+    if D.ndim == 3:
+        rcond = RANK_TOLERANCE if redundant else np.finfo(float).eps * max(D.shape[1:])  # lstsq's rcond=None
+        residual = np.matmul(M, qdd[..., None])[..., 0] - f
+        return np.matmul(np.linalg.pinv(np.swapaxes(D, 1, 2), rcond=rcond), residual[..., None])[..., 0]
     return np.linalg.lstsq(D.T, M @ qdd - f, rcond=RANK_TOLERANCE if redundant else None)[0]
 
 

@@ -23,10 +23,10 @@ FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that th
                  "within reach")
 
 
-def violation(model, t, q, qd, limit) -> Outcome | None:
+def violation(model, t, q, qd, limit, phi=None) -> Outcome | None:
     """The outcome of a run whose constraint violation max|Φ| at ``(t, q, qd)`` exceeds
-    ``limit``, else None."""
-    phi = model.constraint_terms(t, q, qd)[0]
+    ``limit``, else None; ``phi``: Φ there where the caller has it."""
+    phi = model.constraint_terms(t, q, qd)[0] if phi is None else phi
     worst = float(np.max(np.abs(phi), initial=0.0))
     if worst > limit:
         return Outcome.diverged(t, f"constraint violation {worst:.3e} above {limit:.1e} at t = {t:.6g} s; "
@@ -294,10 +294,14 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
                     break
                 y, done = carry, end
                 q, qd, now = y[:n], y[n:2 * n], g.time(end)
+                # the constraint terms once for both checks (the watch's model is this one until it repartitions)
+                terms = (model.constraint_terms(now, q, qd)
+                         if max_violation is not None or (watch is not None and watch.model is model) else None)
                 if max_violation is not None:
-                    outcome = violation(model, now, q, qd, max_violation)
-                if watch is not None and outcome is None:
-                    model = watch.check(now, q, qd)  # with other dependent coordinates, maybe
+                    outcome = violation(model, now, q, qd, max_violation, terms[0])
+                if watch is not None and outcome is None:  # with other dependent coordinates, maybe
+                    same = terms is not None and watch.model is model
+                    model = watch.check(now, q, qd, terms[2] if same else None)
                 bar.update(now - g.t0)
         except KeyboardInterrupt:
             outcome = Outcome(Ending.INTERRUPTED, _reached(ts, g))

@@ -108,6 +108,15 @@ class Evaluator(Protocol):
     def accelerations_batch(self, t, q, qd, model):
         """q̈ at each state: (N, n), bit for bit as N calls."""
 
+    def points_batch(self, q, p):
+        """The named points at each of the N states q (N, n): (N, n_points, 3), bit for bit as N calls."""
+
+    def energies_batch(self, q, qd, p):
+        """The energies at each state: (N, 3), bit for bit as N calls."""
+
+    def drive_forces_batch(self, t, q, qd, p):
+        """Q at each state: (N, n), bit for bit as N calls."""
+
     def residual_jacobians(self, t, q, qd, a, lam, p):
         """(∂F/∂q, ∂F/∂q̇ (n, n), ∂C/∂q, ∂C/∂q̇ (m, n)) of the GPME residuals at accelerations
         ``a`` (n,) and multipliers ``lam`` (m,) (:mod:`gpmegen.runtime.jacobians`)."""
@@ -215,6 +224,15 @@ class NumpyEvaluator:
     def accelerations_batch(self, t, q, qd, model):
         return stacked([self.accelerations(*state, model) for state in zip(t.tolist(), q, qd)])
 
+    def points_batch(self, q, p):
+        return np.reshape(stacked([self.points(x, p) for x in q]), (len(q), len(self.module.POINTS), 3))
+
+    def energies_batch(self, q, qd, p):
+        return stacked([self.energies(x, xd, p) for x, xd in zip(q, qd)])
+
+    def drive_forces_batch(self, t, q, qd, p):
+        return stacked([self.drive_forces(*state, p) for state in zip(t.tolist(), q, qd)])
+
     def residual_jacobians(self, t, q, qd, a, lam, p):
         return call(self.module, "gpme_residual_jacobians", t, self._q(q), self._qd(qd), a, lam, p)
 
@@ -249,7 +267,9 @@ class LoadedModel:
     Shapes: ``q``, ``qd`` (n_dof,); time ``t`` in s; SI units throughout. :meth:`mass_matrix`,
     :meth:`forces`, :meth:`constraint_terms` and :meth:`accelerations` also take a batch of N
     states, ``q``, ``qd`` (N, n_dof) and ``t`` a scalar or (N,), and return their results with a
-    leading axis N, bit for bit those of N single calls (one call into C on the C backend). ``requirements``: the
+    leading axis N, bit for bit those of N single calls (one call into C on the C backend); so do
+    :meth:`point_positions`, :meth:`end_effector`, :meth:`energies` and :meth:`drive_forces`
+    (on the C backend one call per state from one view of each array). ``requirements``: the
     model's physical bounds (:func:`gpmegen.model.requirements.requirements`), checked whenever
     parameter values are bound.
     """
@@ -427,7 +447,9 @@ class LoadedModel:
         return self.evaluator.stiffness_jacobian(q, self.p)
 
     def drive_forces(self, t, q, qd):
-        """Q(t, q, q̇), (n,): the drives' laws at the state, feedback included."""
+        """Q(t, q, q̇), (n,): the drives' laws at the state, feedback included; a batch gives (N, n)."""
+        if is_batch(q):
+            return self.evaluator.drive_forces_batch(*states(t, q, qd, self.n_dof), self.p)
         return self.evaluator.drive_forces(t, q, qd, self.p)
 
     def force_elements(self, t, q, qd):
@@ -452,7 +474,10 @@ class LoadedModel:
                                       f"apart")
 
     def point_positions(self, q):
-        """Positions of the named points in {0}, (n_points, 3), m."""
+        """Positions of the named points in {0}, (n_points, 3), m; a batch ``q`` (N, n) gives
+        (N, n_points, 3)."""
+        if is_batch(q):
+            return self.evaluator.points_batch(rows(q, self.n_dof, "q"), self.p)
         return self.evaluator.points(q, self.p)
 
     def transforms(self, q, kind: str = "T"):
@@ -471,10 +496,11 @@ class LoadedModel:
         return self.evaluator.transforms(q, self.p, kind)
 
     def end_effector(self, q):
-        """Position of the end-effector (the first named point) in {0}, (3,), m."""
+        """Position of the end-effector (the first named point) in {0}, (3,), m; a batch ``q``
+        (N, n) gives (N, 3)."""
         if not self.points:
             raise ModelError("the model names no point, so it has no end-effector")
-        return self.point_positions(q)[0]
+        return self.point_positions(q)[..., 0, :]
 
     def constraint_terms(self, t, q, qd):
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
@@ -498,7 +524,10 @@ class LoadedModel:
         return np.where(second, D @ qdd + gamma, phi)
 
     def energies(self, q, qd):
-        """(kinetic, gravity potential, spring) energy in J."""
+        """(kinetic, gravity potential, spring) energy in J; a batch ``q``, ``qd`` (N, n) gives (N, 3)."""
+        if is_batch(q):
+            q = rows(q, self.n_dof, "q")
+            return self.evaluator.energies_batch(q, rows(qd, self.n_dof, "qd", len(q)), self.p)
         return self.evaluator.energies(q, qd, self.p)
 
     def gpme_terms(self, t, q, qd):

@@ -80,13 +80,15 @@ class Watch:
         self.warned = False
         self.events: list = []
 
-    def check(self, t, q, qd=None):
-        """Looks at the partition of :attr:`model` at ``(t, q, qd)`` (``qd`` default: at rest);
-        returns the model to go on with."""
+    def check(self, t, q, qd=None, D=None):
+        """Looks at the partition of :attr:`model` at ``(t, q, qd)`` (``qd`` default: at rest;
+        ``D``: its constraint Jacobian there where the caller has it); returns the model to go
+        on with."""
         model = self.model
         if not len(model.constraint_names) or model.dependent is None:
             return model
-        _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof) if qd is None else qd)
+        if D is None:
+            _, _, D, _ = model.constraint_terms(t, q, np.zeros(model.n_dof) if qd is None else qd)
         c = condition(D, model.dependent)
         if c <= self.limit:
             return model
