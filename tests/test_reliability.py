@@ -48,7 +48,8 @@ def test_concurrent_builds_give_one_valid_result(tmp_path):
     assert gpmegen.load(nrfe=2, directory=tmp_path, build=False, backend="numpy").n_dof == 6
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+# each waits for the run's first progress line (10 s of running): SIGTERM in make check-c
+@pytest.mark.parametrize("sig", [signal.SIGINT, pytest.param(signal.SIGTERM, marks=pytest.mark.long)])
 def test_interrupted_simulation_keeps_partial_results(tmp_path, sig, generated_elsewhere):
     out = tmp_path / "run.npz"
     env = dict(os.environ, GPMEGEN_GENERATED=str(generated_elsewhere))
