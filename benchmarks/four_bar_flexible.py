@@ -118,11 +118,21 @@ def exudyn_crank(mbs, ground, rate: float, length: float):
     fixed = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=mbs.AddNode(xu.NodePointGround()), coordinate=0))
     angle = mbs.AddMarker(xu.MarkerNodeCoordinate(nodeNumber=crank["nodeNumber"], coordinate=2))
 
+    from exudyn.advancedUtilities import CreateSymbolicUserFunction
+
     def law(mbs, now, item, offset):
         return rate * now
 
-    mbs.AddObject(xu.CoordinateConstraint(markerNumbers=[fixed, angle], offset=0.0, offsetUserFunction=law))
+    held = mbs.AddObject(xu.CoordinateConstraint(markerNumbers=[fixed, angle], offset=0.0))
+    # the law as Exudyn's symbolic user function (evaluated in C++, not called back in Python: its
+    # best setting); kept alive with the system, which holds the returned object
+    _KEPT.append(CreateSymbolicUserFunction(mbs, law, "offsetUserFunction", held))
+    mbs.SetObjectParameter(held, "offsetUserFunction", _KEPT[-1])
     return crank["bodyNumber"]
+
+
+#: Exudyn's symbolic user functions must outlive the systems that call them.
+_KEPT: list = []
 
 
 def exudyn_solve(mbs, step: float, t_end: float, atol: float):
