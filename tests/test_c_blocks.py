@@ -56,7 +56,7 @@ def test_blocks_give_the_bits_of_one_block(env, tmp_path, monkeypatch):
         folder.mkdir()
         for name in ("model.c", ccompile.HEADER):
             (folder / name).write_text(files[name])
-        library = _whole_library(folder, folder)
+        library = _whole_library(folder, folder, env[1])
         libraries[limit] = ccompile.open_library(library, files[ccompile.HEADER])
     assert "_block" not in (tmp_path / str(10**9) / "model.c").read_text()
     assert (tmp_path / "40" / "model.c").read_text().count("NOINLINE static void gpme_terms_block") >= 5
