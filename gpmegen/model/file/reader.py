@@ -673,6 +673,19 @@ class Reader:
         signal's symbol."""
         return {**self.signal_expressions, **{name: s.symbol for name, s in self.table_signals.items()}}
 
+    def point_pair(self, value, path, owner: str) -> tuple:
+        """Two names of the chain's points (``value``, at ``path``) for ``owner`` (a closure, a
+        force element: named in the messages)."""
+        self.array(value, path, 2, "list of two point names")
+        points = tuple(self.string(p, path + (j,), "a point name in quotes") for j, p in enumerate(value))
+        for j, point in enumerate(points):
+            if point not in self.points:
+                close = difflib.get_close_matches(point, self.points, 1)
+                hint = f"did you mean {close[0]!r}? or " if close else ""
+                self.fail(path + (j,), f"{owner}: no point {point!r}; {hint}declare it with a [[chain]] point = "
+                                       f"\"{point}\" element")
+        return points
+
     def read_drives(self, items):
         self.array(items, ("drives",), what="list of [[drives]] tables")
         # a feedback law: t, parameters, positions and velocities; and the signals
@@ -721,15 +734,7 @@ class Reader:
             if kind == "spring-damper" and "stiffness" in item and "rest_length" not in item:
                 self.fail(path, f"force {name!r}: a spring needs its rest_length (m) with its stiffness; add "
                                 f"rest_length = ...")
-            self.array(item["points"], path + ("points",), 2, "list of two point names")
-            points = tuple(self.string(p, path + ("points", j), "a point name in quotes")
-                           for j, p in enumerate(item["points"]))
-            for j, point in enumerate(points):
-                if point not in self.points:
-                    close = difflib.get_close_matches(point, self.points, 1)
-                    hint = f"did you mean {close[0]!r}? or " if close else ""
-                    self.fail(path + ("points", j), f"force {name!r}: no point {point!r}; {hint}declare it with a "
-                                                    f"[[chain]] point = \"{point}\" element")
+            points = self.point_pair(item["points"], path + ("points",), f"force {name!r}")
             if points[0] == points[1]:
                 self.fail(path + ("points", 1), f"force {name!r}: the point {points[0]!r} is named twice, so the "
                                                 f"force has no line; name two different points")
@@ -834,15 +839,7 @@ class Reader:
                                 f"\"z\" (of the frame of its first point)")
             if kind != "point":
                 self.choice(axis, path + ("axis",), AXES, "closure axis")
-            self.array(item["points"], path + ("points",), 2, "list of two point names")
-            points = tuple(self.string(p, path + ("points", j), "a point name in quotes")
-                           for j, p in enumerate(item["points"]))
-            for j, point in enumerate(points):
-                if point not in self.points:
-                    close = difflib.get_close_matches(point, self.points, 1)
-                    hint = f"did you mean {close[0]!r}? or " if close else ""
-                    self.fail(path + ("points", j), f"closure {name!r}: no point {point!r}; {hint}declare it with a "
-                                                    f"[[chain]] point = \"{point}\" element")
+            points = self.point_pair(item["points"], path + ("points",), f"closure {name!r}")
             gains = {}
             for key in ("alpha", "beta"):
                 if key in item:
