@@ -8,9 +8,10 @@ that the links bend and twist out of their plane as the crank turns; the crank d
 at rest and undeformed, where the mechanism is assembled: the same start, exactly.
 
 - gpmegen: the model file at several n_rfe (even: an sde at each link's midpoint), Radau IIA in
-  C; the quantities the literature plots: the out-of-plane displacement of C (the coupler's tip)
+  C; the compared quantities: the out-of-plane displacement of C (the coupler's tip)
   and the out-of-plane bending moments at the coupler's and the follower's mid-span (EI/Δ times
-  the midpoint sde's rotation theta about the link's y axis), over time, extrapolated to
+  the midpoint sde's rotation theta about the link's y axis) and the crank's torque (the
+  multiplier of its prescribed angle), over time, extrapolated to
   n_rfe → ∞ (gpmegen.analysis.richardson) with the observed order;
 - Exudyn: each link as ObjectBeamGeometricallyExact elements (3-D, shear-deformable, the source's
   EA, GA, GJ, EI and rotary inertias; crank and follower N elements, coupler 2N) on
@@ -19,7 +20,8 @@ at rest and undeformed, where the mechanism is assembled: the same start, exactl
   as Exudyn's symbolic user function); generalized-α at the four-bar benchmark's tuned settings
   (benchmarks/four_bar_flexible.py: ρ∞ 0.9, Newton to a relative 1e-8 and --exudyn-atol, the
   sparse solver); the mid-span moment is the mean of the TorqueLocal of the two elements that
-  meet there;
+  meet there, the crank's torque the multiplier of its angle's constraint (with the sign of a
+  torque on the crank);
 - the reference: the finer of the two engines' converged runs (Exudyn at --elements and --step,
   checked against half its elements and half its step; and gpmegen's limit): every run's error
   against both, over time, relative to the peak of the quantity.
@@ -56,8 +58,8 @@ TILT, RATE, RAMP = math.radians(5.0), 0.6, 0.2
 #: mass per length kg/m, rotary inertia per length about each bending axis kg·m.
 SECTIONS = {"a": {"EA": 52.99e6, "GA": 16.88e6, "GJ": 733.5, "EI": 1131.0, "m": 1.997, "mI": 42.6e-6},
             "b": {"EA": 13.25e6, "GA": 4.22e6, "GJ": 45.84, "EI": 70.66, "m": 0.4992, "mI": 2.662e-6}}
-QUANTITIES = ("C out of plane", "coupler moment", "follower moment")
-UNITS = {"C out of plane": "m", "coupler moment": "N·m", "follower moment": "N·m"}
+QUANTITIES = ("C out of plane", "coupler moment", "follower moment", "crank torque")
+UNITS = {"C out of plane": "m", "coupler moment": "N·m", "follower moment": "N·m", "crank torque": "N·m"}
 
 
 def crank_angle(t):
@@ -87,7 +89,9 @@ def gpmegen_level(nrfe: int, t_end: float, save_dt: float, rtol: float, atol: fl
                    lambda message: None, save_dt=save_dt, rtol=rtol, atol=atol)
     res = run.results
     names = [str(c) for c in res["coordinates"]]
-    return res, gpmegen_outputs(run.model, names, res["q"], nrfe), run.wall
+    outputs = gpmegen_outputs(run.model, names, res["q"], nrfe)
+    outputs["crank torque"] = res["lambda"][:, list(map(str, res["constraint_names"])).index("prescribed_alpha1")]
+    return res, outputs, run.wall
 
 
 def _section(data: dict):
@@ -153,6 +157,8 @@ def exudyn_run(elements: int, step: float, t_end: float, t, atol: float):
         if coordinate == 5:
             _KEPT.append(CreateSymbolicUserFunction(mbs, law, "offsetUserFunction", held))
             mbs.SetObjectParameter(held, "offsetUserFunction", _KEPT[-1])
+            drive = mbs.AddSensor(xu.SensorObject(objectNumber=held, storeInternal=True,
+                                                  outputVariableType=exudyn.OutputVariableType.Force))
     identity = np.eye(3)
     revolute(node_marker(crank[-1], turned.T), node_marker(coupler[0], identity))             # B, about z
     revolute(node_marker(coupler[-1], tilted), node_marker(follower[-1], turned.T @ tilted))  # C, tilted
@@ -169,7 +175,8 @@ def exudyn_run(elements: int, step: float, t_end: float, t, atol: float):
         return None, float("nan")
     position = mbs.GetSensorStoredData(point)
     times = position[:, 0]
-    values = {"C out of plane": position[:, 3]}
+    # the constraint's multiplier λ acts on the crank's angle as -λ: the motor's torque about z
+    values = {"C out of plane": position[:, 3], "crank torque": -mbs.GetSensorStoredData(drive)[:, 1]}
     for key, sensors in torques.items():
         values[key] = np.mean([mbs.GetSensorStoredData(s)[:, 2] for s in sensors], axis=0)
     return {key: np.interp(t, times, v) for key, v in values.items()}, wall
@@ -183,10 +190,10 @@ def figure(t, limit, exudyn_fine, levels, nrfe, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(4, 1, figsize=(7, 9), sharex=True)
-    scales = {"C out of plane": 1e3, "coupler moment": 1.0, "follower moment": 1.0}
+    fig, axes = plt.subplots(5, 1, figsize=(7, 10.5), sharex=True)
+    scales = {"C out of plane": 1e3, "coupler moment": 1.0, "follower moment": 1.0, "crank torque": 1.0}
     labels = {"C out of plane": "z of C (mm)", "coupler moment": "coupler mid-span\nmoment (N·m)",
-              "follower moment": "follower mid-span\nmoment (N·m)"}
+              "follower moment": "follower mid-span\nmoment (N·m)", "crank torque": "crank torque\n(N·m, about z)"}
     for ax, key in zip(axes, QUANTITIES):
         ax.plot(t, exudyn_fine[key] * scales[key], "k", lw=2.5, alpha=0.4, label="Exudyn 3-D beams (finest)")
         ax.plot(t, limit[key] * scales[key], "C0", lw=0.9, label="gpmegen, extrapolated")
