@@ -566,6 +566,30 @@ def test_redundant_rows_run_on_the_c_backend(tilted_run, tilted_path, env, metho
         np.testing.assert_allclose(run["lambda"], lam, rtol=0, atol=1e-9 * np.abs(lam).max())
 
 
+@pytest.mark.long   # a model of its own compiled with its Jacobians (about 20 s)
+@pytest.mark.requires_cc
+def test_radau_with_generated_jacobians_runs_redundant_rows_as_rk4(tilted_run, tilted_path, tmp_path_factory):
+    """Radau IIA with the generated Jacobians (gpmegen build --jacobians), whose system takes the
+    rows independent at each state: the tilted four-bar runs to its end, no singular stop, and
+    follows the NumPy RK4 run of the same model (1e-3 s steps, error about 1e-11) and the
+    closed-form four-bar to 1e-8 rad."""
+    folder = tmp_path_factory.mktemp("jacobians")
+    loaded = gpmegen.load(model=read_model_file(tilted_path).model, backend="c", jacobians=True, directory=folder)
+    assert loaded.jacobians_built
+    with pytest.warns(ModelWarning) as caught:
+        run = gpmegen.simulate(str(tilted_path), t_end=0.5, dt=1e-3, save_every=10, backend="c", method="radau",
+                               directory=folder, rtol=1e-10, atol=1e-12)
+    assert [str(w.message) for w in caught] == [REDUNDANT_WARNING]
+    assert run.status == "complete"
+    assert run.meta["settings"]["effort"]["jacobians"] >= 1
+    reference = tilted_run[0]
+    np.testing.assert_allclose(run["t"], reference["t"], rtol=0, atol=1e-12)
+    assert np.max(np.abs(run["q"] - reference["q"])) < 1e-8
+    coupler, rocker = exact_four_bar(run.coordinate("theta1"))
+    assert np.max(np.abs(wrapped(run.coordinate("theta2") - coupler))) < 1e-8
+    assert np.max(np.abs(wrapped(run.coordinate("theta3") - rocker))) < 1e-8
+
+
 # the four-bar with L1 = L3 and L2 = d (a parallelogram) started folded flat (every link along
 # x0): its closure's rows x and y are dependent there (rank 2 of 3 with the crank's), and
 # independent as soon as the crank has turned

@@ -76,13 +76,6 @@ int gpmegen_elimination_step(int N_DOF, double *D, double *c, int m, int k, doub
     return GPMEGEN_OK;
 }
 
-/* Below this fraction of the largest entry of D, a pivot of the elimination counts as zero: the
-   rows left are combinations of those pivoted (D's rank is the number of pivots before it). It is
-   relative to D's scale, and above the round-off that the elimination leaves in a row that is a
-   combination of others (a few N_DOF * DBL_EPSILON of D's largest entry), far below any pivot of
-   rows that are independent but nearly dependent that a run could use (their X grows as 1/pivot). */
-#define GPMEGEN_RANK_TOLERANCE 1e-10
-
 /* The rank of the constraint rows D qdd = c (D: NC x N_DOF row-major, c: NC) by Gaussian
    elimination with complete pivoting (gpmegen_elimination_step); dependent[a] is the coordinate
    of the a-th pivot. A model whose rows cannot be redundant (redundant_rows 0) stops as that
