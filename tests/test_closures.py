@@ -651,6 +651,50 @@ def test_redundant_rows_that_drift_from_the_kept_ones_are_said_once_with_the_clo
         f"only nearly: make them close exactly, or the rows independent"]
 
 
+BRICARD = ROOT / "tests" / "models" / "bricard.toml"
+
+
+@pytest.fixture(scope="module")
+def bricard_run(env):
+    """0.5 s of Bricard's threefold-symmetric 6R loop swinging from rest under gravity (NumPy
+    backend, RK4 at 1e-3 s), with the warnings it gave."""
+    with pytest.warns(ModelWarning) as caught:
+        run = gpmegen.simulate(str(BRICARD), t_end=0.5, dt=1e-3, save_every=10, backend="numpy", directory=env[0])
+    return run, [str(w.message) for w in caught]
+
+
+def test_bricard_linkage_moves_with_one_warning_on_its_redundant_row(bricard_run):
+    """Six links and six revolute joints in a loop (Grübler: no motion) move with one degree of
+    freedom: the closure's five rows have rank four with the five joints. The run completes,
+    with one warning naming the closure, and no other line along it (the rank stays four)."""
+    run, warned = bricard_run
+    assert warned == [
+        "closure 'C': its rows C_x, C_y, C_z, C_zx, C_zy are redundant at the start (the constraint Jacobian has "
+        "rank 4 for 5 rows): the accelerations come from the independent rows; the reactions are not unique, and "
+        "those shown are the minimum-norm ones"]
+    assert run.status == "complete"
+    assert list(run["constraint_names"]) == ["C_x", "C_y", "C_z", "C_zx", "C_zy"]
+
+
+def test_bricard_linkage_follows_its_closed_form_and_closes_its_energy_balance(bricard_run):
+    """Along the swing, which passes the turn where theta2 changes sign (x = -2π/3, from one
+    half of the loop's curve to the other), the joint angles keep theta1 = theta3 = theta5,
+    theta2 = theta4 and (1 + cos theta1)(1 + cos theta2) = 1 to 1e-8; the loop holds to 1e-8
+    (m, and for the orientation rows, the sine of the angle between the axes); kinetic and
+    gravity energy exchange with a balance that closes to 1e-7 of the energy exchanged."""
+    run, _ = bricard_run
+    x, y = run.coordinate("theta1"), run.coordinate("theta2")
+    assert y[0] > 1.0 and y.min() < -0.5   # both halves of the curve
+    assert np.max(np.abs(run.coordinate("theta3") - x)) < 1e-8
+    assert np.max(np.abs(run.coordinate("theta5") - x)) < 1e-8
+    assert np.max(np.abs(run.coordinate("theta4") - y)) < 1e-8
+    assert np.max(np.abs((1 + np.cos(x)) * (1 + np.cos(y)) - 1)) < 1e-8
+    assert np.max(np.abs(run["phi"])) < 1e-8
+    exchanged = np.ptp(run["kinetic_energy"])
+    assert exchanged > 0.05
+    assert np.abs(energy.balance_residual(run.arrays)).max() < 1e-7 * exchanged
+
+
 def test_redundant_rows_warn_once_on_the_command_line_and_a_loop_that_cannot_close_stops(tilted_path, capsys):
     """gpmegen simulate prints the warning on the redundant rows once, and no singular stop;
     with a ground link too long for the loop, its redundant rows cannot hold together and the
