@@ -85,7 +85,8 @@ int gpmegen_elimination_step(int N_DOF, double *D, double *c, int m, int k, doub
    the rows left are combinations of the pivoted ones up to round-off. The accelerations come from the
    pivoted rows alone: they are unique when the redundant rows are consistent (their right sides,
    once eliminated, vanish), which the start checks on Phi (a loop that cannot close is refused
-   there) and a run keeps by watching the constraints' violation (rows that drift apart stop it).
+   there) and a run watches between its calls (gpmegen.runtime.redundancy: a rank that changes,
+   rows left out that drift from the kept ones, each said once; the violation limit stops it).
    D and c are overwritten. *rank: the number of pivots (NC when D has full rank: then nothing
    differs from the elimination of full-rank rows). Returns GPMEGEN_NONFINITE when an entry of D is
    not finite, GPMEGEN_SINGULAR when no row has a pivot (D vanishes), else GPMEGEN_OK. */
