@@ -24,6 +24,7 @@ from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import gpme, partition
+from gpmegen.runtime.model import redundant_acceleration_jacobians
 
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:
@@ -566,16 +567,48 @@ def test_redundant_rows_run_on_the_c_backend(tilted_run, tilted_path, env, metho
         np.testing.assert_allclose(run["lambda"], lam, rtol=0, atol=1e-9 * np.abs(lam).max())
 
 
+@pytest.fixture(scope="module")
+def tilted_jacobians(tilted_path, tmp_path_factory):
+    """The folder of the tilted four-bar compiled with its generated Jacobians, and the model."""
+    folder = tmp_path_factory.mktemp("jacobians")
+    loaded = gpmegen.load(model=read_model_file(tilted_path).model, backend="c", jacobians=True, directory=folder)
+    assert loaded.jacobians_built
+    return folder, loaded
+
+
 @pytest.mark.long   # a model of its own compiled with its Jacobians (about 20 s)
 @pytest.mark.requires_cc
-def test_radau_with_generated_jacobians_runs_redundant_rows_as_rk4(tilted_run, tilted_path, tmp_path_factory):
+def test_generated_c_jacobians_of_redundant_rows_are_those_of_the_independent_rows(tilted_run, tilted_jacobians):
+    """At saved states of the tilted four-bar, moving, the C library's exact acceleration
+    Jacobians (their KKT system on the rows independent at the state) equal the NumPy ones on the
+    same rows to 1e-10 of their size, and central differences of the accelerations to 1e-6."""
+    run, _ = tilted_run
+    loaded = study.check_redundant(tilted_jacobians[1], run["q"][0], {}, warn=False)
+    assert loaded.redundant
+    for k in (0, 20, 45):
+        t, q, qd = run["t"][k], run["q"][k], run["qd"][k]
+        qdd, A_q, A_qd = loaded.evaluator.acceleration_jacobians(t, q, qd, loaded)
+        expected = redundant_acceleration_jacobians(loaded.evaluator, t, q, qd, loaded)
+        np.testing.assert_allclose(qdd, expected[0], rtol=0, atol=1e-12 * np.abs(qdd).max())
+        for got, want in zip((A_q, A_qd), expected[1:]):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * np.abs(want).max())
+        h = 1e-6
+        for j in range(loaded.n_dof):
+            step = h * (np.arange(loaded.n_dof) == j)
+            column_q = (loaded.accelerations(t, q + step, qd) - loaded.accelerations(t, q - step, qd)) / (2 * h)
+            column_qd = (loaded.accelerations(t, q, qd + step) - loaded.accelerations(t, q, qd - step)) / (2 * h)
+            np.testing.assert_allclose(A_q[:, j], column_q, rtol=0, atol=1e-6 * np.abs(A_q).max())
+            np.testing.assert_allclose(A_qd[:, j], column_qd, rtol=0, atol=1e-6 * np.abs(A_qd).max())
+
+
+@pytest.mark.long   # the model compiled with its Jacobians (about 20 s, shared with the test above)
+@pytest.mark.requires_cc
+def test_radau_with_generated_jacobians_runs_redundant_rows_as_rk4(tilted_run, tilted_path, tilted_jacobians):
     """Radau IIA with the generated Jacobians (gpmegen build --jacobians), whose system takes the
     rows independent at each state: the tilted four-bar runs to its end, no singular stop, and
     follows the NumPy RK4 run of the same model (1e-3 s steps, error about 1e-11) and the
     closed-form four-bar to 1e-8 rad."""
-    folder = tmp_path_factory.mktemp("jacobians")
-    loaded = gpmegen.load(model=read_model_file(tilted_path).model, backend="c", jacobians=True, directory=folder)
-    assert loaded.jacobians_built
+    folder = tilted_jacobians[0]
     with pytest.warns(ModelWarning) as caught:
         run = gpmegen.simulate(str(tilted_path), t_end=0.5, dt=1e-3, save_every=10, backend="c", method="radau",
                                directory=folder, rtol=1e-10, atol=1e-12)
