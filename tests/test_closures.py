@@ -728,6 +728,28 @@ def test_bricard_linkage_follows_its_closed_form_and_closes_its_energy_balance(b
     assert np.abs(energy.balance_residual(run.arrays)).max() < 1e-7 * exchanged
 
 
+@pytest.mark.long   # the linkage compiled with its Jacobians (about 25 s)
+@pytest.mark.requires_cc
+def test_bricard_linkage_runs_by_radau_with_generated_jacobians_as_by_rk4(bricard_run, tmp_path_factory):
+    """On the C backend, built with its Jacobians: RK4 gives the NumPy run's states to 1e-12;
+    Radau IIA (tolerances 1e-10, 1e-12) completes with the one warning, follows the RK4 run to
+    1e-8 and the closed form to 1e-8."""
+    folder = tmp_path_factory.mktemp("bricard")
+    gpmegen.load(model=read_model_file(BRICARD).model, backend="c", jacobians=True, directory=folder)
+    reference, warned = bricard_run
+    for method in ("rk4", "radau"):
+        with pytest.warns(ModelWarning) as caught:
+            run = gpmegen.simulate(str(BRICARD), t_end=0.5, dt=1e-3, save_every=10, backend="c", method=method,
+                                   directory=folder, rtol=1e-10, atol=1e-12)
+        assert [str(w.message) for w in caught] == warned
+        assert run.status == "complete"
+        assert run.meta["settings"]["effort"]["jacobians"] >= (1 if method == "radau" else 0)
+        np.testing.assert_allclose(run["t"], reference["t"], rtol=0, atol=1e-12)
+        assert np.max(np.abs(run["q"] - reference["q"])) < (1e-12 if method == "rk4" else 1e-8)
+        x, y = run.coordinate("theta1"), run.coordinate("theta2")
+        assert np.max(np.abs((1 + np.cos(x)) * (1 + np.cos(y)) - 1)) < 1e-8
+
+
 def test_redundant_rows_warn_once_on_the_command_line_and_a_loop_that_cannot_close_stops(tilted_path, capsys):
     """gpmegen simulate prints the warning on the redundant rows once, and no singular stop;
     with a ground link too long for the loop, its redundant rows cannot hold together and the
