@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import gpme, partition
+from gpmegen.runtime.model import redundant_acceleration_jacobians
 
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:
@@ -563,6 +565,189 @@ def test_redundant_rows_run_on_the_c_backend(tilted_run, tilted_path, env, metho
     if method == "rk4":
         lam = tilted_run[0]["lambda"]
         np.testing.assert_allclose(run["lambda"], lam, rtol=0, atol=1e-9 * np.abs(lam).max())
+
+
+@pytest.fixture(scope="module")
+def tilted_jacobians(tilted_path, tmp_path_factory):
+    """The folder of the tilted four-bar compiled with its generated Jacobians, and the model."""
+    folder = tmp_path_factory.mktemp("jacobians")
+    loaded = gpmegen.load(model=read_model_file(tilted_path).model, backend="c", jacobians=True, directory=folder)
+    assert loaded.jacobians_built
+    return folder, loaded
+
+
+@pytest.mark.long   # a model of its own compiled with its Jacobians (about 20 s)
+@pytest.mark.requires_cc
+def test_generated_c_jacobians_of_redundant_rows_are_those_of_the_independent_rows(tilted_run, tilted_jacobians):
+    """At saved states of the tilted four-bar, moving, the C library's exact acceleration
+    Jacobians (their KKT system on the rows independent at the state) equal the NumPy ones on the
+    same rows to 1e-10 of their size, and central differences of the accelerations to 1e-6."""
+    run, _ = tilted_run
+    loaded = study.check_redundant(tilted_jacobians[1], run["q"][0], {}, warn=False)
+    assert loaded.redundant
+    for k in (0, 20, 45):
+        t, q, qd = run["t"][k], run["q"][k], run["qd"][k]
+        qdd, A_q, A_qd = loaded.evaluator.acceleration_jacobians(t, q, qd, loaded)
+        expected = redundant_acceleration_jacobians(loaded.evaluator, t, q, qd, loaded)
+        np.testing.assert_allclose(qdd, expected[0], rtol=0, atol=1e-12 * np.abs(qdd).max())
+        for got, want in zip((A_q, A_qd), expected[1:]):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * np.abs(want).max())
+        h = 1e-6
+        for j in range(loaded.n_dof):
+            step = h * (np.arange(loaded.n_dof) == j)
+            column_q = (loaded.accelerations(t, q + step, qd) - loaded.accelerations(t, q - step, qd)) / (2 * h)
+            column_qd = (loaded.accelerations(t, q, qd + step) - loaded.accelerations(t, q, qd - step)) / (2 * h)
+            np.testing.assert_allclose(A_q[:, j], column_q, rtol=0, atol=1e-6 * np.abs(A_q).max())
+            np.testing.assert_allclose(A_qd[:, j], column_qd, rtol=0, atol=1e-6 * np.abs(A_qd).max())
+
+
+@pytest.mark.long   # the model compiled with its Jacobians (about 20 s, shared with the test above)
+@pytest.mark.requires_cc
+def test_radau_with_generated_jacobians_runs_redundant_rows_as_rk4(tilted_run, tilted_path, tilted_jacobians):
+    """Radau IIA with the generated Jacobians (gpmegen build --jacobians), whose system takes the
+    rows independent at each state: the tilted four-bar runs to its end, no singular stop, and
+    follows the NumPy RK4 run of the same model (1e-3 s steps, error about 1e-11) and the
+    closed-form four-bar to 1e-8 rad."""
+    folder = tilted_jacobians[0]
+    with pytest.warns(ModelWarning) as caught:
+        run = gpmegen.simulate(str(tilted_path), t_end=0.5, dt=1e-3, save_every=10, backend="c", method="radau",
+                               directory=folder, rtol=1e-10, atol=1e-12)
+    assert [str(w.message) for w in caught] == [REDUNDANT_WARNING]
+    assert run.status == "complete"
+    assert run.meta["settings"]["effort"]["jacobians"] >= 1
+    reference = tilted_run[0]
+    np.testing.assert_allclose(run["t"], reference["t"], rtol=0, atol=1e-12)
+    assert np.max(np.abs(run["q"] - reference["q"])) < 1e-8
+    coupler, rocker = exact_four_bar(run.coordinate("theta1"))
+    assert np.max(np.abs(wrapped(run.coordinate("theta2") - coupler))) < 1e-8
+    assert np.max(np.abs(wrapped(run.coordinate("theta3") - rocker))) < 1e-8
+
+
+# the four-bar with L1 = L3 and L2 = d (a parallelogram) started folded flat (every link along
+# x0): its closure's rows x and y are dependent there (rank 2 of 3 with the crank's), and
+# independent as soon as the crank has turned
+FOLDED = {'["C1", "C2"]\ntype = "revolute"\naxis = "z"': '["C1", "C2"]\ntype = "point"',
+          'name = "four_bar"': 'name = "four_bar_folded"', 'L1 = { value = 0.1': 'L1 = { value = 0.25',
+          'q = { theta1 = 0, theta2 = 1.0, theta3 = 1.7 }': 'q = { theta1 = 0, theta2 = 0, theta3 = 0 }'}
+
+
+def test_a_rank_that_changes_along_a_run_is_said_once_with_the_closure_and_the_time(tmp_path, env):
+    """Started where its rows are redundant, the folded parallelogram runs on, and one line (after
+    the start's) names the closure and the first instant the run looks at (0.05 s) where its
+    rows are independent again; the run completes."""
+    path = tmp_path / "four_bar_folded.toml"
+    path.write_text(four_bar_text(**FOLDED))
+    with pytest.warns(ModelWarning) as caught:
+        run = gpmegen.simulate(str(path), t_end=0.2, dt=1e-3, save_every=10, backend="numpy", directory=env[0])
+    lines = [str(w.message) for w in caught if "vanishes identically" not in str(w.message)]
+    assert lines == [
+        "closure 'C': its rows C_x are redundant at the start (the constraint Jacobian has rank 2 for 3 rows): the "
+        "accelerations come from the independent rows; the reactions are not unique, and those shown are the "
+        "minimum-norm ones",
+        "closure 'C': its rows C_x, redundant at the start, are independent again at t = 0.05 s (the constraint "
+        "Jacobian has rank 3 for 3 rows, 2 at the start): the accelerations come from the rows independent there"]
+    assert run.status == "complete"
+
+
+def test_redundant_rows_that_drift_from_the_kept_ones_are_said_once_with_the_closure_and_the_time(tilted_run,
+                                                                                                  tilted_path, env):
+    """At the tilted run's saved states the rows left out follow from the kept ones to round-off
+    (Φ_J - C Φ_K below 1e-12) and nothing is said; a value of a row left out moved by 1e-5 (a
+    loop whose dimensions close only nearly) is that difference, said once naming the closure,
+    its row and the time; a move of 1e-8, below the threshold, is not."""
+    from gpmegen.runtime import redundancy
+
+    run, _ = tilted_run
+    loaded = gpmegen.load(model=read_model_file(tilted_path).model, backend="numpy", directory=env[0])
+    loaded = loaded.with_closure_rows({"C": ["C_x", "C_y", "C_z", "C_zx", "C_zy"]})
+    terms = [loaded.constraint_terms(t, q, qd) for t, q, qd in zip(run["t"], run["q"], run["qd"])]
+    for phi, _, D, _ in terms:
+        out, e = redundancy.drift(phi, D, loaded.constraint_orders)
+        assert len(out) == 3 and np.max(np.abs(e)) < 1e-12
+    phi, _, D, _ = terms[10]
+    out, e0 = redundancy.drift(phi, D, loaded.constraint_orders)
+    row = int(out[0])
+    watch = redundancy.RowWatch(loaded, terms[0][2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        watch.check(run["t"][10], phi + 1e-8 * (np.arange(len(phi)) == row), D)
+    moved = phi + 1e-5 * (np.arange(len(phi)) == row)
+    out, e = redundancy.drift(moved, D, loaded.constraint_orders)
+    np.testing.assert_allclose(e - e0, 1e-5 * (out == row), rtol=0, atol=1e-14)
+    with pytest.warns(ModelWarning) as caught:
+        watch.check(run["t"][10], moved, D)
+        watch.check(run["t"][11], moved, D)   # said once
+    assert [str(w.message) for w in caught] == [
+        f"closure 'C': its redundant rows {loaded.constraint_names[row]} drift from the rows kept at "
+        f"t = {run['t'][10]:.6g} s: they differ from the combination of the kept rows by {abs(e[out == row][0]):.3e} "
+        f"(above 1e-06), which the solve, taking the kept rows only, cannot correct; the loop's dimensions close "
+        f"only nearly: make them close exactly, or the rows independent"]
+
+
+BRICARD = ROOT / "tests" / "models" / "bricard.toml"
+
+
+@pytest.fixture(scope="module")
+def bricard_run(env):
+    """0.5 s of Bricard's threefold-symmetric 6R loop swinging from rest under gravity (NumPy
+    backend, RK4 at 1e-3 s), with the warnings it gave."""
+    with pytest.warns(ModelWarning) as caught:
+        run = gpmegen.simulate(str(BRICARD), t_end=0.5, dt=1e-3, save_every=10, backend="numpy", directory=env[0])
+    return run, [str(w.message) for w in caught]
+
+
+def test_bricard_linkage_moves_with_one_warning_on_its_redundant_row(bricard_run):
+    """Six links and six revolute joints in a loop (Grübler: no motion) move with one degree of
+    freedom: the closure's five rows have rank four with the five joints. The run completes,
+    with one warning naming the closure, and no other line along it (the rank stays four)."""
+    run, warned = bricard_run
+    assert warned == [
+        "closure 'C': its rows C_x, C_y, C_z, C_zx, C_zy are redundant at the start (the constraint Jacobian has "
+        "rank 4 for 5 rows): the accelerations come from the independent rows; the reactions are not unique, and "
+        "those shown are the minimum-norm ones"]
+    assert run.status == "complete"
+    assert list(run["constraint_names"]) == ["C_x", "C_y", "C_z", "C_zx", "C_zy"]
+
+
+def test_bricard_linkage_follows_its_closed_form_and_closes_its_energy_balance(bricard_run):
+    """Along the swing, which passes the turn where theta2 changes sign (x = -2π/3, from one
+    half of the loop's curve to the other), the joint angles keep theta1 = theta3 = theta5,
+    theta2 = theta4 and (1 + cos theta1)(1 + cos theta2) = 1 to 1e-8; the loop holds to 1e-8
+    (m, and for the orientation rows, the sine of the angle between the axes); kinetic and
+    gravity energy exchange with a balance that closes to 1e-7 of the energy exchanged."""
+    run, _ = bricard_run
+    x, y = run.coordinate("theta1"), run.coordinate("theta2")
+    assert y[0] > 1.0 and y.min() < -0.5   # both halves of the curve
+    assert np.max(np.abs(run.coordinate("theta3") - x)) < 1e-8
+    assert np.max(np.abs(run.coordinate("theta5") - x)) < 1e-8
+    assert np.max(np.abs(run.coordinate("theta4") - y)) < 1e-8
+    assert np.max(np.abs((1 + np.cos(x)) * (1 + np.cos(y)) - 1)) < 1e-8
+    assert np.max(np.abs(run["phi"])) < 1e-8
+    exchanged = np.ptp(run["kinetic_energy"])
+    assert exchanged > 0.05
+    assert np.abs(energy.balance_residual(run.arrays)).max() < 1e-7 * exchanged
+
+
+@pytest.mark.long   # the linkage compiled with its Jacobians (about 25 s)
+@pytest.mark.requires_cc
+def test_bricard_linkage_runs_by_radau_with_generated_jacobians_as_by_rk4(bricard_run, tmp_path_factory):
+    """On the C backend, built with its Jacobians: RK4 gives the NumPy run's states to 1e-12;
+    Radau IIA (tolerances 1e-10, 1e-12) completes with the one warning, follows the RK4 run to
+    1e-8 and the closed form to 1e-8."""
+    folder = tmp_path_factory.mktemp("bricard")
+    gpmegen.load(model=read_model_file(BRICARD).model, backend="c", jacobians=True, directory=folder)
+    reference, warned = bricard_run
+    for method in ("rk4", "radau"):
+        with pytest.warns(ModelWarning) as caught:
+            run = gpmegen.simulate(str(BRICARD), t_end=0.5, dt=1e-3, save_every=10, backend="c", method=method,
+                                   directory=folder, rtol=1e-10, atol=1e-12)
+        assert [str(w.message) for w in caught] == warned
+        assert run.status == "complete"
+        assert run.meta["settings"]["effort"]["jacobians"] >= (1 if method == "radau" else 0)
+        np.testing.assert_allclose(run["t"], reference["t"], rtol=0, atol=1e-12)
+        assert np.max(np.abs(run["q"] - reference["q"])) < (1e-12 if method == "rk4" else 1e-8)
+        x, y = run.coordinate("theta1"), run.coordinate("theta2")
+        assert np.max(np.abs((1 + np.cos(x)) * (1 + np.cos(y)) - 1)) < 1e-8
 
 
 def test_redundant_rows_warn_once_on_the_command_line_and_a_loop_that_cannot_close_stops(tilted_path, capsys):

@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import limits
 from ..errors import ModelError, ModelWarning, SimulationError
-from ..runtime import gpme, integrate, internal, partition, statics
+from ..runtime import gpme, integrate, internal, partition, redundancy, statics
 from ..status import Ending, Outcome
 from . import energy as energy_balance
 from . import modes
@@ -201,25 +201,12 @@ def check_redundant(model, q, closures, t=0.0, warn=True):
             chosen = model.dependent
     if not warn:
         return model.with_redundant_rows(chosen)
-    U, sigma, _ = np.linalg.svd(D)
-    null = U[:, rank:]   # combinations of rows whose gradients cancel
-    taking = np.linalg.norm(null, axis=1) > 1e-6
-    names = list(model.constraint_names)
-    parts, named = [], set()
-    for name, rows in (closures or {}).items():
-        involved = [row for row in rows if taking[names.index(row)]]
-        named.update(rows)
-        if involved:
-            parts.append(f"closure {name!r}: its rows {', '.join(involved)}")
-    others = [row for row, takes in zip(names, taking) if takes and row not in named]
-    if others:
-        parts.append(f"the constraints {', '.join(others)}")
     import warnings
 
     warnings.warn(
-        f"{' and '.join(parts)} are redundant at the start (the constraint Jacobian has rank {rank} for "
-        f"{D.shape[0]} rows): the accelerations come from the independent rows; the reactions are not unique, "
-        f"and those shown are the minimum-norm ones", ModelWarning, stacklevel=2)
+        f"{redundancy.taking_part(model.constraint_names, D, rank, closures)} are redundant at the start (the "
+        f"constraint Jacobian has rank {rank} for {D.shape[0]} rows): the accelerations come from the independent "
+        f"rows; the reactions are not unique, and those shown are the minimum-norm ones", ModelWarning, stacklevel=2)
     return model.with_redundant_rows(chosen)
 
 
@@ -242,6 +229,8 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
     if start not in ("none", "locked", "constrained"):
         raise ValueError(f"unknown start {start!r}: use 'none', 'locked' or 'constrained'")
     q = vector_of(model, initial)
+    if closures:   # a run watches the loops' rows by their closures' names
+        model = model.with_closure_rows(closures)
     marked = check_redundant(model, q, closures)
     warned, model = marked is not model, marked
     if model.dependent is None:

@@ -76,13 +76,6 @@ int gpmegen_elimination_step(int N_DOF, double *D, double *c, int m, int k, doub
     return GPMEGEN_OK;
 }
 
-/* Below this fraction of the largest entry of D, a pivot of the elimination counts as zero: the
-   rows left are combinations of those pivoted (D's rank is the number of pivots before it). It is
-   relative to D's scale, and above the round-off that the elimination leaves in a row that is a
-   combination of others (a few N_DOF * DBL_EPSILON of D's largest entry), far below any pivot of
-   rows that are independent but nearly dependent that a run could use (their X grows as 1/pivot). */
-#define GPMEGEN_RANK_TOLERANCE 1e-10
-
 /* The rank of the constraint rows D qdd = c (D: NC x N_DOF row-major, c: NC) by Gaussian
    elimination with complete pivoting (gpmegen_elimination_step); dependent[a] is the coordinate
    of the a-th pivot. A model whose rows cannot be redundant (redundant_rows 0) stops as that
@@ -92,7 +85,8 @@ int gpmegen_elimination_step(int N_DOF, double *D, double *c, int m, int k, doub
    the rows left are combinations of the pivoted ones up to round-off. The accelerations come from the
    pivoted rows alone: they are unique when the redundant rows are consistent (their right sides,
    once eliminated, vanish), which the start checks on Phi (a loop that cannot close is refused
-   there) and a run keeps by watching the constraints' violation (rows that drift apart stop it).
+   there) and a run watches between its calls (gpmegen.runtime.redundancy: a rank that changes,
+   rows left out that drift from the kept ones, each said once; the violation limit stops it).
    D and c are overwritten. *rank: the number of pivots (NC when D has full rank: then nothing
    differs from the elimination of full-rank rows). Returns GPMEGEN_NONFINITE when an entry of D is
    not finite, GPMEGEN_SINGULAR when no row has a pivot (D vanishes), else GPMEGEN_OK. */

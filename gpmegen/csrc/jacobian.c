@@ -98,25 +98,96 @@ void gpmegen_lu_solve(int n, const double *a, const int *piv, int k, double *b)
 
 /* ---- Acceleration Jacobians ---------------------------------------------------------------- */
 
+/* The rows of D (NC x N_DOF row-major) that are independent and span its rows, as
+   gpmegen.runtime.gpme.independent_rows finds them: the pivots of a QR factorization of D^T with
+   column pivoting (here Gram-Schmidt on the rows, twice orthogonalized, the row of largest norm
+   left taken first) above GPMEGEN_RANK_TOLERANCE times the first pivot. rows[0..rank-1]
+   receive them in increasing order; returns the rank (NC when D has full rank). */
+static int independent_rows(int N_DOF, int NC, const double *D, int *rows)
+{
+    double Q[NC * N_DOF] ALIGNED, basis[NC * N_DOF] ALIGNED;
+    int taken[NC] ALIGNED;
+    int rank = 0;
+    double first = 0.0;
+    for (int i = 0; i < NC * N_DOF; ++i) {
+        Q[i] = D[i];
+    }
+    for (int a = 0; a < NC; ++a) {
+        taken[a] = 0;
+    }
+    for (int k = 0; k < NC; ++k) {
+        int best = -1;
+        double largest = -1.0;
+        for (int a = 0; a < NC; ++a) {
+            double s = 0.0;
+            for (int j = 0; j < N_DOF; ++j) {
+                s += Q[a * N_DOF + j] * Q[a * N_DOF + j];
+            }
+            if (!taken[a] && s > largest) {
+                largest = s;
+                best = a;
+            }
+        }
+        const double pivot = sqrt(largest);
+        if (k == 0) {
+            first = pivot;
+        }
+        if (best < 0 || !(pivot > GPMEGEN_RANK_TOLERANCE * first) || !(first > 0.0)) {
+            break;
+        }
+        taken[best] = 1;
+        double *e = basis + rank * N_DOF;
+        for (int j = 0; j < N_DOF; ++j) {
+            e[j] = Q[best * N_DOF + j] / pivot;
+        }
+        rank += 1;
+        for (int pass = 0; pass < 2; ++pass) {  /* twice: the round-off of once stays below the tolerance */
+            for (int a = 0; a < NC; ++a) {
+                if (taken[a]) {
+                    continue;
+                }
+                double s = 0.0;
+                for (int j = 0; j < N_DOF; ++j) {
+                    s += Q[a * N_DOF + j] * e[j];
+                }
+                for (int j = 0; j < N_DOF; ++j) {
+                    Q[a * N_DOF + j] -= s * e[j];
+                }
+            }
+        }
+    }
+    for (int a = 0, k = 0; a < NC; ++a) {
+        if (taken[a]) {
+            rows[k++] = a;
+        }
+    }
+    return rank;
+}
+
 /* qdd (N_DOF) from the GPME (gpme_recursive) and its Jacobians dqdd_dq, dqdd_dqd (N_DOF x N_DOF
    row-major, [i][j] = d qdd_i / d q_j): differentiating M qdd - f = D^T lam and D qdd = c,
        [M  -D^T] [d qdd]   [dF]      F = f - M a + D^T lam,  C = c - D a  at a = qdd,
        [D    0 ] [d lam] = [dC],     lam fixed (gpme_residual_jacobians),
    with lam = (D D^T)^-1 D (M qdd - f), solved by LU with partial pivoting for the 2 N_DOF
-   columns of dq and dqd together, M, f and D from gpme_terms. Returns
-   the status of gpme_recursive, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE
-   when the system above is singular or not finite. */
+   columns of dq and dqd together, M, f and D from gpme_terms. Where the rows may be redundant
+   (redundant_rows) and are at this state (D of rank below its rows), the system takes the
+   independent rows (independent_rows) with their multipliers, unique there, the others' zero:
+   near the state they hold the same motions as all of them, as the solve keeps them
+   (gpmegen.runtime.model.redundant_acceleration_jacobians does the same). Returns the status of
+   gpme_recursive, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE when the system above is singular or
+   not finite. */
 static int exact_jacobian(const struct gpmegen_model *model, double t, const double *q, const double *qd,
                           const double *p, double *qdd, double *dqdd_dq, double *dqdd_dqd)
 {
-    const int N_DOF = model->n_dof, NC = model->n_constraints, NK = N_DOF + NC, NR = 2 * N_DOF;
+    const int N_DOF = model->n_dof, NC = model->n_constraints, NR = 2 * N_DOF;
     double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, power;
-    double K[NK * NK] ALIGNED, rhs[NK * NR] ALIGNED;
+    double K[(N_DOF + NC) * (N_DOF + NC)] ALIGNED, rhs[(N_DOF + NC) * NR] ALIGNED;
     double F_q[N_DOF * N_DOF] ALIGNED, F_qd[N_DOF * N_DOF] ALIGNED;
     double C_q[AT_LEAST_1(NC * N_DOF)] ALIGNED, C_qd[AT_LEAST_1(NC * N_DOF)] ALIGNED;
     double lam[AT_LEAST_1(NC)] ALIGNED;
-    int piv[NK] ALIGNED;
-    int status;
+    int rows[AT_LEAST_1(NC)] ALIGNED;  /* the rows the system takes: all, or the independent ones */
+    int piv[N_DOF + NC] ALIGNED;
+    int status, NK = N_DOF, NI = 0;
 
     lam[0] = 0.0;
     if ((status = model->gpme_recursive(t, q, qd, p, qdd, &power)) != GPMEGEN_OK) {
@@ -124,9 +195,24 @@ static int exact_jacobian(const struct gpmegen_model *model, double t, const dou
     }
     if (NC > 0) {
         double phi[NC] ALIGNED, phi_rate[NC] ALIGNED, gam[NC] ALIGNED;
-        double D[NC * N_DOF] ALIGNED, DDt[NC * NC] ALIGNED, r[N_DOF] ALIGNED;
+        double D[NC * N_DOF] ALIGNED, DDt[NC * NC] ALIGNED, r[N_DOF] ALIGNED, mu[NC] ALIGNED;
         int piv_c[NC] ALIGNED;
         model->gpme_terms(t, q, qd, p, M, f, phi, phi_rate, D, gam);
+        if (!all_finite(D, NC * N_DOF)) {
+            return GPMEGEN_NONFINITE;
+        }
+        if (model->redundant_rows) {
+            NI = independent_rows(N_DOF, NC, D, rows);
+        }
+        else {
+            for (NI = 0; NI < NC; ++NI) {
+                rows[NI] = NI;
+            }
+        }
+        if (NI == 0) {
+            return GPMEGEN_SINGULAR;
+        }
+        NK = N_DOF + NI;
         for (int i = 0; i < N_DOF; ++i) {  /* M qdd - f */
             double s = -f[i];
             for (int j = 0; j < N_DOF; ++j) {
@@ -134,30 +220,36 @@ static int exact_jacobian(const struct gpmegen_model *model, double t, const dou
             }
             r[i] = s;
         }
-        for (int a = 0; a < NC; ++a) {
+        for (int a = 0; a < NI; ++a) {
+            const double *Da = D + rows[a] * N_DOF;
             double s = 0.0;
             for (int j = 0; j < N_DOF; ++j) {
-                s += D[a * N_DOF + j] * r[j];
+                s += Da[j] * r[j];
             }
-            lam[a] = s;
-            for (int b = 0; b < NC; ++b) {
+            mu[a] = s;
+            for (int b = 0; b < NI; ++b) {
+                const double *Db = D + rows[b] * N_DOF;
                 double v = 0.0;
                 for (int j = 0; j < N_DOF; ++j) {
-                    v += D[a * N_DOF + j] * D[b * N_DOF + j];
+                    v += Da[j] * Db[j];
                 }
-                DDt[a * NC + b] = v;
+                DDt[a * NI + b] = v;
             }
         }
-        if ((status = gpmegen_lu_factor(NC, DDt, piv_c)) != GPMEGEN_OK) {
+        if ((status = gpmegen_lu_factor(NI, DDt, piv_c)) != GPMEGEN_OK) {
             return status;
         }
-        gpmegen_lu_solve(NC, DDt, piv_c, 1, lam);
+        gpmegen_lu_solve(NI, DDt, piv_c, 1, mu);
         for (int a = 0; a < NC; ++a) {
+            lam[a] = 0.0;
+        }
+        for (int a = 0; a < NI; ++a) {
+            lam[rows[a]] = mu[a];
             for (int j = 0; j < N_DOF; ++j) {
-                K[j * NK + N_DOF + a] = -D[a * N_DOF + j];
-                K[(N_DOF + a) * NK + j] = D[a * N_DOF + j];
+                K[j * NK + N_DOF + a] = -D[rows[a] * N_DOF + j];
+                K[(N_DOF + a) * NK + j] = D[rows[a] * N_DOF + j];
             }
-            for (int b = 0; b < NC; ++b) {
+            for (int b = 0; b < NI; ++b) {
                 K[(N_DOF + a) * NK + N_DOF + b] = 0.0;
             }
         }
@@ -174,10 +266,10 @@ static int exact_jacobian(const struct gpmegen_model *model, double t, const dou
             rhs[i * NR + N_DOF + j] = F_qd[i * N_DOF + j];
         }
     }
-    for (int a = 0; a < NC; ++a) {
+    for (int a = 0; a < NI; ++a) {
         for (int j = 0; j < N_DOF; ++j) {
-            rhs[(N_DOF + a) * NR + j] = C_q[a * N_DOF + j];
-            rhs[(N_DOF + a) * NR + N_DOF + j] = C_qd[a * N_DOF + j];
+            rhs[(N_DOF + a) * NR + j] = C_q[rows[a] * N_DOF + j];
+            rhs[(N_DOF + a) * NR + N_DOF + j] = C_qd[rows[a] * N_DOF + j];
         }
     }
     if ((status = gpmegen_lu_factor(NK, K, piv)) != GPMEGEN_OK) {

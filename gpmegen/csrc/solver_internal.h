@@ -33,6 +33,13 @@
 #define ALWAYS_INLINE
 #endif
 
+/* Below this fraction of the largest entry of D, a pivot of the elimination counts as zero (gpme.c;
+   jacobian.c: of the largest row's norm, as gpmegen.runtime.gpme.RANK_TOLERANCE): the rows left
+   are combinations of those pivoted (D's rank is the number of pivots before it). It is relative to D's scale, and above the round-off that the elimination leaves in a row that is a
+   combination of others (a few N_DOF * DBL_EPSILON of D's largest entry), far below any pivot of
+   rows that are independent but nearly dependent that a run could use (their X grows as 1/pivot). */
+#define GPMEGEN_RANK_TOLERANCE 1e-10
+
 /* A variable-length array's length: at least 1 (a length of 0 is undefined behaviour). */
 #define AT_LEAST_1(n) ((n) > 0 ? (n) : 1)
 

@@ -316,10 +316,8 @@ class CEvaluator:
         return F_q, F_qd, C_q[:m], C_qd[:m]
 
     def acceleration_jacobians(self, t, q, qd, model):
-        if model.redundant:   # the C solve's KKT system takes independent rows only
-            from .model import redundant_acceleration_jacobians
-
-            return redundant_acceleration_jacobians(self, t, q, qd, model)
+        # redundant rows (a model that closes loops): the C system takes the independent rows, as
+        # gpmegen.runtime.model.redundant_acceleration_jacobians does
         self._check_stack("jacobian")
         scratch, q_c, qd_c = self._state(q, qd)
         dep, _ = self._partition_pointers(model)

@@ -34,8 +34,9 @@ def call_bytes(call: str, n: int, m: int, exact_jacobians: bool) -> int:
     ny = 2 * n + 2
     solve = n * n + 3 * m * n + 2 * m + 8 * (n + m) + 8          # gpme.c: L, or D, X, W and R
     recursive = 32 * n + 2 * m * n + m * m + 8 * m + n * n + n + solve   # recursive.c.j2, its dense fallback
-    if exact_jacobians:                                           # jacobian.c: exact_jacobian
-        jacobian = n * n + (n + m) ** 2 + 2 * n * (n + m) + 2 * n * n + 3 * m * n + m * m + 4 * (n + m) + recursive
+    if exact_jacobians:   # jacobian.c: exact_jacobian, and independent_rows (Q, basis) for redundant rows
+        jacobian = (n * n + (n + m) ** 2 + 2 * n * (n + m) + 2 * n * n + 5 * m * n + m * m + 4 * (n + m) + 3 * m
+                    + recursive)
     else:                                                         # jacobian.c: differenced_jacobian
         jacobian = 4 * n + recursive
     doubles = {

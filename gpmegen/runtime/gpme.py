@@ -24,7 +24,7 @@ from ..errors import SimulationError
 # number of pivots above it. Relative to D's scale, well above the round-off a row that is a
 # combination of others keeps (a few machine epsilons of D's largest entry), far below a pivot of
 # rows independent but nearly dependent that a run could use. The C solve's threshold
-# (csrc/gpme.c GPMEGEN_RANK_TOLERANCE) is the same.
+# (csrc/solver_internal.h GPMEGEN_RANK_TOLERANCE) is the same.
 RANK_TOLERANCE = 1e-10
 
 

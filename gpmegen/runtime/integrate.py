@@ -18,6 +18,7 @@ from ..errors import EvaluationError, SimulationError
 from ..status import Ending, Outcome, SolveStatus
 from .pacing import StepBudget
 from .partition import check_second_order_rows
+from .redundancy import RowWatch
 
 FIX_VIOLATION = ("try a smaller --dt or other Baumgarte gains, and check that the prescribed motion stays "
                  "within reach")
@@ -260,13 +261,17 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
     ``steps_per_call`` or chosen by :class:`gpmegen.runtime.pacing.StepBudget` so that a call
     lasts about :data:`gpmegen.runtime.pacing.CALL_SECONDS`, and the loops go on from where a
     call stopped to the same bits, so the results do not depend on it. Between chunks, the
-    constraint violation max|Φ| is checked against ``max_violation`` and ``watch`` (a
+    constraint violation max|Φ| is checked against ``max_violation``, the rank and the redundant
+    rows of a model that closes loops are looked at (:class:`gpmegen.runtime.redundancy.RowWatch`),
+    and ``watch`` (a
     :class:`gpmegen.runtime.partition.Watch`) looks at the partition, at the same instants on
     both backends; between calls, progress is shown and Ctrl-C or SIGTERM keep what was
     computed. Returns ``(t, y, outcome)``."""
     n = model.n_dof
     ts, ys = [np.array([g.time(0)])], [y[None, :]]
     done, outcome = 0, None
+    loops = RowWatch(model, model.constraint_terms(g.time(0), y[:n], y[n:2 * n])[2]
+                    if model.closure_rows or model.redundant else np.zeros((0, n)))
     bar = progress if progress is not None else Progress(g.t_end - g.t0, "RK4", enabled=False)
     budget = StepBudget(steps_per_call)
     with interruptible():
@@ -295,8 +300,10 @@ def chunked(model, y, g: Grid, chunk: int, advance, progress=None, max_violation
                 y, done = carry, end
                 q, qd, now = y[:n], y[n:2 * n], g.time(end)
                 # the constraint terms once for both checks (the watch's model is this one until it repartitions)
-                terms = (model.constraint_terms(now, q, qd)
-                         if max_violation is not None or (watch is not None and watch.model is model) else None)
+                terms = (model.constraint_terms(now, q, qd) if max_violation is not None or loops.active
+                         or (watch is not None and watch.model is model) else None)
+                if loops.active:   # said before a violation that it may explain stops the run
+                    loops.check(now, terms[0], terms[2])
                 if max_violation is not None:
                     outcome = violation(model, now, q, qd, max_violation, terms[0])
                 if watch is not None and outcome is None:  # with other dependent coordinates, maybe

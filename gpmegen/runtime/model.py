@@ -300,6 +300,9 @@ class LoadedModel:
         # True: the constraint rows may be redundant (with_redundant_rows); a model file that closes
         # loops lists fewer dependent coordinates than rows when it knows some are
         self.redundant = self.dependent is not None and len(self.dependent) < len(self.constraint_names)
+        # the loops the model closes, closure name -> its row names (with_closure_rows): a run
+        # watches their rank and their redundant rows (gpmegen.runtime.redundancy)
+        self.closure_rows: dict = {}
         self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
     def _bind(self, values: dict, overrides: dict, check_all: bool = False) -> None:
@@ -360,6 +363,13 @@ class LoadedModel:
         other.redundant = True
         other.__dict__.pop("_accelerations_call", None)
         return other.with_partition(dependent)
+
+    def with_closure_rows(self, closures) -> LoadedModel:
+        """The same model knowing the loops it closes (``closures``: closure name -> the names of
+        its constraint rows), which a run's messages on its redundant rows name."""
+        other = copy.copy(self)
+        other.closure_rows = {name: tuple(rows) for name, rows in (closures or {}).items()}
+        return other
 
     def with_actuators(self, names) -> LoadedModel:
         """The same model with the programmed constraints realized by inputs ``u`` on the named
