@@ -155,3 +155,19 @@ def test_every_method_has_a_name_the_command_line_takes():
     from gpmegen.cli import method_name
 
     assert tuple(method_name(m.upper()) for m in METHODS) == METHODS
+
+
+def test_runs_at_several_nrfe_take_the_one_spec_of_their_options(caught, tmp_path, capsys):
+    """The levels' runs take --repartition as a single run does; what they cannot take (an
+    actuated realization, its internal dynamics) is refused before any run."""
+    main(["simulate", "--nrfe", "2", "3", "--extrapolate", "--repartition", "--backend", "numpy", "--workers", "1",
+          "--t-end", "0.01", "--dt", "1e-4", "--out", str(tmp_path / "levels.npz")])
+    (spec, backend, overrides), = caught
+    assert spec == RunSpec(t_end=0.01, dt=1e-4, start="locked", repartition=True) and backend == "numpy"
+    capsys.readouterr()
+    for option in (["--actuated", "psi2", "x3"], ["--internal-dynamics"]):
+        assert main(["simulate", "--nrfe", "2", "3", "--extrapolate", *option]) == 2
+        assert capsys.readouterr().err == (f"gpmegen simulate: error: {option[0]}: not taken by runs at several "
+                                           f"--nrfe, which save every --dt x --save-every with the methods' "
+                                           f"defaults; leave it out\n")
+    assert len(caught) == 1
