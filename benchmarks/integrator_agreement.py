@@ -16,6 +16,7 @@ import numpy as np
 
 import gpmegen
 from gpmegen.analysis import reference_case, study
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.runtime import integrate
 
 
@@ -26,7 +27,7 @@ def main(t_end=10.0):
         model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
         qd0 = np.zeros(model.n_dof)
         t0 = time.perf_counter()
-        res = study.simulate(model, q0, t_end, dt=1e-5, save_every=100000)
+        res = study.simulate(model, q0, RunSpec(t_end=t_end, dt=1e-5, save_every=100000))
         t_rk4 = time.perf_counter() - t0
         t0 = time.perf_counter()
         t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method, rtol=rtol, atol=rtol * 1e-2,

@@ -182,9 +182,10 @@ def outputs_at(names, q, qd, nrfe: int) -> dict:
 def gpmegen_level(nrfe: int, rtol: float, atol: float, save_dt: float):
     """One level's run with Radau IIA in C to ``T_END``: (results, the outputs over time, wall s)."""
     from gpmegen.analysis import runs
+    from gpmegen.analysis.runspec import RunSpec
 
-    run = runs.run(case(nrfe), "none", T_END, save_dt, 1, "radau", "c", {}, None, lambda message: None,
-                   save_dt=save_dt, rtol=rtol, atol=atol)
+    run = runs.run(case(nrfe), RunSpec(start="none", t_end=T_END, dt=save_dt, save_every=1, method="radau",
+                                       save_dt=save_dt, rtol=rtol, atol=atol), "c", {}, None, lambda message: None)
     res = run.results
     names = [str(c) for c in res["coordinates"]]
     series = [outputs_at(names, q, qd, nrfe) for q, qd in zip(res["q"], res["qd"])]

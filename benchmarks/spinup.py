@@ -73,9 +73,10 @@ def gpmegen_build(model_file, nrfe, dt):
     """Build, compile and load every level (in the pool's processes, as the run does); returns the
     wall seconds (from an empty cache: the derivation, emission and compile; else the loading)."""
     from gpmegen.analysis.levels import simulate_levels
+    from gpmegen.analysis.runspec import RunSpec
 
     start = time.perf_counter()
-    simulate_levels(model_file, nrfe, 0.0, dt, backend="c")
+    simulate_levels(model_file, nrfe, RunSpec(t_end=0.0, dt=dt, save_every=1, start="none"), backend="c")
     return time.perf_counter() - start
 
 
@@ -92,10 +93,11 @@ def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None, refine
     from gpmegen.analysis import extrapolate
     from gpmegen.analysis.levels import simulate_levels
     from gpmegen.analysis.results import metadata
+    from gpmegen.analysis.runspec import RunSpec
 
     def run(levels_nrfe):
-        return simulate_levels(model_file, levels_nrfe, T_END, dt, save_every=int(round(SAVED / dt)), method=method,
-                               backend="c", params={"Omega": omega}, workers=workers)
+        spec = RunSpec(t_end=T_END, dt=dt, save_every=int(round(SAVED / dt)), method=method, start="none")
+        return simulate_levels(model_file, levels_nrfe, spec, backend="c", params={"Omega": omega}, workers=workers)
 
     start = time.perf_counter()
     levels, more = run(nrfe), list(refine)

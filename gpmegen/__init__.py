@@ -3,7 +3,8 @@ with flexible links, as generated NumPy and C code.
 
 What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.load``,
 ``gpmegen.load_model_file``, ``gpmegen.statics``, ``gpmegen.simulate``, ``gpmegen.linearize``,
-``gpmegen.export_casadi``, ``gpmegen.export_fmu``, the model's elements and the errors.
+``gpmegen.export_casadi``, ``gpmegen.export_fmu``, a run's specification ``gpmegen.RunSpec``,
+the model's elements and the errors.
 """
 
 # Nothing is imported here: the console command imports this package before it can catch Ctrl-C
@@ -14,7 +15,7 @@ __all__ = [
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "export_casadi",
-    "export_fmu",
+    "export_fmu", "RunSpec",
 ]
 
 

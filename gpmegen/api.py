@@ -22,6 +22,8 @@ from pathlib import Path
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .analysis.runs import Results
+from .analysis.runspec import NAMES as RUN_OPTIONS
+from .analysis.runspec import RunSpec
 from .analysis.sweep import sweep
 from .codegen.render import build as build_model
 from .codegen.render import input_hash
@@ -53,25 +55,39 @@ from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
-from .runtime import integrate
 from .runtime.loader import BACKENDS, chosen_backend, default_directory, open_folder
 from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from .symbolic.transforms import KINDS, check_kinds
 from .version import __version__
 
 
-def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, *, model=None,
-         directory=None, build: bool = True, progress=None, command=None, transforms=DEFAULT_TRANSFORMS,
-         jacobians: bool = False):
+def _options(options: dict, defaults: dict, what: str) -> dict:
+    """``defaults`` (name -> value) with the keyword ``options`` of the function ``what`` over
+    them; a name that is none of them is refused in one line with the valid ones."""
+    unknown = [name for name in options if name not in defaults]
+    if unknown:
+        raise TypeError(f"{what}() got an unknown option {', '.join(map(repr, unknown))}; its options are "
+                        f"{', '.join(defaults)}")
+    return {**defaults, **options}
+
+
+#: Where a model is found, beside the model itself: the reference arm's rfes, the folder of builds.
+_FOUND = {"nrfe": None, "directory": None}
+#: :func:`load`'s keyword options and their defaults.
+_LOAD = {"directory": None, "build": True, "progress": None, "command": None, "transforms": DEFAULT_TRANSFORMS,
+         "jacobians": False}
+
+
+def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, *, model=None, **options):
     """The generated model ready to evaluate.
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
     rfes). ``backend``: "c" or "numpy"; None (the default) is "c" where a C compiler is found, else
     "numpy", said in one line (:func:`_backend`). ``params`` overrides parameter values. The model
-    is built into ``directory`` (default :func:`gpmegen.runtime.loader.default_directory`) when
-    missing or stale, or when a file it uses differs from the sha256 its manifest records, unless
-    ``build=False``, which raises :class:`StaleModelError` with the command to rebuild
-    (``command``, for a model of your own).
+    is built into ``directory`` (an option, as the others below; default
+    :func:`gpmegen.runtime.loader.default_directory`) when missing or stale, or when a file it
+    uses differs from the sha256 its manifest records, unless ``build=False``, which raises
+    :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
 
     The reference manipulator (``model`` None) is bound with the constraint constants ``r_Ea``
     and ``y_c`` that its runs use: those that put E of the locked statics at the paper's joint
@@ -83,8 +99,12 @@ def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, 
     (:meth:`LoadedModel.transforms`); ``jacobians``: with the generated derivatives of the GPME
     (:meth:`LoadedModel.acceleration_jacobians`). Both are what the model must have at least: a
     folder built with more serves as it is, and one built with less is built again with both what
-    it had and what is asked (so that asking in turn never rebuilds back and forth).
+    it had and what is asked (so that asking in turn never rebuilds back and forth). An option
+    not among these is refused in one line.
     """
+    chosen = _options(options, _LOAD, "load")
+    directory, build, progress = chosen["directory"], chosen["build"], chosen["progress"]
+    command, transforms, jacobians = chosen["command"], chosen["transforms"], chosen["jacobians"]
     backend = _backend(backend, progress)
     if model is None:
         from .analysis.reference_case import CONSTANTS, with_constants
@@ -190,7 +210,7 @@ def _started(model, nrfe, start, directory):
     return case, start
 
 
-def statics(model=None, *, nrfe=None, start=None, params=None, backend=None, directory=None, progress=None):
+def statics(model=None, *, params=None, backend=None, **options):
     """The consistent start of a run, as ``gpmegen statics`` finds it: a
     :class:`gpmegen.analysis.study.Start` with ``model`` (loaded, its constants bound), ``q`` and
     ``qd`` (n,) on the programmed constraints at t = 0, and ``moved`` (how far they were moved
@@ -201,37 +221,50 @@ def statics(model=None, *, nrfe=None, start=None, params=None, backend=None, dir
     "constrained" statics, or "none" (the default of models other than the reference case: the
     configuration as given, undeformed). ``params`` overrides parameter values. ``backend`` as
     :func:`load` (default: C where a compiler is found). ``progress`` takes one-line messages
-    (default: only warnings, as Python warnings)."""
+    (default: only warnings, as Python warnings). The options ``nrfe``, ``start``, ``directory``
+    and ``progress`` are keywords; another is refused in one line."""
+    chosen = _options(options, {**_FOUND, "start": None, "progress": None}, "statics")
+    progress = chosen["progress"]
     backend = _backend(backend, progress)
-    case, start = _started(model, nrfe, start, directory)
+    case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     return case.started(backend, start, dict(params or {}), _messages(progress))
 
 
-def simulate(model=None, *, nrfe=None, start=None, t_end=10.0, dt=1e-5, save_every=None, method="rk4",
-             params=None, backend=None, repartition=False, directory=None, progress=None, save_dt=None,
-             rtol=None, atol=None, rho_inf=None, feedforward=None):
+#: :func:`simulate`'s options beyond its run's (:class:`RunSpec`'s fields), with their defaults.
+_SIMULATE = {**_FOUND, "progress": None, "feedforward": None}
+
+
+def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=None, **options):
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
-    :class:`Results` (nothing is written: :meth:`Results.save`). Arguments as :func:`statics`,
-    and ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in 1 ms, whatever the
-    method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method`` ("rk4"; on the C backend
-    "genalpha", implicit with step ``dt`` and damping ``rho_inf``, "dop853", adaptive, or "radau",
-    implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the save interval, default ``dt·save_every``), ``rtol``,
-    ``atol`` (adaptive methods), ``repartition``. ``feedforward``: a results file of an actuated
+    :class:`Results` (nothing is written: :meth:`Results.save`). ``model``, ``params``,
+    ``backend`` and the options ``nrfe``, ``directory``, ``progress`` as :func:`statics`. The run
+    is ``spec`` (a :class:`RunSpec`; default all its defaults) with the fields given as keyword
+    options changed: ``start``, ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in
+    1 ms, whatever the method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method``
+    ("rk4"; on the C backend "genalpha", implicit with step ``dt`` and damping ``rho_inf``,
+    "dop853", adaptive, or "radau", implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the
+    save interval, default ``dt·save_every``), ``rtol``, ``atol`` (adaptive methods),
+    ``repartition``, ``actuated``, ``internal_dynamics``, ``max_violation``, checked by
+    :class:`RunSpec` in one line each. ``feedforward``: a results file of an actuated
     realization (or a stable inversion) whose inputs ``u`` are added to the drives of the model's
     coordinates of the same names, read as table signals (:mod:`gpmegen.analysis.feedforward`;
-    ``model`` a model file or a :class:`Model`). A run that stops
-    early (diverges) is returned with its ``status`` saying why."""
+    ``model`` a model file or a :class:`Model`). An option that is neither is refused in one line
+    with the valid ones. A run that stops early (diverges) is returned with its ``status``
+    saying why."""
     from .analysis import runs
 
+    unknown = [name for name in options if name not in _SIMULATE and name not in RUN_OPTIONS]
+    if unknown:
+        raise TypeError(f"simulate() got an unknown option {', '.join(map(repr, unknown))}; its options are "
+                        f"{', '.join((*RUN_OPTIONS, *_SIMULATE))}")
+    spec = RunSpec.of(spec, **{name: value for name, value in options.items() if name in RUN_OPTIONS})
+    chosen = _options({name: value for name, value in options.items() if name in _SIMULATE}, _SIMULATE, "simulate")
+    progress = chosen["progress"]
     backend = _backend(backend, progress)
-    case, start = _started(model, nrfe, start, directory)
-    if feedforward is not None:
-        case = case.feed_forward(feedforward)
-    if save_every is None:
-        save_every = integrate.default_save_every(dt)
-    done = runs.run(case, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
-                    _messages(progress), repartition=repartition, save_dt=save_dt, rtol=rtol, atol=atol,
-                    rho_inf=rho_inf)
+    case, start = _started(model, chosen["nrfe"], spec.start, chosen["directory"])
+    if chosen["feedforward"] is not None:
+        case = case.feed_forward(chosen["feedforward"])
+    done = runs.run(case, spec.with_start(start), backend, dict(params or {}), None, _messages(progress))
     return runs.Results(done.results)
 
 
@@ -249,35 +282,38 @@ def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) 
     return case.located(lambda: casadi_export.export(case.model, folder, tuple(inputs), overwrite=overwrite))
 
 
-def export_fmu(out, model=None, *, nrfe=None, inputs=(), start=None, overwrite=False, directory=None,
-               progress=None):
+def export_fmu(out, model=None, *, inputs=(), overwrite=False, **options):
     """The model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one archive), as
     ``gpmegen export --format fmu`` writes it into the file ``out`` (``NAME.fmu``;
     :mod:`gpmegen.codegen.fmu_export`): its states q and q̇, the GPME's q̈, the points, the
     multipliers λ and the constraints' values as outputs, the parameters (tunable) and an input
     ``u_<coordinate>`` (a generalized force) on each coordinate of ``inputs``; its start values are
-    :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``,
-    ``nrfe``, ``directory``, ``progress`` as :func:`statics`; ``overwrite`` replaces an earlier FMU.
-    Needs a C compiler. Returns the FMU's path."""
+    :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``, and
+    the keyword options ``start``, ``nrfe``, ``directory``, ``progress``, as :func:`statics`;
+    ``overwrite`` replaces an earlier FMU. Needs a C compiler. Returns the FMU's path."""
     from .codegen import fmu_export
 
-    case, start = _started(model, nrfe, start, directory)
+    chosen = _options(options, {**_FOUND, "start": None, "progress": None}, "export_fmu")
+    case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     return case.located(lambda: fmu_export.export(case, out, tuple(inputs), overwrite, start,
-                                                  _messages(progress)))
+                                                  _messages(chosen["progress"])))
 
 
-def linearize(model=None, *, nrfe=None, start=None, params=None, backend=None, directory=None, progress=None,
-              at=None, times=None, inputs=None):
+def linearize(model=None, *, params=None, backend=None, at=None, **options):
     """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.linear.LinearModel`), as
     ``gpmegen linearize`` makes it: about :func:`statics`'s start (arguments as there), or with
     ``at`` (a results file of this model) and ``times`` (s), a list of them, one at the saved
     state nearest each time. The model is loaded with its Jacobians (built when missing).
     ``inputs``: the coordinates that take a generalized force (default: those the model drives,
-    and a model file's actuators)."""
+    and a model file's actuators). ``nrfe``, ``start``, ``directory``, ``progress``, ``times``
+    and ``inputs`` are keyword options; another is refused in one line."""
     from .analysis import cases, linear
 
+    chosen = _options(options, {**_FOUND, "start": None, "progress": None, "times": None, "inputs": None},
+                      "linearize")
+    progress, times, inputs = chosen["progress"], chosen["times"], chosen["inputs"]
     backend = _backend(backend, progress)
-    case, start = _started(model, nrfe, start, directory)
+    case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     if not isinstance(case, cases.FolderCase):  # refused before a build (a folder's model is refused once open)
         constraints = case.model.constraints
         linear.refuse_velocity_constraints([c.name for c in constraints], [c.order for c in constraints])
@@ -300,5 +336,5 @@ __all__ = [
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text", "linearize", "export_casadi", "export_fmu",
+    "import_urdf", "urdf_text", "linearize", "export_casadi", "export_fmu", "RunSpec",
 ]

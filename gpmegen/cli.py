@@ -23,8 +23,8 @@ import numpy as np
 
 from . import limits, outputs
 from .analysis.plots import IncompatibleResults
-from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning, OutputError
-from .runtime import integrate
+from .analysis.runspec import METHODS, RunSpec
+from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning, OutputError, RunSpecError
 from .status import Ending
 
 
@@ -100,9 +100,6 @@ def parameter_override(text: str):
     if number is None:
         raise argparse.ArgumentTypeError(f"{text!r}: the value of {name!r} is not a finite real number")
     return name, number
-
-
-METHODS = ("rk4", "genalpha", "dop853", "radau", "scipy-radau")
 
 
 def method_name(text: str) -> str:
@@ -323,12 +320,21 @@ def _start(case, start):
     return start
 
 
-def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrides, out, repartition=False,
-                    overwrite=False, actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None,
-                    rho_inf=None, inputs=()):
-    """Run ``case`` (:func:`gpmegen.analysis.runs.run`) and print its summary; ``backend`` None:
-    C when a compiler is found; ``inputs``: the paths the command reads, never written over.
-    Returns the results; SimulationStopped when the run ended early."""
+def run_spec(args, start=None) -> RunSpec:
+    """The one :class:`RunSpec` of a command's run options (those its parser has) and ``start``."""
+    actuated = getattr(args, "actuated", None)
+    return RunSpec(t_end=args.t_end, dt=args.dt, method=args.method, save_every=args.save_every,
+                   save_dt=getattr(args, "save_dt", None), rtol=getattr(args, "rtol", None),
+                   atol=getattr(args, "atol", None), rho_inf=getattr(args, "rho_inf", None), start=start,
+                   repartition=getattr(args, "repartition", False),
+                   actuated=() if actuated == ["none"] else actuated,
+                   internal_dynamics=getattr(args, "internal_dynamics", False))
+
+
+def _run_and_report(case, spec, backend, overrides, out, overwrite=False, inputs=()):
+    """Run ``case`` as ``spec`` says (:func:`gpmegen.analysis.runs.run`) and print its summary;
+    ``backend`` None: C when a compiler is found; ``inputs``: the paths the command reads, never
+    written over. Returns the results; SimulationStopped when the run ended early."""
     from .analysis import runs
     from .analysis.cases import FileCase
     from .analysis.results import metadata
@@ -336,15 +342,11 @@ def _run_and_report(case, start, t_end, dt, save_every, method, backend, overrid
 
     _check_results_path(out, overwrite, inputs)
     backend = backend or _default_backend()
-    refusal = integrate.compiled_only(method, backend, bool(actuated if actuated is not None else case.actuators))
+    actuated = spec.actuated if spec.actuated is not None else case.actuators
+    refusal = integrate.compiled_only(spec.method, backend, bool(actuated))
     if refusal:
         raise UsageError(refusal)
-    if method == "rk4" and save_dt is not None and integrate.save_steps(dt, save_dt) is None:
-        raise UsageError(f"--save-dt {save_dt:g} s is not a whole number of RK4 steps --dt {dt:g} s; make it a "
-                         f"multiple of --dt, or use --save-every")
-    done = runs.run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress,
-                    repartition=repartition, actuated=actuated, internal_dynamics=internal_dynamics,
-                    save_dt=save_dt, rtol=rtol, atol=atol, rho_inf=rho_inf)
+    done = runs.run(case, spec, backend, overrides, out, progress)
     res, model, written = done.results, done.model, done.written
     status = str(res["status"])
     phi = np.abs(res["phi"]).max(axis=0) if len(res["t"]) else []
@@ -411,7 +413,10 @@ class SimulationStopped(GpmegenError):
 def cmd_simulate(args) -> int:
     if args.extrapolate or len(args.nrfe or ()) > 1:
         given = [option for option, value in (("--save-dt", args.save_dt), ("--rtol", args.rtol),
-                                              ("--atol", args.atol), ("--rho-inf", args.rho_inf)) if value is not None]
+                                              ("--atol", args.atol), ("--rho-inf", args.rho_inf),
+                                              ("--actuated", args.actuated)) if value is not None]
+        if args.internal_dynamics:
+            given.append("--internal-dynamics")
         if args.feedforward is not None:
             given.append("--feedforward")
         if given:
@@ -424,14 +429,11 @@ def cmd_simulate(args) -> int:
     case = _case(args.model_file, args.nrfe)
     if args.feedforward is not None:
         case = case.feed_forward(args.feedforward)
-    start = _start(case, args.statics)
-    actuated = () if args.actuated == ["none"] else args.actuated
-    name = default_name(case.results_stem, start, args.method, case.actuators if actuated is None else actuated)
+    spec = run_spec(args, _start(case, args.statics))
+    name = default_name(case.results_stem, spec.start, spec.method,
+                        case.actuators if spec.actuated is None else spec.actuated)
     out = Path(args.out if args.out is not None else f"results/{name}")
-    _run_and_report(case, start, args.t_end, args.dt, args.save_every, args.method, args.backend,
-                    dict(args.param or []), out, repartition=args.repartition, overwrite=args.overwrite,
-                    actuated=actuated, internal_dynamics=args.internal_dynamics, save_dt=args.save_dt,
-                    rtol=args.rtol, atol=args.atol, rho_inf=args.rho_inf,
+    _run_and_report(case, spec, args.backend, dict(args.param or []), out, overwrite=args.overwrite,
                     inputs=[args.model_file] + ([args.feedforward] if args.feedforward is not None else []))
     return 0
 
@@ -481,8 +483,8 @@ def cmd_extrapolate(args) -> int:
     levels = [path for n in nrfe for path in results_io.targets(level_path(out, n))]
     _check_results_path(out, args.overwrite, [args.model_file], also=[out.with_suffix(".png"), *levels])
     backend = args.backend or _default_backend()
-    levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method, backend,
-                        dict(args.param or []), out, progress, args.workers)
+    levels = run_levels(args.model_file, nrfe, run_spec(args, start), backend, dict(args.param or []), out, progress,
+                        args.workers)
     data = extrapolate.extrapolate(levels, terms=args.terms)  # a level that stopped early: ExtrapolationError
     print("\n".join(extrapolate.summary(data)))
     print(f"wrote {extrapolate.save(data, out)}, {extrapolate_plots.plot(data, out.with_suffix('.png'))}")
@@ -535,15 +537,13 @@ def cmd_demo(args) -> int:
         _check_results_path(out, args.overwrite)
     outputs.writable_folder(Path(args.figures))
     backend = _default_backend()
-    dt = 1e-5 if backend == "c" else 1e-4
-    save_every = integrate.default_save_every(dt)
+    spec = RunSpec(t_end=args.t_end, dt=1e-5 if backend == "c" else 1e-4, start="locked")
     if backend != "c":
         progress("no C compiler found: the demo runs the NumPy backend with dt = 1e-4 s (the paper's 1e-5 s "
                  "would take hours in Python)")
     results = []
     for nrfe, out in outs.items():
-        res = _run_and_report(ReferenceCase(nrfe), "locked", args.t_end, dt, save_every, "rk4", backend, {}, out,
-                              overwrite=True)
+        res = _run_and_report(ReferenceCase(nrfe), spec, backend, {}, out, overwrite=True)
         results.append(res)
     from .analysis import plots
 
@@ -690,8 +690,8 @@ def cmd_convergence_of_outputs(args) -> int:
         raise UsageError(str(exc)) from None
     at_start = args.t_end == 0
     start = _start(case, args.statics or ("locked" if at_start and "locked" in case.starts else None))
-    levels = run_levels(args.model_file, nrfe, start, args.t_end, args.dt, args.save_every, args.method,
-                        args.backend or _default_backend(), dict(args.param or []), None, progress, args.workers)
+    levels = run_levels(args.model_file, nrfe, run_spec(args, start), args.backend or _default_backend(),
+                        dict(args.param or []), None, progress, args.workers)
     selections = extrapolate.select(args.output, extrapolate.joint_names(levels[0].model),
                                     list(levels[0].loaded.points))
     data = extrapolate.extrapolate(levels, [o for o in extrapolate.OUTPUTS if o in {c.output for c in selections}],
@@ -760,12 +760,10 @@ def cmd_sweep(args) -> int:
     if not Path(args.out).is_file():
         outputs.writable_folder(Path(args.out))
     try:
-        summary = sweep.sweep(out=args.out, params=params, t_end=args.t_end, model_file=args.model_file,
+        summary = sweep.sweep(args.out, params, run_spec(args, args.statics), model_file=args.model_file,
                               nrfe=args.nrfe, samples=args.samples, seed=args.seed, sampling=args.sampling,
-                              dt=args.dt, save_every=args.save_every, method=args.method,
-                              backend=args.backend or _default_backend(), start=args.statics,
-                              repartition=args.repartition, workers=args.workers, scheduler=args.scheduler,
-                              progress=progress)
+                              backend=args.backend or _default_backend(), workers=args.workers,
+                              scheduler=args.scheduler, progress=progress)
     except sweep.SweepError as exc:
         raise UsageError(str(exc)) from None
     except KeyboardInterrupt as exc:
@@ -1058,8 +1056,6 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if getattr(args, "save_every", 0) is None:  # one default interval, whatever the method and step
-        args.save_every = integrate.default_save_every(args.dt)
     try:
         with limits.lifted() if getattr(args, "no_limits", False) else contextlib.nullcontext(), \
                 _warnings_as_lines():
@@ -1067,7 +1063,7 @@ def main(argv=None) -> int:
     except SimulationStopped as exc:
         print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)
         return 130 if exc.interrupted else 1
-    except (UsageError, limits.LimitError, IncompatibleResults, OutputError) as exc:
+    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, OutputError) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:

@@ -43,6 +43,11 @@ class StateError(GpmegenError, ValueError):
     (:mod:`gpmegen.runtime.finite`)."""
 
 
+class RunSpecError(GpmegenError, ValueError):
+    """A run's specification (:class:`gpmegen.analysis.runspec.RunSpec`) holds a value that no run
+    takes (a negative step, an unknown method, a save interval that is no whole number of steps)."""
+
+
 class StaticsError(GpmegenError):
     """Newton–Raphson statics did not converge."""
 

@@ -337,18 +337,20 @@ class RunEstimate(NamedTuple):
     stiff: bool = False
 
 
-def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
-                 backend: str, omega: float | None = None, save_dt: float | None = None) -> RunEstimate:
-    """The :class:`RunEstimate` of a run of ``method`` (see :data:`ESTIMATORS`) on ``backend``
-    ("c" or "numpy") with step ``dt`` keeping every ``save_every``-th state, or every ``save_dt``
-    s when given. An integrator whose work cannot be said before it starts (no estimator, or no
-    frequency to bound its steps) is taken at zero seconds, a lower bound: what its saved samples
-    take is still known."""
+def run_estimate(n_dof: int, n_constraints: int, spec, backend: str, omega: float | None = None) -> RunEstimate:
+    """The :class:`RunEstimate` of the run ``spec`` (a :class:`gpmegen.analysis.runspec.RunSpec`:
+    its method, see :data:`ESTIMATORS`, step ``dt``, end time, and every ``save_every``-th state
+    kept, or every ``save_dt`` s when given to a method other than rk4, whose ``save_every`` it
+    sets) on ``backend`` ("c" or "numpy"). An integrator whose work cannot be said before it
+    starts (no estimator, or no frequency to bound its steps) is taken at zero seconds, a lower
+    bound: what its saved samples take is still known."""
+    t_end, dt, method = spec.t_end, spec.dt, spec.method
+    save_dt = None if method == "rk4" else spec.save_dt
     integration = integration_estimate(n_dof, t_end, dt, method, backend, omega)
     stiff = integration is not None and integration.at_least and method not in NEEDS_LOWEST_FREQUENCY
     if integration is None:
         integration = Integration(0, 0.0, True, f"a {method} run of n_dof = {n_dof}")
-    samples = (steps(t_end, save_dt) if save_dt else steps(t_end, dt) // max(1, int(save_every))) + 2
+    samples = (steps(t_end, save_dt) if save_dt else steps(t_end, dt) // max(1, int(spec.save_every))) + 2
     backend = "c" if backend == "c" else "numpy"
     seconds = integration.seconds + samples * interpolate(SAMPLE_SECONDS[backend], n_dof)
     n_bytes = BASE_BYTES + samples * sample_bytes(n_dof, n_constraints, backend)
@@ -356,11 +358,11 @@ def run_estimate(n_dof: int, n_constraints: int, t_end: float, dt: float, save_e
                        stiff)
 
 
-def check_run(n_dof: int, n_constraints: int, t_end: float, dt: float, save_every: int, method: str,
-              backend: str, omega: float | None = None, save_dt: float | None = None) -> None:
-    """Refuse a run that cannot finish (see :func:`run_estimate`): a fixed-step one by its
-    estimate, an adaptive one when even its lower bound is beyond the limits."""
-    estimate = run_estimate(n_dof, n_constraints, t_end, dt, save_every, method, backend, omega, save_dt)
+def check_run(n_dof: int, n_constraints: int, spec, backend: str, omega: float | None = None) -> None:
+    """Refuse the run ``spec`` that cannot finish (see :func:`run_estimate`): a fixed-step one by
+    its estimate, an adaptive one when even its lower bound is beyond the limits."""
+    method = spec.method
+    estimate = run_estimate(n_dof, n_constraints, spec, backend, omega)
     if estimate.stiff:
         others = " or ".join(m for m in STIFF_METHODS if m != method)
         fix = f"use a shorter --t-end, fewer rfes, or --method {others} (steps the stiff modes do not bound)"

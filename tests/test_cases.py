@@ -13,6 +13,7 @@ from gpmegen.analysis import plots, runs
 from gpmegen.analysis import results as results_io
 from gpmegen.analysis.cases import FileCase
 from gpmegen.analysis.reference_case import ReferenceCase
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.model import toml_file
 
@@ -26,7 +27,8 @@ def _quiet(message):
 def _run(case, tmp_path, start):
     out = tmp_path / f"{case.results_stem}.npz"
     # the planar example's highest natural frequency (2 kHz) makes RK4 stable below 2.3e-4 s
-    return runs.run(case, start, 0.01, 2e-4, 25, "rk4", "numpy", {}, out, _quiet).results
+    return runs.run(case, RunSpec(start=start, t_end=0.01, dt=2e-4, save_every=25, method="rk4"), "numpy", {}, out,
+                    _quiet).results
 
 
 @pytest.fixture

@@ -9,6 +9,7 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis import reference_case, study
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.errors import SimulationError
 from gpmegen.runtime import gpme
 
@@ -25,7 +26,7 @@ def runs(env):
     def get(backend):
         if backend not in made:
             model, q0 = reference_case.initial_state(gpmegen.load(nrfe=2, backend=backend))
-            res = study.simulate(model, q0, 0.05, dt=1e-3, save_every=5)
+            res = study.simulate(model, q0, RunSpec(t_end=0.05, dt=1e-3, save_every=5))
             assert str(res["status"]) == "complete"
             made[backend] = model, res["t"], res["q"], res["qd"]
         model, t, q, qd = made[backend]

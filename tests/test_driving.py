@@ -18,6 +18,8 @@ from gpmegen.errors import ModelError
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle as ref  # noqa: E402  (tests/oracle.py: shares no code with gpmegen)
 
+from gpmegen.analysis.runspec import RunSpec
+
 
 def started(model):
     """``model`` with the paper's constraint constants set, and its locked-statics start."""
@@ -36,14 +38,14 @@ def flexible3():
 @pytest.fixture(scope="module")
 def ideal3(flexible3):
     model, q0 = flexible3
-    return study.simulate(model, q0, 0.05, 1e-4, 25)
+    return study.simulate(model, q0, RunSpec(t_end=0.05, dt=1e-4, save_every=25))
 
 
 @pytest.fixture(scope="module")
 def rigid_runs():
     model, q0 = started(gpmegen.load(nrfe=1, backend="numpy"))
-    ideal = study.simulate(model, q0, 0.5, 1e-3, 25)
-    actuated = study.simulate(model.with_actuators(["psi2", "x3"]), q0, 0.5, 1e-3, 25)
+    ideal = study.simulate(model, q0, RunSpec(t_end=0.5, dt=1e-3, save_every=25))
+    actuated = study.simulate(model.with_actuators(["psi2", "x3"]), q0, RunSpec(t_end=0.5, dt=1e-3, save_every=25))
     return model, ideal, actuated
 
 
@@ -131,7 +133,7 @@ def test_actuators_the_constraints_cannot_use_are_refused(rigid_runs):
     model, _, _ = rigid_runs
     q0 = started(model)[1]
     with pytest.raises(ModelError, match=r"inputs on theta1, x3 cannot hold .* depend on \(psi2, x3\)"):
-        study.simulate(model.with_actuators(["theta1", "x3"]), q0, 0.01, 1e-3)
+        study.simulate(model.with_actuators(["theta1", "x3"]), q0, RunSpec(t_end=0.01, dt=1e-3, save_every=1))
     with pytest.raises(ModelError, match="one input per constraint"):
         model.with_actuators(["psi2"])
     with pytest.raises(ModelError, match="unknown actuated coordinate 'x9'"):
@@ -219,7 +221,8 @@ def test_actuated_realization_on_the_c_terms_equals_numpy(env):
     runs = {}
     for backend in ("numpy", "c"):
         model, q0 = started(gpmegen.load(nrfe=2, backend=backend))
-        runs[backend] = study.simulate(model.with_actuators(["psi2", "x3"]), q0, 0.02, 1e-4, 20, max_violation=None)
+        runs[backend] = study.simulate(model.with_actuators(["psi2", "x3"]), q0,
+                                       RunSpec(t_end=0.02, dt=1e-4, save_every=20, max_violation=None))
     assert str(runs["c"]["status"]) == str(runs["numpy"]["status"]) == "complete"
     for key in ("q", "qd", "u"):
         assert np.allclose(runs["c"][key], runs["numpy"][key], rtol=1e-9, atol=1e-9)
@@ -232,9 +235,10 @@ def test_actuated_runs_are_refused_by_the_python_loop_s_estimate(env):
     from gpmegen import limits
 
     model, q0 = started(gpmegen.load(nrfe=1, backend="c"))
-    limits.check_run(model.n_dof, 2, 300.0, 1e-5, 100, "rk4", "c")  # the ideal realization: accepted
+    limits.check_run(model.n_dof, 2, RunSpec(t_end=300.0, dt=1e-5, save_every=100, method="rk4"),
+                     "c")  # the ideal realization: accepted
     with pytest.raises(limits.LimitError, match="would take about"):
-        study.simulate(model.with_actuators(["psi2", "x3"]), q0, 300.0, 1e-5, 100)
+        study.simulate(model.with_actuators(["psi2", "x3"]), q0, RunSpec(t_end=300.0, dt=1e-5, save_every=100))
 
 
 def test_an_actuated_run_keeps_its_own_default_results_and_says_so(tmp_path, monkeypatch, capsys):

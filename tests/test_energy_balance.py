@@ -9,6 +9,7 @@ from scipy.linalg import expm
 
 import gpmegen
 from gpmegen.analysis import energy, plots, study
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.analysis.sweep.outcomes import outcomes
 
 M1, M2, K1, K2, C1, C2 = 1.0, 0.5, 100.0, 400.0, 5.0, 3.0
@@ -39,7 +40,7 @@ def test_the_dampers_work_is_a_term_of_the_balance_and_the_residual_is_the_integ
     assert energy.damping_matrix(chain, 0.0, START) == pytest.approx(np.diag([C1, C2]), abs=1e-9)
     residuals = []
     for dt in (2e-3, 1e-3):
-        run = study.simulate(chain, START, 1.0, dt=dt)
+        run = study.simulate(chain, START, RunSpec(t_end=1.0, dt=dt, save_every=1))
         lost = _exact_energy(1.0) - _exact_energy(0.0)  # the exact motion's change of energy: the dampers' work
         assert run["work_dampers"][-1] == pytest.approx(lost, rel=1e-6)
         assert lost < -0.9  # most of the start's 1 J is dissipated
@@ -58,8 +59,9 @@ def test_scipy_radau_saves_the_multipliers_and_the_work(rigid):
     from gpmegen.analysis import reference_case
 
     model, q0 = reference_case.initial_state(rigid)
-    radau = study.simulate(model, q0, 0.1, dt=1e-3, method="scipy-radau", save_dt=1e-2, rtol=1e-10, atol=1e-12)
-    rk4 = study.simulate(model, q0, 0.1, dt=1e-4, save_every=100)
+    radau = study.simulate(model, q0, RunSpec(t_end=0.1, dt=1e-3, method="scipy-radau", save_dt=1e-2, rtol=1e-10,
+                                              atol=1e-12, save_every=1))
+    rk4 = study.simulate(model, q0, RunSpec(t_end=0.1, dt=1e-4, save_every=100))
     assert str(radau["status"]) == "complete"
     for key in ("lambda", "work_drive", "work_constraints", "work_dampers"):
         assert np.all(np.isfinite(radau[key])), key

@@ -12,6 +12,7 @@ import pytest
 
 from gpmegen.analysis import beam, convergence, extrapolate, richardson
 from gpmegen.analysis.levels import simulate_levels
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import ExtrapolationError
 
@@ -125,8 +126,8 @@ def test_clamped_arm_tip_deflection_extrapolates_to_beam_theory(env):
 
 
 def spinup_levels(nrfe, t_end, dt, backend="c", omega=4.0):
-    return simulate_levels(SPINUP, nrfe, t_end, dt, save_every=10, backend=backend,
-                                       params={"Omega": omega})
+    return simulate_levels(SPINUP, nrfe, RunSpec(t_end=t_end, dt=dt, save_every=10, start="none"), backend=backend,
+                           params={"Omega": omega})
 
 
 @pytest.mark.long  # a convergence study: builds up to n_rfe 13, each run 6 s long (the runs' outputs and
@@ -166,8 +167,8 @@ def test_point_velocities_and_hub_torque_agree_with_positions_and_energy(env):
     """The outputs of one run against independent quantities of the same run: point velocities
     against the time derivative of the positions, the hub's reaction torque against the power
     that the energies take in (no gravity, no damping: τ θ̇ = d(T + V)/dt)."""
-    (level,) = simulate_levels(SPINUP, [3], t_end=2.0, dt=1e-3, save_every=1,
-                                           params={"Omega": 6.0})
+    (level,) = simulate_levels(SPINUP, [3], RunSpec(t_end=2.0, dt=1e-3, save_every=1, start="none"),
+                               params={"Omega": 6.0})
     out, res = extrapolate.outputs(level), level.results
     t = res["t"]
     dt = t[1] - t[0]
@@ -212,8 +213,8 @@ def test_a_model_without_flexible_link_is_refused_before_any_run(tmp_path, capsy
 def test_levels_run_on_a_pool_of_processes_give_the_bytes_of_levels_run_one_after_the_other(env):
     """The levels are independent runs of the same generated code: on two processes they give
     the results, and so the extrapolation, that they give in this process, bit for bit."""
-    serial, pooled = (simulate_levels(SPINUP, (2, 3, 4), t_end=0.5, dt=1e-3, save_every=10, backend="c",
-                                      params={"Omega": 6.0}, workers=workers) for workers in (1, 2))
+    serial, pooled = (simulate_levels(SPINUP, (2, 3, 4), RunSpec(t_end=0.5, dt=1e-3, save_every=10, start="none"),
+                                      backend="c", params={"Omega": 6.0}, workers=workers) for workers in (1, 2))
     assert [level.nrfe for level in pooled] == [2, 3, 4]
     for one, other in zip(serial, pooled):
         for key in ("t", "q", "qd", "drive_forces", "constraint_forces"):

@@ -6,6 +6,7 @@ import pytest
 
 from gpmegen.analysis import reference_case, study
 from gpmegen.analysis import results as results_io
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import SimulationError, StaticsError
 from gpmegen.runtime import integrate, statics
@@ -95,7 +96,7 @@ def test_short_study_holds_constraints_and_balances_power(which, request):
     model, q0 = reference_case.initial_state(request.getfixturevalue(which))
     # the flexible arm's stiff modes need a smaller RK4 step for the balance to close to 1e-6
     dt = 1e-4 if which == "flexible" else 1e-3
-    res = study.simulate(model, q0, 0.3, dt=dt, save_every=10)
+    res = study.simulate(model, q0, RunSpec(t_end=0.3, dt=dt, save_every=10))
     assert str(res["status"]) == "complete"
     assert np.abs(res["phi"]).max() < 1e-6
     E = res["end_effector"]
@@ -122,8 +123,8 @@ def test_divergence_keeps_results(rigid):
     model, q0 = reference_case.initial_state(rigid)
     # gains of 2790 /s put the Baumgarte poles at -2790 /s, just beyond RK4's stability at dt = 1e-3 s
     # (-2785 /s), so Φ grows slowly enough to pass 1e-3 before the state overflows
-    res = study.simulate(model.with_params(alpha_height=2.79e3, beta_height=2.79e3), q0, 0.5, dt=1e-3,
-                         max_violation=1e-3)
+    res = study.simulate(model.with_params(alpha_height=2.79e3, beta_height=2.79e3), q0,
+                         RunSpec(t_end=0.5, dt=1e-3, max_violation=1e-3, save_every=1))
     assert str(res["status"]).startswith("diverged: constraint violation")
     assert 0 < res["t"][-1] < 0.5
 
@@ -135,7 +136,7 @@ def test_constraints_beyond_reach_are_refused(rigid):
 
 def test_results_round_trip_and_foreign_files(rigid, tmp_path):
     model, q0 = reference_case.initial_state(rigid)
-    res = study.simulate(model, q0, 0.05, dt=1e-3, save_every=5)
+    res = study.simulate(model, q0, RunSpec(t_end=0.05, dt=1e-3, save_every=5))
     paths = results_io.save(res, tmp_path / "run.npz")
     back = results_io.load(paths[0])
     np.testing.assert_array_equal(back["q"], res["q"])

@@ -12,6 +12,7 @@ import gpmegen
 from gpmegen import limits
 from gpmegen.analysis import modes, reference_case, study
 from gpmegen.analysis.results import metadata
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import build_parser, main
 from gpmegen.runtime import integrate, stability
 
@@ -106,7 +107,7 @@ def test_rk4_above_the_stable_step_is_refused_and_that_step_is_the_edge(arm):
     model, q0, _ = arm
     stable, value = stability.stable_step(modes.motion_eigenvalues(model, 0.0, q0))
     with pytest.raises(limits.LimitError, match=f"{stable:.3g} s.*{abs(value) / (2 * math.pi):.4g} Hz.*dop853"):
-        study.simulate(model, q0, 0.01, dt=1.2 * stable)
+        study.simulate(model, q0, RunSpec(t_end=0.01, dt=1.2 * stable, save_every=1))
     # the frequency is the real edge: RK4 holds the motion just below it and blows it up just above
     qd0 = np.zeros(model.n_dof)
     peaks = []
@@ -115,7 +116,7 @@ def test_rk4_above_the_stable_step_is_refused_and_that_step_is_the_edge(arm):
         peaks.append(np.abs(y[:, :model.n_dof]).max())
     assert peaks[0] < 1.0 and peaks[1] > 10 * peaks[0]
     with limits.lifted():  # an expert may go on
-        res = study.simulate(model, q0, 0.002, dt=1.2 * stable)
+        res = study.simulate(model, q0, RunSpec(t_end=0.002, dt=1.2 * stable, save_every=1))
     assert str(res["status"]) == "complete"
 
 
@@ -162,8 +163,8 @@ def test_rk4_stable_step_comes_from_the_damped_eigenvalues(env, tmp_path):
         ends[factor] = np.abs(y[-1, :4]).max()
     assert ends[0.99] < 1e-6 * np.abs(q0).max() and ends[1.01] > 1e3 * np.abs(q0).max()
     with pytest.raises(limits.LimitError, match=f"stable step {stable:.3g} s.*overdamped"):
-        study.simulate(model, q0, 0.5, dt=1.01 * stable)
-    assert str(study.simulate(model, q0, 0.5, dt=0.99 * stable, save_every=10)["status"]) == "complete"
+        study.simulate(model, q0, RunSpec(t_end=0.5, dt=1.01 * stable, save_every=1))
+    assert str(study.simulate(model, q0, RunSpec(t_end=0.5, dt=0.99 * stable, save_every=10))["status"]) == "complete"
 
 
 def _run(argv, capsys, tmp_path):
@@ -329,7 +330,7 @@ def test_a_chain_the_constraints_hold_entirely_has_no_frequency_to_bound_rk4(env
     path = Path(__file__).resolve().parent.parent / "examples" / "planar_two_link.toml"
     begun = FileCase(str(path), 1).started("numpy", "none", {}, lambda message: None)
     assert modes.highest_frequency(begun.model, 0.0, begun.q) == 0.0
-    res = study.simulate(begun.model, begun.q, 0.01, dt=1e-3, save_every=5)
+    res = study.simulate(begun.model, begun.q, RunSpec(t_end=0.01, dt=1e-3, save_every=5))
     assert str(res["status"]) == "complete"
 
 
@@ -352,7 +353,7 @@ def test_a_start_whose_second_order_rows_vanish_at_rest_gets_its_stable_step(env
     K, M = B.T @ model.stiffness_jacobian(begun.q) @ B, B.T @ model.mass_matrix(begun.q) @ B
     import scipy.linalg
     assert omega == pytest.approx(math.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True)[-1]), rel=1e-9)
-    res = study.simulate(model, begun.q, 0.002, dt=1e-5, save_every=100, qd0=begun.qd)
+    res = study.simulate(model, begun.q, RunSpec(t_end=0.002, dt=1e-5, save_every=100), qd0=begun.qd)
     assert str(res["status"]) == "complete"
 
 

@@ -14,6 +14,7 @@ from scipy.optimize import brentq
 
 import gpmegen
 from gpmegen import cli
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.runtime import internal
 
 LINK = Path(__file__).resolve().parent / "models" / "flexible_link.toml"
@@ -137,7 +138,7 @@ def test_internal_dynamics_along_a_run_of_the_rigid_arm():
 
     model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"), "locked")
     actuated = model.with_actuators(["psi2", "x3"])
-    res = study.simulate(actuated, q0, 2.0, 1e-3, 125, internal_dynamics=True)
+    res = study.simulate(actuated, q0, RunSpec(t_end=2.0, dt=1e-3, save_every=125, internal_dynamics=True))
     values = res["internal_eigenvalues"]
     assert values.shape == (len(res["t"]), 2)
     rates = []
@@ -151,4 +152,4 @@ def test_internal_dynamics_along_a_run_of_the_rigid_arm():
         rates.append(rate)
     assert np.max(np.abs(rates)) > 0.03  # 1/s: the arm's motion changes the column's inertia
     with pytest.raises(gpmegen.ModelError, match="internal dynamics belong to an actuated realization"):
-        study.simulate(model, q0, 0.01, 1e-3, internal_dynamics=True)
+        study.simulate(model, q0, RunSpec(t_end=0.01, dt=1e-3, internal_dynamics=True, save_every=1))

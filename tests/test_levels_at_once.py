@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from gpmegen.analysis.levels import compiled_loops, run_levels
+from gpmegen.analysis.runspec import RunSpec
 
 SPINUP = Path(__file__).resolve().parent.parent / "examples" / "spinup.toml"
 KEYS = ("t", "q", "qd", "qdd", "lambda", "end_effector", "drive_forces", "constraint_forces", "kinetic_energy")
@@ -26,8 +27,8 @@ def test_threads_where_the_loops_are_compiled():
 
 
 def _levels(backend, workers, told):
-    return run_levels(SPINUP, (2, 3), "none", 0.05, 1e-3, 10, "rk4", backend, {"Omega": 6.0}, None, told.append,
-                      workers)
+    return run_levels(SPINUP, (2, 3), RunSpec(start="none", t_end=0.05, dt=1e-3, save_every=10, method="rk4"), backend,
+                      {"Omega": 6.0}, None, told.append, workers=workers)
 
 
 @pytest.mark.parametrize("backend, where", [pytest.param("c", "threads", marks=pytest.mark.requires_cc),

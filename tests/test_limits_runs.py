@@ -11,6 +11,7 @@ import pytest
 import gpmegen
 from gpmegen import limits
 from gpmegen.analysis import modes, reference_case, study
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.runtime import integrate
 
@@ -69,7 +70,8 @@ def test_a_dop853_run_its_stable_step_cannot_finish_is_refused_naming_the_method
     model, q0, omega = arm
     monkeypatch.setattr(integrate, "dop853", lambda *a, **k: pytest.fail("the run started"))
     with pytest.raises(limits.LimitError) as refused:
-        study.simulate(model, q0, 1e6, method="dop853", save_dt=1e3)  # 1e6 s: 1.5e9 steps at least
+        study.simulate(model, q0, RunSpec(t_end=1e6, method="dop853", save_dt=1e3,
+                                          save_every=1))  # 1e6 s: 1.5e9 steps at least
     message = str(refused.value)
     assert "\n" not in message and "at least 1.51e+09 DOP853 steps of n_dof = 15" in message
     assert "stable step 0.00066 s" in message and "1628 Hz" in message and "--method genalpha" in message
@@ -90,7 +92,8 @@ def test_the_dop853_bound_is_below_the_steps_it_takes_and_near_them_at_a_loose_t
         if rtol == 1e-3:
             assert effort.steps <= 2 * bound.steps
     # a run that fits is not refused
-    limits.check_run(model.n_dof, 2, 10.0, 1e-3, 1, "dop853", "c", omega, save_dt=1e-3)
+    limits.check_run(model.n_dof, 2, RunSpec(t_end=10.0, dt=1e-3, save_every=1, method="dop853", save_dt=1e-3), "c",
+                     omega=omega)
 
 
 @pytest.mark.parametrize("method", ["radau", "scipy-radau"])
@@ -120,6 +123,8 @@ def test_the_lowest_period_bound_is_below_the_steps_radau_takes(arm):
     for rtol in (1e-4, integrate.RTOL):
         _, _, outcome, effort = integrate.radau(model, q0, np.zeros(model.n_dof), span, 1e-2, rtol=rtol, atol=rtol)
         assert outcome.complete and effort.steps >= 2 * bound.steps
-    limits.check_run(model.n_dof, 2, 100.0, 1e-3, 1, "radau", "c", lowest, save_dt=1e-3)
+    limits.check_run(model.n_dof, 2, RunSpec(t_end=100.0, dt=1e-3, save_every=1, method="radau", save_dt=1e-3), "c",
+                     omega=lowest)
     with limits.lifted():  # --no-limits
-        limits.check_run(model.n_dof, 2, 1e9, 1e-3, 1, "radau", "c", lowest, save_dt=1e8)
+        limits.check_run(model.n_dof, 2, RunSpec(t_end=1e9, dt=1e-3, save_every=1, method="radau", save_dt=1e8), "c",
+                         omega=lowest)

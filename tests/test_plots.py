@@ -11,6 +11,7 @@ import pytest
 from gpmegen.analysis import plots, runs
 from gpmegen.analysis import results as results_io
 from gpmegen.analysis.reference_case import ReferenceCase
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 
 matplotlib.use("Agg")
@@ -27,7 +28,8 @@ def pair(tmp_path_factory):
     loaded = []
     for nrfe in (1, 2):
         out = folder / f"run_nrfe{nrfe}.npz"
-        runs.run(ReferenceCase(nrfe), "locked", 0.05, 1e-3, 5, "rk4", "numpy", {}, out, _quiet)
+        runs.run(ReferenceCase(nrfe), RunSpec(start="locked", t_end=0.05, dt=1e-3, save_every=5, method="rk4"),
+                 "numpy", {}, out, _quiet)
         loaded.append(results_io.load(out))
     return folder, loaded
 

@@ -149,10 +149,10 @@ from gpmegen.analysis import runs
 
 _run = runs.run
 
-def run(case, start, t_end, dt, save_every, method, backend, overrides, *args, **kwargs):
+def run(case, spec, backend, overrides, *args, **kwargs):
     if overrides.get("tdr0") == 2.0:
         os.kill(os.getpid(), signal.SIGSEGV)
-    return _run(case, start, t_end, dt, save_every, method, backend, overrides, *args, **kwargs)
+    return _run(case, spec, backend, overrides, *args, **kwargs)
 
 runs.run = run
 """

@@ -16,6 +16,7 @@ import pytest
 import gpmegen
 from gpmegen import limits
 from gpmegen.analysis import reference_case, study
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import BuildError, EvaluationError, ModelError
 from gpmegen.limits import LimitError
@@ -160,7 +161,7 @@ def test_simulation_at_a_step_of_1e_300_ran_forever_even_without_limits(tmp_path
 def test_simulation_from_python_is_refused_too(rigid):
     model, q0 = reference_case.initial_state(rigid)
     with pytest.raises(LimitError, match="saving 1e\\+14 samples"):
-        study.simulate(model, q0, 1e9, dt=1e-5, save_every=1)
+        study.simulate(model, q0, RunSpec(t_end=1e9, dt=1e-5, save_every=1))
 
 
 def test_no_limits_lifts_the_refusal(tmp_path, capsys, monkeypatch):

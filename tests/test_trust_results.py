@@ -21,6 +21,7 @@ import gpmegen
 from gpmegen import fileio
 from gpmegen.analysis import reference_case, study
 from gpmegen.analysis import results as results_io
+from gpmegen.analysis.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.runtime import integrate
 from gpmegen.status import Outcome, SolveStatus
@@ -132,7 +133,7 @@ def test_c_and_numpy_save_the_same_rows_and_end_at_t_end(cli_runs, key):
 def test_a_step_longer_than_the_run_is_cut_to_end_at_t_end(backend):
     """``--dt 2 --t-end 1`` used to take no step at all and report success."""
     model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend=backend))
-    res = study.simulate(model, q0, t_end=1.0, dt=2.0, save_every=1)
+    res = study.simulate(model, q0, RunSpec(t_end=1.0, dt=2.0, save_every=1))
     np.testing.assert_array_equal(res["t"], [0.0, 1.0])
     assert not np.array_equal(res["q"][-1], q0)  # a step of 1 s was taken (and diverges, as it should)
 
@@ -143,7 +144,7 @@ def test_a_step_longer_than_the_run_is_cut_to_end_at_t_end(backend):
 def short_run():
     """A small complete results dict (NumPy backend, 5 steps)."""
     model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"))
-    return study.simulate(model, q0, t_end=0.005, dt=1e-3, save_every=1)
+    return study.simulate(model, q0, RunSpec(t_end=0.005, dt=1e-3, save_every=1))
 
 
 def _run_id_of_csv(path):

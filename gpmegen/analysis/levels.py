@@ -19,6 +19,7 @@ from pathlib import Path
 from .. import limits
 from ..errors import ExtrapolationError
 from . import cases, runs
+from .runspec import RunSpec
 
 
 @dataclass
@@ -38,17 +39,14 @@ class Level:
 @dataclass(frozen=True)
 class LevelTask:
     """What a pool's process needs to make one level's run: the case (``model_file``, None for
-    the reference manipulator, and ``nrfe``), the run's settings and where it is written
-    (``out``, None: nowhere); ``no_limits``: the levels were started within
+    the reference manipulator, and ``nrfe``), the run's ``spec``
+    (:class:`gpmegen.analysis.runspec.RunSpec`), ``backend`` and parameter values, and where it
+    is written (``out``, None: nowhere); ``no_limits``: the levels were started within
     :func:`gpmegen.limits.lifted`, which another process does not see."""
 
     model_file: str | None
     nrfe: int
-    start: str
-    t_end: float
-    dt: float
-    save_every: int
-    method: str
+    spec: RunSpec
     backend: str
     params: tuple
     out: str | None
@@ -76,8 +74,7 @@ def prepare(task: LevelTask) -> None:
 def _run(task: LevelTask, case) -> runs.Run:
     """The level's run of ``case`` (and its results written to ``task.out``)."""
     with limits.lifted() if task.no_limits else contextlib.nullcontext():
-        return runs.run(case, task.start, task.t_end, task.dt, task.save_every, task.method, task.backend,
-                        dict(task.params), task.out, _quiet)
+        return runs.run(case, task.spec, task.backend, dict(task.params), task.out, _quiet)
 
 
 def _row(run: runs.Run) -> dict:
@@ -153,21 +150,21 @@ def _on_threads(tasks, levels_cases, size) -> list:
     return [finished[task.nrfe][0] for task in tasks]
 
 
-def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, overrides, out, progress,
-               workers=None) -> list[Level]:
-    """The run of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` with
-    the same settings (:func:`gpmegen.analysis.runs.run`), each written to :func:`level_path` of
-    ``out`` (None: kept in memory only), :func:`pool_size` at once (1: one after the other in
-    this process): on as many threads of this process where the loops are compiled
-    (:func:`compiled_loops`), else on as many processes. Returns the :class:`Level` of each, by
-    ascending ``nrfe``."""
+def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, workers=None) -> list[Level]:
+    """The run ``spec`` (a :class:`gpmegen.analysis.runspec.RunSpec`, its start one the case
+    takes) of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` on
+    ``backend`` with the parameter values ``overrides`` (:func:`gpmegen.analysis.runs.run`), each
+    written to :func:`level_path` of ``out`` (None: kept in memory only), :func:`pool_size` at
+    once (1: one after the other in this process): on as many threads of this process where the
+    loops are compiled (:func:`compiled_loops`), else on as many processes. Returns the
+    :class:`Level` of each, by ascending ``nrfe``."""
     from .extrapolate import check_same_model
     from .sweep import pools
 
     levels_cases = {n: cases.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
     check_same_model({n: case.model for n, case in levels_cases.items()})
-    tasks = [LevelTask(None if model_file is None else str(model_file), n, start, t_end, dt, save_every, method,
-                       backend, tuple(sorted(overrides.items())),
+    tasks = [LevelTask(None if model_file is None else str(model_file), n, spec, backend,
+                       tuple(sorted(overrides.items())),
                        None if out is None else str(level_path(out, n)), limits.are_lifted())
              for n in sorted(set(nrfe))]
     done, started = {}, {}
@@ -180,8 +177,9 @@ def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, 
         progress(f"n_rfe = {task.nrfe}: t = {row['results']['t'][-1]:.6g} s in {row['seconds']:.1f} s{written}")
 
     size = pool_size(len(tasks), workers)
-    actuated = any(len(case.actuators) for case in levels_cases.values())
-    if size == 1 or compiled_loops(method, backend, actuated):  # the run's own loaded model is the level's
+    actuated = (bool(spec.actuated) if spec.actuated is not None
+                else any(len(case.actuators) for case in levels_cases.values()))
+    if size == 1 or compiled_loops(spec.method, backend, actuated):  # the run's own loaded model is the level's
         if size > 1:
             progress(f"{len(tasks)} levels on {size} threads")
         done_runs = ([_run(task, levels_cases[task.nrfe]) for task in tasks] if size == 1
@@ -197,21 +195,21 @@ def run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, 
         case = levels_cases[task.nrfe]
         loaded = started.get(task.nrfe)
         if loaded is None:  # run in another process: loaded here (built by the run: loads at once)
-            loaded = case.started(backend, start, dict(overrides), _quiet).model
+            loaded = case.started(backend, spec.start or case.starts[0], dict(overrides), _quiet).model
         levels.append(Level(task.nrfe, case.model, loaded, done[task.nrfe]["results"], done[task.nrfe]["seconds"],
                             case.start_constants))
     return levels
 
 
-def simulate_levels(model_file, nrfe, t_end, dt, save_every=1, method="rk4", backend="numpy", params=None,
-                    start="none", workers=None) -> list[Level]:
-    """The motion of a model file at each ``nrfe`` with the same settings, in memory (no files):
-    started as ``start`` (see :func:`gpmegen.analysis.study.file_start`) with the parameter
-    overrides ``params``, ``workers`` at once (default: one per core, at most one per level; on
-    threads or processes, see :func:`run_levels`). Pass the levels to
+def simulate_levels(model_file, nrfe, spec, backend="numpy", params=None, workers=None) -> list[Level]:
+    """The motion of a model file at each ``nrfe`` as ``spec`` says (a
+    :class:`gpmegen.analysis.runspec.RunSpec`; its ``start`` as
+    :func:`gpmegen.analysis.study.file_start` takes it, None: "none"), in memory (no files), with
+    the parameter overrides ``params``, ``workers`` at once (default: one per core, at most one
+    per level; on threads or processes, see :func:`run_levels`). Pass the levels to
     :func:`gpmegen.analysis.extrapolate.extrapolate`."""
-    return run_levels(model_file, nrfe, start, t_end, dt, save_every, method, backend, dict(params or {}), None,
-                      _quiet, workers)
+    spec = spec if spec.start is not None else spec.with_start("none")
+    return run_levels(model_file, nrfe, spec, backend, dict(params or {}), None, _quiet, workers)
 
 
 __all__ = ["Level", "LevelTask", "compiled_loops", "level_path", "pool_size", "run_levels", "simulate_levels"]

@@ -25,23 +25,24 @@ class Run:
     started: object = None
 
 
-def check(case, t_end, dt, save_every, method, backend, save_dt=None) -> None:
-    """Refuse, before anything is loaded or solved, a run that cannot finish (gpmegen.limits)."""
-    limits.check_run(*case.size(), t_end, dt, save_every, method, backend, save_dt=save_dt)
+def check(case, spec, backend) -> None:
+    """Refuse, before anything is loaded or solved, the run ``spec`` of ``case`` on ``backend``
+    that cannot finish (gpmegen.limits)."""
+    limits.check_run(*case.size(), spec, backend)
 
 
-def run(case, start, t_end, dt, save_every, method, backend, overrides, out, progress, repartition=False,
-        actuated=None, internal_dynamics=False, save_dt=None, rtol=None, atol=None, rho_inf=None) -> Run:
-    """Start ``case`` (``start``: one of ``case.starts``), integrate its constrained motion (held
-    by inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a
-    model file's ``actuators``; ``()``: ideally; with ``internal_dynamics``, their eigenvalues saved
-    along the run; ``save_dt``, ``rtol``, ``atol``, ``rho_inf``: see :func:`gpmegen.analysis.study.simulate`) and
-    write ``out`` (.npz and .csv), or beside it a partial run (see
-    :func:`gpmegen.analysis.results.save`); nothing when ``out`` is None. ``progress`` takes
-    one-line messages."""
-    check(case, t_end, dt, save_every, method, backend, None if method == "rk4" else save_dt)
-    begun = case.started(backend, start, overrides, progress)
-    model = begun.model.with_actuators(case.actuators if actuated is None else actuated)
+def run(case, spec, backend, overrides, out, progress) -> Run:
+    """Start ``case`` from ``spec.start`` (one of ``case.starts``; None: its first), integrate its
+    constrained motion as ``spec`` says (a :class:`gpmegen.analysis.runspec.RunSpec`: held by
+    inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a model
+    file's ``actuators``; ``()``: ideally; see :func:`gpmegen.analysis.study.simulate`) on
+    ``backend`` with the parameter values ``overrides`` (name -> value) and write ``out`` (.npz
+    and .csv), or beside it a partial run (see :func:`gpmegen.analysis.results.save`); nothing
+    when ``out`` is None. ``progress`` takes one-line messages."""
+    spec = spec if spec.start is not None else spec.with_start(case.starts[0])
+    check(case, spec, backend)
+    begun = case.started(backend, spec.start, overrides, progress)
+    model = begun.model.with_actuators(case.actuators if spec.actuated is None else spec.actuated)
     q0 = begun.q
     shown = case.shown(model)
     progress("start: " + ", ".join(f"{name} = {q0[model.index(name)]:.6g}" for name in shown)
@@ -50,13 +51,10 @@ def run(case, start, t_end, dt, save_every, method, backend, overrides, out, pro
     bar = None
     from ..runtime import integrate
 
-    if method in ("rk4", *integrate.COMPILED):  # the chunked loops
-        bar = integrate.Progress(t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(),
+    if spec.method in ("rk4", *integrate.COMPILED):  # the chunked loops
+        bar = integrate.Progress(spec.t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(),
                                  lines_every=integrate.PROGRESS_LINES)
-    res = study.simulate(model, q0, t_end, dt, save_every, method, progress=bar, start=start,
-                         repartition=repartition, notify=progress, qd0=begun.qd,
-                         internal_dynamics=internal_dynamics, save_dt=save_dt, rtol=rtol, atol=atol,
-                         rho_inf=rho_inf)
+    res = study.simulate(model, q0, spec, qd0=begun.qd, progress=bar, notify=progress)
     wall = time.perf_counter() - t0
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),
                                     "model_source": case.locator()}, case.extras(model, res))

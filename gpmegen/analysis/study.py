@@ -249,38 +249,28 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
     return begun
 
 
-def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=None, max_violation=1e-2,
-             start="locked", repartition=False, notify=None, qd0=None, internal_dynamics=False, save_dt=None,
-             rtol=None, atol=None, rho_inf=None):
-    """The constrained motion from ``q0`` with velocities ``qd0`` (default rest); returns a results
-    dict (see :mod:`gpmegen.analysis.results`). ``method``: "rk4" (step ``dt``, saving every
-    ``save_every``-th step, or every ``save_dt`` s when given, a whole number of steps),
-    "genalpha" (compiled, implicit, step ``dt``, numerical damping ``rho_inf``, default
-    :data:`gpmegen.runtime.integrate.RHO_INF`), "dop853" (compiled, adaptive), "radau"
-    (compiled, implicit and adaptive) or a name of
-    :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every ``save_dt`` s (default
-    ``dt·save_every``: RK4's instants), the adaptive ones to ``rtol``, ``atol`` (default
-    :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``). The conditioning of the dependent
-    block of ``D`` is watched: ``notify`` (a callable taking a message) is told when it degrades,
-    and with ``repartition`` the dependent coordinates are chosen anew. A fixed-step run that
+def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
+    """The constrained motion from ``q0`` with velocities ``qd0`` (default rest) as ``spec`` says
+    (a :class:`gpmegen.analysis.runspec.RunSpec`); returns a results dict (see
+    :mod:`gpmegen.analysis.results`). Its ``method``: "rk4" (step ``dt``, saving every
+    ``save_every``-th step), "genalpha" (compiled, implicit, step ``dt``, numerical damping
+    ``rho_inf``), "dop853" (compiled, adaptive), "radau" (compiled, implicit and adaptive) or a
+    name of :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every
+    :attr:`~gpmegen.analysis.runspec.RunSpec.save_interval` s, the adaptive ones to ``rtol``,
+    ``atol``. The conditioning of the dependent block of ``D`` is watched: ``notify`` (a callable
+    taking a message) is told when it degrades, and with ``repartition`` the dependent coordinates
+    are chosen anew. ``progress``: the progress bar of the chunked loops. A fixed-step run that
     cannot finish (for DOP853: whose steps, at most its stable step at the start, cannot), or whose
     step is above RK4's stable one at the start (from the eigenvalues of the motion linearized there,
     dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), is refused before it starts
     (:class:`gpmegen.limits.LimitError`, unless the limits are lifted). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
+    method, t_end, dt = spec.method, spec.t_end, spec.dt
     refusal = integrate.compiled_only(method, model.backend, bool(len(model.actuators)))
     if refusal:
         raise SimulationError(refusal)
     model.check_signal_span(0.0, t_end)
-    if method == "rk4" and save_dt is not None:
-        save_every = integrate.save_steps(dt, save_dt)
-        if save_every is None:
-            raise SimulationError(f"the save interval {save_dt:g} s is not a whole number of RK4 steps of {dt:g} s")
-    save_dt = dt * save_every if save_dt is None else save_dt
-    rtol = integrate.RTOL if rtol is None else rtol
-    atol = integrate.ATOL if atol is None else atol
-    rho_inf = integrate.RHO_INF if rho_inf is None else rho_inf
     # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
     loop = "numpy" if len(model.actuators) else model.backend
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
@@ -291,15 +281,14 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
             omega = modes.highest_frequency(model, 0.0, q0, qd0)
         elif method in limits.NEEDS_LOWEST_FREQUENCY:
             omega = modes.lowest_frequency(model, 0.0, q0, qd0)
-    limits.check_run(model.n_dof, len(model.constraint_names), t_end, dt, save_every, method, loop, omega,
-                     None if method == "rk4" else save_dt)
+    limits.check_run(model.n_dof, len(model.constraint_names), spec, loop, omega)
     if method == "rk4" and omega is not None:
         unstable = integrate.unstable_step(dt, modes.motion_eigenvalues(model, 0.0, q0, qd0))
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     model.check_actuators(0.0, q0)
     actuated = [model.coordinates[k] for k in model.actuators]
-    if internal_dynamics and not actuated:
+    if spec.internal_dynamics and not actuated:
         raise ModelError("the internal dynamics belong to an actuated realization: name the actuated coordinates "
                          "(--actuated, or a model file's actuators)")
     if actuated:
@@ -307,29 +296,29 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
         (notify or (lambda message: None))(
             f"internal dynamics of the inputs on {', '.join(actuated)} at the start: {internal.describe(stability)}")
     # the actuated realization does not use the partition: nothing to watch
-    watch = partition.Watch(model, repartition, notify, limit=np.inf if len(model.actuators) else
+    watch = partition.Watch(model, spec.repartition, notify, limit=np.inf if len(model.actuators) else
                             partition.ILL_CONDITIONED)
     with integrate.interruptible():
         try:  # from the line below on, a signal keeps at least the start
             (notify or (lambda message: None))(f"integrating with {method} to t = {t_end:g} s; Ctrl-C or SIGTERM "
                                                f"stops it, keeping the results so far")
-            t, y, outcome, effort = _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, atol,
-                                               rho_inf, progress, max_violation, watch)
+            t, y, outcome, effort = _integrate(model, q0, qd0, spec, progress, watch)
         except KeyboardInterrupt:  # before the integrator's own loop began, or in the line
             t, y = np.zeros(1), np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]
             outcome, effort = Outcome(Ending.INTERRUPTED, 0.0), integrate.Effort(0, 0, 0, 0, 0)
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
         outcome = internal.explain(outcome, stability, actuated)
-    adaptive = method not in ("rk4", "genalpha")
-    settings = dict(method=method, dt=dt, save_every=save_every, save_dt=save_dt, rtol=rtol if adaptive else None,
-                    atol=atol if adaptive else None, rho_inf=rho_inf if method == "genalpha" else None,
-                    effort=effort._asdict(), t_end=t_end, start=start,
+    adaptive = spec.adaptive
+    settings = dict(method=method, dt=dt, save_every=spec.save_every, save_dt=spec.save_interval,
+                    rtol=spec.rtol if adaptive else None, atol=spec.atol if adaptive else None,
+                    rho_inf=spec.rho_inf if method == "genalpha" else None,
+                    effort=effort._asdict(), t_end=t_end, start=spec.start,
                     backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
                     repartitions=watch.events, actuators=actuated)
     results = collect(model, t, y, str(outcome), settings)
-    if actuated and internal_dynamics and len(t):
+    if actuated and spec.internal_dynamics and len(t):
         results["internal_eigenvalues"] = internal.along(model, t, results["q"], results["qd"])
         worst = np.nanmax(results["internal_eigenvalues"].real, axis=1, initial=-np.inf)
         k = int(np.argmax(worst))
@@ -338,22 +327,22 @@ def simulate(model, q0, t_end, dt=1e-5, save_every=1, method="rk4", progress=Non
     return results
 
 
-def _integrate(model, q0, qd0, t_end, dt, save_every, method, save_dt, rtol, atol, rho_inf, progress,
-               max_violation, watch):
-    """The integration of :func:`simulate` by ``method``: ``(t, y, outcome, effort)``."""
+def _integrate(model, q0, qd0, spec, progress, watch):
+    """The integration of :func:`simulate` by ``spec.method``: ``(t, y, outcome, effort)``."""
+    method, t_end, dt, save_dt, max_violation = spec.method, spec.t_end, spec.dt, spec.save_interval, spec.max_violation
     if method == "rk4":
-        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every, progress=progress,
+        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, spec.save_every, progress=progress,
                                       max_violation=max_violation, watch=watch)
         return t, y, outcome, integrate.rk4_effort(t, 0.0, dt)
     if method == "genalpha":
-        return integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf, progress=progress,
+        return integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, spec.rho_inf, progress=progress,
                                   max_violation=max_violation, watch=watch)
     if method in integrate.ADAPTIVE:
-        return integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=rtol, atol=atol, progress=progress,
-                                          max_violation=max_violation, watch=watch)
+        return integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=spec.rtol, atol=spec.atol,
+                                          progress=progress, max_violation=max_violation, watch=watch)
     times = integrate.grid(0.0, t_end, save_dt)
-    return integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=rtol, atol=atol,
-                                 t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
+    return integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=spec.rtol,
+                                 atol=spec.atol, t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
 
 
 def collect(model, t, y, status, settings) -> dict:

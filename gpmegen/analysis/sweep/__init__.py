@@ -74,18 +74,42 @@ def _check_parameters(models, params) -> None:
                          f"{', '.join(sorted(names))}")
 
 
-def sweep(*, out, params: dict, t_end: float, model_file=None, nrfe=None, samples: int | None = None,
-          seed: int = 0, sampling: str = "lhs", dt: float = 1e-5, save_every: int = 100, method: str = "rk4",
-          backend: str = "c", start: str | None = None, repartition: bool = False, workers: int | None = None,
-          scheduler: str | None = None, progress=None) -> Summary:
+#: A sweep's own options (beyond its runs' :class:`~gpmegen.analysis.runspec.RunSpec`), with their defaults.
+OPTIONS = {"backend": "c", "samples": None, "seed": 0, "sampling": "lhs", "workers": None, "scheduler": None,
+           "progress": None}
+#: The fields of a run's spec a sweep's runs take (the others keep their defaults).
+RUN_FIELDS = ("t_end", "dt", "save_every", "method", "start", "repartition")
+
+
+def sweep(out, params: dict, spec=None, *, model_file=None, nrfe=None, **options) -> Summary:
     """Run every combination of ``params`` (name → a value or a list of values) for each rfe
     count in ``nrfe`` (a list; None: the case's own), or ``samples`` draws (``sampling`` "lhs"
     or "random", from ``seed``) of the ranges ``params`` gives as ``(low, high)``; write each
-    run's results into ``out``/runs and the summary into ``out``. The other arguments are those
-    of ``gpmegen simulate``. ``workers``: local processes (default: one per core; 1: in this
-    process); ``scheduler``: the address or scheduler file of a Dask cluster to run on instead.
-    ``progress`` takes one-line messages. Returns the :class:`Summary`; raises
-    :class:`SweepFailures` (after writing the summary) when some runs did not complete."""
+    run's results into ``out``/runs and the summary into ``out``. Each run is ``spec`` (a
+    :class:`~gpmegen.analysis.runspec.RunSpec`; of its fields, :data:`RUN_FIELDS`) with the fields
+    ``options`` give (``t_end``, ``dt``, ``save_every``, ``method``, ``start``, ``repartition``, as
+    ``gpmegen simulate`` takes them) on ``backend`` (default "c"). ``workers``: local processes
+    (default: one per core; 1: in this process); ``scheduler``: the address or scheduler file of
+    a Dask cluster to run on instead. ``progress`` takes one-line messages. Returns the
+    :class:`Summary`; raises :class:`SweepFailures` (after writing the summary) when some runs did
+    not complete."""
+    from ..runspec import NAMES, RunSpec
+
+    unknown = [name for name in options if name not in OPTIONS and name not in NAMES]
+    if unknown:
+        raise TypeError(f"unknown sweep option {', '.join(map(repr, unknown))}; a sweep's options are "
+                        f"{', '.join((*RUN_FIELDS, *OPTIONS))}")
+    spec = RunSpec.of(spec, **{name: value for name, value in options.items() if name in NAMES})
+    default = RunSpec.of(None, t_end=spec.t_end, dt=spec.dt, method=spec.method)
+    others = [name for name in NAMES if name not in RUN_FIELDS and getattr(spec, name) != getattr(default, name)]
+    if others:
+        raise SweepError(f"{', '.join(others)}: not taken by a sweep's runs, which take {', '.join(RUN_FIELDS)}; "
+                         f"leave {'them' if len(others) > 1 else 'it'} out")
+    chosen = {**OPTIONS, **{name: value for name, value in options.items() if name in OPTIONS}}
+    backend, samples, seed, sampling = chosen["backend"], chosen["samples"], chosen["seed"], chosen["sampling"]
+    workers, scheduler, progress = chosen["workers"], chosen["scheduler"], chosen["progress"]
+    t_end, dt, save_every, method = spec.t_end, spec.dt, spec.save_every, spec.method
+    start, repartition = spec.start, spec.repartition
     say = progress or (lambda message: None)
     began = time.perf_counter()
     _check_draws(samples, seed, sampling)
@@ -136,10 +160,12 @@ def _check_draws(samples, seed, sampling) -> None:
 def _check_limits(models, per_model: int, size: int, settings: dict) -> None:
     """Refuse a sweep that cannot finish (:func:`gpmegen.limits.check_sweep`): ``per_model`` runs
     of each model on ``size`` workers."""
-    s = settings
+    from ..runspec import RunSpec
+
+    spec = RunSpec(t_end=settings["t_end"], dt=settings["dt"], save_every=settings["save_every"],
+                   method=settings["method"])
     limits.check_sweep([(per_model, limits.run_estimate(limits.model_coordinates(case.model),
-                                                        len(case.model.constraints), s["t_end"], s["dt"],
-                                                        s["save_every"], s["method"], s["backend"]))
+                                                        len(case.model.constraints), spec, settings["backend"]))
                         for case, _, _ in models], size)
 
 

@@ -193,6 +193,14 @@ class Task:
         partial = [path for path in targets(self.out, complete=False) if path.exists()]
         return partial + sorted(self.out.parent.glob(f".{self.run_id}.*.tmp"))
 
+    @property
+    def spec(self):
+        """The run's :class:`~gpmegen.analysis.runspec.RunSpec`."""
+        from ..runspec import RunSpec
+
+        return RunSpec(t_end=self.t_end, dt=self.dt, save_every=self.save_every, method=self.method, start=self.start,
+                       repartition=self.repartition)
+
     def inputs(self) -> dict:
         """The run's columns of the summary: its id, nrfe and parameter values."""
         return {"run": self.run_id, "nrfe": self.nrfe, **dict(self.params)}

@@ -77,8 +77,7 @@ def perform(task: Task) -> dict:
             raise SweepError(f"the sweep's folder {task.folder} is not there on {socket.gethostname()}: a sweep on a "
                              f"cluster needs an --out folder that every worker shares")
         with limits.lifted() if task.no_limits else contextlib.nullcontext():
-            done = runs.run(_case(task), task.start, task.t_end, task.dt, task.save_every, task.method,
-                            task.backend, dict(task.params), task.out, _quiet, repartition=task.repartition)
+            done = runs.run(_case(task), task.spec, task.backend, dict(task.params), task.out, _quiet)
         row = outcomes.outcomes(done.results, task.driven)
     except GpmegenError as exc:
         row = outcomes.failure(str(exc))
