@@ -73,9 +73,10 @@ def motor_torques(model, t, q, qd) -> tuple[np.ndarray, np.ndarray]:
 
 
 def forearm_deflections(model, q) -> np.ndarray:
-    """(k, 3) m: each forearm's largest distance of an rfe origin from the chord between its
-    elbow (its first rfe's origin) and its tip (point F1, F2, F3); ``model`` loaded with the
-    body transforms (``gpmegen.load(..., transforms=("T",))``)."""
+    """(k, 3) m: each forearm's midspan deflection, the distance from the chord between its
+    elbow (its first rfe's origin) and its tip (point F1, F2, F3) of the polyline through its rfe
+    origins and its tip, at half the chord; ``model`` loaded with the body transforms
+    (``gpmegen.load(..., transforms=("T",))``)."""
     out = np.zeros((len(q), 3))
     bodies = list(model.bodies)
     points = list(model.points)
@@ -84,9 +85,11 @@ def forearm_deflections(model, q) -> np.ndarray:
         tips = model.point_positions(qk)
         for leg in range(3):
             origins = [frames[j][:3, 3] for j, name in enumerate(bodies) if name.startswith(f"rfe{leg + 1}_")]
-            base, tip = origins[0], tips[points.index(f"F{leg + 1}")]
-            chord = (tip - base) / np.linalg.norm(tip - base)
-            out[k, leg] = max(np.linalg.norm((o - base) - (chord @ (o - base)) * chord) for o in origins)
+            nodes = np.array(origins + [tips[points.index(f"F{leg + 1}")]]) - origins[0]
+            length = np.linalg.norm(nodes[-1])
+            along = nodes @ (nodes[-1] / length)
+            across = nodes - np.outer(along, nodes[-1] / length)
+            out[k, leg] = np.linalg.norm([np.interp(length / 2, along, across[:, i]) for i in range(3)])
     return out
 
 
@@ -140,7 +143,7 @@ def figure(path, t, tau_rigid, flexible, T):
     colours = ("C0", "C1", "C2")
     for j, name in enumerate(MOTORS):
         top.plot(t, tau_rigid[:, j], color=colours[j], lw=2.5, alpha=0.35, label=f"{name}, rigid")
-    styles = ("-", "--", ":")
+    styles = ("-", "--", "-.", ":")
     for (label, tau), style in zip(flexible.items(), styles):
         for j, name in enumerate(MOTORS):
             top.plot(t, tau[:, j], color=colours[j], lw=0.9, ls=style, label=f"{name}, {label}" if j == 0 else None)
@@ -164,7 +167,7 @@ def figure(path, t, tau_rigid, flexible, T):
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--nrfe", type=int, nargs="+", default=[2, 3, 5], help="n_rfe of the flexible runs")
-    parser.add_argument("--stiffness", type=float, nargs="+", default=[1.0, 0.1, 0.01],
+    parser.add_argument("--stiffness", type=float, nargs="+", default=[10.0, 1.0, 0.1, 0.01],
                         help="factors k_EI on the forearms' bending stiffness, at the --study n_rfe")
     parser.add_argument("--study", type=int, default=3, help="n_rfe of the stiffness study")
     parser.add_argument("--dt", type=float, default=2e-5, help="RK4 step of the flexible runs (s)")
