@@ -72,6 +72,39 @@ def motor_torques(model, t, q, qd) -> tuple[np.ndarray, np.ndarray]:
     return np.array(torques), np.array(accelerations)
 
 
+def motor_driven_text() -> str:
+    """The example with the motors driven instead of the platform: its three path constraints
+    replaced by the motor angles of the rigid Delta's inverse kinematics along the same path
+    (``theta_i - θ_i(p(t))``, the elbow's circle met by the forearm's sphere), so that the
+    motors follow the rigid Delta's angles, the multipliers are the motor torques, and the
+    platform of a flexible Delta leaves its path by what the forearms bend."""
+    text = MODEL.read_text()
+    start, end = text.index("[[constraints]]"), text.index("# a guess near the start")
+    s = "pi*(Min(t/T, 1) - sin(2*pi*Min(t/T, 1))/(2*pi))"
+    blocks = []
+    for leg, angle in enumerate(("0", "2*pi/3", "4*pi/3"), start=1):
+        px, py = f"(R_arc*cos({s} - {angle}) - r_b + r_p)", f"(R_arc*sin({s} - {angle}))"
+        a, b = f"(-2*L_u*{px})", "(2*L_u*z_0)"
+        c = f"(L_f^2 - L_u^2 - {px}^2 - {py}^2 - z_0^2)"
+        x = f"({c}/sqrt({a}^2 + {b}^2))"
+        blocks.append(f'[[constraints]]\nname = "motor{leg}"\n'
+                      f'expression = "theta{leg} - (atan2({b}, {a}) + atan2(sqrt(1 - {x}^2), {x}))"\n'
+                      'alpha = "alpha_P"\nbeta = "beta_P"\n\n')
+    text = text[:start] + "".join(blocks) + text[end:]
+    return text.replace('name = "delta_flexible_nrfe{nrfe}"', 'name = "delta_motors_nrfe{nrfe}"')
+
+
+def platform_path(t, model_file=MODEL) -> np.ndarray:
+    """The platform centre's programmed position (k, 3) m at the times ``t``, from the model
+    file's parameters: the half circle by the cycloidal law of u = min(t/T, 1)."""
+    import tomllib
+
+    p = {k: float(v["value"]) for k, v in tomllib.loads(Path(model_file).read_text())["parameters"].items()}
+    u = np.minimum(np.asarray(t) / p["T"], 1.0)
+    s = np.pi * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
+    return np.column_stack([p["R_arc"] * np.cos(s), p["R_arc"] * np.sin(s), np.full_like(s, p["z_0"])])
+
+
 def forearm_deflections(model, q) -> np.ndarray:
     """(k, 3) m: each forearm's midspan deflection, the distance from the chord between its
     elbow (its first rfe's origin) and its tip (point F1, F2, F3) of the polyline through its rfe
@@ -199,6 +232,23 @@ def main(argv=None) -> None:
                   flush=True)
             if nrfe == args.study:
                 shown[f"n_rfe {nrfe}, k_EI {k:g}"] = tau
+        print("\nmotors driven along the rigid Delta's inverse kinematics (the multipliers are the torques):")
+        motors_file = Path(scratch) / "delta_motors.toml"
+        motors_file.write_text(motor_driven_text())
+        print("n_rfe | k_EI | peak |τ| [N·m] | max |τ - τ_rigid| (move) [N·m] | platform off its path, max [mm] | "
+              "platform's residual vibration, peak to peak [mm]")
+        for nrfe, k in [(1, 1.0)] + cases:
+            step = 1e-4 if nrfe == 1 else args.dt
+            run = gpmegen.simulate(str(motors_file), nrfe=nrfe, t_end=args.t_end, dt=step,
+                                   save_every=max(1, round(1e-3 / step)), backend="c", directory=directory,
+                                   params={"k_EI": k}, start="constrained")
+            names = list(run["constraint_names"])
+            tau = run["lambda"][:, [names.index(f"motor{leg}") for leg in (1, 2, 3)]]
+            off = run["end_effector"] - platform_path(run["t"], MODEL)
+            rest = run["t"] >= run["t"][-1] - args.tail - 1e-12
+            print(f"{nrfe} | {k:g} | {np.abs(tau).max():.4f} | {np.abs(tau - tau_rigid)[run['t'] <= T].max():.2e} | "
+                  f"{1e3 * np.linalg.norm(off, axis=1).max():.2e} | {1e3 * np.ptp(off[rest], axis=0).max():.2e}",
+                  flush=True)
         if not args.no_figure and shown:
             figure(args.figure, rigid["t"], tau_rigid, shown, T)
             print(f"wrote {args.figure}")

@@ -136,6 +136,27 @@ def test_rigid_delta_motor_torques_balance_the_power(rigid):
     np.testing.assert_allclose(power, rates, rtol=0, atol=1e-7 * scale)
 
 
+@pytest.mark.long
+def test_rigid_delta_driven_by_its_motors_has_those_torques_as_multipliers(rigid, env, tmp_path):
+    """The example with its motors following the closed-form inverse kinematics instead of its
+    platform following the path (benchmarks/delta.py, 15 s of derivation): the rigid Delta's
+    platform stays on the path, and the multipliers of the motors' rows, its driving functions,
+    are the motor torques computed from the path-driven model at the same states."""
+    run0, model, tau0, _ = rigid
+    path_file = tmp_path / "delta_motors.toml"
+    path_file.write_text(delta.motor_driven_text())
+    run = gpmegen.simulate(str(path_file), nrfe=1, t_end=T_END, dt=DT, save_every=2, backend="numpy",
+                           directory=env[0])
+    assert run.status == "complete"
+    np.testing.assert_allclose(run["end_effector"], path(run["t"]), rtol=0, atol=1e-9)
+    names = list(run["constraint_names"])
+    multipliers = run["lambda"][:, [names.index(f"motor{leg}") for leg in (1, 2, 3)]]
+    tau, _ = delta.motor_torques(model, run["t"], run["q"], run["qd"])
+    scale = np.abs(tau0).max()
+    np.testing.assert_allclose(multipliers, tau, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(multipliers, tau0, rtol=0, atol=1e-6 * scale)
+
+
 # ---- the flexible Delta ------------------------------------------------------------------------
 
 STIFFNESS = (0.01, 0.1, 1.0)   # factors on the forearms' bending stiffness (parameter k_EI)
