@@ -15,10 +15,13 @@ reactions, that give the platform its programmed acceleration,
 (S selects the motors, D_c holds the platform joints' rows, D all rows). For the rigid Delta
 (n_rfe 1) this is its inverse dynamics and its q̈ is the run's (tests/test_delta.py checks both
 against the closed-form inverse kinematics, the statics and the power balance). For the flexible
-Delta it is evaluated along the run: each forearm is pinned at both ends (a universal joint at the
-elbow, a ball joint at the platform), so its bending is excited by the motion of its ends, which
-the programmed path and the motor angles fix in either realization (the bending shortens the
-forearm's chord at second order only).
+Delta it is evaluated along the run, whose forearms bend under the motion of their ends but do
+not carry the platform's weight and inertia (the programmed constraints push the platform).
+
+The variant :func:`motor_driven_text` drives the motors instead, along the rigid Delta's
+closed-form inverse kinematics: its multipliers are the motor torques, its forearms carry the
+platform's loads along themselves, and its flexible platform leaves the path; the second table
+gives its torques and the platform's residual vibration.
 
 What it measures, at each n_rfe (--nrfe) and each factor on the forearms' bending stiffness
 (--stiffness, parameter k_EI):
@@ -27,10 +30,11 @@ What it measures, at each n_rfe (--nrfe) and each factor on the forearms' bendin
   motion (RK4 on the C backend, step --dt);
 - the peak motor torque, its largest difference from the rigid Delta's torque over the move, and
   after the move (t > T, the platform at rest) the torques' residual oscillation (peak to peak)
-  and the forearms' residual vibration: the largest deflection of a forearm's tip frame from its
-  elbow-to-tip chord, peak to peak, over the last --tail seconds.
+  and the forearms' residual vibration: a forearm's midspan deflection from its elbow-to-tip
+  chord, peak to peak, over the last --tail seconds; with the motors driven, the
+  platform's largest distance from its path and its residual vibration (peak to peak, at rest).
 
-    .venv/bin/python benchmarks/delta.py                       # the table and docs/figures/delta_torques.png
+    .venv/bin/python benchmarks/delta.py                       # the tables and docs/figures/delta_torques.png
     .venv/bin/python benchmarks/delta.py --nrfe 2 3 --stiffness 1 0.1 --no-figure
 """
 
