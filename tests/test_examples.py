@@ -267,3 +267,30 @@ def test_bauchau_four_bar_bends_out_of_its_plane_by_its_tilt(tmp_path, generated
     assert abs(full) > 5e-3
     assert full / half == pytest.approx(2.0, rel=0.01)
     assert departure(runs[5.0]) / departure(runs[2.5]) == pytest.approx(4.0, rel=0.02)
+
+
+# the Delta's build at its n_rfe 3, 0.4 s of its run and its plots: about 25 s of CPU, make check-c
+# (tests/test_delta.py keeps the rigid and the n_rfe 2 Delta in make test)
+@pytest.mark.long
+def test_delta_example_keeps_its_platform_on_the_arc_and_plots_its_loops(tmp_path, generated, capsys):
+    """The Delta robot (examples/delta_flexible.toml, its n_rfe 3) from its constrained
+    equilibrium: the three loops and the path hold, the platform centre P follows the half circle
+    of the file (its cycloidal law), the forearms bend, and the plots add the closures' reactions."""
+    path = EXAMPLES / "delta_flexible.toml"
+    run = tmp_path / "delta.npz"
+    _run(["simulate", path, "--statics", "constrained", "--t-end", 0.4, "--dt", 5e-5, "--save-every", 20,
+          "--out", run], capsys)
+    res = results_io.load(run)
+    assert str(res["status"]) == "complete" and res["t"][-1] == pytest.approx(0.4)
+    assert np.max(np.abs(res["phi"])) < 1e-10
+    p = _params(path)
+    u = np.minimum(res["t"] / p["T"], 1.0)
+    s = np.pi * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
+    arc = np.column_stack([p["R_arc"] * np.cos(s), p["R_arc"] * np.sin(s), np.full_like(s, p["z_0"])])
+    assert np.max(np.abs(res["end_effector"] - arc)) < 1e-10
+    coordinates = [str(c) for c in res["coordinates"]]
+    bends = np.abs(res["q"][:, [k for k, c in enumerate(coordinates) if c.startswith(("psi", "theta")) and "_" in c]])
+    assert 1e-7 < bends.max() < 1e-3
+    figures = tmp_path / "figures"
+    _run(["plot", run, "--out", figures], capsys)
+    assert {p.stem for p in figures.glob("*.png")} == FIGURES | {"closure_reactions"}

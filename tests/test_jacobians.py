@@ -89,9 +89,9 @@ def test_a_model_built_without_jacobians_refuses_them_and_differences_them_in_c(
 
 # the two-armed Baxter's derivation with its Jacobians is the longest of the examples, the
 # slider-crank's (a closed loop, as four_bar.toml, whose check stays in make test) takes 19 s,
-# the flexible Panda's 20-30 s and the six-joint arm's 9-13 s (the spatial chain of manipulator
-# and planar_two_link stays): make check-c
-LONG_EXAMPLES = {"baxter_flexible", "slider_crank_flexible", "panda_flexible", "spatial_six_joint"}
+# the flexible Panda's 20-30 s, the Delta's (three loops closed on one platform) 20 s and the
+# six-joint arm's 9-13 s (the spatial chain of manipulator and planar_two_link stays): make check-c
+LONG_EXAMPLES = {"baxter_flexible", "slider_crank_flexible", "panda_flexible", "spatial_six_joint", "delta_flexible"}
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=(pytest.mark.long,) if p.stem in LONG_EXAMPLES else ())
