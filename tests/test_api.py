@@ -122,6 +122,8 @@ def test_a_model_with_auto_dependent_coordinates_evaluates_out_of_the_box(env, t
     assert status == SolveStatus.OK and np.all(np.isfinite(q_run))
 
 
+# make check-c: every command once on one folder: about 10 s of CPU
+@pytest.mark.long
 def test_every_command_runs_on_a_folder_made_by_build_out(env, tmp_path, capsys):
     out = tmp_path / "built"
     assert main(["build", str(TIP_LAW), "--out", str(out)]) == 0

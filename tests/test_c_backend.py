@@ -311,6 +311,8 @@ def test_unloadable_library_is_rebuilt(source, fresh_cache):
     assert lib.n_dof() == 3
 
 
+# make check-c: two processes building and compiling at once (concurrent builds: test_reliability.py)
+@pytest.mark.long
 def test_concurrent_builds_are_safe(source, tmp_path):
     cache = tmp_path / "cache"
     code = ("import sys; from gpmegen.runtime import ccompile; "
