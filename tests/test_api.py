@@ -23,6 +23,8 @@ def _readme_block(marker):
     return next(block for block in blocks if marker in block)
 
 
+# make check-c: the reference arm at n_rfe 5 (the README's blocks run as pasted: test_docs.py)
+@pytest.mark.long
 def test_the_readme_example_of_the_python_api_runs(env, tmp_path, monkeypatch):
     """The README's one Python example, and what its comments say it prints."""
     monkeypatch.chdir(tmp_path)

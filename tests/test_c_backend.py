@@ -277,6 +277,8 @@ def test_second_load_does_not_recompile(pairs):
     assert c.library.path == again.library.path and not again.compiled and again.compile_seconds > 0
 
 
+# make check-c: a model compiled twice (a stale build refused or rebuilt: test_reliability.py)
+@pytest.mark.long
 def test_stale_source_builds_a_new_library(source, fresh_cache):
     cache = fresh_cache
     first = ccompile.build_library(source, cache=cache)

@@ -166,6 +166,8 @@ def test_modes_finds_each_finger_bending(built, work):
     assert (work / "modes" / "modes_flexible_gripper_joints.png").stat().st_size > 1000
 
 
+# make check-c: a tree linearized through the command line (linearize: test_linearize.py)
+@pytest.mark.long
 def test_linearize_writes_the_tree_linear_model(built, work):
     out, _ = _run(["linearize", GRIPPER, "--out", work / "lin.npz"])
     assert "wrote" in out
