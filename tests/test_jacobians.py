@@ -91,9 +91,10 @@ def test_a_model_built_without_jacobians_refuses_them_and_differences_them_in_c(
 # slider-crank's (a closed loop, as four_bar.toml, whose check stays in make test) takes 19 s,
 # the flexible Panda's 20-30 s, the Delta's (three loops closed on one platform) 20 s and the
 # six-joint arm's 9-13 s (the spatial chain of manipulator and planar_two_link stays), Bauchau's
-# spatial four-bar's (three flexible beams) 25 s: make check-c
+# spatial four-bar's (three flexible beams) 25 s, the tangential arm's 4 s (the second-order
+# constraints of curvature_arm stay): make check-c
 LONG_EXAMPLES = {"baxter_flexible", "slider_crank_flexible", "panda_flexible", "spatial_six_joint", "delta_flexible",
-                 "bauchau_four_bar"}
+                 "bauchau_four_bar", "manipulator_tangential"}
 #: n_rfe of the examples checked at more than 1: Bauchau's tilted loop has no freedom when rigid
 #: (its file names sde rotations among the dependent coordinates)
 NRFE = {"bauchau_four_bar": 2}

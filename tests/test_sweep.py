@@ -90,6 +90,10 @@ def test_csv_and_parquet_hold_the_summary(reference):
     assert pq.read_table(folder / "summary.parquet").to_pydict() == summary.columns
 
 
+# make check-c: two sweeps of a pool of processes (each run as simulate makes it:
+# test_each_run_equals_simulate_bit_for_bit; a sweep's summary:
+# test_a_failing_run_is_recorded_and_the_sweep_goes_on)
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_local_pool_gives_the_same_summary(reference, tmp_path):
     summary = gpmegen.sweep(out=tmp_path / "pool", workers=2, **GRID)
