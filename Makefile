@@ -21,17 +21,22 @@ demo: venv
 	$(BIN)/gpmegen demo --overwrite
 
 # On two processes (pytest-xdist): each has its own temporary folders, and the C cache they share
-# is keyed by hash and written by rename. The long tests run in check-c.
+# is keyed by hash and written by rename. The long tests run in check-c. Python's bytecode caches
+# (__pycache__, ignored by git) are written even where PYTHONDONTWRITEBYTECODE is set: without them
+# each worker rewrites the test modules' assertions again (8 s of CPU) and each of the hundreds of
+# commands the tests start compiles the package again.
+TEST_ENV := PYTHONDONTWRITEBYTECODE=
+
 test: venv
 	$(BIN)/ruff check gpmegen tests benchmarks
-	$(BIN)/python -m pytest -q -n 2 -m "not sanitizers and not long"
+	$(TEST_ENV) $(BIN)/python -m pytest -q -n 2 -m "not sanitizers and not long"
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,
 # and as compiled for use (tests/test_c_sanitizers.py); and the long tests (marked long): the
 # random-chain oracle, the convergence studies and the documentation's longer examples
 # (tests/test_docs.py). CI runs it after make test.
 check-c: venv
-	$(BIN)/python -m pytest -q -n 2 -m "sanitizers or long"
+	$(TEST_ENV) $(BIN)/python -m pytest -q -n 2 -m "sanitizers or long"
 
 snapshots: venv
 	$(BIN)/gpmegen build --nrfe 1 --force

@@ -464,8 +464,10 @@ def test_a_plane_upside_down_is_drawn_with_its_vertical_axis_reversed(planar_run
         canvas.close()
 
 
-@pytest.mark.parametrize("case, view, axes", [("arm", ["--view", "20,-60"], "3d"), ("reference", [], "3d"),
-                                              ("planar", [], "rectilinear")])
+# the reference arm's frame and still in make test, the others in make check-c
+@pytest.mark.parametrize("case, view, axes", [pytest.param("arm", ["--view", "20,-60"], "3d", marks=pytest.mark.long),
+                                              ("reference", [], "3d"),
+                                              pytest.param("planar", [], "rectilinear", marks=pytest.mark.long)])
 def test_no_text_of_a_frame_or_a_still_falls_outside_the_figure(case, view, axes, request, tmp_path, kept,
                                                                 monkeypatch):
     """Every text drawn (title, tick labels, axis labels, legend), measured by the renderer, lies

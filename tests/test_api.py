@@ -23,6 +23,8 @@ def _readme_block(marker):
     return next(block for block in blocks if marker in block)
 
 
+# make check-c: the reference arm at n_rfe 5 (the README's blocks run as pasted: test_docs.py)
+@pytest.mark.long
 def test_the_readme_example_of_the_python_api_runs(env, tmp_path, monkeypatch):
     """The README's one Python example, and what its comments say it prints."""
     monkeypatch.chdir(tmp_path)
@@ -122,6 +124,8 @@ def test_a_model_with_auto_dependent_coordinates_evaluates_out_of_the_box(env, t
     assert status == SolveStatus.OK and np.all(np.isfinite(q_run))
 
 
+# make check-c: every command once on one folder: about 10 s of CPU
+@pytest.mark.long
 def test_every_command_runs_on_a_folder_made_by_build_out(env, tmp_path, capsys):
     out = tmp_path / "built"
     assert main(["build", str(TIP_LAW), "--out", str(out)]) == 0

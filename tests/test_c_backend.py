@@ -277,6 +277,8 @@ def test_second_load_does_not_recompile(pairs):
     assert c.library.path == again.library.path and not again.compiled and again.compile_seconds > 0
 
 
+# make check-c: a model compiled twice (a stale build refused or rebuilt: test_reliability.py)
+@pytest.mark.long
 def test_stale_source_builds_a_new_library(source, fresh_cache):
     cache = fresh_cache
     first = ccompile.build_library(source, cache=cache)
@@ -311,6 +313,8 @@ def test_unloadable_library_is_rebuilt(source, fresh_cache):
     assert lib.n_dof() == 3
 
 
+# make check-c: two processes building and compiling at once (concurrent builds: test_reliability.py)
+@pytest.mark.long
 def test_concurrent_builds_are_safe(source, tmp_path):
     cache = tmp_path / "cache"
     code = ("import sys; from gpmegen.runtime import ccompile; "

@@ -122,6 +122,8 @@ def test_two_models_link_into_one_program(built, tmp_path, shared_cache):
         assert int(got_n) == n and float(got_m) == pytest.approx(m_last, rel=1e-12)
 
 
+# make check-c: a compile of its own
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_a_compiler_named_relative_to_the_callers_folder_still_compiles(built, tmp_path, fresh_cache, monkeypatch):
     """The compiler runs in a private folder holding the header: a relative $CC still names it."""

@@ -55,6 +55,9 @@ def test_a_model_file_is_read_once_per_command(command, tmp_path, parses, capsys
     assert len(parses) == 1
 
 
+# make check-c: two runs, one from the reference arm's locked statics, and a figure (the metadata of
+# results: test_trust_results.py)
+@pytest.mark.long
 def test_results_carry_the_cases_metadata_as_json(tmp_path):
     reference = _run(ReferenceCase(1), tmp_path, "locked")
     mine = _run(FileCase(str(EXAMPLE)), tmp_path, "none")

@@ -176,6 +176,8 @@ def flexible(env):
     return runs
 
 
+# make check-c: the flexible Delta built and compiled: about 11 s of CPU
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_flexible_delta_holds_its_constraints_and_its_energy_balance(flexible):
     for k, (run, _) in flexible.items():
@@ -188,6 +190,8 @@ def test_flexible_delta_holds_its_constraints_and_its_energy_balance(flexible):
         assert np.abs(energy.balance_residual(run.arrays)).max() < 1e-6 * exchanged
 
 
+# make check-c: the flexible Delta at three stiffnesses
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_flexible_delta_motor_torques_tend_to_the_rigid_ones(flexible, rigid):
     """On the same saved times, the largest difference between the flexible and the rigid Delta's

@@ -426,8 +426,8 @@ def untouched_checkout():
 
 
 # Pages whose blocks build and compile several models of their own, export FMUs or run studies
-# (10-40 s of CPU each): they run in make check-c, the other pages in make test.
-LONG_PAGES = ("tutorial.md", "integrators.md", "exports.md", "studies.md")
+# (5-40 s of CPU each): they run in make check-c, the README and the other pages in make test.
+LONG_PAGES = ("tutorial.md", "integrators.md", "exports.md", "studies.md", "model-file.md", "python-api.md", "runs.md")
 
 
 @pytest.mark.parametrize("page", [pytest.param(p, marks=[pytest.mark.long] if p.name in LONG_PAGES else [])

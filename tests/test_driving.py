@@ -195,6 +195,9 @@ def test_deformation_is_the_springs_and_the_flexible_displacement_of_E(flexible3
     assert np.max(np.abs(out["deflection"][:, 1])) > 1e-4  # m: the arm sags
 
 
+# make check-c: every figure of two runs drawn twice (the driving functions' figures of a run:
+# test_plots.py's every-figure tests)
+@pytest.mark.long
 def test_driving_figures_need_the_driving_functions(flexible3, ideal3, rigid_runs, tmp_path):
     """The figures of the driving functions are drawn from runs that hold them; a results file of
     format 2 written before they were saved still plots, without them. The force drawn on a

@@ -156,6 +156,8 @@ def test_example_builds_simulates_and_plots(name, tmp_path, generated, capsys):
     assert len(out.split()) == len(FIGURES)
 
 
+# make check-c: the six-joint arm built, run twice and compared: about 12 s of CPU
+@pytest.mark.long
 def test_automatic_partition_is_recorded_and_repartition_runs(tmp_path, generated, capsys):
     """The spatial arm's file names d4; with "auto" the column-pivoted QR of D at the start picks
     its own dependent coordinate, the run records it, and the motion is the same."""

@@ -179,6 +179,9 @@ def test_point_velocities_and_hub_torque_agree_with_positions_and_energy(env):
     assert np.max(np.abs(power[1:-1] - (energy[2:] - energy[:-2]) / (2 * dt))) < 1e-4 * np.max(np.abs(power))
 
 
+# make check-c: two levels run and extrapolated through the command line (the refusal before the
+# first level: test_outputs_not_comparable_across_discretizations_are_refused)
+@pytest.mark.long
 def test_simulate_extrapolate_writes_limits_errors_and_the_figure(env, tmp_path):
     out = tmp_path / "spin.npz"
     assert main(["simulate", str(SPINUP), "--nrfe", "3", "2", "--extrapolate", "--t-end", "0.05", "--dt", "1e-3",

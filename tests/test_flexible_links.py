@@ -232,7 +232,7 @@ def test_a_section_by_its_stiffnesses_needs_ea_to_stretch(tmp_path):
 
 # --- sections ------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)])
+@pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=[pytest.mark.requires_cc, pytest.mark.long])])
 def test_a_section_by_its_stiffnesses_equals_the_rectangle_bit_for_bit(env, tmp_path, backend):
     rectangle = load(env, tmp_path, f"by_size_{backend}", RECTANGLE, backend)
     stiffness = load(env, tmp_path, f"by_stiffness_{backend}", BY_STIFFNESS, backend)

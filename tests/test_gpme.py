@@ -91,7 +91,7 @@ def test_locked_start_is_not_an_equilibrium_once_freed(flexible):
     assert np.abs(_still(model).accelerations(0.0, q, 0 * q)).max() > 1.0
 
 
-@pytest.mark.parametrize("which", ["rigid", "flexible"])
+@pytest.mark.parametrize("which", ["rigid", pytest.param("flexible", marks=pytest.mark.long)])
 def test_short_study_holds_constraints_and_balances_power(which, request):
     model, q0 = reference_case.initial_state(request.getfixturevalue(which))
     # the flexible arm's stiff modes need a smaller RK4 step for the balance to close to 1e-6
@@ -177,6 +177,8 @@ def test_plot_refuses_foreign_file(tmp_path, capsys):
     assert "not a gpmegen results file" in capsys.readouterr().err
 
 
+# make check-c: the reference arm simulated and every figure drawn (an example end to end: test_examples.py)
+@pytest.mark.long
 def test_simulate_and_plot_end_to_end(tmp_path, capsys):
     out = tmp_path / "run_nrfe1.npz"
     assert main(["simulate", "--nrfe", "1", "--t-end", "0.2", "--dt", "1e-3", "--save-every", "10",

@@ -31,8 +31,9 @@ def _levels(backend, workers, told):
                       {"Omega": 6.0}, None, told.append, workers=workers)
 
 
+# the pool of processes (each imports gpmegen and loads the model): make check-c
 @pytest.mark.parametrize("backend, where", [pytest.param("c", "threads", marks=pytest.mark.requires_cc),
-                                            ("numpy", "processes")])
+                                            pytest.param("numpy", "processes", marks=pytest.mark.long)])
 def test_levels_at_once_are_the_levels_one_after_the_other(env, backend, where):
     told_serial, told = [], []
     serial, at_once = _levels(backend, 1, told_serial), _levels(backend, 2, told)

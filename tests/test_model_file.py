@@ -20,7 +20,7 @@ EXAMPLES = ROOT / "examples"
 OTHER_EXAMPLES = ["planar_two_link.toml", "spatial_six_joint.toml", "nonholonomic.toml"]
 
 
-@pytest.mark.parametrize("nrfe", [1, 5])
+@pytest.mark.parametrize("nrfe", [1, pytest.param(5, marks=pytest.mark.long)])
 def test_manipulator_file_is_the_reference_model(nrfe):
     model = load_model_file(EXAMPLES / "manipulator.toml", nrfe)
     reference = reference_model(nrfe)

@@ -557,7 +557,7 @@ ENERGY_SPAN = {1: 1.0, 2: 1.0}
 
 
 @needs_package
-@pytest.mark.parametrize("nrfe", (1, 2))
+@pytest.mark.parametrize("nrfe", (1, pytest.param(2, marks=pytest.mark.long)))
 def test_package_dynamics_conserve_oracle_energy(nrfe):
     """Drive off, no damping, no constraints: integrate q̈ = M⁻¹ f of the package and check that
     the oracle's kinetic + potential energy stays constant."""

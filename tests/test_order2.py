@@ -68,6 +68,9 @@ def _residuals(model, t, y):
     return np.array(out)
 
 
+# make check-c: two models derived and run (a constraint of the second order on an example:
+# test_tangential_example_follows_its_speed_law_on_the_circle)
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_position_constraint_and_its_second_derivative_give_the_same_motion(env):
     position, initial = _load(REACHING)

@@ -288,6 +288,8 @@ def test_laws_that_cannot_become_code_are_refused_in_one_line(law, error, messag
     assert message in str(info.value) and "\n" not in str(info.value)
 
 
+# make check-c: derivations in three processes (any model: test_codegen.py)
+@pytest.mark.long
 def test_piecewise_generation_is_deterministic_whatever_the_hash_seed(tmp_path):
     path = tmp_path / "hub.toml"
     path.write_text(FILE.replace('"theta1 - Piecewise', '"theta1 - Abs(t - T) - Max(t, 2*T) - Piecewise') + DRIVES)

@@ -45,6 +45,9 @@ def _drawn(fig):
     return {to_hex(line.get_color()) for ax in fig.axes for line in ax.get_lines()} - {"#000000", "#808080"}
 
 
+# make check-c: every figure of the pair drawn again (runs told apart:
+# test_runs_of_one_model_by_different_methods_get_labels_that_tell_them_apart)
+@pytest.mark.long
 def test_each_run_keeps_its_colour_and_line_style_in_every_figure(pair):
     """The flexible arm used to be orange in Figs. 2-3 and green in Fig. 4."""
     from matplotlib.colors import to_hex
@@ -213,6 +216,8 @@ def test_plot_refuses_results_of_different_models_before_writing_anything(pair, 
     assert not out.exists()
 
 
+# make check-c: every figure of two runs drawn through the command line: about 11 s of CPU
+@pytest.mark.long
 def test_results_of_one_model_with_any_number_of_rfes_share_figures(pair, tmp_path, capsys):
     folder, _ = pair
     out = tmp_path / "figures"
@@ -349,6 +354,9 @@ def test_no_text_of_any_figure_falls_outside_it(pair):
     assert {"joint_coordinates", "end_effector", "path", "constraint_violation", "energy_balance"} <= set(made)
 
 
+# make check-c: every figure of six runs drawn and measured (text inside the figure:
+# test_no_text_of_any_figure_falls_outside_it)
+@pytest.mark.long
 def test_long_legend_labels_stay_within_the_figure_whole(pair):
     """Runs told apart by their method, step, tolerance and two parameters have labels too long
     for three columns, or one: they ran off both sides of every figure. Their legend has fewer

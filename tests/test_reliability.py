@@ -48,8 +48,11 @@ def test_concurrent_builds_give_one_valid_result(tmp_path):
     assert gpmegen.load(nrfe=2, directory=tmp_path, build=False, backend="numpy").n_dof == 6
 
 
-# each waits for the run's first progress line (10 s of running): SIGTERM in make check-c
-@pytest.mark.parametrize("sig", [signal.SIGINT, pytest.param(signal.SIGTERM, marks=pytest.mark.long)])
+# each waits for the run's first progress line (10 s of running): make check-c (a signal that
+# stops a run and keeps its results, every method: test_interrupts.py; Ctrl-C in simulate:
+# test_command_line.py)
+@pytest.mark.long
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_interrupted_simulation_keeps_partial_results(tmp_path, sig, generated_elsewhere):
     out = tmp_path / "run.npz"
     env = dict(os.environ, GPMEGEN_GENERATED=str(generated_elsewhere))

@@ -90,6 +90,10 @@ def test_csv_and_parquet_hold_the_summary(reference):
     assert pq.read_table(folder / "summary.parquet").to_pydict() == summary.columns
 
 
+# make check-c: two sweeps of a pool of processes (each run as simulate makes it:
+# test_each_run_equals_simulate_bit_for_bit; a sweep's summary:
+# test_a_failing_run_is_recorded_and_the_sweep_goes_on)
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_local_pool_gives_the_same_summary(reference, tmp_path):
     summary = gpmegen.sweep(out=tmp_path / "pool", workers=2, **GRID)
@@ -97,6 +101,8 @@ def test_local_pool_gives_the_same_summary(reference, tmp_path):
     assert _same_numbers(summary.columns) == _same_numbers(reference[1].columns)
 
 
+# make check-c: a Dask cluster of worker processes (the local pool: test_local_pool_gives_the_same_summary)
+@pytest.mark.long
 @pytest.mark.requires_cc
 def test_local_dask_cluster_gives_the_same_summary(reference, tmp_path):
     from distributed import LocalCluster
@@ -177,6 +183,9 @@ def _died_as_asked(table, died):
     assert table["q_final.theta1"][1] is None and table["q_final.theta1"][2] is not None
 
 
+# make check-c: a Dask cluster of two worker processes (a failing run is recorded and the sweep goes
+# on: test_a_failing_run_is_recorded_and_the_sweep_goes_on)
+@pytest.mark.long
 def test_a_worker_that_dies_is_that_runs_outcome_and_the_sweep_goes_on(tmp_path):
     """A pool's process killed by SIGSEGV ended the sweep with "internal error: KeyError:
     'wall_s'" and no summary."""
@@ -236,6 +245,8 @@ def _gone(process) -> bool:
         return True
 
 
+# make check-c: eight runs of 0.1 s on the NumPy backend, three sweeps and their pools: about 20 s of CPU
+@pytest.mark.long
 def test_ctrl_c_stops_the_workers_at_once_and_the_resume_makes_only_the_missing_runs(tmp_path):
     """Ctrl-C said "k of N runs complete and kept" while the pool's processes went on: they wrote
     more runs after the command had ended, left .partial files, and the resume made those runs

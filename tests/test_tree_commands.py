@@ -166,6 +166,8 @@ def test_modes_finds_each_finger_bending(built, work):
     assert (work / "modes" / "modes_flexible_gripper_joints.png").stat().st_size > 1000
 
 
+# make check-c: a tree linearized through the command line (linearize: test_linearize.py)
+@pytest.mark.long
 def test_linearize_writes_the_tree_linear_model(built, work):
     out, _ = _run(["linearize", GRIPPER, "--out", work / "lin.npz"])
     assert "wrote" in out
@@ -174,6 +176,8 @@ def test_linearize_writes_the_tree_linear_model(built, work):
     assert A.shape[0] == A.shape[1] and np.all(np.isfinite(A))
 
 
+# make check-c: every figure of a tree run: about 7 s of CPU
+@pytest.mark.long
 def test_plot_draws_every_figure_of_a_tree_run(runs, work):
     runs("rk4")
     out, _ = _run(["plot", work / "rk4.npz", "--out", work / "figures"])
