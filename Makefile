@@ -33,8 +33,10 @@ test: venv
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,
 # and as compiled for use (tests/test_c_sanitizers.py); and the long tests (marked long): the
-# random-chain oracle, the convergence studies and the documentation's longer examples
-# (tests/test_docs.py). CI runs it after make test.
+# random-chain oracle, the convergence studies, the documentation's longer examples
+# (tests/test_docs.py) and every test of more than a few seconds of CPU whose behaviour a cheaper
+# test in make test also checks (the other parameters of the same test, or one a comment names).
+# CI runs it after make test.
 check-c: venv
 	$(TEST_ENV) $(BIN)/python -m pytest -q -n 2 -m "sanitizers or long"
 
