@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from four_bar_flexible import _KEPT, exudyn_solve, load  # noqa: E402
+from four_bar_flexible import _KEPT, comparison, exudyn_changes, exudyn_solve, load  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "examples" / "bauchau_four_bar.toml"
@@ -239,8 +239,6 @@ def main(argv=None) -> int:
     if len(nrfe) < 2 or any(n < 2 or n % 2 for n in nrfe) or any(e % 2 for e in [args.elements, *args.compare]):
         parser.error("--nrfe needs two or more even levels (an sde at each midpoint), --elements and --compare "
                      "even numbers (a node at each midpoint)")
-    from gpmegen.analysis import richardson
-
     print(f"load average {load()} on {os.cpu_count()} cores; {args.t_end:g} s from rest ({MODEL})")
     walls = {n: [] for n in nrfe} | {("exudyn", e): [] for e in args.compare}
     levels, compared, t = {}, {}, None
@@ -263,38 +261,11 @@ def main(argv=None) -> int:
     scale = {key: float(np.max(np.abs(fine[key]))) for key in QUANTITIES}
     print(f"Exudyn's finest run ({args.elements}/{2 * args.elements}/{args.elements} elements, step {args.step:g} s): "
           f"{fine_wall:.1f} s; peaks: " + ", ".join(f"{key} {scale[key]:.4e} {UNITS[key]}" for key in QUANTITIES))
-    for label, (elements, step) in (("half the elements", (args.elements // 2, args.step)),
-                                    ("half the step", (args.elements, args.step / 2))):
-        other, seconds = exudyn_run(elements, step, args.t_end, t, args.exudyn_atol)
-        change = "its solver gave up" if other is None else ", ".join(
-            f"{key} {np.max(np.abs(other[key] - fine[key])) / scale[key]:.2e}" for key in QUANTITIES)
-        print(f"  with {label} ({elements} elements, step {step:g} s): changes by {change} ({seconds:.1f} s)")
-    n_sde = np.array(nrfe) - 1
-    estimates = {key: richardson.richardson(n_sde, np.array([levels[n][key] for n in nrfe])) for key in QUANTITIES}
-    limit = {key: estimates[key].limit for key in QUANTITIES}
-    print("gpmegen's observed order: " + ", ".join(f"{key} {estimates[key].order:.2f}" for key in QUANTITIES))
-    print("\nerror: max over t of |value - reference| / the reference's peak; wall: best of the runs (all)")
-    print("| run | wall [s] | " + " | ".join(f"{key} vs Exudyn | vs gpmegen limit" for key in QUANTITIES) + " |")
-    print("|---|---|" + "---|---|" * len(QUANTITIES))
-
-    def row(label, values, seconds):
-        cells = []
-        for key in QUANTITIES:
-            cells += [f"{np.max(np.abs(values[key] - fine[key])) / scale[key]:.2e}",
-                      f"{np.max(np.abs(values[key] - limit[key])) / scale[key]:.2e}"]
-        wall = "" if not seconds else f"**{min(seconds):.2f}** ({', '.join(f'{s:.2f}' for s in seconds)})"
-        print(f"| {label} | {wall} | " + " | ".join(cells) + " |")
-
-    for n in nrfe:
-        row(f"gpmegen n_rfe {n} (Radau rtol {args.rtol:g})", levels[n], walls[n])
-    row(f"gpmegen limit (n_rfe {' '.join(map(str, nrfe))})", limit, [sum(w) for w in zip(*(walls[n] for n in nrfe))])
-    for elements in args.compare:
-        if compared[elements] is None:
-            print(f"| Exudyn {elements} elements | its solver gave up |" + " |" * (2 * len(QUANTITIES)))
-        else:
-            row(f"Exudyn {elements} elements (step {args.compare_step:g} s)", compared[elements],
-                walls[("exudyn", elements)])
-    row(f"Exudyn {args.elements} elements (step {args.step:g} s)", fine, [fine_wall])
+    exudyn_changes(lambda elements, step: exudyn_run(elements, step, args.t_end, t, args.exudyn_atol), args, fine,
+                   scale, QUANTITIES)
+    limit = comparison(QUANTITIES, nrfe, levels, walls, compared, fine, fine_wall, scale, args,
+                       "\nerror: max over t of |value - reference| / the reference's peak; wall: best of the runs "
+                       "(all)")
     print(f"load average {load()}")
     print(f"\nfigure: {figure(t, limit, fine, [levels[n] for n in nrfe], nrfe, args.figure)}")
     return 0

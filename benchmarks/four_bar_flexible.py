@@ -252,6 +252,55 @@ def load() -> str:
     return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
+def exudyn_changes(run, args, fine, scale, quantities) -> None:
+    """Print how much Exudyn's finest run ``fine`` changes with half its elements and with half its
+    step (``run(elements, step)``: (values or None, wall s)), relative to ``scale`` (each
+    quantity's peak)."""
+    for label, (elements, step) in (("half the elements", (args.elements // 2, args.step)),
+                                    ("half the step", (args.elements, args.step / 2))):
+        other, seconds = run(elements, step)
+        change = "its solver gave up" if other is None else ", ".join(
+            f"{key} {np.max(np.abs(other[key] - fine[key])) / scale[key]:.2e}" for key in quantities)
+        print(f"  with {label} ({elements} elements, step {step:g} s): changes by {change} ({seconds:.1f} s)")
+
+
+def comparison(quantities, nrfe, levels, walls, compared, fine, fine_wall, scale, args, legend) -> dict:
+    """Extrapolate gpmegen's ``levels`` (n_rfe → quantity → values) and print RFEM's observed
+    order, the ``legend`` line and the table of every run's error against Exudyn's finest run ``fine`` and against
+    gpmegen's limit, relative to ``scale``, with its wall times (``walls``: n_rfe or ("exudyn",
+    elements) → seconds of each repeat; ``compared``: elements → values, None where Exudyn gave
+    up). Returns the limit (quantity → values)."""
+    from gpmegen.analysis import richardson
+
+    n_sde = np.array(nrfe) - 1
+    estimates = {key: richardson.richardson(n_sde, np.array([levels[n][key] for n in nrfe])) for key in quantities}
+    limit = {key: estimates[key].limit for key in quantities}
+    print("gpmegen's observed order: " + ", ".join(f"{key} {estimates[key].order:.2f}" for key in quantities))
+    print(legend)
+    print("| run | wall [s] | " + " | ".join(f"{key} vs Exudyn | vs gpmegen limit" for key in quantities) + " |")
+    print("|---|---|" + "---|---|" * len(quantities))
+
+    def row(label, values, seconds):
+        cells = []
+        for key in quantities:
+            cells += [f"{np.max(np.abs(values[key] - fine[key])) / scale[key]:.2e}",
+                      f"{np.max(np.abs(values[key] - limit[key])) / scale[key]:.2e}"]
+        wall = "" if not seconds else f"**{min(seconds):.2f}** ({', '.join(f'{s:.2f}' for s in seconds)})"
+        print(f"| {label} | {wall} | " + " | ".join(cells) + " |")
+
+    for n in nrfe:
+        row(f"gpmegen n_rfe {n} (Radau rtol {args.rtol:g})", levels[n], walls[n])
+    row(f"gpmegen limit (n_rfe {' '.join(map(str, nrfe))})", limit, [sum(w) for w in zip(*(walls[n] for n in nrfe))])
+    for elements in args.compare:
+        if compared[elements] is None:
+            print(f"| Exudyn {elements} elements | its solver gave up |" + " |" * (2 * len(quantities)))
+        else:
+            row(f"Exudyn {elements} elements (step {args.compare_step:g} s)", compared[elements],
+                walls[("exudyn", elements)])
+    row(f"Exudyn {args.elements} elements (step {args.step:g} s)", fine, [fine_wall])
+    return limit
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nrfe", type=int, nargs="+", default=[4, 8, 16], help="gpmegen's levels (even)")
@@ -275,8 +324,6 @@ def main(argv=None) -> int:
     if len(nrfe) < 2 or any(n < 2 or n % 2 for n in nrfe) or any(e % 2 for e in [args.elements, *args.compare]):
         parser.error("--nrfe needs two or more even levels (an sde at the midpoint), --elements and --compare "
                      "even numbers (a node at the midpoint)")
-    from gpmegen.analysis import richardson
-
     model = MODEL if args.inextensible else axial_variant(ROOT / "results")
     print(f"load average {load()} on {os.cpu_count()} cores; crank rate {args.rate:g} rad/s, {args.t_end:g} s; "
           f"gpmegen's coupler {'bends only' if args.inextensible else 'bends and stretches'} ({model})")
@@ -303,40 +350,11 @@ def main(argv=None) -> int:
     print(f"Exudyn's finest run ({args.elements} elements, step {args.step:g} s): {fine_wall:.1f} s; "
           f"peaks: rocker swing {scale['rocker angle']:.4f} rad, "
           f"midpoint deflection {scale['midpoint deflection']:.3e} m")
-    for label, (elements, step) in (("half the elements", (args.elements // 2, args.step)),
-                                    ("half the step", (args.elements, args.step / 2))):
-        other, seconds = exudyn_run(elements, step, args.rate, args.t_end, start, t, args.exudyn_atol)
-        change = "its solver gave up" if other is None else ", ".join(
-            f"{key} {np.max(np.abs(other[key] - fine[key])) / scale[key]:.2e}" for key in QUANTITIES)
-        print(f"  with {label} ({elements} elements, step {step:g} s): changes by {change} ({seconds:.1f} s)")
-    n_sde = np.array(nrfe) - 1
-    estimates = {key: richardson.richardson(n_sde, np.array([levels[n][key] for n in nrfe])) for key in QUANTITIES}
-    limit = {key: estimates[key].limit for key in QUANTITIES}
-    print("gpmegen's observed order: " + ", ".join(f"{key} {estimates[key].order:.2f}" for key in QUANTITIES))
-    print("\nerror: max over t of |value - reference| / the reference's peak (the rocker's swing, the deflection's "
-          "peak); wall: best of the runs (all)")
-    print("| run | wall [s] | rocker angle vs Exudyn | vs gpmegen limit | midpoint deflection vs Exudyn | "
-          "vs gpmegen limit |")
-    print("|---|---|---|---|---|---|")
-
-    def row(label, values, seconds):
-        cells = []
-        for key in QUANTITIES:
-            cells += [f"{np.max(np.abs(values[key] - fine[key])) / scale[key]:.2e}",
-                      f"{np.max(np.abs(values[key] - limit[key])) / scale[key]:.2e}"]
-        wall = "" if not seconds else f"**{min(seconds):.2f}** ({', '.join(f'{s:.2f}' for s in seconds)})"
-        print(f"| {label} | {wall} | " + " | ".join(cells) + " |")
-
-    for n in nrfe:
-        row(f"gpmegen n_rfe {n} (Radau rtol {args.rtol:g})", levels[n], walls[n])
-    row(f"gpmegen limit (n_rfe {' '.join(map(str, nrfe))})", limit, [sum(w) for w in zip(*(walls[n] for n in nrfe))])
-    for elements in args.compare:
-        if compared[elements] is None:
-            print(f"| Exudyn {elements} elements | its solver gave up | | | | |")
-        else:
-            row(f"Exudyn {elements} elements (step {args.compare_step:g} s)", compared[elements],
-                walls[("exudyn", elements)])
-    row(f"Exudyn {args.elements} elements (step {args.step:g} s)", fine, [fine_wall])
+    exudyn_changes(lambda elements, step: exudyn_run(elements, step, args.rate, args.t_end, start, t,
+                                                     args.exudyn_atol), args, fine, scale, QUANTITIES)
+    limit = comparison(QUANTITIES, nrfe, levels, walls, compared, fine, fine_wall, scale, args,
+                       "\nerror: max over t of |value - reference| / the reference's peak (the rocker's swing, the "
+                       "deflection's peak); wall: best of the runs (all)")
     print(f"load average {load()}")
     print(f"\nfigure: {figure(t, limit, fine, [levels[n] for n in nrfe], nrfe, args.figure)}")
     return 0

@@ -23,7 +23,7 @@ from pathlib import Path
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .analysis.runs import Results
 from .analysis.runspec import NAMES as RUN_OPTIONS
-from .analysis.runspec import RunSpec
+from .analysis.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
 from .codegen.render import build as build_model
 from .codegen.render import input_hash
@@ -253,12 +253,8 @@ def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=No
     saying why."""
     from .analysis import runs
 
-    unknown = [name for name in options if name not in _SIMULATE and name not in RUN_OPTIONS]
-    if unknown:
-        raise TypeError(f"simulate() got an unknown option {', '.join(map(repr, unknown))}; its options are "
-                        f"{', '.join((*RUN_OPTIONS, *_SIMULATE))}")
-    spec = RunSpec.of(spec, **{name: value for name, value in options.items() if name in RUN_OPTIONS})
-    chosen = _options({name: value for name, value in options.items() if name in _SIMULATE}, _SIMULATE, "simulate")
+    spec, chosen = split_options(spec, options, _SIMULATE, lambda names: (
+        f"simulate() got an unknown option {names}; its options are {', '.join((*RUN_OPTIONS, *_SIMULATE))}"))
     progress = chosen["progress"]
     backend = _backend(backend, progress)
     case, start = _started(model, chosen["nrfe"], spec.start, chosen["directory"])

@@ -169,3 +169,15 @@ class RunSpec:
 
 #: The fields of a :class:`RunSpec`, in order.
 NAMES = tuple(f.name for f in fields(RunSpec) if f.name != "defaulted")
+
+
+def split_options(spec: RunSpec | None, options: dict, others: dict, refusal) -> tuple[RunSpec, dict]:
+    """A function's keyword ``options`` parted: the run's fields over ``spec`` (:meth:`RunSpec.of`)
+    and its own ``others`` (name -> default) with those given over their defaults. A name that is
+    neither is refused with ``refusal(names)`` (the unknown names quoted, comma-separated), the
+    function's one line."""
+    unknown = [name for name in options if name not in NAMES and name not in others]
+    if unknown:
+        raise TypeError(refusal(", ".join(map(repr, unknown))))
+    run = RunSpec.of(spec, **{name: value for name, value in options.items() if name in NAMES})
+    return run, {**others, **{name: value for name, value in options.items() if name in others}}

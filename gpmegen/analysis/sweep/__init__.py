@@ -93,19 +93,15 @@ def sweep(out, params: dict, spec=None, *, model_file=None, nrfe=None, **options
     a Dask cluster to run on instead. ``progress`` takes one-line messages. Returns the
     :class:`Summary`; raises :class:`SweepFailures` (after writing the summary) when some runs did
     not complete."""
-    from ..runspec import NAMES, RunSpec
+    from ..runspec import NAMES, RunSpec, split_options
 
-    unknown = [name for name in options if name not in OPTIONS and name not in NAMES]
-    if unknown:
-        raise TypeError(f"unknown sweep option {', '.join(map(repr, unknown))}; a sweep's options are "
-                        f"{', '.join((*RUN_FIELDS, *OPTIONS))}")
-    spec = RunSpec.of(spec, **{name: value for name, value in options.items() if name in NAMES})
+    spec, chosen = split_options(spec, options, OPTIONS, lambda names: (
+        f"unknown sweep option {names}; a sweep's options are {', '.join((*RUN_FIELDS, *OPTIONS))}"))
     default = RunSpec.of(None, t_end=spec.t_end, dt=spec.dt, method=spec.method)
     others = [name for name in NAMES if name not in RUN_FIELDS and getattr(spec, name) != getattr(default, name)]
     if others:
         raise SweepError(f"{', '.join(others)}: not taken by a sweep's runs, which take {', '.join(RUN_FIELDS)}; "
                          f"leave {'them' if len(others) > 1 else 'it'} out")
-    chosen = {**OPTIONS, **{name: value for name, value in options.items() if name in OPTIONS}}
     backend, samples, seed, sampling = chosen["backend"], chosen["samples"], chosen["seed"], chosen["sampling"]
     workers, scheduler, progress = chosen["workers"], chosen["scheduler"], chosen["progress"]
     t_end, dt, save_every, method = spec.t_end, spec.dt, spec.save_every, spec.method
