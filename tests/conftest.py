@@ -7,10 +7,11 @@
   takes them from there, its progress lines said again. Each build still writes its own folder,
   so a test may change or break its build without another seeing it. Only builds are served
   so: a test that calls ``gpmegen.codegen.render`` itself, or a child process, derives afresh.
-- One C cache for the whole run (:func:`shared_cache`), shared by the workers: a model compiled
-  (and checked in a child process) by one module is reused by every other. A test that must
-  see a compile happen gives ``GPMEGEN_CACHE`` (or ``cache=``) a folder of its own:
-  :func:`fresh_cache`, which already holds the solver library, unless the test is about that.
+- One C cache for the whole run (:func:`shared_cache`, the run's ``GPMEGEN_CACHE``), shared by
+  the workers and the commands they start: a model compiled (and checked in a child process) by
+  one module is reused by every other. A test that must see a compile happen gives
+  ``GPMEGEN_CACHE`` (or ``cache=``) a folder of its own: :func:`fresh_cache`, which already
+  holds the solver library, unless the test is about that.
 - ``env`` (per module): a private generated folder and the shared C cache, set in the
   environment; ``rigid``/``flexible``: the reference arm at n_rfe 1 and 5 (NumPy backend), loaded
   once per worker from the committed snapshots (``generated_elsewhere``).
@@ -82,13 +83,22 @@ def shared_folder(tmp_path_factory, name):
     return folder
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="session", autouse=True)
 def shared_cache(tmp_path_factory):
     """One C cache for the whole run, both workers: a model compiled by one module is reused by
     every other (the cache is keyed by the hash of the source, compiler and flags, so what one
     compiles is what another would, and a library is written by rename, so a worker never sees
-    half of one)."""
-    return shared_folder(tmp_path_factory, "c-cache")
+    half of one). It is the environment's ``GPMEGEN_CACHE`` for the whole run, so that a test
+    and the commands it starts never compile into the user's own cache (``~/.cache``), where
+    nothing of this run would find it again."""
+    folder = shared_folder(tmp_path_factory, "c-cache")
+    previous = os.environ.get("GPMEGEN_CACHE")
+    os.environ["GPMEGEN_CACHE"] = str(folder)
+    yield folder
+    if previous is None:
+        os.environ.pop("GPMEGEN_CACHE", None)
+    else:
+        os.environ["GPMEGEN_CACHE"] = previous
 
 
 @pytest.fixture
