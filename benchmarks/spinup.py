@@ -13,7 +13,10 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 - reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
   generalized-α) at high resolution, clamped to a rigid hub whose angle is prescribed;
 - Exudyn as its users would tune it (EXUDYN_RHO_INF, EXUDYN_RTOL, EXUDYN_ATOL, sparse solver) at
-  --compare elements and --compare-step, timed against gpmegen;
+  each of --compare elements and each --compare-step, timed against gpmegen at each of its --dt;
+  the last lines name, per Ωs, each engine's fastest run within --tolerance of the reference and
+  the ratio of the two (so that the peer is compared at the best of the settings tried, not at
+  one chosen beforehand);
 - the conventional linear modal model (clamped-free modes in the hub frame, no geometric
   stiffening), which loses stability once the hub turns faster than the first bending frequency.
 
@@ -319,7 +322,8 @@ def main(argv=None) -> int:
                         help="the error asked of gpmegen's limit (n^-2 and n^-4), estimated, relative to its peak")
     parser.add_argument("--model", choices=tuple(MODELS), default="axial",
                         help="gpmegen's beam: stretching and bending like the reference (default), or bending only")
-    parser.add_argument("--dt", type=float, default=1e-3, help="gpmegen's step (s); RK4 needs 1e-4 (axial modes)")
+    parser.add_argument("--dt", type=float, nargs="+", default=[1e-3, 2e-3],
+                        help="gpmegen's steps (s), each run in turn; RK4 needs 1e-4 (axial modes)")
     parser.add_argument("--method", choices=("rk4", "genalpha"), default="genalpha",
                         help="gpmegen's integrator: generalized-α, whose step the first bending mode alone bounds "
                              "(1e-3 s), or RK4 (its step bound by the axial modes' stability)")
@@ -327,9 +331,9 @@ def main(argv=None) -> int:
     parser.add_argument("--step", type=float, default=5e-4, help="the reference's step (s)")
     parser.add_argument("--no-reference-check", action="store_true",
                         help="skip the reference's runs with half its elements and half its step")
-    parser.add_argument("--compare", type=int, nargs="*", default=[4, 8, 16],
-                        help="Exudyn runs timed against gpmegen (elements, at --compare-step)")
-    parser.add_argument("--compare-step", type=float, default=1e-3, help="their step (s)")
+    parser.add_argument("--compare", type=int, nargs="*", default=[8, 12, 16],
+                        help="Exudyn runs timed against gpmegen (elements, at each --compare-step)")
+    parser.add_argument("--compare-step", type=float, nargs="+", default=[1e-3, 2e-3], help="their steps (s)")
     parser.add_argument("--modified-newton", action="store_true",
                         help="also time the compared Exudyn runs with its modified Newton")
     parser.add_argument("--repeat", type=int, default=3,
@@ -338,32 +342,36 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.repeat < 1:
         parser.error(f"--repeat must be at least 1, got {args.repeat}")
+    for dt in args.dt:  # every run is compared at the same instants
+        if abs(SAVED / dt - round(SAVED / dt)) > 1e-9:
+            parser.error(f"--dt {dt:g}: the runs are compared every {SAVED:g} s, so each step must divide it")
 
     from gpmegen.analysis.levels import pool_size
 
     model_file, processes = MODELS[args.model], pool_size(len(set(args.nrfe)))
     print(f"load average {load()} on {os.cpu_count()} cores")
-    build = gpmegen_build(model_file, args.nrfe + args.refine, args.dt)
+    build = gpmegen_build(model_file, args.nrfe + args.refine, args.dt[0])
     print(f"gpmegen: n_rfe {' '.join(map(str, args.nrfe + args.refine))} built, compiled and loaded in {build:.1f} s "
           f"wall (from the cache when it holds them)")
     pools = sorted({processes, 1}, reverse=True)  # the levels at once, and one after the other
-    compared = [(elements, modified) for elements in args.compare
+    compared = [(elements, step, modified) for elements in args.compare for step in args.compare_step
                 for modified in ((False, True) if args.modified_newton else (False,))]
-    cases, table = {}, []
+    cases, table, best_of = {}, [], []
     for omega in args.omega:
-        first, walls, exudyn_walls, loads = None, {w: [] for w in pools}, {key: [] for key in compared}, []
+        # per gpmegen step: its first run (the tip, the efforts) and, per pool, each repeat's times
+        first, walls = {}, {(dt, w): [] for dt in args.dt for w in pools}
+        exudyn_walls, loads = {key: [] for key in compared}, []
         for _ in range(args.repeat):  # alternately, so that both see the same load
             loads.append(os.getloadavg()[0])
-            for workers in pools:
-                got = gpmegen_runs(model_file, omega, args.nrfe, args.dt, args.method, workers, args.refine,
-                                   args.tolerance, loops=first is None)
-                walls[workers].append((got[3], got[2], got[4]))
-                first = first or got
+            for dt, workers in walls:
+                got = gpmegen_runs(model_file, omega, args.nrfe, dt, args.method, workers, args.refine,
+                                   args.tolerance, loops=dt not in first)
+                walls[dt, workers].append((got[3], got[2], got[4]))
+                first.setdefault(dt, got)
+            t = first[args.dt[0]][0]
             for key in compared:
-                values, seconds = exudyn_run(omega, key[0], args.compare_step, got[0], modified=key[1])
+                values, seconds = exudyn_run(omega, key[0], key[1], t, modified=key[2])
                 exudyn_walls[key].append((seconds, values))
-        t, tip = first[:2]
-        used = tip["nrfe"]
         reference, seconds_reference = exudyn_run(omega, args.elements, args.step, t)
         if reference is None:
             print(f"\nΩs = {omega:g} rad/s: the reference's solver gave up; try another --step or --elements")
@@ -379,42 +387,60 @@ def main(argv=None) -> int:
                 change = "its solver gave up" if other is None else f"{np.max(np.abs(other - reference)) / scale:.2e}"
                 print(f"  reference with {label} ({elements} elements, step {step:g} s): changes by {change} "
                       f"({seconds_other:.1f} s)")
-        for workers, runs in walls.items():
-            best = min(runs, key=lambda w: w[0])
-            print(f"  gpmegen's levels n_rfe {' '.join(map(str, used))} ({args.method}, dt {args.dt:g} s) "
-                  f"{workers} at once, the fastest of {args.repeat}: wall {best[0]:.2f} s (runs and extrapolations), "
-                  f"its levels' runs {sum(best[1]):.2f} s in all (longest {max(best[1]):.2f} s)")
-            # the counts are those of every repeat; the compiled loops were timed after the first run
-            for line in effort_rows(used, first[4], best[1]):
-                print(line)
-        for n, values, estimated in zip(used, tip["levels"], tip["errors"]):
-            table.append((omega, f"gpmegen n_rfe {n}", None, np.max(np.abs(values - reference)) / scale,
-                          np.max(np.abs(estimated)) / scale))
-        limits = [("gpmegen limit, term n^-2", tip)] + ([("gpmegen limit, n^-2 and n^-4", tip["even"])]
-                                                        if "even" in tip else [])
-        for (label, data), workers in ((limit, workers) for limit in limits for workers in pools):
-            table.append((omega, f"{label}, n_rfe {' '.join(map(str, used))}, {workers} at once",
-                          [w[0] for w in walls[workers]],
-                          np.max(np.abs(data["limit"] - reference)) / scale,
-                          np.max(np.abs(data["limit_error"])) / scale))
-        for (elements, modified), runs in exudyn_walls.items():
+        within = []  # (best wall, label) of every run whose error is within the tolerance
+        for dt in args.dt:
+            tip = first[dt][1]
+            used = tip["nrfe"]
+            for workers in pools:
+                best = min(walls[dt, workers], key=lambda w: w[0])
+                print(f"  gpmegen's levels n_rfe {' '.join(map(str, used))} ({args.method}, dt {dt:g} s) "
+                      f"{workers} at once, the fastest of {args.repeat}: wall {best[0]:.2f} s (runs and "
+                      f"extrapolations), its levels' runs {sum(best[1]):.2f} s in all (longest {max(best[1]):.2f} s)")
+                # the counts are those of every repeat; the compiled loops were timed after the first run
+                for line in effort_rows(used, first[dt][4], best[1]):
+                    print(line)
+            for n, values, estimated in zip(used, tip["levels"], tip["errors"]):
+                table.append((omega, f"gpmegen n_rfe {n}, dt {dt:g} s", None,
+                              np.max(np.abs(values - reference)) / scale, np.max(np.abs(estimated)) / scale))
+            limits = [("gpmegen limit, term n^-2", tip)] + ([("gpmegen limit, n^-2 and n^-4", tip["even"])]
+                                                            if "even" in tip else [])
+            for (label, data), workers in ((limit, workers) for limit in limits for workers in pools):
+                row = (omega, f"{label}, n_rfe {' '.join(map(str, used))}, dt {dt:g} s, {workers} at once",
+                       [w[0] for w in walls[dt, workers]], np.max(np.abs(data["limit"] - reference)) / scale,
+                       np.max(np.abs(data["limit_error"])) / scale)
+                table.append(row)
+                if row[3] <= args.tolerance:
+                    within.append((min(row[2]), row[1], workers))
+            print(f"  observed order (dt {dt:g} s) {tip['order']:.2f}")
+        for (elements, step, modified), runs in exudyn_walls.items():
             values = runs[0][1]
             error = np.nan if values is None else np.max(np.abs(values - reference)) / scale
-            label = f"Exudyn {elements} elements{', modified Newton' if modified else ''}"
+            label = f"Exudyn {elements} elements, step {step:g} s{', modified Newton' if modified else ''}"
             table.append((omega, label, [r[0] for r in runs], error, None))
-        print(f"  observed order {tip['order']:.2f}")
+            if error <= args.tolerance:
+                within.append((min(r[0] for r in runs), label, None))
+        best_of.append((omega, within))
+        tip = first[args.dt[0]][1]
         linear = modal_run(omega, t)
         print(f"  linear modal model: peak |tip| {np.nanmax(np.abs(linear)):.3g} m")
-        cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": used}
+        cases[omega] = {"t": t, "tip": tip, "reference": reference, "linear": linear, "nrfe": tip["nrfe"]}
     print(f"\nerror: max over t of |tip deflection - reference| / the reference's peak; reference: Exudyn "
-          f"{args.elements} ANCF elements, step {args.step:g} s; gpmegen {args.method} dt {args.dt:g} s; Exudyn "
-          f"step {args.compare_step:g} s, ρ∞ {EXUDYN_RHO_INF:g}, Newton rtol {EXUDYN_RTOL:g} atol {EXUDYN_ATOL:g}, "
+          f"{args.elements} ANCF elements, step {args.step:g} s; gpmegen {args.method}; Exudyn "
+          f"ρ∞ {EXUDYN_RHO_INF:g}, Newton rtol {EXUDYN_RTOL:g} atol {EXUDYN_ATOL:g}, "
           f"EigenSparse; wall: best of {args.repeat} (all)")
     print("| Ωs [rad/s] | run | wall [s] | error | estimated error |")
     print("|---|---|---|---|---|")
     for omega, label, seconds, error, estimated in table:
         wall = "" if seconds is None else f"**{min(seconds):.2f}** ({', '.join(f'{s:.2f}' for s in seconds)})"
         print(f"| {omega:g} | {label} | {wall} | {error:.2e} | {'' if estimated is None else f'{estimated:.2e}'} |")
+    print(f"\nthe fastest run within {args.tolerance:g} of the reference, per engine (gpmegen per number of threads)")
+    for omega, within in best_of:
+        peer = min((w for w in within if w[2] is None), default=None)
+        for workers in pools:
+            ours = min((w for w in within if w[2] == workers), default=None)
+            ratio = f"{ours[0] / peer[0]:.2f}" if ours and peer else "-"
+            print(f"  Ωs = {omega:g}: gpmegen, {workers} at once: {ours[1] + f' {ours[0]:.2f} s' if ours else 'none'}; "
+                  f"Exudyn: {peer[1] + f' {peer[0]:.2f} s' if peer else 'none'}; gpmegen / Exudyn {ratio}")
     print(f"load average {load()}")
     if cases:
         print(f"\nfigure: {figure(cases, args.figure)}")
