@@ -92,13 +92,9 @@ def shared_cache(tmp_path_factory):
     and the commands it starts never compile into the user's own cache (``~/.cache``), where
     nothing of this run would find it again."""
     folder = shared_folder(tmp_path_factory, "c-cache")
-    previous = os.environ.get("GPMEGEN_CACHE")
-    os.environ["GPMEGEN_CACHE"] = str(folder)
-    yield folder
-    if previous is None:
-        os.environ.pop("GPMEGEN_CACHE", None)
-    else:
-        os.environ["GPMEGEN_CACHE"] = previous
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("GPMEGEN_CACHE", str(folder))
+        yield folder
 
 
 @pytest.fixture
@@ -208,7 +204,6 @@ def rng():
 def generated_elsewhere(tmp_path_factory):
     """Tests build models into a temporary folder, never into the repository's ``generated/``
     (which holds only the committed snapshots); the snapshots are copied there to start from."""
-    import os
     import shutil
     from pathlib import Path
 
@@ -216,13 +211,9 @@ def generated_elsewhere(tmp_path_factory):
     repo = Path(__file__).resolve().parents[1] / "generated"
     for snapshot in sorted(repo.glob("manipulator_nrfe*")):
         shutil.copytree(snapshot, folder / snapshot.name)
-    previous = os.environ.get("GPMEGEN_GENERATED")
-    os.environ["GPMEGEN_GENERATED"] = str(folder)
-    yield folder
-    if previous is None:
-        os.environ.pop("GPMEGEN_GENERATED", None)
-    else:
-        os.environ["GPMEGEN_GENERATED"] = previous
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("GPMEGEN_GENERATED", str(folder))
+        yield folder
 
 
 def stacked_gpme(model, t, q, qd):
