@@ -170,3 +170,26 @@ def test_a_faulty_motor_or_limit_is_refused_in_one_line(tmp_path, capsys, change
     err = capsys.readouterr().err
     assert "faulty.toml:" in err and f": {field}: " in err and message in err, err
     assert err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+@pytest.mark.requires_cc
+def test_the_geared_arm_example_simulates_within_its_limits(env, tmp_path, capsys):
+    out = tmp_path / "arm.npz"
+    assert main(["simulate", str(ARM), "--t-end", "1", "--backend", "c", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    run = gpmegen.Results.load(out)
+    assert run.status == "complete" and run.coordinates == ("theta1", "theta2", "theta2_motor")
+    limits = {"theta1": 40.0, "theta2_motor": 15.0}
+    for k, name in enumerate(run["limited_drives"]):
+        column = run.coordinates.index(name)
+        assert np.abs(run["drive_forces"][:, column]).max() <= limits[name]
+        assert 0 < run["time_at_limit"][k] < 1.0
+        assert f"drive on {name}: at its limit for {run['time_at_limit'][k]:.6g} s of 1 s" in err
+    swing = np.ptp(run["kinetic_energy"])
+    assert np.abs(energy.balance_residual(run.arrays)).max() < 1e-6 * swing
+
+
+def test_a_model_with_motors_is_no_urdf(tmp_path, capsys):
+    assert main(["export", str(ARM), "--format", "urdf", "--out", str(tmp_path / "arm.urdf")]) == 2
+    err = capsys.readouterr().err
+    assert "the motors of theta1, theta2 have no URDF form" in err and err.count("\n") == 1
