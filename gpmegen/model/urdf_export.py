@@ -38,7 +38,8 @@ def urdf_text(model: Model) -> str:
     geared = [e.name for e in model.chain if isinstance(e, Joint) and e.motor is not None]
     if geared:
         raise ModelError(f"model {model.name}: the motors of {', '.join(geared)} have no URDF form (a rotor's "
-                         f"inertia behind a gear); export it as CasADi or an FMU, which hold them, or remove the motors")
+                         f"inertia behind a gear); export it as CasADi or an FMU, which hold them, or remove "
+                         f"the motors")
     robot = ET.Element("robot", {"name": model.name})
     links = [_Link(f"{model.name}_base")]
     joints = []   # (parent link, child link, joint, its origin in the parent link's frame)
