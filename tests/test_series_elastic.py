@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from refusals import refused_in_one_line
 
 import gpmegen
 from gpmegen.analysis import linear
-from gpmegen.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_MASS = ROOT / "tests" / "models" / "series_elastic.toml"
@@ -121,11 +121,4 @@ def test_the_c_recursion_moves_the_motor_as_numpy_does(env):
      "names; rename that joint"),
 ])
 def test_a_faulty_series_elastic_joint_is_refused_in_one_line(tmp_path, capsys, change, field, message):
-    path = tmp_path / "faulty.toml"
-    text = TWO_MASS.read_text()
-    assert change[0] in text
-    path.write_text(text.replace(*change))
-    assert main(["build", str(path), "--out", str(tmp_path / "out")]) == 2
-    err = capsys.readouterr().err
-    assert "faulty.toml:" in err and f": {field}: " in err and message in err, err
-    assert err.count("\n") == 1 and not (tmp_path / "out").exists()
+    refused_in_one_line(tmp_path / "faulty.toml", TWO_MASS.read_text(), change, field, message, capsys)
