@@ -168,3 +168,15 @@ def test_a_model_with_motors_is_no_urdf(tmp_path, capsys):
     assert main(["export", str(ARM), "--format", "urdf", "--out", str(tmp_path / "arm.urdf")]) == 2
     err = capsys.readouterr().err
     assert "the motors of theta1, theta2 have no URDF form" in err and err.count("\n") == 1
+
+
+def test_the_generated_jacobians_of_a_geared_arm_with_a_clipped_law(env):
+    # against central differences, at a state where the elbow motor's law (150 (0.8 - 0.1) - 10 · 0.5
+    # = 100 N m) is clipped at 15 N m: the clip's derivative is zero there, the shoulder's law's not
+    model = gpmegen.load(model=gpmegen.load_model_file(ARM), backend="numpy", jacobians=True)
+    q, qd, h = np.array([0.3, -0.5, 0.1]), np.array([1.0, -2.0, 0.5]), 1e-6
+    A_q, A_qd = model.acceleration_jacobians(0.0, q, qd)
+    for exact, shift in ((A_q, lambda e: (q + h * e, qd)), (A_qd, lambda e: (q, qd + h * e))):
+        differenced = np.array([(model.accelerations(0.0, *shift(e)) - model.accelerations(0.0, *shift(-e))) / (2 * h)
+                                for e in np.eye(3)]).T
+        np.testing.assert_allclose(exact, differenced, rtol=0, atol=1e-7 * np.abs(exact).max())
