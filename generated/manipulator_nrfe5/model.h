@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: a8f381e8087e9f9f
+Input hash: 47507c41eea4ae54
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

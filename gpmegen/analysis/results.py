@@ -16,7 +16,10 @@ closed loops adds each closure's reaction, ``closure_<name>_force`` and ``closur
 (k, 3) in {0}, described by ``meta["closures"]``. A model with force elements between points adds
 ``force_names`` (f,) and ``force_elements`` (k, f, 3): each element's length L (m), its rate
 (m/s) and its force (N, positive pushing its two points apart), also in the CSV as
-``L_<name> [m]``, ``Ldot_<name> [m/s]`` and ``F_<name> [N]``.
+``L_<name> [m]``, ``Ldot_<name> [m/s]`` and ``F_<name> [N]``. A model with drives that have a
+``limit`` adds ``limited_drives`` (l,) their coordinates, ``drive_laws`` and ``drive_limits``
+(k, l) each law before its clip and its limit, and ``time_at_limit`` (l,) s
+(:mod:`gpmegen.analysis.drive_limits`).
 """
 
 from __future__ import annotations
@@ -43,7 +46,8 @@ PER_SAMPLE = ("t", "q", "qd", "end_effector", "phi", "tau_drive")
 ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "drive_forces", "constraint_forces",
                       "lambda", "point_forces", "u", "actuators", "kinetic_energy", "gravity_energy", "spring_energy",
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
-                      "internal_eigenvalues", "force_names", "force_elements")
+                      "internal_eigenvalues", "force_names", "force_elements", "limited_drives", "drive_laws",
+                      "drive_limits", "time_at_limit")
 #: A closure's reaction (:mod:`gpmegen.analysis.closures`): ``closure_<name>_force`` and
 #: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
 CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")

@@ -8,7 +8,7 @@ import time
 from dataclasses import dataclass
 
 from .. import limits
-from . import driving, joint_limits, study
+from . import drive_limits, driving, joint_limits, study
 from . import results as results_io
 
 
@@ -61,6 +61,9 @@ def run(case, spec, backend, overrides, out, progress) -> Run:
     res = driving.annotate(res, case.source, model)
     for line in joint_limits.exceeded(case.joint_limits(), model.coordinates, res["t"], res["q"], res["qd"]):
         progress(line)
+    if "time_at_limit" in res and len(res["t"]):
+        for line in drive_limits.summary(res["limited_drives"], res["time_at_limit"], res["t"][-1] - res["t"][0]):
+            progress(line)
     if case.source is not None:  # the sdes are known from the symbolic model
         warning = driving.large_rotation(case.source, model, res["t"], res["q"])
         if warning:

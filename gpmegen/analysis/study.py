@@ -13,8 +13,8 @@ from .. import limits
 from ..errors import ModelError, ModelWarning, SimulationError
 from ..runtime import gpme, integrate, internal, partition, redundancy, statics
 from ..status import Ending, Outcome
+from . import drive_limits, modes
 from . import energy as energy_balance
-from . import modes
 from . import results as results_io
 
 # Above this move (rad or m, rad/s or m/s) of a coordinate, making the start consistent is
@@ -349,7 +349,7 @@ def collect(model, t, y, status, settings) -> dict:
     """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
     constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
     actuated one), energies, the dampers' work (:mod:`gpmegen.analysis.energy`) and each force
-    element's length, rate and force. Evaluated
+    element's length, rate and force, and each limited drive's law, limit and time at it. Evaluated
     for all samples at once (:func:`_derived_together`) where the run's model allows it, else
     sample by sample (:func:`_derived_each`): the same values, to round-off."""
     n = model.n_dof
@@ -365,6 +365,9 @@ def collect(model, t, y, status, settings) -> dict:
     elements = np.full((samples, len(model.force_names), 3), np.nan)
     for k in finite if model.force_names else ():
         elements[k] = model.force_elements(t[k], q[k], qd[k])
+    limited = np.full((samples, len(model.limited_drives), 2), np.nan)
+    for k in finite if model.limited_drives else ():
+        limited[k] = model.drive_limits(t[k], q[k], qd[k])
     dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)
                if len(finite) else np.full(samples, np.nan))
     realization = ({"u": lam, "actuators": np.array([model.coordinates[k] for k in model.actuators])} if actuated
@@ -379,6 +382,10 @@ def collect(model, t, y, status, settings) -> dict:
         "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1], "work_dampers": dampers,
         "status": np.array(status),
         **({"force_names": np.array(model.force_names), "force_elements": elements} if model.force_names else {}),
+        **({"limited_drives": np.array(model.limited_drives), "drive_laws": limited[:, :, 0],
+            "drive_limits": limited[:, :, 1],
+            "time_at_limit": drive_limits.time_at_limit(t, limited[:, :, 0], limited[:, :, 1])}
+           if model.limited_drives else {}),
         "meta": results_io.encode({
             "model": model.module.MODEL, "coordinates": list(model.coordinates),
             "constraint_names": list(model.constraint_names), "backend": model.backend,

@@ -168,7 +168,7 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bo
                  ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs),
         _recursive_function(d, constraint_outputs),
     ]
-    return (fns + _force_functions(d) + ([_jacobian_function(d)] if jacobians else [])
+    return (fns + _force_functions(d) + _limit_functions(d) + ([_jacobian_function(d)] if jacobians else [])
             + transform_functions(d, transforms))
 
 
@@ -186,6 +186,18 @@ def _force_functions(d: Derivation) -> list[Function]:
                              "(N, positive pushing the two points apart)"),))]
 
 
+def _limit_functions(d: Derivation) -> list[Function]:
+    """The laws of the drives with a limit before their clip, beside the limit, for a model that
+    has such drives (what tells when a drive sits at its limit)."""
+    limited = d.dynamics.limited
+    if not limited:
+        return []
+    values = [v for _, law, limit in limited for v in (law, limit)]
+    return [Function("drive_limits", "Each limited drive's law before its clip, and its limit.", ("t", "q", "qd", "p"),
+                     (Output("L", (len(limited), 2), tuple(values),
+                             "one row per limited drive in LIMITED_DRIVES order: the law (N m or N) and the limit"),))]
+
+
 def _recursive_function(d: Derivation, constraint_outputs) -> Function:
     """What the articulated-body solve of the C backend reads (:mod:`gpmegen.symbolic.recursive`):
     O(n) numbers in place of gpme_terms' M."""
@@ -199,7 +211,10 @@ def _recursive_function(d: Derivation, constraint_outputs) -> Function:
          _out("b", rec.bias, "bias force of each link (torque about the origin, N m; force, N): its rate of "
               "momentum at qdd = 0 plus its weight"),
          _out("tau", rec.joint_forces, "joint forces Q(t, q, qd) - C q - damping", vector=True))
-        + constraint_outputs, hot=True)
+        + constraint_outputs
+        + (() if rec.armature is None else
+           (_out("armature", rec.armature, "each joint's geared motor inertia n^2 J_m (kg m^2 or kg), added to "
+                 "its pivot", vector=True),)), hot=True)
 
 
 def _jacobian_function(d: Derivation) -> Function:

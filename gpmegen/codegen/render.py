@@ -130,6 +130,7 @@ def model_context(model: Model, d, digest: str, command: str) -> dict:
         constraints=d.constraints.names,
         constraint_orders=d.constraints.orders,
         forces=tuple(f.name for f in model.forces),
+        limited=tuple(coordinate for coordinate, _, _ in d.dynamics.limited),
         force_points=tuple(tuple(f.points) for f in model.forces),
         arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
                                     n_constraints=len(d.constraints.names)),
@@ -162,6 +163,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
         transforms=tuple(transforms),
         jacobians=jacobians,
         massive_links=d.recursive.massive,
+        armature=d.recursive.armature is not None,
         parent_links=d.recursive.parent,
         leaf_links=tuple(not children for children in d.chain.topology.children),
         first_child_links=tuple(p >= 0 and j == max(d.chain.topology.children[p])

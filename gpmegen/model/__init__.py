@@ -10,14 +10,16 @@ from .chain import (
     ForceElement,
     Joint,
     Model,
+    Motor,
     Offset,
     Parameter,
     Point,
+    SeriesElastic,
     Signal,
 )
 from .reference import reference_model
 
 __all__ = [
-    "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "ForceElement", "Joint", "Model", "Offset",
-    "Parameter", "Point", "Signal", "reference_model",
+    "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "ForceElement", "Joint", "Model", "Motor",
+    "Offset", "Parameter", "Point", "SeriesElastic", "Signal", "reference_model",
 ]

@@ -1,5 +1,5 @@
 """The elements of a model: parameters, joints, offsets, bodies, points, flexible links,
-drives and programmed constraints.
+drives (geared motors, series-elastic joints, torque limits) and programmed constraints.
 
 A chain is a tuple of elements read from the base outwards. A ``Joint`` or ``Offset`` moves the
 current frame; a ``Body`` or ``Point`` is attached to the current frame; a ``FlexibleLink`` is
@@ -132,12 +132,46 @@ class Parameter:
 
 
 @dataclass(frozen=True)
+class Motor:
+    """A motor driving a joint through a rigid gearbox (Spong's model): rotor ``inertia`` J_m
+    about its own axis (kg·m², or kg for a linear motor) and ``gear`` ratio n (motor turns per
+    joint turn). Its kinetic energy ``n² J_m q̇² / 2`` is that of the reflected inertia ``n² J_m``
+    on the joint's diagonal entry of ``M``; the rotor's gyroscopic coupling with the links is
+    neglected."""
+
+    inertia: sp.Expr
+    gear: sp.Expr = sp.S.One
+
+    @property
+    def reflected_inertia(self) -> sp.Expr:
+        """``n² J_m``: the motor's inertia seen from the joint side of the gear."""
+        return sp.sympify(self.gear) ** 2 * sp.sympify(self.inertia)
+
+
+@dataclass(frozen=True)
+class SeriesElastic:
+    """A spring of ``stiffness`` k and a damper of ``damping`` c between a joint and its motor
+    (Spong's flexible joint): the motor becomes a coordinate ``<joint>_motor`` of its own, the
+    motor angle reflected through the gear (``θ_m / n``), with inertia ``n² J_m``, and the joint
+    feels ``k (θ - q) + c (θ̇ - q̇)`` (N·m with k in N·m/rad; the motor the opposite)."""
+
+    stiffness: sp.Expr
+    damping: sp.Expr = sp.S.Zero
+
+
+#: The suffix of a series-elastic joint's motor coordinate: ``<joint>_motor``.
+MOTOR_SUFFIX = "_motor"
+
+
+@dataclass(frozen=True)
 class Joint:
     """One coordinate: rotation about (revolute, rad) or translation along (prismatic, m) an
     axis of the current frame: a principal axis ``"x"``, ``"y"``, ``"z"`` or a constant unit
     vector ``(ax, ay, az)`` of numbers (:func:`gpmegen.model.expand.expand` normalizes it and
     writes a principal one as its letter). ``stiffness``, ``rest`` and ``damping`` add the
-    generalized force ``-stiffness*(q - rest) - damping*qd`` (a spring to ``q = rest``, rad or m)."""
+    generalized force ``-stiffness*(q - rest) - damping*qd`` (a spring to ``q = rest``, rad or m).
+    ``motor``: a geared :class:`Motor` on the joint; with ``series_elastic`` (a
+    :class:`SeriesElastic`) it drives the joint through a spring instead of rigidly."""
 
     name: str
     kind: str
@@ -145,6 +179,16 @@ class Joint:
     stiffness: sp.Expr = sp.S.Zero
     damping: sp.Expr = sp.S.Zero
     rest: sp.Expr = sp.S.Zero
+    motor: Motor | None = None
+    series_elastic: SeriesElastic | None = None
+
+    @property
+    def armature(self) -> sp.Expr:
+        """The inertia a rigidly geared motor adds to the joint's diagonal entry of ``M``
+        (``n² J_m``; zero without a motor, or when the motor has a coordinate of its own)."""
+        if self.motor is None or self.series_elastic is not None:
+            return sp.S.Zero
+        return self.motor.reflected_inertia
 
 
 @dataclass(frozen=True)
@@ -287,10 +331,20 @@ class Drive:
     """A generalized force (N·m or N) on ``coordinate``, an expression of ``t``, parameters and,
     as a feedback law, of the state: coordinates, their velocities ``<name>_dot``, points'
     positions ``x_P`` and velocities ``vx_P`` (:func:`symbol`, :func:`velocity_symbol`,
-    :func:`point_symbols`, :func:`point_velocity_symbols`); never of accelerations."""
+    :func:`point_symbols`, :func:`point_velocity_symbols`); never of accelerations. ``limit``
+    (an expression of parameters, positive): the force applied is the law clipped to
+    ``[-limit, limit]``."""
 
     coordinate: str
     expression: sp.Expr
+    limit: sp.Expr | None = None
+
+    def applied(self, law: sp.Expr) -> sp.Expr:
+        """The force applied for ``law`` (the drive's expression in the derivation's symbols):
+        the law clipped to ``[-limit, limit]`` when the drive has a ``limit``."""
+        if self.limit is None:
+            return law
+        return sp.Min(sp.Max(law, -self.limit), self.limit)
 
 
 #: The most table signals one model may have (the solver library keeps their tables in an array

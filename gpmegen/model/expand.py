@@ -18,14 +18,17 @@ from .chain import (
     GROUND_NAME,
     JOINT_KINDS,
     MAX_SIGNALS,
+    MOTOR_SUFFIX,
     TIME,
     Body,
     Branch,
     FlexibleLink,
     Joint,
     Model,
+    Motor,
     Offset,
     Point,
+    SeriesElastic,
     Signal,
     acceleration_symbol,
     axis_symbols,
@@ -48,12 +51,15 @@ class FlatChain:
 
     ``elements``: Joint, Offset, Body, Point and Branch only, base first (a Branch: the elements
     after it start from its parent point's frame). ``coordinates``: the joint names in chain
-    order (the order of ``q``). ``topology``: the tree of the joints, bodies and points."""
+    order (the order of ``q``), the motor coordinates of series-elastic joints last.
+    ``topology``: the tree of the joints, bodies and points. ``couplings``: per series-elastic
+    joint, the :class:`Coupling` between it and its motor coordinate."""
 
     model: Model
     elements: tuple
     coordinates: tuple
     topology: Topology
+    couplings: tuple = ()
 
     @property
     def n_dof(self) -> int:
@@ -66,6 +72,48 @@ class FlatChain:
     @property
     def bodies(self) -> tuple:
         return tuple(e.name for e in self.elements if isinstance(e, Body))
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """The spring ``stiffness`` and damper ``damping`` between coordinate ``joint`` (the link
+    side) and coordinate ``motor`` (indices into ``q``) of a series-elastic joint."""
+
+    joint: int
+    motor: int
+    stiffness: sp.Expr
+    damping: sp.Expr
+
+
+def _motor_joints(flattened) -> list:
+    """The flat elements that give each series-elastic joint's motor a coordinate of its own:
+    a branch from the ground and a joint ``<joint>_motor`` of the same kind and axis that moves
+    no body, so that it adds only the motor's inertia to ``M`` (its row and column hold nothing
+    else). A motor named like another joint is refused in one line."""
+    taken = {e.name: path for path, e in flattened if isinstance(e, Joint)}
+    out = []
+    for path, joint in flattened:
+        if not isinstance(joint, Joint) or joint.series_elastic is None:
+            continue
+        here = path[:-1] + ("series_elastic",)
+        if joint.motor is None:
+            raise ModelError(f"joint {joint.name!r} is series-elastic but has no motor; add motor = {{ inertia = "
+                             f"..., gear = ... }} to it", here)
+        name = joint.name + MOTOR_SUFFIX
+        if name in taken:
+            raise ModelError(f"joint {joint.name!r} is series-elastic, so its motor is the coordinate {name!r}, "
+                             f"which another joint already names; rename that joint", taken[name], here)
+        motor = Joint(name, joint.kind, joint.axis, motor=joint.motor)
+        out += [(here, Branch(GROUND_NAME)), (here + ("motor",), motor)]
+    return out
+
+
+def _couplings(elements, coordinates) -> tuple:
+    """The :class:`Coupling` of each series-elastic joint among the flat ``elements``."""
+    index = {name: k for k, name in enumerate(coordinates)}
+    return tuple(Coupling(index[e.name], index[e.name + MOTOR_SUFFIX], sp.sympify(e.series_elastic.stiffness),
+                          sp.sympify(e.series_elastic.damping))
+                 for e in elements if isinstance(e, Joint) and e.series_elastic is not None)
 
 
 def _free_symbols(expr) -> set:
@@ -207,6 +255,16 @@ def _check_element(element, path, names: _Names, constant: set, points: list = (
                              f"{', '.join(JOINT_KINDS)}", table + ("type",))
         for key in ("stiffness", "rest", "damping"):
             _check_expression(getattr(element, key), constant, f"joint {element.name!r} {key}", table + (key,))
+        for key, part, kind in (("motor", element.motor, Motor), ("series_elastic", element.series_elastic,
+                                                                  SeriesElastic)):
+            if part is None:
+                continue
+            if not isinstance(part, kind):
+                raise ModelError(f"joint {element.name!r}: its {key} is a {type(part).__name__}, not a "
+                                 f"{kind.__name__}", table + (key,))
+            for f in dataclasses.fields(part):
+                _check_expression(getattr(part, f.name), constant, f"joint {element.name!r} {key} {f.name}",
+                                  table + (key, f.name))
         return dataclasses.replace(element, axis=joint_axis(element, table + ("axis",)))
     elif isinstance(element, Body):
         names.claim(element.name, "body", path)
@@ -359,6 +417,8 @@ def _check_drives(model: Model, coordinates: list, points: list, constant: set):
         signals = {s.symbol for s in model.signals}
         _check_law(drive.expression, constant | {TIME} | state | signals, accelerations,
                    f"drive on {drive.coordinate!r}", path + ("expression",))
+        if drive.limit is not None:
+            _check_expression(drive.limit, constant, f"drive on {drive.coordinate!r} limit", path + ("limit",))
 
 
 ORDERS = {0: "position", 1: "first order, linear in velocities", 2: "second order, linear in accelerations"}
@@ -440,6 +500,7 @@ def expand(model: Model) -> FlatChain:
                              f"value below 1e308 in size", ("parameters", p.name))
     constant = {p.symbol for p in model.parameters}   # expressions of the chain may use parameters only
     flattened = _flatten(model)
+    flattened += _motor_joints(flattened)
     points = [e.name for _, e in flattened if isinstance(e, Point)]
     flat = [(path, _check_element(element, path, names, constant, points)) for path, element in flattened]
     coordinates = [e.name for _, e in flat if isinstance(e, Joint)]
@@ -456,7 +517,7 @@ def expand(model: Model) -> FlatChain:
     _check_closures(model, points, tree, names)
     _check_forces(model, coordinates, points, tree, names)
     _check_dependent(model, coordinates)
-    return FlatChain(model, elements, tuple(coordinates), tree)
+    return FlatChain(model, elements, tuple(coordinates), tree, _couplings(elements, coordinates))
 
 
 def _check_closures(model: Model, points: list, tree, names: _Names):

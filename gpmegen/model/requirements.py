@@ -46,6 +46,7 @@ NAMES = {
     "polar": ("polar rotary inertia", "rotary inertias rhoIz + rhoIy of a link free to twist (phi in freedoms)"),
     "stiffness": ("stiffness", "stiffnesses"), "damping": ("damping coefficient", "damping coefficients"),
     "rest_length": ("rest length", "rest lengths"),
+    "gear": ("gear ratio", "gear ratios"), "limit": ("force limit", "drive limits"),
     "alpha": ("Baumgarte gain alpha", "Baumgarte gains"), "beta": ("Baumgarte gain beta", "Baumgarte gains"),
 }
 
@@ -120,6 +121,21 @@ def _link(link: FlexibleLink, element: tuple) -> list:
             for key, e, sign, word in items]
 
 
+def _drive_train(joint: Joint, element: tuple) -> list:
+    """A joint's motor (gear ratio positive; inertia zero or positive, positive on a
+    series-elastic joint, whose motor coordinate it alone gives mass) and series-elastic spring
+    (stiffness positive, damping zero or positive)."""
+    items = []
+    if joint.motor is not None:
+        sign = NONNEGATIVE if joint.series_elastic is None else POSITIVE
+        items += [(("motor", "inertia"), joint.motor.inertia, sign),
+                  (("motor", "gear"), joint.motor.gear, POSITIVE)]
+    if joint.series_elastic is not None:
+        items += [(("series_elastic", "stiffness"), joint.series_elastic.stiffness, POSITIVE),
+                  (("series_elastic", "damping"), joint.series_elastic.damping, NONNEGATIVE)]
+    return [Requirement(sp.sympify(e), sign, "joint", joint.name, key, element) for key, e, sign in items]
+
+
 def requirements(model: Model) -> tuple[Requirement, ...]:
     """The bounds on ``model``'s quantities that involve parameters or are numbers, in chain
     order, then the constraints' gains."""
@@ -129,6 +145,7 @@ def requirements(model: Model) -> tuple[Requirement, ...]:
         if isinstance(element, Joint):
             out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "joint", element.name, (key,), path)
                     for key in ("stiffness", "damping")]
+            out += _drive_train(element, path)
         elif isinstance(element, Body):
             quantities = element.quantities or ((("mass",), element.pseudo_inertia[3, 3]),)
             out += [Requirement(sp.sympify(e), NONNEGATIVE, "body", element.name, key, path) for key, e in quantities]
@@ -138,6 +155,10 @@ def requirements(model: Model) -> tuple[Requirement, ...]:
         if isinstance(c, Constraint):
             out += [Requirement(sp.sympify(getattr(c, key)), NONNEGATIVE, "constraint", c.name, (key,),
                                 ("constraints", k)) for key in ("alpha", "beta")]
+    for k, drive in enumerate(model.drives):
+        if drive.limit is not None:
+            out.append(Requirement(sp.sympify(drive.limit), POSITIVE, "drive on", drive.coordinate, ("limit",),
+                                   ("drives", k)))
     for k, element in enumerate(getattr(model, "forces", ())):
         out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "force", element.name, (key,),
                             ("forces", k)) for key in ("stiffness", "rest_length", "damping")]

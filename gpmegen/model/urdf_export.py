@@ -10,7 +10,9 @@ zero mass. Named points are links fixed to theirs. A joint's spring and damper, 
 hold, are written in the extension element ``<gpmegen:spring stiffness="..." damping="..."
 rest="..."/>`` (namespace :data:`NAMESPACE`; N·m/rad and N·m·s/rad, or N/m and N·s/m) inside the
 ``<joint>``, the damper also as URDF's own ``<dynamics damping>``. Gravity, constraints and forces
-between points are not exported.
+between points are not exported. A model with geared motors (``motor`` on a joint) is refused:
+URDF has no rotor inertia behind a gear, and a series-elastic motor's coordinate would be a free
+joint of no mass.
 """
 
 from __future__ import annotations
@@ -33,6 +35,11 @@ def urdf_text(model: Model) -> str:
     """The URDF of ``model`` at its parameter defaults (see the module's docstring)."""
     values = {p.symbol: p.default for p in model.parameters}
     flat = expand(model)
+    geared = [e.name for e in model.chain if isinstance(e, Joint) and e.motor is not None]
+    if geared:
+        raise ModelError(f"model {model.name}: the motors of {', '.join(geared)} have no URDF form (a rotor's "
+                         f"inertia behind a gear); export it as CasADi or an FMU, which hold them, or remove "
+                         f"the motors")
     robot = ET.Element("robot", {"name": model.name})
     links = [_Link(f"{model.name}_base")]
     joints = []   # (parent link, child link, joint, its origin in the parent link's frame)

@@ -75,6 +75,7 @@ class CEvaluator:
         self.n_parameters = len(module.PARAMETERS)
         self.n_bodies = len(getattr(module, "BODIES", ()))
         self.n_forces = len(getattr(module, "FORCES", ()))
+        self.n_limited = len(getattr(module, "LIMITED_DRIVES", ()))
         if self.lib.n_dof() != self.n or self.lib.n_parameters() != self.n_parameters:
             raise BuildError(f"{source} does not match {module_path}; rebuild with 'gpmegen build --force'")
         self.shape = (self.n,)
@@ -217,6 +218,12 @@ class CEvaluator:
         F = np.empty((max(1, self.n_forces), 3))
         self.lib.force_elements(float(t), q_c, qd_c, self._params(p), self._ptr(F))
         return F[:self.n_forces]
+
+    def drive_limits(self, t, q, qd, p):
+        _, q_c, qd_c = self._state(q, qd)
+        L = np.empty((max(1, self.n_limited), 2))
+        self.lib.drive_limits(float(t), q_c, qd_c, self._params(p), self._ptr(L))
+        return L[:self.n_limited]
 
     def points(self, q, p):
         q = self._vec(q, "q")

@@ -80,6 +80,7 @@ class Evaluator(Protocol):
     def stiffness_jacobian(self, q, p): ...
     def drive_forces(self, t, q, qd, p): ...
     def force_elements(self, t, q, qd, p): ...
+    def drive_limits(self, t, q, qd, p): ...
     def points(self, q, p): ...
     def transforms(self, q, p, kind): ...
     def constraint_terms(self, t, q, qd, p): ...
@@ -183,6 +184,9 @@ class NumpyEvaluator:
 
     def force_elements(self, t, q, qd, p):
         return call(self.module, "force_elements", t, self._q(q), self._qd(qd), p)
+
+    def drive_limits(self, t, q, qd, p):
+        return call(self.module, "drive_limits", t, self._q(q), self._qd(qd), p)
 
     def points(self, q, p):
         return call(self.module, "points", self._q(q), p)
@@ -292,6 +296,8 @@ class LoadedModel:
         # the force elements between points (a model without has no FORCES)
         self.force_names: tuple = tuple(getattr(module, "FORCES", ()))
         self.force_points: tuple = tuple(tuple(p) for p in getattr(module, "FORCE_POINTS", ()))
+        # the coordinates of the drives with a limit (a model without has no LIMITED_DRIVES)
+        self.limited_drives: tuple = tuple(getattr(module, "LIMITED_DRIVES", ()))
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
@@ -469,6 +475,13 @@ class LoadedModel:
         if not self.force_names:
             return np.zeros((0, 3))
         return np.asarray(self.evaluator.force_elements(t, q, qd, self.p), float).reshape(len(self.force_names), 3)
+
+    def drive_limits(self, t, q, qd):
+        """Each limited drive's law before its clip (N·m or N) and its limit, (n_limited, 2) in
+        :attr:`limited_drives` order; (0, 2) for a model without limited drives."""
+        if not self.limited_drives:
+            return np.zeros((0, 2))
+        return np.asarray(self.evaluator.drive_limits(t, q, qd, self.p), float).reshape(len(self.limited_drives), 2)
 
     def check_forces_apart(self, q) -> None:
         """Refuse, with one SimulationError line, a configuration ``q`` where a force element's two

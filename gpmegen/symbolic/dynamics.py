@@ -11,6 +11,10 @@ With the world pseudo-inertia of body ``b``, ``J_b = T_b H_b T_bᵀ = [[Σ, c], 
   algorithm); ``m_ij = 0`` when neither joint supports the other, as no body moves with both;
 - ``h_i = -Σ_b Σ_m Σ_n tr(T_i H T_mnᵀ) q̇_m q̇_n = -S_i·F_i`` with ``F_i`` the sum over
   bodies joint ``i`` moves of ``I_b a_b + V_b ×* I_b V_b`` (rate of momentum at ``q̈ = 0``);
+- a geared motor on joint ``i`` adds its reflected inertia ``n² J_m`` to ``m_ii`` (Spong's
+  model: the rotor's kinetic energy is ``n² J_m q̇_i² / 2``, its gyroscopic coupling with the
+  links neglected); a series-elastic joint's motor is a coordinate of its own moving no body,
+  whose only entry of ``M`` is that inertia, tied to the joint by a spring and damper;
 - ``g_i = ∂E_p/∂q_i = -g⃗·l_i``, ``E_p = -g⃗·Σ c_b``;
 - stiffness Jacobian ``K_ij = ∂(g + C q)_i/∂q_j = -g⃗·(ω_i × l_j) + C_ij`` for ``i`` supporting
   ``j`` (from ``T_ij = Δ_i Δ_j T``), symmetric, zero where ``m_ij`` is, but for the springs of
@@ -50,6 +54,7 @@ class Dynamics:
                                   # ground), mass, first moment and inertia about {0}'s origin, rate of
                                   # momentum at q̈ = 0 (torque n about the origin, force l)
     elements: _forces.ForceTerms | None = None  # the force elements' terms, already in the slots above
+    limited: tuple = ()           # (coordinate, law before the clip, limit) per drive with a limit
 
     def mass_product(self, kin: Kinematics, a: sp.Matrix, define_all) -> sp.Matrix:
         """``M a`` (n,) for a vector ``a`` (n,) of expressions, in O(n) intermediates:
@@ -75,7 +80,8 @@ class Dynamics:
                 sum_w, sum_v = sp.zeros(3, 1), sp.zeros(3, 1)
             else:
                 sum_w, sum_v = passed_w[parent], passed_v[parent]
-            product.append(dot(ji.omega, after_n[i]) + dot(ji.v, after_l[i]) + dot(n_i, sum_w) + dot(l_i, sum_v))
+            product.append(dot(ji.omega, after_n[i]) + dot(ji.v, after_l[i]) + dot(n_i, sum_w) + dot(l_i, sum_v)
+                           + ji.armature * a[i])
             passed_w[i], passed_v[i] = define_all(sum_w + a[i] * ji.omega), define_all(sum_v + a[i] * ji.v)
         return sp.Matrix(n, 1, product)
 
@@ -179,7 +185,8 @@ def derive(kin: Kinematics, gravity, drives, forces=()) -> Dynamics:
         n_j, l_j = columns[j]
         for i in topology.supports[j]:   # ascending, as range(j + 1) in a serial chain
             ji = kin.joints[i]
-            M[i, j] = M[j, i] = define(dot(ji.omega, n_j) + dot(ji.v, l_j))
+            motor = ji.armature if i == j else sp.S.Zero
+            M[i, j] = M[j, i] = define(dot(ji.omega, n_j) + dot(ji.v, l_j) + motor)
             if any(gvec):
                 K[i, j] = K[j, i] = define(-dot(gvec, cross(ji.omega, l_j)))
 
@@ -187,18 +194,30 @@ def derive(kin: Kinematics, gravity, drives, forces=()) -> Dynamics:
     damping = sp.Matrix([jt.damping * kin.qd[j] for j, jt in enumerate(kin.joints)])
     for j, jt in enumerate(kin.joints):
         K[j, j] = K[j, j] + jt.stiffness
+    spring_energy = sum((jt.stiffness * (kin.q[j] - jt.rest) ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
+    for c in kin.chain.couplings:   # series-elastic joints: k (q - θ) on the joint, its opposite on the motor
+        stretch, rate = kin.q[c.joint] - kin.q[c.motor], kin.qd[c.joint] - kin.qd[c.motor]
+        spring[c.joint] += c.stiffness * stretch
+        spring[c.motor] -= c.stiffness * stretch
+        damping[c.joint] += c.damping * rate
+        damping[c.motor] -= c.damping * rate
+        for a, b in ((c.joint, c.joint), (c.motor, c.motor)):
+            K[a, b] += c.stiffness
+        for a, b in ((c.joint, c.motor), (c.motor, c.joint)):
+            K[a, b] -= c.stiffness
+        spring_energy += c.stiffness * stretch ** 2 / 2
     index = {jt.name: j for j, jt in enumerate(kin.joints)}
     drive = sp.zeros(n, 1)
     laws = state_expressions(kin, [d.expression for d in drives])   # feedback laws name the state
     for d, law in zip(drives, laws):
-        drive[index[d.coordinate]] += law
+        drive[index[d.coordinate]] += d.applied(law)
+    limited = tuple((d.coordinate, law, sp.sympify(d.limit)) for d, law in zip(drives, laws) if d.limit is not None)
 
     potential = -sum((dot(gvec, c) for _, _, c, *_ in per_body), sp.S.Zero)
-    spring_energy = sum((jt.stiffness * (kin.q[j] - jt.rest) ** 2 / 2 for j, jt in enumerate(kin.joints)), sp.S.Zero)
     elements = None
     if forces:
         elements = _forces.derive(kin, forces)
         spring, drive, K = spring + elements.spring, drive + elements.applied, K + elements.stiffness
         spring_energy += elements.potential
     return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body),
-                    elements)
+                    elements, limited)

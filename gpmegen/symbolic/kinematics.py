@@ -54,6 +54,7 @@ class JointTwist:
     stiffness: sp.Expr
     damping: sp.Expr
     rest: sp.Expr = sp.S.Zero
+    armature: sp.Expr = sp.S.Zero   # a rigidly geared motor's reflected inertia n² J_m on M's diagonal
 
 
 @dataclass
@@ -155,7 +156,7 @@ def forward(chain: FlatChain, program: Program) -> Kinematics:
                 d_alpha, d_a = zero, cross(w, v)
             joints.append(JointTwist(j, element.name, element.kind, omega, v,
                                      sp.sympify(element.stiffness), sp.sympify(element.damping),
-                                     sp.sympify(element.rest)))
+                                     sp.sympify(element.rest), element.armature))
             alpha = define_all(alpha + d_alpha * qd[j])
             a = define_all(a + d_a * qd[j])
             w = define_all(w + omega * qd[j])

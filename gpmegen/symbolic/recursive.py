@@ -14,7 +14,10 @@ the ground never move and enter no link. Per joint or link:
 - its bias force ``b_j = I_j (a_j⁰ - (0, g⃗)) + V_j ×* I_j V_j``: the rate of momentum of the
   link at ``q̈ = 0`` (``a_j⁰`` the velocity-product part of its spatial acceleration, as
   :mod:`.dynamics` forms it for ``h``) plus its weight, as a force ``(n, f)``;
-- the joint forces ``τ = Q(t, q, q̇) - C q - D q̇`` (drives, springs, dampers).
+- the joint forces ``τ = Q(t, q, q̇) - C q - D q̇`` (drives, springs, dampers);
+- the armature of each joint, a geared motor's reflected inertia ``n² J_m``, which adds to the
+  joint's pivot ``d_j = S_jᵀ I^A_j S_j + n² J_m`` (Featherstone's rotor inertia: it adds to
+  ``M``'s diagonal entry alone), only in a model with motors.
 
 With the link accelerations ``a_j = a_j⁰ - (0, g⃗) + Σ_{k supporting j} S_k q̈_k`` the link forces
 are ``I_j Σ_{k supporting j} S_k q̈_k + b_j``, so the recursion works on ``q̈`` alone, from a base at rest:
@@ -41,7 +44,8 @@ LINK = ("m", "cx", "cy", "cz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz")
 class RecursiveTerms:
     """Shapes in brackets: ``axes`` (n, 6), ``links`` (n, 10), ``bias`` (n, 6), ``joint_forces``
     (n,); ``massive``: per link, whether it holds a body (n,), and ``parent``: per link, the link
-    it hangs from (n,; -1: the ground), both known when the code is generated."""
+    it hangs from (n,; -1: the ground), both known when the code is generated; ``armature``
+    (n,): each joint's motor inertia, None in a model without motors."""
 
     axes: sp.Matrix
     links: sp.Matrix
@@ -49,6 +53,7 @@ class RecursiveTerms:
     joint_forces: sp.Matrix
     massive: tuple
     parent: tuple
+    armature: sp.Matrix | None = None
 
 
 def derive(kin: Kinematics, dyn: Dynamics, gravity) -> RecursiveTerms:
@@ -66,7 +71,8 @@ def derive(kin: Kinematics, dyn: Dynamics, gravity) -> RecursiveTerms:
             # its weight as a bias: I (0, -g) = (-c × g, -m g)
             bias[joint, :] += sp.Matrix([[*(torque - c.cross(g)), *(force - m * g)]])
             massive[joint] = True
+    armature = sp.Matrix([jt.armature for jt in kin.joints])
     # a link of several bodies: their sums, each named once
     return RecursiveTerms(axes, links.applyfunc(define), bias.applyfunc(define),
                           (dyn.drive_forces - dyn.spring_forces - dyn.damping_forces).applyfunc(define),
-                          tuple(massive), kin.chain.topology.parent)
+                          tuple(massive), kin.chain.topology.parent, armature if any(armature) else None)

@@ -25,6 +25,7 @@ from ..chain import (
     GROUND_NAME,
     JOINT_KINDS,
     MAX_SIGNALS,
+    MOTOR_SUFFIX,
     PAPER_FREEDOMS,
     TIME,
     Body,
@@ -38,10 +39,12 @@ from ..chain import (
     ISection,
     Joint,
     Model,
+    Motor,
     Offset,
     Parameter,
     Point,
     RectangularSection,
+    SeriesElastic,
     Signal,
     StiffnessSection,
     TubeSection,
@@ -374,7 +377,7 @@ class Reader:
         n_dof = 0
         for item in items:
             if isinstance(item, dict) and "joint" in item:
-                n_dof += 1
+                n_dof += 2 if "series_elastic" in item else 1   # a series-elastic motor's coordinate
             elif isinstance(item, dict) and "flexible" in item:
                 n_dof += link_coordinates(item.get("nrfe", self.default_nrfe), item.get("freedoms", PAPER_FREEDOMS))
         limits.check_build(n_dof, self.file, f"{len(items)} chain elements, ")
@@ -448,7 +451,7 @@ class Reader:
         return tuple(elements)
 
     def read_joint(self, item, path):
-        keys = ("joint", "type", "axis", "stiffness", "rest", "damping", "prescribed")
+        keys = ("joint", "type", "axis", "stiffness", "rest", "damping", "prescribed", "motor", "series_elastic")
         self.table(item, path, keys, keys[:3], "joint")
         name = self.name(item["joint"], path + ("joint",), "coordinate", bare=True)
         kind = self.choice(item["type"], path + ("type",), JOINT_KINDS, "joint type")
@@ -464,10 +467,33 @@ class Reader:
             self.fail(path + ("rest",), f"joint {name!r} has a rest position but no spring; add stiffness = ... "
                                         f"or leave rest out")
         self.coordinates.append(name)
+        extra.update(self.read_drive_train(item, path, name))
         if "prescribed" in item:
             here = path + ("prescribed",)
             self.prescribed[name] = (self.quantity(item["prescribed"], here, {**self.params, "t": TIME}), here)
         return Joint(name, kind, axis, **extra)
+
+    def read_drive_train(self, item, path, name) -> dict:
+        """A joint's ``motor = { inertia, gear }`` and ``series_elastic = { stiffness, damping }``
+        as the Joint's fields; a series-elastic joint's motor coordinate ``<name>_motor`` joins
+        the coordinates that drives and the initial state may name."""
+        extra = {}
+        if "motor" in item:
+            here = path + ("motor",)
+            table = self.table(item["motor"], here, ("inertia", "gear"), ("inertia",), "motor")
+            extra["motor"] = Motor(*(self.quantity(table[key], here + (key,), self.params)
+                                     for key in ("inertia", "gear") if key in table))
+        if "series_elastic" in item:
+            here = path + ("series_elastic",)
+            if "motor" not in item:
+                self.fail(here, f"joint {name!r} is series-elastic but has no motor; add motor = {{ inertia = ..., "
+                                f"gear = ... }} to it")
+            table = self.table(item["series_elastic"], here, ("stiffness", "damping"), ("stiffness",),
+                               "series_elastic table")
+            extra["series_elastic"] = SeriesElastic(*(self.quantity(table[key], here + (key,), self.params)
+                                                      for key in ("stiffness", "damping") if key in table))
+            self.coordinates.append(name + MOTOR_SUFFIX)
+        return extra
 
     def read_offset(self, item, path):
         self.table(item, path, ("translation", "rotations"), what="offset")
@@ -693,9 +719,11 @@ class Reader:
         drives = []
         for k, item in enumerate(items):
             path = ("drives", k)
-            self.table(item, path, ("coordinate", "expression"), ("coordinate", "expression"), "drive")
+            self.table(item, path, ("coordinate", "expression", "limit"), ("coordinate", "expression"), "drive")
             coordinate = self.string(item["coordinate"], path + ("coordinate",), "a coordinate name in quotes")
-            drives.append(Drive(coordinate, self.law(item["expression"], path + ("expression",), "a drive's", scope)))
+            limit = self.quantity(item["limit"], path + ("limit",), self.params) if "limit" in item else None
+            drives.append(Drive(coordinate, self.law(item["expression"], path + ("expression",), "a drive's", scope),
+                                limit))
         return tuple(drives)
 
     def law(self, value, path, whose, scope=None):
