@@ -333,8 +333,9 @@ def metrics(runs, reference=None, *, after=None, backend=None, nrfe=None, progre
     ``gpmegen metrics`` prints them: a list of :class:`gpmegen.analysis.tracking.Metrics`, one per
     run (constraint values, path error, residual vibration, effort; see
     :mod:`gpmegen.analysis.tracking`). ``reference``: a results file (.npz: its end-effector path),
-    a model file or a folder made by ``gpmegen build --out`` (its constraint functions and its
-    ideal run, with ``nrfe`` rfes, default the first run's), or None (the reference manipulator).
+    a :class:`Model`, a model file or a folder made by ``gpmegen build --out`` (its constraint
+    functions and its ideal run; a file with ``nrfe`` rfes, default the first run's), or None (the
+    reference manipulator).
     ``after`` (s): where the residual vibration starts (default: the end of the programmed
     motion, where it is known). ``backend`` and ``progress`` as :func:`statics`."""
     from .analysis import results as results_io

@@ -238,14 +238,17 @@ def model_reference(case, runs, backend, progress) -> Reference:
 
 
 def reference_of(ref, runs, backend="c", progress=lambda line: None, nrfe=None) -> Reference:
-    """The :class:`Reference` ``ref`` names: a results file (.npz), else a model file (with the
-    first run's rfes where it has a number of them), a folder made by ``gpmegen build --out``, or
-    None for the reference manipulator (:func:`gpmegen.analysis.cases.case_for`); ``nrfe`` its rfes
-    (default: the first run's, where its results name them)."""
+    """The :class:`Reference` ``ref`` names: a :class:`gpmegen.Model`, a results file (.npz), a
+    model file (with ``nrfe`` rfes, default the first run's where its results name them), a
+    folder made by ``gpmegen build --out``, or None for the reference manipulator
+    (:func:`gpmegen.analysis.cases.case_for`)."""
+    from ..model import Model
+    from .cases import ModelCase, case_for
+
+    if isinstance(ref, Model):
+        return model_reference(ModelCase(ref), runs, backend, progress)
     if ref is not None and Path(ref).suffix == ".npz":
         return run_reference(ref)
-    from .cases import case_for
-
     # a model file has the runs' rfes (a plant is the reference's model with its own drives)
     if nrfe is None and ref is not None and Path(ref).is_file():
         nrfe = (results_io.metadata(runs[0]).get("model_source") or {}).get("nrfe")

@@ -9,11 +9,14 @@ from ..fileio import atomic_write_all
 from . import plots
 
 
-def path_error(runs: list, metrics: list, reference_label: str, out, formats=("png",)) -> list[Path]:
+def path_error(runs: list, metrics: list, reference_label: str, out, formats=("png",), labels=None) -> list[Path]:
     """Write ``tracking.<format>`` into the folder ``out``: ``|E - E_ref|`` (mm) of each of
-    ``metrics`` (:class:`gpmegen.analysis.tracking.Metrics`) against time, labelled from its
-    results in ``runs`` (the same order). Returns the paths written."""
+    ``metrics`` (:class:`gpmegen.analysis.tracking.Metrics`) against time, labelled ``labels``
+    or, by default, from its results in ``runs`` (the same order) by what differs between them.
+    Returns the paths written."""
     plt = plots._pyplot()
+    if labels is not None:
+        runs = [{**run, plots.LEGEND: label} for run, label in zip(runs, labels)]
     labelled = plots.distinguished(runs)
     style = plots.styles(labelled)
     fig, axes = plots._figure(plt, 1, 1, 3.6)
