@@ -2,14 +2,15 @@
 designed on it that stabilizes the nonlinear model in closed loop at the rate its closed-loop
 eigenvalue says.
 
-The model is a pendulum (a 1 kg point mass on a massless 1 m rod about z, gravity g along -y),
-hanging at theta1 = -π/2: there A = [[0, 1], [-g, 0]] and B = [[0], [1]] (a torque on theta1,
-m L² = 1 kg m²)."""
+The model is the pendulum of tests/models/pendulum.toml (a 1 kg point mass on a massless 1 m rod
+about z, gravity g along -y), hanging at theta1 = -π/2: there A = [[0, 1], [-g, 0]] and
+B = [[0], [1]] (a torque on theta1, m L² = 1 kg m²)."""
 
 from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,35 +21,19 @@ from gpmegen.errors import GpmegenError, ModelError
 
 control = pytest.importorskip("control")
 
-PENDULUM = """schema = 1
-name = "{name}"
-gravity = [0, "-g", 0]
-
-[parameters]
-g = 9.81
-k1 = 0.0
-k2 = 0.0
-theta_ref = {ref!r}
-
-[[chain]]
-joint = "theta1"
-type = "revolute"
-axis = "z"
-
-[[chain]]
-body = "bob"
-shape = {{ type = "point_mass", mass = 1.0, position = [1.0, 0, 0] }}
-
-[[chain]]
-translation = [1.0, 0, 0]
-
-[[chain]]
-point = "tip"
-
-[initial]
-q = {{ theta1 = {start!r} }}
-{drive}"""
+MODELS = Path(__file__).parent / "models"
 HANGING = -math.pi / 2
+
+
+def pendulum(name: str, start: float, drive: str = "") -> str:
+    """tests/models/pendulum.toml named ``name``, with the gains and set point of a feedback law,
+    a point at the bob, started at ``theta1 = start`` and ``drive`` added."""
+    text = (MODELS / "pendulum.toml").read_text().replace('name = "pendulum"', f'name = "{name}"')
+    text = text.replace("[parameters]\n", f"[parameters]\nk1 = 0.0\nk2 = 0.0\ntheta_ref = {HANGING!r}\n")
+    text = text.replace("[initial]", '[[chain]]\ntranslation = [1.0, 0, 0]\n\n[[chain]]\npoint = "tip"\n\n[initial]')
+    return text.replace("q = { theta1 = -0.5 }", f"q = {{ theta1 = {start!r} }}") + drive
+
+
 LAW = """
 [[drives]]
 coordinate = "theta1"
@@ -59,9 +44,8 @@ expression = "-(k1*(theta1 - theta_ref) + k2*theta1_dot)"
 @pytest.fixture(scope="module")
 def files(tmp_path_factory, env):
     folder = tmp_path_factory.mktemp("state_space")
-    (folder / "pendulum.toml").write_text(PENDULUM.format(name="hanging", ref=HANGING, start=HANGING, drive=""))
-    (folder / "closed.toml").write_text(PENDULUM.format(name="hanging_lqr", ref=HANGING, start=HANGING + 0.05,
-                                                        drive=LAW))
+    (folder / "pendulum.toml").write_text(pendulum("hanging", HANGING))
+    (folder / "closed.toml").write_text(pendulum("hanging_lqr", HANGING + 0.05, LAW))
     return folder
 
 

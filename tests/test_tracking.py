@@ -3,13 +3,14 @@ known exactly (a run of the reference model itself, the same run moved by a know
 signals whose integrals are known in closed form (a sinusoidal drive's effort, a sinusoidal
 vibration's peak-to-peak and RMS).
 
-The model is a cart on a prismatic joint x (no gravity) whose programmed constraint moves it by
-A in the time T along a smooth step and holds it there; the plant is the same cart, no
-constraint, a PD law on x towards the same step."""
+The model is the cart of tests/models/cart.toml (a prismatic joint x, no gravity) whose
+programmed constraint moves it by A in the time T along a smooth step and holds it there; the
+plant is the same cart, no constraint, a PD law on x towards the same step."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,29 +20,15 @@ from gpmegen.analysis import tracking
 from gpmegen.cli import main
 
 STEP = "Min(Max(t/T, 0), 1)^3*(10 - 15*Min(Max(t/T, 0), 1) + 6*Min(Max(t/T, 0), 1)^2)"
-CART = """schema = 1
-name = "{name}"
-gravity = [0, 0, 0]
+MODELS = Path(__file__).parent / "models"
 
-[parameters]
-m = 2.0
-A = 0.2
-T = 0.3
-kp = 400.0
-kd = 20.0
 
-[[chain]]
-joint = "x"
-type = "prismatic"
-axis = "x"
+def cart(name: str, rest: str) -> str:
+    """tests/models/cart.toml named ``name``, with the step's parameters and ``rest`` added."""
+    text = (MODELS / "cart.toml").read_text().replace('name = "cart"', f'name = "{name}"')
+    return text.replace("[parameters]\n", "[parameters]\nA = 0.2\nT = 0.3\nkp = 400.0\nkd = 20.0\n") + rest
 
-[[chain]]
-body = "cart"
-mass = "m"
 
-[[chain]]
-point = "C"
-"""
 CONSTRAINT = f"""
 [[constraints]]
 name = "move"
@@ -62,9 +49,9 @@ pytestmark = pytest.mark.filterwarnings("ignore:constraint 'move'. its law switc
 def files(tmp_path_factory, env):
     """The reference model file, the plant's, a run of each (NumPy backend) and a foreign run."""
     folder = tmp_path_factory.mktemp("tracking")
-    (folder / "cart.toml").write_text(CART.format(name="cart_move") + CONSTRAINT)
-    (folder / "plant.toml").write_text(CART.format(name="cart_pd") + DRIVE)
-    (folder / "other.toml").write_text(CART.format(name="cart_y").replace('"x"', '"y"'))
+    (folder / "cart.toml").write_text(cart("cart_move", CONSTRAINT))
+    (folder / "plant.toml").write_text(cart("cart_pd", DRIVE))
+    (folder / "other.toml").write_text(cart("cart_y", "").replace('"x"', '"y"'))
     for name in ("cart", "plant", "other"):
         run = gpmegen.simulate(str(folder / f"{name}.toml"), backend="numpy", t_end=T_END, dt=1e-3, save_every=1)
         assert run.status == "complete"
