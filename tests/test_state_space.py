@@ -94,3 +94,28 @@ def test_lqr_gain_stabilizes_the_nonlinear_pendulum_at_its_rate(lin, files):
     rate = np.polyfit(t[late], np.log(error[late]), 1)[0]
     assert rate == pytest.approx(slow, rel=0.01)
     assert error[-1] < 0.05 * math.exp(0.9 * slow * 4.0)
+
+
+@pytest.mark.long
+@pytest.mark.requires_cc   # its runs are DOP853, compiled
+@pytest.mark.filterwarnings("ignore:constraint 'tip_on_ray'")
+def test_lqr_example_damps_the_arm_that_pd_leaves_ringing(tmp_path, capsys, env):
+    """examples/lqr_flexible_arm.py: the LQR's slowest closed-loop pair is damped (ζ > 0.2), the
+    PD law's (the same joint gains, no deflection fed back) barely (ζ < 0.05), and on the
+    nonlinear arm the LQR leaves less than a third of the PD law's residual vibration."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "lqr_flexible_arm.py"
+    spec = importlib.util.spec_from_file_location("lqr_flexible_arm", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    report = example.main(["--out", str(tmp_path)])
+
+    def damping(poles):
+        slow = min(poles, key=abs)
+        return -slow.real / abs(slow)
+
+    assert np.all(np.asarray(report["poles"]).real < 0) and np.all(report["pd_poles"].real < 0)
+    assert damping(report["poles"]) > 0.2 and damping(report["pd_poles"]) < 0.05
+    assert report["ratio"] > 3
+    assert (tmp_path / "metrics.csv").exists() and "LQR" in capsys.readouterr().out
