@@ -611,6 +611,9 @@ def cmd_linearize(args) -> int:
     return 0
 
 
+MANIPULATOR = "manipulator"  # metrics --reference: the built-in reference arm
+
+
 def cmd_metrics(args) -> int:
     """Tracking metrics of runs against a reference: printed, and with --out a CSV and a figure."""
     from . import api
@@ -621,22 +624,23 @@ def cmd_metrics(args) -> int:
         runs = [results_io.load(p) for p in args.results]
     except results_io.ResultsError as exc:
         raise UsageError(str(exc)) from None
-    if args.reference is None or not Path(args.reference).exists():
-        raise UsageError(f"--reference {args.reference}: no such file or folder; give a model file, a folder made by "
-                         f"'gpmegen build --out' or a results file (.npz)")
+    reference = None if args.reference == MANIPULATOR and not Path(MANIPULATOR).exists() else args.reference
+    if reference is not None and not Path(reference).exists():
+        raise UsageError(f"--reference {reference}: no such file or folder; give a model file, a folder made by "
+                         f"'gpmegen build --out', a results file (.npz) or {MANIPULATOR} (the reference arm)")
     out = Path(args.out) if args.out is not None else None
     if out is not None:
         outputs.check([out / "metrics.csv", *tracking_plots.targets(out, args.format)],
-                      [*args.results, args.reference], args.overwrite)
+                      [*args.results, *([reference] if reference else [])], args.overwrite)
         outputs.writable_folder(out)
     try:
-        found = api.metrics(args.results, args.reference, after=args.after, nrfe=args.nrfe,
+        found = api.metrics(args.results, reference, after=args.after, nrfe=args.nrfe,
                             backend=args.backend or _default_backend(), progress=progress)
     except (tracking.TrackingError, results_io.ResultsError) as exc:
         raise UsageError(str(exc)) from None
     print(tracking.table(found))
     if out is not None:
-        label = Path(args.reference).name
+        label = Path(reference).name if reference is not None else "the reference manipulator"
         print(f"wrote {tracking.write_csv(found, out / 'metrics.csv')}")
         for path in tracking_plots.path_error(runs, found, label, out, args.format):
             print(f"wrote {path}")
@@ -1054,10 +1058,11 @@ def build_parser() -> argparse.ArgumentParser:
                             "residual vibration, control effort")
     mt.add_argument("results", nargs="+", type=path_argument, help="results .npz files of simulate")
     mt.add_argument("--reference", type=path_argument, required=True, metavar="REF",
-                    help="the model whose programmed constraints define the motion (a model file or a folder made "
-                         "by 'build --out'), or a run (.npz: its end-effector path)")
+                    help="the model whose programmed constraints define the motion (a model file, a folder made "
+                         "by 'build --out', or manipulator: the built-in reference arm), or a run (.npz: its "
+                         "end-effector path)")
     mt.add_argument("--nrfe", type=rfe_count, default=None,
-                    help="rfes of a reference model file (default: the first run's)")
+                    help="rfes of a reference model file or of the reference arm (default: the first run's)")
     mt.add_argument("--after", type=_finite_number(lambda v: v >= 0, "must be zero or more"), default=None,
                     metavar="T", help="residual vibration from T s on (default: the end of the programmed motion, "
                                       "where it is known)")

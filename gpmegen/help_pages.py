@@ -41,9 +41,10 @@ parameter values are used (--param is for the statics). Prints the eigenvalues a
 damping ratio, the unstable ones marked.""",
     "metrics": """\
 Tracking metrics of runs against a reference motion: a model whose programmed constraints define
-it (its ideal run to the runs' end gives the end-effector's reference path; the parameters it
-shares with the first run take that run's values; a model file takes the first run's rfes), or
-a run (its end-effector path). For each run: each constraint's value on the run's states (max
+it (a model file, a folder made by 'build --out', or manipulator: the built-in reference arm; its
+ideal run to the runs' end gives the end-effector's reference path; the parameters it shares with
+the first run take that run's values; a model file or the arm takes the first run's rfes), or a
+run (its end-effector path). For each run: each constraint's value on the run's states (max
 |Phi| and RMS), the end-effector's path error (m), its residual vibration after --after (default:
 the end of the programmed motion, where the constraint functions stop depending on t; a run
 reference, where its end-effector stops), peak-to-peak and RMS of its deviation from its final
@@ -188,6 +189,7 @@ files written:
 examples:
   gpmegen metrics results/pd.npz results/lqr.npz --reference tests/models/flexible_link.toml
   gpmegen metrics results/plant.npz --reference results/ideal.npz --after 0.5 --out metrics/
+  gpmegen metrics results/run_nrfe5_locked_rk4.npz --reference manipulator
 
 files written:
   with --out: <out>/metrics.csv (run, quantity, of, value, unit) and <out>/tracking.png (the path

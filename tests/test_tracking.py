@@ -171,3 +171,13 @@ def test_command_refuses_in_one_line(files, tmp_path, capsys, case, problem):
     assert code == 2
     assert len(err) == 1 or all(line.startswith("gpmegen: ") for line in err[:-1])
     assert err[-1].startswith("gpmegen metrics: error:") and problem in err[-1]
+
+
+def test_the_reference_arm_by_name_takes_the_runs_rfes(tmp_path, capsys, env):
+    run = tmp_path / "arm.npz"
+    assert main(["simulate", "--nrfe", "1", "--t-end", "0.01", "--backend", "numpy", "--out", str(run)]) == 0
+    assert main(["metrics", str(run), "--reference", "manipulator", "--backend", "numpy"]) == 0
+    printed = capsys.readouterr().out
+    circle = float(printed.split("constraint circle: max |Φ| ")[1].split(",")[0])
+    assert circle < 1e-12                        # the run held the paper's circle
+    assert "path error of E: max 0 m" in printed   # its reference path is the same run

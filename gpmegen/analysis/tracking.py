@@ -240,7 +240,8 @@ def model_reference(case, runs, backend, progress) -> Reference:
 def reference_of(ref, runs, backend="c", progress=lambda line: None, nrfe=None) -> Reference:
     """The :class:`Reference` ``ref`` names: a :class:`gpmegen.Model`, a results file (.npz), a
     model file (with ``nrfe`` rfes, default the first run's where its results name them), a
-    folder made by ``gpmegen build --out``, or None for the reference manipulator
+    folder made by ``gpmegen build --out``, or None for the reference manipulator (with ``nrfe``
+    rfes, default the first run's where it is a run of that arm, else 5)
     (:func:`gpmegen.analysis.cases.case_for`)."""
     from ..model import Model
     from .cases import ModelCase, case_for
@@ -249,9 +250,13 @@ def reference_of(ref, runs, backend="c", progress=lambda line: None, nrfe=None) 
         return model_reference(ModelCase(ref), runs, backend, progress)
     if ref is not None and Path(ref).suffix == ".npz":
         return run_reference(ref)
-    # a model file has the runs' rfes (a plant is the reference's model with its own drives)
+    # a model file, or the reference manipulator, has the runs' rfes (a plant is the reference's
+    # model with its own drives)
+    source = results_io.metadata(runs[0]).get("model_source") or {}
     if nrfe is None and ref is not None and Path(ref).is_file():
-        nrfe = (results_io.metadata(runs[0]).get("model_source") or {}).get("nrfe")
+        nrfe = source.get("nrfe")
+    elif nrfe is None and ref is None:
+        nrfe = source.get("reference")
     return model_reference(case_for(ref, nrfe), runs, backend, progress)
 
 
