@@ -92,7 +92,7 @@ def test_lqr_gain_stabilizes_the_nonlinear_pendulum_at_its_rate(lin, files):
     t = run["t"]
     late = (t >= 2.0) & (t <= 4.0)   # the fast pole's share has fallen by e^(-7.8·2) there
     rate = np.polyfit(t[late], np.log(error[late]), 1)[0]
-    assert rate == pytest.approx(slow, rel=0.01)
+    assert rate == pytest.approx(slow, rel=1e-3)   # measured: 2e-6 off (its sin θ ≈ θ within 4e-4)
     assert error[-1] < 0.05 * math.exp(0.9 * slow * 4.0)
 
 
