@@ -94,7 +94,7 @@ def test_the_plant_under_pd_lags_the_step_and_spends_effort(files):
     assert 1e-4 < m.path[1] < m.path[0] < 0.2
     phi_max, phi_rms = m.constraints["move"]
     assert phi_max == pytest.approx(m.path[0], rel=1e-9)   # the cart's error along x is its path error
-    assert list(m.effort) == ["x"]
+    assert list(m.effort) == ["x"] and m.units == {"x": "N"}   # a force on a prismatic joint
     run = gpmegen.Results.load(files / "plant.npz")
     u = run["drive_forces"][:, 0]
     peak, mean, energy = m.effort["x"]

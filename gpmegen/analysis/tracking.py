@@ -59,7 +59,8 @@ class Reference:
 class Metrics:
     """One run's metrics: ``name`` (its file or label), ``constraints`` name -> (max |Φ|, RMS),
     ``path`` (max, RMS) m, ``after`` s (None: no vibration measured), ``vibration``
-    (peak-to-peak, RMS) m, ``effort`` coordinate -> (peak |u|, RMS u, ∫|u q̇| dt J);
+    (peak-to-peak, RMS) m, ``effort`` coordinate -> (peak |u|, RMS u, ∫|u q̇| dt J) with
+    ``units`` coordinate -> the unit of u (N·m or N; "generalized" where the run does not say);
     ``t`` (k,) s and ``path_error`` (k,) m for the figure."""
 
     name: str
@@ -68,6 +69,7 @@ class Metrics:
     after: float | None = None
     vibration: tuple = (np.nan, np.nan)
     effort: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
     t: np.ndarray = None
     path_error: np.ndarray = None
 
@@ -199,6 +201,8 @@ def measure(run, reference: Reference, name: str, after: float | None = None) ->
     if metrics.after is not None:
         metrics.vibration = vibration(t, np.asarray(run["end_effector"], dtype=float), metrics.after)
     metrics.effort = {c: effort(t, u, qd) for c, (u, qd) in drives(run).items()}
+    units = results_io.metadata(run).get("force_units", {})
+    metrics.units = {c: units.get(c, "generalized") for c in metrics.effort}
     return metrics
 
 
@@ -275,7 +279,9 @@ def table(metrics: list) -> str:
             lines.append(f"  residual vibration after {m.after:g} s: peak-to-peak {m.vibration[0]:.4g} m, "
                          f"RMS {m.vibration[1]:.4g} m")
         for c, (peak, mean, energy) in m.effort.items():
-            lines.append(f"  effort on {c}: peak |u| {peak:.4g}, RMS {mean:.4g} (N·m or N), ∫|u q'| dt {energy:.4g} J")
+            unit = m.units.get(c, "generalized")
+            lines.append(f"  effort on {c}: peak |u| {peak:.4g} {unit}, RMS {mean:.4g} {unit}, "
+                         f"∫|u q'| dt {energy:.4g} J")
     return "\n".join(lines)
 
 
@@ -292,7 +298,8 @@ def rows(metrics: list) -> list:
                     (m.name, "vibration_peak_to_peak", "E", m.vibration[0], "m"),
                     (m.name, "vibration_rms", "E", m.vibration[1], "m")]
         for c, (peak, mean, energy) in m.effort.items():
-            out += [(m.name, "effort_peak", c, peak, "N·m or N"), (m.name, "effort_rms", c, mean, "N·m or N"),
+            unit = m.units.get(c, "generalized")
+            out += [(m.name, "effort_peak", c, peak, unit), (m.name, "effort_rms", c, mean, unit),
                     (m.name, "effort_energy_abs_power", c, energy, "J")]
     return out
 
