@@ -3,6 +3,7 @@ with flexible links, as generated NumPy and C code.
 
 What a user needs is importable from here (see :mod:`gpmegen.api`): ``gpmegen.load``,
 ``gpmegen.load_model_file``, ``gpmegen.statics``, ``gpmegen.simulate``, ``gpmegen.linearize``,
+``gpmegen.metrics``,
 ``gpmegen.export_casadi``, ``gpmegen.export_fmu``, a run's specification ``gpmegen.RunSpec``,
 the model's elements and the errors.
 """
@@ -14,7 +15,7 @@ __all__ = [
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text", "linearize", "export_casadi",
+    "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi",
     "export_fmu", "RunSpec",
 ]
 

@@ -12,6 +12,7 @@
 - :func:`export_casadi`: the model's functions as CasADi functions, saved as ``.casadi`` files;
 - :func:`export_fmu`: the model as an FMU (FMI 2.0 Model Exchange and Co-Simulation);
 - :func:`linearize`: the state-space model ``ẋ = A x + B u`` about the statics or at instants of a run;
+- :func:`metrics`: tracking metrics of runs against a reference motion (a model or a run);
 - :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
 - the errors, one type per failure family (:class:`GpmegenError` and its subclasses).
 """
@@ -327,10 +328,33 @@ def linearize(model=None, *, params=None, backend=None, at=None, **options):
     return linear.along_run(loaded, at, times, inputs)
 
 
+def metrics(runs, reference=None, *, after=None, backend=None, nrfe=None, progress=None) -> list:
+    """Tracking metrics of ``runs`` (results files or :class:`Results`) against ``reference``, as
+    ``gpmegen metrics`` prints them: a list of :class:`gpmegen.analysis.tracking.Metrics`, one per
+    run (constraint values, path error, residual vibration, effort; see
+    :mod:`gpmegen.analysis.tracking`). ``reference``: a results file (.npz: its end-effector path),
+    a :class:`Model`, a model file or a folder made by ``gpmegen build --out`` (its constraint
+    functions and its ideal run; a file with ``nrfe`` rfes, default the first run's), or None (the
+    reference manipulator).
+    ``after`` (s): where the residual vibration starts (default: the end of the programmed
+    motion, where it is known). ``backend`` and ``progress`` as :func:`statics`."""
+    from .analysis import results as results_io
+    from .analysis import tracking
+
+    runs = [runs] if isinstance(runs, (str, Path, Results)) else list(runs)
+    if not runs:
+        raise ModelError("metrics of no runs: give one results file or more")
+    names = [str(r) if isinstance(r, (str, Path)) else f"run {k + 1}" for k, r in enumerate(runs)]
+    data = [r.arrays if isinstance(r, Results) else results_io.load(r) for r in runs]
+    progress = _messages(progress)
+    ref = tracking.reference_of(reference, data, _backend(backend, progress), progress, nrfe)
+    return [tracking.measure(run, ref, name, after) for run, name in zip(data, names)]
+
+
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text", "linearize", "export_casadi", "export_fmu", "RunSpec",
+    "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi", "export_fmu", "RunSpec",
 ]

@@ -1,5 +1,5 @@
 """Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | animate | modes | linearize |
-convergence | demo``.
+metrics | convergence | demo``.
 
 Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
@@ -611,6 +611,42 @@ def cmd_linearize(args) -> int:
     return 0
 
 
+MANIPULATOR = "manipulator"  # metrics --reference: the built-in reference arm
+
+
+def cmd_metrics(args) -> int:
+    """Tracking metrics of runs against a reference: printed, and with --out a CSV and a figure."""
+    from . import api
+    from .analysis import results as results_io
+    from .analysis import tracking, tracking_plots
+
+    try:
+        runs = [results_io.load(p) for p in args.results]
+    except results_io.ResultsError as exc:
+        raise UsageError(str(exc)) from None
+    reference = None if args.reference == MANIPULATOR and not Path(MANIPULATOR).exists() else args.reference
+    if reference is not None and not Path(reference).exists():
+        raise UsageError(f"--reference {reference}: no such file or folder; give a model file, a folder made by "
+                         f"'gpmegen build --out', a results file (.npz) or {MANIPULATOR} (the reference arm)")
+    out = Path(args.out) if args.out is not None else None
+    if out is not None:
+        outputs.check([out / "metrics.csv", *tracking_plots.targets(out, args.format)],
+                      [*args.results, *([reference] if reference else [])], args.overwrite)
+        outputs.writable_folder(out)
+    try:
+        found = api.metrics(args.results, reference, after=args.after, nrfe=args.nrfe,
+                            backend=args.backend or _default_backend(), progress=progress)
+    except (tracking.TrackingError, results_io.ResultsError) as exc:
+        raise UsageError(str(exc)) from None
+    print(tracking.table(found))
+    if out is not None:
+        label = Path(reference).name if reference is not None else "the reference manipulator"
+        print(f"wrote {tracking.write_csv(found, out / 'metrics.csv')}")
+        for path in tracking_plots.path_error(runs, found, label, out, args.format):
+            print(f"wrote {path}")
+    return 0
+
+
 CLAMPED_LEVELS = (2, 3, 5, 8, 10, 15, 20)  # convergence's n_rfe against beam theory
 OUTPUT_LEVELS = (3, 5, 9)  # convergence --output's n_rfe: n_sde 2, 4, 8
 
@@ -1018,6 +1054,25 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--scheduler", type=path_argument, default=None, metavar="ADDRESS",
                     help="run on the Dask cluster of this scheduler (tcp://HOST:PORT or a scheduler file)")
     sw.set_defaults(func=cmd_sweep)
+    mt = command("metrics", "tracking metrics of runs against a reference motion: constraint values, path error, "
+                            "residual vibration, control effort")
+    mt.add_argument("results", nargs="+", type=path_argument, help="results .npz files of simulate")
+    mt.add_argument("--reference", type=path_argument, required=True, metavar="REF",
+                    help="the model whose programmed constraints define the motion (a model file, a folder made "
+                         "by 'build --out', or manipulator: the built-in reference arm), or a run (.npz: its "
+                         "end-effector path)")
+    mt.add_argument("--nrfe", type=rfe_count, default=None,
+                    help="rfes of a reference model file or of the reference arm (default: the first run's)")
+    mt.add_argument("--after", type=_finite_number(lambda v: v >= 0, "must be zero or more"), default=None,
+                    metavar="T", help="residual vibration from T s on (default: the end of the programmed motion, "
+                                      "where it is known)")
+    mt.add_argument("--backend", choices=("numpy", "c"), default=None,
+                    help="generated code of the reference model (default: c when a compiler is present)")
+    mt.add_argument("--out", type=path_argument, default=None,
+                    help="folder for metrics.csv and the figure tracking.<format> (default: print only)")
+    mt.add_argument("--format", type=figure_formats, default=("png",), metavar="png,pdf,svg",
+                    help="figure formats (default png)")
+    mt.set_defaults(func=cmd_metrics)
     an = command("animate", "the arm moving (GIF or MP4; 2D when it stays in a plane, else 3D), or a still figure "
                             "of the deformed arm")
     an.add_argument("results", type=path_argument, help="a results .npz file of simulate or invert")
@@ -1043,7 +1098,7 @@ def build_parser() -> argparse.ArgumentParser:
     an.add_argument("--model", type=path_argument, default=None,
                     help="the model file that made the results (default: the one their metadata names)")
     an.set_defaults(func=cmd_animate)
-    for p in (ex, inv, pl, m, li, c, d, an):  # simulate has its own
+    for p in (ex, inv, pl, m, li, c, d, an, mt):  # simulate has its own
         p.add_argument("--overwrite", action="store_true",
                        help="replace the files of an earlier command at the output path (never the command's own "
                             "inputs)")

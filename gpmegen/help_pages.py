@@ -39,6 +39,17 @@ is built with --jacobians when they are missing); inputs: generalized forces on 
 coordinates (and a model file's actuators), B exact from the same GPME solve. With --at the run's
 parameter values are used (--param is for the statics). Prints the eigenvalues as frequency and
 damping ratio, the unstable ones marked.""",
+    "metrics": """\
+Tracking metrics of runs against a reference motion: a model whose programmed constraints define
+it (a model file, a folder made by 'build --out', or manipulator: the built-in reference arm; its
+ideal run to the runs' end gives the end-effector's reference path; the parameters it shares with
+the first run take that run's values; a model file or the arm takes the first run's rfes), or a
+run (its end-effector path). For each run: each constraint's value on the run's states (max
+|Phi| and RMS), the end-effector's path error (m), its residual vibration after --after (default:
+the end of the programmed motion, where the constraint functions stop depending on t; a run
+reference, where its end-effector stops), peak-to-peak and RMS of its deviation from its final
+position (m), and each drive's effort: peak |u|, RMS u and the energy integral of |u q'| dt (J).
+RMS values are time-weighted.""",
     "convergence": """\
 Without --output: clamp the arm (or each flexible link of a model file, alone) at its root and
 compare its static tip deflection and first frequencies against the number of rfes with
@@ -174,6 +185,15 @@ files written:
   <out> (.npz or .mat): A, B, state_names, input_names, eigenvalues, t, q, qd, qdd (the state
   and its accelerations: zero at an equilibrium), coordinates, where; with several --times one
   file per time, <out>_1, <out>_2, ...""",
+    "metrics": """\
+examples:
+  gpmegen metrics results/pd.npz results/lqr.npz --reference tests/models/flexible_link.toml
+  gpmegen metrics results/plant.npz --reference results/ideal.npz --after 0.5 --out metrics/
+  gpmegen metrics results/run_nrfe5_locked_rk4.npz --reference manipulator
+
+files written:
+  with --out: <out>/metrics.csv (run, quantity, of, value, unit) and <out>/tracking.png (the path
+  error of each run over time); without, the table is printed only""",
     "convergence": """\
 examples:
   gpmegen convergence

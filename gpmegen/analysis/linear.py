@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import GpmegenError, ModelError
 from ..runtime import gpme
 from ..runtime.internal import UNSTABLE
 
@@ -40,6 +40,19 @@ from ..runtime.internal import UNSTABLE
 STEP = 1e-7
 # Eigenvalues below this fraction of the largest modulus are zero to round-off.
 NEUTRAL = 1e-9
+#: What installs python-control, for :meth:`LinearModel.state_space`.
+CONTROL_EXTRA = "pip install 'gpmegen[control]'"
+
+
+def require_control():
+    """The ``control`` module (python-control); GpmegenError in one line naming the extra when it
+    is not installed."""
+    try:
+        import control
+    except ImportError:
+        raise GpmegenError(f"LinearModel.state_space needs python-control, which is not installed: "
+                           f"{CONTROL_EXTRA}") from None
+    return control
 
 
 @dataclass
@@ -69,6 +82,22 @@ class LinearModel:
         return (f"linear model about the {self.where}: {len(self.states)} states ({coordinates} and their rates), "
                 f"inputs {', '.join(self.inputs) or 'none'}; max|q''| there {np.max(np.abs(self.qdd)):.3g} "
                 f"(0 at an equilibrium)")
+
+    def state_space(self, outputs=None):
+        """``control.StateSpace(A, B, C, D)`` of python-control, with the state and input names:
+        ``C`` the identity on the states (every state an output) unless ``outputs`` names some of
+        :attr:`states` (``C`` picks them, in that order), ``D`` zero. Needs python-control
+        (:data:`CONTROL_EXTRA`)."""
+        control = require_control()
+        names = list(self.states)
+        chosen = names if outputs is None else list(outputs)
+        unknown = [name for name in chosen if name not in names]
+        if unknown or not chosen:
+            raise ModelError(f"outputs {', '.join(map(repr, unknown)) or '(none)'}: name states of the linear model, "
+                             f"among {', '.join(names)}")
+        C = np.eye(len(names))[[names.index(name) for name in chosen]]
+        D = np.zeros((len(chosen), self.B.shape[1]))
+        return control.ss(self.A, self.B, C, D, states=names, inputs=list(self.inputs), outputs=chosen)
 
     def arrays(self) -> dict:
         """The arrays written to NPZ and .mat files."""
