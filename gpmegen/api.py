@@ -21,9 +21,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
-from .analysis.runs import Results
-from .analysis.runspec import NAMES as RUN_OPTIONS
-from .analysis.runspec import RunSpec, split_options
+from .analysis.run.runs import Results
+from .analysis.run.runspec import NAMES as RUN_OPTIONS
+from .analysis.run.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
 from .codegen.render import build as build_model
 from .codegen.render import input_hash
@@ -107,7 +107,7 @@ def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, 
     command, transforms, jacobians = chosen["command"], chosen["transforms"], chosen["jacobians"]
     backend = _backend(backend, progress)
     if model is None:
-        from .analysis.reference_case import CONSTANTS, with_constants
+        from .analysis.run.reference_case import CONSTANTS, with_constants
 
         model = reference_model(check_nrfe(nrfe, "the reference arm"))
         free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
@@ -175,7 +175,7 @@ def _backend(backend, progress):
 def _case(model, nrfe):
     """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
     model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
-    from .analysis import cases, reference_case
+    from .analysis.run import cases, reference_case
 
     if model is None:
         return reference_case.ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
@@ -212,7 +212,7 @@ def _started(model, nrfe, start, directory):
 
 def statics(model=None, *, params=None, backend=None, **options):
     """The consistent start of a run, as ``gpmegen statics`` finds it: a
-    :class:`gpmegen.analysis.study.Start` with ``model`` (loaded, its constants bound), ``q`` and
+    :class:`gpmegen.analysis.run.study.Start` with ``model`` (loaded, its constants bound), ``q`` and
     ``qd`` (n,) on the programmed constraints at t = 0, and ``moved`` (how far they were moved
     onto them).
 
@@ -247,11 +247,11 @@ def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=No
     ``repartition``, ``actuated``, ``internal_dynamics``, ``max_violation``, checked by
     :class:`RunSpec` in one line each. ``feedforward``: a results file of an actuated
     realization (or a stable inversion) whose inputs ``u`` are added to the drives of the model's
-    coordinates of the same names, read as table signals (:mod:`gpmegen.analysis.feedforward`;
+    coordinates of the same names, read as table signals (:mod:`gpmegen.analysis.post.feedforward`;
     ``model`` a model file or a :class:`Model`). An option that is neither is refused in one line
     with the valid ones. A run that stops early (diverges) is returned with its ``status``
     saying why."""
-    from .analysis import runs
+    from .analysis.run import runs
 
     spec, chosen = split_options(spec, options, _SIMULATE, lambda names: (
         f"simulate() got an unknown option {names}; its options are {', '.join((*RUN_OPTIONS, *_SIMULATE))}"))
@@ -296,14 +296,14 @@ def export_fmu(out, model=None, *, inputs=(), overwrite=False, **options):
 
 
 def linearize(model=None, *, params=None, backend=None, at=None, **options):
-    """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.linear.LinearModel`), as
+    """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.run.linear.LinearModel`), as
     ``gpmegen linearize`` makes it: about :func:`statics`'s start (arguments as there), or with
     ``at`` (a results file of this model) and ``times`` (s), a list of them, one at the saved
     state nearest each time. The model is loaded with its Jacobians (built when missing).
     ``inputs``: the coordinates that take a generalized force (default: those the model drives,
     and a model file's actuators). ``nrfe``, ``start``, ``directory``, ``progress``, ``times``
     and ``inputs`` are keyword options; another is refused in one line."""
-    from .analysis import cases, linear
+    from .analysis.run import cases, linear
 
     chosen = _options(options, {**_FOUND, "start": None, "progress": None, "times": None, "inputs": None},
                       "linearize")

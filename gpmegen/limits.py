@@ -338,7 +338,7 @@ class RunEstimate(NamedTuple):
 
 
 def run_estimate(n_dof: int, n_constraints: int, spec, backend: str, omega: float | None = None) -> RunEstimate:
-    """The :class:`RunEstimate` of the run ``spec`` (a :class:`gpmegen.analysis.runspec.RunSpec`:
+    """The :class:`RunEstimate` of the run ``spec`` (a :class:`gpmegen.analysis.run.runspec.RunSpec`:
     its method, see :data:`ESTIMATORS`, step ``dt``, end time, and every ``save_every``-th state
     kept, or every ``save_dt`` s when given to a method other than rk4, whose ``save_every`` it
     sets) on ``backend`` ("c" or "numpy"). An integrator whose work cannot be said before it

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis import plots, runs
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.cases import FileCase
-from gpmegen.analysis.reference_case import ReferenceCase
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.figures import plots
+from gpmegen.analysis.run import results as results_io
+from gpmegen.analysis.run import runs
+from gpmegen.analysis.run.cases import FileCase
+from gpmegen.analysis.run.reference_case import ReferenceCase
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.model import toml_file
 

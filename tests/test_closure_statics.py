@@ -18,7 +18,7 @@ import pytest
 import scipy.optimize
 
 import gpmegen
-from gpmegen.analysis import study
+from gpmegen.analysis.run import study
 from gpmegen.cli import main
 from gpmegen.errors import ModelWarning
 from gpmegen.model.toml_file import read_model_file

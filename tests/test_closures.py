@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import closures as closure_reactions
-from gpmegen.analysis import energy, study
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.figure_list import stems
+from gpmegen.analysis.figures.figure_list import stems
+from gpmegen.analysis.post import closures as closure_reactions
+from gpmegen.analysis.post import energy
+from gpmegen.analysis.run import results as results_io
+from gpmegen.analysis.run import study
 from gpmegen.cli import main
 from gpmegen.errors import ModelWarning, SimulationError
 from gpmegen.model import shapes

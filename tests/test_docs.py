@@ -224,9 +224,9 @@ def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
     and the three runs between them have every figure of the list, each its own (the test below
     draws them, in make check-c)."""
     from gpmegen import cli_docs
-    from gpmegen.analysis import plots
-    from gpmegen.analysis import results as results_io
-    from gpmegen.analysis.figure_list import FIGURES
+    from gpmegen.analysis.figures import plots
+    from gpmegen.analysis.figures.figure_list import FIGURES
+    from gpmegen.analysis.run import results as results_io
 
     page = cli_docs.page()
     for command in ("plot", "demo"):
@@ -241,7 +241,7 @@ def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
 @pytest.mark.long
 def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     """Real plots of the three runs write exactly the figures of the list between them."""
-    from gpmegen.analysis.figure_list import FIGURES
+    from gpmegen.analysis.figures.figure_list import FIGURES
     from gpmegen.cli import main
 
     run, loop, hung = _three_runs(tmp_path)

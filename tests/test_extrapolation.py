@@ -10,9 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis import beam, convergence, extrapolate, richardson
-from gpmegen.analysis.levels import simulate_levels
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.discretization import convergence, extrapolate
+from gpmegen.analysis.discretization.levels import simulate_levels
+from gpmegen.analysis.post import beam, richardson
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import ExtrapolationError
 

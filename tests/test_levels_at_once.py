@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis.levels import compiled_loops, run_levels
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.discretization.levels import compiled_loops, run_levels
+from gpmegen.analysis.run.runspec import RunSpec
 
 SPINUP = Path(__file__).resolve().parent.parent / "examples" / "spinup.toml"
 KEYS = ("t", "q", "qd", "qdd", "lambda", "end_effector", "drive_forces", "constraint_forces", "kinetic_energy")

@@ -15,8 +15,8 @@ import pytest
 
 import gpmegen
 from gpmegen import limits
-from gpmegen.analysis import reference_case, study
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import BuildError, EvaluationError, ModelError
 from gpmegen.limits import LimitError

@@ -354,7 +354,7 @@ def out_of_reach(model, t_last: float, y_last, t_end: float) -> Outcome | None:
     ``t_end`` because its position constraints could no longer be met (the prescribed motion left
     the workspace, where their Jacobian D loses rank), naming them and the instant; None when they
     can be met throughout, so that the failure is the step's."""
-    from ..analysis.study import project_onto_constraints
+    from ..analysis.run.study import project_onto_constraints
     from ..errors import StateError
 
     orders = np.asarray(model.constraint_orders)
@@ -548,7 +548,7 @@ LONG_STEPS = ("--method genalpha (implicit, in C), radau (implicit, adaptive, in
 
 def unstable_step(dt: float, values) -> str | None:
     """Why RK4 at step ``dt`` (s) would blow up on the linearized motion of eigenvalues ``values``
-    (1/s, dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), with the stable step
+    (1/s, dampers included: :func:`gpmegen.analysis.post.modes.motion_eigenvalues`), with the stable step
     (:func:`gpmegen.runtime.stability.stable_step`), the eigenvalue that sets it and the methods
     that take the step asked for; None when ``dt`` is stable."""
     from .stability import stable_step

@@ -54,7 +54,7 @@ def _plan_models(model_file, nrfe_values, start):
     refused here, before anything runs)."""
     from ...codegen.render import input_hash
     from ...runtime.loader import BACKENDS
-    from ..cases import case_for
+    from ..run.cases import case_for
 
     models = []
     for nrfe in nrfe_values:
@@ -74,7 +74,7 @@ def _check_parameters(models, params) -> None:
                          f"{', '.join(sorted(names))}")
 
 
-#: A sweep's own options (beyond its runs' :class:`~gpmegen.analysis.runspec.RunSpec`), with their defaults.
+#: A sweep's own options (beyond its runs' :class:`~gpmegen.analysis.run.runspec.RunSpec`), with their defaults.
 OPTIONS = {"backend": "c", "samples": None, "seed": 0, "sampling": "lhs", "workers": None, "scheduler": None,
            "progress": None}
 #: The fields of a run's spec a sweep's runs take (the others keep their defaults).
@@ -86,14 +86,14 @@ def sweep(out, params: dict, spec=None, *, model_file=None, nrfe=None, **options
     count in ``nrfe`` (a list; None: the case's own), or ``samples`` draws (``sampling`` "lhs"
     or "random", from ``seed``) of the ranges ``params`` gives as ``(low, high)``; write each
     run's results into ``out``/runs and the summary into ``out``. Each run is ``spec`` (a
-    :class:`~gpmegen.analysis.runspec.RunSpec`; of its fields, :data:`RUN_FIELDS`) with the fields
+    :class:`~gpmegen.analysis.run.runspec.RunSpec`; of its fields, :data:`RUN_FIELDS`) with the fields
     ``options`` give (``t_end``, ``dt``, ``save_every``, ``method``, ``start``, ``repartition``, as
     ``gpmegen simulate`` takes them) on ``backend`` (default "c"). ``workers``: local processes
     (default: one per core; 1: in this process); ``scheduler``: the address or scheduler file of
     a Dask cluster to run on instead. ``progress`` takes one-line messages. Returns the
     :class:`Summary`; raises :class:`SweepFailures` (after writing the summary) when some runs did
     not complete."""
-    from ..runspec import NAMES, RunSpec, split_options
+    from ..run.runspec import NAMES, RunSpec, split_options
 
     spec, chosen = split_options(spec, options, OPTIONS, lambda names: (
         f"unknown sweep option {names}; a sweep's options are {', '.join((*RUN_FIELDS, *OPTIONS))}"))
@@ -156,7 +156,7 @@ def _check_draws(samples, seed, sampling) -> None:
 def _check_limits(models, per_model: int, size: int, settings: dict) -> None:
     """Refuse a sweep that cannot finish (:func:`gpmegen.limits.check_sweep`): ``per_model`` runs
     of each model on ``size`` workers."""
-    from ..runspec import RunSpec
+    from ..run.runspec import RunSpec
 
     spec = RunSpec(t_end=settings["t_end"], dt=settings["dt"], save_every=settings["save_every"],
                    method=settings["method"])

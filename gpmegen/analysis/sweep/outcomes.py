@@ -35,7 +35,7 @@ PEAKS = (("constraint_forces", "peak_constraint_force"),)
 
 
 def outcomes(results, driven=()) -> dict:
-    """The scalar outcomes of one run's ``results`` (see :mod:`gpmegen.analysis.results`);
+    """The scalar outcomes of one run's ``results`` (see :mod:`gpmegen.analysis.run.results`);
     ``driven``: the coordinates the model's drives act on."""
     status = str(results["status"])
     ending, _, why = status.partition(": ")
@@ -53,7 +53,7 @@ def outcomes(results, driven=()) -> dict:
             peaks = np.abs(results[key]).max(axis=0)
             row.update({f"{prefix}.{c}": float(peaks[k]) for k, c in enumerate(coordinates)})
     if "kinetic_energy" in results:
-        from ..energy import balance_residual
+        from ..post.energy import balance_residual
 
         row["energy_balance_error"] = float(np.abs(balance_residual(results)).max())
     return row

@@ -1,4 +1,4 @@
-"""A sweep's run as a worker process makes it: the run of :func:`gpmegen.analysis.runs.run`,
+"""A sweep's run as a worker process makes it: the run of :func:`gpmegen.analysis.run.runs.run`,
 the same that ``gpmegen simulate`` makes, with the model loaded (built, compiled, probed) once
 per process and model and bound to each run's parameter values by ``with_params``.
 
@@ -20,7 +20,7 @@ from pathlib import Path
 from ... import limits
 from ...errors import GpmegenError
 from ...fileio import atomic_write_bytes
-from .. import cases, runs
+from ..run import cases, runs
 from . import outcomes
 from .plan import MANIFEST, SweepError, Task
 
@@ -67,7 +67,7 @@ def prepare(task: Task, progress=_quiet) -> None:
 
 
 def perform(task: Task) -> dict:
-    """Make the run ``task`` and write its results pair (:func:`gpmegen.analysis.runs.run`);
+    """Make the run ``task`` and write its results pair (:func:`gpmegen.analysis.run.runs.run`);
     returns its summary row (:func:`gpmegen.analysis.sweep.outcomes.outcomes`, or a failure
     with its one-line message) with its inputs and wall time, and writes it beside the results
     (``task.row_file``) when the run is complete."""

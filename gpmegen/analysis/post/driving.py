@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from ..model.chain import TIME, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
-from ..model.expand import expand
-from ..runtime import statics
-from . import results as results_io
+from ...model.chain import TIME, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
+from ...model.expand import expand
+from ...runtime import statics
+from ..run import results as results_io
 
 # Unit of a generalized force on a coordinate, by joint kind.
 FORCE_UNITS = {"revolute": "N·m", "prismatic": "N"}
@@ -145,7 +145,7 @@ def deformation(loaded, q, elastic=None) -> dict:
     generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
     coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
     {0} from where the rigid arm at the same joint coordinates puts it (the ``elastic``
-    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.extrapolate.elastic_coordinates`;
+    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.discretization.extrapolate.elastic_coordinates`;
     None, for generated code without its model: those with a spring)."""
     C = statics.spring_stiffness(loaded, q[0])
     if elastic is None:
@@ -166,8 +166,8 @@ def large_rotation(model, loaded, t, q) -> str | None:
     """A warning (one line) when a rotation of the symbolic ``model``'s sdes exceeds
     :data:`ELASTIC_ROTATION` in magnitude at the samples ``t`` (k,), ``q`` (k, n) of ``loaded``:
     the largest, its value and time; None when none does."""
-    from ..model.chain import FlexibleLink, Joint
-    from ..model.rfem import discretize
+    from ...model.chain import FlexibleLink, Joint
+    from ...model.rfem import discretize
 
     names = [part.name for link in model.chain if isinstance(link, FlexibleLink) for part in discretize(link)
              if isinstance(part, Joint) and part.kind == "revolute"]
@@ -190,10 +190,10 @@ def annotate(results: dict, model, loaded) -> dict:
     driving functions in the metadata (``force_units``, ``lambda_units``), the elastic
     :func:`deformation` and, for the ideal realization, ``point_forces`` (k, n_points, 3) N on
     the points named by ``meta["force_points"]`` and the reactions of the closures
-    (:mod:`gpmegen.analysis.closures`, described by ``meta["closures"]``). ``model`` None (generated code alone): the
-    deformation only."""
+    (:mod:`gpmegen.analysis.post.closures`, described by ``meta["closures"]``). ``model`` None
+    (generated code alone): the deformation only."""
     meta = results_io.metadata(results)
-    from .extrapolate import elastic_coordinates
+    from ..discretization.extrapolate import elastic_coordinates
 
     elastic = None if model is None else elastic_coordinates(model, loaded)
     arrays = deformation(loaded, results["q"], elastic) if loaded.points and len(results["t"]) else {}

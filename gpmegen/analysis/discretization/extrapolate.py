@@ -1,6 +1,6 @@
 """The same motion at several discretizations, and its limit: the outputs that mean the same at
 every ``n_rfe`` (:func:`outputs`) on one time grid, each extrapolated
-(:func:`gpmegen.analysis.richardson.richardson`), written as one file (:func:`save`).
+(:func:`gpmegen.analysis.post.richardson.richardson`), written as one file (:func:`save`).
 
 Comparable outputs (SI units, in the base frame {0}; N samples): ``joints`` (N, j) and
 ``joint_velocities`` (N, j), the coordinates of the model's joints (not the elastic ones of its
@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import npz
-from ..errors import ExtrapolationError
-from ..fileio import atomic_write
-from . import richardson
+from ... import npz
+from ...errors import ExtrapolationError
+from ...fileio import atomic_write
+from ..post import richardson
 from .levels import Level
 
 FORMAT = "gpmegen-extrapolation-1"
@@ -33,7 +33,7 @@ OUTPUTS = ("joints", "joint_velocities", "points", "point_velocities", "deflecti
 
 def joint_names(model) -> list[str]:
     """The coordinates of the joints of a symbolic model, in chain order."""
-    from ..model.chain import Joint
+    from ...model.chain import Joint
 
     return [element.name for element in model.chain if isinstance(element, Joint)]
 
@@ -61,7 +61,7 @@ def _refusal(name, named=()) -> ExtrapolationError:
 
 def point_names(model) -> list[str]:
     """The named points of a symbolic model, in chain order."""
-    from ..model.chain import Point
+    from ...model.chain import Point
 
     return [element.name for element in model.chain if isinstance(element, Point)]
 
@@ -137,7 +137,7 @@ def outputs(level: Level, names=OUTPUTS) -> dict:
 
 def check_flexible(model) -> None:
     """Refuse a symbolic model without a flexible link: nothing in it changes with n_rfe."""
-    from ..model.chain import FlexibleLink
+    from ...model.chain import FlexibleLink
 
     if not any(isinstance(element, FlexibleLink) for element in model.chain):
         raise ExtrapolationError(f"model {model.name}: no flexible link, so nothing changes with n_rfe; "
@@ -199,7 +199,7 @@ def on_grid(t_level, values, t):
 
 def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER, terms=1) -> dict:
     """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe, ≥ 3 with ``terms = 2``: see
-    :func:`gpmegen.analysis.richardson.richardson`) for each ``requested`` output
+    :func:`gpmegen.analysis.post.richardson.richardson`) for each ``requested`` output
     (default: all of :data:`OUTPUTS`). Returns the arrays of the file :func:`save` writes:
     ``t`` (N,), ``nrfe``, ``n_sde`` (k,) and for each output X: ``X`` (k, N, ...) its values,
     ``X_error`` (k, N, ...) the estimated discretization error of each level, ``X_limit``

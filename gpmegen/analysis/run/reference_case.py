@@ -14,7 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..runtime import statics
+from ...runtime import statics
 from .cases import Case
 from .study import consistent, project_onto_constraints
 
@@ -77,7 +77,7 @@ class ReferenceCase(Case):
 
     @cached_property
     def model(self):
-        from ..model import reference_model
+        from ...model import reference_model
 
         return reference_model(self.nrfe)
 
@@ -99,7 +99,7 @@ class ReferenceCase(Case):
 
     def start(self, backend, start, overrides, progress):
         """The loaded model with r_Ea and y_c set, at rest at q0 (see :func:`initial_state`), as
-        a :class:`gpmegen.analysis.study.Start`."""
+        a :class:`gpmegen.analysis.run.study.Start`."""
         model = self.load(backend, {k: v for k, v in overrides.items() if k not in CONSTANTS}, progress)
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
         model, q = initial_state(model, start, overrides)

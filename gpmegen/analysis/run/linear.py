@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ModelError
-from ..runtime import gpme
-from ..runtime.internal import UNSTABLE
+from ...errors import ModelError
+from ...runtime import gpme
+from ...runtime.internal import UNSTABLE
 
 # Relative step of the central differences of Φ̇ in q (constraint terms only).
 STEP = 1e-7
@@ -194,7 +194,7 @@ def targets(path, count: int) -> list[Path]:
 def save(linear: LinearModel, path) -> Path:
     """Write ``linear`` to ``path``, ``.npz`` (names as string arrays) or ``.mat`` (MATLAB 5,
     names as cell arrays of strings), atomically."""
-    from ..fileio import atomic_write
+    from ...fileio import atomic_write
 
     path = Path(path)
     data = linear.arrays()

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GpmegenError
-from ..fileio import atomic_write_all
+from ...errors import GpmegenError
+from ...fileio import atomic_write_all
+from ..run.results import metadata
 from . import figure_list
-from .results import metadata
 
 FORMATS = ("png", "pdf", "svg")
 DPI = 200
@@ -425,9 +425,9 @@ ENERGY_PANELS = (
 
 
 def balance_error(results):
-    """ΔE − W, J: :func:`gpmegen.analysis.energy.balance_residual` (the dampers' work is a term of
+    """ΔE − W, J: :func:`gpmegen.analysis.post.energy.balance_residual` (the dampers' work is a term of
     the balance, not part of the error)."""
-    from .energy import balance_residual
+    from ..post.energy import balance_residual
 
     return balance_residual(results)
 
@@ -470,7 +470,7 @@ def force_elements(plt, runs, style):
 
 def figures(runs) -> list:
     """The (stem, draw) of the figures ``runs`` can make, in the order and under the conditions of
-    :data:`gpmegen.analysis.figure_list.FIGURES`: draw(plt, runs, styles) -> Figure."""
+    :data:`gpmegen.analysis.figures.figure_list.FIGURES`: draw(plt, runs, styles) -> Figure."""
     from . import driving_plots  # the driving functions and the elastic deformation
 
     draws = {"joint_coordinates": joint_coordinates, "end_effector": end_effector, "path": path,

@@ -3,7 +3,7 @@ the same settings, one after the other or at once (the levels are independent ru
 where the runs' loops are compiled (:func:`compiled_loops`), which let go of Python's lock while
 they integrate, on threads of this process, which neither start processes nor load the models a
 second time; else on a pool of local processes (:func:`gpmegen.analysis.sweep.pools.local_pool`).
-A level's results are the same bytes every way: the same run (:func:`gpmegen.analysis.runs.run`)
+A level's results are the same bytes every way: the same run (:func:`gpmegen.analysis.run.runs.run`)
 of the same generated code.
 """
 
@@ -16,17 +16,17 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import limits
-from ..errors import ExtrapolationError
-from . import cases, runs
-from .runspec import RunSpec
+from ... import limits
+from ...errors import ExtrapolationError
+from ..run import cases, runs
+from ..run.runspec import RunSpec
 
 
 @dataclass
 class Level:
     """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
     ``loaded`` model its run ended with, the run's ``results`` dict, its wall ``seconds`` and the
-    parameters its start set (``set_at_start``, see :attr:`gpmegen.analysis.cases.Case.start_constants`)."""
+    parameters its start set (``set_at_start``, see :attr:`gpmegen.analysis.run.cases.Case.start_constants`)."""
 
     nrfe: int
     model: object
@@ -40,7 +40,7 @@ class Level:
 class LevelTask:
     """What a pool's process needs to make one level's run: the case (``model_file``, None for
     the reference manipulator, and ``nrfe``), the run's ``spec``
-    (:class:`gpmegen.analysis.runspec.RunSpec`), ``backend`` and parameter values, and where it
+    (:class:`gpmegen.analysis.run.runspec.RunSpec`), ``backend`` and parameter values, and where it
     is written (``out``, None: nowhere); ``no_limits``: the levels were started within
     :func:`gpmegen.limits.lifted`, which another process does not see."""
 
@@ -107,7 +107,7 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
     the compiled methods on the C backend, unless the constraints are realized by inputs (the
     actuated realization steps in Python)."""
-    from ..runtime import integrate
+    from ...runtime import integrate
 
     return backend == "c" and method in ("rk4", *integrate.COMPILED) and not actuated
 
@@ -115,9 +115,9 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
 def _on_threads(tasks, levels_cases, size) -> list:
     """The runs of ``tasks`` (``levels_cases``: n_rfe -> case) on ``size`` threads of this
     process, the finest levels first (the longest runs: so the threads end together); returns
-    each task's :class:`gpmegen.analysis.runs.Run` in the order of ``tasks``, or raises the first
+    each task's :class:`gpmegen.analysis.run.runs.Run` in the order of ``tasks``, or raises the first
     task's error. No thread draws a progress bar (``sys.stderr`` is no terminal meanwhile)."""
-    from .sweep.workers import NotATerminal
+    from ..sweep.workers import NotATerminal
 
     pending = sorted(tasks, key=lambda task: -task.nrfe)
     finished, lock = {}, threading.Lock()
@@ -151,15 +151,15 @@ def _on_threads(tasks, levels_cases, size) -> list:
 
 
 def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, workers=None) -> list[Level]:
-    """The run ``spec`` (a :class:`gpmegen.analysis.runspec.RunSpec`, its start one the case
+    """The run ``spec`` (a :class:`gpmegen.analysis.run.runspec.RunSpec`, its start one the case
     takes) of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` on
-    ``backend`` with the parameter values ``overrides`` (:func:`gpmegen.analysis.runs.run`), each
+    ``backend`` with the parameter values ``overrides`` (:func:`gpmegen.analysis.run.runs.run`), each
     written to :func:`level_path` of ``out`` (None: kept in memory only), :func:`pool_size` at
     once (1: one after the other in this process): on as many threads of this process where the
     loops are compiled (:func:`compiled_loops`), else on as many processes. Returns the
     :class:`Level` of each, by ascending ``nrfe``."""
+    from ..sweep import pools
     from .extrapolate import check_same_model
-    from .sweep import pools
 
     levels_cases = {n: cases.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
     check_same_model({n: case.model for n, case in levels_cases.items()})
@@ -203,11 +203,11 @@ def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, worker
 
 def simulate_levels(model_file, nrfe, spec, backend="numpy", params=None, workers=None) -> list[Level]:
     """The motion of a model file at each ``nrfe`` as ``spec`` says (a
-    :class:`gpmegen.analysis.runspec.RunSpec`; its ``start`` as
-    :func:`gpmegen.analysis.study.file_start` takes it, None: "none"), in memory (no files), with
+    :class:`gpmegen.analysis.run.runspec.RunSpec`; its ``start`` as
+    :func:`gpmegen.analysis.run.study.file_start` takes it, None: "none"), in memory (no files), with
     the parameter overrides ``params``, ``workers`` at once (default: one per core, at most one
     per level; on threads or processes, see :func:`run_levels`). Pass the levels to
-    :func:`gpmegen.analysis.extrapolate.extrapolate`."""
+    :func:`gpmegen.analysis.discretization.extrapolate.extrapolate`."""
     spec = spec if spec.start is not None else spec.with_start("none")
     return run_levels(model_file, nrfe, spec, backend, dict(params or {}), None, _quiet, workers)
 

@@ -1,6 +1,6 @@
 """A model's start (a model file's ``[initial]`` configuration moved onto the programmed
 constraints) and its constrained motion, with the derived quantities of the results. The paper's
-scenario is in :mod:`gpmegen.analysis.reference_case`.
+scenario is in :mod:`gpmegen.analysis.run.reference_case`.
 """
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import limits
-from ..errors import ModelError, ModelWarning, SimulationError
-from ..runtime import gpme, integrate, internal, partition, redundancy, statics
-from ..status import Ending, Outcome
-from . import energy as energy_balance
-from . import modes
+from ... import limits
+from ...errors import ModelError, ModelWarning, SimulationError
+from ...runtime import gpme, integrate, internal, partition, redundancy, statics
+from ...status import Ending, Outcome
+from ..post import energy as energy_balance
+from ..post import modes
 from . import results as results_io
 
 # Above this move (rad or m, rad/s or m/s) of a coordinate, making the start consistent is
@@ -251,18 +251,18 @@ def file_start(model, initial: dict, start="none", velocities: dict | None = Non
 
 def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
     """The constrained motion from ``q0`` with velocities ``qd0`` (default rest) as ``spec`` says
-    (a :class:`gpmegen.analysis.runspec.RunSpec`); returns a results dict (see
-    :mod:`gpmegen.analysis.results`). Its ``method``: "rk4" (step ``dt``, saving every
+    (a :class:`gpmegen.analysis.run.runspec.RunSpec`); returns a results dict (see
+    :mod:`gpmegen.analysis.run.results`). Its ``method``: "rk4" (step ``dt``, saving every
     ``save_every``-th step), "genalpha" (compiled, implicit, step ``dt``, numerical damping
     ``rho_inf``), "dop853" (compiled, adaptive), "radau" (compiled, implicit and adaptive) or a
     name of :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every
-    :attr:`~gpmegen.analysis.runspec.RunSpec.save_interval` s, the adaptive ones to ``rtol``,
+    :attr:`~gpmegen.analysis.run.runspec.RunSpec.save_interval` s, the adaptive ones to ``rtol``,
     ``atol``. The conditioning of the dependent block of ``D`` is watched: ``notify`` (a callable
     taking a message) is told when it degrades, and with ``repartition`` the dependent coordinates
     are chosen anew. ``progress``: the progress bar of the chunked loops. A fixed-step run that
     cannot finish (for DOP853: whose steps, at most its stable step at the start, cannot), or whose
     step is above RK4's stable one at the start (from the eigenvalues of the motion linearized there,
-    dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), is refused before it starts
+    dampers included: :func:`gpmegen.analysis.post.modes.motion_eigenvalues`), is refused before it starts
     (:class:`gpmegen.limits.LimitError`, unless the limits are lifted). An actuated run (``model``
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
@@ -348,7 +348,7 @@ def _integrate(model, q0, qd0, spec, progress, watch):
 def collect(model, t, y, status, settings) -> dict:
     """Derived quantities at the saved samples: E, Φ, drive, q̈, the forces that realize the
     constraints (``M q̈ - f``, with ``lambda`` of the ideal realization or the inputs ``u`` of the
-    actuated one), energies, the dampers' work (:mod:`gpmegen.analysis.energy`) and each force
+    actuated one), energies, the dampers' work (:mod:`gpmegen.analysis.post.energy`) and each force
     element's length, rate and force. Evaluated
     for all samples at once (:func:`_derived_together`) where the run's model allows it, else
     sample by sample (:func:`_derived_each`): the same values, to round-off."""

@@ -1,6 +1,6 @@
 """What a command runs: a *case*, a model with its scenario (how it is loaded and started, how its
 runs are labelled and shown). The paper's manipulator is one case
-(:class:`gpmegen.analysis.reference_case.ReferenceCase`), a model file another (:class:`FileCase`);
+(:class:`gpmegen.analysis.run.reference_case.ReferenceCase`), a model file another (:class:`FileCase`);
 generic code asks the case instead of testing model or coordinate names.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 from functools import cached_property
 from pathlib import Path
 
-from ..errors import BuildError, DerivationError
+from ...errors import BuildError, DerivationError
 
 
 class Case:
@@ -17,7 +17,7 @@ class Case:
     build command that makes it), ``label`` (for progress and summaries), ``name`` (in file
     names), ``results_stem`` (the
     default results name), ``starts`` (the starts it accepts, the default first) and
-    :meth:`start` (returning a :class:`gpmegen.analysis.study.Start`)."""
+    :meth:`start` (returning a :class:`gpmegen.analysis.run.study.Start`)."""
 
     starts: tuple = ()
     actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
@@ -31,7 +31,7 @@ class Case:
     def feed_forward(self, run):
         """This case driven by the inputs of the run at ``run``: a model of the user's only
         (:class:`ModelCase`), whose drives can be rewritten."""
-        from ..errors import ModelError
+        from ...errors import ModelError
 
         raise ModelError(f"{self.label}: feedforward drives a model file or a gpmegen.Model (its drives are "
                          f"rewritten); give the plant's model file")
@@ -89,9 +89,9 @@ class Case:
 
     def metadata(self, model) -> dict:
         """What plots need beyond the results' generic metadata (see :func:`results.metadata`):
-        ``label`` and those listed in :func:`gpmegen.analysis.results.metadata`. By default the
+        ``label`` and those listed in :func:`gpmegen.analysis.run.results.metadata`. By default the
         model's name, and its first four joints (not the sde rotations of its flexible links)."""
-        from ..model.chain import Joint
+        from ...model.chain import Joint
 
         joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
         return {"label": model.module.MODEL, "joints": joints[:4]}
@@ -102,7 +102,7 @@ class Case:
 
     def joint_limits(self) -> dict:
         """Coordinate -> (lower, upper, velocity, unit) limits a run is checked against after
-        it ends (:mod:`gpmegen.analysis.joint_limits`); none by default."""
+        it ends (:mod:`gpmegen.analysis.post.joint_limits`); none by default."""
         return {}
 
     def locator(self) -> dict | None:
@@ -116,7 +116,7 @@ class Case:
 
     def size(self) -> tuple[int, int]:
         """(coordinates, constraints) of the model, known before it is derived or loaded."""
-        from .. import limits
+        from ... import limits
 
         return limits.model_coordinates(self.model), len(self.model.constraints)
 
@@ -138,7 +138,7 @@ class ModelCase(Case):
 
     def feed_forward(self, run) -> ModelCase:
         """This case with the inputs ``u`` of the run at ``run`` (a results file) added to its
-        drives (:mod:`gpmegen.analysis.feedforward`), checked now."""
+        drives (:mod:`gpmegen.analysis.post.feedforward`), checked now."""
         self.feedforward = run
         self.__dict__.pop("_fed", None)
         _ = self.model  # the run read and matched to the coordinates now, not at the start
@@ -149,7 +149,7 @@ class ModelCase(Case):
         if self.feedforward is None:
             return model
         if "_fed" not in self.__dict__:
-            from . import feedforward
+            from ..post import feedforward
 
             self.__dict__["_fed"] = feedforward.model(model, self.feedforward)
         return self.__dict__["_fed"]
@@ -184,8 +184,8 @@ class ModelCase(Case):
         return meta
 
     def start(self, backend, start, overrides, progress):
-        """The loaded model's consistent start (:class:`gpmegen.analysis.study.Start`) from
-        :meth:`initial` (see :func:`gpmegen.analysis.study.file_start`)."""
+        """The loaded model's consistent start (:class:`gpmegen.analysis.run.study.Start`) from
+        :meth:`initial` (see :func:`gpmegen.analysis.run.study.file_start`)."""
         from . import study
 
         model = self.load(backend, overrides, progress)
@@ -207,7 +207,7 @@ class FileCase(ModelCase):
 
     @cached_property
     def file(self):
-        from ..model.toml_file import read_model_file
+        from ...model.toml_file import read_model_file
 
         return read_model_file(self.path, nrfe=self.nrfe)
 
@@ -248,7 +248,7 @@ class FileCase(ModelCase):
 
     def record_start(self, folder) -> None:
         """The file's ``[initial]`` at the parameter defaults, for :class:`FolderCase`."""
-        from ..folder import write_start
+        from ...folder import write_start
 
         write_start(folder, *self.initial(None))
 
@@ -265,7 +265,7 @@ class FolderCase(ModelCase):
 
     @property
     def model(self):
-        from ..errors import ModelError
+        from ...errors import ModelError
 
         raise ModelError(f"{self.folder} holds generated code, not its model; give the model file instead")
 
@@ -286,7 +286,7 @@ class FolderCase(ModelCase):
 
     def open(self, backend, params, progress):
         """The folder's generated model on ``backend``, as its manifest records it (never rebuilt)."""
-        from ..runtime.loader import open_folder
+        from ...runtime.loader import open_folder
 
         return open_folder(self.folder, backend, params, rebuild=self.command, progress=progress)
 
@@ -297,7 +297,7 @@ class FolderCase(ModelCase):
         return {"folder": str(self.folder.resolve())}
 
     def initial(self, params) -> tuple[dict, dict]:
-        from ..folder import read_start
+        from ...folder import read_start
 
         return read_start(self.folder)
 
@@ -311,8 +311,8 @@ def case_of_path(path, nrfe=None) -> Case:
     """The case of ``path``: a model file, or a folder made by ``gpmegen build --out`` (a model's
     folder, or the output folder holding exactly one). A folder of the reference manipulator runs
     as the reference case (its scenario), loaded from that folder."""
-    from ..errors import ModelError
-    from ..folder import MANIFEST, read_manifest
+    from ...errors import ModelError
+    from ...folder import MANIFEST, read_manifest
 
     path = Path(path)
     if not path.is_dir():
@@ -341,8 +341,8 @@ def _reference_case_of(manifest):
     name and input hash are those of the built-in manipulator's."""
     import re
 
-    from ..codegen.render import input_hash
-    from ..runtime.loader import BACKENDS
+    from ...codegen.render import input_hash
+    from ...runtime.loader import BACKENDS
     from .reference_case import ReferenceCase
 
     match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
@@ -355,7 +355,7 @@ def _reference_case_of(manifest):
 def case_of_source(source, what) -> Case:
     """The case a results file's ``model_source`` metadata names (see :meth:`Case.locator`),
     ModelError naming ``what`` (the results file) when it names none or one that is gone."""
-    from ..errors import ModelError
+    from ...errors import ModelError
     from .reference_case import ReferenceCase
 
     if not source:
