@@ -81,14 +81,14 @@ def gpmegen_outputs(model, names, q, nrfe: int) -> dict:
 
 def gpmegen_level(nrfe: int, t_end: float, save_dt: float, rtol: float, atol: float, model=MODEL):
     """One level's run of ``model`` (Radau IIA in C): (results, quantities over time, wall s of the run)."""
-    from gpmegen.analysis.run import cases, runs
+    from gpmegen.analysis.run import opening, runs
     from gpmegen.analysis.run.runspec import RunSpec
 
     if nrfe < 2 or nrfe % 2:
         raise ValueError(f"n_rfe must be even and at least 2 (an sde at each link's midpoint), got {nrfe}")
     spec = RunSpec(t_end=t_end, dt=save_dt, save_every=1, method="radau", start="none", save_dt=save_dt, rtol=rtol,
                    atol=atol)
-    run = runs.run(cases.case_for(str(model), nrfe), spec, "c", {}, None, lambda message: None)
+    run = runs.run(opening.case_for(str(model), nrfe), spec, "c", {}, None, lambda message: None)
     res = run.results
     names = [str(c) for c in res["coordinates"]]
     outputs = gpmegen_outputs(run.model, names, res["q"], nrfe)

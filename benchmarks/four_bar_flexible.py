@@ -77,12 +77,12 @@ def axial_variant(folder: Path) -> Path:
 
 def gpmegen_level(nrfe: int, rate: float, t_end: float, save_dt: float, rtol: float, atol: float, model=MODEL):
     """One level's run of ``model`` (Radau IIA in C): (results, quantities over time, wall s of the run)."""
-    from gpmegen.analysis.run import cases, runs
+    from gpmegen.analysis.run import opening, runs
     from gpmegen.analysis.run.runspec import RunSpec
 
     spec = RunSpec(start="none", t_end=t_end, dt=save_dt, save_every=1, method="radau", save_dt=save_dt, rtol=rtol,
                    atol=atol)
-    run = runs.run(cases.case_for(str(model), nrfe), spec, "c", params(rate), None, lambda message: None)
+    run = runs.run(opening.case_for(str(model), nrfe), spec, "c", params(rate), None, lambda message: None)
     res = run.results
     names = [str(c) for c in res["coordinates"]]
     theta3 = res["q"][:, names.index("theta3")]

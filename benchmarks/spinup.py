@@ -95,7 +95,7 @@ def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None, refine
     (:func:`gpmegen_build`)."""
     from gpmegen.analysis.discretization import extrapolate
     from gpmegen.analysis.discretization.levels import simulate_levels
-    from gpmegen.analysis.run.results import metadata
+    from gpmegen.analysis.post.results import metadata
     from gpmegen.analysis.run.runspec import RunSpec
 
     def run(levels_nrfe):

@@ -181,7 +181,7 @@ def _check_results_path(out: Path, overwrite: bool = False, inputs=(), also=()) 
     partial) and ``also`` (paths written with them): not .npz, a folder, one of the command's
     ``inputs``, in a folder that cannot be written, or holding the results of an earlier run
     (unless ``overwrite``)."""
-    from .analysis.run import results as results_io
+    from .analysis.post import results as results_io
 
     if out.suffix != ".npz":
         raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
@@ -195,8 +195,8 @@ def _check_results_path(out: Path, overwrite: bool = False, inputs=(), also=()) 
 
 
 def _case(model_file, nrfe):
-    """The case a command runs (:func:`gpmegen.analysis.run.cases.case_for`)."""
-    from .analysis.run.cases import case_for
+    """The case a command runs (:func:`gpmegen.analysis.run.opening.case_for`)."""
+    from .analysis.run.opening import case_for
 
     return case_for(model_file, nrfe)
 
@@ -335,9 +335,9 @@ def _run_and_report(case, spec, backend, overrides, out, overwrite=False, inputs
     """Run ``case`` as ``spec`` says (:func:`gpmegen.analysis.run.runs.run`) and print its summary;
     ``backend`` None: C when a compiler is found; ``inputs``: the paths the command reads, never
     written over. Returns the results; SimulationStopped when the run ended early."""
+    from .analysis.post.results import metadata
     from .analysis.run import runs
     from .analysis.run.cases import FileCase
-    from .analysis.run.results import metadata
     from .runtime import integrate
 
     _check_results_path(out, overwrite, inputs)
@@ -424,7 +424,7 @@ def cmd_simulate(args) -> int:
                              f"--save-every with the methods' defaults; leave {'them' if len(given) > 1 else 'it'} out")
         return cmd_extrapolate(args)
     args.nrfe = args.nrfe[0] if args.nrfe else None
-    from .analysis.run.results import default_name
+    from .analysis.post.results import default_name
 
     case = _case(args.model_file, args.nrfe)
     if args.feedforward is not None:
@@ -440,8 +440,8 @@ def cmd_simulate(args) -> int:
 
 def cmd_invert(args) -> int:
     """Stable inversion: the bounded inputs of the actuated realization over a rest-to-rest motion."""
+    from .analysis.post import results as results_io
     from .analysis.run import inversions
-    from .analysis.run import results as results_io
 
     case = _case(args.model_file, args.nrfe)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}_inversion.npz")
@@ -479,7 +479,7 @@ def cmd_extrapolate(args) -> int:
     start = _start(cases[0], args.statics)
     out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
     from .analysis.discretization.levels import level_path
-    from .analysis.run import results as results_io
+    from .analysis.post import results as results_io
 
     levels = [path for n in nrfe for path in results_io.targets(level_path(out, n))]
     _check_results_path(out, args.overwrite, [args.model_file], also=[out.with_suffix(".png"), *levels])
@@ -517,14 +517,14 @@ def cmd_statics(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    from .analysis.figures import plots
-    from .analysis.run import results as results_io
+    from .analysis.figures import plots, run_figures
+    from .analysis.post import results as results_io
 
     runs = [results_io.load(p) for p in args.results]
     plots.check_compatible(runs, args.results)  # before any folder or figure is made
-    outputs.check(plots.targets(runs, Path(args.out), args.format), args.results, args.overwrite)
+    outputs.check(run_figures.targets(runs, Path(args.out), args.format), args.results, args.overwrite)
     outputs.writable_folder(Path(args.out))
-    for path in plots.plot_all(runs, Path(args.out), args.format, names=args.results):
+    for path in run_figures.plot_all(runs, Path(args.out), args.format, names=args.results):
         print(path)
     return 0
 
@@ -546,11 +546,11 @@ def cmd_demo(args) -> int:
     for nrfe, out in outs.items():
         res = _run_and_report(ReferenceCase(nrfe), spec, backend, {}, out, overwrite=True)
         results.append(res)
-    from .analysis.figures import plots
+    from .analysis.figures import run_figures
 
     # The figures' names follow from the runs; the results are kept when the figures are refused.
-    outputs.check(plots.targets(results, Path(args.figures)), (), args.overwrite)
-    for path in plots.plot_all(results, Path(args.figures)):
+    outputs.check(run_figures.targets(results, Path(args.figures)), (), args.overwrite)
+    for path in run_figures.plot_all(results, Path(args.figures)):
         print(path)
     return 0
 

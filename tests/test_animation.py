@@ -17,7 +17,7 @@ from PIL import Image
 import gpmegen
 from gpmegen.analysis.figures import animation
 from gpmegen.analysis.figures import arm_geometry as geometry
-from gpmegen.analysis.run import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.cli import main
 
 # A hub about y, a rigid block, a flexible strip (3 rfes) with a tip mass and its point, gravity.

@@ -17,8 +17,8 @@ import pytest
 import gpmegen
 from gpmegen.analysis.figures.figure_list import stems
 from gpmegen.analysis.post import energy
+from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.post.modes import natural_frequencies
-from gpmegen.analysis.run import results as results_io
 from gpmegen.cli import main
 from gpmegen.codegen.render import render
 from gpmegen.errors import ModelError

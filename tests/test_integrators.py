@@ -11,8 +11,8 @@ import pytest
 import gpmegen
 from gpmegen import limits
 from gpmegen.analysis.post import modes
+from gpmegen.analysis.post.results import metadata
 from gpmegen.analysis.run import reference_case, study
-from gpmegen.analysis.run.results import metadata
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import build_parser, main
 from gpmegen.runtime import integrate, stability

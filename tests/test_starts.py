@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis.run import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run.cases import FileCase
 from gpmegen.cli import main
 from gpmegen.errors import ModelError

@@ -18,7 +18,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import gpmegen
-from gpmegen.analysis.run import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.sweep import SweepFailures, outcomes, plan
 from gpmegen.cli import main
 from gpmegen.limits import LimitError

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from gpmegen.analysis.run import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.cli import main
 
 #: The child's address space: far beyond what any refusal needs, far below what the faults took.

@@ -19,8 +19,8 @@ import pytest
 
 import gpmegen
 from gpmegen import fileio
+from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import reference_case, study
-from gpmegen.analysis.run import results as results_io
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.runtime import integrate

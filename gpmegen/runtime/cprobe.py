@@ -61,8 +61,8 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
     buffers sized from the outputs of the NumPy module at ``module_path``. ``say`` is told the
     name of each function before it is called."""
     from .ccompile import HEADER, declarations, open_library, short_names
-    from .loader import import_numpy_module
-    from .partition import choose_dependent
+    from .gpme import choose_dependent
+    from .numpy_module import import_numpy_module
 
     module = import_numpy_module(Path(module_path).parent)
     header = Path(source).with_name(HEADER).read_text(encoding="utf-8")

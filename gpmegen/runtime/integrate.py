@@ -14,8 +14,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import EvaluationError, SimulationError
+from ..errors import EvaluationError, SimulationError, StateError
 from ..status import Ending, Outcome, SolveStatus
+from .consistent import project_onto_constraints
 from .pacing import StepBudget
 from .partition import check_second_order_rows
 from .redundancy import RowWatch
@@ -354,9 +355,6 @@ def out_of_reach(model, t_last: float, y_last, t_end: float) -> Outcome | None:
     ``t_end`` because its position constraints could no longer be met (the prescribed motion left
     the workspace, where their Jacobian D loses rank), naming them and the instant; None when they
     can be met throughout, so that the failure is the step's."""
-    from ..analysis.run.study import project_onto_constraints
-    from ..errors import StateError
-
     orders = np.asarray(model.constraint_orders)
     if model.dependent is None or not np.any(orders == 0) or not np.all(np.isfinite(y_last)):
         return None

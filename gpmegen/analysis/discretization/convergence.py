@@ -21,6 +21,7 @@ from ...model.shapes import shape_quantities, solid_cylinder
 from ...runtime import statics
 from ..post import beam
 from ..post.modes import natural_frequencies
+from ..run.loading import load
 
 ARM_PARAMETERS = ("g", "L2", "b2", "t2", "rho2", "E2", "G2", "J2", "d2")
 SLIDER_PARAMETERS = ("m3", "L3", "R3")
@@ -115,9 +116,7 @@ class Clamped:
 def load_clamped_arm(nrfe: int, with_slider: bool = False, directory=None, params: dict | None = None):
     """The generated clamped arm (:func:`clamped_arm_model`), built into ``directory`` when
     missing (default: gpmegen's generated folder)."""
-    from ... import load
-
-    return load(model=clamped_arm_model(nrfe, with_slider), directory=directory, params=params, backend="numpy")
+    return load(clamped_arm_model(nrfe, with_slider), "numpy", params, directory=directory)
 
 
 QUANTITIES = (
@@ -255,15 +254,13 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
     theory (:meth:`Clamped.reference`). ``params`` overrides the model's parameters; ``static``
     as in :func:`tip_deflection`; ``progress(nrfe, seconds)`` is called after each build.
     Returns a :class:`ConvergenceTable`."""
-    from ... import load
-
     nrfe_values = [int(n) for n in nrfe_values]
     values = {key: [] for key, _, _ in QUANTITIES}
     seconds = []
     reference = None
     for n in nrfe_values:
         start = time.perf_counter()
-        model = load(model=clamped.build(n), directory=directory, params=params, backend="numpy")
+        model = load(clamped.build(n), "numpy", params, directory=directory)
         seconds.append(time.perf_counter() - start)
         if progress is not None:
             progress(n, seconds[-1])

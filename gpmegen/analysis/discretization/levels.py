@@ -18,8 +18,10 @@ from pathlib import Path
 
 from ... import limits
 from ...errors import ExtrapolationError
-from ..run import cases, runs
+from ..post.coordinates import joint_names, point_names
+from ..run import opening, runs
 from ..run.runspec import RunSpec
+from ..sweep import pools
 
 
 @dataclass
@@ -68,7 +70,7 @@ def _quiet(message: str) -> None:
 def prepare(task: LevelTask) -> None:
     """Load the level's model in this process, building and compiling it when missing."""
     with limits.lifted() if task.no_limits else contextlib.nullcontext():
-        cases.case_for(task.model_file, task.nrfe).load(task.backend, dict(task.params), _quiet)
+        opening.case_for(task.model_file, task.nrfe).load(task.backend, dict(task.params), _quiet)
 
 
 def _run(task: LevelTask, case) -> runs.Run:
@@ -85,7 +87,7 @@ def _row(run: runs.Run) -> dict:
 def perform(task: LevelTask) -> dict:
     """Make the level's run (and write it to ``task.out``); returns its ``results``, wall
     ``seconds`` and the files ``written``."""
-    return _row(_run(task, cases.case_for(task.model_file, task.nrfe)))
+    return _row(_run(task, opening.case_for(task.model_file, task.nrfe)))
 
 
 def level_path(out, nrfe) -> Path | None:
@@ -150,6 +152,23 @@ def _on_threads(tasks, levels_cases, size) -> list:
     return [finished[task.nrfe][0] for task in tasks]
 
 
+def check_same_model(models: dict) -> None:
+    """Refuse symbolic ``models`` (n_rfe → :class:`gpmegen.model.Model`) that are not one model
+    at several discretizations: different joints, points or parameter defaults. Cheap: made
+    before any level runs."""
+    check_alike({nrfe: (joint_names(m), point_names(m), m.defaults) for nrfe, m in models.items()})
+
+
+def check_alike(described: dict) -> None:
+    """ExtrapolationError unless every n_rfe's (joints, points, parameter values) are the first's."""
+    (first, reference), *others = described.items()
+    for nrfe, description in others:
+        for what, mine, theirs in zip(("joints", "points", "parameter values"), description, reference):
+            if mine != theirs:
+                raise ExtrapolationError(f"n_rfe = {nrfe} and n_rfe = {first}: different {what}, "
+                                         f"not one model at two discretizations; extrapolate runs of one model file")
+
+
 def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, workers=None) -> list[Level]:
     """The run ``spec`` (a :class:`gpmegen.analysis.run.runspec.RunSpec`, its start one the case
     takes) of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` on
@@ -158,10 +177,7 @@ def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, worker
     once (1: one after the other in this process): on as many threads of this process where the
     loops are compiled (:func:`compiled_loops`), else on as many processes. Returns the
     :class:`Level` of each, by ascending ``nrfe``."""
-    from ..sweep import pools
-    from .extrapolate import check_same_model
-
-    levels_cases = {n: cases.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
+    levels_cases = {n: opening.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
     check_same_model({n: case.model for n, case in levels_cases.items()})
     tasks = [LevelTask(None if model_file is None else str(model_file), n, spec, backend,
                        tuple(sorted(overrides.items())),

@@ -22,7 +22,7 @@ import sympy as sp
 from ... import limits
 from ...errors import GpmegenError
 from ...fileio import atomic_write
-from ..run import results as results_io
+from ..post import results as results_io
 from . import arm_geometry as geometry
 from .plots import _FILE_METADATA, _SVG_SALT, _freeze_layout, _pyplot, broken, literal
 
@@ -410,7 +410,7 @@ class Subject:
 def subject(path, model_path=None, progress=None) -> Subject:
     """The results file at ``path`` with the model that made it: the one its metadata names, or
     ``model_path`` (a model file) when given. One-line errors when there is none to draw."""
-    from ..run.cases import case_of_path, case_of_source
+    from ..run.opening import case_of_path, case_of_source
 
     results = results_io.load(path)
     meta = results_io.metadata(results)

@@ -28,7 +28,7 @@ from ...model.chain import Body, FlexibleLink, Model, Point
 from ...model.expand import expand
 from ...model.rfem import discretize
 from ...model.topology import GROUND
-from ..discretization.extrapolate import elastic_coordinates
+from ..post.coordinates import elastic_coordinates
 from ..post.driving import point_constraints
 
 # The 12 edges of a box, as pairs of its corners (corner k has signs from the bits of k).

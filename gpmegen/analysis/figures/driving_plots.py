@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..run.results import metadata
+from ..post.results import metadata
 from . import plots
 
 

@@ -16,7 +16,8 @@ import sympy as sp
 from ...model.chain import TIME, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
 from ...model.expand import expand
 from ...runtime import statics
-from ..run import results as results_io
+from . import results as results_io
+from .coordinates import elastic_coordinates
 
 # Unit of a generalized force on a coordinate, by joint kind.
 FORCE_UNITS = {"revolute": "N·m", "prismatic": "N"}
@@ -145,7 +146,7 @@ def deformation(loaded, q, elastic=None) -> dict:
     generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
     coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
     {0} from where the rigid arm at the same joint coordinates puts it (the ``elastic``
-    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.discretization.extrapolate.elastic_coordinates`;
+    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.post.coordinates.elastic_coordinates`;
     None, for generated code without its model: those with a spring)."""
     C = statics.spring_stiffness(loaded, q[0])
     if elastic is None:
@@ -193,8 +194,6 @@ def annotate(results: dict, model, loaded) -> dict:
     (:mod:`gpmegen.analysis.post.closures`, described by ``meta["closures"]``). ``model`` None
     (generated code alone): the deformation only."""
     meta = results_io.metadata(results)
-    from ..discretization.extrapolate import elastic_coordinates
-
     elastic = None if model is None else elastic_coordinates(model, loaded)
     arrays = deformation(loaded, results["q"], elastic) if loaded.points and len(results["t"]) else {}
     if model is None:  # generated code without its model (a built folder): forces in generalized units

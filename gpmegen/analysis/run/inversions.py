@@ -10,7 +10,7 @@ from ... import limits
 from ...errors import ModelError
 from ...runtime import inversion
 from ..post import driving
-from . import results as results_io
+from ..post import results as results_io
 from . import study
 
 

@@ -222,7 +222,7 @@ def along_run(model, path, times, inputs=()) -> list:
     """Linear models at the saved states of the results file ``path`` nearest each of ``times``
     (s) (the saved state, not an interpolation: it lies on the run's motion), with the run's
     parameter values. ModelError for a results file of another model or times outside the run."""
-    from . import results as results_io
+    from ..post import results as results_io
 
     run = results_io.load(path)
     meta = results_io.metadata(run)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 from ... import limits
 from ..post import driving, joint_limits
-from . import results as results_io
+from ..post import results as results_io
 from . import study
 
 
@@ -38,7 +38,7 @@ def run(case, spec, backend, overrides, out, progress) -> Run:
     inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a model
     file's ``actuators``; ``()``: ideally; see :func:`gpmegen.analysis.run.study.simulate`) on
     ``backend`` with the parameter values ``overrides`` (name -> value) and write ``out`` (.npz
-    and .csv), or beside it a partial run (see :func:`gpmegen.analysis.run.results.save`); nothing
+    and .csv), or beside it a partial run (see :func:`gpmegen.analysis.post.results.save`); nothing
     when ``out`` is None. ``progress`` takes one-line messages."""
     spec = spec if spec.start is not None else spec.with_start(case.starts[0])
     check(case, spec, backend)
@@ -73,7 +73,7 @@ class Results:
     """A run's results (what :func:`gpmegen.simulate` returns, and what a results file holds):
     ``t`` (k,) s; ``q``, ``qd`` (k, n) in rad, m, rad/s, m/s; ``coordinates``; ``meta`` (model,
     start, settings, parameters, how far the start moved; see
-    :func:`gpmegen.analysis.run.results.metadata`); ``status`` ("complete" or why the run stopped);
+    :func:`gpmegen.analysis.post.results.metadata`); ``status`` ("complete" or why the run stopped);
     every array of the file by name (``results["phi"]``, ``results["end_effector"]``, ...)."""
 
     def __init__(self, arrays: dict):
@@ -123,7 +123,7 @@ class Results:
 
     def save(self, path, overwrite: bool = False) -> list:
         """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
-        see :func:`gpmegen.analysis.run.results.save`); an earlier run's results there are replaced
+        see :func:`gpmegen.analysis.post.results.save`); an earlier run's results there are replaced
         only with ``overwrite``. Returns the paths written."""
         from ... import outputs
 

@@ -54,7 +54,7 @@ def _plan_models(model_file, nrfe_values, start):
     refused here, before anything runs)."""
     from ...codegen.render import input_hash
     from ...runtime.loader import BACKENDS
-    from ..run.cases import case_for
+    from ..run.opening import case_for
 
     models = []
     for nrfe in nrfe_values:

@@ -35,7 +35,7 @@ PEAKS = (("constraint_forces", "peak_constraint_force"),)
 
 
 def outcomes(results, driven=()) -> dict:
-    """The scalar outcomes of one run's ``results`` (see :mod:`gpmegen.analysis.run.results`);
+    """The scalar outcomes of one run's ``results`` (see :mod:`gpmegen.analysis.post.results`);
     ``driven``: the coordinates the model's drives act on."""
     status = str(results["status"])
     ending, _, why = status.partition(": ")

@@ -188,7 +188,7 @@ class Task:
     def leftovers(self) -> list[Path]:
         """What a run stopped midway may have left: its partial results (a run stopped by a
         signal writes them) and the temporary files of a write that was cut short."""
-        from ..run.results import targets
+        from ..post.results import targets
 
         partial = [path for path in targets(self.out, complete=False) if path.exists()]
         return partial + sorted(self.out.parent.glob(f".{self.run_id}.*.tmp"))

@@ -20,7 +20,7 @@ from pathlib import Path
 from ... import limits
 from ...errors import GpmegenError
 from ...fileio import atomic_write_bytes
-from ..run import cases, runs
+from ..run import opening, runs
 from . import outcomes
 from .plan import MANIFEST, SweepError, Task
 
@@ -54,7 +54,7 @@ def _case(task: Task):
     with _lock:
         key = (task.model_file, task.nrfe)
         if key not in _cases:
-            case = cases.case_for(task.model_file, task.nrfe)
+            case = opening.case_for(task.model_file, task.nrfe)
             _ = case.model  # a model file is read here, once, not by two threads at once
             _cases[key] = _loading_once(case, task.digest)
         return _cases[key]

@@ -88,7 +88,7 @@ def metadata(results) -> dict:
     from the run's case (:mod:`gpmegen.analysis.run.cases`), what plots use: ``label``, ``joints``,
     ``joint_labels``, ``constraint_units``, ``figures``, ``start_tag``, ``colour``,
     ``tag_offset``, ``prescribed``; ``start_moved``: how far the start was moved onto the
-    constraints (see :meth:`gpmegen.analysis.run.study.Start.meta`); ``model_source``: where the model
+    constraints (see :meth:`gpmegen.runtime.consistent.Start.meta`); ``model_source``: where the model
     is found again (:meth:`gpmegen.analysis.run.cases.Case.locator`); and the units of the driving
     functions (:func:`gpmegen.analysis.post.driving.annotate`): ``force_units``, ``lambda_units``,
     ``force_points``."""
