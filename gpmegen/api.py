@@ -21,7 +21,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
-from .analysis.run import loading
+from .analysis.run import cases, linear, loading, opening, reference_case, runs
 from .analysis.run.loading import checked_backend, keyword_options
 from .analysis.run.loading import gravity_function as gravity_function
 from .analysis.run.reference_case import CONSTANTS, with_constants
@@ -29,6 +29,7 @@ from .analysis.run.runs import Results
 from .analysis.run.runspec import NAMES as RUN_OPTIONS
 from .analysis.run.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
+from .codegen import casadi_export, fmu_export
 from .errors import (
     BuildError,
     DerivationError,
@@ -98,8 +99,6 @@ def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, 
 def _case(model, nrfe):
     """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
     model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
-    from .analysis.run import cases, opening, reference_case
-
     if model is None:
         return reference_case.ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
     if isinstance(model, Model):
@@ -174,8 +173,6 @@ def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=No
     ``model`` a model file or a :class:`Model`). An option that is neither is refused in one line
     with the valid ones. A run that stops early (diverges) is returned with its ``status``
     saying why."""
-    from .analysis.run import runs
-
     spec, chosen = split_options(spec, options, _SIMULATE, lambda names: (
         f"simulate() got an unknown option {names}; its options are {', '.join((*RUN_OPTIONS, *_SIMULATE))}"))
     progress = chosen["progress"]
@@ -194,8 +191,6 @@ def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) 
     ``energies(q, qd, p)``, by name; ``u`` holds a generalized force on each coordinate of
     ``inputs``. ``model``, ``nrfe`` as :func:`statics`; ``overwrite`` replaces an earlier export.
     Needs the casadi package (``pip install 'gpmegen[casadi]'``)."""
-    from .codegen import casadi_export
-
     casadi_export.require_casadi()
     case = _case(model, nrfe)
     return case.located(lambda: casadi_export.export(case.model, folder, tuple(inputs), overwrite=overwrite))
@@ -210,8 +205,6 @@ def export_fmu(out, model=None, *, inputs=(), overwrite=False, **options):
     :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``, and
     the keyword options ``start``, ``nrfe``, ``directory``, ``progress``, as :func:`statics`;
     ``overwrite`` replaces an earlier FMU. Needs a C compiler. Returns the FMU's path."""
-    from .codegen import fmu_export
-
     chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None}, "export_fmu")
     case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     return case.located(lambda: fmu_export.export(case, out, tuple(inputs), overwrite, start,
@@ -226,8 +219,6 @@ def linearize(model=None, *, params=None, backend=None, at=None, **options):
     ``inputs``: the coordinates that take a generalized force (default: those the model drives,
     and a model file's actuators). ``nrfe``, ``start``, ``directory``, ``progress``, ``times``
     and ``inputs`` are keyword options; another is refused in one line."""
-    from .analysis.run import cases, linear
-
     chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None, "times": None, "inputs": None},
                       "linearize")
     progress, times, inputs = chosen["progress"], chosen["times"], chosen["inputs"]

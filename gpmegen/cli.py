@@ -5,6 +5,9 @@ Usage and model errors exit with status 2, runtime failures with 1, an interrupt
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
 """
 
+# Each command imports what it runs inside its own function: the console starts on every command
+# (and for --help), and the package's stages (SymPy, the code generator, Matplotlib) are loaded
+# only by the commands that use them.
 from __future__ import annotations
 
 import argparse

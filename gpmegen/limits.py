@@ -426,6 +426,9 @@ def check_frames(width: int, height: int, frames: int, held: int) -> None:
 def model_coordinates(model) -> int:
     """n_dof of ``model`` (a :class:`gpmegen.model.Model`) counted without expanding it: one per
     joint, one per free rotation of each sde of each flexible link."""
+    # The model's layer is above this module's (the model file reader checks its sizes here), and
+    # codegen/render.py, whose bytes enter the generated files' digest, calls this function: an
+    # exception of the import contracts in pyproject.toml.
     from .model.chain import FlexibleLink, Joint
     from .model.rfem import link_coordinates
 

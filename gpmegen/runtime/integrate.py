@@ -549,7 +549,7 @@ def unstable_step(dt: float, values) -> str | None:
     (1/s, dampers included: :func:`gpmegen.analysis.post.modes.motion_eigenvalues`), with the stable step
     (:func:`gpmegen.runtime.stability.stable_step`), the eigenvalue that sets it and the methods
     that take the step asked for; None when ``dt`` is stable."""
-    from .stability import stable_step
+    from .stability import stable_step  # SciPy's optimize, loaded when a step is checked, not at start-up
 
     stable, value = stable_step(values)
     if dt <= stable:

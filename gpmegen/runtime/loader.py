@@ -8,6 +8,11 @@ import os
 from pathlib import Path
 
 from ..errors import BuildError, ModelError, StaleModelError
+from ..folder import read_manifest
+from ..model.chain import Signal
+from . import signals
+from .ccompile import find_compiler
+from .model import LoadedModel
 from .numpy_module import import_numpy_module
 
 #: The source checkout this package runs from, or None when it is installed (no pyproject.toml
@@ -42,8 +47,6 @@ def check_backend(backend: str) -> str:
 def default_backend(say) -> str:
     """The backend used when none is named: "c" where a C compiler is found, else "numpy", after
     telling ``say`` (a callable taking one line) why."""
-    from .ccompile import find_compiler
-
     try:
         find_compiler()
         return "c"
@@ -64,15 +67,13 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
     :func:`gpmegen.model.requirements.requirements`). ``digest``: the input hash the folder must
     have been generated from (StaleModelError naming ``<rebuild> --force`` otherwise).
     ``progress`` (a callable taking one line) hears about a C compile as it runs."""
-    from .model import LoadedModel
-
     check_backend(backend)
     module = import_numpy_module(folder, rebuild)
     if digest is not None and getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
                               f"'{rebuild} --force'")
     if backend == "c":
-        from .cmodel import CModel
+        from .cmodel import CModel  # cffi and the C compiler, needed on the C backend only
         loaded = CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
     else:
         loaded = LoadedModel(module, params, "numpy", folder, requirements)
@@ -82,10 +83,6 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
 def with_tables(loaded, folder):
     """``loaded`` with the tables of its signals read from the files its folder's manifest
     names (:mod:`gpmegen.runtime.signals`)."""
-    from ..folder import read_manifest
-    from ..model.chain import Signal
-    from . import signals
-
     entries = (read_manifest(Path(folder)) or {}).get("signals", [])
     if [e.get("name") for e in entries] != list(loaded.signal_names):
         raise StaleModelError(f"{folder}: its manifest does not name the tables of the signals "

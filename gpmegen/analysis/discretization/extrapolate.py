@@ -23,6 +23,7 @@ import numpy as np
 from ... import npz
 from ...errors import ExtrapolationError
 from ...fileio import atomic_write
+from ...model.chain import FlexibleLink
 from ..post import richardson
 from ..post.coordinates import elastic_coordinates, joint_names, point_names
 from .levels import Level, check_alike
@@ -116,8 +117,6 @@ def outputs(level: Level, names=OUTPUTS) -> dict:
 
 def check_flexible(model) -> None:
     """Refuse a symbolic model without a flexible link: nothing in it changes with n_rfe."""
-    from ...model.chain import FlexibleLink
-
     if not any(isinstance(element, FlexibleLink) for element in model.chain):
         raise ExtrapolationError(f"model {model.name}: no flexible link, so nothing changes with n_rfe; "
                                  f"extrapolate a model with a flexible link")

@@ -18,10 +18,12 @@ from pathlib import Path
 
 from ... import limits
 from ...errors import ExtrapolationError
+from ...runtime import integrate
 from ..post.coordinates import joint_names, point_names
 from ..run import opening, runs
 from ..run.runspec import RunSpec
 from ..sweep import pools
+from ..sweep.workers import NotATerminal
 
 
 @dataclass
@@ -109,8 +111,6 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
     the compiled methods on the C backend, unless the constraints are realized by inputs (the
     actuated realization steps in Python)."""
-    from ...runtime import integrate
-
     return backend == "c" and method in ("rk4", *integrate.COMPILED) and not actuated
 
 
@@ -119,8 +119,6 @@ def _on_threads(tasks, levels_cases, size) -> list:
     process, the finest levels first (the longest runs: so the threads end together); returns
     each task's :class:`gpmegen.analysis.run.runs.Run` in the order of ``tasks``, or raises the first
     task's error. No thread draws a progress bar (``sys.stderr`` is no terminal meanwhile)."""
-    from ..sweep.workers import NotATerminal
-
     pending = sorted(tasks, key=lambda task: -task.nrfe)
     finished, lock = {}, threading.Lock()
 

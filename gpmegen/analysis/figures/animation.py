@@ -23,6 +23,7 @@ from ... import limits
 from ...errors import GpmegenError
 from ...fileio import atomic_write
 from ..post import results as results_io
+from ..run.opening import case_of_path, case_of_source
 from . import arm_geometry as geometry
 from .plots import _FILE_METADATA, _SVG_SALT, _freeze_layout, _pyplot, broken, literal
 
@@ -410,8 +411,6 @@ class Subject:
 def subject(path, model_path=None, progress=None) -> Subject:
     """The results file at ``path`` with the model that made it: the one its metadata names, or
     ``model_path`` (a model file) when given. One-line errors when there is none to draw."""
-    from ..run.opening import case_of_path, case_of_source
-
     results = results_io.load(path)
     meta = results_io.metadata(results)
     case = case_of_path(model_path) if model_path else case_of_source(meta.get("model_source"), path)

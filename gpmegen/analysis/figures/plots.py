@@ -14,6 +14,7 @@ import re
 import numpy as np
 
 from ...errors import GpmegenError
+from ..post.energy import balance_residual
 from ..post.results import metadata
 
 FORMATS = ("png", "pdf", "svg")
@@ -424,8 +425,6 @@ ENERGY_PANELS = (
 def balance_error(results):
     """ΔE − W, J: :func:`gpmegen.analysis.post.energy.balance_residual` (the dampers' work is a term of
     the balance, not part of the error)."""
-    from ..post.energy import balance_residual
-
     return balance_residual(results)
 
 

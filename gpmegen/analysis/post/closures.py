@@ -24,15 +24,14 @@ from sympy.printing.pycode import PythonCodePrinter
 
 from ...model.chain import AXES
 from ...model.expand import expand
+from ...symbolic.kinematics import forward
+from ...symbolic.program import Program
 
 
 def frame_rotations(model, points):
     """``R(q, p)``: the rotations (len(points), 3, 3) to {0} of the frames ``points`` are
     attached to, at the coordinates ``q`` (n,) and the parameter values ``p`` (in the model's
     order): the kinematics' program of intermediates for those entries alone, printed as Python."""
-    from ...symbolic.kinematics import forward
-    from ...symbolic.program import Program
-
     program = Program()
     kin = forward(expand(model), program)
     entries = [e for point in points for e in kin.points[point].R]

@@ -13,9 +13,11 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from ...model.chain import TIME, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
+from ...model.chain import TIME, FlexibleLink, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
 from ...model.expand import expand
+from ...model.rfem import discretize
 from ...runtime import statics
+from . import closures
 from . import results as results_io
 from .coordinates import elastic_coordinates
 
@@ -167,9 +169,6 @@ def large_rotation(model, loaded, t, q) -> str | None:
     """A warning (one line) when a rotation of the symbolic ``model``'s sdes exceeds
     :data:`ELASTIC_ROTATION` in magnitude at the samples ``t`` (k,), ``q`` (k, n) of ``loaded``:
     the largest, its value and time; None when none does."""
-    from ...model.chain import FlexibleLink, Joint
-    from ...model.rfem import discretize
-
     names = [part.name for link in model.chain if isinstance(link, FlexibleLink) for part in discretize(link)
              if isinstance(part, Joint) and part.kind == "revolute"]
     columns = [loaded.index(name) for name in names if name in loaded.coordinates]
@@ -208,8 +207,6 @@ def annotate(results: dict, model, loaded) -> dict:
         if forces:
             arrays["point_forces"] = np.stack(list(forces.values()), axis=1)
         if model.closures:
-            from . import closures
-
             units["closures"] = closures.describe(model)
             arrays.update(closures.result_arrays(model, results["q"], results["lambda"], loaded.p))
     return results_io.annotate(results, units, arrays)

@@ -15,6 +15,8 @@ import scipy.linalg
 
 from ...errors import ModelError
 from ...runtime import statics
+from ...runtime.gpme import tangent_basis
+from ...runtime.internal import STEP
 from .mode_kinds import KINDS, classify
 
 
@@ -95,8 +97,6 @@ def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
     (relative step ``step``). ``hold``: independent coordinates kept fixed (default: those
     without a spring, e.g. the column's neutral rotation). Shapes are full-coordinate
     vectors ``B v`` normalized to unit modal mass."""
-    from ...runtime.gpme import tangent_basis
-
     statics.refuse_second_order(model, "modes with the constraints holding")
     q_eq = np.asarray(q_eq, dtype=float)
     n = model.n_dof
@@ -174,8 +174,6 @@ def motion_eigenvalues(model, t, q, qd=None) -> np.ndarray:
     stiffness, ``C = -∂f/∂q̇`` (joint and sde dampers, and the velocity terms away from rest) by
     central differences of the model's forces. They bound RK4's step: see
     :func:`gpmegen.runtime.stability.stable_step`."""
-    from ...runtime.internal import STEP
-
     q = np.asarray(q, dtype=float)
     qd = np.zeros(model.n_dof) if qd is None else np.asarray(qd, dtype=float)
     D = model.constraint_terms(t, q, qd)[2]

@@ -14,6 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ...model import reference_model
 from ...runtime import statics
 from ...runtime.consistent import consistent, project_onto_constraints
 from .cases import Case
@@ -77,8 +78,6 @@ class ReferenceCase(Case):
 
     @cached_property
     def model(self):
-        from ...model import reference_model
-
         return reference_model(self.nrfe)
 
     @property

@@ -7,7 +7,8 @@ import sys
 import time
 from dataclasses import dataclass
 
-from ... import limits
+from ... import limits, outputs
+from ...runtime import integrate
 from ..post import driving, joint_limits
 from ..post import results as results_io
 from . import study
@@ -50,8 +51,6 @@ def run(case, spec, backend, overrides, out, progress) -> Run:
              + case.start_note(model))
     t0 = time.perf_counter()
     bar = None
-    from ...runtime import integrate
-
     if spec.method in ("rk4", *integrate.COMPILED):  # the chunked loops
         bar = integrate.Progress(spec.t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(),
                                  lines_every=integrate.PROGRESS_LINES)
@@ -125,8 +124,6 @@ class Results:
         """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
         see :func:`gpmegen.analysis.post.results.save`); an earlier run's results there are replaced
         only with ``overwrite``. Returns the paths written."""
-        from ... import outputs
-
         outputs.check(results_io.targets(path), (), overwrite, what="an earlier run's results",
                       fix="save with overwrite=True to replace them, or choose another path",
                       error=results_io.ResultsError)

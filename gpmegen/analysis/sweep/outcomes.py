@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ...fileio import atomic_write_all
+from ..post.energy import balance_residual
 
 CSV = "summary.csv"
 PARQUET = "summary.parquet"
@@ -53,8 +54,6 @@ def outcomes(results, driven=()) -> dict:
             peaks = np.abs(results[key]).max(axis=0)
             row.update({f"{prefix}.{c}": float(peaks[k]) for k, c in enumerate(coordinates)})
     if "kinetic_energy" in results:
-        from ..post.energy import balance_residual
-
         row["energy_balance_error"] = float(np.abs(balance_residual(results)).max())
     return row
 
