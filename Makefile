@@ -10,11 +10,16 @@ STAMP := $(VENV)/.installed
 
 venv: $(STAMP)
 
+# setuptools prints an "Editable installation" notice as a warning on every editable install
+# (its advice: a folder named like the package in the working directory can shadow it; here that
+# folder is the package itself). Only that notice is filtered; pip's own warnings still show.
+EDITABLE_QUIET := PYTHONWARNINGS="ignore:Editable installation"
+
 $(STAMP): pyproject.toml
 	@echo "installing gpmegen and its dependencies into $(VENV) (about a minute)"
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(EDITABLE_QUIET) $(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
 demo: venv

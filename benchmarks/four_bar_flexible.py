@@ -168,7 +168,7 @@ def exudyn_run(elements: int, step: float, rate: float, t_end: float, start: dic
     when its solver gave up)."""
     import exudyn
     from exudyn import utilities as xu
-    from exudyn.beams import GenerateStraightLineANCFCable2D
+    from exudyn.beams import GenerateBeamElementsAlongLine
 
     container = exudyn.SystemContainer()
     mbs = container.AddSystem()
@@ -191,9 +191,9 @@ def exudyn_run(elements: int, step: float, rate: float, t_end: float, start: dic
     c1, s1 = math.cos(start["theta1"]), math.sin(start["theta1"])
     base = np.array([L1 * c1, L1 * s1, 0.0])
     direction = np.array([math.cos(start["coupler"]), math.sin(start["coupler"]), 0.0])
-    cable = xu.Cable2D(massPerLength=RHOA, bendingStiffness=EI, axialStiffness=EA)
-    nodes = GenerateStraightLineANCFCable2D(mbs, list(base), list(base + L2 * direction), elements, cable,
-                                            massProportionalLoad=[0, -G, 0])[0]
+    cable = xu.ObjectANCFCable2D(massPerLength=RHOA, bendingStiffness=EI, axialStiffness=EA)
+    nodes = GenerateBeamElementsAlongLine(mbs, list(base), list(base + L2 * direction), elements, cable,
+                                          gravity=[0, -G, 0])["nodes"]
     w2, base_velocity = start["coupler_rate"], rate * L1 * np.array([-s1, c1])
     for k, node in enumerate(nodes):
         r = L2 * k / elements * direction[:2]

@@ -296,14 +296,15 @@ def exudyn_run(elements: int, step: float, t, atol: float = 1e-6):
     wall seconds of its solve; None when its Newton iteration gave up."""
     import exudyn
     from exudyn import utilities as xu
-    from exudyn.beams import GenerateStraightLineANCFCable2D
+    from exudyn.beams import GenerateBeamElementsAlongLine
     from four_bar_flexible import exudyn_crank, exudyn_solve
 
     mbs = exudyn.SystemContainer().AddSystem()
     ground = mbs.AddObject(xu.ObjectGround())
     crank = exudyn_crank(mbs, ground, OMEGA, L1)
-    cable = xu.Cable2D(massPerLength=RHO * BH * BH, bendingStiffness=E * BH**4 / 12, axialStiffness=E * BH * BH)
-    nodes = GenerateStraightLineANCFCable2D(mbs, [L1, 0, 0], [L1 + L2, 0, 0], elements, cable)[0]
+    cable = xu.ObjectANCFCable2D(massPerLength=RHO * BH * BH, bendingStiffness=E * BH**4 / 12,
+                                 axialStiffness=E * BH * BH)
+    nodes = GenerateBeamElementsAlongLine(mbs, [L1, 0, 0], [L1 + L2, 0, 0], elements, cable)["nodes"]
     # the test set's start on the nodes: the axial field as displacement and slope, the rigid motion
     # (the crank pin's velocity, the chord turning at φ̇2) with the transverse and axial rate fields
     mid, tip = INITIAL["q"][2:]

@@ -185,13 +185,13 @@ def exudyn_run(omega, elements, step, t, modified=False, solver=None):
     values None when its solver gave up; ``solver``: its linear solver (default EXUDYN_SOLVER)."""
     import exudyn
     from exudyn import utilities as xu
-    from exudyn.beams import GenerateStraightLineANCFCable2D
+    from exudyn.beams import GenerateBeamElementsAlongLine
 
     container = exudyn.SystemContainer()
     mbs = container.AddSystem()
     ground = mbs.AddObject(xu.ObjectGround())
-    cable = xu.Cable2D(physicsMassPerLength=RHOA, physicsBendingStiffness=EI, physicsAxialStiffness=EA)
-    nodes = GenerateStraightLineANCFCable2D(mbs, [0, 0, 0], [L, 0, 0], elements, cable)[0]
+    cable = xu.ObjectANCFCable2D(massPerLength=RHOA, bendingStiffness=EI, axialStiffness=EA)
+    nodes = GenerateBeamElementsAlongLine(mbs, [0, 0, 0], [L, 0, 0], elements, cable)["nodes"]
     # a rigid hub turning about z, its angle held to θ(t); the cable's first node clamped to it
     hub = mbs.CreateRigidBody(referencePosition=[0, 0, 0], inertia=xu.InertiaCuboid(1000, [0.1, 0.1, 0.1]),
                               create2D=True, returnDict=True)

@@ -148,3 +148,29 @@ def test_a_model_with_nothing_to_vibrate_is_refused_in_one_line_and_writes_nothi
         assert f"no mode with --lock {lock}" in last and "make a link flexible" in last, last
         assert "internal error" not in last
     assert list(tmp_path.iterdir()) == []
+
+
+def test_modes_of_sprung_joints_are_drawn_as_amplitudes_of_the_free_coordinates(tmp_path, recwarn):
+    # the two masses in series of tests/models/spring_chain.toml: no flexible link, so no sde
+    # rotation to draw along an arm; the figure shows each free coordinate's amplitude instead
+    import matplotlib.pyplot as plt
+
+    from gpmegen.analysis import modes_output
+
+    assert main(["modes", str(Path(__file__).parent / "models" / "spring_chain.toml"), "--out", str(tmp_path)]) == 0
+    rows = [line.split(",") for line in (tmp_path / "modes_spring_chain_joints.csv").read_text().splitlines()]
+    assert rows[0] == ["mode", "frequency_Hz", "kind", "x1", "x2"]
+    # closed form: det(K - ω² M) = 0 for M = diag(m1, m2), K = [[k1 + k2, -k2], [-k2, k2]]
+    m1, m2, k1, k2 = 1.0, 0.5, 100.0, 400.0
+    b, c = -((k1 + k2) / m1 + k2 / m2), k1 * k2 / (m1 * m2)
+    omega2 = np.array([(-b - np.sqrt(b * b - 4 * c)) / 2, (-b + np.sqrt(b * b - 4 * c)) / 2])
+    np.testing.assert_allclose([float(r[1]) for r in rows[1:]], np.sqrt(omega2) / (2 * np.pi), rtol=1e-8)
+    shapes = np.array([[float(v) for v in r[3:]] for r in rows[1:]]).T
+    result = modes.Modes(np.array([float(r[1]) for r in rows[1:]]), shapes, np.array([0, 1]), ("x1", "x2"),
+                         [r[2] for r in rows[1:]])
+    fig = modes_output.mode_shapes_figure(result)
+    heights = [[patch.get_height() for patch in ax.patches] for ax in fig.axes]
+    np.testing.assert_allclose(heights, shapes.T, rtol=1e-12)
+    assert [t.get_text() for t in fig.axes[-1].get_xticklabels()] == ["x1", "x2"]
+    plt.close(fig)
+    assert not [w for w in recwarn if "legend" in str(w.message)]

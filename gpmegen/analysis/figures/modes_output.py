@@ -34,10 +34,18 @@ def plot_mode_shapes(modes: Modes, path, count: int = 6) -> Path:
     return path
 
 
+def _sde_indices(names, rotation: str) -> list[int]:
+    """Indices of the sde coordinates of one rotation (``psi``, ``theta``, ``phi``), in chain
+    order: the RFEM names them ``<rotation><link label>_<k>``."""
+    return [j for j, c in enumerate(names) if c.startswith(rotation) and "_" in c]
+
+
 def mode_shapes_figure(modes: Modes, count: int = 6):
-    """The figure of the first ``count`` mode shapes along the arm: the sde rotations ψ, θ, φ
-    against the sde index, one panel per mode, under the title (the layout engine places the
-    title: with the default subplot margins a band of 0.1 of the figure was left blank under it)."""
+    """The figure of the first ``count`` mode shapes, one panel per mode under the title (the
+    layout engine places the title: with the default subplot margins a band of 0.1 of the figure
+    was left blank under it): along the arm, the sde rotations ψ, θ, φ against the sde index; for
+    a model without flexible links (its modes those of sprung joints), each free coordinate's
+    amplitude as a bar."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -47,21 +55,31 @@ def mode_shapes_figure(modes: Modes, count: int = 6):
     fig, axes = plt.subplots(count, 1, figsize=(7, 1.9 * count + 0.6), sharex=True, squeeze=False,
                              layout="constrained")
     names = modes.coordinates
+    rotations = [(rot, style, _sde_indices(names, rot))
+                 for rot, style in (("psi", "o-"), ("theta", "s--"), ("phi", "^:"))]
+    along_arm = any(idx for _, _, idx in rotations)
+    free = [int(j) for j in modes.free]
     for k in range(count):
         ax = axes[k, 0]
-        for rot, style in (("psi", "o-"), ("theta", "s--"), ("phi", "^:")):
-            idx = [j for j, c in enumerate(names) if c.startswith(rot) and "_" in c]
-            if idx:
-                ax.plot(range(1, len(idx) + 1), modes.shapes[idx, k], style, label=f"{rot} (rad)")
+        if along_arm:
+            for rot, style, idx in rotations:
+                if idx:
+                    ax.plot(range(1, len(idx) + 1), modes.shapes[idx, k], style, label=f"{rot} (rad)")
+        else:
+            ax.bar(range(len(free)), modes.shapes[free, k], color="C0")
         ax.set_ylabel(f"{modes.frequencies[k]:.4g} Hz\n{modes.kinds[k]}", fontsize=8)
         ax.axhline(0, color="k", lw=0.5)
         ax.grid(True, alpha=0.3)
-    # sdes counted by their most numerous rotation: a link may hold some of them (freedoms)
-    n_sde = max(sum(1 for c in names if c.startswith(rot) and "_" in c) for rot in ("psi", "theta", "phi"))
-    axes[-1, 0].set_xticks(range(1, n_sde + 1))
-    axes[0, 0].legend(fontsize=7, ncol=3)
-    axes[-1, 0].set_xlabel("sde along the arm (1 = at the root)")
-    fig.suptitle("Mode shapes: sde rotations (unit modal mass)")
+    if along_arm:
+        # sdes counted by their most numerous rotation: a link may hold some of them (freedoms)
+        axes[-1, 0].set_xticks(range(1, max(len(idx) for _, _, idx in rotations) + 1))
+        axes[0, 0].legend(fontsize=7, ncol=3)
+        axes[-1, 0].set_xlabel("sde along the arm (1 = at the root)")
+        fig.suptitle("Mode shapes: sde rotations (unit modal mass)")
+    else:
+        axes[-1, 0].set_xticks(range(len(free)), [names[j] for j in free], rotation=30, ha="right", fontsize=8)
+        axes[-1, 0].set_xlabel("free coordinate (rad or m)")
+        fig.suptitle("Mode shapes: amplitudes of the free coordinates (unit modal mass)")
     _freeze_layout(fig)
     return fig
 
