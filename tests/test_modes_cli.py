@@ -155,7 +155,7 @@ def test_modes_of_sprung_joints_are_drawn_as_amplitudes_of_the_free_coordinates(
     # rotation to draw along an arm; the figure shows each free coordinate's amplitude instead
     import matplotlib.pyplot as plt
 
-    from gpmegen.analysis import modes_output
+    from gpmegen.analysis.figures import modes_output
 
     assert main(["modes", str(Path(__file__).parent / "models" / "spring_chain.toml"), "--out", str(tmp_path)]) == 0
     rows = [line.split(",") for line in (tmp_path / "modes_spring_chain_joints.csv").read_text().splitlines()]
