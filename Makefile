@@ -32,8 +32,11 @@ demo: venv
 # commands the tests start compiles the package again.
 TEST_ENV := PYTHONDONTWRITEBYTECODE=
 
+# The import contracts of pyproject.toml (the layers, every import counted, those inside functions
+# too; under a second), said only when one is broken.
 test: venv
 	$(BIN)/ruff check gpmegen tests benchmarks
+	@report=$$($(BIN)/lint-imports --no-cache 2>&1) || { echo "$$report"; exit 1; }
 	$(TEST_ENV) $(BIN)/python -m pytest -q -n 2 -m "not sanitizers and not long"
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,

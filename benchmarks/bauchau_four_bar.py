@@ -12,7 +12,7 @@ at rest and undeformed, where the mechanism is assembled: the same start, exactl
   and the out-of-plane bending moments at the coupler's and the follower's mid-span (EI/Δ times
   the midpoint sde's rotation theta about the link's y axis) and the crank's torque (the
   multiplier of its prescribed angle), over time, extrapolated to
-  n_rfe → ∞ (gpmegen.analysis.richardson) with the observed order;
+  n_rfe → ∞ (gpmegen.analysis.post.richardson) with the observed order;
 - Exudyn: each link as ObjectBeamGeometricallyExact elements (3-D, shear-deformable, the source's
   EA, GA, GJ, EI and rotary inertias; crank and follower N elements, coupler 2N) on
   Tait-Bryan rigid-body nodes, the revolute joints as GenericJoint (the one at C about the tilted
@@ -81,14 +81,14 @@ def gpmegen_outputs(model, names, q, nrfe: int) -> dict:
 
 def gpmegen_level(nrfe: int, t_end: float, save_dt: float, rtol: float, atol: float, model=MODEL):
     """One level's run of ``model`` (Radau IIA in C): (results, quantities over time, wall s of the run)."""
-    from gpmegen.analysis import cases, runs
-    from gpmegen.analysis.runspec import RunSpec
+    from gpmegen.analysis.run import opening, runs
+    from gpmegen.analysis.run.runspec import RunSpec
 
     if nrfe < 2 or nrfe % 2:
         raise ValueError(f"n_rfe must be even and at least 2 (an sde at each link's midpoint), got {nrfe}")
     spec = RunSpec(t_end=t_end, dt=save_dt, save_every=1, method="radau", start="none", save_dt=save_dt, rtol=rtol,
                    atol=atol)
-    run = runs.run(cases.case_for(str(model), nrfe), spec, "c", {}, None, lambda message: None)
+    run = runs.run(opening.case_for(str(model), nrfe), spec, "c", {}, None, lambda message: None)
     res = run.results
     names = [str(c) for c in res["coordinates"]]
     outputs = gpmegen_outputs(run.model, names, res["q"], nrfe)

@@ -23,7 +23,8 @@ DEFAULT_NRFE = (2, 3, 5, 8, 10, 15, 20, 30, 40)
 
 
 def main(argv=None) -> int:
-    from gpmegen.analysis import convergence, modes_output
+    from gpmegen.analysis.discretization import convergence
+    from gpmegen.analysis.figures import modes_output
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nrfe", type=int, nargs="+", default=list(DEFAULT_NRFE))

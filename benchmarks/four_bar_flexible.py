@@ -12,7 +12,7 @@ its consistent velocities are given to Exudyn), so both ring alike.
   as it is, bending only, which differs from Exudyn's extensible cable by 2.7 % of the deflection's
   peak over 0.1 s at the limit, where the axial variant comes within 0.9 %), Radau IIA in C, the
   rocker angle θ3 and the coupler's midpoint deflection from its chord over time, extrapolated to
-  n_rfe → ∞ (gpmegen.analysis.richardson), the observed order;
+  n_rfe → ∞ (gpmegen.analysis.post.richardson), the observed order;
 - Exudyn: the coupler as ObjectANCFCable2D elements (its axial stiffness E·A: it stretches,
   gpmegen's coupler does not), the crank and the rocker rigid bodies, revolute joints
   (RevoluteJoint2D), the crank's angle held to rate·t by a coordinate constraint; generalized-α at
@@ -77,12 +77,12 @@ def axial_variant(folder: Path) -> Path:
 
 def gpmegen_level(nrfe: int, rate: float, t_end: float, save_dt: float, rtol: float, atol: float, model=MODEL):
     """One level's run of ``model`` (Radau IIA in C): (results, quantities over time, wall s of the run)."""
-    from gpmegen.analysis import cases, runs
-    from gpmegen.analysis.runspec import RunSpec
+    from gpmegen.analysis.run import opening, runs
+    from gpmegen.analysis.run.runspec import RunSpec
 
     spec = RunSpec(start="none", t_end=t_end, dt=save_dt, save_every=1, method="radau", save_dt=save_dt, rtol=rtol,
                    atol=atol)
-    run = runs.run(cases.case_for(str(model), nrfe), spec, "c", params(rate), None, lambda message: None)
+    run = runs.run(opening.case_for(str(model), nrfe), spec, "c", params(rate), None, lambda message: None)
     res = run.results
     names = [str(c) for c in res["coordinates"]]
     theta3 = res["q"][:, names.index("theta3")]
@@ -270,7 +270,7 @@ def comparison(quantities, nrfe, levels, walls, compared, fine, fine_wall, scale
     gpmegen's limit, relative to ``scale``, with its wall times (``walls``: n_rfe or ("exudyn",
     elements) → seconds of each repeat; ``compared``: elements → values, None where Exudyn gave
     up). Returns the limit (quantity → values)."""
-    from gpmegen.analysis import richardson
+    from gpmegen.analysis.post import richardson
 
     n_sde = np.array(nrfe) - 1
     estimates = {key: richardson.richardson(n_sde, np.array([levels[n][key] for n in nrfe])) for key in quantities}

@@ -15,8 +15,8 @@ import time
 import numpy as np
 
 import gpmegen
-from gpmegen.analysis import reference_case, study
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.runtime import integrate
 
 

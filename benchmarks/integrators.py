@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 import gpmegen
-from gpmegen.analysis import reference_case
+from gpmegen.analysis.run import reference_case
 from gpmegen.runtime import integrate
 
 SAVE_DT = 1e-3

@@ -19,7 +19,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import results as results_io
 
 METHODS = ("dop853", "radau", "genalpha", "scipy-radau")
 STARTED = b"Ctrl-C or SIGTERM stops it"

@@ -8,7 +8,7 @@ Run: ``.venv/bin/python benchmarks/order2_examples.py [--out docs/figures] [--t-
   speed; from the locked statics, in motion (the shoulder turning at ``w0``).
 
 Prints, for each, how well the constraints hold along the run (the second-order ones checked
-from positions alone, :mod:`gpmegen.analysis.point_motion`), and writes one figure each.
+from positions alone, :mod:`gpmegen.analysis.post.point_motion`), and writes one figure each.
 
 ``--drift`` instead prints how the lower-order integrals of second-order constraints drift:
 ``tests/models/reaching_arm_ddot.toml`` holds the position constraints of ``reaching_arm.toml``
@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 import gpmegen
-from gpmegen.analysis import point_motion, study
+from gpmegen.analysis.post import point_motion
+from gpmegen.analysis.run import study
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import integrate
 
@@ -40,7 +41,7 @@ def start(path, backend="c", nrfe=None):
 
 
 def run(model, q0, qd0, t_end, dt, save_every):
-    """RK4 from ``(q0, qd0)``; the results dict of :func:`gpmegen.analysis.study.collect`."""
+    """RK4 from ``(q0, qd0)``; the results dict of :func:`gpmegen.analysis.run.study.collect`."""
     t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every)
     settings = dict(method="rk4", dt=dt, save_every=save_every, t_end=t_end, start="locked", backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent], repartitions=[])

@@ -22,7 +22,8 @@ import scipy.linalg
 
 import gpmegen
 from gpmegen import limits
-from gpmegen.analysis import modes, reference_case
+from gpmegen.analysis.post import modes
+from gpmegen.analysis.run import reference_case
 from gpmegen.runtime import integrate
 
 SAVE_DT = 1e-3

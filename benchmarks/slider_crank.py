@@ -14,8 +14,8 @@ the tip (a quadratic axial field), and their rates.
   velocity field q̇1 sin(πx/L) + q̇2 sin(2πx/L) and its axial field (q3, q4 and their rates) put
   onto the sdes (the kink rates of the polygon through the sdes, the stretch of each sde's
   segment); the rod's angle and the slider's motion are solved from the closure. Its values at
-  t = 0.1 s are extrapolated to n_rfe → ∞ (gpmegen.analysis.richardson, the engine of
-  gpmegen.analysis.extrapolate), with the observed order.
+  t = 0.1 s are extrapolated to n_rfe → ∞ (gpmegen.analysis.post.richardson, the engine of
+  gpmegen.analysis.discretization.extrapolate), with the observed order.
 - the test set's model differs from RFEM's (the differences its values cannot remove): two
   transverse modes (pinned-pinned sines in the chord frame) against RFEM's every mode up to its
   resolution; a linear stiffness K q without geometric stiffening (the rod's axial force does not
@@ -119,7 +119,7 @@ def start_values(nrfe: int) -> tuple[dict, dict]:
 
 def case(nrfe: int):
     """The model file at ``nrfe`` started from the test set's initial values."""
-    from gpmegen.analysis.cases import FileCase
+    from gpmegen.analysis.run.cases import FileCase
 
     class TestSetStart(FileCase):
         def initial(self, params):
@@ -181,8 +181,8 @@ def outputs_at(names, q, qd, nrfe: int) -> dict:
 
 def gpmegen_level(nrfe: int, rtol: float, atol: float, save_dt: float):
     """One level's run with Radau IIA in C to ``T_END``: (results, the outputs over time, wall s)."""
-    from gpmegen.analysis import runs
-    from gpmegen.analysis.runspec import RunSpec
+    from gpmegen.analysis.run import runs
+    from gpmegen.analysis.run.runspec import RunSpec
 
     run = runs.run(case(nrfe), RunSpec(start="none", t_end=T_END, dt=save_dt, save_every=1, method="radau",
                                        save_dt=save_dt, rtol=rtol, atol=atol), "c", {}, None, lambda message: None)
@@ -196,7 +196,7 @@ def gpmegen_level(nrfe: int, rtol: float, atol: float, save_dt: float):
 def extrapolated(nrfe, finals) -> dict:
     """Each compared quantity at t = 0.1 s extrapolated across the levels (n_sde = n_rfe - 1):
     name -> the richardson Estimate."""
-    from gpmegen.analysis import richardson
+    from gpmegen.analysis.post import richardson
 
     n_sde = np.array(nrfe) - 1
     return {key: richardson.richardson(n_sde, np.array([f[key] for f in finals])) for key in COMPARED}
@@ -400,7 +400,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if min(args.nrfe) < 2 or len(set(args.nrfe)) < 2:
         parser.error(f"--nrfe needs two or more different levels of at least 2 rfes, got {args.nrfe}")
-    from gpmegen.analysis import richardson
+    from gpmegen.analysis.post import richardson
 
     nrfe = sorted(set(args.nrfe))
     print(f"load average {load()} on {os.cpu_count()} cores")

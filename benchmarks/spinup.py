@@ -7,7 +7,7 @@ Simo & Vu-Quoc 1988: L = 10 m, EI = 1.4e4 N·m², EA = 2.8e7 N, ρA = 1.2 kg/m;
 
 - gpmegen: examples/spinup_axial.toml (sdes that bend and stretch; --model bending:
   examples/spinup.toml, inextensible) at several n_rfe (generalized-α at 1e-3 s by default, or
-  RK4 with --method rk4 --dt 1e-4), extrapolated to n_rfe → ∞ (gpmegen.analysis.extrapolate),
+  RK4 with --method rk4 --dt 1e-4), extrapolated to n_rfe → ∞ (gpmegen.analysis.discretization.extrapolate),
   refined with the levels of --refine one at a time while the limit's own estimate of its error
   is above --tolerance;
 - reference: Exudyn (geometrically exact ANCF cable elements, ObjectANCFCable2D, extensible,
@@ -75,8 +75,8 @@ def in_hub_frame(t, points, omega):
 def gpmegen_build(model_file, nrfe, dt):
     """Build, compile and load every level (in the pool's processes, as the run does); returns the
     wall seconds (from an empty cache: the derivation, emission and compile; else the loading)."""
-    from gpmegen.analysis.levels import simulate_levels
-    from gpmegen.analysis.runspec import RunSpec
+    from gpmegen.analysis.discretization.levels import simulate_levels
+    from gpmegen.analysis.run.runspec import RunSpec
 
     start = time.perf_counter()
     simulate_levels(model_file, nrfe, RunSpec(t_end=0.0, dt=dt, save_every=1, start="none"), backend="c")
@@ -93,10 +93,10 @@ def gpmegen_runs(model_file, omega, nrfe, dt, method="rk4", workers=None, refine
     extrapolated again (``data["nrfe"]``: the levels used); ``loops``: time each level's compiled
     loop alone, after the wall (:func:`integration_seconds`). Build the levels first
     (:func:`gpmegen_build`)."""
-    from gpmegen.analysis import extrapolate
-    from gpmegen.analysis.levels import simulate_levels
-    from gpmegen.analysis.results import metadata
-    from gpmegen.analysis.runspec import RunSpec
+    from gpmegen.analysis.discretization import extrapolate
+    from gpmegen.analysis.discretization.levels import simulate_levels
+    from gpmegen.analysis.post.results import metadata
+    from gpmegen.analysis.run.runspec import RunSpec
 
     def run(levels_nrfe):
         spec = RunSpec(t_end=T_END, dt=dt, save_every=int(round(SAVED / dt)), method=method, start="none")
@@ -239,7 +239,7 @@ def modal_run(omega, t, modes=4):
     the tip's deflection Σ φᵢ(L) qᵢ at ``t``. None where it overflows."""
     from scipy.integrate import solve_ivp
 
-    from gpmegen.analysis.beam import CLAMPED_FREE_LAMBDA
+    from gpmegen.analysis.post.beam import CLAMPED_FREE_LAMBDA
 
     x = np.linspace(0.0, L, 4001)
     shapes, omegas = [], []
@@ -352,7 +352,7 @@ def main(argv=None) -> int:
         if abs(SAVED / dt - round(SAVED / dt)) > 1e-9:
             parser.error(f"--dt {dt:g}: the runs are compared every {SAVED:g} s, so each step must divide it")
 
-    from gpmegen.analysis.levels import pool_size
+    from gpmegen.analysis.discretization.levels import pool_size
 
     model_file, processes = MODELS[args.model], pool_size(len(set(args.nrfe)))
     print(f"load average {load()} on {os.cpu_count()} cores")

@@ -32,7 +32,7 @@ import numpy as np
 import sympy as sp
 
 import gpmegen
-from gpmegen.analysis import tracking
+from gpmegen.analysis.run import tracking
 from gpmegen.model.chain import TIME, point_symbols, symbol, velocity_symbol
 
 MODEL_FILE = Path(__file__).with_name("flexible_arm.toml")
@@ -125,8 +125,7 @@ def main(argv=None) -> dict:
     print(f"residual vibration of the tip after {T:g} s, RMS: PD {report['PD on the joint']['vibration_rms']:.3g} m, "
           f"LQR {report['LQR']['vibration_rms']:.3g} m ({ratio:.3g} times less)")
     if args.out is not None:
-        from gpmegen.analysis import tracking_plots
-
+        from gpmegen.analysis.figures import tracking_plots
         print(f"wrote {tracking.write_csv(found, args.out / 'metrics.csv')}")
         for path in tracking_plots.path_error([run.arrays for run in runs.values()], found,
                                               "tip held on the ray at theta_ref(t)", args.out, labels=list(runs)):

@@ -22,12 +22,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
-from .analysis.runs import Results
-from .analysis.runspec import NAMES as RUN_OPTIONS
-from .analysis.runspec import RunSpec, split_options
+from .analysis.post import results as results_io
+from .analysis.run import cases, linear, loading, opening, reference_case, runs, tracking
+from .analysis.run.loading import checked_backend, keyword_options
+from .analysis.run.loading import gravity_function as gravity_function
+from .analysis.run.reference_case import CONSTANTS, with_constants
+from .analysis.run.runs import Results
+from .analysis.run.runspec import NAMES as RUN_OPTIONS
+from .analysis.run.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
-from .codegen.render import build as build_model
-from .codegen.render import input_hash
+from .codegen import casadi_export, fmu_export
 from .errors import (
     BuildError,
     DerivationError,
@@ -37,7 +41,6 @@ from .errors import (
     StaleModelError,
     StaticsError,
 )
-from .folder import BACKEND_FILES, check_replaceable, read_manifest, recover_folder, stale_reason
 from .model import (
     Body,
     Constraint,
@@ -51,32 +54,14 @@ from .model import (
     Signal,
     reference_model,
 )
-from .model.requirements import requirements
 from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
-from .runtime.loader import BACKENDS, chosen_backend, default_directory, open_folder
-from .symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
-from .symbolic.transforms import KINDS, check_kinds
 from .version import __version__
-
-
-def _options(options: dict, defaults: dict, what: str) -> dict:
-    """``defaults`` (name -> value) with the keyword ``options`` of the function ``what`` over
-    them; a name that is none of them is refused in one line with the valid ones."""
-    unknown = [name for name in options if name not in defaults]
-    if unknown:
-        raise TypeError(f"{what}() got an unknown option {', '.join(map(repr, unknown))}; its options are "
-                        f"{', '.join(defaults)}")
-    return {**defaults, **options}
-
 
 #: Where a model is found, beside the model itself: the reference arm's rfes, the folder of builds.
 _FOUND = {"nrfe": None, "directory": None}
-#: :func:`load`'s keyword options and their defaults.
-_LOAD = {"directory": None, "build": True, "progress": None, "command": None, "transforms": DEFAULT_TRANSFORMS,
-         "jacobians": False}
 
 
 def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, *, model=None, **options):
@@ -84,8 +69,8 @@ def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, 
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
     rfes). ``backend``: "c" or "numpy"; None (the default) is "c" where a C compiler is found, else
-    "numpy", said in one line (:func:`_backend`). ``params`` overrides parameter values. The model
-    is built into ``directory`` (an option, as the others below; default
+    "numpy", said in one line (:func:`gpmegen.analysis.run.loading.checked_backend`). ``params``
+    overrides parameter values. The model is built into ``directory`` (an option, as the others below; default
     :func:`gpmegen.runtime.loader.default_directory`) when missing or stale, or when a file it
     uses differs from the sha256 its manifest records, unless ``build=False``, which raises
     :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
@@ -103,87 +88,25 @@ def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, 
     it had and what is asked (so that asking in turn never rebuilds back and forth). An option
     not among these is refused in one line.
     """
-    chosen = _options(options, _LOAD, "load")
-    directory, build, progress = chosen["directory"], chosen["build"], chosen["progress"]
-    command, transforms, jacobians = chosen["command"], chosen["transforms"], chosen["jacobians"]
-    backend = _backend(backend, progress)
-    if model is None:
-        from .analysis.reference_case import CONSTANTS, with_constants
-
-        model = reference_model(check_nrfe(nrfe, "the reference arm"))
-        free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
-        loaded = load(backend=backend, params=free, model=model, directory=directory, build=build,
-                      progress=progress, command=f"gpmegen build --nrfe {nrfe}", transforms=transforms,
-                      jacobians=jacobians)
-        return with_constants(loaded, params)[0]
-    directory = Path(directory) if directory is not None else default_directory()
-    folder = directory / model.name
-    recover_folder(folder)
-    rebuild = command or "gpmegen build"
-    manifest = read_manifest(folder)
-    transforms, jacobians = _at_least(manifest, check_kinds(transforms), jacobians)
-    digest = input_hash(model, BACKENDS, transforms, jacobians)
-    used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
-    reason = stale_reason(folder, manifest, digest, used, jacobians, transforms)
-    if reason is not None:
-        if not build:
-            raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
-        check_replaceable(folder)  # before the derivation, which the build would write there
-        build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest,
-                    transforms=transforms, jacobians=jacobians)
-    loaded = open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),
-                         progress=progress)
-    loaded.gravity = gravity_function(model)
-    return loaded
-
-
-def gravity_function(model):
-    """The model's gravity vector g⃗ in {0} (3,) m/s² as a function of the parameter values (name →
-    number): what the generated code holds only inside its forces, kept for the analyses that need
-    its direction (the kinds of modes)."""
-    import sympy as sp
-
-    symbols = [p.symbol for p in model.parameters]
-    import numpy as np
-
-    evaluate = sp.lambdify(symbols, [sp.sympify(v) for v in model.gravity], modules="numpy")
-    return lambda params: np.array(evaluate(*(params[p.name] for p in model.parameters)), dtype=float)
-
-
-def _at_least(manifest, transforms, jacobians):
-    """The optional outputs a load builds or reuses: those asked and those the folder already
-    holds (its ``manifest``, None when there is none)."""
-    held = manifest or {}
-    kinds = tuple(k for k in KINDS if k in transforms or k in held.get("transforms", ()))
-    return kinds, bool(jacobians or held.get("jacobians", False))
-
-
-def _backend(backend, progress):
-    """``backend`` checked; None: "c" where a C compiler is found, else "numpy" (as the command
-    line chooses), the reason told to ``progress`` or, without one, as a Python RuntimeWarning."""
-    import warnings
-
-    said = []
-    chosen = chosen_backend(backend, said.append)
-    for line in said:
-        if progress is not None:
-            progress(line)
-        else:
-            warnings.warn(line, RuntimeWarning, stacklevel=3)
-    return chosen
+    if model is not None:
+        return loading.load(model, backend, params, **options)
+    chosen = keyword_options(options, loading.LOAD_OPTIONS, "load")
+    backend = checked_backend(backend, chosen["progress"])
+    model = reference_model(check_nrfe(nrfe, "the reference arm"))
+    free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
+    loaded = loading.load(model, backend, free, **{**chosen, "command": f"gpmegen build --nrfe {nrfe}"})
+    return with_constants(loaded, params)[0]
 
 
 def _case(model, nrfe):
     """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
     model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
-    from .analysis import cases, reference_case
-
     if model is None:
         return reference_case.ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
     if isinstance(model, Model):
         return cases.ModelCase(model)
     if isinstance(model, (str, Path)):
-        return cases.case_of_path(model, nrfe)
+        return opening.case_of_path(model, nrfe)
     raise TypeError(f"model must be None, a path or a gpmegen.Model, got {type(model).__name__}")
 
 
@@ -213,7 +136,7 @@ def _started(model, nrfe, start, directory):
 
 def statics(model=None, *, params=None, backend=None, **options):
     """The consistent start of a run, as ``gpmegen statics`` finds it: a
-    :class:`gpmegen.analysis.study.Start` with ``model`` (loaded, its constants bound), ``q`` and
+    :class:`gpmegen.runtime.consistent.Start` with ``model`` (loaded, its constants bound), ``q`` and
     ``qd`` (n,) on the programmed constraints at t = 0, and ``moved`` (how far they were moved
     onto them).
 
@@ -224,9 +147,9 @@ def statics(model=None, *, params=None, backend=None, **options):
     :func:`load` (default: C where a compiler is found). ``progress`` takes one-line messages
     (default: only warnings, as Python warnings). The options ``nrfe``, ``start``, ``directory``
     and ``progress`` are keywords; another is refused in one line."""
-    chosen = _options(options, {**_FOUND, "start": None, "progress": None}, "statics")
+    chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None}, "statics")
     progress = chosen["progress"]
-    backend = _backend(backend, progress)
+    backend = checked_backend(backend, progress)
     case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     return case.started(backend, start, dict(params or {}), _messages(progress))
 
@@ -248,16 +171,14 @@ def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=No
     ``repartition``, ``actuated``, ``internal_dynamics``, ``max_violation``, checked by
     :class:`RunSpec` in one line each. ``feedforward``: a results file of an actuated
     realization (or a stable inversion) whose inputs ``u`` are added to the drives of the model's
-    coordinates of the same names, read as table signals (:mod:`gpmegen.analysis.feedforward`;
+    coordinates of the same names, read as table signals (:mod:`gpmegen.analysis.post.feedforward`;
     ``model`` a model file or a :class:`Model`). An option that is neither is refused in one line
     with the valid ones. A run that stops early (diverges) is returned with its ``status``
     saying why."""
-    from .analysis import runs
-
     spec, chosen = split_options(spec, options, _SIMULATE, lambda names: (
         f"simulate() got an unknown option {names}; its options are {', '.join((*RUN_OPTIONS, *_SIMULATE))}"))
     progress = chosen["progress"]
-    backend = _backend(backend, progress)
+    backend = checked_backend(backend, progress)
     case, start = _started(model, chosen["nrfe"], spec.start, chosen["directory"])
     if chosen["feedforward"] is not None:
         case = case.feed_forward(chosen["feedforward"])
@@ -272,8 +193,6 @@ def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) 
     ``energies(q, qd, p)``, by name; ``u`` holds a generalized force on each coordinate of
     ``inputs``. ``model``, ``nrfe`` as :func:`statics`; ``overwrite`` replaces an earlier export.
     Needs the casadi package (``pip install 'gpmegen[casadi]'``)."""
-    from .codegen import casadi_export
-
     casadi_export.require_casadi()
     case = _case(model, nrfe)
     return case.located(lambda: casadi_export.export(case.model, folder, tuple(inputs), overwrite=overwrite))
@@ -288,28 +207,24 @@ def export_fmu(out, model=None, *, inputs=(), overwrite=False, **options):
     :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``, and
     the keyword options ``start``, ``nrfe``, ``directory``, ``progress``, as :func:`statics`;
     ``overwrite`` replaces an earlier FMU. Needs a C compiler. Returns the FMU's path."""
-    from .codegen import fmu_export
-
-    chosen = _options(options, {**_FOUND, "start": None, "progress": None}, "export_fmu")
+    chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None}, "export_fmu")
     case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     return case.located(lambda: fmu_export.export(case, out, tuple(inputs), overwrite, start,
                                                   _messages(chosen["progress"])))
 
 
 def linearize(model=None, *, params=None, backend=None, at=None, **options):
-    """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.linear.LinearModel`), as
+    """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.run.linear.LinearModel`), as
     ``gpmegen linearize`` makes it: about :func:`statics`'s start (arguments as there), or with
     ``at`` (a results file of this model) and ``times`` (s), a list of them, one at the saved
     state nearest each time. The model is loaded with its Jacobians (built when missing).
     ``inputs``: the coordinates that take a generalized force (default: those the model drives,
     and a model file's actuators). ``nrfe``, ``start``, ``directory``, ``progress``, ``times``
     and ``inputs`` are keyword options; another is refused in one line."""
-    from .analysis import cases, linear
-
-    chosen = _options(options, {**_FOUND, "start": None, "progress": None, "times": None, "inputs": None},
+    chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None, "times": None, "inputs": None},
                       "linearize")
     progress, times, inputs = chosen["progress"], chosen["times"], chosen["inputs"]
-    backend = _backend(backend, progress)
+    backend = checked_backend(backend, progress)
     case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     if not isinstance(case, cases.FolderCase):  # refused before a build (a folder's model is refused once open)
         constraints = case.model.constraints
@@ -330,24 +245,21 @@ def linearize(model=None, *, params=None, backend=None, at=None, **options):
 
 def metrics(runs, reference=None, *, after=None, backend=None, nrfe=None, progress=None) -> list:
     """Tracking metrics of ``runs`` (results files or :class:`Results`) against ``reference``, as
-    ``gpmegen metrics`` prints them: a list of :class:`gpmegen.analysis.tracking.Metrics`, one per
+    ``gpmegen metrics`` prints them: a list of :class:`gpmegen.analysis.run.tracking.Metrics`, one per
     run (constraint values, path error, residual vibration, effort; see
-    :mod:`gpmegen.analysis.tracking`). ``reference``: a results file (.npz: its end-effector path),
+    :mod:`gpmegen.analysis.run.tracking`). ``reference``: a results file (.npz: its end-effector path),
     a :class:`Model`, a model file or a folder made by ``gpmegen build --out`` (its constraint
     functions and its ideal run; a file with ``nrfe`` rfes, default the first run's), or None (the
     reference manipulator).
     ``after`` (s): where the residual vibration starts (default: the end of the programmed
     motion, where it is known). ``backend`` and ``progress`` as :func:`statics`."""
-    from .analysis import results as results_io
-    from .analysis import tracking
-
     runs = [runs] if isinstance(runs, (str, Path, Results)) else list(runs)
     if not runs:
         raise ModelError("metrics of no runs: give one results file or more")
     names = [str(r) if isinstance(r, (str, Path)) else f"run {k + 1}" for k, r in enumerate(runs)]
     data = [r.arrays if isinstance(r, Results) else results_io.load(r) for r in runs]
     progress = _messages(progress)
-    ref = tracking.reference_of(reference, data, _backend(backend, progress), progress, nrfe)
+    ref = tracking.reference_of(reference, data, checked_backend(backend, progress), progress, nrfe)
     return [tracking.measure(run, ref, name, after) for run, name in zip(data, names)]
 
 

@@ -5,6 +5,9 @@ Usage and model errors exit with status 2, runtime failures with 1, an interrupt
 SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
 """
 
+# Each command imports what it runs inside its own function: the console starts on every command
+# (and for --help), and the package's stages (SymPy, the code generator, Matplotlib) are loaded
+# only by the commands that use them.
 from __future__ import annotations
 
 import argparse
@@ -22,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from . import limits, outputs
-from .analysis.plots import IncompatibleResults
-from .analysis.runspec import METHODS, RunSpec
+from .analysis.figures.plots import IncompatibleResults
+from .analysis.run.runspec import METHODS, RunSpec
 from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning, OutputError, RunSpecError
 from .status import Ending
 
@@ -114,7 +117,7 @@ def method_name(text: str) -> str:
 
 def figure_formats(text: str) -> tuple:
     """argparse type: comma-separated figure formats among png, pdf and svg (``png,pdf``)."""
-    from .analysis.plots import FORMATS
+    from .analysis.figures.plots import FORMATS
 
     formats = tuple(dict.fromkeys(f.strip().lower() for f in text.split(",")))
     wrong = [f for f in formats if f not in FORMATS]
@@ -181,7 +184,7 @@ def _check_results_path(out: Path, overwrite: bool = False, inputs=(), also=()) 
     partial) and ``also`` (paths written with them): not .npz, a folder, one of the command's
     ``inputs``, in a folder that cannot be written, or holding the results of an earlier run
     (unless ``overwrite``)."""
-    from .analysis import results as results_io
+    from .analysis.post import results as results_io
 
     if out.suffix != ".npz":
         raise UsageError(f"--out {out}: results are written as .npz (a .csv is written beside it)")
@@ -195,8 +198,8 @@ def _check_results_path(out: Path, overwrite: bool = False, inputs=(), also=()) 
 
 
 def _case(model_file, nrfe):
-    """The case a command runs (:func:`gpmegen.analysis.cases.case_for`)."""
-    from .analysis.cases import case_for
+    """The case a command runs (:func:`gpmegen.analysis.run.opening.case_for`)."""
+    from .analysis.run.opening import case_for
 
     return case_for(model_file, nrfe)
 
@@ -332,12 +335,12 @@ def run_spec(args, start=None) -> RunSpec:
 
 
 def _run_and_report(case, spec, backend, overrides, out, overwrite=False, inputs=()):
-    """Run ``case`` as ``spec`` says (:func:`gpmegen.analysis.runs.run`) and print its summary;
+    """Run ``case`` as ``spec`` says (:func:`gpmegen.analysis.run.runs.run`) and print its summary;
     ``backend`` None: C when a compiler is found; ``inputs``: the paths the command reads, never
     written over. Returns the results; SimulationStopped when the run ended early."""
-    from .analysis import runs
-    from .analysis.cases import FileCase
-    from .analysis.results import metadata
+    from .analysis.post.results import metadata
+    from .analysis.run import runs
+    from .analysis.run.cases import FileCase
     from .runtime import integrate
 
     _check_results_path(out, overwrite, inputs)
@@ -424,7 +427,7 @@ def cmd_simulate(args) -> int:
                              f"--save-every with the methods' defaults; leave {'them' if len(given) > 1 else 'it'} out")
         return cmd_extrapolate(args)
     args.nrfe = args.nrfe[0] if args.nrfe else None
-    from .analysis.results import default_name
+    from .analysis.post.results import default_name
 
     case = _case(args.model_file, args.nrfe)
     if args.feedforward is not None:
@@ -440,8 +443,8 @@ def cmd_simulate(args) -> int:
 
 def cmd_invert(args) -> int:
     """Stable inversion: the bounded inputs of the actuated realization over a rest-to-rest motion."""
-    from .analysis import inversions
-    from .analysis import results as results_io
+    from .analysis.post import results as results_io
+    from .analysis.run import inversions
 
     case = _case(args.model_file, args.nrfe)
     out = Path(args.out if args.out is not None else f"results/{case.results_stem}_inversion.npz")
@@ -461,8 +464,9 @@ def cmd_invert(args) -> int:
 
 def cmd_extrapolate(args) -> int:
     """``simulate --extrapolate``: the run at each --nrfe, then the outputs' limit and errors."""
-    from .analysis import extrapolate, extrapolate_plots
-    from .analysis.levels import run_levels
+    from .analysis.discretization import extrapolate
+    from .analysis.discretization.levels import run_levels
+    from .analysis.figures import extrapolate_plots
     from .errors import ExtrapolationError
 
     nrfe = sorted(set(args.nrfe or ()))
@@ -477,8 +481,8 @@ def cmd_extrapolate(args) -> int:
         raise UsageError(str(exc)) from None
     start = _start(cases[0], args.statics)
     out = Path(args.out if args.out is not None else f"results/{cases[0].results_stem}_extrapolated.npz")
-    from .analysis import results as results_io
-    from .analysis.levels import level_path
+    from .analysis.discretization.levels import level_path
+    from .analysis.post import results as results_io
 
     levels = [path for n in nrfe for path in results_io.targets(level_path(out, n))]
     _check_results_path(out, args.overwrite, [args.model_file], also=[out.with_suffix(".png"), *levels])
@@ -509,28 +513,28 @@ def cmd_statics(args) -> int:
     if case.constants(model):
         print(case.constants(model))
     if case.source is not None:  # the holding forces' units come from the model (a built folder has none)
-        from .analysis import driving
+        from .analysis.post import driving
 
         print(driving.format_holding(case.source, model, q, case.metadata(model).get("constraint_units")))
     return 0
 
 
 def cmd_plot(args) -> int:
-    from .analysis import plots
-    from .analysis import results as results_io
+    from .analysis.figures import plots, run_figures
+    from .analysis.post import results as results_io
 
     runs = [results_io.load(p) for p in args.results]
     plots.check_compatible(runs, args.results)  # before any folder or figure is made
-    outputs.check(plots.targets(runs, Path(args.out), args.format), args.results, args.overwrite)
+    outputs.check(run_figures.targets(runs, Path(args.out), args.format), args.results, args.overwrite)
     outputs.writable_folder(Path(args.out))
-    for path in plots.plot_all(runs, Path(args.out), args.format, names=args.results):
+    for path in run_figures.plot_all(runs, Path(args.out), args.format, names=args.results):
         print(path)
     return 0
 
 
 def cmd_demo(args) -> int:
     """The paper's study: rigid and flexible arms, 10 s, figures."""
-    from .analysis.reference_case import ReferenceCase
+    from .analysis.run.reference_case import ReferenceCase
 
     outs = {nrfe: Path(args.results) / f"run_nrfe{nrfe}.npz" for nrfe in (1, 5)}
     for out in outs.values():
@@ -545,18 +549,19 @@ def cmd_demo(args) -> int:
     for nrfe, out in outs.items():
         res = _run_and_report(ReferenceCase(nrfe), spec, backend, {}, out, overwrite=True)
         results.append(res)
-    from .analysis import plots
+    from .analysis.figures import run_figures
 
     # The figures' names follow from the runs; the results are kept when the figures are refused.
-    outputs.check(plots.targets(results, Path(args.figures)), (), args.overwrite)
-    for path in plots.plot_all(results, Path(args.figures)):
+    outputs.check(run_figures.targets(results, Path(args.figures)), (), args.overwrite)
+    for path in run_figures.plot_all(results, Path(args.figures)):
         print(path)
     return 0
 
 
 def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
-    from .analysis import modes, modes_output
+    from .analysis.figures import modes_output
+    from .analysis.post import modes
     from .runtime import statics
 
     out = Path(args.out)
@@ -591,7 +596,7 @@ def cmd_modes(args) -> int:
 def cmd_linearize(args) -> int:
     """The state-space model about the statics or at instants of a run, written as NPZ or .mat."""
     from . import api
-    from .analysis import linear
+    from .analysis.run import linear
 
     out = Path(args.out)
     if out.suffix not in (".npz", ".mat"):
@@ -617,8 +622,9 @@ MANIPULATOR = "manipulator"  # metrics --reference: the built-in reference arm
 def cmd_metrics(args) -> int:
     """Tracking metrics of runs against a reference: printed, and with --out a CSV and a figure."""
     from . import api
-    from .analysis import results as results_io
-    from .analysis import tracking, tracking_plots
+    from .analysis.figures import tracking_plots
+    from .analysis.post import results as results_io
+    from .analysis.run import tracking
 
     try:
         runs = [results_io.load(p) for p in args.results]
@@ -657,7 +663,8 @@ def cmd_convergence(args) -> int:
     error of any comparable output of a run (or of the start) of the model."""
     import tempfile
 
-    from .analysis import convergence, modes_output
+    from .analysis.discretization import convergence
+    from .analysis.figures import modes_output
 
     if args.output:
         return cmd_convergence_of_outputs(args)
@@ -687,7 +694,7 @@ def cmd_convergence(args) -> int:
 def cmd_animate(args) -> int:
     """The arm moving (GIF or MP4; in 2D when it stays in one plane, else in 3D), or a still figure
     of it at chosen times."""
-    from .analysis import animation
+    from .analysis.figures import animation
 
     try:
         animation.format_of(args.out, still=args.still is not None)  # before anything is loaded
@@ -710,8 +717,8 @@ def cmd_animate(args) -> int:
 def cmd_convergence_of_outputs(args) -> int:
     """``convergence --output``: the model at each --nrfe (a run, or its start at --t-end 0), and
     per output the estimated discretization error of each level, of the limit, and the order."""
-    from .analysis import extrapolate
-    from .analysis.levels import run_levels
+    from .analysis.discretization import extrapolate
+    from .analysis.discretization.levels import run_levels
     from .errors import ExtrapolationError
 
     nrfe = sorted(set(args.nrfe or OUTPUT_LEVELS))

@@ -14,6 +14,8 @@ import os
 import sys
 from contextlib import contextmanager
 
+from .cli import build_parser
+
 WIDTH = 100  # columns of the help text on the page
 
 INTRO = """\
@@ -52,8 +54,6 @@ def _summaries(parser: argparse.ArgumentParser) -> dict[str, str]:
 
 def page() -> str:
     """The reference page as Markdown."""
-    from .cli import build_parser
-
     with _columns(WIDTH):
         parser = build_parser()
         commands = _commands(parser)

@@ -44,7 +44,7 @@ class StateError(GpmegenError, ValueError):
 
 
 class RunSpecError(GpmegenError, ValueError):
-    """A run's specification (:class:`gpmegen.analysis.runspec.RunSpec`) holds a value that no run
+    """A run's specification (:class:`gpmegen.analysis.run.runspec.RunSpec`) holds a value that no run
     takes (a negative step, an unknown method, a save interval that is no whole number of steps)."""
 
 

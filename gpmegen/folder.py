@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 from .errors import BuildError, OutputError, StaleModelError
+from .fileio import atomic_write_bytes
 
 #: The files each backend is generated into (the C library's header beside its source).
 BACKEND_FILES = {"numpy": ("model_numpy.py",), "c": ("model.h", "model.c")}
@@ -60,8 +61,6 @@ def read_manifest(folder: Path) -> dict | None:
 
 def write_start(folder: Path, q: dict, qd: dict) -> None:
     """Record the start ``q``, ``qd`` (coordinate name -> number) in the built ``folder``."""
-    from .fileio import atomic_write_bytes
-
     text = json.dumps({"q": q, "qd": qd}, indent=2, sort_keys=True) + "\n"
     atomic_write_bytes(Path(folder) / START, text.encode())
 

@@ -3,7 +3,7 @@ files it writes (``gpmegen COMMAND --help``)."""
 
 from __future__ import annotations
 
-from .analysis.figure_list import listing
+from .analysis.figures.figure_list import listing
 
 DESCRIPTIONS = {
     "build": """\

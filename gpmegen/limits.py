@@ -338,7 +338,7 @@ class RunEstimate(NamedTuple):
 
 
 def run_estimate(n_dof: int, n_constraints: int, spec, backend: str, omega: float | None = None) -> RunEstimate:
-    """The :class:`RunEstimate` of the run ``spec`` (a :class:`gpmegen.analysis.runspec.RunSpec`:
+    """The :class:`RunEstimate` of the run ``spec`` (a :class:`gpmegen.analysis.run.runspec.RunSpec`:
     its method, see :data:`ESTIMATORS`, step ``dt``, end time, and every ``save_every``-th state
     kept, or every ``save_dt`` s when given to a method other than rk4, whose ``save_every`` it
     sets) on ``backend`` ("c" or "numpy"). An integrator whose work cannot be said before it
@@ -426,6 +426,9 @@ def check_frames(width: int, height: int, frames: int, held: int) -> None:
 def model_coordinates(model) -> int:
     """n_dof of ``model`` (a :class:`gpmegen.model.Model`) counted without expanding it: one per
     joint, one per free rotation of each sde of each flexible link."""
+    # The model's layer is above this module's (the model file reader checks its sizes here), and
+    # codegen/render.py, whose bytes enter the generated files' digest, calls this function: an
+    # exception of the import contracts in pyproject.toml.
     from .model.chain import FlexibleLink, Joint
     from .model.rfem import link_coordinates
 

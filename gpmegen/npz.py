@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
+
 
 def read_checked(path: Path, keep, error, remake: str) -> dict:
     """The arrays of the NPZ at ``path`` whose names ``keep(name)`` accepts (the first of any
@@ -17,8 +19,6 @@ def read_checked(path: Path, keep, error, remake: str) -> dict:
     memory available; ``error`` (an exception class) with one line otherwise, ending in ``remake``
     (how to make the file again) where the file is at fault. Zip and .npy faults
     propagate as OSError, ValueError, EOFError, zipfile.BadZipFile or zlib.error."""
-    from . import limits
-
     with zipfile.ZipFile(path) as zf:
         entries = {}
         for info in zf.infolist():

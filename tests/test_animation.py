@@ -15,9 +15,9 @@ import pytest
 from PIL import Image
 
 import gpmegen
-from gpmegen.analysis import animation
-from gpmegen.analysis import arm_geometry as geometry
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.figures import animation
+from gpmegen.analysis.figures import arm_geometry as geometry
+from gpmegen.analysis.post import results as results_io
 from gpmegen.cli import main
 
 # A hub about y, a rigid block, a flexible strip (3 rfes) with a tip mass and its point, gravity.
@@ -284,7 +284,7 @@ def test_a_run_warns_once_when_an_sde_rotation_grows_beyond_a_beams_small_strain
     """A strip 100 times softer droops far beyond what the linear sde springs model: one warning
     names the sde, its rotation and the time (the largest over the run, as the saved q has it); the
     arm of the other tests, whose sdes turn by a few milliradians, gets none."""
-    from gpmegen.analysis import driving
+    from gpmegen.analysis.post import driving
 
     soft = tmp_path / "soft.toml"
     soft.write_text(ARM.replace("young_modulus = 7.0e10", "young_modulus = 7.0e8"))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import reference_case
-from gpmegen.analysis.results import ResultsError
+from gpmegen.analysis.post.results import ResultsError
+from gpmegen.analysis.run import reference_case
 from gpmegen.cli import main
 from gpmegen.runtime import partition
 from gpmegen.status import SolveStatus

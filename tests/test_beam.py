@@ -1,11 +1,11 @@
 """The flexible arm against beam theory (Euler–Bernoulli statics and vibration, Saint-Venant
-torsion), see gpmegen/analysis/beam.py for the formulas and their sources.
+torsion), see gpmegen/analysis/post/beam.py for the formulas and their sources.
 
 The reference manipulator is built for nrfe = 5, 10, 20 once (about 40 s of the ~50 s this file
 takes on 2 cores; nrfe = 20 alone about 27 s). The clamped arm is the same model with the
 joints held, the arm horizontal (ψ2 = 0) and the slider massless (m3 = 0): its flexible
 coordinates then see exactly the arm clamped at the column top, which a cheap cross-check
-against :func:`gpmegen.analysis.convergence.clamped_arm_model` confirms.
+against :func:`gpmegen.analysis.discretization.convergence.clamped_arm_model` confirms.
 """
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import beam, convergence, modes, reference_case
+from gpmegen.analysis.discretization import convergence
+from gpmegen.analysis.post import beam, modes
+from gpmegen.analysis.run import reference_case
 from gpmegen.runtime import statics
 
 NRFE = (5, 10, 20)

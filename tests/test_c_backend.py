@@ -368,7 +368,7 @@ def test_cache_directory_default_and_override(monkeypatch, tmp_path):
 
 def test_rk4_work_integrals_match_the_numpy_integrator(pairs):
     """The C loop integrates the work of drive and constraints like integrate.rk4 does."""
-    from gpmegen.analysis import reference_case
+    from gpmegen.analysis.run import reference_case
     from gpmegen.runtime import integrate
 
     c, n = pairs("nrfe1")

@@ -19,7 +19,7 @@ from precise_solve import EPS
 from test_trust_codegen import COLLIDING, NEUTRAL, _named_model, _python_code, _tiny_model, free_text
 
 import gpmegen
-from gpmegen.analysis.extrapolate import elastic_coordinates
+from gpmegen.analysis.post.coordinates import elastic_coordinates
 from gpmegen.cli import main
 from gpmegen.codegen import casadi_export, input_hash
 from gpmegen.errors import ModelError

@@ -9,11 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis import plots, runs
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.cases import FileCase
-from gpmegen.analysis.reference_case import ReferenceCase
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.figures import plots, run_figures
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run import runs
+from gpmegen.analysis.run.cases import FileCase
+from gpmegen.analysis.run.reference_case import ReferenceCase
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.model import toml_file
 
@@ -77,7 +78,7 @@ def test_results_carry_the_cases_metadata_as_json(tmp_path):
     assert plots._title([reference], "Path") == "Path: manipulator"
     assert plots._caption([reference], "path") == "Corresponds to paper Fig. 4."
     assert plots._caption([mine], "path") is None
-    assert {p.name for p in plots.plot_all([mine], tmp_path / "figures")} >= {"path.png"}
+    assert {p.name for p in run_figures.plot_all([mine], tmp_path / "figures")} >= {"path.png"}
 
 
 def test_a_model_of_your_own_is_labelled_by_its_name_whatever_it_is_called(tmp_path):

@@ -18,10 +18,10 @@ import pytest
 import scipy.optimize
 
 import gpmegen
-from gpmegen.analysis import study
 from gpmegen.cli import main
 from gpmegen.errors import ModelWarning
 from gpmegen.model.toml_file import read_model_file
+from gpmegen.runtime import consistent
 
 G, M, L = 9.81, 0.7, 0.4
 
@@ -159,7 +159,7 @@ def test_constrained_modes_of_the_four_bar_are_its_one_degree_of_freedom(sprung,
     theta1 = start.q[model.index("theta1")]
     h = 1e-4
     stiffness = (loop_potential(theta1 + h) - 2 * loop_potential(theta1) + loop_potential(theta1 - h)) / h ** 2
-    rates = study.project_velocities(model, start.q, np.eye(model.n_dof)[model.index("theta1")])
+    rates = consistent.project_velocities(model, start.q, np.eye(model.n_dof)[model.index("theta1")])
     inertia = 2 * model.energies(start.q, rates)[0]
     expected = np.sqrt(stiffness / inertia) / (2 * np.pi)
     assert main(["modes", str(path), "--lock", "constraints", "--out", str(tmp_path)]) == 0
@@ -179,8 +179,8 @@ def reduced_motion_jacobian(model, t, q, qd):
     def reduced(x):
         qq, rr = q.copy(), qd.copy()
         qq[ind], rr[ind] = x[:k], x[k:]
-        qq = study.project_onto_constraints(model, qq, t, tol=1e-14)
-        rr = study.project_velocities(model, qq, rr, t)
+        qq = consistent.project_onto_constraints(model, qq, t, tol=1e-14)
+        rr = consistent.project_velocities(model, qq, rr, t)
         return model.accelerations(t, qq, rr)[ind]
 
     x0 = np.concatenate([q[ind], qd[ind]])

@@ -14,16 +14,16 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import closures as closure_reactions
-from gpmegen.analysis import energy, study
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.figure_list import stems
+from gpmegen.analysis.figures.figure_list import stems
+from gpmegen.analysis.post import closures as closure_reactions
+from gpmegen.analysis.post import energy
+from gpmegen.analysis.post import results as results_io
 from gpmegen.cli import main
 from gpmegen.errors import ModelWarning, SimulationError
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
 from gpmegen.model.toml_file import read_model_file
-from gpmegen.runtime import gpme, partition
+from gpmegen.runtime import consistent, gpme, partition
 from gpmegen.runtime.model import redundant_acceleration_jacobians
 
 _HERE = str(Path(__file__).resolve().parent)
@@ -417,10 +417,10 @@ def test_spatial_loop_matches_kkt_on_pinocchio(env, rng, kind, axis):
         guess = rng.uniform(-0.3, 0.3, n)
         at = partition.partition_at(loaded, guess)
         try:
-            q = study.project_onto_constraints(at, guess)
+            q = consistent.project_onto_constraints(at, guess)
         except SimulationError:
             continue
-        qd = study.project_velocities(at, q, rng.uniform(-1.5, 1.5, n))
+        qd = consistent.project_velocities(at, q, rng.uniform(-1.5, 1.5, n))
         values, J, gamma, got = pinocchio_rows(pmodel, data, frames, closure, q, qd)
         assert np.max(np.abs(values)) < 1e-11
         phi, _, D, _ = loaded.constraint_terms(0.0, q, qd)
@@ -583,7 +583,7 @@ def test_generated_c_jacobians_of_redundant_rows_are_those_of_the_independent_ro
     Jacobians (their KKT system on the rows independent at the state) equal the NumPy ones on the
     same rows to 1e-10 of their size, and central differences of the accelerations to 1e-6."""
     run, _ = tilted_run
-    loaded = study.check_redundant(tilted_jacobians[1], run["q"][0], {}, warn=False)
+    loaded = consistent.check_redundant(tilted_jacobians[1], run["q"][0], {}, warn=False)
     assert loaded.redundant
     for k in (0, 20, 45):
         t, q, qd = run["t"][k], run["q"][k], run["qd"][k]

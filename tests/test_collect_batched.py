@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import reference_case, study
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.errors import SimulationError
 from gpmegen.runtime import gpme
 

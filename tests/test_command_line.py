@@ -112,7 +112,7 @@ def test_a_param_expression_runs_as_its_value(tmp_path, capsys):
     """The same run with tdr0 = 2*pi and with the number: the same results."""
     import numpy as np
 
-    from gpmegen.analysis import results as results_io
+    from gpmegen.analysis.post import results as results_io
 
     common = ["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.02", "--dt", "1e-3"]
     for name, value in (("expression", "2*pi"), ("number", repr(2 * math.pi))):
@@ -136,7 +136,7 @@ def test_the_summary_names_a_complete_run_and_a_divergence(tmp_path, capsys):
 
 
 def test_the_summary_of_a_model_file_shows_every_coordinate(tmp_path, capsys, env):
-    from gpmegen.analysis import results as results_io
+    from gpmegen.analysis.post import results as results_io
 
     path = MODELS / "spinning_beam.toml"
     code, out, _ = _exit(["simulate", str(path), "--nrfe", "3", "--backend", "numpy", "--t-end", "0.01", "--dt",
@@ -187,7 +187,7 @@ def test_the_default_save_interval_is_1_ms_whatever_the_step(tmp_path, dt, sampl
     """Saving followed --dt (every 100th step), so a run at a longer step saved a handful of
     samples (genalpha at 1e-3 over 2 s: 21); with no --save-every or --save-dt a run saves about
     every 1 ms (every step when the step is longer)."""
-    from gpmegen.analysis import results as results_io
+    from gpmegen.analysis.post import results as results_io
 
     out = tmp_path / "run.npz"
     assert main(["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.02", "--dt", str(dt),

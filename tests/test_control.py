@@ -17,7 +17,7 @@ import pytest
 import sympy as sp
 
 import gpmegen
-from gpmegen.analysis import energy
+from gpmegen.analysis.post import energy
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
 from gpmegen.runtime import integrate

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import energy
+from gpmegen.analysis.post import energy
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))

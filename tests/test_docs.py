@@ -224,15 +224,15 @@ def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
     and the three runs between them have every figure of the list, each its own (the test below
     draws them, in make check-c)."""
     from gpmegen import cli_docs
-    from gpmegen.analysis import plots
-    from gpmegen.analysis import results as results_io
-    from gpmegen.analysis.figure_list import FIGURES
+    from gpmegen.analysis.figures import run_figures
+    from gpmegen.analysis.figures.figure_list import FIGURES
+    from gpmegen.analysis.post import results as results_io
 
     page = cli_docs.page()
     for command in ("plot", "demo"):
         help_text = page.split(f"## gpmegen {command}\n", 1)[1].split("\n## ", 1)[0]
         assert all(f"  {figure.stem}: " in help_text for figure in FIGURES), command
-    stems = [{stem for stem, _ in plots.figures([results_io.load(path)])} for path in _three_runs(tmp_path)]
+    stems = [{stem for stem, _ in run_figures.figures([results_io.load(path)])} for path in _three_runs(tmp_path)]
     assert not {"closure_reactions", "force_elements"} & stems[0]
     assert "closure_reactions" in stems[1] and "force_elements" in stems[2]
     assert sorted(set().union(*stems)) == sorted(figure.stem for figure in FIGURES)
@@ -241,7 +241,7 @@ def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
 @pytest.mark.long
 def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
     """Real plots of the three runs write exactly the figures of the list between them."""
-    from gpmegen.analysis.figure_list import FIGURES
+    from gpmegen.analysis.figures.figure_list import FIGURES
     from gpmegen.cli import main
 
     run, loop, hung = _three_runs(tmp_path)

@@ -11,14 +11,15 @@ import pytest
 
 import gpmegen
 from gpmegen import cli
-from gpmegen.analysis import driving, reference_case, study
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import driving
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run import reference_case, study
 from gpmegen.errors import ModelError
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle as ref  # noqa: E402  (tests/oracle.py: shares no code with gpmegen)
 
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.run.runspec import RunSpec
 
 
 def started(model):
@@ -202,7 +203,7 @@ def test_driving_figures_need_the_driving_functions(flexible3, ideal3, rigid_run
     """The figures of the driving functions are drawn from runs that hold them; a results file of
     format 2 written before they were saved still plots, without them. The force drawn on a
     joint is its drive plus the reaction, M q̈ - f there."""
-    from gpmegen.analysis import driving_plots, plots
+    from gpmegen.analysis.figures import driving_plots, run_figures
 
     model, _ = flexible3
     res = driving.annotate(ideal3, reference_case.ReferenceCase(3).model, model)
@@ -210,11 +211,11 @@ def test_driving_figures_need_the_driving_functions(flexible3, ideal3, rigid_run
     M, f, *_ = model.gpme_terms(res["t"][-1], res["q"][-1], res["qd"][-1])
     assert np.isclose(driving_plots.joint_forces(res, "psi2")[-1], (M @ res["qdd"][-1] - f)[k]
                       + res["drive_forces"][-1, k], rtol=1e-12)
-    names = {p.name for p in plots.plot_all([res, rigid_runs[2]], tmp_path / "new")}
+    names = {p.name for p in run_figures.plot_all([res, rigid_runs[2]], tmp_path / "new")}
     assert {"driving_functions.png", "elastic_deformation.png", "constraint_multipliers.png"} <= names
     old = {key: value for key, value in ideal3.items()
            if key not in ("qdd", "lambda", "u", "actuators", "drive_forces", "constraint_forces")}
-    names = {p.name for p in plots.plot_all([old], tmp_path / "old")}
+    names = {p.name for p in run_figures.plot_all([old], tmp_path / "old")}
     assert "joint_coordinates.png" in names and "driving_functions.png" not in names
 
 
@@ -350,7 +351,7 @@ def test_the_motor_torque_of_a_prescribed_crank_is_its_own_reaction_alone(tmp_pa
     closing constraint. The driving function drawn on the crank added the guide's passive reaction
     to the motor torque; it is the crank law's reaction alone, whose power is the rate of the
     kinetic energy (the guide does no work), while the sum is not."""
-    from gpmegen.analysis import driving_plots
+    from gpmegen.analysis.figures import driving_plots
 
     path = tmp_path / "slider_crank.toml"
     path.write_text(SLIDER_CRANK, encoding="utf-8")

@@ -8,8 +8,10 @@ import pytest
 from scipy.linalg import expm
 
 import gpmegen
-from gpmegen.analysis import energy, plots, study
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.figures import plots
+from gpmegen.analysis.post import energy
+from gpmegen.analysis.run import study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.analysis.sweep.outcomes import outcomes
 
 M1, M2, K1, K2, C1, C2 = 1.0, 0.5, 100.0, 400.0, 5.0, 3.0
@@ -56,7 +58,7 @@ def test_the_dampers_work_is_a_term_of_the_balance_and_the_residual_is_the_integ
 def test_scipy_radau_saves_the_multipliers_and_the_work(rigid):
     """scipy-radau integrated (q, q̇) alone and saved NaN for the work, which also made every
     sample's λ NaN: both are now saved, λ as RK4's at the same instants and the balance closed."""
-    from gpmegen.analysis import reference_case
+    from gpmegen.analysis.run import reference_case
 
     model, q0 = reference_case.initial_state(rigid)
     radau = study.simulate(model, q0, RunSpec(t_end=0.1, dt=1e-3, method="scipy-radau", save_dt=1e-2, rtol=1e-10,

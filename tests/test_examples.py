@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.cli import main
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import partition

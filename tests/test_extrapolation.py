@@ -10,9 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis import beam, convergence, extrapolate, richardson
-from gpmegen.analysis.levels import simulate_levels
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.discretization import convergence, extrapolate, levels
+from gpmegen.analysis.discretization.levels import simulate_levels
+from gpmegen.analysis.post import beam, richardson
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import ExtrapolationError
 
@@ -285,6 +286,6 @@ def test_levels_of_different_models_are_refused_by_the_check_made_before_any_lev
     other.write_text(text.replace(default.group(0), f"{default.group(1)} = {{ value = {2 * float(default.group(2))}"),
                      encoding="utf-8")
     same = {n: read_model_file(SPINUP, nrfe=n).model for n in (2, 3)}
-    extrapolate.check_same_model(same)
+    levels.check_same_model(same)
     with pytest.raises(ExtrapolationError, match="n_rfe = 3 and n_rfe = 2: different parameter values"):
-        extrapolate.check_same_model({2: same[2], 3: read_model_file(other, nrfe=3).model})
+        levels.check_same_model({2: same[2], 3: read_model_file(other, nrfe=3).model})

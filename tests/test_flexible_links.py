@@ -15,7 +15,7 @@ import pytest
 import sympy as sp
 
 import gpmegen
-from gpmegen.analysis import modes
+from gpmegen.analysis.post import modes
 from gpmegen.errors import ModelError
 from gpmegen.model.chain import (
     TIME,

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import energy
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.figure_list import stems
-from gpmegen.analysis.modes import natural_frequencies
+from gpmegen.analysis.figures.figure_list import stems
+from gpmegen.analysis.post import energy
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.post.modes import natural_frequencies
 from gpmegen.cli import main
 from gpmegen.codegen.render import render
 from gpmegen.errors import ModelError

@@ -4,9 +4,9 @@ Baumgarte rows, power balance, integrator agreement, results files and bad input
 import numpy as np
 import pytest
 
-from gpmegen.analysis import reference_case, study
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import SimulationError, StaticsError
 from gpmegen.runtime import integrate, statics

@@ -10,9 +10,10 @@ import pytest
 
 import gpmegen
 from gpmegen import limits
-from gpmegen.analysis import modes, reference_case, study
-from gpmegen.analysis.results import metadata
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.post import modes
+from gpmegen.analysis.post.results import metadata
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import build_parser, main
 from gpmegen.runtime import integrate, stability
 
@@ -325,7 +326,7 @@ def test_a_chain_the_constraints_hold_entirely_has_no_frequency_to_bound_rk4(env
     """The planar example at n_rfe = 1: two joints, two position constraints, no free coordinate."""
     from pathlib import Path
 
-    from gpmegen.analysis.cases import FileCase
+    from gpmegen.analysis.run.cases import FileCase
 
     path = Path(__file__).resolve().parent.parent / "examples" / "planar_two_link.toml"
     begun = FileCase(str(path), 1).started("numpy", "none", {}, lambda message: None)

@@ -14,7 +14,7 @@ from scipy.optimize import brentq
 
 import gpmegen
 from gpmegen import cli
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.runtime import internal
 
 LINK = Path(__file__).resolve().parent / "models" / "flexible_link.toml"
@@ -134,7 +134,7 @@ def test_internal_dynamics_along_a_run_of_the_rigid_arm():
     x3 the internal dynamics are the column's: d(I θ̇1)/dt = τ_drive with I = M[θ1, θ1], whose
     linearization I δθ̈1 + İ δθ̇1 = 0 has the eigenvalues 0 and -İ/I (İ by differences of M
     along q̇); without actuators the request is refused."""
-    from gpmegen.analysis import reference_case, study
+    from gpmegen.analysis.run import reference_case, study
 
     model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"), "locked")
     actuated = model.with_actuators(["psi2", "x3"])

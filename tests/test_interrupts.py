@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import reference_case
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run import reference_case
 from gpmegen.runtime import integrate
 
 pytestmark = pytest.mark.requires_cc

@@ -85,7 +85,7 @@ def test_cli_invert_writes_the_bounded_inputs(env, tmp_path, capsys):
     """``gpmegen invert`` writes the inputs and says how long before the motion they start; a
     case whose internal dynamics keep a neutral coordinate (the rigid arm's column) is refused."""
     from gpmegen import cli
-    from gpmegen.analysis import results as results_io
+    from gpmegen.analysis.post import results as results_io
 
     out = tmp_path / "inv.npz"
     args = ["invert", str(LINK), "--nrfe", "2", "--t1", "0.2", "--out", str(out)]

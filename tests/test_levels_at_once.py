@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis.levels import compiled_loops, run_levels
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.discretization.levels import compiled_loops, run_levels
+from gpmegen.analysis.run.runspec import RunSpec
 
 SPINUP = Path(__file__).resolve().parent.parent / "examples" / "spinup.toml"
 KEYS = ("t", "q", "qd", "qdd", "lambda", "end_effector", "drive_forces", "constraint_forces", "kinetic_energy")
@@ -48,12 +48,12 @@ def test_levels_at_once_are_the_levels_one_after_the_other(env, backend, where):
 def test_a_generated_module_loaded_again_runs_the_code_compiled_from_its_text(tmp_path):
     """A process that loads one model again runs the code compiled the first time; other text
     (another module, or the same file changed) is compiled anew."""
-    from gpmegen.runtime import loader
+    from gpmegen.runtime import numpy_module
 
     path = tmp_path / "model_numpy.py"
-    first = loader._code("X = 1\n", path)
-    assert loader._code("X = 1\n", path) is first
-    assert loader._code("X = 2\n", path) is not first
+    first = numpy_module._code("X = 1\n", path)
+    assert numpy_module._code("X = 1\n", path) is first
+    assert numpy_module._code("X = 2\n", path) is not first
     namespace = {}
-    exec(loader._code("X = 2\n", path), namespace)
+    exec(numpy_module._code("X = 2\n", path), namespace)
     assert namespace["X"] == 2

@@ -10,8 +10,9 @@ import pytest
 
 import gpmegen
 from gpmegen import limits
-from gpmegen.analysis import modes, reference_case, study
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.post import modes
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.runtime import integrate
 

@@ -9,7 +9,8 @@ import scipy.io
 import scipy.linalg
 
 import gpmegen
-from gpmegen.analysis import linear, modes
+from gpmegen.analysis.post import modes
+from gpmegen.analysis.run import linear
 from gpmegen.cli import main
 from gpmegen.runtime.gpme import tangent_basis
 from gpmegen.status import SolveStatus

@@ -4,7 +4,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gpmegen.analysis import modes, reference_case
+from gpmegen.analysis.post import modes
+from gpmegen.analysis.run import reference_case
 from gpmegen.cli import main
 
 
@@ -114,8 +115,8 @@ def test_the_mode_shapes_title_sits_on_the_highest_panel(tmp_path, monkeypatch):
     import matplotlib.pyplot as plt
     from drawn_text import outside
 
-    from gpmegen.analysis import modes_output
-    from gpmegen.analysis.modes import Modes
+    from gpmegen.analysis.figures import modes_output
+    from gpmegen.analysis.post.modes import Modes
 
     names = tuple(f"{rotation}1_{k}" for k in range(1, 5) for rotation in ("psi", "theta", "phi"))
     shapes = np.sin(np.outer(np.arange(1, 13), np.arange(1, 7)))
@@ -154,7 +155,7 @@ def test_modes_of_sprung_joints_are_drawn_as_amplitudes_of_the_free_coordinates(
     # rotation to draw along an arm; the figure shows each free coordinate's amplitude instead
     import matplotlib.pyplot as plt
 
-    from gpmegen.analysis import modes_output
+    from gpmegen.analysis.figures import modes_output
 
     assert main(["modes", str(Path(__file__).parent / "models" / "spring_chain.toml"), "--out", str(tmp_path)]) == 0
     rows = [line.split(",") for line in (tmp_path / "modes_spring_chain_joints.csv").read_text().splitlines()]

@@ -13,7 +13,8 @@ import pytest
 from refusals import refused_in_one_line
 
 import gpmegen
-from gpmegen.analysis import energy, linear
+from gpmegen.analysis.post import energy
+from gpmegen.analysis.run import linear
 from gpmegen.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

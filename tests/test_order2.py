@@ -17,7 +17,8 @@ import pytest
 import sympy as sp
 
 import gpmegen
-from gpmegen.analysis import modes, point_motion, study
+from gpmegen.analysis.post import modes, point_motion
+from gpmegen.analysis.run import study
 from gpmegen.cli import main
 from gpmegen.errors import ModelError, SimulationError, StaticsError
 from gpmegen.model.chain import TIME

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import reference_case
+from gpmegen.analysis.run import reference_case
 from gpmegen.runtime import integrate, partition
 from gpmegen.status import MESSAGES, Ending, Outcome, SolveStatus
 

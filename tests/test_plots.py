@@ -8,10 +8,11 @@ import matplotlib
 import numpy as np
 import pytest
 
-from gpmegen.analysis import plots, runs
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.reference_case import ReferenceCase
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.figures import plots, run_figures
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run import runs
+from gpmegen.analysis.run.reference_case import ReferenceCase
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 
 matplotlib.use("Agg")
@@ -57,9 +58,9 @@ def test_each_run_keeps_its_colour_and_line_style_in_every_figure(pair):
     style = plots.styles(loaded)
     assert [s["color"] for s in style] == ["C0", "C2"]  # the reference case's rigid and flexible colours
     assert style[0]["linestyle"] != style[1]["linestyle"]
-    stems = [stem for stem, _ in plots.figures(loaded)]
+    stems = [stem for stem, _ in run_figures.figures(loaded)]
     assert {"driving_functions", "elastic_deformation", "constraint_multipliers"} <= set(stems)
-    for stem, draw in plots.figures(loaded):
+    for stem, draw in run_figures.figures(loaded):
         fig = draw(plt, loaded, style)
         # the elastic deformation is drawn for the runs with springs only (here the flexible arm)
         shown = [k for k, r in enumerate(loaded) if stem != "elastic_deformation" or np.any(r["spring_forces"])]
@@ -155,9 +156,9 @@ def test_energy_terms_and_the_balance_error_have_panels_of_their_own(pair):
 @pytest.mark.long
 def test_figures_are_png_at_200_dpi_pdf_and_svg_and_the_same_bytes_every_time(pair, tmp_path):
     _, loaded = pair
-    first = plots.plot_all(loaded, tmp_path / "a", ("png", "pdf", "svg"))
-    second = plots.plot_all(loaded, tmp_path / "b", ("png", "pdf", "svg"))
-    assert {p.name for p in first} == {f"{stem}.{fmt}" for stem, _ in plots.figures(loaded)
+    first = run_figures.plot_all(loaded, tmp_path / "a", ("png", "pdf", "svg"))
+    second = run_figures.plot_all(loaded, tmp_path / "b", ("png", "pdf", "svg"))
+    assert {p.name for p in first} == {f"{stem}.{fmt}" for stem, _ in run_figures.figures(loaded)
                                        for fmt in ("png", "pdf", "svg")}
     _same_bytes_and_formats(first, second)
 
@@ -170,7 +171,7 @@ def test_a_figure_is_png_at_200_dpi_pdf_and_svg_and_the_same_bytes_every_time(pa
     _, loaded = pair
     runs = plots.distinguished(loaded)
     plt, style = plots._pyplot(), plots.styles(runs)
-    stem, draw = plots.figures(runs)[0]
+    stem, draw = run_figures.figures(runs)[0]
 
     def write(folder):
         fig = draw(plt, runs, style)
@@ -246,7 +247,7 @@ def test_runs_of_one_model_by_different_methods_get_labels_that_tell_them_apart(
     assert [plots.label(r) for r in plots.distinguished([rigid])] == [plots.label(rigid)]
     import matplotlib.pyplot as plt
 
-    for stem, draw in plots.figures(variants):
+    for stem, draw in run_figures.figures(variants):
         fig = draw(plt, plots.distinguished(variants), plots.styles(variants))
         texts = {t.get_text() for legend in fig.legends for t in legend.get_texts()}
         assert set(labels) <= texts, stem
@@ -303,7 +304,7 @@ def test_text_from_a_results_file_is_drawn_as_it_is_in_every_figure(pair, tmp_pa
     results_io.save(_with_meta(rigid, **ODD_META), path)
     assert main(["plot", str(path), "--out", str(tmp_path / "figures")]) == 0
     captured = capsys.readouterr()
-    assert captured.err == "" and len(captured.out.split()) == len(plots.figures([rigid]))
+    assert captured.err == "" and len(captured.out.split()) == len(run_figures.figures([rigid]))
 
 
 def test_text_from_a_results_file_is_drawn_as_it_is_never_read_as_tex(pair, tmp_path):
@@ -334,7 +335,7 @@ def _every_figure(runs):
     runs = plots.distinguished(runs)
     plt = plots._pyplot()
     style = plots.styles(runs)
-    for stem, draw in plots.figures(runs):
+    for stem, draw in run_figures.figures(runs):
         fig = draw(plt, runs, style)
         try:
             yield stem, fig

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import reference_case
-from gpmegen.analysis.cases import FileCase
+from gpmegen.analysis.run import reference_case
+from gpmegen.analysis.run.cases import FileCase
 from gpmegen.model import reference_model
 from gpmegen.runtime import integrate
 

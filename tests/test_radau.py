@@ -11,8 +11,8 @@ import pytest
 from scipy.linalg import expm
 
 import gpmegen
-from gpmegen.analysis import reference_case
-from gpmegen.analysis.results import metadata
+from gpmegen.analysis.post.results import metadata
+from gpmegen.analysis.run import reference_case
 from gpmegen.cli import build_parser, main
 from gpmegen.runtime import integrate
 from gpmegen.status import SolveStatus

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.errors import StaleModelError
 
 GPMEGEN = [sys.executable, "-m", "gpmegen.cli"]

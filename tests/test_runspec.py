@@ -1,4 +1,4 @@
-"""A run's specification (gpmegen.analysis.runspec.RunSpec): its rules, each in one line; its
+"""A run's specification (gpmegen.analysis.run.runspec.RunSpec): its rules, each in one line; its
 defaults; equal specs for equal runs, whether the command line or the API builds them."""
 
 import pickle
@@ -6,8 +6,8 @@ import pickle
 import pytest
 
 import gpmegen
-from gpmegen.analysis import runs
-from gpmegen.analysis.runspec import METHODS, NAMES, RunSpec
+from gpmegen.analysis.run import runs
+from gpmegen.analysis.run.runspec import METHODS, NAMES, RunSpec
 from gpmegen.analysis.sweep import SweepError
 from gpmegen.cli import main
 from gpmegen.errors import RunSpecError

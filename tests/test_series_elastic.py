@@ -13,7 +13,7 @@ import pytest
 from refusals import refused_in_one_line
 
 import gpmegen
-from gpmegen.analysis import linear
+from gpmegen.analysis.run import linear
 
 ROOT = Path(__file__).resolve().parents[1]
 TWO_MASS = ROOT / "tests" / "models" / "series_elastic.toml"

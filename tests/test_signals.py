@@ -16,7 +16,7 @@ import pytest
 
 import gpmegen
 from gpmegen import cli
-from gpmegen.analysis import feedforward
+from gpmegen.analysis.post import feedforward
 from gpmegen.codegen import casadi_export
 from gpmegen.errors import ModelError, SimulationError
 from gpmegen.model.expand import expand

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.cases import FileCase
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run.cases import FileCase
 from gpmegen.cli import main
 from gpmegen.errors import ModelError
 from gpmegen.model.toml_file import read_model_file

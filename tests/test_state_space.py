@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import linear
+from gpmegen.analysis.run import linear
 from gpmegen.errors import GpmegenError, ModelError
 
 control = pytest.importorskip("control")

@@ -18,7 +18,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import gpmegen
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.sweep import SweepFailures, outcomes, plan
 from gpmegen.cli import main
 from gpmegen.limits import LimitError
@@ -151,7 +151,7 @@ def test_scheduler_and_workers_in_their_own_processes_give_the_same_summary(refe
 #: with tdr0 = 2 kills its process with SIGSEGV, as a crash in compiled code would.
 CRASHING_RUN = """
 import os, signal
-from gpmegen.analysis import runs
+from gpmegen.analysis.run import runs
 
 _run = runs.run
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import tracking
+from gpmegen.analysis.run import tracking
 from gpmegen.cli import main
 
 STEP = "Min(Max(t/T, 0), 1)^3*(10 - 15*Min(Max(t/T, 0), 1) + 6*Min(Max(t/T, 0), 1)^2)"
@@ -72,8 +72,7 @@ def test_a_run_of_the_reference_model_tracks_it(files):
 
 
 def test_an_offset_run_is_off_by_that_offset(files):
-    from gpmegen.analysis import results as results_io
-
+    from gpmegen.analysis.post import results as results_io
     run = dict(results_io.load(files / "cart.npz"))
     offset = 1.25e-3
     run["q"] = run["q"] + offset
@@ -152,8 +151,7 @@ def test_command_prints_and_writes(files, tmp_path, capsys):
     ("no_reference", "--reference"),
 ])
 def test_command_refuses_in_one_line(files, tmp_path, capsys, case, problem):
-    from gpmegen.analysis import results as results_io
-
+    from gpmegen.analysis.post import results as results_io
     run, reference = files / "plant.npz", files / "cart.toml"
     if case == "missing":
         run = tmp_path / "nothing.npz"

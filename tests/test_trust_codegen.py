@@ -50,7 +50,7 @@ from gpmegen.model.expand import expand
 from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, statics
 from gpmegen.runtime.cmodel import CModel
-from gpmegen.runtime.loader import import_numpy_module
+from gpmegen.runtime.numpy_module import import_numpy_module
 
 ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from gpmegen.analysis import results as results_io
+from gpmegen.analysis.post import results as results_io
 from gpmegen.cli import main
 
 #: The child's address space: far beyond what any refusal needs, far below what the faults took.
@@ -239,7 +239,7 @@ def test_import_urdf_from_python_refuses_a_file_beyond_the_cap_before_reading_it
 
 
 def test_extrapolation_file_declaring_1_gib_in_8_bytes_is_refused_before_it_is_inflated(tmp_path):
-    from gpmegen.analysis import extrapolate
+    from gpmegen.analysis.discretization import extrapolate
     from gpmegen.errors import ExtrapolationError
 
     small = tmp_path / "small.npz"

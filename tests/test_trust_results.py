@@ -19,9 +19,9 @@ import pytest
 
 import gpmegen
 from gpmegen import fileio
-from gpmegen.analysis import reference_case, study
-from gpmegen.analysis import results as results_io
-from gpmegen.analysis.runspec import RunSpec
+from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.runtime import integrate
 from gpmegen.status import Outcome, SolveStatus

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import arm_geometry as geometry
-from gpmegen.analysis.driving import point_constraints
+from gpmegen.analysis.figures import arm_geometry as geometry
+from gpmegen.analysis.post.driving import point_constraints
 from gpmegen.cli import main
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
@@ -444,7 +444,7 @@ def test_a_run_past_the_urdf_limits_warns(mimic_pair, tmp_path, capsys):
     """The limits of a URDF do not act, and a run went past them silently (a falling Panda at
     107 rad/s): after the run, one line for each joint and limit exceeded by a saved sample,
     with the limit, the farthest value and its time, and when it first went past."""
-    from gpmegen.analysis.joint_limits import exceeded
+    from gpmegen.analysis.post.joint_limits import exceeded
 
     path, _ = mimic_pair
     out = tmp_path / "fall.npz"

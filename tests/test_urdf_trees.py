@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import gpmegen
-from gpmegen.analysis import arm_geometry as geometry
+from gpmegen.analysis.figures import arm_geometry as geometry
 from gpmegen.errors import ModelWarning
 from gpmegen.model.chain import Branch, FlexibleLink, RectangularSection
 from gpmegen.model.expand import expand

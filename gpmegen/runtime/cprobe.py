@@ -25,7 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BuildError
+from .ccompile import HEADER, declarations, open_library, short_names
+from .gpme import choose_dependent
 from .integrate import ADAPTIVE_COUNTS, COUNTS
+from .numpy_module import import_numpy_module
 
 #: Seconds the child may take: it calls each function a few times, so anything longer is a hang.
 TIMEOUT = 120.0
@@ -60,10 +63,6 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
     """Call every function of ``library`` (compiled from ``source``) at two states, with
     buffers sized from the outputs of the NumPy module at ``module_path``. ``say`` is told the
     name of each function before it is called."""
-    from .ccompile import HEADER, declarations, open_library, short_names
-    from .loader import import_numpy_module
-    from .partition import choose_dependent
-
     module = import_numpy_module(Path(module_path).parent)
     header = Path(source).with_name(HEADER).read_text(encoding="utf-8")
     ffi, lib = open_library(library, header)

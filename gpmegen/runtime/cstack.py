@@ -15,6 +15,8 @@ stack). Under a stack limit of that size a call completes (tests/test_c_stack.py
 
 from __future__ import annotations
 
+from ..limits import LimitError
+
 try:
     import resource
 except ImportError:  # not a POSIX system: no limit to read
@@ -61,8 +63,6 @@ def stack_limit() -> int | None:
 def check(call: str, n: int, m: int, exact_jacobians: bool, model: str) -> None:
     """Raise :class:`gpmegen.limits.LimitError` in one line when the library's ``call`` on the
     model ``model`` (``n`` coordinates, ``m`` constraints) needs more stack than the limit."""
-    from ..limits import LimitError
-
     limit = stack_limit()
     need = call_bytes(call, n, m, exact_jacobians) + RESERVE
     if limit is not None and need > limit:

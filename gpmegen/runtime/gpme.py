@@ -67,6 +67,18 @@ def independent_rows(D) -> np.ndarray:
     return np.sort(pivots[:rank])
 
 
+def choose_dependent(D, count=None) -> np.ndarray:
+    """Indices (sorted) of the dependent coordinates: the first ``count`` (default ``m``) pivots
+    of a QR factorization with column pivoting of ``D`` (m, n); with redundant rows, ``count`` is
+    D's rank."""
+    D = np.asarray(D, dtype=float)
+    m = D.shape[0] if count is None else count
+    if m == 0:
+        return np.arange(0)
+    _, _, pivots = scipy.linalg.qr(D, mode="economic", pivoting=True)
+    return np.sort(pivots[:m])
+
+
 def rank(D) -> int:
     """The numerical rank of ``D`` (m, n): the number of :func:`independent_rows`."""
     return len(independent_rows(D))
@@ -81,8 +93,6 @@ def accelerations(M, f, phi, phi_rate, D, gamma, alpha, beta, orders, dependent,
     if D.shape[0] == 0:
         return np.linalg.solve(M, f)
     if redundant:
-        from .partition import choose_dependent
-
         rows = independent_rows(D)
         phi, phi_rate, D, gamma = phi[rows], phi_rate[rows], D[rows], gamma[rows]
         alpha, beta, orders = np.asarray(alpha)[rows], np.asarray(beta)[rows], np.asarray(orders)[rows]

@@ -14,8 +14,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import EvaluationError, SimulationError
+from ..errors import EvaluationError, SimulationError, StateError
 from ..status import Ending, Outcome, SolveStatus
+from .consistent import project_onto_constraints
 from .pacing import StepBudget
 from .partition import check_second_order_rows
 from .redundancy import RowWatch
@@ -354,9 +355,6 @@ def out_of_reach(model, t_last: float, y_last, t_end: float) -> Outcome | None:
     ``t_end`` because its position constraints could no longer be met (the prescribed motion left
     the workspace, where their Jacobian D loses rank), naming them and the instant; None when they
     can be met throughout, so that the failure is the step's."""
-    from ..analysis.study import project_onto_constraints
-    from ..errors import StateError
-
     orders = np.asarray(model.constraint_orders)
     if model.dependent is None or not np.any(orders == 0) or not np.all(np.isfinite(y_last)):
         return None
@@ -548,10 +546,10 @@ LONG_STEPS = ("--method genalpha (implicit, in C), radau (implicit, adaptive, in
 
 def unstable_step(dt: float, values) -> str | None:
     """Why RK4 at step ``dt`` (s) would blow up on the linearized motion of eigenvalues ``values``
-    (1/s, dampers included: :func:`gpmegen.analysis.modes.motion_eigenvalues`), with the stable step
+    (1/s, dampers included: :func:`gpmegen.analysis.post.modes.motion_eigenvalues`), with the stable step
     (:func:`gpmegen.runtime.stability.stable_step`), the eigenvalue that sets it and the methods
     that take the step asked for; None when ``dt`` is stable."""
-    from .stability import stable_step
+    from .stability import stable_step  # SciPy's optimize, loaded when a step is checked, not at start-up
 
     stable, value = stable_step(values)
     if dt <= stable:

@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
+from ..status import Ending, Outcome
+
 # A real part above this fraction of the largest eigenvalue counts as unstable (a neutral
 # coordinate's double zero, split by the differences' round-off, stays below it).
 UNSTABLE = 1e-6
@@ -93,8 +95,6 @@ def describe(values, limit: int = 3) -> str:
 def explain(outcome, values, actuators):
     """``outcome`` of a diverged actuated run with the cause named when its internal dynamics
     (``values`` at the start) are unstable; else ``outcome`` as it is."""
-    from ..status import Ending, Outcome
-
     if outcome.ending is not Ending.DIVERGED or not len(unstable(values)):
         return outcome
     return Outcome.diverged(outcome.t, f"{outcome.why}; the internal dynamics of the inputs on "

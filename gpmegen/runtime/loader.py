@@ -4,15 +4,16 @@ backend. Building a folder that is missing or stale is :func:`gpmegen.api.load`'
 
 from __future__ import annotations
 
-import hashlib
-import importlib.util
 import os
-import sys
-from collections import OrderedDict
 from pathlib import Path
 
 from ..errors import BuildError, ModelError, StaleModelError
-from ..folder import read_verified
+from ..folder import read_manifest
+from ..model.chain import Signal
+from . import signals
+from .ccompile import find_compiler
+from .model import LoadedModel
+from .numpy_module import import_numpy_module
 
 #: The source checkout this package runs from, or None when it is installed (no pyproject.toml
 #: beside the package).
@@ -46,8 +47,6 @@ def check_backend(backend: str) -> str:
 def default_backend(say) -> str:
     """The backend used when none is named: "c" where a C compiler is found, else "numpy", after
     telling ``say`` (a callable taking one line) why."""
-    from .ccompile import find_compiler
-
     try:
         find_compiler()
         return "c"
@@ -61,45 +60,6 @@ def chosen_backend(backend: str | None, say) -> str:
     return default_backend(say) if backend is None else check_backend(backend)
 
 
-#: The compiled code of the generated NumPy modules this process imported, by path and sha256 of
-#: their text (the most recent :data:`COMPILED_KEPT`): compiling a large generated module costs
-#: more than running it, and a process that loads one model again (levels, sweeps, repeated
-#: calls) runs the code compiled from the same text.
-_compiled: OrderedDict = OrderedDict()
-COMPILED_KEPT = 32
-
-
-def _code(source: str, path: Path):
-    """``source`` compiled as the file ``path``, or the code compiled from the same text before."""
-    key = (str(path), hashlib.sha256(source.encode()).hexdigest())
-    code = _compiled.get(key)
-    if code is None:
-        code = compile(source, str(path), "exec")
-        _compiled[key] = code
-        while len(_compiled) > COMPILED_KEPT:
-            _compiled.popitem(last=False)
-    return code
-
-
-def import_numpy_module(folder: Path, rebuild: str = "gpmegen build"):
-    """Import ``folder/model_numpy.py`` under a name unique to its folder, running exactly the
-    text checked against the folder's manifest (no bytecode cache, which nothing checks; the
-    code compiled from the same text earlier in this process, :func:`_code`).
-    ``rebuild``: the command the error messages give as the fix."""
-    path = Path(folder) / "model_numpy.py"
-    source = read_verified(folder, path.name, rebuild)
-    name = f"gpmegen_generated_{Path(folder).name}_{abs(hash(str(path.resolve())))}"
-    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(name, loader=None, origin=str(path)))
-    module.__file__ = str(path)
-    try:
-        exec(_code(source, path), module.__dict__)
-    except Exception as exc:  # a damaged or hand-edited module: whatever it raises, rebuilding is the fix
-        raise BuildError(f"{path} cannot be imported ({type(exc).__name__}: {exc}); rebuild it with "
-                         f"'{rebuild} --force'") from None
-    sys.modules.setdefault(name, module)
-    return module
-
-
 def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None, *, digest: str | None = None,
                 rebuild: str = "gpmegen build", requirements=(), progress=None):
     """The generated model of ``folder`` ready to evaluate on ``backend``, its parameters
@@ -107,15 +67,13 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
     :func:`gpmegen.model.requirements.requirements`). ``digest``: the input hash the folder must
     have been generated from (StaleModelError naming ``<rebuild> --force`` otherwise).
     ``progress`` (a callable taking one line) hears about a C compile as it runs."""
-    from .model import LoadedModel
-
     check_backend(backend)
     module = import_numpy_module(folder, rebuild)
     if digest is not None and getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
                               f"'{rebuild} --force'")
     if backend == "c":
-        from .cmodel import CModel
+        from .cmodel import CModel  # cffi and the C compiler, needed on the C backend only
         loaded = CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
     else:
         loaded = LoadedModel(module, params, "numpy", folder, requirements)
@@ -125,10 +83,6 @@ def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None
 def with_tables(loaded, folder):
     """``loaded`` with the tables of its signals read from the files its folder's manifest
     names (:mod:`gpmegen.runtime.signals`)."""
-    from ..folder import read_manifest
-    from ..model.chain import Signal
-    from . import signals
-
     entries = (read_manifest(Path(folder)) or {}).get("signals", [])
     if [e.get("name") for e in entries] != list(loaded.signal_names):
         raise StaleModelError(f"{folder}: its manifest does not name the tables of the signals "

@@ -21,6 +21,7 @@ from ..model.requirements import first_violation
 from ..symbolic.names import SIGNAL_FUNCTION
 from . import finite, gpme, integrate, jacobians, signals
 from .batch import is_batch, rows, stacked, states
+from .partition import partition_at
 
 # What a failing generated function did, by the exception Python's math raised.
 ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a double",
@@ -562,8 +563,6 @@ class LoadedModel:
         with them chosen at ``(t, q)`` (pivoted QR of D there, :mod:`gpmegen.runtime.partition`)."""
         if self.dependent is not None:
             return self
-        from .partition import partition_at
-
         return partition_at(self, vector(q, self.n_dof, "q"), t)
 
     def motion(self, t, q, qd):

@@ -8,25 +8,13 @@ best-conditioned choice at the configuration where it is made.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import SimulationError
 from . import gpme
+from .gpme import choose_dependent
 
 # Above this condition number of D_dc the partition is reported as ill-conditioned.
 ILL_CONDITIONED = 1e8
-
-
-def choose_dependent(D, count=None) -> np.ndarray:
-    """Indices (sorted) of the dependent coordinates: the first ``count`` (default ``m``) pivots
-    of a QR factorization with column pivoting of ``D`` (m, n); with redundant rows, ``count`` is
-    D's rank."""
-    D = np.asarray(D, dtype=float)
-    m = D.shape[0] if count is None else count
-    if m == 0:
-        return np.arange(0)
-    _, _, pivots = scipy.linalg.qr(D, mode="economic", pivoting=True)
-    return np.sort(pivots[:m])
 
 
 def condition(D, dependent) -> float:

@@ -18,7 +18,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ... import limits
+from ...codegen.render import input_hash
 from ...errors import GpmegenError
+from ...runtime.integrate import Progress, interruptible
+from ...runtime.loader import BACKENDS
+from ..run.opening import case_for
+from ..run.runspec import NAMES, RunSpec, split_options
 from . import outcomes, plan, pools
 from .plan import Range, SweepError
 
@@ -52,10 +57,6 @@ def _file_digest(model_file) -> str | None:
 def _plan_models(model_file, nrfe_values, start):
     """Per rfe count: the case, its start and its model's input hash (a bad model or start is
     refused here, before anything runs)."""
-    from ...codegen.render import input_hash
-    from ...runtime.loader import BACKENDS
-    from ..cases import case_for
-
     models = []
     for nrfe in nrfe_values:
         case = case_for(model_file, nrfe)
@@ -74,7 +75,7 @@ def _check_parameters(models, params) -> None:
                          f"{', '.join(sorted(names))}")
 
 
-#: A sweep's own options (beyond its runs' :class:`~gpmegen.analysis.runspec.RunSpec`), with their defaults.
+#: A sweep's own options (beyond its runs' :class:`~gpmegen.analysis.run.runspec.RunSpec`), with their defaults.
 OPTIONS = {"backend": "c", "samples": None, "seed": 0, "sampling": "lhs", "workers": None, "scheduler": None,
            "progress": None}
 #: The fields of a run's spec a sweep's runs take (the others keep their defaults).
@@ -86,15 +87,13 @@ def sweep(out, params: dict, spec=None, *, model_file=None, nrfe=None, **options
     count in ``nrfe`` (a list; None: the case's own), or ``samples`` draws (``sampling`` "lhs"
     or "random", from ``seed``) of the ranges ``params`` gives as ``(low, high)``; write each
     run's results into ``out``/runs and the summary into ``out``. Each run is ``spec`` (a
-    :class:`~gpmegen.analysis.runspec.RunSpec`; of its fields, :data:`RUN_FIELDS`) with the fields
+    :class:`~gpmegen.analysis.run.runspec.RunSpec`; of its fields, :data:`RUN_FIELDS`) with the fields
     ``options`` give (``t_end``, ``dt``, ``save_every``, ``method``, ``start``, ``repartition``, as
     ``gpmegen simulate`` takes them) on ``backend`` (default "c"). ``workers``: local processes
     (default: one per core; 1: in this process); ``scheduler``: the address or scheduler file of
     a Dask cluster to run on instead. ``progress`` takes one-line messages. Returns the
     :class:`Summary`; raises :class:`SweepFailures` (after writing the summary) when some runs did
     not complete."""
-    from ..runspec import NAMES, RunSpec, split_options
-
     spec, chosen = split_options(spec, options, OPTIONS, lambda names: (
         f"unknown sweep option {names}; a sweep's options are {', '.join((*RUN_FIELDS, *OPTIONS))}"))
     default = RunSpec.of(None, t_end=spec.t_end, dt=spec.dt, method=spec.method)
@@ -156,8 +155,6 @@ def _check_draws(samples, seed, sampling) -> None:
 def _check_limits(models, per_model: int, size: int, settings: dict) -> None:
     """Refuse a sweep that cannot finish (:func:`gpmegen.limits.check_sweep`): ``per_model`` runs
     of each model on ``size`` workers."""
-    from ..runspec import RunSpec
-
     spec = RunSpec(t_end=settings["t_end"], dt=settings["dt"], save_every=settings["save_every"],
                    method=settings["method"])
     limits.check_sweep([(per_model, limits.run_estimate(limits.model_coordinates(case.model),
@@ -202,8 +199,6 @@ def _completed(tasks) -> tuple[dict, list]:
 def _make(tasks, todo, rows, client, size, say) -> int:
     """Make the runs ``todo``, adding their rows to ``rows``; the number of all runs not complete.
     Each complete run's row is written by its worker (:func:`.workers.perform`)."""
-    from ...runtime.integrate import Progress, interruptible
-
     total = len(tasks)
     bar = Progress(total, "sweep")
     done = [len(rows)]

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ...fileio import atomic_write_all
+from ..post.energy import balance_residual
 
 CSV = "summary.csv"
 PARQUET = "summary.parquet"
@@ -35,7 +36,7 @@ PEAKS = (("constraint_forces", "peak_constraint_force"),)
 
 
 def outcomes(results, driven=()) -> dict:
-    """The scalar outcomes of one run's ``results`` (see :mod:`gpmegen.analysis.results`);
+    """The scalar outcomes of one run's ``results`` (see :mod:`gpmegen.analysis.post.results`);
     ``driven``: the coordinates the model's drives act on."""
     status = str(results["status"])
     ending, _, why = status.partition(": ")
@@ -53,8 +54,6 @@ def outcomes(results, driven=()) -> dict:
             peaks = np.abs(results[key]).max(axis=0)
             row.update({f"{prefix}.{c}": float(peaks[k]) for k, c in enumerate(coordinates)})
     if "kinetic_energy" in results:
-        from ..energy import balance_residual
-
         row["energy_balance_error"] = float(np.abs(balance_residual(results)).max())
     return row
 

@@ -15,6 +15,8 @@ from typing import NamedTuple
 
 from ...errors import GpmegenError
 from ...fileio import atomic_write_bytes
+from ..post.results import targets
+from ..run.runspec import RunSpec
 
 MANIFEST = "sweep.json"
 FORMAT = "gpmegen-sweep-1"
@@ -188,16 +190,12 @@ class Task:
     def leftovers(self) -> list[Path]:
         """What a run stopped midway may have left: its partial results (a run stopped by a
         signal writes them) and the temporary files of a write that was cut short."""
-        from ..results import targets
-
         partial = [path for path in targets(self.out, complete=False) if path.exists()]
         return partial + sorted(self.out.parent.glob(f".{self.run_id}.*.tmp"))
 
     @property
     def spec(self):
-        """The run's :class:`~gpmegen.analysis.runspec.RunSpec`."""
-        from ..runspec import RunSpec
-
+        """The run's :class:`~gpmegen.analysis.run.runspec.RunSpec`."""
         return RunSpec(t_end=self.t_end, dt=self.dt, save_every=self.save_every, method=self.method, start=self.start,
                        repartition=self.repartition)
 

@@ -1,4 +1,4 @@
-"""A sweep's run as a worker process makes it: the run of :func:`gpmegen.analysis.runs.run`,
+"""A sweep's run as a worker process makes it: the run of :func:`gpmegen.analysis.run.runs.run`,
 the same that ``gpmegen simulate`` makes, with the model loaded (built, compiled, probed) once
 per process and model and bound to each run's parameter values by ``with_params``.
 
@@ -20,7 +20,7 @@ from pathlib import Path
 from ... import limits
 from ...errors import GpmegenError
 from ...fileio import atomic_write_bytes
-from .. import cases, runs
+from ..run import opening, runs
 from . import outcomes
 from .plan import MANIFEST, SweepError, Task
 
@@ -54,7 +54,7 @@ def _case(task: Task):
     with _lock:
         key = (task.model_file, task.nrfe)
         if key not in _cases:
-            case = cases.case_for(task.model_file, task.nrfe)
+            case = opening.case_for(task.model_file, task.nrfe)
             _ = case.model  # a model file is read here, once, not by two threads at once
             _cases[key] = _loading_once(case, task.digest)
         return _cases[key]
@@ -67,7 +67,7 @@ def prepare(task: Task, progress=_quiet) -> None:
 
 
 def perform(task: Task) -> dict:
-    """Make the run ``task`` and write its results pair (:func:`gpmegen.analysis.runs.run`);
+    """Make the run ``task`` and write its results pair (:func:`gpmegen.analysis.run.runs.run`);
     returns its summary row (:func:`gpmegen.analysis.sweep.outcomes.outcomes`, or a failure
     with its one-line message) with its inputs and wall time, and writes it beside the results
     (``task.row_file``) when the run is complete."""

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import re
 
+from ..chain import Branch
+
 
 def _key_parts(text: str) -> list[str]:
     return [p[1:-1] if p[0] in "\"'" else p
@@ -118,8 +120,6 @@ def file_path(path, chain=()) -> tuple:
     path = tuple(path)
     if len(path) < 2 or path[0] != "chain" or not isinstance(path[1], int) or not chain:
         return path
-    from ..chain import Branch
-
     return ("chain", sum(not isinstance(e, Branch) for e in chain[:path[1]])) + path[2:]
 
 

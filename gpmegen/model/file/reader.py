@@ -16,7 +16,7 @@ from pathlib import Path
 import sympy as sp
 
 from ... import limits
-from ...errors import ModelError
+from ...errors import ModelError, ModelWarning
 from .. import shapes
 from ..chain import (
     AXES,
@@ -778,6 +778,8 @@ class Reader:
         the kinematics, as the build would)."""
         import dataclasses
 
+        # The layer above the model's: the points are compared in the derived kinematics of the
+        # model being read (an exception of the import contracts in pyproject.toml).
         from ...symbolic.forces import check_coincident
         from ...symbolic.kinematics import forward
         from ...symbolic.program import Program
@@ -898,7 +900,8 @@ class Reader:
         import dataclasses
         import warnings
 
-        from ...errors import ModelWarning
+        # The layer above the model's: these rows are judged from the derived kinematics of the
+        # model being read (an exception of the import contracts in pyproject.toml).
         from ...symbolic.constraints import constant_rows
         from ...symbolic.kinematics import forward
         from ...symbolic.program import Program

@@ -10,14 +10,12 @@ rounded, the files carry no dates and SVG ids come from a fixed salt.
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import GpmegenError
-from ..fileio import atomic_write_all
-from . import figure_list
-from .results import metadata
+from ...errors import GpmegenError
+from ..post.energy import balance_residual
+from ..post.results import metadata
 
 FORMATS = ("png", "pdf", "svg")
 DPI = 200
@@ -425,10 +423,8 @@ ENERGY_PANELS = (
 
 
 def balance_error(results):
-    """ΔE − W, J: :func:`gpmegen.analysis.energy.balance_residual` (the dampers' work is a term of
+    """ΔE − W, J: :func:`gpmegen.analysis.post.energy.balance_residual` (the dampers' work is a term of
     the balance, not part of the error)."""
-    from .energy import balance_residual
-
     return balance_residual(results)
 
 
@@ -468,17 +464,6 @@ def force_elements(plt, runs, style):
     return fig
 
 
-def figures(runs) -> list:
-    """The (stem, draw) of the figures ``runs`` can make, in the order and under the conditions of
-    :data:`gpmegen.analysis.figure_list.FIGURES`: draw(plt, runs, styles) -> Figure."""
-    from . import driving_plots  # the driving functions and the elastic deformation
-
-    draws = {"joint_coordinates": joint_coordinates, "end_effector": end_effector, "path": path,
-             "constraint_violation": constraint_violation, "energy_balance": energy_balance,
-             "force_elements": force_elements, **driving_plots.DRAWS}
-    return [(stem, draws[stem]) for stem in figure_list.stems(runs)]
-
-
 def _saver(fig, fmt):
     def write(fh):
         import matplotlib
@@ -487,31 +472,3 @@ def _saver(fig, fmt):
             fig.savefig(fh, format=fmt, dpi=DPI, metadata=_FILE_METADATA[fmt])
 
     return write
-
-
-def targets(runs, out, formats=("png",)) -> list[Path]:
-    """The files :func:`plot_all` writes for ``runs`` into the folder ``out``."""
-    formats = (formats,) if isinstance(formats, str) else tuple(formats)
-    return [Path(out) / f"{stem}.{fmt}" for stem, _ in figures(runs) for fmt in formats]
-
-
-def plot_all(runs: list, out, formats=("png",), names=None) -> list[Path]:
-    """Write the figures for ``runs`` (results dicts of one model) into ``out``, each in every
-    format of ``formats`` (of FORMATS); returns the paths. Runs of different models are refused
-    before anything is written (``names`` say which run is which)."""
-    formats = (formats,) if isinstance(formats, str) else tuple(formats)
-    if not formats or not set(formats) <= set(FORMATS):
-        raise ValueError(f"figure formats {formats}: choose among {', '.join(FORMATS)}")
-    check_compatible(runs, names)
-    runs = distinguished(runs)
-    plt = _pyplot()
-    out = Path(out)
-    style = styles(runs)
-    written = []
-    for stem, draw in figures(runs):
-        fig = draw(plt, runs, style)
-        try:
-            written += atomic_write_all({out / f"{stem}.{fmt}": _saver(fig, fmt) for fmt in formats})
-        finally:
-            plt.close(fig)
-    return written

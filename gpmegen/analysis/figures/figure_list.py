@@ -1,5 +1,5 @@
 """The figures that ``gpmegen plot`` and ``gpmegen demo`` write, in the order they are drawn:
-one list, read by the code that draws them (:func:`gpmegen.analysis.plots.figures`) and by the
+one list, read by the code that draws them (:func:`gpmegen.analysis.figures.run_figures.figures`) and by the
 help pages (:mod:`gpmegen.help_pages`), so that what a command says it writes is what it writes.
 
 Kept free of imports (no NumPy, no Matplotlib): the help pages are built at every start of the

@@ -1,17 +1,17 @@
 """The figure of ``gpmegen metrics``: the end-effector's path error over time, one line per run,
-each labelled by what tells it from the others (:func:`gpmegen.analysis.plots.distinguished`)."""
+each labelled by what tells it from the others (:func:`gpmegen.analysis.figures.plots.distinguished`)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from ..fileio import atomic_write_all
+from ...fileio import atomic_write_all
 from . import plots
 
 
 def path_error(runs: list, metrics: list, reference_label: str, out, formats=("png",), labels=None) -> list[Path]:
     """Write ``tracking.<format>`` into the folder ``out``: ``|E - E_ref|`` (mm) of each of
-    ``metrics`` (:class:`gpmegen.analysis.tracking.Metrics`) against time, labelled ``labels``
+    ``metrics`` (:class:`gpmegen.analysis.run.tracking.Metrics`) against time, labelled ``labels``
     or, by default, from its results in ``runs`` (the same order) by what differs between them.
     Returns the paths written."""
     plt = plots._pyplot()

@@ -1,12 +1,12 @@
 """Figures of the driving functions (rigid against flexible, ideal against actuated) and of the
-elastic deformation, from results files that hold them (see :mod:`gpmegen.analysis.driving`)."""
+elastic deformation, from results files that hold them (see :mod:`gpmegen.analysis.post.driving`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..post.results import metadata
 from . import plots
-from .results import metadata
 
 
 def realization(results) -> str:
@@ -146,6 +146,6 @@ def _handles(runs, style, name=plots.label):
 
 
 # The figures drawn here, by stem; which of them a set of runs gets, and in what order, is
-# gpmegen.analysis.figure_list's.
+# gpmegen.analysis.figures.figure_list's.
 DRAWS = {"driving_functions": driving_functions, "elastic_deformation": elastic_deformation,
          "constraint_multipliers": constraint_multipliers, "closure_reactions": closure_reactions}

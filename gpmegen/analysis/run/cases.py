@@ -1,6 +1,6 @@
 """What a command runs: a *case*, a model with its scenario (how it is loaded and started, how its
 runs are labelled and shown). The paper's manipulator is one case
-(:class:`gpmegen.analysis.reference_case.ReferenceCase`), a model file another (:class:`FileCase`);
+(:class:`gpmegen.analysis.run.reference_case.ReferenceCase`), a model file another (:class:`FileCase`);
 generic code asks the case instead of testing model or coordinate names.
 """
 
@@ -9,7 +9,14 @@ from __future__ import annotations
 from functools import cached_property
 from pathlib import Path
 
-from ..errors import BuildError, DerivationError
+from ... import limits
+from ...errors import BuildError, DerivationError, ModelError
+from ...folder import read_start, write_start
+from ...model.chain import Joint
+from ...model.toml_file import read_model_file
+from ...runtime.loader import open_folder
+from ..post import feedforward
+from . import loading, study
 
 
 class Case:
@@ -17,7 +24,7 @@ class Case:
     build command that makes it), ``label`` (for progress and summaries), ``name`` (in file
     names), ``results_stem`` (the
     default results name), ``starts`` (the starts it accepts, the default first) and
-    :meth:`start` (returning a :class:`gpmegen.analysis.study.Start`)."""
+    :meth:`start` (returning a :class:`gpmegen.runtime.consistent.Start`)."""
 
     starts: tuple = ()
     actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
@@ -31,8 +38,6 @@ class Case:
     def feed_forward(self, run):
         """This case driven by the inputs of the run at ``run``: a model of the user's only
         (:class:`ModelCase`), whose drives can be rewritten."""
-        from ..errors import ModelError
-
         raise ModelError(f"{self.label}: feedforward drives a model file or a gpmegen.Model (its drives are "
                          f"rewritten); give the plant's model file")
 
@@ -60,9 +65,7 @@ class Case:
 
     def open(self, backend, params, progress):
         """The generated model on ``backend``, built first where missing or stale."""
-        import gpmegen
-
-        return self.located(lambda: gpmegen.load(backend=backend, params=params, progress=progress, model=self.model,
+        return self.located(lambda: loading.load(self.model, backend, params, progress=progress,
                                                  command=self.command, directory=self.directory,
                                                  jacobians=self.jacobians))
 
@@ -89,10 +92,8 @@ class Case:
 
     def metadata(self, model) -> dict:
         """What plots need beyond the results' generic metadata (see :func:`results.metadata`):
-        ``label`` and those listed in :func:`gpmegen.analysis.results.metadata`. By default the
+        ``label`` and those listed in :func:`gpmegen.analysis.post.results.metadata`. By default the
         model's name, and its first four joints (not the sde rotations of its flexible links)."""
-        from ..model.chain import Joint
-
         joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
         return {"label": model.module.MODEL, "joints": joints[:4]}
 
@@ -102,7 +103,7 @@ class Case:
 
     def joint_limits(self) -> dict:
         """Coordinate -> (lower, upper, velocity, unit) limits a run is checked against after
-        it ends (:mod:`gpmegen.analysis.joint_limits`); none by default."""
+        it ends (:mod:`gpmegen.analysis.post.joint_limits`); none by default."""
         return {}
 
     def locator(self) -> dict | None:
@@ -116,8 +117,6 @@ class Case:
 
     def size(self) -> tuple[int, int]:
         """(coordinates, constraints) of the model, known before it is derived or loaded."""
-        from .. import limits
-
         return limits.model_coordinates(self.model), len(self.model.constraints)
 
 
@@ -138,7 +137,7 @@ class ModelCase(Case):
 
     def feed_forward(self, run) -> ModelCase:
         """This case with the inputs ``u`` of the run at ``run`` (a results file) added to its
-        drives (:mod:`gpmegen.analysis.feedforward`), checked now."""
+        drives (:mod:`gpmegen.analysis.post.feedforward`), checked now."""
         self.feedforward = run
         self.__dict__.pop("_fed", None)
         _ = self.model  # the run read and matched to the coordinates now, not at the start
@@ -149,8 +148,6 @@ class ModelCase(Case):
         if self.feedforward is None:
             return model
         if "_fed" not in self.__dict__:
-            from . import feedforward
-
             self.__dict__["_fed"] = feedforward.model(model, self.feedforward)
         return self.__dict__["_fed"]
 
@@ -184,10 +181,8 @@ class ModelCase(Case):
         return meta
 
     def start(self, backend, start, overrides, progress):
-        """The loaded model's consistent start (:class:`gpmegen.analysis.study.Start`) from
-        :meth:`initial` (see :func:`gpmegen.analysis.study.file_start`)."""
-        from . import study
-
+        """The loaded model's consistent start (:class:`gpmegen.runtime.consistent.Start`) from
+        :meth:`initial` (see :func:`gpmegen.analysis.run.study.file_start`)."""
         model = self.load(backend, overrides, progress)
         progress(f"start of {self.label} ({'no statics' if start == 'none' else start + ' statics'})")
         q, qd = self.initial(model.params)
@@ -207,8 +202,6 @@ class FileCase(ModelCase):
 
     @cached_property
     def file(self):
-        from ..model.toml_file import read_model_file
-
         return read_model_file(self.path, nrfe=self.nrfe)
 
     @property
@@ -248,8 +241,6 @@ class FileCase(ModelCase):
 
     def record_start(self, folder) -> None:
         """The file's ``[initial]`` at the parameter defaults, for :class:`FolderCase`."""
-        from ..folder import write_start
-
         write_start(folder, *self.initial(None))
 
 
@@ -265,8 +256,6 @@ class FolderCase(ModelCase):
 
     @property
     def model(self):
-        from ..errors import ModelError
-
         raise ModelError(f"{self.folder} holds generated code, not its model; give the model file instead")
 
     source = None
@@ -286,8 +275,6 @@ class FolderCase(ModelCase):
 
     def open(self, backend, params, progress):
         """The folder's generated model on ``backend``, as its manifest records it (never rebuilt)."""
-        from ..runtime.loader import open_folder
-
         return open_folder(self.folder, backend, params, rebuild=self.command, progress=progress)
 
     def size(self) -> tuple[int, int]:
@@ -297,103 +284,9 @@ class FolderCase(ModelCase):
         return {"folder": str(self.folder.resolve())}
 
     def initial(self, params) -> tuple[dict, dict]:
-        from ..folder import read_start
-
         return read_start(self.folder)
 
     def metadata(self, model) -> dict:
         """The model's name, and its first four coordinates as the joints of the figures (the
         folder does not say which coordinates are joints)."""
         return {"label": self.label, "joints": list(model.coordinates[:4])}
-
-
-def case_of_path(path, nrfe=None) -> Case:
-    """The case of ``path``: a model file, or a folder made by ``gpmegen build --out`` (a model's
-    folder, or the output folder holding exactly one). A folder of the reference manipulator runs
-    as the reference case (its scenario), loaded from that folder."""
-    from ..errors import ModelError
-    from ..folder import MANIFEST, read_manifest
-
-    path = Path(path)
-    if not path.is_dir():
-        return FileCase(str(path), nrfe)
-    folders = [path] if (path / MANIFEST).exists() else sorted(p.parent for p in path.glob(f"*/{MANIFEST}"))
-    if len(folders) != 1:
-        found = ", ".join(str(p) for p in folders)
-        raise ModelError(f"{path}: " + (f"holds {len(folders)} built models ({found}); name one of them"
-                                        if folders else "is a folder without a built model (no manifest.json); give "
-                                                        "a model file or a folder made by 'gpmegen build --out'"))
-    manifest = read_manifest(folders[0])
-    if manifest is None or "model" not in manifest:
-        raise ModelError(f"{folders[0]}/{MANIFEST} is unreadable; build the model again with 'gpmegen build --force'")
-    if nrfe is not None:
-        raise ModelError(f"--nrfe {nrfe} does not apply to {folders[0]}, built with its own; build the model with "
-                         f"--nrfe {nrfe} into a folder and name that one")
-    reference = _reference_case_of(manifest)
-    if reference is not None:
-        reference.directory = folders[0].parent
-        return reference
-    return FolderCase(folders[0], manifest)
-
-
-def _reference_case_of(manifest):
-    """The reference case whose generated code the folder of ``manifest`` holds, or None: its
-    name and input hash are those of the built-in manipulator's."""
-    import re
-
-    from ..codegen.render import input_hash
-    from ..runtime.loader import BACKENDS
-    from .reference_case import ReferenceCase
-
-    match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
-    if not match:
-        return None
-    case = ReferenceCase(int(match.group(1)))
-    return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
-
-
-def case_of_source(source, what) -> Case:
-    """The case a results file's ``model_source`` metadata names (see :meth:`Case.locator`),
-    ModelError naming ``what`` (the results file) when it names none or one that is gone."""
-    from ..errors import ModelError
-    from .reference_case import ReferenceCase
-
-    if not source:
-        raise ModelError(f"{what}: the results do not say which model made them (a model made in Python, or "
-                         f"results of an older gpmegen); give its model file with --model")
-    if not _is_locator(source):
-        raise ModelError(f"{what}: its model_source {str(source)[:80]!r} is not one gpmegen writes "
-                         f"({{\"reference\": N}}, {{\"file\": path, \"nrfe\": N}} or {{\"folder\": path}}); "
-                         f"give its model file with --model")
-    if "reference" in source:
-        return ReferenceCase(source["reference"])
-    path = Path(source.get("file") or source.get("folder"))
-    if not path.exists():
-        raise ModelError(f"{what}: the model the results name, {path}, is not there; give its model file with --model")
-    return case_of_path(path, source.get("nrfe"))
-
-
-def _is_locator(source) -> bool:
-    """Whether ``source`` is a ``model_source`` as :meth:`Case.locator` writes it."""
-    def count(value):
-        return type(value) is int and value >= 1
-
-    if not isinstance(source, dict):
-        return False
-    if set(source) == {"reference"}:
-        return count(source["reference"])
-    paths = [source[key] for key in ("file", "folder") if key in source]
-    if len(paths) != 1 or not isinstance(paths[0], str) or not paths[0].strip():
-        return False
-    return set(source) <= {"file", "folder", "nrfe"} and (source.get("nrfe") is None or count(source["nrfe"]))
-
-
-def case_for(model_file, nrfe) -> Case:
-    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), a folder made
-    by ``gpmegen build --out`` (:func:`case_of_path`), or the reference manipulator (default 5
-    rfes)."""
-    if model_file:
-        return case_of_path(model_file, nrfe)
-    from .reference_case import ReferenceCase
-
-    return ReferenceCase(nrfe or 5)

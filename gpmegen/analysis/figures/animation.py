@@ -1,6 +1,6 @@
 """The arm moving (``gpmegen animate``): a GIF (Pillow) or an MP4 (ffmpeg) of a results file's
 motion, or a still figure of the deformed arm at chosen times, drawn from the geometry of
-:mod:`gpmegen.analysis.arm_geometry` with matplotlib: in 3D, or in 2D, face-on, when the arm
+:mod:`gpmegen.analysis.figures.arm_geometry` with matplotlib: in 3D, or in 2D, face-on, when the arm
 stays in one plane over the run.
 
 Frames are rendered by Agg and encoded here, so the bytes are the same for the same results and
@@ -19,11 +19,12 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from .. import limits
-from ..errors import GpmegenError
-from ..fileio import atomic_write
+from ... import limits
+from ...errors import GpmegenError
+from ...fileio import atomic_write
+from ..post import results as results_io
+from ..run.opening import case_of_path, case_of_source
 from . import arm_geometry as geometry
-from . import results as results_io
 from .plots import _FILE_METADATA, _SVG_SALT, _freeze_layout, _pyplot, broken, literal
 
 MOVIES = ("gif", "mp4")
@@ -395,9 +396,9 @@ class Subject:
     def plane(self, magnify: float = 1.0) -> tuple[geometry.Plane | None, float, float]:
         """The plane the drawn arm (skeleton, rfe chains, named points; not the boxes) stays in at
         every saved sample of the run, with the deformation magnified ``magnify`` times, within
-        :data:`~gpmegen.analysis.arm_geometry.FLAT` of its size; None when it leaves every plane.
+        :data:`~gpmegen.analysis.figures.arm_geometry.FLAT` of its size; None when it leaves every plane.
         With the largest distance from the nearest plane (m) and the arm's size (m): see
-        :func:`~gpmegen.analysis.arm_geometry.plane_of`."""
+        :func:`~gpmegen.analysis.figures.arm_geometry.plane_of`."""
         q = self.results["q"]
         drawn = geometry.poses(self.scene, self.loaded, q, magnify)
         points = geometry.drawn_points(drawn, traces(self.scene, self.loaded, q))
@@ -410,8 +411,6 @@ class Subject:
 def subject(path, model_path=None, progress=None) -> Subject:
     """The results file at ``path`` with the model that made it: the one its metadata names, or
     ``model_path`` (a model file) when given. One-line errors when there is none to draw."""
-    from .cases import case_of_path, case_of_source
-
     results = results_io.load(path)
     meta = results_io.metadata(results)
     case = case_of_path(model_path) if model_path else case_of_source(meta.get("model_source"), path)

@@ -19,7 +19,7 @@ closed loops adds each closure's reaction, ``closure_<name>_force`` and ``closur
 ``L_<name> [m]``, ``Ldot_<name> [m/s]`` and ``F_<name> [N]``. A model with drives that have a
 ``limit`` adds ``limited_drives`` (l,) their coordinates, ``drive_laws`` and ``drive_limits``
 (k, l) each law before its clip and its limit, and ``time_at_limit`` (l,) s
-(:mod:`gpmegen.analysis.drive_limits`).
+(:mod:`gpmegen.analysis.post.drive_limits`).
 """
 
 from __future__ import annotations
@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import npz
-from ..errors import GpmegenError
-from ..fileio import atomic_write_all
+from ... import npz
+from ...errors import GpmegenError
+from ...fileio import atomic_write_all
 
 FORMAT = "gpmegen-results-2"
 OLD_FORMATS = ("gpmegen-results-1",)
@@ -48,7 +48,7 @@ ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
                       "internal_eigenvalues", "force_names", "force_elements", "limited_drives", "drive_laws",
                       "drive_limits", "time_at_limit")
-#: A closure's reaction (:mod:`gpmegen.analysis.closures`): ``closure_<name>_force`` and
+#: A closure's reaction (:mod:`gpmegen.analysis.post.closures`): ``closure_<name>_force`` and
 #: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
 CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")
 
@@ -89,12 +89,12 @@ def metadata(results) -> dict:
     ``backend``, ``start``, ``settings`` (method, dt, save_every, save_dt, the adaptive methods'
     rtol and atol, effort: steps, rejected, solves, jacobians, factorizations as
     :class:`gpmegen.runtime.integrate.Effort`, t_end, dependent, repartitions), ``params`` and,
-    from the run's case (:mod:`gpmegen.analysis.cases`), what plots use: ``label``, ``joints``,
+    from the run's case (:mod:`gpmegen.analysis.run.cases`), what plots use: ``label``, ``joints``,
     ``joint_labels``, ``constraint_units``, ``figures``, ``start_tag``, ``colour``,
     ``tag_offset``, ``prescribed``; ``start_moved``: how far the start was moved onto the
-    constraints (see :meth:`gpmegen.analysis.study.Start.meta`); ``model_source``: where the model
-    is found again (:meth:`gpmegen.analysis.cases.Case.locator`); and the units of the driving
-    functions (:func:`gpmegen.analysis.driving.annotate`): ``force_units``, ``lambda_units``,
+    constraints (see :meth:`gpmegen.runtime.consistent.Start.meta`); ``model_source``: where the model
+    is found again (:meth:`gpmegen.analysis.run.cases.Case.locator`); and the units of the driving
+    functions (:func:`gpmegen.analysis.post.driving.annotate`): ``force_units``, ``lambda_units``,
     ``force_points``."""
     return json.loads(str(results["meta"]))
 

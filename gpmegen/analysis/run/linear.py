@@ -32,9 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GpmegenError, ModelError
-from ..runtime import gpme
-from ..runtime.internal import UNSTABLE
+from ...errors import GpmegenError, ModelError
+from ...fileio import atomic_write
+from ...runtime import gpme
+from ...runtime.internal import UNSTABLE
+from ..post import results as results_io
 
 # Relative step of the central differences of Φ̇ in q (constraint terms only).
 STEP = 1e-7
@@ -223,8 +225,6 @@ def targets(path, count: int) -> list[Path]:
 def save(linear: LinearModel, path) -> Path:
     """Write ``linear`` to ``path``, ``.npz`` (names as string arrays) or ``.mat`` (MATLAB 5,
     names as cell arrays of strings), atomically."""
-    from ..fileio import atomic_write
-
     path = Path(path)
     data = linear.arrays()
     if path.suffix == ".mat":
@@ -251,8 +251,6 @@ def along_run(model, path, times, inputs=()) -> list:
     """Linear models at the saved states of the results file ``path`` nearest each of ``times``
     (s) (the saved state, not an interpolation: it lies on the run's motion), with the run's
     parameter values. ModelError for a results file of another model or times outside the run."""
-    from . import results as results_io
-
     run = results_io.load(path)
     meta = results_io.metadata(run)
     if meta.get("model") != model.module.MODEL or tuple(meta.get("coordinates", ())) != model.coordinates:

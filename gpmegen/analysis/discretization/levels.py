@@ -3,7 +3,7 @@ the same settings, one after the other or at once (the levels are independent ru
 where the runs' loops are compiled (:func:`compiled_loops`), which let go of Python's lock while
 they integrate, on threads of this process, which neither start processes nor load the models a
 second time; else on a pool of local processes (:func:`gpmegen.analysis.sweep.pools.local_pool`).
-A level's results are the same bytes every way: the same run (:func:`gpmegen.analysis.runs.run`)
+A level's results are the same bytes every way: the same run (:func:`gpmegen.analysis.run.runs.run`)
 of the same generated code.
 """
 
@@ -16,17 +16,21 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import limits
-from ..errors import ExtrapolationError
-from . import cases, runs
-from .runspec import RunSpec
+from ... import limits
+from ...errors import ExtrapolationError
+from ...runtime import integrate
+from ..post.coordinates import joint_names, point_names
+from ..run import opening, runs
+from ..run.runspec import RunSpec
+from ..sweep import pools
+from ..sweep.workers import NotATerminal
 
 
 @dataclass
 class Level:
     """One discretization: ``nrfe``, the symbolic ``model`` (:class:`gpmegen.model.Model`), the
     ``loaded`` model its run ended with, the run's ``results`` dict, its wall ``seconds`` and the
-    parameters its start set (``set_at_start``, see :attr:`gpmegen.analysis.cases.Case.start_constants`)."""
+    parameters its start set (``set_at_start``, see :attr:`gpmegen.analysis.run.cases.Case.start_constants`)."""
 
     nrfe: int
     model: object
@@ -40,7 +44,7 @@ class Level:
 class LevelTask:
     """What a pool's process needs to make one level's run: the case (``model_file``, None for
     the reference manipulator, and ``nrfe``), the run's ``spec``
-    (:class:`gpmegen.analysis.runspec.RunSpec`), ``backend`` and parameter values, and where it
+    (:class:`gpmegen.analysis.run.runspec.RunSpec`), ``backend`` and parameter values, and where it
     is written (``out``, None: nowhere); ``no_limits``: the levels were started within
     :func:`gpmegen.limits.lifted`, which another process does not see."""
 
@@ -68,7 +72,7 @@ def _quiet(message: str) -> None:
 def prepare(task: LevelTask) -> None:
     """Load the level's model in this process, building and compiling it when missing."""
     with limits.lifted() if task.no_limits else contextlib.nullcontext():
-        cases.case_for(task.model_file, task.nrfe).load(task.backend, dict(task.params), _quiet)
+        opening.case_for(task.model_file, task.nrfe).load(task.backend, dict(task.params), _quiet)
 
 
 def _run(task: LevelTask, case) -> runs.Run:
@@ -85,7 +89,7 @@ def _row(run: runs.Run) -> dict:
 def perform(task: LevelTask) -> dict:
     """Make the level's run (and write it to ``task.out``); returns its ``results``, wall
     ``seconds`` and the files ``written``."""
-    return _row(_run(task, cases.case_for(task.model_file, task.nrfe)))
+    return _row(_run(task, opening.case_for(task.model_file, task.nrfe)))
 
 
 def level_path(out, nrfe) -> Path | None:
@@ -107,18 +111,14 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
     the compiled methods on the C backend, unless the constraints are realized by inputs (the
     actuated realization steps in Python)."""
-    from ..runtime import integrate
-
     return backend == "c" and method in ("rk4", *integrate.COMPILED) and not actuated
 
 
 def _on_threads(tasks, levels_cases, size) -> list:
     """The runs of ``tasks`` (``levels_cases``: n_rfe -> case) on ``size`` threads of this
     process, the finest levels first (the longest runs: so the threads end together); returns
-    each task's :class:`gpmegen.analysis.runs.Run` in the order of ``tasks``, or raises the first
+    each task's :class:`gpmegen.analysis.run.runs.Run` in the order of ``tasks``, or raises the first
     task's error. No thread draws a progress bar (``sys.stderr`` is no terminal meanwhile)."""
-    from .sweep.workers import NotATerminal
-
     pending = sorted(tasks, key=lambda task: -task.nrfe)
     finished, lock = {}, threading.Lock()
 
@@ -150,18 +150,32 @@ def _on_threads(tasks, levels_cases, size) -> list:
     return [finished[task.nrfe][0] for task in tasks]
 
 
+def check_same_model(models: dict) -> None:
+    """Refuse symbolic ``models`` (n_rfe → :class:`gpmegen.model.Model`) that are not one model
+    at several discretizations: different joints, points or parameter defaults. Cheap: made
+    before any level runs."""
+    check_alike({nrfe: (joint_names(m), point_names(m), m.defaults) for nrfe, m in models.items()})
+
+
+def check_alike(described: dict) -> None:
+    """ExtrapolationError unless every n_rfe's (joints, points, parameter values) are the first's."""
+    (first, reference), *others = described.items()
+    for nrfe, description in others:
+        for what, mine, theirs in zip(("joints", "points", "parameter values"), description, reference):
+            if mine != theirs:
+                raise ExtrapolationError(f"n_rfe = {nrfe} and n_rfe = {first}: different {what}, "
+                                         f"not one model at two discretizations; extrapolate runs of one model file")
+
+
 def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, workers=None) -> list[Level]:
-    """The run ``spec`` (a :class:`gpmegen.analysis.runspec.RunSpec`, its start one the case
+    """The run ``spec`` (a :class:`gpmegen.analysis.run.runspec.RunSpec`, its start one the case
     takes) of the case ``model_file`` (None: the reference manipulator) at each ``nrfe`` on
-    ``backend`` with the parameter values ``overrides`` (:func:`gpmegen.analysis.runs.run`), each
+    ``backend`` with the parameter values ``overrides`` (:func:`gpmegen.analysis.run.runs.run`), each
     written to :func:`level_path` of ``out`` (None: kept in memory only), :func:`pool_size` at
     once (1: one after the other in this process): on as many threads of this process where the
     loops are compiled (:func:`compiled_loops`), else on as many processes. Returns the
     :class:`Level` of each, by ascending ``nrfe``."""
-    from .extrapolate import check_same_model
-    from .sweep import pools
-
-    levels_cases = {n: cases.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
+    levels_cases = {n: opening.case_for(model_file, n) for n in sorted(set(nrfe))}  # each file read once here
     check_same_model({n: case.model for n, case in levels_cases.items()})
     tasks = [LevelTask(None if model_file is None else str(model_file), n, spec, backend,
                        tuple(sorted(overrides.items())),
@@ -203,11 +217,11 @@ def run_levels(model_file, nrfe, spec, backend, overrides, out, progress, worker
 
 def simulate_levels(model_file, nrfe, spec, backend="numpy", params=None, workers=None) -> list[Level]:
     """The motion of a model file at each ``nrfe`` as ``spec`` says (a
-    :class:`gpmegen.analysis.runspec.RunSpec`; its ``start`` as
-    :func:`gpmegen.analysis.study.file_start` takes it, None: "none"), in memory (no files), with
+    :class:`gpmegen.analysis.run.runspec.RunSpec`; its ``start`` as
+    :func:`gpmegen.analysis.run.study.file_start` takes it, None: "none"), in memory (no files), with
     the parameter overrides ``params``, ``workers`` at once (default: one per core, at most one
     per level; on threads or processes, see :func:`run_levels`). Pass the levels to
-    :func:`gpmegen.analysis.extrapolate.extrapolate`."""
+    :func:`gpmegen.analysis.discretization.extrapolate.extrapolate`."""
     spec = spec if spec.start is not None else spec.with_start("none")
     return run_levels(model_file, nrfe, spec, backend, dict(params or {}), None, _quiet, workers)
 

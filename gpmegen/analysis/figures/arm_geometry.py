@@ -4,7 +4,7 @@ frame joined to the frame of the body it hangs from, so a tree is drawn branch b
 serial chain as one line in chain order), each rigid body as the box of its inertia (on
 request), the rfes of each flexible link as a chain of segments, the named points, with the
 elastic deformation optionally magnified. Pure NumPy; drawing is
-:mod:`gpmegen.analysis.animation`.
+:mod:`gpmegen.analysis.figures.animation`.
 
 A body's frame is where the chain puts its joint (a URDF link's frame is its joint's), so the
 skeleton is the drawing robotics users read: it shows the joints and the links between them
@@ -24,12 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from ..model.chain import Body, FlexibleLink, Model, Point
-from ..model.expand import expand
-from ..model.rfem import discretize
-from ..model.topology import GROUND
-from .driving import point_constraints
-from .extrapolate import elastic_coordinates
+from ...model.chain import Body, FlexibleLink, Model, Point
+from ...model.expand import expand
+from ...model.rfem import discretize
+from ...model.topology import GROUND
+from ..post.coordinates import elastic_coordinates
+from ..post.driving import point_constraints
 
 # The 12 edges of a box, as pairs of its corners (corner k has signs from the bits of k).
 _CORNERS = np.array([[(k >> a) & 1 for a in range(3)] for k in range(8)]) * 2.0 - 1.0
@@ -62,7 +62,7 @@ class Scene:
     their ``boxes`` (None for an rfe: rfes are drawn as segments); ``links``: the indices of the
     rfes of each flexible link, base first, and their far ends in their own frames (3,);
     ``points`` named points; ``traced``: the points whose path is drawn (those the programmed
-    constraints hold, see :func:`gpmegen.analysis.driving.point_constraints`); ``elastic``:
+    constraints hold, see :func:`gpmegen.analysis.post.driving.point_constraints`); ``elastic``:
     indices of the flexible links' sde coordinates (the deformation; a sprung joint is a joint);
     ``tool``: the index in
     ``points`` of the point that ends the skeleton (None when no point lies beyond the last body);

@@ -1,4 +1,4 @@
-"""One run of a case (:mod:`gpmegen.analysis.cases`): refused before any work when it cannot
+"""One run of a case (:mod:`gpmegen.analysis.run.cases`): refused before any work when it cannot
 finish, started, integrated, its results annotated with the case's metadata and written."""
 
 from __future__ import annotations
@@ -7,9 +7,11 @@ import sys
 import time
 from dataclasses import dataclass
 
-from .. import limits
-from . import drive_limits, driving, joint_limits, study
-from . import results as results_io
+from ... import limits, outputs
+from ...runtime import integrate
+from ..post import drive_limits, driving, joint_limits
+from ..post import results as results_io
+from . import study
 
 
 @dataclass
@@ -33,11 +35,11 @@ def check(case, spec, backend) -> None:
 
 def run(case, spec, backend, overrides, out, progress) -> Run:
     """Start ``case`` from ``spec.start`` (one of ``case.starts``; None: its first), integrate its
-    constrained motion as ``spec`` says (a :class:`gpmegen.analysis.runspec.RunSpec`: held by
+    constrained motion as ``spec`` says (a :class:`gpmegen.analysis.run.runspec.RunSpec`: held by
     inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a model
-    file's ``actuators``; ``()``: ideally; see :func:`gpmegen.analysis.study.simulate`) on
+    file's ``actuators``; ``()``: ideally; see :func:`gpmegen.analysis.run.study.simulate`) on
     ``backend`` with the parameter values ``overrides`` (name -> value) and write ``out`` (.npz
-    and .csv), or beside it a partial run (see :func:`gpmegen.analysis.results.save`); nothing
+    and .csv), or beside it a partial run (see :func:`gpmegen.analysis.post.results.save`); nothing
     when ``out`` is None. ``progress`` takes one-line messages."""
     spec = spec if spec.start is not None else spec.with_start(case.starts[0])
     check(case, spec, backend)
@@ -49,8 +51,6 @@ def run(case, spec, backend, overrides, out, progress) -> Run:
              + case.start_note(model))
     t0 = time.perf_counter()
     bar = None
-    from ..runtime import integrate
-
     if spec.method in ("rk4", *integrate.COMPILED):  # the chunked loops
         bar = integrate.Progress(spec.t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(),
                                  lines_every=integrate.PROGRESS_LINES)
@@ -75,7 +75,7 @@ class Results:
     """A run's results (what :func:`gpmegen.simulate` returns, and what a results file holds):
     ``t`` (k,) s; ``q``, ``qd`` (k, n) in rad, m, rad/s, m/s; ``coordinates``; ``meta`` (model,
     start, settings, parameters, how far the start moved; see
-    :func:`gpmegen.analysis.results.metadata`); ``status`` ("complete" or why the run stopped);
+    :func:`gpmegen.analysis.post.results.metadata`); ``status`` ("complete" or why the run stopped);
     every array of the file by name (``results["phi"]``, ``results["end_effector"]``, ...)."""
 
     def __init__(self, arrays: dict):
@@ -125,10 +125,8 @@ class Results:
 
     def save(self, path, overwrite: bool = False) -> list:
         """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
-        see :func:`gpmegen.analysis.results.save`); an earlier run's results there are replaced
+        see :func:`gpmegen.analysis.post.results.save`); an earlier run's results there are replaced
         only with ``overwrite``. Returns the paths written."""
-        from .. import outputs
-
         outputs.check(results_io.targets(path), (), overwrite, what="an earlier run's results",
                       fix="save with overwrite=True to replace them, or choose another path",
                       error=results_io.ResultsError)

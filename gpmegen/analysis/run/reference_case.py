@@ -14,9 +14,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ..runtime import statics
+from ...model import reference_model
+from ...runtime import statics
+from ...runtime.consistent import consistent, project_onto_constraints
 from .cases import Case
-from .study import consistent, project_onto_constraints
 
 START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
 CONSTANTS = ("r_Ea", "y_c")  # set from the locked statics unless the user gives them
@@ -77,8 +78,6 @@ class ReferenceCase(Case):
 
     @cached_property
     def model(self):
-        from ..model import reference_model
-
         return reference_model(self.nrfe)
 
     @property
@@ -99,7 +98,7 @@ class ReferenceCase(Case):
 
     def start(self, backend, start, overrides, progress):
         """The loaded model with r_Ea and y_c set, at rest at q0 (see :func:`initial_state`), as
-        a :class:`gpmegen.analysis.study.Start`."""
+        a :class:`gpmegen.runtime.consistent.Start`."""
         model = self.load(backend, {k: v for k, v in overrides.items() if k not in CONSTANTS}, progress)
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
         model, q = initial_state(model, start, overrides)

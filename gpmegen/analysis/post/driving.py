@@ -13,10 +13,13 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from ..model.chain import TIME, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
-from ..model.expand import expand
-from ..runtime import statics
+from ...model.chain import TIME, FlexibleLink, Joint, point_symbols, point_velocity_symbols, symbol, velocity_symbol
+from ...model.expand import expand
+from ...model.rfem import discretize
+from ...runtime import statics
+from . import closures
 from . import results as results_io
+from .coordinates import elastic_coordinates
 
 # Unit of a generalized force on a coordinate, by joint kind.
 FORCE_UNITS = {"revolute": "N·m", "prismatic": "N"}
@@ -145,7 +148,7 @@ def deformation(loaded, q, elastic=None) -> dict:
     generalized forces ``C q`` (the bending and torsion moments ``c·ψ`` at the sdes, N·m; zero on
     coordinates without a spring) and ``deflection`` (k, 3) m, the end-effector's displacement in
     {0} from where the rigid arm at the same joint coordinates puts it (the ``elastic``
-    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.extrapolate.elastic_coordinates`;
+    coordinates zero: the flexible links' sdes, :func:`gpmegen.analysis.post.coordinates.elastic_coordinates`;
     None, for generated code without its model: those with a spring)."""
     C = statics.spring_stiffness(loaded, q[0])
     if elastic is None:
@@ -166,9 +169,6 @@ def large_rotation(model, loaded, t, q) -> str | None:
     """A warning (one line) when a rotation of the symbolic ``model``'s sdes exceeds
     :data:`ELASTIC_ROTATION` in magnitude at the samples ``t`` (k,), ``q`` (k, n) of ``loaded``:
     the largest, its value and time; None when none does."""
-    from ..model.chain import FlexibleLink, Joint
-    from ..model.rfem import discretize
-
     names = [part.name for link in model.chain if isinstance(link, FlexibleLink) for part in discretize(link)
              if isinstance(part, Joint) and part.kind == "revolute"]
     columns = [loaded.index(name) for name in names if name in loaded.coordinates]
@@ -190,11 +190,9 @@ def annotate(results: dict, model, loaded) -> dict:
     driving functions in the metadata (``force_units``, ``lambda_units``), the elastic
     :func:`deformation` and, for the ideal realization, ``point_forces`` (k, n_points, 3) N on
     the points named by ``meta["force_points"]`` and the reactions of the closures
-    (:mod:`gpmegen.analysis.closures`, described by ``meta["closures"]``). ``model`` None (generated code alone): the
-    deformation only."""
+    (:mod:`gpmegen.analysis.post.closures`, described by ``meta["closures"]``). ``model`` None
+    (generated code alone): the deformation only."""
     meta = results_io.metadata(results)
-    from .extrapolate import elastic_coordinates
-
     elastic = None if model is None else elastic_coordinates(model, loaded)
     arrays = deformation(loaded, results["q"], elastic) if loaded.points and len(results["t"]) else {}
     if model is None:  # generated code without its model (a built folder): forces in generalized units
@@ -209,8 +207,6 @@ def annotate(results: dict, model, loaded) -> dict:
         if forces:
             arrays["point_forces"] = np.stack(list(forces.values()), axis=1)
         if model.closures:
-            from . import closures
-
             units["closures"] = closures.describe(model)
             arrays.update(closures.result_arrays(model, results["q"], results["lambda"], loaded.p))
     return results_io.annotate(results, units, arrays)

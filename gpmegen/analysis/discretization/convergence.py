@@ -1,8 +1,8 @@
 """The convergence of the RFEM arm to beam theory: the reference arm alone, clamped at its root
 (:func:`clamped_arm_model`), or a flexible link of any model so (:func:`clamped_link_model`), its
 static tip deflection and first frequencies for several ``n_rfe`` against Euler–Bernoulli /
-Saint-Venant values (:mod:`gpmegen.analysis.beam`), with the observed order of convergence
-(:func:`convergence_table`). Its figure: :func:`gpmegen.analysis.modes_output.plot_convergence`.
+Saint-Venant values (:mod:`gpmegen.analysis.post.beam`), with the observed order of convergence
+(:func:`convergence_table`). Its figure: :func:`gpmegen.analysis.figures.modes_output.plot_convergence`.
 """
 
 from __future__ import annotations
@@ -12,15 +12,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import ModelError
-from ..model.chain import Body, FlexibleLink, Model, Parameter, Point, symbol
-from ..model.reference import PARAMETERS, reference_arm
-from ..model.requirements import evaluate
-from ..model.rfem import check_nrfe, section_properties
-from ..model.shapes import shape_quantities, solid_cylinder
-from ..runtime import statics
-from . import beam
-from .modes import natural_frequencies
+from ...errors import ModelError
+from ...model.chain import Body, FlexibleLink, Model, Parameter, Point, symbol
+from ...model.reference import PARAMETERS, reference_arm
+from ...model.requirements import evaluate
+from ...model.rfem import check_nrfe, section_properties
+from ...model.shapes import shape_quantities, solid_cylinder
+from ...runtime import statics
+from ..post import beam
+from ..post.modes import natural_frequencies
+from ..run.loading import load
 
 ARM_PARAMETERS = ("g", "L2", "b2", "t2", "rho2", "E2", "G2", "J2", "d2")
 SLIDER_PARAMETERS = ("m3", "L3", "R3")
@@ -79,7 +80,7 @@ def clamped_link_model(model: Model, label: str, nrfe: int) -> Model:
 
 
 def link_reference(link: FlexibleLink, params: dict) -> beam.ArmReference:
-    """Beam-theory values of ``link`` clamped (:func:`gpmegen.analysis.beam.link_reference`) at
+    """Beam-theory values of ``link`` clamped (:func:`gpmegen.analysis.post.beam.link_reference`) at
     the parameter values ``params`` (name -> number, with ``g``)."""
     values = {symbol(name): float(value) for name, value in params.items()}
     p = section_properties(link)
@@ -115,9 +116,7 @@ class Clamped:
 def load_clamped_arm(nrfe: int, with_slider: bool = False, directory=None, params: dict | None = None):
     """The generated clamped arm (:func:`clamped_arm_model`), built into ``directory`` when
     missing (default: gpmegen's generated folder)."""
-    from .. import load
-
-    return load(model=clamped_arm_model(nrfe, with_slider), directory=directory, params=params, backend="numpy")
+    return load(clamped_arm_model(nrfe, with_slider), "numpy", params, directory=directory)
 
 
 QUANTITIES = (
@@ -255,15 +254,13 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
     theory (:meth:`Clamped.reference`). ``params`` overrides the model's parameters; ``static``
     as in :func:`tip_deflection`; ``progress(nrfe, seconds)`` is called after each build.
     Returns a :class:`ConvergenceTable`."""
-    from .. import load
-
     nrfe_values = [int(n) for n in nrfe_values]
     values = {key: [] for key, _, _ in QUANTITIES}
     seconds = []
     reference = None
     for n in nrfe_values:
         start = time.perf_counter()
-        model = load(model=clamped.build(n), directory=directory, params=params, backend="numpy")
+        model = load(clamped.build(n), "numpy", params, directory=directory)
         seconds.append(time.perf_counter() - start)
         if progress is not None:
             progress(n, seconds[-1])

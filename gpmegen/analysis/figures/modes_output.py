@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fileio import atomic_write, atomic_write_bytes
-from .convergence import QUANTITIES, ConvergenceTable
-from .modes import Modes
+from ...fileio import atomic_write, atomic_write_bytes
+from ..discretization.convergence import QUANTITIES, ConvergenceTable
+from ..post.modes import Modes
 from .plots import _freeze_layout
 
 

@@ -1,7 +1,7 @@
 """One run's specification: how a run integrates, saves and starts, built once (by the command
 line from its options, by :func:`gpmegen.simulate` from its keywords) and passed down through
-:func:`gpmegen.analysis.runs.run`, :func:`gpmegen.analysis.study.simulate`, the levels of
-:mod:`gpmegen.analysis.levels`, a sweep's runs and :mod:`gpmegen.limits`, which read its fields
+:func:`gpmegen.analysis.run.runs.run`, :func:`gpmegen.analysis.run.study.simulate`, the levels of
+:mod:`gpmegen.analysis.discretization.levels`, a sweep's runs and :mod:`gpmegen.limits`, which read its fields
 and neither check nor default them again.
 
 Its rules are checked once, in :class:`RunSpec` itself (:class:`gpmegen.errors.RunSpecError`,
@@ -16,12 +16,12 @@ import math
 import numbers
 from dataclasses import dataclass, field, fields
 
-from ..errors import RunSpecError
-from ..runtime import integrate
+from ...errors import RunSpecError
+from ...runtime import integrate
 
 #: The integrators a run may use, as ``--method`` names them.
 METHODS = ("rk4", "genalpha", "dop853", "radau", "scipy-radau")
-#: The starts a case may take (each case takes some: :attr:`gpmegen.analysis.cases.Case.starts`).
+#: The starts a case may take (each case takes some: :attr:`gpmegen.analysis.run.cases.Case.starts`).
 STARTS = ("locked", "constrained", "none")
 
 

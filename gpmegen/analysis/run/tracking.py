@@ -27,8 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import GpmegenError
-from . import results as results_io
+from ...errors import GpmegenError
+from ...fileio import atomic_write_bytes
+from ...model import Model
+from ..post import results as results_io
+from . import runs as runs_io
+from .cases import ModelCase, case_for
+from .runspec import RunSpec
 
 # A constraint function that changes by less than this (relative to 1 + |Φ|) between saved times
 # at a fixed state no longer depends on t: the programmed motion has ended.
@@ -219,8 +224,6 @@ def model_reference(case, runs, backend, progress) -> Reference:
     case's start, the ideal realization, RK4 at the first run's step, saved at its save interval)
     to the longest run's end as the end-effector's reference path; the parameters the model shares
     with the first run take that run's values (the motion it was asked to follow)."""
-    from . import runs as runs_io
-    from .runspec import RunSpec
 
     t_end = max(float(r["t"][-1]) for r in runs)
     first = results_io.metadata(runs[0]).get("settings", {})
@@ -246,9 +249,7 @@ def reference_of(ref, runs, backend="c", progress=lambda line: None, nrfe=None) 
     model file (with ``nrfe`` rfes, default the first run's where its results name them), a
     folder made by ``gpmegen build --out``, or None for the reference manipulator (with ``nrfe``
     rfes, default the first run's where it is a run of that arm, else 5)
-    (:func:`gpmegen.analysis.cases.case_for`)."""
-    from ..model import Model
-    from .cases import ModelCase, case_for
+    (:func:`gpmegen.analysis.run.cases.case_for`)."""
 
     if isinstance(ref, Model):
         return model_reference(ModelCase(ref), runs, backend, progress)
@@ -309,7 +310,6 @@ def write_csv(metrics: list, path) -> Path:
     import csv
     import io
 
-    from ..fileio import atomic_write_bytes
 
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")

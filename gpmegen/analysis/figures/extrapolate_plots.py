@@ -1,4 +1,4 @@
-"""The figure of an extrapolation (:mod:`gpmegen.analysis.extrapolate`): for each named point,
+"""The figure of an extrapolation (:mod:`gpmegen.analysis.discretization.extrapolate`): for each named point,
 its deflection at every discretization and the limit within its error band, and below the
 estimated discretization error of each run and of the limit."""
 
@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fileio import atomic_write
+from ...fileio import atomic_write
 
 AXES = "xyz"
 
 
 def plot(data: dict, path) -> Path:
-    """Write the figure of ``data`` (:func:`gpmegen.analysis.extrapolate.extrapolate`) to
+    """Write the figure of ``data`` (:func:`gpmegen.analysis.discretization.extrapolate.extrapolate`) to
     ``path`` (its suffix the format) and return it. Per point: the component of its deflection
     (or position, when the deflections were not extrapolated) that varies most; the band is
     ± the limit's estimated error (none with two levels)."""

@@ -6,11 +6,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
-from .. import limits
-from ..errors import ModelError
-from ..runtime import inversion
-from . import driving, study
-from . import results as results_io
+from ... import limits
+from ...errors import ModelError
+from ...runtime import inversion
+from ..post import driving
+from ..post import results as results_io
+from . import study
 
 
 def work(t, qd, forces) -> np.ndarray:

@@ -13,9 +13,10 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from ..errors import ModelError
-from ..model.chain import NAME_PATTERN, Drive, Signal
-from ..runtime import signals
+from ...errors import ModelError
+from ...model.chain import NAME_PATTERN, Drive, Signal
+from ...model.expand import expand
+from ...runtime import signals
 
 #: What a plant fed forward is called (its own folder of generated code): ``<plant>_ff``.
 SUFFIX = "_ff"
@@ -44,8 +45,6 @@ def model(plant, run):
     its drives, each read as the table signal ``ff_<coordinate>`` (another name where that one
     is taken), and the name ``<plant>_ff``. ModelError naming the run's inputs and the plant's
     coordinates when an input acts on a coordinate the plant lacks."""
-    from ..model.expand import expand
-
     given, run = run, Path(run).resolve()
     acting = inputs(given)
     coordinates = list(expand(plant).coordinates)

@@ -1,6 +1,6 @@
 """The same motion at several discretizations, and its limit: the outputs that mean the same at
 every ``n_rfe`` (:func:`outputs`) on one time grid, each extrapolated
-(:func:`gpmegen.analysis.richardson.richardson`), written as one file (:func:`save`).
+(:func:`gpmegen.analysis.post.richardson.richardson`), written as one file (:func:`save`).
 
 Comparable outputs (SI units, in the base frame {0}; N samples): ``joints`` (N, j) and
 ``joint_velocities`` (N, j), the coordinates of the model's joints (not the elastic ones of its
@@ -20,30 +20,17 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import npz
-from ..errors import ExtrapolationError
-from ..fileio import atomic_write
-from . import richardson
-from .levels import Level
+from ... import npz
+from ...errors import ExtrapolationError
+from ...fileio import atomic_write
+from ...model.chain import FlexibleLink
+from ..post import richardson
+from ..post.coordinates import elastic_coordinates, joint_names, point_names
+from .levels import Level, check_alike
 
 FORMAT = "gpmegen-extrapolation-1"
 OUTPUTS = ("joints", "joint_velocities", "points", "point_velocities", "deflections", "drive_forces",
            "constraint_forces")
-
-
-def joint_names(model) -> list[str]:
-    """The coordinates of the joints of a symbolic model, in chain order."""
-    from ..model.chain import Joint
-
-    return [element.name for element in model.chain if isinstance(element, Joint)]
-
-
-def elastic_coordinates(model, loaded) -> np.ndarray:
-    """Indices of ``loaded``'s elastic coordinates: its flexible links' sde coordinates, every
-    coordinate that is no joint of the symbolic ``model`` (a sprung joint is a joint, not the
-    deformation)."""
-    joints = set(joint_names(model))
-    return np.array([k for k, name in enumerate(loaded.coordinates) if name not in joints], dtype=int)
 
 
 #: Words for groups of outputs (``gpmegen convergence --output``).
@@ -57,13 +44,6 @@ def _refusal(name, named=()) -> ExtrapolationError:
     return ExtrapolationError(f"output {name!r} is not comparable across discretizations (the elastic coordinates, "
                               f"and so q, change in number and meaning with n_rfe); ask for outputs that mean the "
                               f"same at every n_rfe: {', '.join(OUTPUTS)}{also}")
-
-
-def point_names(model) -> list[str]:
-    """The named points of a symbolic model, in chain order."""
-    from ..model.chain import Point
-
-    return [element.name for element in model.chain if isinstance(element, Point)]
 
 
 def check_requested(requested) -> list[str]:
@@ -137,18 +117,9 @@ def outputs(level: Level, names=OUTPUTS) -> dict:
 
 def check_flexible(model) -> None:
     """Refuse a symbolic model without a flexible link: nothing in it changes with n_rfe."""
-    from ..model.chain import FlexibleLink
-
     if not any(isinstance(element, FlexibleLink) for element in model.chain):
         raise ExtrapolationError(f"model {model.name}: no flexible link, so nothing changes with n_rfe; "
                                  f"extrapolate a model with a flexible link")
-
-
-def check_same_model(models: dict) -> None:
-    """Refuse symbolic ``models`` (n_rfe → :class:`gpmegen.model.Model`) that are not one model
-    at several discretizations: different joints, points or parameter defaults. Cheap: made
-    before any level runs."""
-    _check_alike({nrfe: (joint_names(m), point_names(m), m.defaults) for nrfe, m in models.items()})
 
 
 def check_comparable(levels: list[Level]) -> None:
@@ -162,19 +133,9 @@ def check_comparable(levels: list[Level]) -> None:
         if status != "complete":
             raise ExtrapolationError(f"the run at n_rfe = {level.nrfe} did not finish ({status}): the levels "
                                      f"must cover the same motion; fix that run (a smaller --dt?) first")
-    _check_alike({lv.nrfe: (joint_names(lv.model), list(lv.loaded.points),
+    check_alike({lv.nrfe: (joint_names(lv.model), list(lv.loaded.points),
                             {k: v for k, v in lv.loaded.params.items() if k not in lv.set_at_start})
                   for lv in levels})
-
-
-def _check_alike(described: dict) -> None:
-    """ExtrapolationError unless every n_rfe's (joints, points, parameter values) are the first's."""
-    (first, reference), *others = described.items()
-    for nrfe, description in others:
-        for what, mine, theirs in zip(("joints", "points", "parameter values"), description, reference):
-            if mine != theirs:
-                raise ExtrapolationError(f"n_rfe = {nrfe} and n_rfe = {first}: different {what}, "
-                                         f"not one model at two discretizations; extrapolate runs of one model file")
 
 
 def common_grid(levels: list[Level]) -> tuple[np.ndarray, str]:
@@ -199,7 +160,7 @@ def on_grid(t_level, values, t):
 
 def extrapolate(levels: list[Level], requested=None, order=richardson.ORDER, terms=1) -> dict:
     """Extrapolate ``levels`` (one model at ≥ 2 values of n_rfe, ≥ 3 with ``terms = 2``: see
-    :func:`gpmegen.analysis.richardson.richardson`) for each ``requested`` output
+    :func:`gpmegen.analysis.post.richardson.richardson`) for each ``requested`` output
     (default: all of :data:`OUTPUTS`). Returns the arrays of the file :func:`save` writes:
     ``t`` (N,), ``nrfe``, ``n_sde`` (k,) and for each output X: ``X`` (k, N, ...) its values,
     ``X_error`` (k, N, ...) the estimated discretization error of each level, ``X_limit``

@@ -3,7 +3,7 @@ numbers of sdes, the discretization error of each and the limit as ``n_sde â†’ â
 
 The rigid finite element method's error falls as ``C/n_sde^p`` with ``p = 2``
 (:data:`ORDER`; measured for statics, frequencies and the spin-up beam's motion,
-:mod:`gpmegen.analysis.convergence`). Two levels ``n_a < n_b`` then give the limit
+:mod:`gpmegen.analysis.discretization.convergence`). Two levels ``n_a < n_b`` then give the limit
 ``v_b + (v_b - v_a)/((n_b/n_a)^p - 1)`` (Richardson, Phil. Trans. R. Soc. A 210, 1911).
 A third level gives what two cannot: the observed order (does the error really fall as
 assumed?) and the error of the limit itself, from the next term of the error's expansion.

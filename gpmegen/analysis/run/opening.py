@@ -1,0 +1,95 @@
+"""The case a model file's or folder's path, a results file's ``model_source`` or a command's
+arguments name: a :class:`~gpmegen.analysis.run.cases.FileCase`, a
+:class:`~gpmegen.analysis.run.cases.FolderCase` or the
+:class:`~gpmegen.analysis.run.reference_case.ReferenceCase`. Apart from :mod:`cases` because
+the reference case is one of its kinds."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from ...codegen.render import input_hash
+from ...errors import ModelError
+from ...folder import MANIFEST, read_manifest
+from ...runtime.loader import BACKENDS
+from .cases import Case, FileCase, FolderCase
+from .reference_case import ReferenceCase
+
+
+def case_of_path(path, nrfe=None) -> Case:
+    """The case of ``path``: a model file, or a folder made by ``gpmegen build --out`` (a model's
+    folder, or the output folder holding exactly one). A folder of the reference manipulator runs
+    as the reference case (its scenario), loaded from that folder."""
+    path = Path(path)
+    if not path.is_dir():
+        return FileCase(str(path), nrfe)
+    folders = [path] if (path / MANIFEST).exists() else sorted(p.parent for p in path.glob(f"*/{MANIFEST}"))
+    if len(folders) != 1:
+        found = ", ".join(str(p) for p in folders)
+        raise ModelError(f"{path}: " + (f"holds {len(folders)} built models ({found}); name one of them"
+                                        if folders else "is a folder without a built model (no manifest.json); give "
+                                                        "a model file or a folder made by 'gpmegen build --out'"))
+    manifest = read_manifest(folders[0])
+    if manifest is None or "model" not in manifest:
+        raise ModelError(f"{folders[0]}/{MANIFEST} is unreadable; build the model again with 'gpmegen build --force'")
+    if nrfe is not None:
+        raise ModelError(f"--nrfe {nrfe} does not apply to {folders[0]}, built with its own; build the model with "
+                         f"--nrfe {nrfe} into a folder and name that one")
+    reference = _reference_case_of(manifest)
+    if reference is not None:
+        reference.directory = folders[0].parent
+        return reference
+    return FolderCase(folders[0], manifest)
+
+
+def _reference_case_of(manifest):
+    """The reference case whose generated code the folder of ``manifest`` holds, or None: its
+    name and input hash are those of the built-in manipulator's."""
+    match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
+    if not match:
+        return None
+    case = ReferenceCase(int(match.group(1)))
+    return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
+
+
+def case_of_source(source, what) -> Case:
+    """The case a results file's ``model_source`` metadata names (see :meth:`Case.locator`),
+    ModelError naming ``what`` (the results file) when it names none or one that is gone."""
+    if not source:
+        raise ModelError(f"{what}: the results do not say which model made them (a model made in Python, or "
+                         f"results of an older gpmegen); give its model file with --model")
+    if not _is_locator(source):
+        raise ModelError(f"{what}: its model_source {str(source)[:80]!r} is not one gpmegen writes "
+                         f"({{\"reference\": N}}, {{\"file\": path, \"nrfe\": N}} or {{\"folder\": path}}); "
+                         f"give its model file with --model")
+    if "reference" in source:
+        return ReferenceCase(source["reference"])
+    path = Path(source.get("file") or source.get("folder"))
+    if not path.exists():
+        raise ModelError(f"{what}: the model the results name, {path}, is not there; give its model file with --model")
+    return case_of_path(path, source.get("nrfe"))
+
+
+def _is_locator(source) -> bool:
+    """Whether ``source`` is a ``model_source`` as :meth:`Case.locator` writes it."""
+    def count(value):
+        return type(value) is int and value >= 1
+
+    if not isinstance(source, dict):
+        return False
+    if set(source) == {"reference"}:
+        return count(source["reference"])
+    paths = [source[key] for key in ("file", "folder") if key in source]
+    if len(paths) != 1 or not isinstance(paths[0], str) or not paths[0].strip():
+        return False
+    return set(source) <= {"file", "folder", "nrfe"} and (source.get("nrfe") is None or count(source["nrfe"]))
+
+
+def case_for(model_file, nrfe) -> Case:
+    """The case a command runs: a model file with ``nrfe`` rfes (None: its own), a folder made
+    by ``gpmegen build --out`` (:func:`case_of_path`), or the reference manipulator (default 5
+    rfes)."""
+    if model_file:
+        return case_of_path(model_file, nrfe)
+    return ReferenceCase(nrfe or 5)
