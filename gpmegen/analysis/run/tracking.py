@@ -32,7 +32,8 @@ from ...fileio import atomic_write_bytes
 from ...model import Model
 from ..post import results as results_io
 from . import runs as runs_io
-from .cases import ModelCase, case_for
+from .cases import ModelCase
+from .opening import case_for
 from .runspec import RunSpec
 
 # A constraint function that changes by less than this (relative to 1 + |Φ|) between saved times
@@ -249,7 +250,7 @@ def reference_of(ref, runs, backend="c", progress=lambda line: None, nrfe=None) 
     model file (with ``nrfe`` rfes, default the first run's where its results name them), a
     folder made by ``gpmegen build --out``, or None for the reference manipulator (with ``nrfe``
     rfes, default the first run's where it is a run of that arm, else 5)
-    (:func:`gpmegen.analysis.run.cases.case_for`)."""
+    (:func:`gpmegen.analysis.run.opening.case_for`)."""
 
     if isinstance(ref, Model):
         return model_reference(ModelCase(ref), runs, backend, progress)
