@@ -1,8 +1,9 @@
 """Command line: ``gpmegen build | statics | simulate | invert | sweep | plot | animate | modes | linearize |
 metrics | convergence | demo``.
 
-Usage and model errors exit with status 2, runtime failures with 1, an interruption (Ctrl-C,
-SIGTERM) with 130; each prints one line naming the problem and the fix, never a traceback.
+Usage and model errors (a missing optional package among them) exit with status 2, runtime
+failures with 1, an interruption (Ctrl-C, SIGTERM) with 130; each prints one line naming the
+problem and the fix, never a traceback.
 """
 
 # Each command imports what it runs inside its own function: the console starts on every command
@@ -27,7 +28,16 @@ import numpy as np
 from . import limits, outputs
 from .analysis.figures.plots import IncompatibleResults
 from .analysis.run.runspec import METHODS, RunSpec
-from .errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning, OutputError, RunSpecError
+from .errors import (
+    BuildError,
+    DerivationError,
+    GpmegenError,
+    MissingExtraError,
+    ModelError,
+    ModelWarning,
+    OutputError,
+    RunSpecError,
+)
 from .status import Ending
 
 
@@ -1125,7 +1135,7 @@ def main(argv=None) -> int:
     except SimulationStopped as exc:
         print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)
         return 130 if exc.interrupted else 1
-    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, OutputError) as exc:
+    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, OutputError, MissingExtraError) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:
