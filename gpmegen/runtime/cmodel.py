@@ -72,7 +72,9 @@ class CEvaluator:
             check=lambda library: cprobe.check_in_child(library, source, module_path), progress=progress)
         self.model_name = module.MODEL
         self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
-        self.n_parameters = len(module.PARAMETERS)
+        # p ends with the controller states (a model without has no CONTROLLERS)
+        self.n_controllers = len(getattr(module, "CONTROLLERS", ()))
+        self.n_parameters = len(module.PARAMETERS) + self.n_controllers
         self.n_bodies = len(getattr(module, "BODIES", ()))
         self.n_forces = len(getattr(module, "FORCES", ()))
         self.n_limited = len(getattr(module, "LIMITED_DRIVES", ()))
@@ -218,6 +220,17 @@ class CEvaluator:
         F = np.empty((max(1, self.n_forces), 3))
         self.lib.force_elements(float(t), q_c, qd_c, self._params(p), self._ptr(F))
         return F[:self.n_forces]
+
+    def controller_rates(self, t, q, qd, p):
+        _, q_c, qd_c = self._state(q, qd)
+        rates = np.empty(self.n_controllers)
+        self.lib.controller_rates(float(t), q_c, qd_c, self._params(p), self._ptr(rates))
+        return rates
+
+    def controller_initial(self, p):
+        z0 = np.empty(self.n_controllers)
+        self.lib.controller_initial(self._params(p), self._ptr(z0))
+        return z0
 
     def drive_limits(self, t, q, qd, p):
         _, q_c, qd_c = self._state(q, qd)

@@ -70,7 +70,8 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
     short = {c_name: name for name, c_name in short_names(c_name for c_name, _ in functions).items()}
     n = len(module.COORDINATES)
     n_constraints = len(module.CONSTRAINTS)
-    p = np.array(module.DEFAULTS, dtype=float)
+    # p ends with the controller states (a model without has no CONTROLLERS), probed at zero
+    p = np.array(list(module.DEFAULTS) + [0.0] * len(getattr(module, "CONTROLLERS", ())), dtype=float)
     rng = np.random.default_rng(20)
     states = [(0.0, np.zeros(n), np.zeros(n)), (0.37, 0.3 * rng.standard_normal(n), 0.3 * rng.standard_normal(n))]
 
