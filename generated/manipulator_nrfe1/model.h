@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 9ce46ba0a0e356ff
+Input hash: 01ff722267ed8a54
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
