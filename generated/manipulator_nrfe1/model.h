@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 01ff722267ed8a54
+Input hash: f3ecc8110bbeee27
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

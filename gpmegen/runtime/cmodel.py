@@ -402,7 +402,8 @@ class CEvaluator:
         dep, ind = self._partition_pointers(model)
         q0, qd0, w0 = (np.ascontiguousarray(part) for part in (y0[:n], y0[n:2 * n], y0[2 * n:]))
         n_save = k_to // save_every - k_from // save_every + 2
-        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)), np.empty((n_save, 2))]
+        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)),
+                                          np.empty((n_save, 2 + self.n_controllers))]
         n_saved = self.ffi.new("long *")
         status = self.lib.rk4(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, self._ptr(q0),
                               self._ptr(qd0), self._ptr(w0), self._params(model.p), dep, ind, self._ptr(t_out),

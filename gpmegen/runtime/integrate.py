@@ -111,12 +111,17 @@ def start_state(model, q0, qd0):
     return np.concatenate([q0, qd0, [0.0, 0.0], model.controller_initial]).astype(float)
 
 
+#: The compiled loops that do not carry controller states yet: their Newton iterations and
+#: Jacobians hold the mechanics only.
+NO_CONTROLLERS = ("radau", "genalpha")
+
+
 def check_controllers(model, method: str) -> None:
     """Refuse, in one line, ``method`` (a compiled loop) for a model with controller states,
-    which those loops do not carry."""
-    if model.controller_names:
+    where it does not carry them (the implicit ones: radau, genalpha)."""
+    if model.controller_names and method in NO_CONTROLLERS:
         raise SimulationError(f"--method {method} does not integrate controller states (the model's "
-                              f"{', '.join(model.controller_names)}) yet: use --method rk4 or scipy-radau")
+                              f"{', '.join(model.controller_names)}) yet: use --method rk4, dop853 or scipy-radau")
 
 
 class interruptible:

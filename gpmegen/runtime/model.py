@@ -735,24 +735,18 @@ class LoadedModel:
         w0 = np.concatenate([[0.0, 0.0], self.controller_initial]) if w0 is None else w0
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"),
                              vector(w0, 2 + len(self.controller_names), "w0")])
-        # the generated loops solve the GPME without controller states: the actuated realization
-        # and a model with controller states run in Python (over either backend's functions)
-        if len(self.actuators):
+        if len(self.actuators):  # the generated loops solve the GPME: the actuated one runs in Python
             t, y, status = integrate.rk4_steps(integrate.state_derivative(self), y0, g, k_from, k_to,
                                                int(save_every))
         else:
             model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
-            if self.controller_names:
-                t, y, status = integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to,
-                                                   int(save_every))
-            else:
-                t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
+            t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
         n = self.n_dof
         return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 
     def dop853(self, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
         """DOP853 of the GPME in the compiled loop from ``t_a`` (s) and the augmented state
-        ``y_a = [q, q̇, w]`` (2n + 2,) to ``t_save[-1]``, saving at the increasing instants
+        ``y_a = [q, q̇, w, z]`` (2n + 2 + n_z,) to ``t_save[-1]``, saving at the increasing instants
         ``t_save`` (k,) s. ``step`` (1,): the step to try first (0: chosen), updated to the one to
         try next; ``counts`` (5,) int64: steps, rejected, GPME solves, Jacobians and LU
         factorizations, added to. ``max_steps`` > 0: the call returns after that many steps
