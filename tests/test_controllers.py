@@ -199,9 +199,9 @@ TEXT = PID.read_text()
      "a controller state's rate law may use positions and velocities, not the acceleration x_ddot"),
     (('rate = "x_ref - x"', 'rate = "x_ref - y"'), "controllers[0].rate", "unknown name 'y'"),
     (('state = "e_int"', 'state = "x"'), "controllers[0].state",
-     "controller state 'x' has the name of a coordinate; choose another name"),
+     "controller state 'x' has the name of a coordinate in expressions; choose another name"),
     (('state = "e_int"', 'state = "kp"'), "controllers[0].state",
-     "controller state 'kp' has the name of a parameter; choose another name"),
+     "controller state 'kp' has the name of a parameter in expressions; choose another name"),
     (('rate = "x_ref - x"', 'rate = "__import__(\'os\').system(\'true\')"'), "controllers[0].rate",
      "character \"'\" is not allowed in an expression"),
     (('rate = "x_ref - x"', 'rate = "x_ref.__class__"'), "controllers[0].rate", "is not allowed"),
@@ -215,3 +215,24 @@ def test_faulty_controllers_are_refused_in_one_line(tmp_path, capsys, change, fi
 def test_a_drive_reading_an_undeclared_state_names_it(tmp_path, capsys):
     refused_in_one_line(tmp_path / "pid_slider.toml", TEXT, ("ki*e_int", "ki*e_intt"), "drives[0].expression",
                         "unknown name 'e_intt'; did you mean 'e_int'?", capsys)
+
+
+def test_a_model_made_in_python_is_checked_as_a_file_is():
+    import dataclasses
+
+    import sympy as sp
+
+    from gpmegen.model.expand import expand
+
+    model = gpmegen.load_model_file(PID)
+    x = sp.Symbol("x", real=True)
+    for controllers, message in [
+        ((gpmegen.Controller("x_dot", -x),), "controller state 'x_dot' has the name of a time, velocity"),
+        ((gpmegen.Controller("e_int", -sp.Symbol("x_ddot", real=True)),),
+         "controller state 'e_int': a controller state's rate law may use positions and velocities, not the "
+         "acceleration x_ddot"),
+        (("e_int",), "controllers\\[0\\] is a str, not a Controller"),
+    ]:
+        with pytest.raises(ModelError, match=message) as caught:
+            expand(dataclasses.replace(model, controllers=controllers))
+        assert "\n" not in str(caught.value)

@@ -351,6 +351,30 @@ def _check_derived_names(flat, names: _Names):
             made[name] = (owner, meaning, path)
 
 
+def _derived_names(coordinates: list, points: list) -> set:
+    """The names expressions give to time, velocities, accelerations and points' coordinates,
+    which a signal or a controller state may not take."""
+    derived = {"t"} | {f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot")}
+    derived |= {s.name for name in points
+                for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(name)}
+    return derived
+
+
+def _claim_in_expressions(element, kind: type, make: str, field: str, what: str, path: tuple, names: _Names,
+                          derived: set) -> None:
+    """``element`` (at ``path``, e.g. ``("signals", 0)``) of type ``kind`` (``make``: how to make
+    one), its name (``field``) one of its own among ``names`` and not one of the ``derived``
+    names expressions give (:func:`_derived_names`)."""
+    if not isinstance(element, kind):
+        raise ModelError(f"{path[0]}[{path[1]}] is a {type(element).__name__}, not a {kind.__name__}; make it "
+                         f"gpmegen.{make}", path)
+    name = getattr(element, field)
+    if name in derived:
+        raise ModelError(f"{what} {name!r} has the name of a time, velocity, acceleration or point coordinate in "
+                         f"expressions; choose another name", path + (field,))
+    names.claim(name, what, path + (field,))
+
+
 def _check_signals(model: Model, coordinates: list, points: list, names: _Names) -> set:
     """The table signals: at most :data:`MAX_SIGNALS`, each a name of its own in expressions (no
     parameter's, coordinate's, point's or other model name, not ``t`` nor a name expressions give
@@ -359,18 +383,10 @@ def _check_signals(model: Model, coordinates: list, points: list, names: _Names)
     if len(model.signals) > MAX_SIGNALS:
         raise ModelError(f"{len(model.signals)} signals read from tables, at most {MAX_SIGNALS}; join runs into "
                          f"fewer", ("signals",))
-    derived = {"t"} | {f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot")}
-    derived |= {s.name for name in points
-                for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(name)}
+    derived = _derived_names(coordinates, points)
     for k, signal in enumerate(model.signals):
         path = ("signals", k)
-        if not isinstance(signal, Signal):
-            raise ModelError(f"signals[{k}] is a {type(signal).__name__}, not a Signal; make it "
-                             f"gpmegen.Signal(name, table, column)", path)
-        if signal.name in derived:
-            raise ModelError(f"signal {signal.name!r} has the name of a time, velocity, acceleration or point "
-                             f"coordinate in expressions; choose another name", path + ("name",))
-        names.claim(signal.name, "signal", path + ("name",))
+        _claim_in_expressions(signal, Signal, "Signal(name, table, column)", "name", "signal", path, names, derived)
         for key in ("table", "column"):
             value = getattr(signal, key)
             if not isinstance(value, str) or not value:
@@ -409,18 +425,10 @@ def _check_controllers(model: Model, coordinates: list, points: list, names: _Na
     """Each controller state: a name of its own in expressions (as a signal's), its rate a law of
     t, parameters, the state, signals and the controller states, never of accelerations, its
     initial value of parameters. Returns their symbols."""
-    derived = {"t"} | {f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot")}
-    derived |= {s.name for name in points
-                for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(name)}
+    derived = _derived_names(coordinates, points)
     for k, controller in enumerate(model.controllers):
-        path = ("controllers", k)
-        if not isinstance(controller, Controller):
-            raise ModelError(f"controllers[{k}] is a {type(controller).__name__}, not a Controller; make it "
-                             f"gpmegen.Controller(state, rate, initial)", path)
-        if controller.state in derived:
-            raise ModelError(f"controller state {controller.state!r} has the name of a time, velocity, acceleration "
-                             f"or point coordinate in expressions; choose another name", path + ("state",))
-        names.claim(controller.state, "controller state", path + ("state",))
+        _claim_in_expressions(controller, Controller, "Controller(state, rate, initial)", "state", "controller state",
+                              ("controllers", k), names, derived)
     state, accelerations = _state_symbols(coordinates, points)
     allowed = constant | {TIME} | state | {s.symbol for s in model.signals} | {c.symbol for c in model.controllers}
     for k, controller in enumerate(model.controllers):

@@ -658,6 +658,18 @@ class Reader:
                 names.update({s.name: f"a {kind} coordinate of point {point!r}" for s in f(point)})
         return names
 
+    def fresh_name(self, name, path, what, taken: dict, seen: dict) -> None:
+        """Refuse ``name`` (of a ``what`` at ``path``) when the file's expressions give it to
+        something else (``taken``: name -> what it is) or an earlier one of its kind took it
+        (``seen``: name -> its path, to which it is then added)."""
+        if name in taken:
+            other = taken[name] if " " in taken[name] else f"a {taken[name]}"
+            self.fail(path, f"{what} {name!r} has the name of {other} in expressions; choose another name")
+        if name in seen:
+            self.fail(path, f"a second {what} {name!r} (the first at line {self.locator.line(seen[name])}); choose "
+                            f"another name")
+        seen[name] = path
+
     def read_signals(self, items) -> tuple:
         """The ``[[signals]]``: each a name for a law of t and parameters (``expression``, written
         where the name stands) or for a column of a results file (``table``, ``column``), read at
@@ -669,13 +681,7 @@ class Reader:
             path = ("signals", k)
             self.table(item, path, SIGNAL_KEYS, ("name",), "signal")
             name = self.name(item["name"], path + ("name",), "signal", bare=True)
-            if name in taken:
-                self.fail(path + ("name",), f"signal {name!r} has the name of {taken[name]} in expressions; "
-                                            f"choose another name")
-            if name in seen:
-                self.fail(path + ("name",), f"a second signal {name!r} (the first at line "
-                                            f"{self.locator.line(seen[name])}); choose another name")
-            seen[name] = path + ("name",)
+            self.fresh_name(name, path + ("name",), "signal", taken, seen)
             if ("expression" in item) == ("table" in item):
                 self.fail(path, "give a signal either expression = \"...\" (a law of t and parameters) or "
                                 "table = \"run.npz\" with column = \"...\", not both nor neither")
@@ -728,14 +734,7 @@ class Reader:
             path = ("controllers", k)
             self.table(item, path, ("state", "rate", "initial"), ("state", "rate"), "controller")
             name = self.name(item["state"], path + ("state",), "controller state", bare=True)
-            if name in taken:
-                what = taken[name] if " " in taken[name] else f"a {taken[name]}"
-                self.fail(path + ("state",), f"controller state {name!r} has the name of {what}; choose another "
-                                             f"name")
-            if name in states:
-                self.fail(path + ("state",), f"a second controller state {name!r} (the first at line "
-                                             f"{self.locator.line(states[name])}); choose another name")
-            states[name] = path + ("state",)
+            self.fresh_name(name, path + ("state",), "controller state", taken, states)
         self.controller_states = {name: symbol(name) for name in states}
         scope = {**self.constraint_scope(1), **self.signal_scope(), **self.controller_states}
         controllers = []
