@@ -44,6 +44,7 @@ from .errors import (
 from .model import (
     Body,
     Constraint,
+    Controller,
     Drive,
     FlexibleLink,
     Joint,
@@ -265,7 +266,8 @@ def metrics(runs, reference=None, *, after=None, backend=None, nrfe=None, progre
 
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
-    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal",
+    "Controller", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi", "export_fmu", "RunSpec",

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 9ce46ba0a0e356ff
+Input hash: 3576bb86a5f87a55
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 47507c41eea4ae54
+Input hash: 8e20d8d565ddaabb
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
