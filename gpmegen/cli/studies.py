@@ -11,7 +11,6 @@ def cmd_modes(args) -> int:
     """Natural frequencies and mode shapes about the static equilibrium."""
     from ..analysis.figures import modes_output
     from ..analysis.post import modes
-    from ..runtime import statics
 
     out = Path(args.out)
     case = open_case(args.model_file, args.nrfe)
@@ -25,16 +24,13 @@ def cmd_modes(args) -> int:
     nothing = (f"{case.label} has no mode with --lock {args.lock}: no coordinate that carries a spring "
                f"(a flexible link's sde, a sprung joint) is free to move")
     fix = "make a link flexible or give a joint a spring"
-    if args.lock == "joints":
-        if statics.spring_coordinates(begun.model, begun.q).size == 0:
-            raise UsageError(f"{nothing}; {fix}")
-        _, result = modes.locked_modes(begun.model, begun.q)
-        where = "joints locked at the start"
-    else:
-        result = modes.constrained_modes(begun.model, begun.q)
-        if len(result.frequencies) == 0:
-            raise UsageError(f"{nothing} along the constraints; {fix}, or use --lock joints")
-        where = "programmed constraints holding (constrained equilibrium, joints without springs held)"
+    result = modes.start_modes(begun.model, begun.q, args.lock)
+    if result is None and args.lock == "joints":
+        raise UsageError(f"{nothing}; {fix}")
+    if result is None:
+        raise UsageError(f"{nothing} along the constraints; {fix}, or use --lock joints")
+    where = ("joints locked at the start" if args.lock == "joints" else
+             "programmed constraints holding (constrained equilibrium, joints without springs held)")
     print(f"{case.label}, {where}:")
     print(result.format(args.count))
     print(modes_output.write_modes_csv(result, out / f"{stem}.csv"))
