@@ -215,3 +215,22 @@ def test_invert_refuses_a_time_that_is_not_finite_in_one_line(argv, named, capsy
     assert info.value.code == 2
     [line] = capsys.readouterr().err.strip().splitlines()
     assert f"argument {named} is not a finite time; give it in seconds" in line
+
+
+def test_ctrl_c_during_an_extension_modules_import_exits_130(monkeypatch, capsys):
+    # a command imports what it runs when it runs; Ctrl-C while an extension module initializes
+    # reaches the command as an ImportError raised from the KeyboardInterrupt (pybind11's
+    # "initialization failed"): an interrupt, not a defect
+    import gpmegen.cli as cli
+    from gpmegen.cli import parser
+
+    def interrupted_import(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise ImportError("initialization failed") from exc
+
+    monkeypatch.setattr(parser, "cmd_simulate", interrupted_import)  # the function the parser names
+    assert cli.main(["simulate", "--nrfe", "1"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["gpmegen simulate: interrupted"]

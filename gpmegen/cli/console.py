@@ -64,11 +64,27 @@ def main(argv=None) -> int:
         print(f"gpmegen {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
         return 1
     except Exception as exc:  # a defect: say so in one line, the traceback on request
+        if _caused_by_interrupt(exc):
+            print(f"gpmegen {args.command}: interrupted", file=sys.stderr)
+            return 130
         if os.environ.get("GPMEGEN_DEBUG"):
             raise
         print(f"gpmegen {args.command}: internal error: {type(exc).__name__}: {exc} (this is a bug; rerun with "
               f"GPMEGEN_DEBUG=1 for the traceback and report it)", file=sys.stderr)
         return 1
+
+
+def _caused_by_interrupt(exc: BaseException) -> bool:
+    """Whether Ctrl-C or SIGTERM is behind ``exc``: an extension module whose initialization the
+    interrupt stops (a command imports what it runs when it runs) reports it as an ImportError
+    raised from the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def quick_exit(code: int) -> int:
