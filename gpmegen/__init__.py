@@ -54,7 +54,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
-    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal",
+    "Controller", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi",

@@ -46,6 +46,7 @@ from .errors import (
 from .model import (
     Body,
     Constraint,
+    Controller,
     Drive,
     FlexibleLink,
     Joint,
@@ -289,7 +290,8 @@ def metrics(runs: str | Path | Results | Iterable[str | Path | Results], referen
 
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
-    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal", "Constraint",
+    "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal",
+    "Controller", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
     "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi", "export_fmu", "RunSpec",

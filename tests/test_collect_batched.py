@@ -41,7 +41,7 @@ def test_batched_derived_quantities_are_those_of_each_sample(runs, backend):
     q[3, 0] = np.nan  # a sample that is not finite: NaN where the model cannot evaluate it, as before
     ok = np.all(np.isfinite(np.hstack([q, qd])), axis=1)
     together = study._derived_together(model, t, q, qd, ok)
-    each = study._derived_each(model, t, q, qd, ok)
+    each = study._derived_each(model, t, q, qd, ok, np.zeros((len(t), 0)))
     assert together is not None
     for name, a, b in zip(NAMES, together, each):
         assert a.shape == b.shape, name

@@ -222,6 +222,7 @@ def test_ctrl_c_during_an_extension_modules_import_exits_130(monkeypatch, capsys
     # reaches the command as an ImportError raised from the KeyboardInterrupt (pybind11's
     # "initialization failed"): an interrupt, not a defect
     import gpmegen.cli as cli
+    from gpmegen.cli import parser
 
     def interrupted_import(args):
         try:
@@ -229,7 +230,7 @@ def test_ctrl_c_during_an_extension_modules_import_exits_130(monkeypatch, capsys
         except KeyboardInterrupt as exc:
             raise ImportError("initialization failed") from exc
 
-    monkeypatch.setattr(cli, "cmd_simulate", interrupted_import)
+    monkeypatch.setattr(parser, "cmd_simulate", interrupted_import)  # the function the parser names
     assert cli.main(["simulate", "--nrfe", "1"]) == 130
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["gpmegen simulate: interrupted"]

@@ -22,6 +22,17 @@ def test_constrained_modes_move_along_the_constraints(flexible):
     assert result.first("vertical") > locked.first("vertical")
 
 
+def test_start_modes_follow_the_lock_and_find_nothing_in_a_rigid_arm(rigid, flexible):
+    """``modes.start_modes``: the locked-joint modes about the locked statics, the constrained ones
+    about the constrained equilibrium (holding E stiffens the arm: a higher first vertical
+    frequency), and None for the rigid arm, which has no spring to vibrate."""
+    assert modes.start_modes(*reference_case.initial_state(rigid, "locked"), "joints") is None
+    locked = modes.start_modes(*reference_case.initial_state(flexible, "locked"), "joints")
+    held = modes.start_modes(*reference_case.initial_state(flexible, "constrained"), "constraints")
+    assert np.all(locked.frequencies > 0) and np.all(held.frequencies > 0)
+    assert held.first("vertical") > locked.first("vertical")
+
+
 def test_modes_command_writes_table_csv_and_figure(tmp_path, capsys):
     assert main(["modes", "--nrfe", "3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out

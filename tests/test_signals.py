@@ -208,8 +208,8 @@ def _refused(folder, text, capsys, *args) -> str:
 
 @pytest.mark.parametrize("change, message", [
     (('expression = "push"', 'expression = "pushh"'), "unknown name 'pushh'; did you mean 'push'?"),
-    (('name = "push"', 'name = "m"'), "signal 'm' has the name of parameter in expressions"),
-    (('name = "push"', 'name = "x"'), "signal 'x' has the name of coordinate in expressions"),
+    (('name = "push"', 'name = "m"'), "signal 'm' has the name of a parameter in expressions"),
+    (('name = "push"', 'name = "x"'), "signal 'x' has the name of a coordinate in expressions"),
     (('name = "push"', 'name = "x_dot"'), "the velocity of coordinate 'x'"),
     (('name = "push"', 'name = "vx_C"'), "a velocity coordinate of point 'C'"),
     (('name = "push"', 'name = "t"'), "signal 't' is reserved in generated code"),

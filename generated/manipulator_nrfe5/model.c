@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: f2794daa5d962bcc
+Input hash: 6855a6d52b3fce05
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "f2794daa5d962bcc"; }
+const char *manipulator_nrfe5_input_hash(void) { return "6855a6d52b3fce05"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -6269,6 +6269,8 @@ static const struct gpmegen_model MODEL = {
     gpme_recursive,
     NULL,
     0,  /* redundant_rows: 1 where closures' rows may be redundant */
+    25, 0,  /* n_parameters, n_controllers: the controller states end p */
+    NULL,
 };
 
 /* ---- GPME by the articulated-body recursion ------------------------------------------------ */

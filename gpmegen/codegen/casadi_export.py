@@ -30,7 +30,7 @@ from ..errors import GpmegenError, ModelError
 from ..symbolic import derive
 from .functions import lower, model_functions, prepare_all
 from .printers import CASADI, CasadiPrinter
-from .render import check_no_signals, input_hash, model_context, template_environment
+from .render import check_no_controllers, check_no_signals, input_hash, model_context, template_environment
 
 SOURCE = "model_casadi.py"
 MANIFEST = "casadi.json"
@@ -61,6 +61,7 @@ def check_inputs(coordinates, inputs) -> tuple:
 def render_casadi(model, inputs=(), command=None) -> str:
     """The CasADi source of ``model`` with inputs on the coordinates ``inputs``."""
     check_no_signals(model, "a CasADi export")
+    check_no_controllers(model, "a CasADi export")
     d = derive(model)
     inputs = check_inputs(d.chain.coordinates, inputs)
     fns = [fn for fn in model_functions(d, transforms=()) if fn.name in PRINTED]

@@ -53,7 +53,7 @@ from ..errors import BuildError, ModelError
 from ..runtime import ccompile
 from ..version import __version__
 from .casadi_export import check_inputs
-from .render import check_no_signals
+from .render import check_no_controllers, check_no_signals
 
 #: The FMI wrapper's files (package data ``gpmegen.fmi``) and the header fmu_export writes for it.
 WRAPPER = ("gpmegen_fmi2.c", "gpmegen_fmi2.h")
@@ -408,6 +408,7 @@ def export(case, out, inputs=(), overwrite=False, start=None, progress=None) -> 
     from ..fileio import atomic_write_bytes
 
     check_no_signals(case.source, "an FMU")
+    check_no_controllers(case.source, "an FMU")
     out = Path(out)
     if out.is_dir():
         raise outputs.OutputError(f"--out {out} is a folder; give the file to write, e.g. --out "

@@ -168,7 +168,8 @@ def model_functions(d: Derivation, transforms=_transforms.DEFAULT, jacobians: bo
                  ("t", "q", "qd", "p"), (mass, forces) + constraint_outputs),
         _recursive_function(d, constraint_outputs),
     ]
-    return (fns + _force_functions(d) + _limit_functions(d) + ([_jacobian_function(d)] if jacobians else [])
+    return (fns + _force_functions(d) + _limit_functions(d) + _controller_functions(d)
+            + ([_jacobian_function(d)] if jacobians else [])
             + transform_functions(d, transforms))
 
 
@@ -184,6 +185,20 @@ def _force_functions(d: Derivation) -> list[Function]:
                      (Output("F", (len(terms.length), 3), tuple(values),
                              "one row per element in FORCES order: length L (m), its rate (m/s) and the force "
                              "(N, positive pushing the two points apart)"),))]
+
+
+def _controller_functions(d: Derivation) -> list[Function]:
+    """The rates of the controller states, for a model that has them; their current values are
+    the last entries of ``p`` (:attr:`gpmegen.model.chain.Model.p_names`)."""
+    rates = d.controller_rates
+    if not rates.shape[0]:
+        return []
+    initial = sp.Matrix([sp.sympify(c.initial) for c in d.chain.model.controllers])
+    return [Function("controller_rates", "Time derivatives of the controller states.", ("t", "q", "qd", "p"),
+                     (_out("z_rate", rates, "dz/dt, one per controller state in CONTROLLERS order", vector=True),),
+                     hot=True),
+            Function("controller_initial", "The controller states at the start.", ("p",),
+                     (_out("z0", initial, "z at the start, in CONTROLLERS order", vector=True),))]
 
 
 def _limit_functions(d: Derivation) -> list[Function]:
@@ -269,7 +284,7 @@ def lower(fn: Function, d: Derivation, printer, prepared=None, split=False, cach
     kin = d.kinematics
     q_used = tuple((j, s.name) for j, s in enumerate(kin.q) if s in free)
     qd_used = tuple((j, s.name) for j, s in enumerate(kin.qd) if s in free)
-    p_used = tuple((k, names.parameter_local(name)) for k, name in enumerate(d.chain.model.parameter_names)
+    p_used = tuple((k, names.parameter_local(name)) for k, name in enumerate(d.chain.model.p_names)
                    if sp.Symbol(name, real=True) in free)
     cache = {} if cache is None else cache
 
@@ -298,7 +313,7 @@ def _blocks(body, outputs, lines, printed, d):
         "q": tuple((s, j, s.name) for j, s in enumerate(kin.q)),
         "qd": tuple((s, j, s.name) for j, s in enumerate(kin.qd)),
         "p": tuple((sp.Symbol(name, real=True), k, names.parameter_local(name))
-                   for k, name in enumerate(d.chain.model.parameter_names)),
+                   for k, name in enumerate(d.chain.model.p_names)),
         "a": tuple((s, j, s.name) for j, s in enumerate(given_accelerations(d))),
         "lam": tuple((s, k, s.name) for k, s in enumerate(given_multipliers(d))),
     }

@@ -101,6 +101,16 @@ def check_no_signals(model, export: str) -> None:
                          f"supplies and {export} cannot carry; drive the model through its inputs instead (--inputs)")
 
 
+def check_no_controllers(model, export: str) -> None:
+    """Refuse, in one line, the export (``export``: what it makes) of a model with controller
+    states: their rates are integrated by gpmegen's own integrators, which an export leaves
+    behind."""
+    if model is not None and model.controllers:
+        names = ", ".join(c.state for c in model.controllers)
+        raise ModelError(f"model {model.name}: {export} does not carry controller states ({names}) yet; "
+                         f"simulate it with gpmegen simulate, or write the controller outside the export")
+
+
 @dataclass
 class BuildResult:
     model: str
@@ -125,6 +135,7 @@ def model_context(model: Model, d, digest: str, command: str) -> dict:
         coordinates=d.chain.coordinates,
         parameters=model.parameters,
         parameter_names=names,
+        controllers=tuple(c.state for c in model.controllers),
         defaults=tuple(float(p.default) for p in model.parameters),
         points=d.chain.points,
         constraints=d.constraints.names,
@@ -132,7 +143,7 @@ def model_context(model: Model, d, digest: str, command: str) -> dict:
         forces=tuple(f.name for f in model.forces),
         limited=tuple(coordinate for coordinate, _, _ in d.dynamics.limited),
         force_points=tuple(tuple(f.points) for f in model.forces),
-        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(names),
+        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(d.chain.model.p_names),
                                     n_constraints=len(d.constraints.names)),
     )
 
@@ -156,7 +167,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     for warning in d.constraints.warnings:
         say(f"warning: {warning}")
     fns = model_functions(d, transforms, jacobians)
-    names = d.chain.model.parameter_names
+    names = d.chain.model.p_names   # the controller states read from p as the parameters are
     context = dict(
         model_context(model, d, digest, command or f"gpmegen build ({model.name})"),
         bodies=d.chain.bodies,

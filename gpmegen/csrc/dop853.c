@@ -90,7 +90,7 @@ static double rms_scaled(int N_MOTION, const double *x, const double *y, double 
 int gpmegen_first_step(const struct gpmegen_model *model, double t, const double *y, const double *f0, double rtol,
                        double atol, double span, const double *p, double *h, long *evaluations)
 {
-    const int N_Y = 2 * model->n_dof + 2, N_MOTION = 2 * model->n_dof;
+    const int N_Y = 2 * model->n_dof + 2 + model->n_controllers, N_MOTION = 2 * model->n_dof;
     double y1[N_Y] ALIGNED, f1[N_Y] ALIGNED, df[N_MOTION] ALIGNED;
     const double d0 = rms_scaled(N_MOTION, y, y, rtol, atol), d1 = rms_scaled(N_MOTION, f0, y, rtol, atol);
     double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
@@ -185,14 +185,15 @@ struct dop853_place {
 /* The bytes of the memory, which the caller holds between calls. */
 long gpmegen_dop853_memory_bytes(const struct gpmegen_model *model)
 {
-    return (long)(sizeof(struct dop853_place) + 2 * (size_t)(2 * model->n_dof + 2) * sizeof(double));
+    return (long)(sizeof(struct dop853_place)
+                  + 2 * (size_t)(2 * model->n_dof + 2 + model->n_controllers) * sizeof(double));
 }
 
-/* DOP853 from (t_a, y_a) (y = [q, qd, w], N_Y) to t_save[n_save - 1], saving y at each of the
-   n_save increasing instants t_save (all after t_a) into y_out (n_save x N_Y): the step's own
-   state where a step ends on one (always the last, where the last step is cut to end), the
-   dense output of order 7 between. The error of each step, in the root mean square over q and qd
-   of err / (atol + rtol |y|), is kept below 1. *h: in, the step to try first (<= 0: chosen
+/* DOP853 from (t_a, y_a) (y = [q, qd, w, z], N_Y: z the controller states) to t_save[n_save - 1],
+   saving y at each of the n_save increasing instants t_save (all after t_a) into y_out (n_save x
+   N_Y): the step's own state where a step ends on one (always the last, where the last step is
+   cut to end), the dense output of order 7 between. The error of each step, in the root mean
+   square over q, qd and z of err / (atol + rtol |y|), is kept below 1. *h: in, the step to try first (<= 0: chosen
    here); out, the step to try next. max_steps > 0: the call returns GPMEGEN_OK with *n_saved <
    n_save after that many steps (accepted or rejected), its place kept in memory
    (gpmegen_dop853_memory_bytes(), zeroed by the caller before the span's first call), and the next call with the
@@ -206,9 +207,11 @@ int gpmegen_dop853(const struct gpmegen_model *model, double t_a, const double *
                    const double *t_save, double rtol, double atol, double *h, long max_steps, void *memory,
                    const double *p, double *y_out, long *n_saved, long *counts)
 {
-    const int N_Y = 2 * model->n_dof + 2, N_MOTION = 2 * model->n_dof;
+    const int N_Y = 2 * model->n_dof + 2 + model->n_controllers, N_MOTION = 2 * model->n_dof;
+    /* the components whose error is kept: q, qd and the controller states (not the work) */
+    const int N_ERROR = N_MOTION + model->n_controllers;
     double K[DOP_STAGES_DENSE][N_Y] ALIGNED, F[7][N_Y] ALIGNED;
-    double y_new[N_Y] ALIGNED, err5[N_MOTION] ALIGNED, err3[N_MOTION] ALIGNED;
+    double y_new[N_Y] ALIGNED, err5[N_ERROR] ALIGNED, err3[N_ERROR] ALIGNED;
     double y[N_Y] ALIGNED, run_rate[N_Y] ALIGNED;
     const size_t state_bytes = (size_t)N_Y * sizeof(double);
     struct dop853_place run;
@@ -299,20 +302,21 @@ int gpmegen_dop853(const struct gpmegen_model *model, double t_a, const double *
         /* the error estimate of Hairer's dop853: the order-5 one, kept from growing where the
            order-3 one is small compared with it */
         double n5 = 0.0, n3 = 0.0;
-        for (int i = 0; i < N_MOTION; ++i) {
+        for (int e = 0; e < N_ERROR; ++e) {
+            const int i = e < N_MOTION ? e : e + 2;   /* past the two works */
             double e5 = 0.0, e3 = 0.0;
             for (int s = 0; s <= DOP_STAGES; ++s) {
                 e5 += DOP_E5[s] * K[s][i];
                 e3 += DOP_E3[s] * K[s][i];
             }
             const double scale = error_scale(rtol, atol, y[i], y_new[i]);
-            err5[i] = e5 / scale;
-            err3[i] = e3 / scale;
-            n5 += err5[i] * err5[i];
-            n3 += err3[i] * err3[i];
+            err5[e] = e5 / scale;
+            err3[e] = e3 / scale;
+            n5 += err5[e] * err5[e];
+            n3 += err3[e] * err3[e];
         }
         const double denominator = n5 + 0.01 * n3;
-        const double error = denominator > 0.0 ? step * n5 / sqrt(denominator * N_MOTION) : 0.0;
+        const double error = denominator > 0.0 ? step * n5 / sqrt(denominator * N_ERROR) : 0.0;
         if (!isfinite(error) || !all_finite(y_new, N_Y)) {
             return GPMEGEN_NONFINITE;
         }

@@ -228,6 +228,9 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
     int status;
 
     *n_saved = 0;
+    if (model->n_controllers) {  /* its second-order update does not carry first-order states yet */
+        return GPMEGEN_BAD_ARGUMENTS;
+    }
     if (k_from < 0 || k_to < k_from || n_steps < k_to || !isfinite(t0) || !(dt > 0.0) || !isfinite(t_end)
         || !(rho_inf >= 0.0 && rho_inf <= 1.0) || n_save < 0) {
         return GPMEGEN_BAD_ARGUMENTS;

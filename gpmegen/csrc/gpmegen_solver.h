@@ -63,6 +63,14 @@ struct gpmegen_model {
        its motion needs): where D loses rank the solves keep its independent rows; 0 (a model
        that closes no loop): D losing rank is singular */
     int redundant_rows;
+    /* The controller states z (n_controllers, 0 in a model without, controller_rates then NULL):
+       the last entries of p, after its n_parameters parameters, which the generated
+       functions read as they read the parameters; the integrators that carry them (RK4, DOP853)
+       put each stage's z there and integrate z with the motion, as the components of y after the
+       two work integrals; radau and genalpha refuse such a model (GPMEGEN_BAD_ARGUMENTS).
+       controller_rates: dz/dt (n_controllers) at (t, q, qd) and the z in p. */
+    int n_parameters, n_controllers;
+    void (*controller_rates)(double t, const double *q, const double *qd, const double *p, double *z_rate);
 };
 
 /* The small kernels that the model's recursion shares with the library's dense solve: defined

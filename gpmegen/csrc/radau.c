@@ -408,6 +408,9 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
     long k = 0, taken = 0;
 
     *n_saved = 0;
+    if (model->n_controllers) {  /* its Newton iteration and state do not hold controller states yet */
+        return GPMEGEN_BAD_ARGUMENTS;
+    }
     if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h) || max_steps < 0
         || (max_steps > 0 && memory == NULL)) {
         return GPMEGEN_BAD_ARGUMENTS;

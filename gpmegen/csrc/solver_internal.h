@@ -67,10 +67,10 @@ static inline double error_scale(double rtol, double atol, double a, double b)
     return atol + rtol * fmax(fabs(a), fabs(b));
 }
 
-/* rk4.c: one stage's qdd (N_DOF) and the powers (2) of drive and constraint forces; dy/dt (N_Y)
-   at (t, y). */
+/* rk4.c: one stage's qdd (N_DOF), the powers (2) of drive and constraint forces and the rates of
+   the controller states z (n_controllers, after the powers); dy/dt (N_Y) at (t, y). */
 GPMEGEN_HIDDEN int gpmegen_stage(const struct gpmegen_model *model, double t, const double *q, const double *qd,
-                                 const double *p, double *qdd, double *power);
+                                 const double *z, const double *p, double *qdd, double *power);
 GPMEGEN_HIDDEN int gpmegen_state_rate(const struct gpmegen_model *model, double t, const double *y, const double *p,
                                       double *rate);
 /* dop853.c: the first step of an adaptive integrator from (t, y) with rate f0. */

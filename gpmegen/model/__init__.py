@@ -5,6 +5,7 @@ from .chain import (
     Chain,
     Closure,
     Constraint,
+    Controller,
     Drive,
     FlexibleLink,
     ForceElement,
@@ -20,6 +21,6 @@ from .chain import (
 from .reference import reference_model
 
 __all__ = [
-    "Body", "Chain", "Closure", "Constraint", "Drive", "FlexibleLink", "ForceElement", "Joint", "Model", "Motor",
-    "Offset", "Parameter", "Point", "SeriesElastic", "Signal", "reference_model",
+    "Body", "Chain", "Closure", "Constraint", "Controller", "Drive", "FlexibleLink", "ForceElement", "Joint",
+    "Model", "Motor", "Offset", "Parameter", "Point", "SeriesElastic", "Signal", "reference_model",
 ]

@@ -347,6 +347,23 @@ class Drive:
         return sp.Min(sp.Max(law, -self.limit), self.limit)
 
 
+@dataclass(frozen=True)
+class Controller:
+    """A controller state: a first-order state ``state`` integrated with the mechanics, whose
+    time derivative is ``rate``, an expression of ``t``, parameters, the state a drive's law
+    reads (:class:`Drive`), signals and the controller states (their :func:`symbol`); never of
+    accelerations. ``initial``: its value at the start (an expression of parameters). A drive's
+    law reads it by its name: a PID's integral, a filtered signal."""
+
+    state: str
+    rate: sp.Expr
+    initial: sp.Expr = sp.Integer(0)
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return symbol(self.state)
+
+
 #: The most table signals one model may have (the solver library keeps their tables in an array
 #: of this size: ``GPMEGEN_MAX_SIGNALS`` of ``gpmegen_solver.h``).
 MAX_SIGNALS = 32
@@ -494,7 +511,8 @@ class Model:
     ``dependent`` names the dependent coordinates of the constraint partition (``None``: chosen
     automatically at run time). ``closures``: the loops closed (:class:`Closure`), whose rows
     are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
-    name. ``forces``: the forces between points (:class:`ForceElement`).
+    name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
+    controller states (:class:`Controller`) its drives may read.
     """
 
     name: str
@@ -508,10 +526,17 @@ class Model:
     closures: tuple = ()
     signals: tuple = ()
     forces: tuple = ()
+    controllers: tuple = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.parameters)
+
+    @property
+    def p_names(self) -> tuple[str, ...]:
+        """The entries of the generated functions' vector ``p``: the parameters, then the
+        controller states, whose current values the integrators put there at every stage."""
+        return self.parameter_names + tuple(c.state for c in self.controllers)
 
     @property
     def defaults(self) -> dict[str, float]:

@@ -22,6 +22,7 @@ from .chain import (
     TIME,
     Body,
     Branch,
+    Controller,
     FlexibleLink,
     Joint,
     Model,
@@ -155,7 +156,7 @@ class _Names:
         self.seen: dict[str, tuple[str, tuple]] = {}
 
     def claim(self, name, what, path):
-        check_name(name, what, bare=what in ("parameter", "coordinate", "signal"), subject=path)
+        check_name(name, what, bare=what in ("parameter", "coordinate", "signal", "controller state"), subject=path)
         if name in self.seen:
             other, other_path = self.seen[name]
             raise ModelError(f"{what} {name!r} duplicates the {other} of the same name; rename one", path,
@@ -350,6 +351,30 @@ def _check_derived_names(flat, names: _Names):
             made[name] = (owner, meaning, path)
 
 
+def _derived_names(coordinates: list, points: list) -> set:
+    """The names expressions give to time, velocities, accelerations and points' coordinates,
+    which a signal or a controller state may not take."""
+    derived = {"t"} | {f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot")}
+    derived |= {s.name for name in points
+                for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(name)}
+    return derived
+
+
+def _claim_in_expressions(element, kind: type, make: str, field: str, what: str, path: tuple, names: _Names,
+                          derived: set) -> None:
+    """``element`` (at ``path``, e.g. ``("signals", 0)``) of type ``kind`` (``make``: how to make
+    one), its name (``field``) one of its own among ``names`` and not one of the ``derived``
+    names expressions give (:func:`_derived_names`)."""
+    if not isinstance(element, kind):
+        raise ModelError(f"{path[0]}[{path[1]}] is a {type(element).__name__}, not a {kind.__name__}; make it "
+                         f"gpmegen.{make}", path)
+    name = getattr(element, field)
+    if name in derived:
+        raise ModelError(f"{what} {name!r} has the name of a time, velocity, acceleration or point coordinate in "
+                         f"expressions; choose another name", path + (field,))
+    names.claim(name, what, path + (field,))
+
+
 def _check_signals(model: Model, coordinates: list, points: list, names: _Names) -> set:
     """The table signals: at most :data:`MAX_SIGNALS`, each a name of its own in expressions (no
     parameter's, coordinate's, point's or other model name, not ``t`` nor a name expressions give
@@ -358,18 +383,10 @@ def _check_signals(model: Model, coordinates: list, points: list, names: _Names)
     if len(model.signals) > MAX_SIGNALS:
         raise ModelError(f"{len(model.signals)} signals read from tables, at most {MAX_SIGNALS}; join runs into "
                          f"fewer", ("signals",))
-    derived = {"t"} | {f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot")}
-    derived |= {s.name for name in points
-                for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(name)}
+    derived = _derived_names(coordinates, points)
     for k, signal in enumerate(model.signals):
         path = ("signals", k)
-        if not isinstance(signal, Signal):
-            raise ModelError(f"signals[{k}] is a {type(signal).__name__}, not a Signal; make it "
-                             f"gpmegen.Signal(name, table, column)", path)
-        if signal.name in derived:
-            raise ModelError(f"signal {signal.name!r} has the name of a time, velocity, acceleration or point "
-                             f"coordinate in expressions; choose another name", path + ("name",))
-        names.claim(signal.name, "signal", path + ("name",))
+        _claim_in_expressions(signal, Signal, "Signal(name, table, column)", "name", "signal", path, names, derived)
         for key in ("table", "column"):
             value = getattr(signal, key)
             if not isinstance(value, str) or not value:
@@ -388,20 +405,48 @@ def _state_symbols(coordinates: list, points: list) -> tuple[set, set]:
     return state, accelerations
 
 
-def _check_law(expr, allowed: set, accelerations: set, where: str, subject: tuple, whose="a drive's"):
-    """A feedback law (a drive's, an actuator's): of ``allowed``, never of ``accelerations``."""
+#: Why a feedback law may not read accelerations, and why a controller state's rate may not.
+FORCE_OF_ACCELERATIONS = "a force that depends on the accelerations changes the mass matrix"
+RATE_OF_ACCELERATIONS = "the accelerations are solved from the drives, which read the state"
+
+
+def _check_law(expr, allowed: set, accelerations: set, where: str, subject: tuple, whose="a drive's",
+               why=FORCE_OF_ACCELERATIONS):
+    """A feedback law (a drive's, an actuator's, a controller state's rate): of ``allowed``, never
+    of ``accelerations`` (``why``: the reason the message gives)."""
     used = sorted(str(s) for s in _free_symbols(expr) & accelerations)
     if used:
         raise ModelError(f"{where}: {whose} law may use positions and velocities, not the acceleration {used[0]} "
-                         f"(a force that depends on the accelerations changes the mass matrix); remove it", subject)
+                         f"({why}); remove it", subject)
     _check_expression(expr, allowed, where, subject)
 
 
-def _check_drives(model: Model, coordinates: list, points: list, constant: set):
+def _check_controllers(model: Model, coordinates: list, points: list, names: _Names, constant: set) -> set:
+    """Each controller state: a name of its own in expressions (as a signal's), its rate a law of
+    t, parameters, the state, signals and the controller states, never of accelerations, its
+    initial value of parameters. Returns their symbols."""
+    derived = _derived_names(coordinates, points)
+    for k, controller in enumerate(model.controllers):
+        _claim_in_expressions(controller, Controller, "Controller(state, rate, initial)", "state", "controller state",
+                              ("controllers", k), names, derived)
+    state, accelerations = _state_symbols(coordinates, points)
+    allowed = constant | {TIME} | state | {s.symbol for s in model.signals} | {c.symbol for c in model.controllers}
+    for k, controller in enumerate(model.controllers):
+        path = ("controllers", k)
+        _check_law(controller.rate, allowed, accelerations, f"controller state {controller.state!r}",
+                   path + ("rate",), "a controller state's rate", RATE_OF_ACCELERATIONS)
+        _check_expression(controller.initial, constant, f"controller state {controller.state!r} initial",
+                          path + ("initial",))
+    return {c.symbol for c in model.controllers}
+
+
+def _check_drives(model: Model, coordinates: list, points: list, constant: set, controllers: set = frozenset()):
     """Each drive on a known coordinate, once; its law of t, parameters and the state a
     first-order constraint may name (coordinates, their velocities, points' positions and
-    velocities), never of accelerations."""
+    velocities) and the controller states (``controllers``: their symbols), never of
+    accelerations."""
     state, accelerations = _state_symbols(coordinates, points)
+    state = state | controllers
     first: dict[str, tuple] = {}
     for k, drive in enumerate(model.drives):
         path = ("drives", k)
@@ -510,7 +555,8 @@ def expand(model: Model) -> FlatChain:
     _check_signals(model, coordinates, points, names)
     for i, v in enumerate(model.gravity):
         _check_expression(v, constant, "gravity", ("gravity", i))
-    _check_drives(model, coordinates, points, constant)
+    controllers = _check_controllers(model, coordinates, points, names, constant)
+    _check_drives(model, coordinates, points, constant, controllers)
     _check_constraints(model, flat, coordinates, names)
     elements = tuple(e for _, e in flat)
     tree = topology(elements)

@@ -72,7 +72,9 @@ class CEvaluator:
             check=lambda library: cprobe.check_in_child(library, source, module_path), progress=progress)
         self.model_name = module.MODEL
         self.n, self.m, self.n_points = len(module.COORDINATES), len(module.CONSTRAINTS), len(module.POINTS)
-        self.n_parameters = len(module.PARAMETERS)
+        # p ends with the controller states (a model without has no CONTROLLERS)
+        self.n_controllers = len(getattr(module, "CONTROLLERS", ()))
+        self.n_parameters = len(module.PARAMETERS) + self.n_controllers
         self.n_bodies = len(getattr(module, "BODIES", ()))
         self.n_forces = len(getattr(module, "FORCES", ()))
         self.n_limited = len(getattr(module, "LIMITED_DRIVES", ()))
@@ -218,6 +220,17 @@ class CEvaluator:
         F = np.empty((max(1, self.n_forces), 3))
         self.lib.force_elements(float(t), q_c, qd_c, self._params(p), self._ptr(F))
         return F[:self.n_forces]
+
+    def controller_rates(self, t, q, qd, p):
+        _, q_c, qd_c = self._state(q, qd)
+        rates = np.empty(self.n_controllers)
+        self.lib.controller_rates(float(t), q_c, qd_c, self._params(p), self._ptr(rates))
+        return rates
+
+    def controller_initial(self, p):
+        z0 = np.empty(self.n_controllers)
+        self.lib.controller_initial(self._params(p), self._ptr(z0))
+        return z0
 
     def drive_limits(self, t, q, qd, p):
         _, q_c, qd_c = self._state(q, qd)
@@ -389,7 +402,8 @@ class CEvaluator:
         dep, ind = self._partition_pointers(model)
         q0, qd0, w0 = (np.ascontiguousarray(part) for part in (y0[:n], y0[n:2 * n], y0[2 * n:]))
         n_save = k_to // save_every - k_from // save_every + 2
-        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)), np.empty((n_save, 2))]
+        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)),
+                                          np.empty((n_save, 2 + self.n_controllers))]
         n_saved = self.ffi.new("long *")
         status = self.lib.rk4(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, self._ptr(q0),
                               self._ptr(qd0), self._ptr(w0), self._params(model.p), dep, ind, self._ptr(t_out),

@@ -70,7 +70,11 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
     short = {c_name: name for name, c_name in short_names(c_name for c_name, _ in functions).items()}
     n = len(module.COORDINATES)
     n_constraints = len(module.CONSTRAINTS)
-    p = np.array(module.DEFAULTS, dtype=float)
+    # p ends with the controller states (a model without has no CONTROLLERS), probed at zero; the
+    # integrators' state y = [q, qd, the two works, the controller states]
+    n_z = len(getattr(module, "CONTROLLERS", ()))
+    p = np.array(list(module.DEFAULTS) + [0.0] * n_z, dtype=float)
+    n_y = 2 * n + 2 + n_z
     rng = np.random.default_rng(20)
     states = [(0.0, np.zeros(n), np.zeros(n)), (0.37, 0.3 * rng.standard_normal(n), 0.3 * rng.standard_normal(n))]
 
@@ -138,20 +142,20 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
         steps, dt = 3, 1e-6
         n_save = steps + 2  # the start, every step, and the final state (see the C rk4)
         n_saved = ffi.new("long *")
-        lib.rk4(t, dt, steps, t + steps * dt, 0, steps, 1, doubles(q), doubles(qd), doubles([0.0, 0.0]),
+        lib.rk4(t, dt, steps, t + steps * dt, 0, steps, 1, doubles(q), doubles(qd), doubles(np.zeros(2 + n_z)),
                 doubles(p), dep, ind, doubles(np.zeros(n_save)), doubles(np.zeros(n_save * n)),
-                doubles(np.zeros(n_save * n)), doubles(np.zeros(n_save * 2)), n_saved)
+                doubles(np.zeros(n_save * n)), doubles(np.zeros(n_save * (2 + n_z))), n_saved)
         for name in ("dop853", "radau"):  # one interface
             say(name)
             memory, step = ffi.new("char[]", getattr(lib, name + "_memory_bytes")()), doubles([0.0])
             for max_steps in (1, 0):  # stopped after its first step, then on from there to the end
-                getattr(lib, name)(t, doubles(np.concatenate([q, qd, [0.0, 0.0]])), 2, doubles([t + 1e-4, t + 2e-4]),
-                                   1e-6, 1e-8, step, max_steps, memory, doubles(p), dep, ind,
-                                   doubles(np.zeros(2 * (2 * n + 2))), n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
+                getattr(lib, name)(t, doubles(np.concatenate([q, qd, np.zeros(2 + n_z)])), 2,
+                                   doubles([t + 1e-4, t + 2e-4]), 1e-6, 1e-8, step, max_steps, memory, doubles(p), dep,
+                                   ind, doubles(np.zeros(2 * n_y)), n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
         say("genalpha")
-        lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, [0.0, 0.0]])),
+        lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, np.zeros(2 + n_z)])),
                      doubles(np.full(n, np.nan)), doubles(np.zeros(n * n)), ffi.new("int[]", n), ffi.new("int[]", 1),
-                     1, doubles([t + 1.5e-4]), doubles(p), dep, ind, doubles(np.zeros(2 * n + 2)), n_saved,
+                     1, doubles([t + 1.5e-4]), doubles(p), dep, ind, doubles(np.zeros(n_y)), n_saved,
                      ffi.new("long[]", COUNTS))
     batch = {"t": [t for t, _, _ in states], "q": [q for _, q, _ in states], "qd": [qd for _, _, qd in states],
              "p": p}

@@ -1,7 +1,8 @@
 """Integration of the GPME: fixed-step RK4 (as in the paper) and an adaptive stepper beside it.
 
-The state is ``y = [q, q̇, W_drive, W_constraint]``: the work of the drive and of the constraint
-forces is integrated with the motion, so the power balance is checked to the integrator's order.
+The state is ``y = [q, q̇, W_drive, W_constraint, z]``: the work of the drive and of the constraint
+forces is integrated with the motion, so the power balance is checked to the integrator's order,
+and so are the controller states ``z`` (n_z, none in most models) that the drives read.
 """
 
 from __future__ import annotations
@@ -88,17 +89,39 @@ class Progress:
 
 
 def state_derivative(model):
-    """``dy/dt`` of the augmented state for ``model``'s GPME."""
-    n = model.n_dof
+    """``dy/dt`` of the augmented state for ``model``'s GPME; the controller states, where the
+    model has them, set in its ``p`` at each call (what its drives and rates read)."""
+    n, controlled = model.n_dof, bool(model.controller_names)
 
     def rhs(t, y):
         q, qd = y[:n], y[n:2 * n]
-        qdd, M, f = model.motion(t, q, qd)
-        drive = model.drive_forces(t, q, qd)
+        at = model.at_controller_states(y[2 * n + 2:]) if controlled else model
+        qdd, M, f = at.motion(t, q, qd)
+        drive = at.drive_forces(t, q, qd)
         reaction = M @ qdd - f
-        return np.concatenate([qd, qdd, [qd @ drive, qd @ reaction]])
+        rates = at.controller_rates(t, q, qd) if controlled else ()
+        return np.concatenate([qd, qdd, [qd @ drive, qd @ reaction], rates])
 
     return rhs
+
+
+def start_state(model, q0, qd0):
+    """The augmented state at the start: ``[q0, qd0, 0, 0, z0]``, no work done yet and the
+    controller states at their initial values."""
+    return np.concatenate([q0, qd0, [0.0, 0.0], model.controller_initial]).astype(float)
+
+
+#: The compiled loops that do not carry controller states yet: their Newton iterations and
+#: Jacobians hold the mechanics only.
+NO_CONTROLLERS = ("radau", "genalpha")
+
+
+def check_controllers(model, method: str) -> None:
+    """Refuse, in one line, ``method`` (a compiled loop) for a model with controller states,
+    where it does not carry them (the implicit ones: radau, genalpha)."""
+    if model.controller_names and method in NO_CONTROLLERS:
+        raise SimulationError(f"--method {method} does not integrate controller states (the model's "
+                              f"{', '.join(model.controller_names)}) yet: use --method rk4, dop853 or scipy-radau")
 
 
 class interruptible:
@@ -248,7 +271,7 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
 
         return more
 
-    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    y0 = start_state(model, q0, qd0)
     return chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
 
 
@@ -445,6 +468,7 @@ def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, p
     :meth:`gpmegen.runtime.model.LoadedModel.dop853`'s interface) driven by :func:`chunked` on the
     save grid, its step carried across the chunks, its place within a chunk across the calls.
     Returns ``(t, y, outcome, effort)``."""
+    check_controllers(model, method)
     check_start(model, t0, q0, qd0)
     if not (rtol > 0 and atol >= 0):
         raise ValueError(f"need rtol > 0 and atol >= 0, got rtol = {rtol}, atol = {atol}")
@@ -468,7 +492,7 @@ def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, p
 
         return more
 
-    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    y0 = start_state(model, q0, qd0)
     t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
     return t, y, outcome, Effort(*(int(c) for c in counts))
 
@@ -493,6 +517,7 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     and q̇ onto ``D q̇ + Φ_t = 0`` and first-order ``Ψ = 0``: the Baumgarte-stabilized GPME
     alone drifts to 1e-5 at the steps this method is for. ``steps_per_call``: see :func:`chunked`.
     Returns ``(t, y, outcome, effort)``."""
+    check_controllers(model, "genalpha")
     check_start(model, t0, q0, qd0)
     if not 0.0 <= rho_inf <= 1.0:
         raise ValueError(f"need 0 <= rho_inf <= 1, got {rho_inf}")
@@ -517,7 +542,7 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
 
         return more
 
-    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    y0 = start_state(model, q0, qd0)
     t, y, outcome = chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
     return t, y, outcome, Effort(*(int(c) for c in counts))
 
@@ -624,7 +649,7 @@ def scipy_solve(model, q0, qd0, t_end, t0=0.0, method="DOP853", rtol=1e-10, atol
     import scipy.integrate
 
     check_start(model, t0, q0, qd0)
-    y0 = np.concatenate([q0, qd0, [0.0, 0.0]]).astype(float)
+    y0 = start_state(model, q0, qd0)
     full = state_derivative(model)
     solves = [0]
 

@@ -103,6 +103,8 @@ class Evaluator(Protocol):
     def drive_forces(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
     def force_elements(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
     def drive_limits(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def controller_rates(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def controller_initial(self, p: np.ndarray) -> Array: ...
     def points(self, q: ArrayLike, p: np.ndarray) -> Array: ...
     def transforms(self, q: ArrayLike, p: np.ndarray, kind: str) -> Array: ...
     def constraint_terms(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> ConstraintTerms: ...
@@ -223,6 +225,12 @@ class NumpyEvaluator:
 
     def drive_limits(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "drive_limits", t, self._q(q), self._qd(qd), p)
+
+    def controller_rates(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
+        return np.asarray(call(self.module, "controller_rates", t, self._q(q), self._qd(qd), p), float)
+
+    def controller_initial(self, p: np.ndarray) -> Array:
+        return np.asarray(call(self.module, "controller_initial", p), float)
 
     def points(self, q: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "points", self._q(q), p)
@@ -347,6 +355,8 @@ class LoadedModel:
         self.force_points: tuple = tuple(tuple(p) for p in getattr(module, "FORCE_POINTS", ()))
         # the coordinates of the drives with a limit (a model without has no LIMITED_DRIVES)
         self.limited_drives: tuple = tuple(getattr(module, "LIMITED_DRIVES", ()))
+        # the controller states (a model without has no CONTROLLERS): the last entries of p
+        self.controller_names: tuple = tuple(getattr(module, "CONTROLLERS", ()))
         self.constraint_orders = frozen(np.array(module.CONSTRAINT_ORDERS, dtype=int))
         self.dependent, self.independent = self._partition(module.DEPENDENT)
         self.actuators = frozen(np.arange(0))  # none: the constraints are realized ideally
@@ -379,7 +389,11 @@ class LoadedModel:
         if problem:
             raise ModelError(f"model {self.module.MODEL}: {problem}")
         self.params: dict[str, float] = values
-        self.p = frozen(np.array([values[k] for k in self.parameter_names], dtype=float))
+        p = np.array([values[k] for k in self.parameter_names], dtype=float)
+        if self.controller_names:   # p ends with the controller states, at the start until a run sets them
+            z0 = self.evaluator.controller_initial(np.concatenate([p, np.zeros(len(self.controller_names))]))
+            p = np.concatenate([p, z0])
+        self.p = frozen(p)
         alpha, beta = call(self.module, "baumgarte_gains", self.p)
         self.alpha, self.beta = frozen(np.asarray(alpha, float)), frozen(np.asarray(beta, float))
 
@@ -466,6 +480,24 @@ class LoadedModel:
             raise SimulationError(f"model {self.module.MODEL}'s signals {', '.join(self.signal_names)} have no tables; "
                                   f"load it with gpmegen.load(model=...) or bind them with with_signals()")
         signals.check_span(self.signal_tables, t0, t_end)
+
+    @property
+    def controller_initial(self) -> Array:
+        """The controller states at the start (n_z,), from the parameter values bound."""
+        return self.p[len(self.parameter_names):]
+
+    def at_controller_states(self, z: ArrayLike) -> LoadedModel:
+        """The same model with the controller states (:attr:`controller_names`) at ``z`` (n_z,):
+        what its drives and rates read; the integrators take one per stage."""
+        other = copy.copy(self)
+        other.p = frozen(np.concatenate([self.p[:len(self.parameter_names)], vector(z, len(self.controller_names),
+                                                                                     "z")]))
+        return other
+
+    def controller_rates(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
+        """dz/dt (n_z,) of the controller states at the state ``(t, q, qd)`` and the states this
+        model holds (:meth:`at_controller_states`)."""
+        return self.evaluator.controller_rates(t, vector(q, self.n_dof, "q"), vector(qd, self.n_dof, "qd"), self.p)
 
     def with_params(self, **overrides: float) -> LoadedModel:
         """The same model (same generated code, compiled library and partition) with some
@@ -734,23 +766,27 @@ class LoadedModel:
         return gpme.multipliers(M, f, qdd, D, self.redundant)
 
     def rk4(self, q0: ArrayLike, qd0: ArrayLike, t_end: float, dt: float, save_every: int = 1, t0: float = 0.0,
-            w0: ArrayLike = (0.0, 0.0),
+            w0: ArrayLike | None = None,
             steps: tuple[int, int] | None = None) -> tuple[Array, Array, Array, Array, SolveStatus]:
         """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid
         of :func:`gpmegen.runtime.integrate.grid`, in one call of the backend's loop (C or Python).
 
         ``steps = (k_from, k_to)`` integrates only those steps of that grid, from ``q0``, ``qd0``
         (n,) and the work ``w0`` (2,) J at the end of step ``k_from`` (default: all of it, from
-        ``t0``). Saves the start, the state after every ``save_every``-th step of the grid and the
-        final state. Returns ``(t, q, qd, w, status)``: ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w``
-        (k, 2) the work of the drive and of the constraint forces (of the inputs, with
-        :attr:`actuators`) plus ``w0`` (J), ``status`` a
+        ``t0``), followed by the controller states there (n_z,; ``w0`` None: no work and the
+        controller states at their initial values). Saves the start, the state after every
+        ``save_every``-th step of the grid and the final state. Returns ``(t, q, qd, w, status)``:
+        ``t`` (k,) s, ``q`` and ``qd`` (k, n), ``w`` (k, 2 + n_z) the work of the drive and of
+        the constraint forces (of the inputs, with :attr:`actuators`) plus ``w0`` (J), then the
+        controller states, ``status`` a
         :class:`gpmegen.status.SolveStatus`, OK when all steps were done, else with the states
         saved before the failure (none when the start is not finite).
         """
         g = integrate.grid(t0, t_end, dt)
         k_from, k_to = g.span(steps, save_every)
-        y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"), vector(w0, 2, "w0")])
+        w0 = np.concatenate([[0.0, 0.0], self.controller_initial]) if w0 is None else w0
+        y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"),
+                             vector(w0, 2 + len(self.controller_names), "w0")])
         if len(self.actuators):  # the generated loops solve the GPME: the actuated one runs in Python
             t, y, status = integrate.rk4_steps(integrate.state_derivative(self), y0, g, k_from, k_to,
                                                int(save_every))
@@ -764,7 +800,7 @@ class LoadedModel:
                counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
                first: int = 0) -> tuple[Array, SolveStatus]:
         """DOP853 of the GPME in the compiled loop from ``t_a`` (s) and the augmented state
-        ``y_a = [q, q̇, w]`` (2n + 2,) to ``t_save[-1]``, saving at the increasing instants
+        ``y_a = [q, q̇, w, z]`` (2n + 2 + n_z,) to ``t_save[-1]``, saving at the increasing instants
         ``t_save`` (k,) s. ``step`` (1,): the step to try first (0: chosen), updated to the one to
         try next; ``counts`` (5,) int64: steps, rejected, GPME solves, Jacobians and LU
         factorizations, added to. ``max_steps`` > 0: the call returns after that many steps

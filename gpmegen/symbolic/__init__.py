@@ -5,12 +5,15 @@ Pure functions of the model: nothing here touches files.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import sympy as sp
 
 from ..model.expand import FlatChain, expand
 from . import constraints as _constraints
 from . import dynamics as _dynamics
 from . import recursive as _recursive
+from .constraints import state_expressions
 from .kinematics import Kinematics, forward
 from .program import Program
 
@@ -26,6 +29,8 @@ class Derivation:
     dynamics: _dynamics.Dynamics
     constraints: _constraints.ConstraintTerms
     recursive: _recursive.RecursiveTerms
+    # the controller states' rates (n_z,), 1/s times the state's unit, in the order of the model's
+    controller_rates: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 1))
 
 
 def derive(model) -> Derivation:
@@ -36,7 +41,8 @@ def derive(model) -> Derivation:
     dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces)
     con = _constraints.derive(kin, model.constraints)
     rec = _recursive.derive(kin, dyn, model.gravity)
-    return Derivation(chain, program, kin, dyn, con, rec)
+    rates = sp.Matrix(state_expressions(kin, [c.rate for c in model.controllers])) if model.controllers else None
+    return Derivation(chain, program, kin, dyn, con, rec, *([rates] if rates is not None else []))
 
 
 __all__ = ["Derivation", "derive"]

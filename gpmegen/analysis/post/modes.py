@@ -128,6 +128,19 @@ def constrained_modes(model, q_eq, hold=None, step=1e-7) -> Modes:
     return modes
 
 
+def start_modes(model, q, lock: str) -> Modes | None:
+    """The modes a model has about its start ``q``: with the joints locked (``lock`` "joints",
+    :func:`locked_modes`) or with the programmed constraints holding ("constraints",
+    :func:`constrained_modes`, ``q`` the constrained equilibrium). None when no coordinate that
+    carries a spring (a flexible link's sde, a sprung joint) is free to move: nothing vibrates."""
+    if lock == "joints":
+        if statics.spring_coordinates(model, q).size == 0:
+            return None
+        return locked_modes(model, q)[1]
+    modes = constrained_modes(model, q)
+    return modes if len(modes.frequencies) else None
+
+
 def highest_frequency(model, t, q, qd=None) -> float:
     """The highest natural frequency ω (rad/s) of the motion linearized at ``(t, q, qd)`` (not
     necessarily an equilibrium; ``qd`` default rest): ``K φ = ω² M φ`` with ``K`` the tangent

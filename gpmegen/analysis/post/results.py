@@ -49,7 +49,7 @@ ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "
                       "lambda", "point_forces", "u", "actuators", "kinetic_energy", "gravity_energy", "spring_energy",
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
                       "internal_eigenvalues", "force_names", "force_elements", "limited_drives", "drive_laws",
-                      "drive_limits", "time_at_limit")
+                      "drive_limits", "time_at_limit", "controller_names", "controller_states")
 #: A closure's reaction (:mod:`gpmegen.analysis.post.closures`): ``closure_<name>_force`` and
 #: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
 CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")

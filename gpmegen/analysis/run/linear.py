@@ -126,6 +126,9 @@ def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
     ``(t, q, qd)``, with inputs on the coordinates named in ``inputs``. The partition is chosen at
     the state (pivoted QR of ``D``) unless the model fixes it."""
     refuse_velocity_constraints(model.constraint_names, model.constraint_orders)
+    if model.controller_names:
+        raise ModelError(f"model {model.module.MODEL} has controller states ({', '.join(model.controller_names)}), "
+                         f"which the linear model does not include yet; linearize the model without them")
     unknown = [name for name in inputs if name not in model.coordinates]
     if unknown:
         raise ModelError(f"inputs {', '.join(map(repr, unknown))}: not coordinates of {model.module.MODEL}; name "

@@ -111,7 +111,7 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
                                                f"stops it, keeping the results so far")
             t, y, outcome, effort = _integrate(model, q0, qd0, spec, progress, watch)
         except KeyboardInterrupt:  # before the integrator's own loop began, or in the line
-            t, y = np.zeros(1), np.concatenate([q0, qd0, [0.0, 0.0]])[None, :]
+            t, y = np.zeros(1), integrate.start_state(model, q0, qd0)[None, :]
             outcome, effort = Outcome(Ending.INTERRUPTED, 0.0), integrate.Effort(0, 0, 0, 0, 0)
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
@@ -163,18 +163,19 @@ def collect(model, t, y, status, settings) -> dict:
     q, qd = y[:, :n], y[:, n:2 * n]
     samples = len(t)
     actuated = len(model.actuators) > 0
-    ok = np.all(np.isfinite(y[:, :2 * n]), axis=1)  # the states the model's functions accept
-    derived = _derived_together(model, t, q, qd, ok) if samples else None
+    z = y[:, 2 * n + 2:]   # the controller states: what the drives read at each sample
+    ok = np.all(np.isfinite(y[:, :2 * n]), axis=1) & np.all(np.isfinite(z), axis=1)  # what the functions accept
+    derived = _derived_together(model, t, q, qd, ok) if samples and not model.controller_names else None
     if derived is None:
-        derived = _derived_each(model, t, q, qd, ok)
+        derived = _derived_each(model, t, q, qd, ok, z)
     E, drive, phi, qdd, reaction, lam, energy = derived
     finite = np.flatnonzero(ok)
     elements = np.full((samples, len(model.force_names), 3), np.nan)
     for k in finite if model.force_names else ():
-        elements[k] = model.force_elements(t[k], q[k], qd[k])
+        elements[k] = model.at_controller_states(z[k]).force_elements(t[k], q[k], qd[k])
     limited = np.full((samples, len(model.limited_drives), 2), np.nan)
     for k in finite if model.limited_drives else ():
-        limited[k] = model.drive_limits(t[k], q[k], qd[k])
+        limited[k] = model.at_controller_states(z[k]).drive_limits(t[k], q[k], qd[k])
     dampers = (energy_balance.damper_work(energy_balance.damping_matrix(model, t[finite[0]], q[finite[0]]), t, qd, qdd)
                if len(finite) else np.full(samples, np.nan))
     realization = ({"u": lam, "actuators": np.array([model.coordinates[k] for k in model.actuators])} if actuated
@@ -188,6 +189,8 @@ def collect(model, t, y, status, settings) -> dict:
         "kinetic_energy": energy[:, 0], "gravity_energy": energy[:, 1], "spring_energy": energy[:, 2],
         "work_drive": y[:, 2 * n], "work_constraints": y[:, 2 * n + 1], "work_dampers": dampers,
         "status": np.array(status),
+        **({"controller_names": np.array(model.controller_names), "controller_states": z}
+           if model.controller_names else {}),
         **({"force_names": np.array(model.force_names), "force_elements": elements} if model.force_names else {}),
         **({"limited_drives": np.array(model.limited_drives), "drive_laws": limited[:, :, 0],
             "drive_limits": limited[:, :, 1],
@@ -202,9 +205,10 @@ def collect(model, t, y, status, settings) -> dict:
     }
 
 
-def _derived_each(model, t, q, qd, ok):
-    """:func:`collect`'s derived quantities, one sample at a time: ``(E, drive, Φ, q̈, M q̈ - f,
-    λ or u, energies)``; a sample whose GPME has no solution raises."""
+def _derived_each(model, t, q, qd, ok, z):
+    """:func:`collect`'s derived quantities, one sample at a time, each with its controller
+    states ``z`` (samples, n_z): ``(E, drive, Φ, q̈, M q̈ - f, λ or u, energies)``; a sample
+    whose GPME has no solution raises."""
     samples, n, m = len(t), model.n_dof, len(model.constraint_names)
     E = np.zeros((samples, 3))
     phi = np.full((samples, m), np.nan)
@@ -215,12 +219,13 @@ def _derived_each(model, t, q, qd, ok):
     energy = np.zeros((samples, 3))
     actuated = len(model.actuators) > 0
     for k in range(samples):
+        model_k = model.at_controller_states(z[k]) if ok[k] and model.controller_names else model
         E[k] = model.end_effector(q[k])
-        drive[k] = model.drive_forces(t[k], q[k], qd[k]) if ok[k] else np.nan
+        drive[k] = model_k.drive_forces(t[k], q[k], qd[k]) if ok[k] else np.nan
         if ok[k]:  # the state (the model's functions refuse one not finite)
             phi[k] = model.constraint_values(t[k], q[k], qd[k])
             D = model.constraint_terms(t[k], q[k], qd[k])[2]
-            qdd[k], M, f = model.motion(t[k], q[k], qd[k])
+            qdd[k], M, f = model_k.motion(t[k], q[k], qd[k])
             reaction[k] = M @ qdd[k] - f
             lam[k] = reaction[k][model.actuators] if actuated else gpme.multipliers(M, f, qdd[k], D, model.redundant)
         energy[k] = model.energies(q[k], qd[k])

@@ -33,6 +33,7 @@ from ..chain import (
     CircularSection,
     Closure,
     Constraint,
+    Controller,
     Drive,
     FlexibleLink,
     ForceElement,
@@ -57,7 +58,7 @@ from ..chain import (
     symbol,
     velocity_symbol,
 )
-from ..expand import FORCE_KEYS, expand
+from ..expand import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS, expand
 from ..requirements import evaluate, requirements, violation
 from ..rfem import check_freedoms, check_link, check_nrfe, discretize, link_coordinates
 from .expressions import CONSTANTS, FUNCTIONS, TAKEN_NAMES, parse
@@ -75,7 +76,8 @@ _RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 
 _TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "closures", "forces", "initial", "actuators", "urdf", "signals")
+            "chain", "drives", "constraints", "closures", "forces", "initial", "actuators", "urdf", "signals",
+            "controllers")
 SIGNAL_KEYS = ("name", "expression", "table", "column")
 CLOSURE_KEYS = ("name", "points", "type", "axis", "alpha", "beta")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
@@ -133,6 +135,8 @@ class Reader:
         self.prescribed: dict[str, tuple] = {}   # coordinate -> (law of t, path of its field)
         self.reading_drive = ""   # names are read for a law ("a drive's", "an actuator's": positions and
         # velocities only)
+        self.reading_why = FORCE_OF_ACCELERATIONS   # why that law may not read accelerations
+        self.controller_states: dict[str, sp.Symbol] = {}   # a controller state's name -> its symbol
         self.signal_expressions: dict[str, sp.Expr] = {}   # a signal given by an expression: name -> it
         self.table_signals: dict[str, Signal] = {}   # a signal read from a table: name -> it
 
@@ -277,7 +281,7 @@ class Reader:
                 base = name[:-len(suffix)]
                 if base in self.coordinates and self.reading_drive:
                     return (f"{self.reading_drive} law may use positions and velocities, not the {quantity} {name} "
-                            f"(a force that depends on the accelerations changes the mass matrix); remove it")
+                            f"({self.reading_why}); remove it")
                 if base in self.coordinates:
                     return f"the {quantity} {name} may appear only in {orders} or remove it"
                 return f"{name!r}: {base!r} is not a coordinate; the coordinates are {coordinate_list}"
@@ -289,8 +293,7 @@ class Reader:
                     quantity, orders = _RATES[kind]
                     if self.reading_drive:
                         return (f"{self.reading_drive} law may use positions and velocities, not the point "
-                                f"{quantity} {name} (a force that depends on the accelerations changes the mass "
-                                f"matrix); remove it")
+                                f"{quantity} {name} ({self.reading_why}); remove it")
                     return f"the point {quantity} {name} may appear only in {orders} or remove it"
                 return f"point coordinate {name} may appear only in drives and constraints; remove it"
             known = ", ".join(self.points) or "none"
@@ -337,6 +340,7 @@ class Reader:
         up = [0, 0, "-g"] if "urdf" in data else [0, 0, 0]   # URDF robots are described z up
         gravity = self.read_vector(data.get("gravity", up), ("gravity",), self.params)
         signals = self.read_signals(data.get("signals", []))
+        controllers = self.read_controllers(data.get("controllers", []), chain)
         drives = self.read_drives(data.get("drives", []))
         constraints = self.read_constraints(data.get("constraints", []))
         closures = self.read_closures(data.get("closures", []), constraints, chain)
@@ -352,7 +356,7 @@ class Reader:
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, closures=closures,
-            signals=signals, forces=forces,
+            signals=signals, forces=forces, controllers=controllers,
         )
         if closures:
             model = self.drop_vanishing(model, chain)
@@ -654,6 +658,18 @@ class Reader:
                 names.update({s.name: f"a {kind} coordinate of point {point!r}" for s in f(point)})
         return names
 
+    def fresh_name(self, name, path, what, taken: dict, seen: dict) -> None:
+        """Refuse ``name`` (of a ``what`` at ``path``) when the file's expressions give it to
+        something else (``taken``: name -> what it is) or an earlier one of its kind took it
+        (``seen``: name -> its path, to which it is then added)."""
+        if name in taken:
+            other = taken[name] if " " in taken[name] else f"a {taken[name]}"
+            self.fail(path, f"{what} {name!r} has the name of {other} in expressions; choose another name")
+        if name in seen:
+            self.fail(path, f"a second {what} {name!r} (the first at line {self.locator.line(seen[name])}); choose "
+                            f"another name")
+        seen[name] = path
+
     def read_signals(self, items) -> tuple:
         """The ``[[signals]]``: each a name for a law of t and parameters (``expression``, written
         where the name stands) or for a column of a results file (``table``, ``column``), read at
@@ -665,13 +681,7 @@ class Reader:
             path = ("signals", k)
             self.table(item, path, SIGNAL_KEYS, ("name",), "signal")
             name = self.name(item["name"], path + ("name",), "signal", bare=True)
-            if name in taken:
-                self.fail(path + ("name",), f"signal {name!r} has the name of {taken[name]} in expressions; "
-                                            f"choose another name")
-            if name in seen:
-                self.fail(path + ("name",), f"a second signal {name!r} (the first at line "
-                                            f"{self.locator.line(seen[name])}); choose another name")
-            seen[name] = path + ("name",)
+            self.fresh_name(name, path + ("name",), "signal", taken, seen)
             if ("expression" in item) == ("table" in item):
                 self.fail(path, "give a signal either expression = \"...\" (a law of t and parameters) or "
                                 "table = \"run.npz\" with column = \"...\", not both nor neither")
@@ -712,10 +722,33 @@ class Reader:
                                        f"\"{point}\" element")
         return points
 
+    def read_controllers(self, items, chain) -> tuple:
+        """The ``[[controllers]]`` as :class:`Controller`: each state a name of its own among the
+        file's names, its ``rate`` a law of t, parameters, positions and velocities, signals and
+        the controller states (any of them, read before the rates), ``initial`` of parameters."""
+        self.array(items, ("controllers",), what="list of [[controllers]] tables")
+        taken = {**self.taken_names(chain, ()), **self.expression_names(),
+                 **{name: "a signal" for name in self.signal_scope()}}
+        states: dict[str, tuple] = {}
+        for k, item in enumerate(items):
+            path = ("controllers", k)
+            self.table(item, path, ("state", "rate", "initial"), ("state", "rate"), "controller")
+            name = self.name(item["state"], path + ("state",), "controller state", bare=True)
+            self.fresh_name(name, path + ("state",), "controller state", taken, states)
+        self.controller_states = {name: symbol(name) for name in states}
+        scope = {**self.constraint_scope(1), **self.signal_scope(), **self.controller_states}
+        controllers = []
+        for k, item in enumerate(items):
+            path = ("controllers", k)
+            rate = self.law(item["rate"], path + ("rate",), "a controller state's rate", scope, RATE_OF_ACCELERATIONS)
+            initial = self.quantity(item.get("initial", 0), path + ("initial",), self.params)
+            controllers.append(Controller(item["state"], rate, initial))
+        return tuple(controllers)
+
     def read_drives(self, items):
         self.array(items, ("drives",), what="list of [[drives]] tables")
-        # a feedback law: t, parameters, positions and velocities; and the signals
-        scope = {**self.constraint_scope(1), **self.signal_scope()}
+        # a feedback law: t, parameters, positions and velocities; the signals and controller states
+        scope = {**self.constraint_scope(1), **self.signal_scope(), **self.controller_states}
         drives = []
         for k, item in enumerate(items):
             path = ("drives", k)
@@ -726,14 +759,15 @@ class Reader:
                                 limit))
         return tuple(drives)
 
-    def law(self, value, path, whose, scope=None):
-        """A feedback law (``whose``: "a drive's", "an actuator's"): of t, parameters, positions
-        and velocities (``scope``, when given: those names and more, a drive's signals)."""
-        self.reading_drive = whose
+    def law(self, value, path, whose, scope=None, why=FORCE_OF_ACCELERATIONS):
+        """A feedback law (``whose``: "a drive's", "an actuator's", "a controller state's rate"):
+        of t, parameters, positions and velocities (``scope``, when given: those names and more, a
+        drive's signals); ``why`` it may not read accelerations, as its refusal says."""
+        self.reading_drive, self.reading_why = whose, why
         try:
             return self.quantity(value, path, scope if scope is not None else self.constraint_scope(1))
         finally:
-            self.reading_drive = ""
+            self.reading_drive, self.reading_why = "", FORCE_OF_ACCELERATIONS
 
     def read_forces(self, items, taken) -> tuple:
         """The ``[[forces]]`` as :class:`ForceElement`: each name free among the file's names

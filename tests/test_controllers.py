@@ -1,0 +1,238 @@
+"""Controller states: first-order states of a model file (``[[controllers]]``) integrated with the
+mechanics, read by its drives.
+
+The models: a slider pushed back by a constant force F and held at x_ref by a PID law
+(tests/models/pid_slider.toml), whose steady states are known in closed form with and without
+the integral term, and a slider whose drive reads a first-order filter of a step (below), whose
+response is 1 - exp(-t/T)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.analysis.run import linear
+from gpmegen.errors import ModelError, SimulationError
+from gpmegen.runtime import integrate
+from gpmegen.status import SolveStatus
+from tests.refusals import refused_in_one_line
+
+MODELS = Path(__file__).parent / "models"
+PID = MODELS / "pid_slider.toml"
+BACKENDS = ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)]
+M, KP, KI, KD, X_REF, F = 1.0, 40.0, 60.0, 12.0, 0.1, 2.0   # the file's defaults
+
+FILTER = """schema = 1
+name = "filtered_slider"
+gravity = [0, 0, 0]
+
+[parameters]
+m = 0.5
+k = 8.0
+u = 1.0
+T = 0.2
+
+[[chain]]
+joint = "x"
+type = "prismatic"
+axis = "x"
+
+[[chain]]
+body = "cart"
+mass = "m"
+
+[[chain]]
+point = "C"
+
+[[controllers]]
+state = "s"
+rate = "(u - s)/T"
+
+[[drives]]
+coordinate = "x"
+expression = "k*(s - x)"
+"""
+
+
+@pytest.fixture(scope="module")
+def pid(env):
+    """The PID slider on each backend (the C one missing without a compiler)."""
+    model = gpmegen.load_model_file(PID)
+    loaded = {"numpy": gpmegen.load(model=model, backend="numpy")}
+    try:
+        loaded["c"] = gpmegen.load(model=model, backend="c")
+    except gpmegen.errors.BuildError:
+        pass
+    return loaded
+
+
+def _on(loaded, backend):
+    if backend not in loaded:
+        pytest.skip("no C compiler")
+    return loaded[backend]
+
+
+def test_a_drive_reads_the_controller_state_the_model_holds(pid):
+    model = pid["numpy"]
+    assert model.controller_names == ("e_int",) and model.controller_initial.tolist() == [0.0]
+    q, qd = np.array([0.04]), np.array([0.5])
+    held = model.at_controller_states([0.25])
+    law = KP * (X_REF - 0.04) - KD * 0.5 + KI * 0.25 - F
+    assert held.drive_forces(0.0, q, qd)[0] == pytest.approx(law, rel=1e-15)
+    assert held.accelerations(0.0, q, qd)[0] == pytest.approx(law / M, rel=1e-15)
+    assert held.controller_rates(0.0, q, qd).tolist() == pytest.approx([X_REF - 0.04], rel=1e-15)
+    assert model.drive_forces(0.0, q, qd)[0] == pytest.approx(law - KI * 0.25, rel=1e-15)   # at the start's 0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_pid_removes_the_steady_error_that_pd_leaves(pid, backend):
+    model = _on(pid, backend)
+    zero = np.zeros(1)
+    # PD (ki = 0): poles -6 ± 2j, so e^(-6 t) < 1e-12 by t = 5 s; the error settles at F/kp
+    t, y, outcome = integrate.rk4(model.with_params(ki=0.0), zero, zero, 5.0, 1e-3, save_every=100)
+    assert outcome.complete
+    assert X_REF - y[-1, 0] == pytest.approx(F / KP, abs=1e-10)
+    # PID: s³ + 12 s² + 40 s + 60 has its slowest poles at about -2.05 ± 1.84j; from t = 12 s on
+    # the transient is below e^(-24), and the integral alone balances F
+    t, y, outcome = integrate.rk4(model, zero, zero, 15.0, 2e-3, save_every=500)
+    assert outcome.complete
+    assert np.abs(y[t >= 12.0, 0] - X_REF).max() < 1e-6
+    e_int = y[:, 4]   # [x, x_dot, W_drive, W_constraint, e_int]
+    assert e_int[-1] == pytest.approx(F / KI, abs=1e-8)
+
+
+def test_the_slowest_pid_poles_are_those_the_test_relies_on():
+    poles = np.roots([M, KD, KP, KI])
+    assert poles.real.max() == pytest.approx(-2.05, abs=0.01)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_first_order_filter_follows_its_closed_form(env, tmp_path, backend):
+    path = tmp_path / "filtered_slider.toml"
+    path.write_text(FILTER)
+    if backend == "c":
+        pytest.importorskip("cffi")
+    run = gpmegen.simulate(str(path), t_end=1.0, dt=1e-3, backend=backend)
+    assert run["controller_names"].tolist() == ["s"]
+    s = run["controller_states"][:, 0]
+    # RK4 at h/T = 5e-3: a global error of about (h/T)^4/120 relative, far below this bound
+    np.testing.assert_allclose(s, 1.0 - np.exp(-run.t / 0.2), rtol=0, atol=1e-10)
+    # the drive read the state that was saved: k (s - x) at each sample
+    np.testing.assert_allclose(run["drive_forces"][:, 0], 8.0 * (s - run["q"][:, 0]), rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backend):
+    model = _on(pid, backend)
+    zero = np.zeros(1)
+    t, y, outcome = integrate.rk4(model, zero, zero, 2.0, 1e-3, save_every=100)
+    assert outcome.complete
+    runs = {"scipy-radau": integrate.scipy_solve(model, zero, zero, 2.0, method="Radau", rtol=1e-10, atol=1e-12,
+                                                 t_eval=t)}
+    if backend == "c":
+        runs["dop853"] = integrate.dop853(model, zero, zero, 2.0, 0.1, rtol=1e-10, atol=1e-12)
+    for method, (t_m, y_m, outcome_m, _) in runs.items():
+        assert outcome_m.complete, method
+        np.testing.assert_allclose(t_m, t, rtol=0, atol=1e-12)
+        # x, x_dot and e_int (the works are not compared: the adaptive methods do not control their error)
+        np.testing.assert_allclose(y_m[:, [0, 1, 4]], y[:, [0, 1, 4]], rtol=0, atol=1e-8, err_msg=method)
+
+
+@pytest.mark.requires_cc
+def test_numpy_and_c_give_the_same_run(pid):
+    zero = np.zeros(1)
+    # the Python loop over the NumPy functions and the compiled loop
+    runs = [integrate.rk4(_on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
+    assert runs[1][1].shape[1] == 5
+    np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_the_drive_work_carried_with_the_states_is_the_kinetic_energy_gained(env, backend):
+    run = gpmegen.simulate(str(PID), t_end=2.0, dt=1e-3, backend=backend)
+    gained = run["kinetic_energy"] - run["kinetic_energy"][0]
+    np.testing.assert_allclose(run["work_drive"], gained, rtol=0, atol=1e-10)
+
+
+@pytest.mark.requires_cc
+@pytest.mark.parametrize("method", ["radau", "genalpha"])
+def test_an_implicit_loop_refuses_the_states_in_one_line(pid, method):
+    zero = np.zeros(1)
+    run = {"genalpha": lambda m: integrate.genalpha(m, zero, zero, 0.1, 1e-3, 1e-2),
+           "radau": lambda m: integrate.radau(m, zero, zero, 0.1, 1e-2)}[method]
+    with pytest.raises(SimulationError, match=f"--method {method} does not integrate controller states") as caught:
+        run(_on(pid, "c"))
+    assert "\n" not in str(caught.value)
+    # and the loop itself, called past that check, refuses rather than drop them
+    model = _on(pid, "c")
+    y = integrate.start_state(model, zero, zero)
+    if method == "radau":
+        rows, status = model.radau(0.0, y, np.array([0.01]), 1e-6, 1e-8, np.zeros(1),
+                                   np.zeros(integrate.ADAPTIVE_COUNTS, dtype=np.int64))
+    else:
+        memory = {"a": np.full(1, np.nan), "S": np.zeros((1, 1)), "pivot": np.zeros(1, dtype=np.intc),
+                  "have": np.zeros(1, dtype=np.intc)}
+        rows, status = model.genalpha(integrate.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y, memory,
+                                      np.array([0.01]), np.zeros(integrate.COUNTS, dtype=np.int64))
+    assert status == SolveStatus.BAD_ARGUMENTS and len(rows) == 0
+
+
+def test_linearization_and_exports_refuse_the_states_in_one_line(pid):
+    from gpmegen.codegen.render import check_no_controllers
+
+    with pytest.raises(ModelError, match="controller states") as caught:
+        linear.linearize(pid["numpy"], 0.0, np.zeros(1), np.zeros(1))
+    assert "\n" not in str(caught.value)
+    with pytest.raises(ModelError, match="an FMU does not carry controller states") as caught:
+        check_no_controllers(gpmegen.load_model_file(PID), "an FMU")
+    assert "\n" not in str(caught.value)
+
+
+TEXT = PID.read_text()
+
+
+@pytest.mark.parametrize("change, field, message", [
+    (('rate = "x_ref - x"', 'rate = "x_ref - x - x_ddot"'), "controllers[0].rate",
+     "a controller state's rate law may use positions and velocities, not the acceleration x_ddot"),
+    (('rate = "x_ref - x"', 'rate = "x_ref - y"'), "controllers[0].rate", "unknown name 'y'"),
+    (('state = "e_int"', 'state = "x"'), "controllers[0].state",
+     "controller state 'x' has the name of a coordinate in expressions; choose another name"),
+    (('state = "e_int"', 'state = "kp"'), "controllers[0].state",
+     "controller state 'kp' has the name of a parameter in expressions; choose another name"),
+    (('rate = "x_ref - x"', 'rate = "__import__(\'os\').system(\'true\')"'), "controllers[0].rate",
+     "character \"'\" is not allowed in an expression"),
+    (('rate = "x_ref - x"', 'rate = "x_ref.__class__"'), "controllers[0].rate", "is not allowed"),
+    (('rate = "x_ref - x"', 'rate = "x_ref - x"\ngain = 2'), "controllers[0].gain",
+     "unknown key 'gain'; the keys of a controller are state, rate, initial"),
+])
+def test_faulty_controllers_are_refused_in_one_line(tmp_path, capsys, change, field, message):
+    refused_in_one_line(tmp_path / "pid_slider.toml", TEXT, change, field, message, capsys)
+
+
+def test_a_drive_reading_an_undeclared_state_names_it(tmp_path, capsys):
+    refused_in_one_line(tmp_path / "pid_slider.toml", TEXT, ("ki*e_int", "ki*e_intt"), "drives[0].expression",
+                        "unknown name 'e_intt'; did you mean 'e_int'?", capsys)
+
+
+def test_a_model_made_in_python_is_checked_as_a_file_is():
+    import dataclasses
+
+    import sympy as sp
+
+    from gpmegen.model.expand import expand
+
+    model = gpmegen.load_model_file(PID)
+    x = sp.Symbol("x", real=True)
+    for controllers, message in [
+        ((gpmegen.Controller("x_dot", -x),), "controller state 'x_dot' has the name of a time, velocity"),
+        ((gpmegen.Controller("e_int", -sp.Symbol("x_ddot", real=True)),),
+         "controller state 'e_int': a controller state's rate law may use positions and velocities, not the "
+         "acceleration x_ddot"),
+        (("e_int",), "controllers\\[0\\] is a str, not a Controller"),
+    ]:
+        with pytest.raises(ModelError, match=message) as caught:
+            expand(dataclasses.replace(model, controllers=controllers))
+        assert "\n" not in str(caught.value)
