@@ -33,10 +33,12 @@ demo: venv
 TEST_ENV := PYTHONDONTWRITEBYTECODE=
 
 # The import contracts of pyproject.toml (the layers, every import counted, those inside functions
-# too; under a second), said only when one is broken.
+# too; under a second), said only when one is broken; so are the types of the public modules
+# ([tool.mypy] in pyproject.toml; 3 s of CPU with no cache, 0.2 s with its cache .mypy_cache).
 test: venv
 	$(BIN)/ruff check gpmegen tests benchmarks
 	@report=$$($(BIN)/lint-imports --no-cache 2>&1) || { echo "$$report"; exit 1; }
+	@report=$$($(BIN)/mypy 2>&1) || { echo "$$report"; exit 1; }
 	$(TEST_ENV) $(BIN)/python -m pytest -q -n 2 -m "not sanitizers and not long"
 
 # The generated C of a spread of models under AddressSanitizer and UndefinedBehaviorSanitizer,

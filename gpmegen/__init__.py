@@ -9,7 +9,49 @@ the model's elements and the errors.
 """
 
 # Nothing is imported here: the console command imports this package before it can catch Ctrl-C
-# (gpmegen/entry.py), so every name, __version__ included, is looked up when first used.
+# (gpmegen/entry.py), so every name, __version__ included, is looked up when first used. A type
+# checker reads the names from where they are defined: it takes TYPE_CHECKING as true.
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from typing import Any
+
+    from . import limits
+    from .api import (
+        Body,
+        BuildError,
+        Constraint,
+        DerivationError,
+        Drive,
+        FlexibleLink,
+        GpmegenError,
+        Joint,
+        Model,
+        ModelError,
+        Offset,
+        Parameter,
+        Point,
+        Results,
+        RunSpec,
+        Signal,
+        SimulationError,
+        StaleModelError,
+        StaticsError,
+        export_casadi,
+        export_fmu,
+        import_urdf,
+        linearize,
+        load,
+        load_model_file,
+        metrics,
+        read_model_file,
+        reference_model,
+        simulate,
+        statics,
+        sweep,
+        urdf_text,
+    )
+    from .version import __version__
+
 __all__ = [
     "load", "statics", "simulate", "Results", "load_model_file", "read_model_file", "reference_model",
     "Model", "Parameter", "Joint", "Offset", "Body", "Point", "FlexibleLink", "Drive", "Signal",
@@ -21,7 +63,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name):
+def __getattr__(name: str) -> "Any":
     if name == "__version__":
         from .version import __version__
 

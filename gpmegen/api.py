@@ -19,7 +19,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .analysis.post import results as results_io
@@ -61,11 +63,25 @@ from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
 from .version import __version__
 
+if TYPE_CHECKING:  # for the annotations only: nothing more is imported at run time
+    from .analysis.run.cases import Case
+    from .analysis.run.linear import LinearModel
+    from .analysis.run.tracking import Metrics
+    from .runtime.consistent import Start
+    from .runtime.model import LoadedModel
+
+#: Where a model is: None (the reference manipulator), a model file or a folder made by
+#: ``gpmegen build --out`` (a path), or a :class:`Model`.
+ModelSource = str | Path | Model | None
+#: What takes one-line messages.
+Progress = Callable[[str], object]
+
 #: Where a model is found, beside the model itself: the reference arm's rfes, the folder of builds.
-_FOUND = {"nrfe": None, "directory": None}
+_FOUND: dict[str, Any] = {"nrfe": None, "directory": None}
 
 
-def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, *, model=None, **options):
+def load(nrfe: int = 5, backend: str | None = None, params: Mapping[str, float] | None = None, *,
+         model: Model | None = None, **options: Any) -> LoadedModel:
     """The generated model ready to evaluate.
 
     ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
@@ -99,7 +115,7 @@ def load(nrfe: int = 5, backend: str | None = None, params: dict | None = None, 
     return with_constants(loaded, params)[0]
 
 
-def _case(model, nrfe):
+def _case(model: ModelSource, nrfe: int | None) -> Case:
     """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
     model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
     if model is None:
@@ -111,12 +127,12 @@ def _case(model, nrfe):
     raise TypeError(f"model must be None, a path or a gpmegen.Model, got {type(model).__name__}")
 
 
-def _messages(progress):
+def _messages(progress: Progress | None) -> Progress:
     """``progress``, or when None a sink that passes only warnings on, as Python warnings."""
     if progress is not None:
         return progress
 
-    def warn(message):
+    def warn(message: str) -> None:
         if message.startswith("warning: "):
             import warnings
 
@@ -125,7 +141,8 @@ def _messages(progress):
     return warn
 
 
-def _started(model, nrfe, start, directory):
+def _started(model: ModelSource, nrfe: int | None, start: str | None,
+             directory: str | Path | None) -> tuple[Case, str]:
     case = _case(model, nrfe)
     if directory is not None:
         case.directory = directory
@@ -135,7 +152,8 @@ def _started(model, nrfe, start, directory):
     return case, start
 
 
-def statics(model=None, *, params=None, backend=None, **options):
+def statics(model: ModelSource = None, *, params: Mapping[str, float] | None = None, backend: str | None = None,
+            **options: Any) -> Start:
     """The consistent start of a run, as ``gpmegen statics`` finds it: a
     :class:`gpmegen.runtime.consistent.Start` with ``model`` (loaded, its constants bound), ``q`` and
     ``qd`` (n,) on the programmed constraints at t = 0, and ``moved`` (how far they were moved
@@ -156,10 +174,11 @@ def statics(model=None, *, params=None, backend=None, **options):
 
 
 #: :func:`simulate`'s options beyond its run's (:class:`RunSpec`'s fields), with their defaults.
-_SIMULATE = {**_FOUND, "progress": None, "feedforward": None}
+_SIMULATE: dict[str, Any] = {**_FOUND, "progress": None, "feedforward": None}
 
 
-def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=None, **options):
+def simulate(model: ModelSource = None, spec: RunSpec | None = None, *, params: Mapping[str, float] | None = None,
+             backend: str | None = None, **options: Any) -> Results:
     """The constrained motion from :func:`statics`'s start, as ``gpmegen simulate`` runs it, as
     :class:`Results` (nothing is written: :meth:`Results.save`). ``model``, ``params``,
     ``backend`` and the options ``nrfe``, ``directory``, ``progress`` as :func:`statics`. The run
@@ -187,7 +206,8 @@ def simulate(model=None, spec: RunSpec | None = None, *, params=None, backend=No
     return runs.Results(done.results)
 
 
-def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) -> dict:
+def export_casadi(folder: str | Path, model: ModelSource = None, *, nrfe: int | None = None,
+                  inputs: Iterable[str] = (), overwrite: bool = False) -> dict[str, Any]:
     """The model's functions as CasADi functions, as ``gpmegen export --format casadi`` writes them
     into ``folder`` (:mod:`gpmegen.codegen.casadi_export`): ``qdd(t, q, qd, u, p)``, ``M(q, p)``,
     ``f(t, q, qd, u, p)``, ``Phi``, ``Phi_rate``, ``D``, ``gamma`` ``(t, q, qd, p)``, ``points(q, p)``,
@@ -199,7 +219,8 @@ def export_casadi(folder, model=None, *, nrfe=None, inputs=(), overwrite=False) 
     return case.located(lambda: casadi_export.export(case.model, folder, tuple(inputs), overwrite=overwrite))
 
 
-def export_fmu(out, model=None, *, inputs=(), overwrite=False, **options):
+def export_fmu(out: str | Path, model: ModelSource = None, *, inputs: Iterable[str] = (), overwrite: bool = False,
+               **options: Any) -> Path:
     """The model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one archive), as
     ``gpmegen export --format fmu`` writes it into the file ``out`` (``NAME.fmu``;
     :mod:`gpmegen.codegen.fmu_export`): its states q and q̇, the GPME's q̈, the points, the
@@ -214,7 +235,8 @@ def export_fmu(out, model=None, *, inputs=(), overwrite=False, **options):
                                                   _messages(chosen["progress"])))
 
 
-def linearize(model=None, *, params=None, backend=None, at=None, **options):
+def linearize(model: ModelSource = None, *, params: Mapping[str, float] | None = None, backend: str | None = None,
+              at: str | Path | None = None, **options: Any) -> LinearModel | list[LinearModel]:
     """The linear model ``ẋ = A x + B u`` (:class:`gpmegen.analysis.run.linear.LinearModel`), as
     ``gpmegen linearize`` makes it: about :func:`statics`'s start (arguments as there), or with
     ``at`` (a results file of this model) and ``times`` (s), a list of them, one at the saved
@@ -244,7 +266,9 @@ def linearize(model=None, *, params=None, backend=None, at=None, **options):
     return linear.along_run(loaded, at, times, inputs)
 
 
-def metrics(runs, reference=None, *, after=None, backend=None, nrfe=None, progress=None) -> list:
+def metrics(runs: str | Path | Results | Iterable[str | Path | Results], reference: ModelSource = None, *,
+            after: float | None = None, backend: str | None = None, nrfe: int | None = None,
+            progress: Progress | None = None) -> list[Metrics]:
     """Tracking metrics of ``runs`` (results files or :class:`Results`) against ``reference``, as
     ``gpmegen metrics`` prints them: a list of :class:`gpmegen.analysis.run.tracking.Metrics`, one per
     run (constraint values, path error, residual vibration, effort; see

@@ -48,6 +48,11 @@ class RunSpecError(GpmegenError, ValueError):
     takes (a negative step, an unknown method, a save interval that is no whole number of steps)."""
 
 
+class MissingExtraError(GpmegenError):
+    """An optional package that a feature needs is not installed; the message names the extra of
+    gpmegen that installs it (:func:`gpmegen.extras.require`)."""
+
+
 class StaticsError(GpmegenError):
     """Newton–Raphson statics did not converge."""
 

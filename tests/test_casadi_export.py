@@ -228,7 +228,7 @@ def test_missing_casadi_is_one_line_naming_the_extra(tmp_path):
     script = ("import sys\nsys.modules['casadi'] = None\nfrom gpmegen.cli import main\n"
               f"sys.exit(main(['export', {str(PLANAR)!r}, '--format', 'casadi', '--out', {str(tmp_path / 'x')!r}]))")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
-    assert done.returncode == 1
+    assert done.returncode == 2
     assert done.stderr.strip().count("\n") == 0 and "pip install 'gpmegen[casadi]'" in done.stderr
     assert not (tmp_path / "x").exists()
 

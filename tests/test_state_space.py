@@ -17,7 +17,7 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis.run import linear
-from gpmegen.errors import GpmegenError, ModelError
+from gpmegen.errors import MissingExtraError, ModelError
 
 control = pytest.importorskip("control")
 
@@ -74,7 +74,8 @@ def test_state_space_holds_the_linear_model(lin):
 
 def test_missing_python_control_is_one_line(lin, monkeypatch):
     monkeypatch.setitem(sys.modules, "control", None)   # import control raises ImportError
-    with pytest.raises(GpmegenError, match=r"pip install 'gpmegen\[control\]'"):
+    with pytest.raises(MissingExtraError, match=r"^LinearModel.state_space needs python-control, which is not "
+                                                r"installed: pip install 'gpmegen\[control\]'$"):
         lin.state_space()
 
 

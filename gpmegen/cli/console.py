@@ -10,7 +10,16 @@ import warnings
 
 from .. import limits
 from ..analysis.figures.plots import IncompatibleResults
-from ..errors import BuildError, DerivationError, GpmegenError, ModelError, ModelWarning, OutputError, RunSpecError
+from ..errors import (
+    BuildError,
+    DerivationError,
+    GpmegenError,
+    MissingExtraError,
+    ModelError,
+    ModelWarning,
+    OutputError,
+    RunSpecError,
+)
 from .common import SimulationStopped, UsageError, progress
 from .parser import build_parser
 
@@ -42,7 +51,8 @@ def main(argv=None) -> int:
     except SimulationStopped as exc:
         print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)
         return 130 if exc.interrupted else 1
-    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, OutputError) as exc:
+    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, OutputError,
+            MissingExtraError) as exc:
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:

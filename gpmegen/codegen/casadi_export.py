@@ -25,6 +25,7 @@ import json
 import tempfile
 from pathlib import Path
 
+from .. import extras
 from ..errors import GpmegenError, ModelError
 from ..symbolic import derive
 from .functions import lower, model_functions, prepare_all
@@ -37,17 +38,11 @@ MANIFEST = "casadi.json"
 PRINTED = ("mass_matrix", "forces", "points", "constraint_terms", "baumgarte_gains", "energies")
 #: The exported functions, each saved as ``<name>.casadi``.
 EXPORTED = ("qdd", "M", "f", "Phi", "Phi_rate", "D", "gamma", "points", "energies")
-EXTRA = "pip install 'gpmegen[casadi]'"
 
 
 def require_casadi():
-    """The ``casadi`` module; GpmegenError in one line naming the extra when it is not installed."""
-    try:
-        import casadi
-    except ImportError:
-        raise GpmegenError(f"the CasADi export needs the casadi package, which is not installed: {EXTRA}") \
-            from None
-    return casadi
+    """The ``casadi`` module; MissingExtraError in one line naming the extra when it is not installed."""
+    return extras.require("casadi", "the CasADi export")
 
 
 def check_inputs(coordinates, inputs) -> tuple:

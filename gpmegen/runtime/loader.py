@@ -5,6 +5,7 @@ backend. Building a folder that is missing or stale is :func:`gpmegen.api.load`'
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import BuildError, ModelError, StaleModelError
@@ -60,8 +61,8 @@ def chosen_backend(backend: str | None, say) -> str:
     return default_backend(say) if backend is None else check_backend(backend)
 
 
-def open_folder(folder: Path, backend: str = "numpy", params: dict | None = None, *, digest: str | None = None,
-                rebuild: str = "gpmegen build", requirements=(), progress=None):
+def open_folder(folder: Path, backend: str = "numpy", params: Mapping[str, float] | None = None, *,
+                digest: str | None = None, rebuild: str = "gpmegen build", requirements=(), progress=None):
     """The generated model of ``folder`` ready to evaluate on ``backend``, its parameters
     overridden by ``params`` and checked against ``requirements`` (the model's physical bounds,
     :func:`gpmegen.model.requirements.requirements`). ``digest``: the input hash the folder must

@@ -10,25 +10,46 @@ over the compiled C library (:class:`gpmegen.runtime.cmodel.CEvaluator`).
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from functools import cached_property
+from pathlib import Path
 from types import ModuleType
-from typing import Protocol
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
+from ..status import SolveStatus
 from ..symbolic.names import SIGNAL_FUNCTION
 from . import finite, gpme, integrate, jacobians, signals
 from .batch import is_batch, rows, stacked, states
 from .partition import partition_at
+from .signals import Table
+
+if TYPE_CHECKING:
+    from ..model.requirements import Requirement
+
+#: A float array, its shape as each function's docstring says.
+Array = NDArray[np.float64]
+#: Indices into q (int).
+Indices = NDArray[np.int_]
+#: (Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,).
+ConstraintTerms = tuple[Array, Array, Array, Array]
+#: (M, f, Φ, Φ̇, D, γ): the terms of the GPME.
+GpmeTerms = tuple[Array, Array, Array, Array, Array, Array]
+#: Three arrays: (q̈, M, f), or (q̈, ∂q̈/∂q, ∂q̈/∂q̇).
+Three = tuple[Array, Array, Array]
+#: Four arrays: (∂F/∂q, ∂F/∂q̇, ∂C/∂q, ∂C/∂q̇), or (q̈, u, M, f).
+Four = tuple[Array, Array, Array, Array]
 
 # What a failing generated function did, by the exception Python's math raised.
 ARITHMETIC = {ZeroDivisionError: "divides by zero", OverflowError: "overflows a double",
               ValueError: "takes a root or logarithm of a negative number"}
 
 
-def vector(x, n: int, what: str) -> np.ndarray:
+def vector(x: ArrayLike | None, n: int, what: str) -> Array:
     """``x`` as a contiguous float array of shape (n,), else ValueError naming ``what``."""
     if x is None:  # NumPy would make it [nan], of shape (1,): a state of one coordinate
         raise ValueError(f"{what} is missing: give an array of shape ({n},), or (N, {n}) for N states")
@@ -38,14 +59,14 @@ def vector(x, n: int, what: str) -> np.ndarray:
     return a
 
 
-def frozen(a) -> np.ndarray:
+def frozen(a: ArrayLike) -> np.ndarray:
     """``a`` as an array that cannot be written to (a model's arrays are shared by its copies)."""
     a = np.array(a)
     a.flags.writeable = False
     return a
 
 
-def call(module: ModuleType, function: str, *args):
+def call(module: ModuleType, function: str, *args: Any) -> Any:
     """The generated ``function`` of the NumPy ``module`` at ``args``; an arithmetic failure in
     it (Python's math raises where C gives inf or nan) becomes one EvaluationError."""
     try:
@@ -75,75 +96,89 @@ class Evaluator(Protocol):
     ``model``: the :class:`LoadedModel` whose parameters, gains and partition the GPME use.
     Shapes and units as in :class:`LoadedModel`."""
 
-    def mass_matrix(self, q, p): ...
-    def forces(self, t, q, qd, p): ...
-    def static_residual(self, q, p): ...
-    def stiffness_jacobian(self, q, p): ...
-    def drive_forces(self, t, q, qd, p): ...
-    def force_elements(self, t, q, qd, p): ...
-    def drive_limits(self, t, q, qd, p): ...
-    def controller_rates(self, t, q, qd, p): ...
-    def controller_initial(self, p): ...
-    def points(self, q, p): ...
-    def transforms(self, q, p, kind): ...
-    def constraint_terms(self, t, q, qd, p): ...
-    def energies(self, q, qd, p): ...
-    def gpme_terms(self, t, q, qd, p): ...
+    def mass_matrix(self, q: ArrayLike, p: np.ndarray) -> Array: ...
+    def forces(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def static_residual(self, q: ArrayLike, p: np.ndarray) -> Array: ...
+    def stiffness_jacobian(self, q: ArrayLike, p: np.ndarray) -> Array: ...
+    def drive_forces(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def force_elements(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def drive_limits(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def controller_rates(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def controller_initial(self, p: np.ndarray) -> Array: ...
+    def points(self, q: ArrayLike, p: np.ndarray) -> Array: ...
+    def transforms(self, q: ArrayLike, p: np.ndarray, kind: str) -> Array: ...
+    def constraint_terms(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> ConstraintTerms: ...
+    def energies(self, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array: ...
+    def gpme_terms(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> GpmeTerms: ...
+    def set_signals(self, tables: Sequence[Table]) -> None: ...
 
-    def motion(self, t, q, qd, model):
+    def motion(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Three:
         """(q̈, M, f): the GPME solution with the terms it was solved from."""
 
-    def accelerations(self, t, q, qd, model):
+    def accelerations(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Array:
         """q̈ (n,) of the GPME."""
 
-    def accelerations_call(self, model, checked):
+    def accelerations_call(self, model: LoadedModel,
+                           checked: Callable[..., Array]) -> Callable[..., Array] | None:
         """A callable ``(t, q, qd) -> q̈`` of ``model`` cheaper than :meth:`accelerations` for one
         state, handing every call it does not take itself to ``checked``; or None."""
 
-    def mass_matrix_batch(self, q, p):
+    def mass_matrix_batch(self, q: Array, p: np.ndarray) -> Array:
         """M at each of the N states q (N, n): (N, n, n), bit for bit as N calls."""
 
-    def forces_batch(self, t, q, qd, p):
+    def forces_batch(self, t: Array, q: Array, qd: Array, p: np.ndarray) -> Array:
         """f at each state (t (N,), q, qd (N, n)): (N, n), bit for bit as N calls."""
 
-    def constraint_terms_batch(self, t, q, qd, p):
+    def constraint_terms_batch(self, t: Array, q: Array, qd: Array, p: np.ndarray) -> ConstraintTerms:
         """(Φ, Φ̇, D, γ) at each state: (N, m), (N, m), (N, m, n), (N, m), bit for bit as N calls."""
 
-    def accelerations_batch(self, t, q, qd, model):
+    def accelerations_batch(self, t: Array, q: Array, qd: Array, model: LoadedModel) -> Array:
         """q̈ at each state: (N, n), bit for bit as N calls."""
 
-    def points_batch(self, q, p):
+    def points_batch(self, q: Array, p: np.ndarray) -> Array:
         """The named points at each of the N states q (N, n): (N, n_points, 3), bit for bit as N calls."""
 
-    def energies_batch(self, q, qd, p):
+    def energies_batch(self, q: Array, qd: Array, p: np.ndarray) -> Array:
         """The energies at each state: (N, 3), bit for bit as N calls."""
 
-    def drive_forces_batch(self, t, q, qd, p):
+    def drive_forces_batch(self, t: Array, q: Array, qd: Array, p: np.ndarray) -> Array:
         """Q at each state: (N, n), bit for bit as N calls."""
 
-    def residual_jacobians(self, t, q, qd, a, lam, p):
+    def residual_jacobians(self, t: float, q: ArrayLike, qd: ArrayLike, a: ArrayLike, lam: ArrayLike,
+                           p: np.ndarray) -> Four:
         """(∂F/∂q, ∂F/∂q̇ (n, n), ∂C/∂q, ∂C/∂q̇ (m, n)) of the GPME residuals at accelerations
         ``a`` (n,) and multipliers ``lam`` (m,) (:mod:`gpmegen.runtime.jacobians`)."""
 
-    def acceleration_jacobians(self, t, q, qd, model):
+    def acceleration_jacobians(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Three:
         """(q̈ (n,), ∂q̈/∂q, ∂q̈/∂q̇ (n, n)) of the GPME."""
 
-    def rk4(self, model, g: integrate.Grid, k_from: int, k_to: int, save_every: int, y0):
+    def rk4(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, save_every: int,
+            y0: Array) -> tuple[Array, Array, SolveStatus]:
         """Steps ``k_from + 1 … k_to`` of RK4 on ``g`` from the augmented state ``y0``
         (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
         :func:`gpmegen.runtime.integrate.rk4_steps`."""
 
-    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+    def dop853(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
+               step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
+               first: int = 0) -> tuple[Array, SolveStatus]:
         """See :meth:`LoadedModel.dop853` (compiled backends only)."""
 
-    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+    def radau(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
+              step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
+              first: int = 0) -> tuple[Array, SolveStatus]:
         """See :meth:`LoadedModel.radau` (compiled backends only)."""
 
-    def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
+    def genalpha(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, rho_inf: float, project: bool,
+                 y: Array, memory: dict[str, np.ndarray], t_save: Array,
+                 counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
         """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
 
+    def loop_memory(self, method: str) -> NDArray[np.uint8]:
+        """See :meth:`LoadedModel.loop_memory` (compiled backends only)."""
 
-def redundant_acceleration_jacobians(evaluator, t, q, qd, model):
+
+def redundant_acceleration_jacobians(evaluator: Evaluator, t: float, q: ArrayLike, qd: ArrayLike,
+                                     model: LoadedModel) -> Three:
     """(q̈, ∂q̈/∂q, ∂q̈/∂q̇) of a model whose constraint rows are redundant (``model.redundant``),
     from ``evaluator``'s generated functions: the rows independent at the state, with their
     multipliers (unique there), the others' zero; near the state those rows hold the same
@@ -160,96 +195,98 @@ def redundant_acceleration_jacobians(evaluator, t, q, qd, model):
 class NumpyEvaluator:
     """:class:`Evaluator` over a generated NumPy module; the GPME solved by :mod:`.gpme`."""
 
-    def __init__(self, module: ModuleType):
+    def __init__(self, module: ModuleType) -> None:
         self.module = module
         self.n = len(module.COORDINATES)
 
-    def _q(self, q):
+    def _q(self, q: ArrayLike) -> Array:
         return vector(q, self.n, "q")
 
-    def _qd(self, qd):
+    def _qd(self, qd: ArrayLike) -> Array:
         return vector(qd, self.n, "qd")
 
-    def mass_matrix(self, q, p):
+    def mass_matrix(self, q: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "mass_matrix", self._q(q), p)
 
-    def forces(self, t, q, qd, p):
+    def forces(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "forces", t, self._q(q), self._qd(qd), p)
 
-    def static_residual(self, q, p):
+    def static_residual(self, q: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "static_residual", self._q(q), p)
 
-    def stiffness_jacobian(self, q, p):
+    def stiffness_jacobian(self, q: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "stiffness_jacobian", self._q(q), p)
 
-    def drive_forces(self, t, q, qd, p):
+    def drive_forces(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "drive_forces", t, self._q(q), self._qd(qd), p)
 
-    def force_elements(self, t, q, qd, p):
+    def force_elements(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "force_elements", t, self._q(q), self._qd(qd), p)
 
-    def drive_limits(self, t, q, qd, p):
+    def drive_limits(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "drive_limits", t, self._q(q), self._qd(qd), p)
 
-    def controller_rates(self, t, q, qd, p):
+    def controller_rates(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return np.asarray(call(self.module, "controller_rates", t, self._q(q), self._qd(qd), p), float)
 
-    def controller_initial(self, p):
+    def controller_initial(self, p: np.ndarray) -> Array:
         return np.asarray(call(self.module, "controller_initial", p), float)
 
-    def points(self, q, p):
+    def points(self, q: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "points", self._q(q), p)
 
-    def transforms(self, q, p, kind):
+    def transforms(self, q: ArrayLike, p: np.ndarray, kind: str) -> Array:
         return call(self.module, TRANSFORM_FUNCTIONS[kind], self._q(q), p)
 
-    def constraint_terms(self, t, q, qd, p):
+    def constraint_terms(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> ConstraintTerms:
         return call(self.module, "constraint_terms", t, self._q(q), self._qd(qd), p)
 
-    def energies(self, q, qd, p):
+    def energies(self, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> Array:
         return call(self.module, "energies", self._q(q), self._qd(qd), p)
 
-    def gpme_terms(self, t, q, qd, p):
+    def gpme_terms(self, t: float, q: ArrayLike, qd: ArrayLike, p: np.ndarray) -> GpmeTerms:
         return call(self.module, "gpme_terms", t, self._q(q), self._qd(qd), p)
 
-    def motion(self, t, q, qd, model):
+    def motion(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Three:
         M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd, model.p)
         qdd = gpme.accelerations(M, f, phi, phid, D, gamma, model.alpha, model.beta, model.constraint_orders,
                                  model.dependent, model.independent, model.redundant)
         return qdd, M, f
 
-    def accelerations(self, t, q, qd, model):
+    def accelerations(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Array:
         return self.motion(t, q, qd, model)[0]
 
-    def accelerations_call(self, model, checked):
+    def accelerations_call(self, model: LoadedModel,
+                           checked: Callable[..., Array]) -> Callable[..., Array] | None:
         return None  # a Python call costs little beside the NumPy evaluation
 
     # a loop over the states: the generated functions take one state (plain floats, like C)
-    def mass_matrix_batch(self, q, p):
+    def mass_matrix_batch(self, q: Array, p: np.ndarray) -> Array:
         return stacked([self.mass_matrix(x, p) for x in q])
 
-    def forces_batch(self, t, q, qd, p):
+    def forces_batch(self, t: Array, q: Array, qd: Array, p: np.ndarray) -> Array:
         return stacked([self.forces(*state, p) for state in zip(t.tolist(), q, qd)])
 
-    def constraint_terms_batch(self, t, q, qd, p):
+    def constraint_terms_batch(self, t: Array, q: Array, qd: Array, p: np.ndarray) -> ConstraintTerms:
         return stacked([self.constraint_terms(*state, p) for state in zip(t.tolist(), q, qd)])
 
-    def accelerations_batch(self, t, q, qd, model):
+    def accelerations_batch(self, t: Array, q: Array, qd: Array, model: LoadedModel) -> Array:
         return stacked([self.accelerations(*state, model) for state in zip(t.tolist(), q, qd)])
 
-    def points_batch(self, q, p):
+    def points_batch(self, q: Array, p: np.ndarray) -> Array:
         return np.reshape(stacked([self.points(x, p) for x in q]), (len(q), len(self.module.POINTS), 3))
 
-    def energies_batch(self, q, qd, p):
+    def energies_batch(self, q: Array, qd: Array, p: np.ndarray) -> Array:
         return stacked([self.energies(x, xd, p) for x, xd in zip(q, qd)])
 
-    def drive_forces_batch(self, t, q, qd, p):
+    def drive_forces_batch(self, t: Array, q: Array, qd: Array, p: np.ndarray) -> Array:
         return stacked([self.drive_forces(*state, p) for state in zip(t.tolist(), q, qd)])
 
-    def residual_jacobians(self, t, q, qd, a, lam, p):
+    def residual_jacobians(self, t: float, q: ArrayLike, qd: ArrayLike, a: ArrayLike, lam: ArrayLike,
+                           p: np.ndarray) -> Four:
         return call(self.module, "gpme_residual_jacobians", t, self._q(q), self._qd(qd), a, lam, p)
 
-    def acceleration_jacobians(self, t, q, qd, model):
+    def acceleration_jacobians(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Three:
         if model.redundant:
             return redundant_acceleration_jacobians(self, t, q, qd, model)
         qdd, M, f = self.motion(t, q, qd, model)
@@ -257,21 +294,31 @@ class NumpyEvaluator:
         lam = gpme.multipliers(M, f, qdd, D)
         return qdd, *jacobians.acceleration_jacobians(M, D.T, D, *self.residual_jacobians(t, q, qd, qdd, lam, model.p))
 
-    def set_signals(self, tables):
+    def set_signals(self, tables: Sequence[Table]) -> None:
         """Set the module's signal function to the linear interpolation of ``tables``."""
         setattr(self.module, SIGNAL_FUNCTION, signals.numpy_function(tables))
 
-    def rk4(self, model, g, k_from, k_to, save_every, y0):
+    def rk4(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, save_every: int,
+            y0: Array) -> tuple[Array, Array, SolveStatus]:
         return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
 
-    def dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+    def dop853(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
+               step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
+               first: int = 0) -> tuple[Array, SolveStatus]:
         raise SimulationError(integrate.compiled_only("dop853", "numpy", False))
 
-    def radau(self, model, t_a, y_a, t_save, rtol, atol, step, counts):
+    def radau(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
+              step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
+              first: int = 0) -> tuple[Array, SolveStatus]:
         raise SimulationError(integrate.compiled_only("radau", "numpy", False))
 
-    def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
+    def genalpha(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, rho_inf: float, project: bool,
+                 y: Array, memory: dict[str, np.ndarray], t_save: Array,
+                 counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
         raise SimulationError(integrate.compiled_only("genalpha", "numpy", False))
+
+    def loop_memory(self, method: str) -> NDArray[np.uint8]:
+        raise SimulationError(integrate.compiled_only(method, "numpy", False))
 
 
 class LoadedModel:
@@ -287,8 +334,9 @@ class LoadedModel:
     parameter values are bound.
     """
 
-    def __init__(self, module: ModuleType, params: dict | None = None, backend: str = "numpy", folder=None,
-                 requirements=(), evaluator: Evaluator | None = None):
+    def __init__(self, module: ModuleType, params: Mapping[str, float] | None = None, backend: str = "numpy",
+                 folder: Path | None = None, requirements: Iterable[Requirement] = (),
+                 evaluator: Evaluator | None = None) -> None:
         self.module = module
         self.evaluator: Evaluator = evaluator or NumpyEvaluator(module)
         self.requirements = tuple(requirements)
@@ -319,10 +367,10 @@ class LoadedModel:
         self.redundant = self.dependent is not None and len(self.dependent) < len(self.constraint_names)
         # the loops the model closes, closure name -> its row names (with_closure_rows): a run
         # watches their rank and their redundant rows (gpmegen.runtime.redundancy)
-        self.closure_rows: dict = {}
+        self.closure_rows: dict[str, tuple[str, ...]] = {}
         self._bind(dict(zip(self.parameter_names, module.DEFAULTS)), params or {}, check_all=True)
 
-    def _bind(self, values: dict, overrides: dict, check_all: bool = False) -> None:
+    def _bind(self, values: Mapping[str, float], overrides: Mapping[str, Any], check_all: bool = False) -> None:
         """Set the parameter values (defaults ``values`` changed by ``overrides``), checked: the
         requirements that involve an overridden parameter, or all with ``check_all``."""
         values = dict(values)
@@ -340,7 +388,7 @@ class LoadedModel:
         problem = first_violation(self.requirements, values, None if check_all else overrides)
         if problem:
             raise ModelError(f"model {self.module.MODEL}: {problem}")
-        self.params: dict = values
+        self.params: dict[str, float] = values
         p = np.array([values[k] for k in self.parameter_names], dtype=float)
         if self.controller_names:   # p ends with the controller states, at the start until a run sets them
             z0 = self.evaluator.controller_initial(np.concatenate([p, np.zeros(len(self.controller_names))]))
@@ -349,7 +397,7 @@ class LoadedModel:
         alpha, beta = call(self.module, "baumgarte_gains", self.p)
         self.alpha, self.beta = frozen(np.asarray(alpha, float)), frozen(np.asarray(beta, float))
 
-    def _partition(self, dependent):
+    def _partition(self, dependent: Sequence[str] | None) -> tuple[Indices | None, Indices | None]:
         if not self.constraint_names:
             return frozen(np.arange(0)), frozen(np.arange(self.n_dof))
         if dependent is None:
@@ -358,7 +406,7 @@ class LoadedModel:
         ind = [k for k in range(self.n_dof) if k not in dep]
         return frozen(np.array(dep, dtype=int)), frozen(np.array(ind, dtype=int))
 
-    def with_partition(self, dependent) -> LoadedModel:
+    def with_partition(self, dependent: Iterable[int]) -> LoadedModel:
         """The same model with the coordinates at indices ``dependent`` (one per constraint; with
         redundant rows, :meth:`with_redundant_rows`, one per independent row) as the dependent
         ones."""
@@ -375,7 +423,7 @@ class LoadedModel:
         other.independent = frozen(np.array([k for k in range(self.n_dof) if k not in set(dep)], dtype=int))
         return other
 
-    def with_redundant_rows(self, dependent) -> LoadedModel:
+    def with_redundant_rows(self, dependent: Iterable[int]) -> LoadedModel:
         """The same model for constraint rows that are redundant (``D`` of rank below its number
         of rows, the rows consistent): each solve keeps the independent rows at its state
         (:func:`gpmegen.runtime.gpme.independent_rows`), the multipliers are the minimum-norm
@@ -385,14 +433,14 @@ class LoadedModel:
         other.__dict__.pop("_accelerations_call", None)
         return other.with_partition(dependent)
 
-    def with_closure_rows(self, closures) -> LoadedModel:
+    def with_closure_rows(self, closures: Mapping[str, Iterable[str]] | None) -> LoadedModel:
         """The same model knowing the loops it closes (``closures``: closure name -> the names of
         its constraint rows), which a run's messages on its redundant rows name."""
         other = copy.copy(self)
         other.closure_rows = {name: tuple(rows) for name, rows in (closures or {}).items()}
         return other
 
-    def with_actuators(self, names) -> LoadedModel:
+    def with_actuators(self, names: Iterable[str]) -> LoadedModel:
         """The same model with the programmed constraints realized by inputs ``u`` on the named
         coordinates (one per constraint; see :func:`gpmegen.runtime.gpme.actuated`) instead of
         ideally; ``()`` returns to the ideal realization."""
@@ -410,7 +458,7 @@ class LoadedModel:
         other.actuators = frozen(np.array([self.coordinates.index(name) for name in names], dtype=int))
         return other
 
-    def with_signals(self, tables) -> LoadedModel:
+    def with_signals(self, tables: Iterable[Table]) -> LoadedModel:
         """The same model with its table signals (:attr:`signal_names`) read from ``tables``
         (:class:`gpmegen.runtime.signals.Table`, one per signal in that order), which the generated
         functions then call. The tables are set in the loaded module and library themselves: for
@@ -434,11 +482,11 @@ class LoadedModel:
         signals.check_span(self.signal_tables, t0, t_end)
 
     @property
-    def controller_initial(self) -> np.ndarray:
+    def controller_initial(self) -> Array:
         """The controller states at the start (n_z,), from the parameter values bound."""
         return self.p[len(self.parameter_names):]
 
-    def at_controller_states(self, z) -> LoadedModel:
+    def at_controller_states(self, z: ArrayLike) -> LoadedModel:
         """The same model with the controller states (:attr:`controller_names`) at ``z`` (n_z,):
         what its drives and rates read; the integrators take one per stage."""
         other = copy.copy(self)
@@ -446,19 +494,19 @@ class LoadedModel:
                                                                                      "z")]))
         return other
 
-    def controller_rates(self, t, q, qd):
+    def controller_rates(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
         """dz/dt (n_z,) of the controller states at the state ``(t, q, qd)`` and the states this
         model holds (:meth:`at_controller_states`)."""
         return self.evaluator.controller_rates(t, vector(q, self.n_dof, "q"), vector(qd, self.n_dof, "qd"), self.p)
 
-    def with_params(self, **overrides) -> LoadedModel:
+    def with_params(self, **overrides: float) -> LoadedModel:
         """The same model (same generated code, compiled library and partition) with some
         parameter values changed; nothing is rebuilt or reloaded."""
         other = copy.copy(self)
         other._bind(self.params, overrides)
         return other
 
-    def _state(self, t, q, qd):
+    def _state(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike) -> tuple[bool, tuple[Any, Array, Array]]:
         """``(batch, (t, q, qd))``: one state or a batch of them, converted and checked (shapes,
         and :func:`gpmegen.runtime.finite.check`)."""
         batch = is_batch(q)
@@ -472,7 +520,7 @@ class LoadedModel:
         return self.coordinates.index(coordinate)
 
     # --- the generated functions, bound to the parameter values -----------------------------
-    def mass_matrix(self, q):
+    def mass_matrix(self, q: ArrayLike) -> Array:
         """M(q), (n, n), kg·m² / kg."""
         q = rows(q, self.n_dof, "q") if is_batch(q) else vector(q, self.n_dof, "q")
         finite.check(None, q)
@@ -480,28 +528,29 @@ class LoadedModel:
             return self.evaluator.mass_matrix_batch(q, self.p)
         return self.evaluator.mass_matrix(q, self.p)
 
-    def forces(self, t, q, qd):
+    def forces(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike) -> Array:
         """f = Q(t, q, qd) + h(q, qd) - g(q) - C q - damping, (n,)."""
-        batch, (t, q, qd) = self._state(t, q, qd)
+        batch, state = self._state(t, q, qd)
         if batch:
-            return self.evaluator.forces_batch(t, q, qd, self.p)
-        return self.evaluator.forces(t, q, qd, self.p)
+            return self.evaluator.forces_batch(*state, self.p)
+        return self.evaluator.forces(*state, self.p)
 
-    def static_residual(self, q):
+    def static_residual(self, q: ArrayLike) -> Array:
         """g(q) + C q, (n,): zero at an equilibrium with no drive."""
         return self.evaluator.static_residual(q, self.p)
 
-    def stiffness_jacobian(self, q):
+    def stiffness_jacobian(self, q: ArrayLike) -> Array:
         """K = ∂(g + C q)/∂q, (n, n)."""
         return self.evaluator.stiffness_jacobian(q, self.p)
 
-    def drive_forces(self, t, q, qd):
+    def drive_forces(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike) -> Array:
         """Q(t, q, q̇), (n,): the drives' laws at the state, feedback included; a batch gives (N, n)."""
         if is_batch(q):
-            return self.evaluator.drive_forces_batch(*states(t, q, qd, self.n_dof), self.p)
-        return self.evaluator.drive_forces(t, q, qd, self.p)
+            times, qs, qds = states(t, q, qd, self.n_dof)
+            return self.evaluator.drive_forces_batch(times, qs, qds, self.p)
+        return self.evaluator.drive_forces(cast(float, t), q, qd, self.p)  # one state: one time
 
-    def force_elements(self, t, q, qd):
+    def force_elements(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
         """Each force element's length (m), rate (m/s) and force (N, positive pushing its two
         points apart) at the state, (n_forces, 3) in :attr:`force_names` order; (0, 3) for a
         model without force elements."""
@@ -509,14 +558,14 @@ class LoadedModel:
             return np.zeros((0, 3))
         return np.asarray(self.evaluator.force_elements(t, q, qd, self.p), float).reshape(len(self.force_names), 3)
 
-    def drive_limits(self, t, q, qd):
+    def drive_limits(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
         """Each limited drive's law before its clip (N·m or N) and its limit, (n_limited, 2) in
         :attr:`limited_drives` order; (0, 2) for a model without limited drives."""
         if not self.limited_drives:
             return np.zeros((0, 2))
         return np.asarray(self.evaluator.drive_limits(t, q, qd, self.p), float).reshape(len(self.limited_drives), 2)
 
-    def check_forces_apart(self, q) -> None:
+    def check_forces_apart(self, q: ArrayLike) -> None:
         """Refuse, with one SimulationError line, a configuration ``q`` where a force element's two
         points meet (length 0: its line, and so its force, is undefined there)."""
         if not self.force_names:
@@ -529,14 +578,14 @@ class LoadedModel:
                                       f"and {b!r} meet, where its line and its force are undefined; start with them "
                                       f"apart")
 
-    def point_positions(self, q):
+    def point_positions(self, q: ArrayLike) -> Array:
         """Positions of the named points in {0}, (n_points, 3), m; a batch ``q`` (N, n) gives
         (N, n_points, 3)."""
         if is_batch(q):
             return self.evaluator.points_batch(rows(q, self.n_dof, "q"), self.p)
         return self.evaluator.points(q, self.p)
 
-    def transforms(self, q, kind: str = "T"):
+    def transforms(self, q: ArrayLike, kind: str = "T") -> Array:
         """The body transforms in BODIES order (:attr:`bodies`), built on request (``gpmegen build
         --transforms``): ``kind`` "T" (n_bodies, 4, 4), ``T = [R p; 0 1]`` from each body's frame
         to {0}, p in m; "T_i" (n_bodies, n, 4, 4), ``∂T/∂q_i``; "T_ij" (n_bodies, n, n, 4, 4),
@@ -551,21 +600,21 @@ class LoadedModel:
                              f"gpmegen.load(..., transforms={wanted!r}))")
         return self.evaluator.transforms(q, self.p, kind)
 
-    def end_effector(self, q):
+    def end_effector(self, q: ArrayLike) -> Array:
         """Position of the end-effector (the first named point) in {0}, (3,), m; a batch ``q``
         (N, n) gives (N, 3)."""
         if not self.points:
             raise ModelError("the model names no point, so it has no end-effector")
         return self.point_positions(q)[..., 0, :]
 
-    def constraint_terms(self, t, q, qd):
+    def constraint_terms(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike) -> ConstraintTerms:
         """(Φ, Φ̇, D, γ) of the programmed constraints: (m,), (m,), (m, n), (m,)."""
-        batch, (t, q, qd) = self._state(t, q, qd)
+        batch, state = self._state(t, q, qd)
         if batch:
-            return self.evaluator.constraint_terms_batch(t, q, qd, self.p)
-        return self.evaluator.constraint_terms(t, q, qd, self.p)
+            return self.evaluator.constraint_terms_batch(*state, self.p)
+        return self.evaluator.constraint_terms(*state, self.p)
 
-    def constraint_values(self, t, q, qd):
+    def constraint_values(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
         """Each constraint's value as written, (m,): Φ, Ψ, and for a second-order constraint
         (which has no value at a state) ``D q̈ + γ`` with q̈ from the GPME, NaN where they have
         no solution."""
@@ -579,25 +628,25 @@ class LoadedModel:
             qdd = np.full(self.n_dof, np.nan)
         return np.where(second, D @ qdd + gamma, phi)
 
-    def energies(self, q, qd):
+    def energies(self, q: ArrayLike, qd: ArrayLike) -> Array:
         """(kinetic, gravity potential, spring) energy in J; a batch ``q``, ``qd`` (N, n) gives (N, 3)."""
         if is_batch(q):
             q = rows(q, self.n_dof, "q")
             return self.evaluator.energies_batch(q, rows(qd, self.n_dof, "qd", len(q)), self.p)
         return self.evaluator.energies(q, qd, self.p)
 
-    def gpme_terms(self, t, q, qd):
+    def gpme_terms(self, t: float, q: ArrayLike, qd: ArrayLike) -> GpmeTerms:
         """(M, f, Φ, Φ̇, D, γ) in one pass over the kinematics."""
         return self.evaluator.gpme_terms(t, q, qd, self.p)
 
-    def partitioned(self, t, q) -> LoadedModel:
+    def partitioned(self, t: float, q: ArrayLike) -> LoadedModel:
         """This model, or when its dependent coordinates are "auto" and not chosen yet, a copy
         with them chosen at ``(t, q)`` (pivoted QR of D there, :mod:`gpmegen.runtime.partition`)."""
         if self.dependent is not None:
             return self
         return partition_at(self, vector(q, self.n_dof, "q"), t)
 
-    def motion(self, t, q, qd):
+    def motion(self, t: float, q: ArrayLike, qd: ArrayLike) -> Three:
         """(q̈, M, f): the GPME solution (or, with :attr:`actuators`, the actuated realization's)
         with the terms it was solved from. With "auto" dependent coordinates not chosen yet, they
         are chosen at this state (:meth:`partitioned`)."""
@@ -607,14 +656,14 @@ class LoadedModel:
         model = self.partitioned(t, q)
         return model.evaluator.motion(t, q, qd, model)
 
-    def accelerations(self, t, q, qd):
+    def accelerations(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike) -> Array:
         """q̈ (n,) from the GPME with Baumgarte terms (eq. 16), or of the actuated realization; the
         partition as :meth:`motion`. A batch (``q``, ``qd`` (N, n), ``t`` scalar or (N,)) gives
         (N, n), in one call into C where the GPME alone is solved."""
         return self._accelerations_call(t, q, qd)
 
     @cached_property
-    def _accelerations_call(self):
+    def _accelerations_call(self) -> Callable[..., Array]:
         """What :meth:`accelerations` calls: the backend's fast single-state call for this model
         where it has one (it hands every other call to :meth:`_checked_accelerations`), else that."""
         fast = None
@@ -622,14 +671,14 @@ class LoadedModel:
             fast = self.evaluator.accelerations_call(self, self._checked_accelerations)
         return self._checked_accelerations if fast is None else fast
 
-    def __setattr__(self, name, value):
+    def __setattr__(self, name: str, value: object) -> None:
         # The calls made for this model's values are made again when one of them is set: by
         # with_params, with_partition, with_actuators on their copy, or by hand.
         if name in MADE_FROM:
             self.__dict__.pop("_accelerations_call", None)
         object.__setattr__(self, name, value)
 
-    def _checked_accelerations(self, t, q, qd):
+    def _checked_accelerations(self, t: Any, q: Any, qd: Any) -> Array:
         """:meth:`accelerations` with its inputs checked and converted in Python."""
         batch, (t, q, qd) = self._state(t, q, qd)
         if batch:
@@ -641,7 +690,7 @@ class LoadedModel:
         model = self.partitioned(t, q)
         return model.evaluator.accelerations(t, q, qd, model)
 
-    def residual_jacobians(self, t, q, qd, a, lam):
+    def residual_jacobians(self, t: float, q: ArrayLike, qd: ArrayLike, a: ArrayLike, lam: ArrayLike) -> Four:
         """(∂F/∂q, ∂F/∂q̇ (n, n), ∂C/∂q, ∂C/∂q̇ (m, n)) of the GPME residuals ``F = f - M a + Dᵀλ``
         and ``C = c - D a`` (``c`` the constraint rows' right sides) at given accelerations ``a``
         (n,) and multipliers ``lam`` (m,) (:mod:`gpmegen.runtime.jacobians`); built on request."""
@@ -654,29 +703,30 @@ class LoadedModel:
         --jacobians``)."""
         return hasattr(self.module, "gpme_residual_jacobians")
 
-    def _require_jacobians(self):
+    def _require_jacobians(self) -> None:
         if not self.jacobians_built:
             raise BuildError(f"model {self.module.MODEL} was generated without its Jacobians; build it with "
                              "'gpmegen build --jacobians' (from Python: gpmegen.load(..., jacobians=True))")
 
-    def acceleration_jacobians(self, t, q, qd):
+    def acceleration_jacobians(self, t: ArrayLike, q: ArrayLike, qd: ArrayLike) -> tuple[Array, Array]:
         """``(∂q̈/∂q, ∂q̈/∂q̇)``, each (n, n) (``[i, j] = ∂q̈_i/∂q_j``), of the GPME with Baumgarte
         terms or of the actuated realization (:mod:`gpmegen.runtime.jacobians`); the partition as
         :meth:`motion`. A batch (``q``, ``qd`` (N, n), ``t`` scalar or (N,)) gives two (N, n, n).
         Exact, from the derivatives generated on request (``gpmegen build --jacobians``)."""
         self._require_jacobians()
         if is_batch(q):
-            t, q, qd = states(t, q, qd, self.n_dof)
-            return stacked([self.acceleration_jacobians(tk, qk, qdk) for tk, qk, qdk in zip(t, q, qd)])
+            times, qs, qds = states(t, q, qd, self.n_dof)
+            return stacked([self.acceleration_jacobians(tk, qk, qdk) for tk, qk, qdk in zip(times, qs, qds)])
+        time = cast(float, t)  # one state: one time
         if len(self.actuators):
-            qdd, _, M, _ = self.actuation(t, q, qd)
-            D = self.constraint_terms(t, q, qd)[2]
-            derivatives = self.residual_jacobians(t, q, qd, qdd, np.zeros(len(D)))
+            qdd, _, M, _ = self.actuation(time, q, qd)
+            D = self.constraint_terms(time, q, qd)[2]
+            derivatives = self.residual_jacobians(time, q, qd, qdd, np.zeros(len(D)))
             return jacobians.acceleration_jacobians(M, gpme.selection(self.n_dof, self.actuators), D, *derivatives)
-        model = self.partitioned(t, q)
-        return model.evaluator.acceleration_jacobians(t, q, qd, model)[1:]
+        model = self.partitioned(time, q)
+        return model.evaluator.acceleration_jacobians(time, q, qd, model)[1:]
 
-    def actuation(self, t, q, qd):
+    def actuation(self, t: float, q: ArrayLike, qd: ArrayLike) -> Four:
         """(q̈ (n,), u (m,), M, f) of the actuated realization on :attr:`actuators`: the inputs
         ``u`` (N·m on a rotation, N on a translation) that alone hold the programmed
         constraints. SimulationError where ``D M⁻¹ S`` is singular."""
@@ -688,7 +738,7 @@ class LoadedModel:
             raise SimulationError(self.uncontrollable(t, D)) from None
         return qdd, u, M, f
 
-    def uncontrollable(self, t, D, condition=np.inf) -> str:
+    def uncontrollable(self, t: float, D: Array, condition: float = np.inf) -> str:
         """Why the actuated realization fails at ``t``: its inputs cannot move the constraints
         (``D`` (m, n) their Jacobian there; ``condition`` that of ``D M⁻¹ S``)."""
         names = ", ".join(self.coordinates[k] for k in self.actuators)
@@ -697,7 +747,7 @@ class LoadedModel:
                 f"{', '.join(self.constraint_names)} (D M⁻¹ S is singular, condition number {condition:.2e}); "
                 f"actuate coordinates the constraints depend on ({moved}) with --actuated")
 
-    def check_actuators(self, t, q) -> None:
+    def check_actuators(self, t: float, q: ArrayLike) -> None:
         """ModelError naming the actuated coordinates when their inputs cannot hold the
         constraints at ``(t, q)`` from rest: ``D M⁻¹ S`` singular (condition above
         :data:`UNCONTROLLABLE`), e.g. an input on a coordinate no constraint depends on."""
@@ -709,13 +759,15 @@ class LoadedModel:
         if not c <= UNCONTROLLABLE:
             raise ModelError(self.uncontrollable(t, D, c))
 
-    def multipliers(self, t, q, qd):
+    def multipliers(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
         """λ (m,) of the ideal realization at ``(t, q, qd)`` (:func:`gpmegen.runtime.gpme.multipliers`)."""
         qdd, M, f = self.motion(t, q, qd)
         D = self.constraint_terms(t, q, qd)[2]
         return gpme.multipliers(M, f, qdd, D, self.redundant)
 
-    def rk4(self, q0, qd0, t_end, dt, save_every=1, t0=0.0, w0=None, steps=None):
+    def rk4(self, q0: ArrayLike, qd0: ArrayLike, t_end: float, dt: float, save_every: int = 1, t0: float = 0.0,
+            w0: ArrayLike | None = None,
+            steps: tuple[int, int] | None = None) -> tuple[Array, Array, Array, Array, SolveStatus]:
         """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid
         of :func:`gpmegen.runtime.integrate.grid`, in one call of the backend's loop (C or Python).
 
@@ -744,7 +796,9 @@ class LoadedModel:
         n = self.n_dof
         return t, y[:, :n], y[:, n:2 * n], y[:, 2 * n:], status
 
-    def dop853(self, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
+    def dop853(self, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float, step: Array,
+               counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
+               first: int = 0) -> tuple[Array, SolveStatus]:
         """DOP853 of the GPME in the compiled loop from ``t_a`` (s) and the augmented state
         ``y_a = [q, q̇, w, z]`` (2n + 2 + n_z,) to ``t_save[-1]``, saving at the increasing instants
         ``t_save`` (k,) s. ``step`` (1,): the step to try first (0: chosen), updated to the one to
@@ -757,19 +811,22 @@ class LoadedModel:
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
         return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
 
-    def radau(self, t_a, y_a, t_save, rtol, atol, step, counts, memory=None, max_steps=0, first=0):
+    def radau(self, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float, step: Array,
+              counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
+              first: int = 0) -> tuple[Array, SolveStatus]:
         """Radau IIA of order 5 (implicit, Hairer's RADAU5) of the GPME in the compiled loop, with
         the arguments and results of :meth:`dop853`; its LU factorizations counted are the real
         and the complex (n, n) ones of its Newton matrices."""
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
         return model.evaluator.radau(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
 
-    def loop_memory(self, method):
+    def loop_memory(self, method: str) -> NDArray[np.uint8]:
         """Zeroed bytes (uint8) for what the adaptive compiled loop ``method`` ("dop853" or
         "radau") keeps between the calls of one span (see :meth:`dop853`)."""
         return self.evaluator.loop_memory(method)
 
-    def genalpha(self, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
+    def genalpha(self, g: integrate.Grid, k_from: int, k_to: int, rho_inf: float, project: bool, y: Array,
+                 memory: dict[str, np.ndarray], t_save: Array, counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
         grid ``g`` from the augmented state ``y`` (2n + 2,), replaced in place by the state at the
         end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
@@ -780,11 +837,11 @@ class LoadedModel:
         model = self.partitioned(g.time(k_from), np.asarray(y)[:self.n_dof])
         return model.evaluator.genalpha(model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts)
 
-    def constraint_forces(self, t, q, qd):
+    def constraint_forces(self, t: float, q: ArrayLike, qd: ArrayLike) -> Array:
         """Generalized forces that realize the constraints, ``M q̈ - f`` (n,): ``Dᵀλ`` in the ideal
         realization, ``S u`` (the inputs on :attr:`actuators`) in the actuated one."""
         qdd, M, f = self.motion(t, q, qd)
         return M @ qdd - f
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"<gpmegen model {self.module.MODEL} ({self.backend}), n_dof={self.n_dof}>"

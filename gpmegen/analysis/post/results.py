@@ -29,7 +29,9 @@ import re
 import uuid
 import zipfile
 import zlib
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +64,7 @@ class ResultsError(GpmegenError):
     """A results file is missing, unreadable or not written by gpmegen."""
 
 
-def targets(path, complete: bool = True) -> tuple[Path, Path]:
+def targets(path: str | Path, complete: bool = True) -> tuple[Path, Path]:
     """The (.npz, .csv) pair that :func:`save` writes for results meant for ``path`` (.npz):
     ``path`` itself for a complete run, ``<name>.partial.npz`` beside it for a partial one."""
     path = Path(path)
@@ -71,7 +73,7 @@ def targets(path, complete: bool = True) -> tuple[Path, Path]:
     return path, path.with_suffix(".csv")
 
 
-def default_name(stem: str, start: str, method: str, actuators=()) -> str:
+def default_name(stem: str, start: str, method: str, actuators: Sequence[str] = ()) -> str:
     """The default results file of a run: ``<stem>_<start>_<method>.npz``, one name per model,
     start and integrator (and ``_actuated-<coordinates>`` for an actuated realization), so that
     runs of one model with other settings keep their own files."""
@@ -79,12 +81,12 @@ def default_name(stem: str, start: str, method: str, actuators=()) -> str:
     return f"{stem}_{start}_{method.lower()}{realization}.npz"
 
 
-def encode(meta: dict) -> np.ndarray:
+def encode(meta: Mapping[str, Any]) -> np.ndarray:
     """``meta`` as the JSON text a results file holds."""
     return np.array(json.dumps(meta, ensure_ascii=False))
 
 
-def metadata(results) -> dict:
+def metadata(results: Mapping[str, Any]) -> dict[str, Any]:
     """The metadata of ``results``: ``model``, ``coordinates``, ``constraint_names``,
     ``backend``, ``start``, ``settings`` (method, dt, save_every, save_dt, the adaptive methods'
     rtol and atol, effort: steps, rejected, solves, jacobians, factorizations as
@@ -99,12 +101,12 @@ def metadata(results) -> dict:
     return json.loads(str(results["meta"]))
 
 
-def annotate(results: dict, meta: dict, arrays: dict) -> dict:
+def annotate(results: Mapping[str, Any], meta: Mapping[str, Any], arrays: Mapping[str, Any]) -> dict[str, Any]:
     """``results`` with ``meta`` added to its metadata and ``arrays`` to its arrays."""
     return dict(results, **arrays, meta=encode({**metadata(results), **meta}))
 
 
-def driving_columns(results: dict) -> tuple[list, list]:
+def driving_columns(results: Mapping[str, Any]) -> tuple[list[str], list[np.ndarray]]:
     """The CSV's columns of the driving functions, with units in their names: λ of each
     constraint (ideal realization), the force on each constrained point in {0} and each
     closure's reaction (force, and moment where it has one, in {0}), or the inputs ``u``
@@ -130,7 +132,7 @@ def driving_columns(results: dict) -> tuple[list, list]:
     return names, arrays
 
 
-def force_columns(results: dict) -> tuple[list, list]:
+def force_columns(results: Mapping[str, Any]) -> tuple[list[str], list[np.ndarray]]:
     """The CSV's columns of the force elements between points: each one's length, rate and
     force. Returns (names, arrays (k, j))."""
     if "force_elements" not in results or not len(results["force_names"]):
@@ -140,7 +142,7 @@ def force_columns(results: dict) -> tuple[list, list]:
     return names, [results["force_elements"].reshape(len(results["t"]), -1)]
 
 
-def save(results: dict, path, csv: bool = True) -> list[Path]:
+def save(results: Mapping[str, Any], path: str | Path, csv: bool = True) -> list[Path]:
     """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E, Φ and the driving
     functions (:func:`driving_columns`) beside it,
     both files or neither. A partial run (``status`` other than "complete") goes to the
@@ -168,7 +170,7 @@ def save(results: dict, path, csv: bool = True) -> list[Path]:
     return atomic_write_all(writes)
 
 
-def load(path) -> dict:
+def load(path: str | Path) -> dict[str, np.ndarray]:
     """Read a results NPZ written by :func:`save`; ResultsError if it is not one."""
     path = Path(path)
     try:

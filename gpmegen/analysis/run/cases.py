@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ... import limits
 from ...errors import BuildError, DerivationError, ModelError
@@ -17,6 +18,9 @@ from ...model.toml_file import read_model_file
 from ...runtime.loader import open_folder
 from ..post import feedforward
 from . import loading, study
+
+if TYPE_CHECKING:
+    from ...model import Model
 
 
 class Case:
@@ -30,6 +34,8 @@ class Case:
     actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
     start_constants: tuple = ()  # parameters the start sets from the model itself (so per n_rfe)
+    model: Model  # each subclass gives it (a property)
+    label: str
 
     def located(self, action):
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
@@ -46,7 +52,7 @@ class Case:
         """The symbolic model where the case has it (None: a built folder's code alone)."""
         return self.model
 
-    directory = None  # where generated models live (None: gpmegen.runtime.loader.default_directory)
+    directory: str | Path | None = None  # where generated models live (None: gpmegen.runtime.loader.default_directory)
     jacobians = False  # load the model with the generated derivatives of the GPME (gpmegen build --jacobians)
 
     def load(self, backend, params, progress):

@@ -32,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import GpmegenError, ModelError
+from ... import extras
+from ...errors import ModelError
 from ...fileio import atomic_write
 from ...runtime import gpme
 from ...runtime.internal import UNSTABLE
@@ -42,19 +43,6 @@ from ..post import results as results_io
 STEP = 1e-7
 # Eigenvalues below this fraction of the largest modulus are zero to round-off.
 NEUTRAL = 1e-9
-#: What installs python-control, for :meth:`LinearModel.state_space`.
-CONTROL_EXTRA = "pip install 'gpmegen[control]'"
-
-
-def require_control():
-    """The ``control`` module (python-control); GpmegenError in one line naming the extra when it
-    is not installed."""
-    try:
-        import control
-    except ImportError:
-        raise GpmegenError(f"LinearModel.state_space needs python-control, which is not installed: "
-                           f"{CONTROL_EXTRA}") from None
-    return control
 
 
 @dataclass
@@ -89,8 +77,8 @@ class LinearModel:
         """``control.StateSpace(A, B, C, D)`` of python-control, with the state and input names:
         ``C`` the identity on the states (every state an output) unless ``outputs`` names some of
         :attr:`states` (``C`` picks them, in that order), ``D`` zero. Needs python-control
-        (:data:`CONTROL_EXTRA`)."""
-        control = require_control()
+        (the extra ``control``: :func:`gpmegen.extras.require`)."""
+        control = extras.require("control", "LinearModel.state_space")
         names = list(self.states)
         chosen = names if outputs is None else list(outputs)
         unknown = [name for name in chosen if name not in names]

@@ -5,6 +5,7 @@ without going up to :mod:`gpmegen.api`."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 from ...codegen.render import build as build_model
@@ -32,7 +33,7 @@ LOAD_OPTIONS = {"directory": None, "build": True, "progress": None, "command": N
          "jacobians": False}
 
 
-def load(model, backend: str | None = None, params: dict | None = None, **options):
+def load(model, backend: str | None = None, params: Mapping[str, float] | None = None, **options):
     """``model`` (a :class:`gpmegen.model.Model`) generated and ready to evaluate, bound with its
     parameters' defaults and ``params``: :func:`gpmegen.load` of a model passed in, with its
     options (``LOAD_OPTIONS``)."""

@@ -5,13 +5,24 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable, KeysView, Mapping
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
 
 from ... import limits, outputs
 from ...runtime import integrate
 from ..post import drive_limits, driving, joint_limits
 from ..post import results as results_io
 from . import study
+from .runspec import RunSpec
+
+if TYPE_CHECKING:
+    from ...runtime.model import LoadedModel
+    from .cases import Case
 
 
 @dataclass
@@ -20,20 +31,21 @@ class Run:
     the ``wall`` time of the integration in s and the loaded model as the start left it
     (``started``: before the actuators of the run were set on it)."""
 
-    model: object
-    results: dict
-    written: list
+    model: LoadedModel
+    results: dict[str, Any]
+    written: list[Path]
     wall: float
-    started: object = None
+    started: LoadedModel | None = None
 
 
-def check(case, spec, backend) -> None:
+def check(case: Case, spec: RunSpec, backend: str) -> None:
     """Refuse, before anything is loaded or solved, the run ``spec`` of ``case`` on ``backend``
     that cannot finish (gpmegen.limits)."""
     limits.check_run(*case.size(), spec, backend)
 
 
-def run(case, spec, backend, overrides, out, progress) -> Run:
+def run(case: Case, spec: RunSpec, backend: str, overrides: Mapping[str, float], out: str | Path | None,
+        progress: Callable[[str], object]) -> Run:
     """Start ``case`` from ``spec.start`` (one of ``case.starts``; None: its first), integrate its
     constrained motion as ``spec`` says (a :class:`gpmegen.analysis.run.runspec.RunSpec`: held by
     inputs on the coordinates ``actuated``, one per constraint; None: the case's own, e.g. a model
@@ -78,43 +90,65 @@ class Results:
     :func:`gpmegen.analysis.post.results.metadata`); ``status`` ("complete" or why the run stopped);
     every array of the file by name (``results["phi"]``, ``results["end_effector"]``, ...)."""
 
-    def __init__(self, arrays: dict):
+    def __init__(self, arrays: Mapping[str, Any]) -> None:
         self.arrays = dict(arrays)
 
     @classmethod
-    def load(cls, path) -> Results:
+    def load(cls, path: str | Path) -> Results:
         """The results written to ``path`` (.npz) by ``gpmegen simulate`` or :meth:`save`."""
         return cls(results_io.load(path))
 
-    t = property(lambda self: self.arrays["t"], doc="sample times (k,) s")
-    q = property(lambda self: self.arrays["q"], doc="coordinates (k, n)")
-    qd = property(lambda self: self.arrays["qd"], doc="velocities (k, n)")
-    coordinates = property(lambda self: tuple(str(c) for c in self.arrays["coordinates"]),
-                           doc="names of the columns of q and qd")
-    meta = property(lambda self: results_io.metadata(self.arrays), doc="the run's metadata (dict)")
-    status = property(lambda self: str(self.arrays["status"]), doc='"complete", or why the run stopped')
+    @property
+    def t(self) -> NDArray[np.float64]:
+        """sample times (k,) s"""
+        return self.arrays["t"]
 
-    def __getitem__(self, name):
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """coordinates (k, n)"""
+        return self.arrays["q"]
+
+    @property
+    def qd(self) -> NDArray[np.float64]:
+        """velocities (k, n)"""
+        return self.arrays["qd"]
+
+    @property
+    def coordinates(self) -> tuple[str, ...]:
+        """names of the columns of q and qd"""
+        return tuple(str(c) for c in self.arrays["coordinates"])
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        """the run's metadata (dict)"""
+        return results_io.metadata(self.arrays)
+
+    @property
+    def status(self) -> str:
+        """"complete", or why the run stopped"""
+        return str(self.arrays["status"])
+
+    def __getitem__(self, name: str) -> Any:
         return self.arrays[name]
 
-    def keys(self):
+    def keys(self) -> KeysView[str]:
         return self.arrays.keys()
 
-    def _column(self, name):
+    def _column(self, name: str) -> int:
         if name not in self.coordinates:
             raise KeyError(f"{name!r} is not a coordinate of this run; its coordinates are "
                            f"{', '.join(self.coordinates)}")
         return self.coordinates.index(name)
 
-    def coordinate(self, name: str):
+    def coordinate(self, name: str) -> NDArray[np.float64]:
         """The coordinate ``name`` over time, (k,) rad or m."""
         return self.q[:, self._column(name)]
 
-    def velocity(self, name: str):
+    def velocity(self, name: str) -> NDArray[np.float64]:
         """The velocity of coordinate ``name`` over time, (k,) rad/s or m/s."""
         return self.qd[:, self._column(name)]
 
-    def force(self, name: str):
+    def force(self, name: str) -> NDArray[np.float64]:
         """The force element ``name`` over time, (k, 3): its length L (m), rate dL/dt (m/s) and
         force (N, positive pushing its two points apart)."""
         names = tuple(str(f) for f in self.arrays.get("force_names", ()))
@@ -123,7 +157,7 @@ class Results:
                            f"{', '.join(names) or 'none'}")
         return self.arrays["force_elements"][:, names.index(name)]
 
-    def save(self, path, overwrite: bool = False) -> list:
+    def save(self, path: str | Path, overwrite: bool = False) -> list[Path]:
         """Write the results to ``path`` (.npz, a CSV beside it; a partial run beside ``path``,
         see :func:`gpmegen.analysis.post.results.save`); an earlier run's results there are replaced
         only with ``overwrite``. Returns the paths written."""
@@ -132,7 +166,7 @@ class Results:
                       error=results_io.ResultsError)
         return results_io.save(self.arrays, path)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"<gpmegen results {self.meta['model']} ({self.meta['start']} start, {self.status}): "
                 f"{len(self.t)} samples to t = {self.t[-1]:.6g} s>")
 

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
+from typing import Any, cast
 
 from ...errors import RunSpecError
 from ...runtime import integrate
@@ -25,7 +27,7 @@ METHODS = ("rk4", "genalpha", "dop853", "radau", "scipy-radau")
 STARTS = ("locked", "constrained", "none")
 
 
-def _number(name, value, accept, problem) -> float:
+def _number(name: str, value: object, accept: Callable[[float], bool], problem: str) -> float:
     """``value`` as a float when it is a real number for which ``accept`` holds, else one line."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise RunSpecError(f"{name} {value!r} is not a number; give it as a float")
@@ -35,7 +37,7 @@ def _number(name, value, accept, problem) -> float:
     return value
 
 
-def _positive(name, value) -> float:
+def _positive(name: str, value: object) -> float:
     return _number(name, value, lambda v: v > 0, "must be a positive finite number")
 
 
@@ -82,14 +84,14 @@ class RunSpec:
     rho_inf: float | None = None
     start: str | None = None
     repartition: bool = False
-    actuated: tuple | None = None
+    actuated: tuple[str, ...] | None = None
     internal_dynamics: bool = False
     max_violation: float | None = 1e-2
     #: the fields set from a default here, not given (made anew from the others by :meth:`of`)
-    defaulted: frozenset = field(default=frozenset(), init=False, compare=False, repr=False)
+    defaulted: frozenset[str] = field(default=frozenset(), init=False, compare=False, repr=False)
 
-    def __post_init__(self):
-        value = {}
+    def __post_init__(self) -> None:
+        value: dict[str, object] = {}
         if self.method not in METHODS:
             raise RunSpecError(f"{self.method!r} is not an integrator (choose from {', '.join(METHODS)})")
         value["t_end"] = _number("t_end", self.t_end, lambda v: v >= 0,
@@ -119,7 +121,7 @@ class RunSpec:
                                    f"realization or None for the case's own")
             value["actuated"] = names
         defaulted = set()
-        save_dt = value.get("save_dt")
+        save_dt = cast(float | None, value.get("save_dt"))
         if self.method == "rk4" and save_dt is not None:
             value["save_every"] = integrate.save_steps(dt, save_dt)
             if value["save_every"] is None:
@@ -140,19 +142,20 @@ class RunSpec:
     @property
     def save_interval(self) -> float:
         """The time between saved states, s: ``save_dt``, or ``dt`` x ``save_every``."""
-        return self.dt * self.save_every if self.save_dt is None else self.save_dt
+        # save_every is a count once made (__post_init__ sets it)
+        return self.dt * cast(int, self.save_every) if self.save_dt is None else self.save_dt
 
     @property
     def adaptive(self) -> bool:
         """Whether the method chooses its own steps (and takes ``rtol``, ``atol``)."""
         return self.method not in ("rk4", "genalpha")
 
-    def given(self) -> dict:
+    def given(self) -> dict[str, Any]:
         """The fields as given (those set from a default here left out)."""
         return {name: getattr(self, name) for name in NAMES if name not in self.defaulted}
 
     @classmethod
-    def of(cls, spec: RunSpec | None = None, **options) -> RunSpec:
+    def of(cls, spec: RunSpec | None = None, **options: Any) -> RunSpec:
         """A spec from keyword ``options`` (the fields' names), or ``spec`` with the fields
         ``options`` give changed (the defaults made anew from the result: ``save_every`` from a
         new ``dt``). A name that is no field is refused in one line with the valid ones."""
@@ -171,7 +174,8 @@ class RunSpec:
 NAMES = tuple(f.name for f in fields(RunSpec) if f.name != "defaulted")
 
 
-def split_options(spec: RunSpec | None, options: dict, others: dict, refusal) -> tuple[RunSpec, dict]:
+def split_options(spec: RunSpec | None, options: dict[str, Any], others: dict[str, Any],
+                  refusal: Callable[[str], str]) -> tuple[RunSpec, dict[str, Any]]:
     """A function's keyword ``options`` parted: the run's fields over ``spec`` (:meth:`RunSpec.of`)
     and its own ``others`` (name -> default) with those given over their defaults. A name that is
     neither is refused with ``refusal(names)`` (the unknown names quoted, comma-separated), the

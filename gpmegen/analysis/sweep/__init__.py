@@ -14,8 +14,10 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ... import limits
 from ...codegen.render import input_hash
@@ -82,7 +84,8 @@ OPTIONS = {"backend": "c", "samples": None, "seed": 0, "sampling": "lhs", "worke
 RUN_FIELDS = ("t_end", "dt", "save_every", "method", "start", "repartition")
 
 
-def sweep(out, params: dict, spec=None, *, model_file=None, nrfe=None, **options) -> Summary:
+def sweep(out: str | Path, params: Mapping[str, object], spec: RunSpec | None = None, *,
+          model_file: str | Path | None = None, nrfe: Iterable[int] | None = None, **options: Any) -> Summary:
     """Run every combination of ``params`` (name → a value or a list of values) for each rfe
     count in ``nrfe`` (a list; None: the case's own), or ``samples`` draws (``sampling`` "lhs"
     or "random", from ``seed``) of the ranges ``params`` gives as ``(low, high)``; write each

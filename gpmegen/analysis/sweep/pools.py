@@ -13,6 +13,7 @@ import time
 from multiprocessing import connection
 from pathlib import Path
 
+from ... import extras
 from . import outcomes, workers
 from .plan import SweepError
 
@@ -132,11 +133,7 @@ def local_pool(tasks, record, n_workers: int, prepare=workers.prepare, perform=w
 
 def cluster_workers(scheduler: str):
     """A Dask client of the scheduler at ``scheduler`` (an address, or a scheduler file)."""
-    try:
-        from distributed import Client
-    except ImportError:
-        raise SweepError("--scheduler runs on Dask, which is not installed: pip install 'gpmegen[cluster]'") \
-            from None
+    Client = extras.require("distributed", "a sweep on a Dask cluster (--scheduler)").Client
     where = {"scheduler_file": scheduler} if Path(scheduler).is_file() else {"address": scheduler}
     try:
         return Client(**where, timeout=30)
