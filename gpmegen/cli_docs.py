@@ -23,7 +23,7 @@ INTRO = """\
 
 This page is generated from the command line itself (`python -m gpmegen.cli_docs >
 docs/command-line.md`, or `make docs`): each section is what `gpmegen COMMAND --help` prints. Do
-not edit it by hand; change `gpmegen/cli.py` (options) or `gpmegen/help_pages.py` (descriptions,
+not edit it by hand; change `gpmegen/cli/parser.py` (options) or `gpmegen/help_pages.py` (descriptions,
 examples, files written) and make it again. What the commands have in common (where models and
 results go, errors, interruptions, limits) is in [runs.md](runs.md).
 """
