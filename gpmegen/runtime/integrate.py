@@ -95,7 +95,7 @@ def state_derivative(model):
 
     def rhs(t, y):
         q, qd = y[:n], y[n:2 * n]
-        at = model.at_controller_states(y[2 * n + 2:]) if controlled else model
+        at = model.at_controller_states(y[2 * n + 2:])
         qdd, M, f = at.motion(t, q, qd)
         drive = at.drive_forces(t, q, qd)
         reaction = M @ qdd - f

@@ -488,7 +488,10 @@ class LoadedModel:
 
     def at_controller_states(self, z: ArrayLike) -> LoadedModel:
         """The same model with the controller states (:attr:`controller_names`) at ``z`` (n_z,):
-        what its drives and rates read; the integrators take one per stage."""
+        what its drives and rates read; the integrators take one per stage. A model without
+        controller states is itself (no copy on the paths every model takes)."""
+        if not self.controller_names and np.size(z) == 0:
+            return self
         other = copy.copy(self)
         other.p = frozen(np.concatenate([self.p[:len(self.parameter_names)], vector(z, len(self.controller_names),
                                                                                      "z")]))

@@ -219,7 +219,7 @@ def _derived_each(model, t, q, qd, ok, z):
     energy = np.zeros((samples, 3))
     actuated = len(model.actuators) > 0
     for k in range(samples):
-        model_k = model.at_controller_states(z[k]) if ok[k] and model.controller_names else model
+        model_k = model.at_controller_states(z[k]) if ok[k] else model
         E[k] = model.end_effector(q[k])
         drive[k] = model_k.drive_forces(t[k], q[k], qd[k]) if ok[k] else np.nan
         if ok[k]:  # the state (the model's functions refuse one not finite)

@@ -131,23 +131,23 @@ def drives(run) -> dict:
     return out
 
 
-def states_of(run, model) -> tuple:
-    """(q, q̇) (k, n) of ``run`` in the order of ``model``'s coordinates; TrackingError naming the
-    coordinates the run lacks."""
+def columns_of(run, model) -> list[int]:
+    """The columns of ``run``'s state arrays in the order of ``model``'s coordinates;
+    TrackingError naming the coordinates the run lacks."""
     names = [str(c) for c in run["coordinates"]]
     missing = [c for c in model.coordinates if c not in names]
     if missing:
         raise TrackingError(f"the run has no coordinate {', '.join(missing)} of the reference model "
                             f"{model.module.MODEL} (the run's: {', '.join(names)}); measure it against a model "
                             f"of the same coordinates")
-    order = [names.index(c) for c in model.coordinates]
-    return run["q"][:, order], run["qd"][:, order]
+    return [names.index(c) for c in model.coordinates]
 
 
 def constraint_values(run, model) -> np.ndarray:
     """Φ (k, m) of ``model``'s programmed constraints on the states of ``run`` (a second-order
     one's ``D q̈ + γ`` with the run's q̈; TrackingError when the run holds none)."""
-    q, qd = states_of(run, model)
+    order = columns_of(run, model)
+    q, qd = run["q"][:, order], run["qd"][:, order]
     t = np.asarray(run["t"], dtype=float)
     values, _, D, gamma = model.constraint_terms(t, q, qd)
     values = np.asarray(values).reshape(len(t), -1)
@@ -156,8 +156,7 @@ def constraint_values(run, model) -> np.ndarray:
         if "qdd" not in run:
             raise TrackingError("the reference has second-order constraints and the run holds no accelerations "
                                 "qdd; make it again with 'gpmegen simulate'")
-        names = [str(c) for c in run["coordinates"]]
-        qdd = run["qdd"][:, [names.index(c) for c in model.coordinates]]
+        qdd = run["qdd"][:, order]
         values = np.where(orders == 2, np.matmul(D, qdd[..., None])[..., 0] + gamma, values)
     return values
 
