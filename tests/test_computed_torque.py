@@ -16,7 +16,7 @@ A, W, WN = 0.4, 2.0, 10.0   # ct_arm.toml's amplitude, frequency and natural fre
 
 def references(t):
     """``(r, ṙ, r̈)`` of the two joints at times ``t``, (len(t), 2) each: ct_arm.toml's signals."""
-    r = np.stack([A * np.sin(W * t), 1 + A * (1 - np.cos(W * t))], axis=-1)
+    r = np.stack([A * np.sin(W * t), np.pi / 4 + A * (1 - np.cos(W * t))], axis=-1)
     rd = np.stack([A * W * np.cos(W * t), A * W * np.sin(W * t)], axis=-1)
     rdd = np.stack([-A * W**2 * np.sin(W * t), A * W**2 * np.cos(W * t)], axis=-1)
     return r, rd, rdd
@@ -94,7 +94,7 @@ def test_wrong_model_gives_a_bounded_error(tmp_path):
 REFUSALS = [
     ("its coordinate phi2 is no coordinate of the plant",
      lambda s: s.replace('joint = "theta2"', 'joint = "phi2"').replace('coordinate = "theta2"', 'coordinate = "phi2"')
-     .replace("theta2 = 1.0", "phi2 = 1.0"), None),
+     .replace("theta2 = \"pi/4\"", "phi2 = \"pi/4\""), None),
     ("which is no joint of the controller model",
      None, lambda s: s.replace('coordinate = "theta2"\nreference', 'coordinate = "theta3"\nreference')),
     ("the law leaves out theta2",
