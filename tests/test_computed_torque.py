@@ -116,8 +116,9 @@ def test_refusals(tmp_path, message, controller_edit, plant_edit):
 def test_table_reference_refused(tmp_path):
     t = np.linspace(0, 1, 11)
     np.savez(tmp_path / "ref.npz", t=t, y=t)
-    plant = _write(tmp_path, plant_edit=lambda s: s.replace(
-        '[[signals]]\nname = "r2"', '[[signals]]\nname = "table"\ntable = "ref.npz"\ncolumn = "y"\n\n[[signals]]\nname = "r2"')
-        .replace('reference = "r2"', 'reference = "table"'))
+    second = '[[signals]]\nname = "r2"'
+    table = '[[signals]]\nname = "table"\ntable = "ref.npz"\ncolumn = "y"\n\n'
+    plant = _write(tmp_path, plant_edit=lambda s: s.replace(second, table + second)
+                   .replace('reference = "r2"', 'reference = "table"'))
     with pytest.raises(ModelError, match="a table does not give"):
         gpmegen.load_model_file(plant)
