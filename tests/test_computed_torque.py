@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.post import results
+from gpmegen.cli import main
 from gpmegen.errors import ModelError
 
 ARM = Path(__file__).parent / "models" / "ct_arm.toml"
@@ -122,3 +124,27 @@ def test_table_reference_refused(tmp_path):
                    .replace('reference = "r2"', 'reference = "table"'))
     with pytest.raises(ModelError, match="a table does not give"):
         gpmegen.load_model_file(plant)
+
+
+def test_command_line_controller_model(tmp_path, capsys, monkeypatch):
+    """``--controller-model`` replaces the file's controller model (the plant's own, which
+    tracks to 1e-8) by another: here the 20% heavier one, which errs by more than 1e-4."""
+    monkeypatch.setenv("GPMEGEN_GENERATED", str(tmp_path / "generated"))
+    heavy = tmp_path / "heavy.toml"
+    heavy.write_text(ARM.read_text().replace('m2 = { value = 0.7', 'm2 = { value = 0.84'))
+    errors = []
+    for extra, out in (([], "own.npz"), (["--controller-model", str(heavy)], "heavy.npz")):
+        code = main(["simulate", str(ARM), "--t-end", "1", "--dt", "1e-3", "--backend", "c",
+                     "--out", str(tmp_path / out), *extra])
+        assert code == 0, capsys.readouterr().err
+        res = results.load(tmp_path / out)
+        r, _, _ = references(res["t"])
+        errors.append(np.abs(res["q"] - r).max())
+    assert errors[0] < 1e-8 < 1e-4 < errors[1]
+
+
+def test_command_line_controller_model_needs_the_table(tmp_path, capsys):
+    code = main(["simulate", str(ARM.parent / "cart.toml"), "--controller-model", str(ARM),
+                 "--out", str(tmp_path / "x.npz")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "has no [controller] table" in err and len(err.splitlines()) == 1

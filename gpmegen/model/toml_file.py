@@ -136,17 +136,18 @@ def _parse(path, nrfe):
     return Reader(path, text, nrfe), data
 
 
-def read_model_file(path, nrfe: int | None = None) -> ModelFile:
+def read_model_file(path, nrfe: int | None = None, controller_model: str | None = None) -> ModelFile:
     """The model of a schema-1 TOML file with its ``[initial]`` configuration (a file whose
     name ends in ``.urdf``: :func:`read_urdf_file`).
 
     ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
     and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
-    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing."""
+    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing.
+    ``controller_model``: a model file read in place of the ``[controller]`` table's ``model``."""
     if Path(path).suffix.lower() == ".urdf":
         return read_urdf_file(path)
     reader, data = _parse(path, nrfe)
-    return read_controller(reader, data, reader.read(data), _read_plain)
+    return read_controller(reader, data, reader.read(data), _read_plain, controller_model)
 
 
 def _read_plain(path, nrfe: int | None = None) -> ModelFile:

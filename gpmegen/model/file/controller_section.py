@@ -27,17 +27,22 @@ def controller_path(plant_file: str, model: str) -> str:
     return model if Path(model).is_absolute() else str(Path(plant_file).resolve().parent / model)
 
 
-def read_controller(reader, data: dict, model_file: ModelFile, load) -> ModelFile:
+def read_controller(reader, data: dict, model_file: ModelFile, load, override: str | None = None) -> ModelFile:
     """``model_file`` with the computed-torque law of ``data["controller"]`` (the parsed file's
     table; ``reader`` the :class:`~gpmegen.model.file.reader.Reader` that read the rest);
-    ``load(path, nrfe)`` reads a model file."""
+    ``load(path, nrfe)`` reads a model file; ``override``: a controller model file read in
+    place of the table's ``model`` (``--controller-model``, relative to the working directory)."""
     if "controller" not in data:
+        if override is not None:
+            raise ModelError(f"{reader.file}: --controller-model {override}: the file has no [controller] table to "
+                             f"name the law's coordinates, references and gains; add one (docs/model-file.md)")
         return model_file
     path = ("controller",)
     table = reader.table(data["controller"], path, CONTROLLER_KEYS, ("model", "computed_torque"), "controller")
     nrfe = reader.nrfe(table["nrfe"], path + ("nrfe",)) if "nrfe" in table else None
     source = controller_path(reader.file, reader.string(table["model"], path + ("model",),
                                                         "a model file's path in quotes"))
+    source = str(override) if override is not None else source
     controller = load(source, nrfe).model
     items = reader.array(table["computed_torque"], path + ("computed_torque",),
                          what="list of [[controller.computed_torque]] tables")
