@@ -12,6 +12,7 @@ from pathlib import Path
 from ...codegen.render import input_hash
 from ...errors import ModelError
 from ...folder import MANIFEST, read_manifest
+from ...model.rfem import check_nrfe
 from ...runtime.loader import BACKENDS
 from .cases import Case, FileCase, FolderCase
 from .reference_case import ReferenceCase
@@ -51,6 +52,19 @@ def _reference_case_of(manifest):
         return None
     case = ReferenceCase(int(match.group(1)))
     return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
+
+
+#: The name that reaches the paper's arm as a path reaches a model file (``gpmegen.load("manipulator")``,
+#: ``gpmegen metrics --reference manipulator``); a file or folder of that name is taken first.
+REFERENCE = "manipulator"
+
+
+def case_of_name(model, nrfe=None) -> Case:
+    """The case a name or path ``model`` names: :data:`REFERENCE` (the paper's arm with ``nrfe``
+    rfes, default 5) where no file or folder has that name, else :func:`case_of_path`."""
+    if str(model) == REFERENCE and not Path(model).exists():
+        return ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
+    return case_of_path(model, nrfe)
 
 
 def case_of_source(source, what) -> Case:

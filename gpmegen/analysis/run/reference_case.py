@@ -40,7 +40,7 @@ def constraint_constants(model, q) -> dict:
 
 def with_constants(model, overrides=None):
     """``model`` with ``r_Ea`` and ``y_c`` set from its locked statics at the paper's joint start
-    (those of ``overrides`` kept), and that start q (n,). What both ``gpmegen.load(nrfe=N)``
+    (those of ``overrides`` kept), and that start q (n,). What both ``gpmegen.load("manipulator", nrfe=N)``
     and a run of the reference case bind."""
     overrides = dict(overrides or {})
     q = statics.locked(model, joint_start(model))
@@ -103,6 +103,10 @@ class ReferenceCase(Case):
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
         model, q = initial_state(model, start, overrides)
         return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT, given_qd=frozenset())
+
+    def bound(self, loaded, params):
+        """``loaded`` with r_Ea and y_c from its locked statics (:func:`with_constants`)."""
+        return with_constants(loaded, params)[0]
 
     def shown(self, model) -> list[str]:
         return list(START_JOINTS)
