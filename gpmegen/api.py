@@ -1,7 +1,7 @@
 """gpmegen's public face in Python: what a user imports from ``gpmegen``.
 
-- :func:`load`: a model (the reference manipulator, or any :class:`~gpmegen.model.Model`), built
-  into generated code when missing or stale, opened on the C backend where a C compiler is
+- :func:`load`: a model (a model file, any :class:`~gpmegen.model.Model`, or ``"manipulator"``,
+  the reference arm), built into generated code when missing or stale, opened on the C backend where a C compiler is
   found, else (or with ``backend="numpy"``) on the NumPy one;
 - :func:`statics`, :func:`simulate`: a model's consistent start and its constrained motion (as
   ``gpmegen statics`` and ``gpmegen simulate``), the latter as :class:`Results`;
@@ -69,8 +69,8 @@ if TYPE_CHECKING:  # for the annotations only: nothing more is imported at run t
     from .runtime.consistent import Start
     from .runtime.model import LoadedModel
 
-#: Where a model is: None (the reference manipulator), a model file or a folder made by
-#: ``gpmegen build --out`` (a path), or a :class:`Model`.
+#: Where a model is: None or ``"manipulator"`` (the reference manipulator), a model file or a folder
+#: made by ``gpmegen build --out`` (a path), or a :class:`Model`.
 ModelSource = str | Path | Model | None
 #: What takes one-line messages.
 Progress = Callable[[str], object]

@@ -10,13 +10,16 @@ name the paper's.
 
 from __future__ import annotations
 
+import re
 from functools import cached_property
 
 import numpy as np
 
+from ...codegen.render import input_hash
 from ...model import reference_model
 from ...runtime import statics
 from ...runtime.consistent import consistent, project_onto_constraints
+from ...runtime.loader import BACKENDS
 from .cases import Case
 
 START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
@@ -75,6 +78,17 @@ class ReferenceCase(Case):
 
     def __init__(self, nrfe: int = 5):
         self.nrfe = nrfe
+
+    @classmethod
+    def of_manifest(cls, manifest) -> ReferenceCase | None:
+        """The reference case whose generated code the folder of ``manifest`` (a built folder's
+        manifest.json) holds, or None: its model's name is one :func:`reference_model` gives
+        and its input hash that model's."""
+        match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
+        if not match:
+            return None
+        case = cls(int(match.group(1)))
+        return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
 
     @cached_property
     def model(self):
