@@ -10,7 +10,7 @@ zero or positive.
 
 :func:`requirements` lists them once from the model's elements; :func:`violation` evaluates one
 at parameter values. The model-file reader reports them at their lines with the parameter
-defaults, the runtime whenever parameter values are bound (``gpmegen.load(model, params=...)``,
+defaults, the runtime whenever parameter values are bound (``gpmegen.load(params=...)``,
 ``--param``, ``with_params``).
 """
 
