@@ -36,6 +36,7 @@ class Case:
     start_constants: tuple = ()  # parameters the start sets from the model itself (so per n_rfe)
     model: Model  # each subclass gives it (a property)
     label: str
+    command: str | None  # the build command that makes the model (None: made in Python)
 
     def located(self, action):
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
@@ -107,6 +108,12 @@ class Case:
         model's name, and its first four joints (not the sde rotations of its flexible links)."""
         joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
         return {"label": model.module.MODEL, "joints": joints[:4]}
+
+    def bound(self, loaded, params):
+        """The ``loaded`` model with the constants the start sets (:attr:`start_constants`) bound as
+        its runs bind them, those of ``params`` (the user's values) kept: what
+        :func:`gpmegen.load` returns. As loaded by default."""
+        return loaded
 
     def extras(self, model, results) -> dict:
         """Arrays added to a run's results (none by default)."""
