@@ -42,6 +42,7 @@ from .chain import (
     symbol,
     velocity_symbol,
 )
+from .computed_torque import check as check_computed_torque
 from .rfem import MATERIAL, check_link, discretize
 from .topology import GROUND, Topology
 
@@ -563,6 +564,8 @@ def expand(model: Model) -> FlatChain:
     _check_closures(model, points, tree, names)
     _check_forces(model, coordinates, points, tree, names)
     _check_dependent(model, coordinates)
+    if model.computed_torque is not None:
+        check_computed_torque(model.computed_torque, coordinates, constant)
     return FlatChain(model, elements, tuple(coordinates), tree, _couplings(elements, coordinates))
 
 

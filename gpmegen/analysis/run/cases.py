@@ -42,6 +42,11 @@ class Case:
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
         return action()
 
+    def controlled_by(self, path):
+        """This case with another controller model: a model file's only (:class:`FileCase`)."""
+        raise ModelError(f"{self.label}: --controller-model replaces the controller model of a model file's "
+                         f"[controller] table; give the plant's model file")
+
     def feed_forward(self, run):
         """This case driven by the inputs of the run at ``run``: a model of the user's only
         (:class:`ModelCase`), whose drives can be rewritten."""
@@ -210,12 +215,22 @@ class FileCase(ModelCase):
     """A model file (``path``) with ``nrfe`` rfes (None: the file's own); the file is read once,
     when first needed."""
 
+    controller_model = None  # a model file in place of the file's [controller] model (controlled_by)
+
     def __init__(self, path, nrfe=None):
         self.path, self.nrfe = path, nrfe
 
     @cached_property
     def file(self):
-        return read_model_file(self.path, nrfe=self.nrfe)
+        return read_model_file(self.path, nrfe=self.nrfe, controller_model=self.controller_model)
+
+    def controlled_by(self, path) -> FileCase:
+        """This case with the model file at ``path`` as its computed-torque law's controller
+        model, read now."""
+        self.controller_model = path
+        self.__dict__.pop("file", None)
+        _ = self.file
+        return self
 
     @property
     def model(self):
