@@ -352,7 +352,8 @@ class Model:
     automatically at run time). ``closures``: the loops closed (:class:`Closure`), whose rows
     are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
     name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
-    controller states (:class:`Controller`) its drives may read.
+    controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
+    :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None.
     """
 
     name: str
@@ -367,6 +368,7 @@ class Model:
     signals: tuple = ()
     forces: tuple = ()
     controllers: tuple = ()
+    computed_torque: object = None
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -27,6 +27,7 @@ from .chain import (
     SeriesElastic,
     check_model_name,
 )
+from .computed_torque import check as check_computed_torque
 from .law_checks import (
     check_closures,
     check_constraints,
@@ -329,6 +330,8 @@ def expand(model: Model) -> FlatChain:
     check_closures(model, points, tree, names)
     check_forces(model, coordinates, points, tree, names)
     check_dependent(model, coordinates)
+    if model.computed_torque is not None:
+        check_computed_torque(model.computed_torque, coordinates, constant)
     return FlatChain(model, elements, tuple(coordinates), tree, _couplings(elements, coordinates))
 
 
