@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1a2428fc3c2bab1c
+Input hash: 4eda10a784902a99
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 36013d3d0dd19149
+Input hash: 5d8c9275f09baa87
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
