@@ -43,7 +43,7 @@ def two_link(backend):
 
 def arm(backend):
     """(model, inputs, q0, qd0, span) of the reference arm at n_rfe = 5."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=5, backend=backend), "locked")
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=5, backend=backend), "locked")
     return model, ["psi2", "x3"], q0, np.zeros(model.n_dof), 150
 
 

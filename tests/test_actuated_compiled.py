@@ -23,7 +23,7 @@ TWO_LINK = Path(__file__).resolve().parent / "models" / "two_link_traced.toml"
 
 def _arm(backend):
     """The reference arm at n_rfe = 2, its locked start, the inputs on psi2 and x3."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=2, backend=backend), "locked")
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend=backend), "locked")
     return model.with_actuators(["psi2", "x3"]), q0
 
 
@@ -69,7 +69,7 @@ def test_inputs_that_cannot_move_the_constraints_are_refused_alike(env):
     says so in the line the NumPy one gives."""
     lines = {}
     for backend in ("c", "numpy"):
-        model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend=backend), "locked")
+        model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend=backend), "locked")
         with pytest.raises(SimulationError) as refused:
             model.with_actuators(["theta1", "x3"]).actuation(0.0, q0, np.zeros(model.n_dof))
         lines[backend] = str(refused.value)
@@ -79,7 +79,7 @@ def test_inputs_that_cannot_move_the_constraints_are_refused_alike(env):
 def test_a_singular_stage_stops_the_compiled_loop_as_the_python_one(env):
     """An RK4 run whose inputs cannot hold the constraints ends SINGULAR in both loops, the start kept."""
     for backend in ("c", "numpy"):
-        model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend=backend), "locked")
+        model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend=backend), "locked")
         t, q, _, _, status = model.with_actuators(["theta1", "x3"]).rk4(q0, np.zeros(model.n_dof), 0.01, 1e-3)
         assert status == SolveStatus.SINGULAR and len(t) == 1 and np.array_equal(q[0], q0)
 

@@ -33,7 +33,7 @@ def relative(residual, scale):
 
 @pytest.fixture(scope="module")
 def flexible3():
-    return started(gpmegen.load(nrfe=3, backend="numpy"))
+    return started(gpmegen.load("manipulator", nrfe=3, backend="numpy"))
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +44,7 @@ def ideal3(flexible3):
 
 @pytest.fixture(scope="module")
 def rigid_runs():
-    model, q0 = started(gpmegen.load(nrfe=1, backend="numpy"))
+    model, q0 = started(gpmegen.load("manipulator", nrfe=1, backend="numpy"))
     ideal = study.simulate(model, q0, RunSpec(t_end=0.5, dt=1e-3, save_every=25))
     actuated = study.simulate(model.with_actuators(["psi2", "x3"]), q0, RunSpec(t_end=0.5, dt=1e-3, save_every=25))
     return model, ideal, actuated
@@ -225,7 +225,7 @@ def test_actuated_realization_on_the_c_terms_equals_numpy(env):
     motion and inputs."""
     runs = {}
     for backend in ("numpy", "c"):
-        model, q0 = started(gpmegen.load(nrfe=2, backend=backend))
+        model, q0 = started(gpmegen.load("manipulator", nrfe=2, backend=backend))
         runs[backend] = study.simulate(model.with_actuators(["psi2", "x3"]), q0,
                                        RunSpec(t_end=0.02, dt=1e-4, save_every=20, max_violation=None))
     assert str(runs["c"]["status"]) == str(runs["numpy"]["status"]) == "complete"
@@ -240,7 +240,7 @@ def test_actuated_runs_are_estimated_by_the_loop_they_run_in(env, monkeypatch):
     the compiled loop's on the C backend (the estimate the ideal realization's run gets)."""
     from gpmegen import limits
 
-    model, q0 = started(gpmegen.load(nrfe=1, backend="numpy"))
+    model, q0 = started(gpmegen.load("manipulator", nrfe=1, backend="numpy"))
     spec = RunSpec(t_end=300.0, dt=1e-5, save_every=100)
     with pytest.raises(limits.LimitError, match="would take about"):
         study.simulate(model.with_actuators(["psi2", "x3"]), q0, spec)
@@ -251,7 +251,7 @@ def test_actuated_runs_are_estimated_by_the_loop_they_run_in(env, monkeypatch):
         raise limits.LimitError("estimated")
 
     monkeypatch.setattr(limits, "check_run", estimate)
-    model, q0 = started(gpmegen.load(nrfe=1, backend="c"))
+    model, q0 = started(gpmegen.load("manipulator", nrfe=1, backend="c"))
     with pytest.raises(limits.LimitError, match="estimated"):
         study.simulate(model.with_actuators(["psi2", "x3"]), q0, spec)
     assert estimated == ["c"]

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 848500d7350edce3
+Input hash: a5585e7de6abad63
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: b1d6087ffce07eff
+Input hash: 01b70ca30860468c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -175,6 +175,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--feedforward", type=path_argument, default=None, metavar="RUN.npz",
                    help="add the inputs u of an actuated run (simulate --actuated, or invert) to the drives of the "
                         "model's coordinates of the same names, interpolated linearly in t")
+    s.add_argument("--controller-model", type=path_argument, default=None, metavar="FILE",
+                   help="the model file of the computed-torque law's controller model, in place of the one the "
+                        "plant's [controller] table names (its nrfe kept)")
     s.add_argument("--internal-dynamics", action="store_true",
                    help="with an actuated realization: save the linearized internal dynamics' eigenvalues at "
                         "every saved sample (internal_eigenvalues)")
