@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ... import limits
 from ...errors import ExtrapolationError
-from ...runtime import integrate
+from ...runtime import integrators
 from ..post.coordinates import joint_names, point_names
 from ..run import opening, runs
 from ..run.runspec import RunSpec
@@ -111,7 +111,7 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
     the compiled methods on the C backend, unless the constraints are realized by inputs (the
     actuated realization steps in Python)."""
-    return backend == "c" and method in ("rk4", *integrate.COMPILED) and not actuated
+    return backend == "c" and integrators.get(method).c_loop and not actuated
 
 
 def _on_threads(tasks, levels_cases, size) -> list:
