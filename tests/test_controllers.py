@@ -16,7 +16,7 @@ import pytest
 import gpmegen
 from gpmegen.analysis.run import linear
 from gpmegen.errors import ModelError, SimulationError
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 from gpmegen.status import SolveStatus
 from tests.refusals import refused_in_one_line
 
@@ -92,12 +92,12 @@ def test_pid_removes_the_steady_error_that_pd_leaves(pid, backend):
     model = _on(pid, backend)
     zero = np.zeros(1)
     # PD (ki = 0): poles -6 ± 2j, so e^(-6 t) < 1e-12 by t = 5 s; the error settles at F/kp
-    t, y, outcome = integrate.rk4(model.with_params(ki=0.0), zero, zero, 5.0, 1e-3, save_every=100)
+    t, y, outcome = integrators.rk4.rk4(model.with_params(ki=0.0), zero, zero, 5.0, 1e-3, save_every=100)
     assert outcome.complete
     assert X_REF - y[-1, 0] == pytest.approx(F / KP, abs=1e-10)
     # PID: s³ + 12 s² + 40 s + 60 has its slowest poles at about -2.05 ± 1.84j; from t = 12 s on
     # the transient is below e^(-24), and the integral alone balances F
-    t, y, outcome = integrate.rk4(model, zero, zero, 15.0, 2e-3, save_every=500)
+    t, y, outcome = integrators.rk4.rk4(model, zero, zero, 15.0, 2e-3, save_every=500)
     assert outcome.complete
     assert np.abs(y[t >= 12.0, 0] - X_REF).max() < 1e-6
     e_int = y[:, 4]   # [x, x_dot, W_drive, W_constraint, e_int]
@@ -128,12 +128,13 @@ def test_a_first_order_filter_follows_its_closed_form(env, tmp_path, backend):
 def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backend):
     model = _on(pid, backend)
     zero = np.zeros(1)
-    t, y, outcome = integrate.rk4(model, zero, zero, 2.0, 1e-3, save_every=100)
+    t, y, outcome = integrators.rk4.rk4(model, zero, zero, 2.0, 1e-3, save_every=100)
     assert outcome.complete
-    runs = {"scipy-radau": integrate.scipy_solve(model, zero, zero, 2.0, method="Radau", rtol=1e-10, atol=1e-12,
-                                                 t_eval=t)}
+    runs = {"scipy-radau": integrators.scipy_radau.scipy_solve(model, zero, zero, 2.0, method="Radau", rtol=1e-10,
+                                                               atol=1e-12,
+                                                               t_eval=t)}
     if backend == "c":
-        runs["dop853"] = integrate.dop853(model, zero, zero, 2.0, 0.1, rtol=1e-10, atol=1e-12)
+        runs["dop853"] = integrators.dop853.dop853(model, zero, zero, 2.0, 0.1, rtol=1e-10, atol=1e-12)
     for method, (t_m, y_m, outcome_m, _) in runs.items():
         assert outcome_m.complete, method
         np.testing.assert_allclose(t_m, t, rtol=0, atol=1e-12)
@@ -145,7 +146,7 @@ def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backen
 def test_numpy_and_c_give_the_same_run(pid):
     zero = np.zeros(1)
     # the Python loop over the NumPy functions and the compiled loop
-    runs = [integrate.rk4(_on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
+    runs = [integrators.rk4.rk4(_on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
     assert runs[1][1].shape[1] == 5
     np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-13)
 
@@ -161,22 +162,22 @@ def test_the_drive_work_carried_with_the_states_is_the_kinetic_energy_gained(env
 @pytest.mark.parametrize("method", ["radau", "genalpha"])
 def test_an_implicit_loop_refuses_the_states_in_one_line(pid, method):
     zero = np.zeros(1)
-    run = {"genalpha": lambda m: integrate.genalpha(m, zero, zero, 0.1, 1e-3, 1e-2),
-           "radau": lambda m: integrate.radau(m, zero, zero, 0.1, 1e-2)}[method]
+    run = {"genalpha": lambda m: integrators.genalpha.genalpha(m, zero, zero, 0.1, 1e-3, 1e-2),
+           "radau": lambda m: integrators.radau.radau(m, zero, zero, 0.1, 1e-2)}[method]
     with pytest.raises(SimulationError, match=f"--method {method} does not integrate controller states") as caught:
         run(_on(pid, "c"))
     assert "\n" not in str(caught.value)
     # and the loop itself, called past that check, refuses rather than drop them
     model = _on(pid, "c")
-    y = integrate.start_state(model, zero, zero)
+    y = integrators.loop.start_state(model, zero, zero)
     if method == "radau":
         rows, status = model.radau(0.0, y, np.array([0.01]), 1e-6, 1e-8, np.zeros(1),
-                                   np.zeros(integrate.ADAPTIVE_COUNTS, dtype=np.int64))
+                                   np.zeros(integrators.base.ADAPTIVE_COUNTS, dtype=np.int64))
     else:
         memory = {"a": np.full(1, np.nan), "S": np.zeros((1, 1)), "pivot": np.zeros(1, dtype=np.intc),
                   "have": np.zeros(1, dtype=np.intc)}
-        rows, status = model.genalpha(integrate.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y, memory,
-                                      np.array([0.01]), np.zeros(integrate.COUNTS, dtype=np.int64))
+        rows, status = model.genalpha(integrators.loop.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y, memory,
+                                      np.array([0.01]), np.zeros(integrators.base.COUNTS, dtype=np.int64))
     assert status == SolveStatus.BAD_ARGUMENTS and len(rows) == 0
 
 

@@ -14,7 +14,7 @@ from gpmegen.analysis.post import modes
 from gpmegen.analysis.run import reference_case, study
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
-from gpmegen.runtime import integrate, integrators
+from gpmegen.runtime import integrators
 
 pytestmark = pytest.mark.requires_cc
 
@@ -87,8 +87,8 @@ def test_the_dop853_bound_is_below_the_steps_it_takes_and_near_them_at_a_loose_t
     bound = limits.integration_estimate(model.n_dof, span, 1e-3, "dop853", "c", omega)
     assert bound.at_least
     for rtol in (1e-3, 1e-8):
-        _, _, outcome, effort = integrate.dop853(model, q0, np.zeros(model.n_dof), span, 1e-3, rtol=rtol,
-                                                 atol=rtol)
+        _, _, outcome, effort = integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), span, 1e-3, rtol=rtol,
+                                                          atol=rtol)
         assert outcome.complete and effort.steps >= bound.steps
         if rtol == 1e-3:
             assert effort.steps <= 2 * bound.steps
@@ -120,8 +120,9 @@ def test_the_lowest_period_bound_is_below_the_steps_radau_takes(arm):
     lowest, span = modes.lowest_frequency(model, 0.0, q0), 0.5
     bound = limits.integration_estimate(model.n_dof, span, 1e-3, "radau", "c", lowest)
     assert bound.at_least and bound.steps == np.ceil(span * lowest / (2 * np.pi))
-    for rtol in (1e-4, integrate.RTOL):
-        _, _, outcome, effort = integrate.radau(model, q0, np.zeros(model.n_dof), span, 1e-2, rtol=rtol, atol=rtol)
+    for rtol in (1e-4, integrators.base.RTOL):
+        _, _, outcome, effort = integrators.radau.radau(model, q0, np.zeros(model.n_dof), span, 1e-2, rtol=rtol,
+                                                        atol=rtol)
         assert outcome.complete and effort.steps >= 2 * bound.steps
     limits.check_run(model.n_dof, 2, RunSpec(t_end=100.0, dt=1e-3, save_every=1, method="radau", save_dt=1e-3), "c",
                      omega=lowest)

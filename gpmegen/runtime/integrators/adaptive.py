@@ -12,11 +12,11 @@ from .loop import CHUNK_SECONDS, check_start, chunked, grid, start_state
 
 def compiled_adaptive(integrator, model, q0, qd0, t_end, save_dt, t0, rtol, atol, progress, max_violation, watch,
                       steps_per_call=None):
-    """The adaptive compiled loop of ``integrator`` (its name a method of the model with
+    """The adaptive compiled loop of ``integrator`` (its ``entry`` a method of the model with
     :meth:`gpmegen.runtime.model.LoadedModel.dop853`'s interface) driven by :func:`chunked` on the
     save grid, its step carried across the chunks, its place within a chunk across the calls.
     Returns ``(t, y, outcome, effort)``."""
-    method = integrator.name
+    method = integrator.entry
     integrator.check_model(model)
     check_start(model, t0, q0, qd0)
     if not (rtol > 0 and atol >= 0):

@@ -9,6 +9,7 @@ from typing import ClassVar, NamedTuple
 
 from ...errors import SimulationError
 from ...limits import Integration
+from .registry import carrying_controller_states
 
 
 class Effort(NamedTuple):
@@ -77,14 +78,16 @@ TOLERANCES = (
 class Integrator:
     """One integrator: a subclass sets the class attributes and :meth:`run` (and :meth:`estimate`
     where its work can be said before it starts), and registers itself with
-    :func:`gpmegen.runtime.integrators.register`. Its compiled entry, where it has one, is the
-    model's method of its name (:class:`gpmegen.runtime.model.LoadedModel`), which its :meth:`run`
-    calls."""
+    :func:`gpmegen.runtime.integrators.register`. Its :meth:`run` is its Python entry, which
+    calls its compiled :attr:`entry` where it has one."""
 
     #: ``--method`` name, lower case.
     name: ClassVar[str]
     #: Its phrase in ``--method``'s help: "dop853 (adaptive, order 8, in C)".
     summary: ClassVar[str]
+    #: Its compiled entry: the method of :class:`gpmegen.runtime.model.LoadedModel` (and of both
+    #: evaluators) that runs its loop, in C on the C backend; None: it has none.
+    entry: ClassVar[str | None] = None
     #: Whether it steps with the run's ``dt`` (else it chooses its own steps to ``rtol``, ``atol``).
     fixed_step: ClassVar[bool] = True
     #: Whether it runs only in the generated C loop (not on the NumPy backend, nor for the actuated
@@ -134,8 +137,6 @@ class Integrator:
     def check_model(self, model) -> None:
         """Refuse, in one line, a model with controller states where it does not carry them."""
         if model.controller_names and not self.controller_states:
-            from .registry import carrying_controller_states
-
             raise SimulationError(f"--method {self.name} does not integrate controller states (the model's "
                                   f"{', '.join(model.controller_names)}) yet: use --method "
                                   f"{carrying_controller_states()}")

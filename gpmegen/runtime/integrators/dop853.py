@@ -26,7 +26,7 @@ def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progres
 class DOP853(CompiledAdaptive):
     """DOP853 in C: its steps bound by the stable step of the stiffest mode."""
 
-    name = "dop853"
+    name = entry = "dop853"
     summary = "dop853 (adaptive, order 8, in C)"
     frequency = "highest"
 

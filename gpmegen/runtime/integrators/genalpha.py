@@ -61,7 +61,7 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
 class GenAlpha(Integrator):
     """Generalized-α in C: step ``dt``, damping ``rho_inf``; no controller states yet."""
 
-    name = "genalpha"
+    name = entry = "genalpha"
     summary = "genalpha (implicit, order 2, numerically damped, step --dt, in C)"
     compiled = c_loop = chunked = True
     controller_states = False

@@ -39,7 +39,7 @@ def radau_estimate(n_dof, t_end, omega, name) -> limits.Integration | None:
 class Radau(CompiledAdaptive):
     """Radau IIA in C: implicit, for stiff, finely divided links; no controller states yet."""
 
-    name = "radau"
+    name = entry = "radau"
     summary = "radau (implicit, adaptive, order 5, in C: for stiff, finely divided links)"
     controller_states = False
     frequency = "lowest"

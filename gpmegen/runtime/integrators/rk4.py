@@ -126,7 +126,7 @@ class RK4(Integrator):
     """Fixed-step RK4 (the paper's, the default): in C or NumPy, with or without controller
     states, for the ideal or the actuated realization."""
 
-    name = "rk4"
+    name = entry = "rk4"
     summary = "fixed-step rk4 (the paper's, default)"
     c_loop = chunked = True
     frequency = "highest"
