@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import outputs
+from .. import extras, outputs
 from ..analysis.run.runspec import RunSpec
 from ..status import Ending
 from .common import (
@@ -228,6 +228,8 @@ def cmd_sweep(args) -> int:
     # A sweep's folder is its own (gpmegen.analysis.sweep.plan.claim): a run of the same sweep
     # resumes it, any other is refused; it must not hold the model file.
     outputs.check([args.out], [args.model_file], overwrite=True)
+    if args.scheduler:  # before the folder is made: a refused sweep leaves nothing behind
+        extras.require("distributed", "a sweep on a Dask cluster (--scheduler)")
     if not Path(args.out).is_file():
         outputs.writable_folder(Path(args.out))
     try:
