@@ -306,7 +306,7 @@ def run_estimate(n_dof: int, n_constraints: int, spec, backend: str, omega: floa
     starts (no estimator, or no frequency to bound its steps) is taken at zero seconds, a lower
     bound: what its saved samples take is still known."""
     t_end, dt, method = spec.t_end, spec.dt, spec.method
-    save_dt = None if method == "rk4" else spec.save_dt
+    save_dt = None if method in ESTIMATORS and ESTIMATORS[method].saves_on_steps else spec.save_dt
     integration = integration_estimate(n_dof, t_end, dt, method, backend, omega)
     stiff = integration is not None and integration.at_least and _frequency(method) != "lowest"
     if integration is None:

@@ -26,6 +26,7 @@ class Euler(integrators.Integrator):
 
     name = "euler"
     summary = "euler (explicit, order 1)"
+    saves_on_steps = True
 
     def run(self, model, q0, qd0, spec, progress=None, watch=None):
         rhs, g = loop.state_derivative(model), loop.grid(0.0, spec.t_end, spec.dt)

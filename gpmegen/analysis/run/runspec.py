@@ -127,7 +127,7 @@ class RunSpec:
             value["actuated"] = names
         defaulted = set()
         save_dt = cast(float | None, value.get("save_dt"))
-        if self.method == "rk4" and save_dt is not None:
+        if integrators.get(self.method).saves_on_steps and save_dt is not None:
             value["save_every"] = save_steps(dt, save_dt)
             if value["save_every"] is None:
                 raise RunSpecError(f"--save-dt {save_dt:g} s is not a whole number of RK4 steps --dt {dt:g} s; make "

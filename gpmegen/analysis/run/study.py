@@ -13,7 +13,6 @@ from ...runtime import gpme, integrators, internal, partition, statics
 from ...runtime.consistent import Start, check_redundant, consistent, project_velocities
 from ...runtime.integrators.base import Effort
 from ...runtime.integrators.loop import interruptible, start_state
-from ...runtime.integrators.rk4 import unstable_step
 from ...status import Ending, Outcome
 from ..post import drive_limits, modes
 from ..post import energy as energy_balance
@@ -93,8 +92,8 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
         elif integrator.frequency == "lowest":
             omega = modes.lowest_frequency(model, 0.0, q0, qd0)
     limits.check_run(model.n_dof, len(model.constraint_names), spec, loop, omega)
-    if method == "rk4" and omega is not None:
-        unstable = unstable_step(dt, modes.motion_eigenvalues(model, 0.0, q0, qd0))
+    if omega is not None:
+        unstable = integrator.unstable_step(dt, lambda: modes.motion_eigenvalues(model, 0.0, q0, qd0))
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     model.check_actuators(0.0, q0)

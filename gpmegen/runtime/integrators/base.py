@@ -90,6 +90,9 @@ class Integrator:
     entry: ClassVar[str | None] = None
     #: Whether it steps with the run's ``dt`` (else it chooses its own steps to ``rtol``, ``atol``).
     fixed_step: ClassVar[bool] = True
+    #: Whether it saves only at the end of its steps (no dense output), every ``save_every``-th:
+    #: a save interval ``save_dt`` must then be a whole number of steps.
+    saves_on_steps: ClassVar[bool] = False
     #: Whether it runs only in the generated C loop (not on the NumPy backend, nor for the actuated
     #: realization, which is integrated in Python).
     compiled: ClassVar[bool] = False
@@ -121,6 +124,12 @@ class Integrator:
         (:class:`gpmegen.limits.Integration`), ``dt`` the fixed step (for adaptive methods the
         save grid's unit), ``omega`` the :attr:`frequency` (rad/s; None when not computed) on
         ``backend``; None when nothing can be said before it starts."""
+        return None
+
+    def unstable_step(self, dt: float, eigenvalues: Callable[[], object]) -> str | None:
+        """Why its step ``dt`` (s) would blow up on the motion linearized at the start, whose
+        eigenvalues (1/s) ``eigenvalues()`` computes, or None: only an explicit fixed-step method
+        has a step that can (the others call nothing)."""
         return None
 
     def refusal(self, backend: str, actuated: bool) -> str | None:

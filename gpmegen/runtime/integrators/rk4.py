@@ -128,8 +128,11 @@ class RK4(Integrator):
 
     name = entry = "rk4"
     summary = "fixed-step rk4 (the paper's, default)"
-    c_loop = chunked = True
+    c_loop = chunked = saves_on_steps = True
     frequency = "highest"
+
+    def unstable_step(self, dt, eigenvalues):
+        return unstable_step(dt, eigenvalues())
 
     def run(self, model, q0, qd0, spec, progress=None, watch=None):
         t, y, outcome = rk4(model, q0, qd0, spec.t_end, spec.dt, spec.save_every, progress=progress,
