@@ -185,7 +185,7 @@ def test_radau_carries_the_states_as_dop853_does(pid, reference):
     np.testing.assert_allclose(y[:, [0, 1, 4]], y_ref[:, [0, 1, 4]], rtol=0, atol=1e-9)
     _slowest_settled(t, y)
     # the states' blocks in the Newton matrix: without them (A_z, R_q, R_qd taken as zero) Newton
-    # contracted slowly, 171 steps rejected beside 597 accepted; with them, 2 beside 456
+    # contracted slowly, 171 steps rejected beside 597 accepted; with them, 2 or 3 beside 456
     assert effort.rejected < 20
 
 

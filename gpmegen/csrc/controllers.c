@@ -22,6 +22,27 @@ long gpmegen_state_jacobian_solves(const struct gpmegen_model *model)
     return gpmegen_jacobian_solves(model) + 2 * (long)model->n_controllers;
 }
 
+/* The Jacobian (N_Z x n, row-major) of the controller states' rates at (t, q, qd) and the z in
+   p in the n entries x, which are q's, qd's or the z's in p (restored on return): central
+   differences with steps cbrt(DBL_EPSILON) max(1, |x_j|). */
+static void rate_columns(const struct gpmegen_model *model, double t, const double *q, const double *qd,
+                         const double *p, double *x, int n, double *out)
+{
+    const int N_Z = model->n_controllers;
+    double up[N_Z] ALIGNED, down[N_Z] ALIGNED;
+    for (int j = 0; j < n; ++j) {
+        const double h = cbrt(DBL_EPSILON) * fmax(1.0, fabs(x[j])), saved = x[j];
+        x[j] = saved + h;
+        model->controller_rates(t, q, qd, p, up);
+        x[j] = saved - h;
+        model->controller_rates(t, q, qd, p, down);
+        x[j] = saved;
+        for (int i = 0; i < N_Z; ++i) {
+            out[i * n + j] = (up[i] - down[i]) / (2.0 * h);
+        }
+    }
+}
+
 /* At the state y = [q, qd, w, z] (N_Y) and time t: qdd (N_DOF), its Jacobians dqdd/dq, dqdd/dqd
    (A_q, A_qd: N_DOF x N_DOF, row-major, [i * N_DOF + j] = d qdd_i / d x_j) from
    gpmegen_gpme_jacobian (generated or differenced), and, for the controller states (N_Z =
@@ -35,57 +56,36 @@ int gpmegen_state_jacobian(const struct gpmegen_model *model, double t, const do
                            double *R_z)
 {
     const int N_DOF = model->n_dof, N_Z = model->n_controllers;
-    const double *q = y, *qd = y + N_DOF, *z = y + 2 * N_DOF + 2;
-    double with_z[N_Z ? model->n_parameters + N_Z : 1] ALIGNED, x[2 * N_DOF] ALIGNED;
-    double up[AT_LEAST_1(N_DOF > N_Z ? N_DOF : N_Z)] ALIGNED, down[AT_LEAST_1(N_DOF > N_Z ? N_DOF : N_Z)] ALIGNED;
-    const double relative = cbrt(DBL_EPSILON);
+    const double *z = y + 2 * N_DOF + 2;
+    double with_z[N_Z ? model->n_parameters + N_Z : 1] ALIGNED, q[N_DOF] ALIGNED, qd[N_DOF] ALIGNED;
+    double up[N_DOF] ALIGNED, down[N_DOF] ALIGNED;
     double power;
     int status;
     if (N_Z == 0) {
-        return gpmegen_gpme_jacobian(model, t, q, qd, p, qdd, A_q, A_qd);
+        return gpmegen_gpme_jacobian(model, t, y, y + N_DOF, p, qdd, A_q, A_qd);
     }
+    memcpy(q, y, sizeof q);
+    memcpy(qd, y + N_DOF, sizeof qd);
     gpmegen_with_controllers(model, p, z, with_z);
     if ((status = gpmegen_gpme_jacobian(model, t, q, qd, with_z, qdd, A_q, A_qd)) != GPMEGEN_OK) {
         return status;
     }
     double *const zs = with_z + model->n_parameters;  /* the states the generated functions read */
     for (int j = 0; j < N_Z; ++j) {
-        const double h = relative * fmax(1.0, fabs(z[j]));
+        const double h = cbrt(DBL_EPSILON) * fmax(1.0, fabs(z[j]));
         zs[j] = z[j] + h;
-        if ((status = model->gpme_recursive(t, q, qd, with_z, up, &power)) != GPMEGEN_OK) {
-            return status;
-        }
+        status = model->gpme_recursive(t, q, qd, with_z, up, &power);
         zs[j] = z[j] - h;
-        if ((status = model->gpme_recursive(t, q, qd, with_z, down, &power)) != GPMEGEN_OK) {
+        if (status != GPMEGEN_OK || (status = model->gpme_recursive(t, q, qd, with_z, down, &power)) != GPMEGEN_OK) {
             return status;
         }
+        zs[j] = z[j];
         for (int i = 0; i < N_DOF; ++i) {
             A_z[i * N_Z + j] = (up[i] - down[i]) / (2.0 * h);
         }
-        zs[j] = z[j] + h;
-        model->controller_rates(t, q, qd, with_z, up);
-        zs[j] = z[j] - h;
-        model->controller_rates(t, q, qd, with_z, down);
-        zs[j] = z[j];
-        for (int i = 0; i < N_Z; ++i) {
-            R_z[i * N_Z + j] = (up[i] - down[i]) / (2.0 * h);
-        }
     }
-    for (int i = 0; i < N_DOF; ++i) {
-        x[i] = q[i];
-        x[N_DOF + i] = qd[i];
-    }
-    for (int j = 0; j < 2 * N_DOF; ++j) {
-        const double h = relative * fmax(1.0, fabs(x[j])), saved = x[j];
-        x[j] = saved + h;
-        model->controller_rates(t, x, x + N_DOF, with_z, up);
-        x[j] = saved - h;
-        model->controller_rates(t, x, x + N_DOF, with_z, down);
-        x[j] = saved;
-        double *column = j < N_DOF ? R_q + j : R_qd + (j - N_DOF);
-        for (int i = 0; i < N_Z; ++i) {
-            column[i * N_DOF] = (up[i] - down[i]) / (2.0 * h);
-        }
-    }
+    rate_columns(model, t, q, qd, with_z, q, N_DOF, R_q);
+    rate_columns(model, t, q, qd, with_z, qd, N_DOF, R_qd);
+    rate_columns(model, t, q, qd, with_z, zs, N_Z, R_z);
     return GPMEGEN_OK;
 }
