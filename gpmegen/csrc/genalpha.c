@@ -217,14 +217,15 @@ enum { NEWTON_ITERATIONS = 6 };
 
 /* Generalized-alpha over steps k_from + 1 .. k_to of the grid of gpmegen_rk4 (n_steps steps of dt from
    t0, the last ending at t_end), with numerical damping rho_inf (0..1), from y_io = [q, qd, w, z]
-   (N_Y; z the controller states) and a_io (N_DOF), the method's acceleration-like variable (NaN at the start of a run: it
-   starts as qdd there), both replaced by their values at the end of step k_to. Each step solves
+   (N_Y; z the controller states) and a_io (N_DOF), the method's acceleration-like variable (NaN
+   at the start of a run: it starts as qdd there), both replaced by their values at the end of step
+   k_to. Each step solves
    qdd_{n+1} = a(t_{n+1}, q_{n+1}, qd_{n+1}) with
        q_{n+1}  = q_n + h qd_n + h^2 ((1/2 - beta) a_n + beta a_{n+1}),
        qd_{n+1} = qd_n + h ((1 - gamma) a_n + gamma a_{n+1}),
        (1 - alpha_m) a_{n+1} + alpha_m a_n = (1 - alpha_f) qdd_{n+1} + alpha_f qdd_n
-   and the controller states by the trapezoidal rule (second order, A-stable, as the scheme is on
-   the motion), z_{n+1} = z_n + (h / 2) (r_n + r(t_{n+1}, q_{n+1}, qd_{n+1}, z_{n+1})),
+   and the controller states by the trapezoidal rule (second order as the scheme is on the motion,
+   and A-stable), z_{n+1} = z_n + (h / 2) (r_n + r(t_{n+1}, q_{n+1}, qd_{n+1}, z_{n+1})),
    solved with qdd_{n+1} in the same modified Newton iteration (S of genalpha_matrix, N_R x N_R,
    kept across steps and chunks while it converges, *have_matrix says whether S and pivot (N_R)
    hold one); w by the trapezoidal rule on the powers.
