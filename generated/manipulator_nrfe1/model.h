@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: a46f318c3feba032
+Input hash: f927570ce0c9d4d8
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
