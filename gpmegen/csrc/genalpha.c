@@ -32,7 +32,10 @@ static int genalpha_matrix(const struct gpmegen_model *model, double t, const do
                            struct genalpha_parameters c, const double *p, double *S, int *pivot, long *counts)
 {
     const int N_DOF = model->n_dof, N_Z = model->n_controllers, N_R = N_DOF + N_Z;
-    double qdd[N_DOF] ALIGNED, A_q[N_DOF * N_DOF] ALIGNED, A_qd[N_DOF * N_DOF] ALIGNED;
+    /* A_q in S itself where S is N_DOF x N_DOF (no controller states): each entry of S is made
+       from the same entry of A_q alone, and the stack keeps one matrix less */
+    double qdd[N_DOF] ALIGNED, A_q_room[N_Z ? N_DOF * N_DOF : 1] ALIGNED, A_qd[N_DOF * N_DOF] ALIGNED;
+    double *const A_q = N_Z ? A_q_room : S;
     double A_z[AT_LEAST_1(N_DOF * N_Z)] ALIGNED, R_q[AT_LEAST_1(N_Z * N_DOF)] ALIGNED;
     double R_qd[AT_LEAST_1(N_Z * N_DOF)] ALIGNED, R_z[AT_LEAST_1(N_Z * N_Z)] ALIGNED;
     const double da = (1.0 - c.alpha_f) / (1.0 - c.alpha_m), dq = c.beta * h * h * da, dqd = c.gamma * h * da;
@@ -44,8 +47,9 @@ static int genalpha_matrix(const struct gpmegen_model *model, double t, const do
     }
     for (int i = 0; i < N_DOF; ++i) {
         for (int j = 0; j < N_DOF; ++j) {
-            S[i * N_R + j] = (i == j) - dq * A_q[i * N_DOF + j] - dqd * A_qd[i * N_DOF + j];
+            S[i * N_R + j] = -dq * A_q[i * N_DOF + j] - dqd * A_qd[i * N_DOF + j];
         }
+        S[i * N_R + i] += 1.0;
         for (int j = 0; j < N_Z; ++j) {
             S[i * N_R + N_DOF + j] = -A_z[i * N_Z + j];
         }

@@ -468,7 +468,7 @@ class CEvaluator:
 
     def _check_stack(self, call):
         """Refuse in one line a call of the solver library that would overflow the stack."""
-        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name)
+        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name, self.n_controllers)
 
     def _check_counts(self, counts, size):
         if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8 or len(counts) < size:
