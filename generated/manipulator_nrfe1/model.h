@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: a46f318c3feba032
+Input hash: 8ac187021b5360e2
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6855a6d52b3fce05
+Input hash: 35d55613061fcd65
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
