@@ -105,7 +105,7 @@ def test_a_results_file_of_the_older_format_is_refused_in_one_line(tmp_path, cap
         data = {k: f[k] for k in f.files}
     old = tmp_path / "old.npz"
     np.savez(old, **dict(data, format=np.array("gpmegen-results-1")))
-    assert main(["plot", str(old), "--out", str(tmp_path / "figures")]) == 1
+    assert main(["plot", str(old), "--out", str(tmp_path / "figures")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "older gpmegen" in err and "gpmegen simulate" in err
 

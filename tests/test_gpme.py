@@ -173,7 +173,7 @@ def test_simulate_bad_input(tmp_path, capsys, args, message):
 def test_plot_refuses_foreign_file(tmp_path, capsys):
     foreign = tmp_path / "x.npz"
     np.savez(foreign, a=np.zeros(2))
-    assert main(["plot", str(foreign), "--out", str(tmp_path / "figs")]) == 1
+    assert main(["plot", str(foreign), "--out", str(tmp_path / "figs")]) == 2  # the user's input, as in metrics
     assert "not a gpmegen results file" in capsys.readouterr().err
 
 

@@ -335,7 +335,7 @@ def test_plot_of_a_damaged_results_file_was_an_internal_error(tmp_path, capsys, 
         arrays = dict(np.load(good))
         np.savez(bad, **{**arrays, "t": arrays["t"][:0], "q": arrays["q"][:0]})
     capsys.readouterr()
-    assert main(["plot", str(bad), "--out", str(tmp_path / "figures")]) == 1
+    assert main(["plot", str(bad), "--out", str(tmp_path / "figures")]) == 2
     line = _one_line_error(capsys)
     assert line.startswith(f"gpmegen plot: error: {bad}: ") and "gpmegen simulate" in line
 

@@ -10,6 +10,7 @@ import warnings
 
 from .. import limits
 from ..analysis.figures.plots import IncompatibleResults
+from ..analysis.post.results import ResultsError
 from ..errors import (
     BuildError,
     DerivationError,
@@ -51,8 +52,8 @@ def main(argv=None) -> int:
     except SimulationStopped as exc:
         print(f"gpmegen {args.command}: {'' if exc.interrupted else 'error: '}{exc}", file=sys.stderr)
         return 130 if exc.interrupted else 1
-    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, OutputError,
-            MissingExtraError) as exc:
+    except (UsageError, RunSpecError, limits.LimitError, IncompatibleResults, ResultsError, OutputError,
+            MissingExtraError) as exc:  # what the user gave or asked for: a results file too
         print(f"gpmegen {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except (ModelError, DerivationError, BuildError) as exc:
