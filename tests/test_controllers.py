@@ -181,13 +181,13 @@ def test_an_implicit_loop_refuses_the_states_in_one_line(pid, method):
 
 
 def test_linearization_and_exports_refuse_the_states_in_one_line(pid):
-    from gpmegen.codegen.render import check_no_controllers
+    from gpmegen.codegen import backends
 
     with pytest.raises(ModelError, match="controller states") as caught:
         linear.linearize(pid["numpy"], 0.0, np.zeros(1), np.zeros(1))
     assert "\n" not in str(caught.value)
     with pytest.raises(ModelError, match="an FMU does not carry controller states") as caught:
-        check_no_controllers(gpmegen.load_model_file(PID), "an FMU")
+        backends.get("fmu").check(gpmegen.load_model_file(PID))
     assert "\n" not in str(caught.value)
 
 
