@@ -64,7 +64,7 @@ def test_the_bound_grows_with_the_constraints_and_the_exact_jacobians():
 
 
 def test_a_run_beyond_the_stack_limit_is_refused_in_one_line(monkeypatch):
-    model = gpmegen.load(nrfe=1, backend="c")
+    model = gpmegen.load("manipulator", nrfe=1, backend="c")
     need = cstack.call_bytes("radau", model.n_dof, len(model.constraint_names), False) + cstack.RESERVE
     monkeypatch.setattr(cstack, "stack_limit", lambda: need - 1)
     with pytest.raises(LimitError) as refused:

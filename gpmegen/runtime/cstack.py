@@ -25,7 +25,7 @@ except ImportError:  # not a POSIX system: no limit to read
 #: Bytes of stack beyond the arrays :func:`call_bytes` counts.
 RESERVE = 512 * 1024
 #: The library's entry points whose stack :func:`call_bytes` bounds.
-CALLS = ("solve", "jacobian", "rk4", "dop853", "radau", "genalpha")
+CALLS = ("solve", "jacobian", "rk4", "dop853", "radau", "genalpha", "actuated", "actuated_rk4")
 
 
 def call_bytes(call: str, n: int, m: int, exact_jacobians: bool, z: int = 0) -> int:
@@ -44,7 +44,10 @@ def call_bytes(call: str, n: int, m: int, exact_jacobians: bool, z: int = 0) -> 
         jacobian = 4 * n + recursive
     if z:   # controllers.c: the state's copy and the rates' differences around the GPME Jacobian
         jacobian += 4 * n + 2 * z
+    actuated = (n + m) ** 2 + 2 * n * n + 2 * m * n + 8 * (n + m) + 8   # actuated.c: A, x, the terms; a stage's M
     doubles = {
+        "actuated": actuated,
+        "actuated_rk4": 12 * n + 8 + n + actuated,                # rk4.c: the loop, a stage
         "solve": recursive,
         "jacobian": jacobian,
         "rk4": 12 * n + 8 + n + recursive,                        # rk4.c: the loop, a stage

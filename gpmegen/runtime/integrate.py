@@ -575,7 +575,7 @@ def unstable_step(dt: float, values) -> str | None:
 
 
 #: Integrators that run only in the generated C loops (not the NumPy backend, nor the actuated
-#: realization, which is integrated in Python).
+#: realization, which runs compiled in RK4 alone).
 COMPILED = ("dop853", "genalpha", "radau")
 
 

@@ -23,7 +23,7 @@ from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
 from ..status import SolveStatus
 from ..symbolic.names import SIGNAL_FUNCTION
-from . import finite, gpme, integrate, jacobians, signals
+from . import actuated, finite, gpme, integrate, jacobians, signals
 from .batch import is_batch, rows, stacked, states
 from .partition import partition_at
 from .signals import Table
@@ -732,14 +732,9 @@ class LoadedModel:
     def actuation(self, t: float, q: ArrayLike, qd: ArrayLike) -> Four:
         """(q̈ (n,), u (m,), M, f) of the actuated realization on :attr:`actuators`: the inputs
         ``u`` (N·m on a rotation, N on a translation) that alone hold the programmed
-        constraints. SimulationError where ``D M⁻¹ S`` is singular."""
-        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd)
-        try:
-            qdd, u = gpme.actuated(M, f, phi, phid, D, gamma, self.alpha, self.beta, self.constraint_orders,
-                                   self.actuators)
-        except np.linalg.LinAlgError:
-            raise SimulationError(self.uncontrollable(t, D)) from None
-        return qdd, u, M, f
+        constraints (in C on the C backend, :mod:`gpmegen.runtime.actuated`). SimulationError where
+        ``D M⁻¹ S`` is singular."""
+        return actuated.actuation(self, t, q, qd)
 
     def uncontrollable(self, t: float, D: Array, condition: float = np.inf) -> str:
         """Why the actuated realization fails at ``t``: its inputs cannot move the constraints
@@ -790,9 +785,8 @@ class LoadedModel:
         w0 = np.concatenate([[0.0, 0.0], self.controller_initial]) if w0 is None else w0
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"),
                              vector(w0, 2 + len(self.controller_names), "w0")])
-        if len(self.actuators):  # the generated loops solve the GPME: the actuated one runs in Python
-            t, y, status = integrate.rk4_steps(integrate.state_derivative(self), y0, g, k_from, k_to,
-                                               int(save_every))
+        if len(self.actuators):  # the generated loop's actuated entry, or the Python loop on NumPy
+            t, y, status = actuated.rk4(self, g, k_from, k_to, int(save_every), y0)
         else:
             model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
             t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)

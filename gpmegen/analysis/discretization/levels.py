@@ -109,9 +109,9 @@ def pool_size(levels: int, workers: int | None = None) -> int:
 def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     """Whether runs of ``method`` on ``backend`` integrate in compiled loops, which release
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
-    the compiled methods on the C backend, unless the constraints are realized by inputs (the
-    actuated realization steps in Python)."""
-    return backend == "c" and method in ("rk4", *integrate.COMPILED) and not actuated
+    the compiled methods on the C backend; with the constraints realized by inputs (``actuated``),
+    RK4 alone (the others integrate the ideal GPME only)."""
+    return backend == "c" and (method == "rk4" or (method in integrate.COMPILED and not actuated))
 
 
 def _on_threads(tasks, levels_cases, size) -> list:

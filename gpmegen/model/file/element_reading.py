@@ -20,7 +20,8 @@ from ..chain import (
     point_velocity_symbols,
     symbol,
 )
-from ..expand import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS, expand
+from ..expand import expand
+from ..law_checks import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS
 from .locator import located
 from .schema import (
     SIGNAL_KEYS,

@@ -17,7 +17,8 @@ from ..chain import (
     check_name,
     symbol,
 )
-from ..expand import FORCE_OF_ACCELERATIONS, expand
+from ..expand import expand
+from ..law_checks import FORCE_OF_ACCELERATIONS
 from ..requirements import evaluate
 from .chain_reading import ChainReading
 from .constraint_reading import ConstraintReading

@@ -18,7 +18,7 @@ TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
             "chain", "drives", "constraints", "closures", "forces", "initial", "actuators", "urdf", "signals",
-            "controllers")
+            "controllers", "controller")
 SIGNAL_KEYS = ("name", "expression", "table", "column")
 CLOSURE_KEYS = ("name", "points", "type", "axis", "alpha", "beta")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
