@@ -111,19 +111,6 @@ def start_state(model, q0, qd0):
     return np.concatenate([q0, qd0, [0.0, 0.0], model.controller_initial]).astype(float)
 
 
-#: The compiled loops that do not carry controller states yet: their Newton iterations and
-#: Jacobians hold the mechanics only.
-NO_CONTROLLERS = ("radau", "genalpha")
-
-
-def check_controllers(model, method: str) -> None:
-    """Refuse, in one line, ``method`` (a compiled loop) for a model with controller states,
-    where it does not carry them (the implicit ones: radau, genalpha)."""
-    if model.controller_names and method in NO_CONTROLLERS:
-        raise SimulationError(f"--method {method} does not integrate controller states (the model's "
-                              f"{', '.join(model.controller_names)}) yet: use --method rk4, dop853 or scipy-radau")
-
-
 class interruptible:
     """Turns SIGTERM into KeyboardInterrupt for the duration of a run, so partial results
     are kept on either signal."""
@@ -468,7 +455,6 @@ def _compiled_adaptive(method, model, q0, qd0, t_end, save_dt, t0, rtol, atol, p
     :meth:`gpmegen.runtime.model.LoadedModel.dop853`'s interface) driven by :func:`chunked` on the
     save grid, its step carried across the chunks, its place within a chunk across the calls.
     Returns ``(t, y, outcome, effort)``."""
-    check_controllers(model, method)
     check_start(model, t0, q0, qd0)
     if not (rtol > 0 and atol >= 0):
         raise ValueError(f"need rtol > 0 and atol >= 0, got rtol = {rtol}, atol = {atol}")
@@ -517,7 +503,6 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     and q̇ onto ``D q̇ + Φ_t = 0`` and first-order ``Ψ = 0``: the Baumgarte-stabilized GPME
     alone drifts to 1e-5 at the steps this method is for. ``steps_per_call``: see :func:`chunked`.
     Returns ``(t, y, outcome, effort)``."""
-    check_controllers(model, "genalpha")
     check_start(model, t0, q0, qd0)
     if not 0.0 <= rho_inf <= 1.0:
         raise ValueError(f"need 0 <= rho_inf <= 1, got {rho_inf}")
@@ -526,7 +511,8 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     chunk = max(1, int(round(CHUNK_SECONDS / dt)))
     n = model.n_dof
     counts = np.zeros(COUNTS, dtype=np.int64)
-    memory = {"a": np.full(n, np.nan), "S": np.zeros((n, n)), "pivot": np.zeros(n, dtype=np.intc),
+    n_r = n + len(model.controller_names)   # Newton's unknowns: q̈ and the controller states
+    memory = {"a": np.full(n, np.nan), "S": np.zeros((n_r, n_r)), "pivot": np.zeros(n_r, dtype=np.intc),
               "have": np.zeros(1, dtype=np.intc)}
 
     def advance(model, y, k_from, k_to):
