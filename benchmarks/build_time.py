@@ -68,7 +68,7 @@ def progress(line):
 
 with limits.lifted():
     if kind == "nrfe":
-        model = gpmegen.load(nrfe=nrfe, backend="c", progress=progress)
+        model = gpmegen.load("manipulator", nrfe=nrfe, backend="c", progress=progress)
     else:
         model = gpmegen.load(model=gpmegen.load_model_file(kind, nrfe), backend="c", progress=progress)
 marks["end"] = clock()

@@ -24,7 +24,7 @@ def main(t_end=10.0):
     print(f"{'n_rfe':>5} {'adaptive':>8} {'rtol':>7} {'RK4 [s]':>8} {'adaptive [s]':>12} "
           f"{'max|Δq| joints':>15} {'max|Δq| all':>12}  q(t_end) RK4: theta1, psi2, x3")
     for nrfe, method, rtol in ((1, "DOP853", 1e-12), (5, "Radau", 1e-10)):
-        model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
+        model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=nrfe, backend="c"))
         qd0 = np.zeros(model.n_dof)
         t0 = time.perf_counter()
         res = study.simulate(model, q0, RunSpec(t_end=t_end, dt=1e-5, save_every=100000))

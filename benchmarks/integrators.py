@@ -86,7 +86,7 @@ def main(t_end=10.0, levels=(5,), methods=None, reference_rtol=1e-12, reference_
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; t_end = {t_end:g} s, saved every "
           f"{SAVE_DT:g} s")
     for nrfe in levels:
-        model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
+        model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=nrfe, backend="c"))
         n = model.n_dof
         if reference_file:
             stored = np.load(reference_file)

@@ -3,9 +3,9 @@
    3 000 steps, and the difference over 2 000 is the count per step, start-up and loading left out.
 
    Build and run (LIB: a model library of the C cache, e.g. printed by
-   `python -c "import gpmegen; print(gpmegen.load(nrfe=5, backend='c').evaluator.library.path)"`;
+   `python -c "import gpmegen; print(gpmegen.load('manipulator', nrfe=5, backend='c').evaluator.library.path)"`;
    PREFIX: its model's name, manipulator_nrfe5; P: a file of its parameter values, their count first,
-   e.g. written by `python -c "import gpmegen; m = gpmegen.load(nrfe=5); print(len(m.p), *m.p)"`):
+   e.g. written by `python -c "import gpmegen; m = gpmegen.load('manipulator', nrfe=5); print(len(m.p), *m.p)"`):
 
        cc -O2 -o rk4_driver benchmarks/rk4_driver.c -ldl
        valgrind --tool=callgrind --callgrind-out-file=/dev/null ./rk4_driver LIB PREFIX P 1000

@@ -50,7 +50,7 @@ def _timed(f):
 def main(t_end=0.5, levels=(1, 5, 10, 20)):
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores; t_end = {t_end:g} s")
     for nrfe in levels:
-        model, q0 = reference_case.initial_state(gpmegen.load(nrfe=nrfe, backend="c"))
+        model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=nrfe, backend="c"))
         n = model.n_dof
         qd0 = np.zeros(n)
         omega = modes.highest_frequency(model, 0.0, q0, qd0)

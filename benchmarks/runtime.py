@@ -128,7 +128,7 @@ def versus_pinocchio(values, rounds, batch=1000):
     print(f"\n{'n_rfe':>5} {'n_dof':>5} {'C q̈ [µs]':>9} {'cffi q̈ [µs]':>11} {'raw C [µs]':>10} {'aba [µs]':>9} "
           f"{'ratio':>6} {'batched q̈ [µs/state]':>21} {'C step [µs]':>11} {'load':>5}")
     for n in values:
-        c_model = gpmegen.load(nrfe=n, backend="c")
+        c_model = gpmegen.load("manipulator", nrfe=n, backend="c")
         if c_model.evaluator.fastcall_unavailable:
             print(f"(single calls go through cffi: {c_model.evaluator.fastcall_unavailable})")
         q, qd = start_state(c_model)
@@ -173,8 +173,8 @@ def main():
           f"{'numpy bare step':>15} {'numpy loop step':>15} {'C step [µs]':>11} {'bare/C':>7} {'loop/C':>7}")
     rows = {}
     for n in args.nrfe:
-        numpy_model = gpmegen.load(nrfe=n, backend="numpy")
-        c_model = gpmegen.load(nrfe=n, backend="c")
+        numpy_model = gpmegen.load("manipulator", nrfe=n, backend="numpy")
+        c_model = gpmegen.load("manipulator", nrfe=n, backend="c")
         q, qd = start_state(c_model)
         c_steps = max(2000, int(0.05 / (4 * per_call(lambda: c_model.accelerations(0.1, q, qd), 0.05))))
         # Rounds that interleave the two backends, keeping each figure's best: on a shared machine
@@ -202,7 +202,7 @@ def main():
     if 5 in rows:
         c_model, step_c = rows[5]
     else:
-        c_model = gpmegen.load(nrfe=5, backend="c")
+        c_model = gpmegen.load("manipulator", nrfe=5, backend="c")
         step_c = c_rk4_per_step(c_model, *start_state(c_model), 20000)
     n_steps = grid(0.0, PAPER_T_END, PAPER_DT).n_steps
     estimate = step_c * n_steps

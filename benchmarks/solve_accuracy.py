@@ -31,7 +31,7 @@ def main():
 
     print(f"{'n_rfe':>5} {'cond(BᵀMB)':>11} {'κ':>8} {'eps·κ':>8} {'C error':>8} {'NumPy error':>11}")
     for n in args.nrfe:
-        model = gpmegen.load(nrfe=n, backend="c")
+        model = gpmegen.load("manipulator", nrfe=n, backend="c")
         worst_c = worst_numpy = 0.0
         for cond, t, q, qd in ill_conditioned_states(model, args.count, args.seed, args.samples):
             error_c, error_numpy, kappa = solve_errors(model, t, q, qd)

@@ -41,7 +41,7 @@ root, nrfe = Path(sys.argv[1]).resolve(), int(sys.argv[2])
 templates = Path(str(resources.files("gpmegen.templates"))).resolve()
 if root not in Path(gpmegen.__file__).resolve().parents or root not in templates.parents:
     raise SystemExit(f"gpmegen or its templates do not come from {root} ({gpmegen.__file__}, {templates})")
-model = gpmegen.load(nrfe=nrfe, backend="c")
+model = gpmegen.load("manipulator", nrfe=nrfe, backend="c")
 print(json.dumps({"library": str(model.evaluator.library.path)}))
 """
 
@@ -53,7 +53,7 @@ import gpmegen
 from gpmegen.runtime import ccompile, integrators
 
 nrfe, rounds, other = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
-model = gpmegen.load(nrfe=nrfe, backend="c")
+model = gpmegen.load("manipulator", nrfe=nrfe, backend="c")
 models = {"this": model}
 if other:
     twin = copy.copy(model.evaluator)

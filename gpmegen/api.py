@@ -1,7 +1,7 @@
 """gpmegen's public face in Python: what a user imports from ``gpmegen``.
 
-- :func:`load`: a model (the reference manipulator, or any :class:`~gpmegen.model.Model`), built
-  into generated code when missing or stale, opened on the C backend where a C compiler is
+- :func:`load`: a model (a model file, any :class:`~gpmegen.model.Model`, or ``"manipulator"``,
+  the reference arm), built into generated code when missing or stale, opened on the C backend where a C compiler is
   found, else (or with ``backend="numpy"``) on the NumPy one;
 - :func:`statics`, :func:`simulate`: a model's consistent start and its constrained motion (as
   ``gpmegen statics`` and ``gpmegen simulate``), the latter as :class:`Results`;
@@ -19,21 +19,22 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .analysis.post import results as results_io
-from .analysis.run import cases, linear, loading, opening, reference_case, runs, tracking
+from .analysis.run import cases, linear, loading, opening, runs, tracking
 from .analysis.run.loading import checked_backend, keyword_options
 from .analysis.run.loading import gravity_function as gravity_function
-from .analysis.run.reference_case import CONSTANTS, with_constants
 from .analysis.run.runs import Results
 from .analysis.run.runspec import NAMES as RUN_OPTIONS
 from .analysis.run.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
-from .codegen import casadi_export, fmu_export
+from .codegen.backends import casadi as casadi_export
+from .codegen.backends import fmu as fmu_export
 from .errors import (
     BuildError,
     DerivationError,
@@ -57,7 +58,6 @@ from .model import (
     Signal,
     reference_model,
 )
-from .model.rfem import check_nrfe
 from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
@@ -70,8 +70,8 @@ if TYPE_CHECKING:  # for the annotations only: nothing more is imported at run t
     from .runtime.consistent import Start
     from .runtime.model import LoadedModel
 
-#: Where a model is: None (the reference manipulator), a model file or a folder made by
-#: ``gpmegen build --out`` (a path), or a :class:`Model`.
+#: Where a model is: None or ``"manipulator"`` (the reference manipulator), a model file or a folder
+#: made by ``gpmegen build --out`` (a path), or a :class:`Model`.
 ModelSource = str | Path | Model | None
 #: What takes one-line messages.
 Progress = Callable[[str], object]
@@ -80,22 +80,25 @@ Progress = Callable[[str], object]
 _FOUND: dict[str, Any] = {"nrfe": None, "directory": None}
 
 
-def load(nrfe: int = 5, backend: str | None = None, params: Mapping[str, float] | None = None, *,
-         model: Model | None = None, **options: Any) -> LoadedModel:
+def load(model: ModelSource | int = None, backend: str | None = None, params: Mapping[str, float] | None = None,
+         *, nrfe: int | None = None, **options: Any) -> LoadedModel:
     """The generated model ready to evaluate.
 
-    ``model``: a :class:`gpmegen.model.Model` (default: the reference manipulator with ``nrfe``
-    rfes). ``backend``: "c" or "numpy"; None (the default) is "c" where a C compiler is found, else
-    "numpy", said in one line (:func:`gpmegen.analysis.run.loading.checked_backend`). ``params``
-    overrides parameter values. The model is built into ``directory`` (an option, as the others below; default
+    ``model``: a :class:`gpmegen.model.Model`, a model file's path (``nrfe`` rfes in each of its
+    flexible links, as ``gpmegen build FILE --nrfe N``; None: the file's own), a folder made by
+    ``gpmegen build --out``, or a name of a built-in case: ``"manipulator"``, the paper's arm
+    (``nrfe`` rfes, default 5; :data:`gpmegen.analysis.run.opening.NAMED`). ``backend``: "c" or
+    "numpy"; None (the default) is "c" where a C compiler is found, else "numpy", said in one
+    line (:func:`gpmegen.analysis.run.loading.checked_backend`). ``params`` overrides parameter
+    values. The model is built into ``directory`` (an option, as the others below; default
     :func:`gpmegen.runtime.loader.default_directory`) when missing or stale, or when a file it
     uses differs from the sha256 its manifest records, unless ``build=False``, which raises
     :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
 
-    The reference manipulator (``model`` None) is bound with the constraint constants ``r_Ea``
-    and ``y_c`` that its runs use: those that put E of the locked statics at the paper's joint
-    start on the constraints (unless ``params`` gives them). A ``model`` passed in is bound with
-    its parameters' defaults.
+    A case whose start sets constants of the model binds them as its runs do (the paper's arm:
+    ``r_Ea`` and ``y_c`` that put E of the locked statics at its joint start on the constraints,
+    unless ``params`` gives them; :attr:`gpmegen.analysis.run.cases.Case.start_constants`); any
+    other model is bound with its parameters' defaults.
 
     ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
     ``transforms``: the body transforms to generate, of "T", "T_i", "T_ij"
@@ -104,26 +107,49 @@ def load(nrfe: int = 5, backend: str | None = None, params: Mapping[str, float] 
     folder built with more serves as it is, and one built with less is built again with both what
     it had and what is asked (so that asking in turn never rebuilds back and forth). An option
     not among these is refused in one line.
+
+    Deprecated: ``load()``, ``load(nrfe=N)`` and ``load(N)`` without a model load the paper's arm
+    as before, with a :class:`DeprecationWarning` naming ``load("manipulator", nrfe=N)``.
     """
-    if model is not None:
-        return loading.load(model, backend, params, **options)
+    if model is None or isinstance(model, int):
+        nrfe = model if model is not None else (nrfe if nrfe is not None else 5)
+        warnings.warn(f"gpmegen.load() without a model is deprecated; use gpmegen.load({opening.REFERENCE!r}, "
+                      f"nrfe={nrfe})", DeprecationWarning, stacklevel=2)
+        model = opening.REFERENCE
     chosen = keyword_options(options, loading.LOAD_OPTIONS, "load")
+    if isinstance(model, Model) and nrfe is not None:
+        raise TypeError(f"load(): nrfe={nrfe} applies to a model file or a built-in case's name; a gpmegen.Model "
+                        f"has its rfes already (gpmegen.load_model_file(path, nrfe={nrfe}))")
+    case = _case(model, nrfe)
+    if isinstance(case, cases.FolderCase):
+        return case.open(checked_backend(backend, chosen["progress"]), params, chosen["progress"] or _silent)
     backend = checked_backend(backend, chosen["progress"])
-    model = reference_model(check_nrfe(nrfe, "the reference arm"))
-    free = {k: v for k, v in (params or {}).items() if k not in CONSTANTS}
-    loaded = loading.load(model, backend, free, **{**chosen, "command": f"gpmegen build --nrfe {nrfe}"})
-    return with_constants(loaded, params)[0]
+    free = {k: v for k, v in (params or {}).items() if k not in case.start_constants}
+    loaded = case.located(lambda: loading.load(case.model, backend, free,
+                                               **{"command": case.command, **_given(chosen)}))
+    return case.bound(loaded, params or {})
+
+
+def _given(chosen: dict[str, Any]) -> dict[str, Any]:
+    """The load options ``chosen``, without ``command`` where the caller left it None (the case's
+    own build command then stands)."""
+    return {k: v for k, v in chosen.items() if not (k == "command" and v is None)}
+
+
+def _silent(message: str) -> None:
+    """A progress sink that says nothing."""
 
 
 def _case(model: ModelSource, nrfe: int | None) -> Case:
     """The case of ``model``: None (the reference manipulator with ``nrfe`` rfes, default 5), a
-    model file's path, a folder made by ``gpmegen build --out``, or a :class:`Model`."""
+    built-in case's name (:data:`gpmegen.analysis.run.opening.NAMED`), a model file's path, a
+    folder made by ``gpmegen build --out``, or a :class:`Model`."""
     if model is None:
-        return reference_case.ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
+        model = opening.REFERENCE
     if isinstance(model, Model):
         return cases.ModelCase(model)
     if isinstance(model, (str, Path)):
-        return opening.case_of_path(model, nrfe)
+        return opening.case_of_name(model, nrfe)
     raise TypeError(f"model must be None, a path or a gpmegen.Model, got {type(model).__name__}")
 
 
@@ -209,7 +235,7 @@ def simulate(model: ModelSource = None, spec: RunSpec | None = None, *, params: 
 def export_casadi(folder: str | Path, model: ModelSource = None, *, nrfe: int | None = None,
                   inputs: Iterable[str] = (), overwrite: bool = False) -> dict[str, Any]:
     """The model's functions as CasADi functions, as ``gpmegen export --format casadi`` writes them
-    into ``folder`` (:mod:`gpmegen.codegen.casadi_export`): ``qdd(t, q, qd, u, p)``, ``M(q, p)``,
+    into ``folder`` (:mod:`gpmegen.codegen.backends.casadi`): ``qdd(t, q, qd, u, p)``, ``M(q, p)``,
     ``f(t, q, qd, u, p)``, ``Phi``, ``Phi_rate``, ``D``, ``gamma`` ``(t, q, qd, p)``, ``points(q, p)``,
     ``energies(q, qd, p)``, by name; ``u`` holds a generalized force on each coordinate of
     ``inputs``. ``model``, ``nrfe`` as :func:`statics`; ``overwrite`` replaces an earlier export.
@@ -223,7 +249,7 @@ def export_fmu(out: str | Path, model: ModelSource = None, *, inputs: Iterable[s
                **options: Any) -> Path:
     """The model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one archive), as
     ``gpmegen export --format fmu`` writes it into the file ``out`` (``NAME.fmu``;
-    :mod:`gpmegen.codegen.fmu_export`): its states q and q̇, the GPME's q̈, the points, the
+    :mod:`gpmegen.codegen.backends.fmu`): its states q and q̇, the GPME's q̈, the points, the
     multipliers λ and the constraints' values as outputs, the parameters (tunable) and an input
     ``u_<coordinate>`` (a generalized force) on each coordinate of ``inputs``; its start values are
     :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``, and

@@ -14,7 +14,7 @@ system reports available (``MemAvailable``), raises :class:`LimitError`: one lin
 estimate, the limit and what to change. ``--no-limits`` on the command line, or in Python::
 
     with gpmegen.limits.lifted():
-        model = gpmegen.load(nrfe=60)
+        model = gpmegen.load("manipulator", nrfe=60)
 
 runs it anyway. Counts that do not fit a machine integer (a run of more than 2**62 steps) are
 refused always: no override would make them finish.

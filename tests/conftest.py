@@ -63,12 +63,12 @@ def pytest_runtest_setup(item):
 
 @pytest.fixture(scope="session")
 def rigid(generated_elsewhere):
-    return gpmegen.load(nrfe=1, backend="numpy")
+    return gpmegen.load("manipulator", nrfe=1, backend="numpy")
 
 
 @pytest.fixture(scope="session")
 def flexible(generated_elsewhere):
-    return gpmegen.load(nrfe=5, backend="numpy")
+    return gpmegen.load("manipulator", nrfe=5, backend="numpy")
 
 
 def shared_folder(tmp_path_factory, name):

@@ -39,7 +39,7 @@ def test_the_readme_example_of_the_python_api_runs(env, tmp_path, monkeypatch):
 
 def test_load_statics_and_simulate_bind_the_same_constraint_constants(env):
     """r_Ea, y_c: those that put E of the locked statics on the constraints, on every path."""
-    loaded = gpmegen.load(nrfe=5)
+    loaded = gpmegen.load("manipulator", nrfe=5)
     begun = gpmegen.statics(nrfe=5)
     run = gpmegen.simulate(nrfe=5, t_end=1e-3, dt=1e-4)
     for name in ("r_Ea", "y_c"):
@@ -48,23 +48,23 @@ def test_load_statics_and_simulate_bind_the_same_constraint_constants(env):
     assert loaded.params["r_Ea"] == pytest.approx(np.hypot(x, z), abs=1e-12)
     assert loaded.params["y_c"] == pytest.approx(y - loaded.params["A"], abs=1e-12)
     # the arm's sag moves E: not the rigid arm's values, which stay the file's defaults
-    rigid = gpmegen.load(nrfe=1)
+    rigid = gpmegen.load("manipulator", nrfe=1)
     assert abs(loaded.params["r_Ea"] - rigid.params["r_Ea"]) > 1e-2
     assert rigid.params["r_Ea"] == pytest.approx(np.hypot(*rigid.end_effector(reference_case.joint_start(rigid))[::2]))
-    assert gpmegen.load(nrfe=5, params={"r_Ea": 1.05}).params["r_Ea"] == 1.05
+    assert gpmegen.load("manipulator", nrfe=5, params={"r_Ea": 1.05}).params["r_Ea"] == 1.05
 
 
 @pytest.mark.requires_cc
 def test_the_default_backend_is_c_where_a_compiler_is_found_and_numpy_stays_available():
-    assert gpmegen.load(nrfe=1).backend == "c"
-    assert gpmegen.load(nrfe=1, backend="numpy").backend == "numpy"
+    assert gpmegen.load("manipulator", nrfe=1).backend == "c"
+    assert gpmegen.load("manipulator", nrfe=1, backend="numpy").backend == "numpy"
     assert gpmegen.statics(nrfe=1).model.backend == "c"
 
 
 def test_without_a_compiler_the_default_is_numpy_said_in_one_line(monkeypatch):
     monkeypatch.setenv("CC", "gpmegen-test-no-such-compiler")
     with pytest.warns(RuntimeWarning) as caught:
-        model = gpmegen.load(nrfe=1)
+        model = gpmegen.load("manipulator", nrfe=1)
     said = [str(w.message) for w in caught]
     assert model.backend == "numpy"
     assert len(said) == 1 and "\n" not in said[0] and said[0].endswith("; using the NumPy backend"), said
@@ -73,7 +73,7 @@ def test_without_a_compiler_the_default_is_numpy_said_in_one_line(monkeypatch):
     assert run.meta["backend"] == "numpy"
     assert [line for line in told if "NumPy backend" in line] == [said[0]]
     with pytest.raises(gpmegen.BuildError, match="no-such-compiler"):
-        gpmegen.load(nrfe=1, backend="c")  # asked for by name, C is not replaced
+        gpmegen.load("manipulator", nrfe=1, backend="c")  # asked for by name, C is not replaced
 
 
 def test_simulate_returns_results_with_named_accessors_and_saves_without_replacing(env, tmp_path):
@@ -166,7 +166,7 @@ def test_a_folder_of_the_reference_manipulator_runs_its_scenario(env, tmp_path, 
     assert main(["build", "--nrfe", "1", "--out", str(out)]) == 0
     run = gpmegen.simulate(out, t_end=1e-3, dt=1e-4)
     assert run.meta["label"] == "rigid arm" and run.meta["start"] == "locked"
-    assert run.meta["params"]["r_Ea"] == gpmegen.load(nrfe=1).params["r_Ea"]
+    assert run.meta["params"]["r_Ea"] == gpmegen.load("manipulator", nrfe=1).params["r_Ea"]
     assert "prescribed" in run.keys()
     assert gpmegen.statics(out).model.folder == out / "manipulator_nrfe1"  # the folder's code, not a new build
 
@@ -262,3 +262,33 @@ def test_convergence_refuses_a_model_without_a_flexible_link_in_one_line(tmp_pat
     assert main(["convergence", str(path), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "has no flexible link" in err
+
+
+def test_load_without_a_model_is_deprecated_and_loads_the_same_arm(env):
+    """The old ``load(nrfe=N)`` (and ``load()``) warns once, naming the new call, and gives the
+    same mass matrix and forces at a random state as ``load("manipulator", nrfe=N)``."""
+    new = gpmegen.load("manipulator", nrfe=1, backend="numpy")
+    with pytest.warns(DeprecationWarning) as caught:
+        old = gpmegen.load(nrfe=1, backend="numpy")
+    assert [str(w.message) for w in caught] == [
+        "gpmegen.load() without a model is deprecated; use gpmegen.load('manipulator', nrfe=1)"]
+    assert caught[0].filename == __file__  # pointed at the caller's line
+    rng = np.random.default_rng(7)
+    q, qd = rng.uniform(-1, 1, new.n_dof), rng.uniform(-1, 1, new.n_dof)
+    assert np.array_equal(old.mass_matrix(q), new.mass_matrix(q))
+    assert np.array_equal(old.forces(0.3, q, qd), new.forces(0.3, q, qd))
+    assert old.params == new.params
+    with pytest.warns(DeprecationWarning, match=r"gpmegen\.load\('manipulator', nrfe=5\)"):
+        assert gpmegen.load(backend="numpy").params == gpmegen.statics("manipulator", backend="numpy").model.params
+
+
+def test_load_takes_a_model_file_a_name_or_a_model_alike(env):
+    """``load(path, nrfe=N)`` is ``gpmegen build path --nrfe N``'s model; a Model with nrfe is
+    refused in one line (its rfes are in it)."""
+    path = ROOT / "tests" / "models" / "pendulum.toml"
+    by_file = gpmegen.load(path, backend="numpy", directory=env[0])
+    by_model = gpmegen.load(gpmegen.load_model_file(path), backend="numpy", directory=env[0])
+    assert by_file.folder == by_model.folder and by_file.params == by_model.params
+    with pytest.raises(TypeError, match=r"^load\(\): nrfe=2 applies to a model file") as refused:
+        gpmegen.load(gpmegen.load_model_file(path), nrfe=2)
+    assert "\n" not in str(refused.value)

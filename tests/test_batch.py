@@ -21,7 +21,7 @@ def models(env):
 
     def get(backend, nrfe=2):
         if (backend, nrfe) not in loaded:
-            loaded[backend, nrfe] = gpmegen.load(nrfe=nrfe, backend=backend)
+            loaded[backend, nrfe] = gpmegen.load("manipulator", nrfe=nrfe, backend=backend)
         return loaded[backend, nrfe]
 
     return get

@@ -50,9 +50,9 @@ def _mixed_orders():
 
 
 MODELS = {
-    "nrfe1": lambda: dict(nrfe=1),
-    "nrfe2": lambda: dict(nrfe=2),
-    "nrfe5": lambda: dict(nrfe=5),
+    "nrfe1": lambda: dict(model="manipulator", nrfe=1),
+    "nrfe2": lambda: dict(model="manipulator", nrfe=2),
+    "nrfe5": lambda: dict(model="manipulator", nrfe=5),
     "unconstrained": lambda: dict(model=_unconstrained()),
     "first_order": lambda: dict(model=_mixed_orders()),
 }
@@ -132,8 +132,8 @@ def test_partition_set_after_loading_is_followed(env):
     """The partition may be chosen at run time (model 'dependent' = None): until one is set, each
     evaluation chooses it at its state, on C as on NumPy, though the C solve picks its own
     dependent coordinates (tests/test_c_solve_accuracy.py)."""
-    c = gpmegen.load(nrfe=2, backend="c")
-    n = gpmegen.load(nrfe=2, backend="numpy")
+    c = gpmegen.load("manipulator", nrfe=2, backend="c")
+    n = gpmegen.load("manipulator", nrfe=2, backend="numpy")
     t, q, qd = next(_states(c, 1, seed=5, scale=0.1))
     before = c.accelerations(t, q, qd)
     dep = np.array([c.index("psi2_1"), c.index("x3")])
@@ -273,7 +273,7 @@ def test_cache_hit_and_compile_time(source, fresh_cache):
 
 def test_second_load_does_not_recompile(pairs):
     c, _ = pairs("nrfe1")
-    again = gpmegen.load(nrfe=1, backend="c")
+    again = gpmegen.load("manipulator", nrfe=1, backend="c")
     assert c.library.path == again.library.path and not again.compiled and again.compile_seconds > 0
 
 
@@ -343,7 +343,7 @@ def test_no_compiler_on_path(pairs, tmp_path, monkeypatch):
     monkeypatch.setenv("PATH", str(tmp_path))
     monkeypatch.setenv("GPMEGEN_CACHE", str(tmp_path / "cache"))
     with pytest.raises(BuildError, match="no C compiler found.*install gcc or clang"):
-        gpmegen.load(nrfe=1, backend="c")
+        gpmegen.load("manipulator", nrfe=1, backend="c")
 
 
 def test_compile_error_is_a_build_error(tmp_path, fresh_cache):

@@ -62,7 +62,7 @@ def test_blocks_give_the_bits_of_one_block(env, tmp_path, monkeypatch):
     assert (tmp_path / "40" / "model.c").read_text().count("NOINLINE static void gpme_terms_block") >= 5
     (one_ffi, one), (split_ffi, split) = libraries[10**9], libraries[40]
     n, p = one.n_dof(), np.array([float(parameter.default) for parameter in model.parameters])
-    psi2 = gpmegen.load(nrfe=2, backend="numpy").index("psi2")
+    psi2 = gpmegen.load("manipulator", nrfe=2, backend="numpy").index("psi2")
     rng = np.random.default_rng(11)
     for _ in range(4):
         q = 0.4 * rng.standard_normal(n)

@@ -110,7 +110,7 @@ def _crashing_library(tmp_path, folder, cache) -> Path:
 
 @pytest.mark.long   # compiles a crashing copy of the model; a failed check remembered is in make test
 def test_a_crash_in_the_test_run_is_reported_with_the_function(tmp_path, env):
-    rigid = gpmegen.load(nrfe=1, backend="numpy")
+    rigid = gpmegen.load("manipulator", nrfe=1, backend="numpy")
     folder = Path(rigid.folder)
     verdict = cprobe.check_in_child(_crashing_library(tmp_path, folder, env[1]), folder / "model.c",
                                     folder / "model_numpy.py")
@@ -120,7 +120,7 @@ def test_a_crash_in_the_test_run_is_reported_with_the_function(tmp_path, env):
 
 
 def test_a_failed_check_is_remembered_and_never_loaded(tmp_path, env, fresh_cache):
-    rigid = gpmegen.load(nrfe=1, backend="numpy")
+    rigid = gpmegen.load("manipulator", nrfe=1, backend="numpy")
     source = Path(rigid.folder) / "model.c"
     cache = fresh_cache
     calls = []
@@ -142,7 +142,7 @@ def test_a_test_run_that_cannot_start_leaves_no_verdict(tmp_path, env, fresh_cac
     """A test process whose Python cannot start (its environment torn down under it, as a removed
     virtual environment does) says nothing of the library: it used to be recorded as the
     library's failure, so every later load of that library, in any environment, was refused."""
-    rigid = gpmegen.load(nrfe=1, backend="numpy")
+    rigid = gpmegen.load("manipulator", nrfe=1, backend="numpy")
     folder = Path(rigid.folder)
     cache = fresh_cache
 
@@ -161,7 +161,7 @@ def test_a_test_run_that_cannot_start_leaves_no_verdict(tmp_path, env, fresh_cac
 
 def test_the_command_line_falls_back_to_numpy_in_one_line(tmp_path, env):
     cache = tmp_path / "cache"
-    gpmegen.load(nrfe=1, backend="c")  # compile once, checked
+    gpmegen.load("manipulator", nrfe=1, backend="c")  # compile once, checked
     shutil.copytree(env[1], cache)
     for meta_path in cache.glob("*.json"):
         meta = json.loads(meta_path.read_text())

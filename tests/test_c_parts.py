@@ -56,7 +56,7 @@ def _calls(ffi, lib, n, n_parameters, t, q, qd, p):
 
 @pytest.mark.long   # the model compiled whole besides its parts
 def test_the_parts_give_the_bits_of_the_whole_file(env, tmp_path):
-    model = gpmegen.load(nrfe=3, backend="c")
+    model = gpmegen.load("manipulator", nrfe=3, backend="c")
     folder = Path(model.folder)
     header = (folder / ccompile.HEADER).read_text()
     assert ccompile.part_flags(model.library.flags)[1] != tuple(model.library.flags)  # really two levels

@@ -33,7 +33,7 @@ def arm(shared_cache):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("GPMEGEN_CACHE", str(shared_cache))
         mp.delenv("CC", raising=False)
-        yield gpmegen.load(nrfe=5, backend="c")
+        yield gpmegen.load("manipulator", nrfe=5, backend="c")
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,7 @@ def test_c_accelerations_do_not_depend_on_the_partition(arm, states):
     basis and gives the same q̈, bit for bit, as with the model's partition."""
     regular = arm.with_params()
     singular = arm.with_partition([arm.index("theta1"), arm.index("x3")])
-    numpy_singular = gpmegen.load(nrfe=5, backend="numpy").with_partition(singular.dependent)
+    numpy_singular = gpmegen.load("manipulator", nrfe=5, backend="numpy").with_partition(singular.dependent)
     for _, t, q, qd in states:
         assert np.array_equal(singular.accelerations(t, q, qd), regular.accelerations(t, q, qd))
         with pytest.raises(SimulationError, match="singular"):

@@ -28,7 +28,7 @@ def test_parser_never_raises_anything_but_exit_2(capsys, argv):
     (["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.01", "--dt", "1e-3", "--param", "nosuch=1"], 2),
     (["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.01", "--dt", "1e-3", "--param", "r_Ea=1e6"], 1),
     (["simulate", "--nrfe", "1", "--backend", "numpy", "--t-end", "0.01", "--out", "x.txt"], 2),
-    (["plot", "no/such/file.npz"], 1),
+    (["plot", "no/such/file.npz"], 2),
     (["statics", "--nrfe", "1", "--param", "g=nan"], 2),
 ])
 def test_runtime_and_value_errors_are_one_line(tmp_path, monkeypatch, capsys, argv, code):

@@ -25,7 +25,7 @@ def runs(env):
 
     def get(backend):
         if backend not in made:
-            model, q0 = reference_case.initial_state(gpmegen.load(nrfe=2, backend=backend))
+            model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend=backend))
             res = study.simulate(model, q0, RunSpec(t_end=0.05, dt=1e-3, save_every=5))
             assert str(res["status"]) == "complete"
             made[backend] = model, res["t"], res["q"], res["qd"]

@@ -188,7 +188,7 @@ def test_a_drive_of_an_acceleration_is_refused_from_python():
 
 def test_the_casadi_export_carries_the_law():
     casadi = pytest.importorskip("casadi")
-    from gpmegen.codegen import casadi_export
+    from gpmegen.codegen.backends import casadi as casadi_export
 
     model = gpmegen.load_model_file(MODELS / "pd_slider.toml")
     qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]

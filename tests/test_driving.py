@@ -33,7 +33,7 @@ def relative(residual, scale):
 
 @pytest.fixture(scope="module")
 def flexible3():
-    return started(gpmegen.load(nrfe=3, backend="numpy"))
+    return started(gpmegen.load("manipulator", nrfe=3, backend="numpy"))
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +44,7 @@ def ideal3(flexible3):
 
 @pytest.fixture(scope="module")
 def rigid_runs():
-    model, q0 = started(gpmegen.load(nrfe=1, backend="numpy"))
+    model, q0 = started(gpmegen.load("manipulator", nrfe=1, backend="numpy"))
     ideal = study.simulate(model, q0, RunSpec(t_end=0.5, dt=1e-3, save_every=25))
     actuated = study.simulate(model.with_actuators(["psi2", "x3"]), q0, RunSpec(t_end=0.5, dt=1e-3, save_every=25))
     return model, ideal, actuated
@@ -221,10 +221,11 @@ def test_driving_figures_need_the_driving_functions(flexible3, ideal3, rigid_run
 
 @pytest.mark.requires_cc
 def test_actuated_realization_on_the_c_terms_equals_numpy(env):
-    """The actuated loop runs in Python over either backend's terms: the same motion and inputs."""
+    """The actuated realization in the compiled loop (C) and in the Python one (NumPy): the same
+    motion and inputs."""
     runs = {}
     for backend in ("numpy", "c"):
-        model, q0 = started(gpmegen.load(nrfe=2, backend=backend))
+        model, q0 = started(gpmegen.load("manipulator", nrfe=2, backend=backend))
         runs[backend] = study.simulate(model.with_actuators(["psi2", "x3"]), q0,
                                        RunSpec(t_end=0.02, dt=1e-4, save_every=20, max_violation=None))
     assert str(runs["c"]["status"]) == str(runs["numpy"]["status"]) == "complete"
@@ -233,16 +234,27 @@ def test_actuated_realization_on_the_c_terms_equals_numpy(env):
 
 
 @pytest.mark.requires_cc
-def test_actuated_runs_are_refused_by_the_python_loop_s_estimate(env):
-    """A run the C loop would finish in seconds is refused before it starts when actuated: its
-    loop runs in Python (3·10⁷ RK4 steps of the rigid arm: about 20 s in C, 2 h in Python)."""
+def test_actuated_runs_are_estimated_by_the_loop_they_run_in(env, monkeypatch):
+    """An actuated RK4 run is estimated as the loop it runs in: 3·10⁷ steps of the rigid arm are
+    refused before they start in the Python loop of the NumPy backend (about 2 h), and taken as
+    the compiled loop's on the C backend (the estimate the ideal realization's run gets)."""
     from gpmegen import limits
 
-    model, q0 = started(gpmegen.load(nrfe=1, backend="c"))
-    limits.check_run(model.n_dof, 2, RunSpec(t_end=300.0, dt=1e-5, save_every=100, method="rk4"),
-                     "c")  # the ideal realization: accepted
+    model, q0 = started(gpmegen.load("manipulator", nrfe=1, backend="numpy"))
+    spec = RunSpec(t_end=300.0, dt=1e-5, save_every=100)
     with pytest.raises(limits.LimitError, match="would take about"):
-        study.simulate(model.with_actuators(["psi2", "x3"]), q0, RunSpec(t_end=300.0, dt=1e-5, save_every=100))
+        study.simulate(model.with_actuators(["psi2", "x3"]), q0, spec)
+    estimated = []
+
+    def estimate(n_dof, n_constraints, spec, backend, omega=None):
+        estimated.append(backend)
+        raise limits.LimitError("estimated")
+
+    monkeypatch.setattr(limits, "check_run", estimate)
+    model, q0 = started(gpmegen.load("manipulator", nrfe=1, backend="c"))
+    with pytest.raises(limits.LimitError, match="estimated"):
+        study.simulate(model.with_actuators(["psi2", "x3"]), q0, spec)
+    assert estimated == ["c"]
 
 
 def test_an_actuated_run_keeps_its_own_default_results_and_says_so(tmp_path, monkeypatch, capsys):

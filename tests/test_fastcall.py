@@ -22,7 +22,7 @@ PENDULUM = Path(__file__).parent / "models" / "pendulum.toml"
 @pytest.fixture(scope="module")
 def arm(env):
     """The reference arm at n_rfe = 1: 3 coordinates, 1 programmed constraint."""
-    return gpmegen.load(nrfe=1, backend="c")
+    return gpmegen.load("manipulator", nrfe=1, backend="c")
 
 
 @pytest.fixture(scope="module")
@@ -154,7 +154,7 @@ def fresh(monkeypatch, tmp_path):
 
 
 def _without_extension(arm, why):
-    model = gpmegen.load(nrfe=1, backend="c")
+    model = gpmegen.load("manipulator", nrfe=1, backend="c")
     assert model.evaluator.fastcall_unavailable is not None and why in model.evaluator.fastcall_unavailable
     assert model._accelerations_call == model._checked_accelerations
     for t, q, qd in _states(arm, 5, seed=7):

@@ -22,7 +22,7 @@ from test_trust_codegen import DANGEROUS
 
 import gpmegen
 from gpmegen.cli import main
-from gpmegen.codegen import fmu_export
+from gpmegen.codegen.backends import fmu as fmu_export
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Joint, Model, Parameter, Point, symbol
 
@@ -139,7 +139,7 @@ def test_model_exchange_is_gpmegens_run(fmpy, fmus, name):
     outputs at the FMU's states against gpmegen's functions there."""
     path = fmus[name]
     reference = _gpmegen_run(name, "dop853")
-    loaded = gpmegen.load(nrfe=1) if name == "reference" else gpmegen.load(
+    loaded = gpmegen.load("manipulator", nrfe=1) if name == "reference" else gpmegen.load(
         model=gpmegen.load_model_file(TWO_LINK))
     constraint = loaded.constraint_names[0]
     got = _simulate(fmpy, path, "ModelExchange", reference.coordinates,

@@ -442,7 +442,7 @@ def test_the_c_backend_and_its_recursion_agree_with_numpy(env, files, name):
 
 def test_the_casadi_export_carries_the_element():
     pytest.importorskip("casadi")
-    from gpmegen.codegen import casadi_export
+    from gpmegen.codegen.backends import casadi as casadi_export
 
     model = gpmegen.load_model_file(HANGER)
     qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]

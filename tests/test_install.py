@@ -37,7 +37,7 @@ from importlib import resources
 here = Path(sys.prefix).resolve()
 for where in (Path(gpmegen.__file__), Path(str(resources.files("gpmegen.templates")))):
     assert here in where.resolve().parents, f"{where} is not in the fresh environment {here}"
-model = gpmegen.load(nrfe=1, directory="models", build=False)
+model = gpmegen.load("manipulator", nrfe=1, directory="models", build=False)
 q = np.array([0.0, np.pi / 4, 0.0])
 qdd = model.accelerations(0.0, q, np.zeros(3))
 assert qdd.shape == (3,) and np.all(np.isfinite(qdd)), qdd

@@ -26,7 +26,7 @@ SPAN = 0.2  # s: the motion starts and the flexible modes ring
 def arm(env):
     """The reference case at n_rfe = 2 in C, its locked start and a tight SciPy DOP853 reference
     on the same right-hand side: ``(model, q0, reference)``, ``reference(t)`` the states (k, 2n)."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=2, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend="c"))
     qd0 = np.zeros(model.n_dof)
 
     def reference(t):
@@ -226,7 +226,7 @@ def test_methods_are_named_in_any_case(text, method):
 def rigid_arm(env):
     """The rigid reference arm in C, its locked start and q, q̇ at 0.5 s by SciPy's DOP853 at
     rtol 1e-13: ``(model, q0, final)``."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="c"))
     _, y, outcome = integrators.scipy_radau.adaptive(model, q0, np.zeros(3), 0.5, rtol=1e-13, atol=1e-15)
     assert outcome.complete
     return model, q0, y[-1, :6]

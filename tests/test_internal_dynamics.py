@@ -136,7 +136,7 @@ def test_internal_dynamics_along_a_run_of_the_rigid_arm():
     along q̇); without actuators the request is refused."""
     from gpmegen.analysis.run import reference_case, study
 
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"), "locked")
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="numpy"), "locked")
     actuated = model.with_actuators(["psi2", "x3"])
     res = study.simulate(actuated, q0, RunSpec(t_end=2.0, dt=1e-3, save_every=125, internal_dynamics=True))
     values = res["internal_eigenvalues"]

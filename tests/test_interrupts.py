@@ -29,7 +29,7 @@ HANG = 30.0
 
 @pytest.fixture(scope="module")
 def arm():
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="c"))
     return model, q0, np.zeros(model.n_dof)
 
 

@@ -63,15 +63,15 @@ def check_against_differences(model, t, q, qd):
 def test_reference_arm_equals_finite_differences(env, rng, backend):
     # n_rfe 1 is examples/manipulator.toml below; n_rfe 2 has the sdes' rotations and their
     # springs (one sde), at a fraction of the derivation of n_rfe 3
-    model = gpmegen.load(nrfe=2, backend=backend, jacobians=True)
+    model = gpmegen.load("manipulator", nrfe=2, backend=backend, jacobians=True)
     check_against_differences(model, *random_state(model, rng))
 
 
 def test_a_model_built_without_jacobians_refuses_them_and_differences_them_in_c(env, rng, tmp_path):
-    plain = gpmegen.load(nrfe=1, backend="numpy", directory=tmp_path / "plain")
+    plain = gpmegen.load("manipulator", nrfe=1, backend="numpy", directory=tmp_path / "plain")
     with pytest.raises(gpmegen.errors.BuildError, match="--jacobians"):
         plain.acceleration_jacobians(*random_state(plain, rng))
-    exact = gpmegen.load(nrfe=1, backend="numpy", jacobians=True)
+    exact = gpmegen.load("manipulator", nrfe=1, backend="numpy", jacobians=True)
     assert exact.jacobians_built and not plain.jacobians_built
     t, q, qd = random_state(exact, rng)
     A_q, A_qd = exact.acceleration_jacobians(t, q, qd)
@@ -117,13 +117,13 @@ def test_examples_equal_finite_differences_on_both_backends(env, rng, path):
 
 
 def test_actuated_realization_equals_finite_differences(env, rng):
-    model = gpmegen.load(nrfe=1, backend="numpy", jacobians=True)
+    model = gpmegen.load("manipulator", nrfe=1, backend="numpy", jacobians=True)
     actuated = model.with_actuators([model.coordinates[k] for k in model.dependent])
     check_against_differences(actuated, *random_state(model, rng))
 
 
 def test_batch_equals_single_states(env, rng):
-    model = gpmegen.load(nrfe=1, backend="numpy", jacobians=True)
+    model = gpmegen.load("manipulator", nrfe=1, backend="numpy", jacobians=True)
     states = [random_state(model, rng) for _ in range(3)]
     t, q, qd = (np.array([s[k] for s in states]) for k in range(3))
     A_q, A_qd = model.acceleration_jacobians(t, q, qd)
@@ -185,10 +185,10 @@ def test_unconstrained_chain_equals_pinocchio_aba_derivatives(env, tmp_path, rng
 def test_a_folder_serves_asking_for_less_and_is_built_with_both_for_more(env):
     """What a load asks is what the model must have at least: a run after a linearization does not
     build the model back without its Jacobians, and asking for more keeps them."""
-    exact = gpmegen.load(nrfe=1, backend="numpy", jacobians=True)
+    exact = gpmegen.load("manipulator", nrfe=1, backend="numpy", jacobians=True)
     manifest = exact.folder / "manifest.json"
     before = manifest.read_bytes(), manifest.stat().st_mtime_ns
-    again = gpmegen.load(nrfe=1, backend="numpy")
+    again = gpmegen.load("manipulator", nrfe=1, backend="numpy")
     assert again.jacobians_built and (manifest.read_bytes(), manifest.stat().st_mtime_ns) == before
-    more = gpmegen.load(nrfe=1, backend="numpy", transforms=("T", "T_i"))
+    more = gpmegen.load("manipulator", nrfe=1, backend="numpy", transforms=("T", "T_i"))
     assert more.jacobians_built and "T_i" in more.transforms_built and manifest.read_bytes() != before[0]

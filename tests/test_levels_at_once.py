@@ -23,7 +23,8 @@ def test_threads_where_the_loops_are_compiled():
     assert compiled_loops("radau", "c", actuated=False)
     assert not compiled_loops("rk4", "numpy", actuated=False)  # the NumPy loop holds the lock
     assert not compiled_loops("scipy-radau", "c", actuated=False)
-    assert not compiled_loops("rk4", "c", actuated=True)  # the actuated realization steps in Python
+    assert compiled_loops("rk4", "c", actuated=True)  # the actuated realization's compiled RK4
+    assert not compiled_loops("rk4", "numpy", actuated=True)
 
 
 def _levels(backend, workers, told):

@@ -63,7 +63,7 @@ def test_a_generalized_alpha_run_that_fits_is_not_refused(capsys, tmp_path, env)
 @pytest.fixture(scope="module")
 def arm(env):
     """The reference arm at n_rfe = 5 in C, its locked start and highest natural frequency (rad/s)."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=5, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=5, backend="c"))
     return model, q0, modes.highest_frequency(model, 0.0, q0)
 
 

@@ -25,7 +25,7 @@ def rest():
     """(linear model about the constrained statics of the reference arm at n_rfe = 3, the model
     with its Jacobians as that start binds it)."""
     return (gpmegen.linearize(nrfe=3, start="constrained", params=REST, backend="numpy"),
-            gpmegen.load(nrfe=3, params=REST, jacobians=True, backend="numpy"))
+            gpmegen.load("manipulator", nrfe=3, params=REST, jacobians=True, backend="numpy"))
 
 
 def nonlinear_deviation(model, lin, x0, eps, t_end, dt):
@@ -166,7 +166,7 @@ def test_a_folder_built_without_jacobians_gets_one_line(tmp_path, capsys):
 
 
 def test_a_model_without_its_jacobians_is_refused_with_the_build_command():
-    plain = gpmegen.load(nrfe=1, backend="numpy")
+    plain = gpmegen.load("manipulator", nrfe=1, backend="numpy")
     with pytest.raises(gpmegen.BuildError, match="--jacobians"):
         linear.linearize(plain, 0.0, np.zeros(3), np.zeros(3))
 

@@ -31,7 +31,7 @@ def models(env):
 
     def get(backend):
         if backend not in loaded:
-            loaded[backend] = gpmegen.load(nrfe=1, backend=backend)
+            loaded[backend] = gpmegen.load("manipulator", nrfe=1, backend=backend)
         return loaded[backend]
 
     return get

@@ -441,7 +441,7 @@ def load(nrfe, **overrides):
     key = (nrfe, tuple(sorted(overrides.items())))
     if key not in _MODELS:
         kwargs = {"params": dict(overrides)} if overrides else {}
-        _MODELS[key] = gpmegen.load(nrfe=nrfe, backend="numpy", **kwargs)
+        _MODELS[key] = gpmegen.load("manipulator", nrfe=nrfe, backend="numpy", **kwargs)
     return _MODELS[key]
 
 

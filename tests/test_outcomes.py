@@ -18,8 +18,8 @@ pytestmark = pytest.mark.requires_cc
 @pytest.fixture(scope="module")
 def both(generated_elsewhere):
     """The rigid arm on its constraints, ``(C model, NumPy model, q0)``."""
-    numpy_model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"))
-    c_model = gpmegen.load(nrfe=1, backend="c").with_params(**numpy_model.params)
+    numpy_model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="numpy"))
+    c_model = gpmegen.load("manipulator", nrfe=1, backend="c").with_params(**numpy_model.params)
     return c_model, numpy_model, q0
 
 

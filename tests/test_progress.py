@@ -19,7 +19,7 @@ def test_building_and_compiling_say_what_they_do(env, monkeypatch, fresh_cache):
     monkeypatch.setenv("GPMEGEN_CACHE", str(fresh_cache))  # a cache of its own: the compile happens here
     monkeypatch.setattr(ccompile, "HEARTBEAT", 0.01)  # a line at every poll of a ~1 s compile
     lines = []
-    gpmegen.load(nrfe=1, backend="c", progress=lines.append)
+    gpmegen.load("manipulator", nrfe=1, backend="c", progress=lines.append)
     text = "\n".join(lines)
     assert lines[0].startswith("deriving the equations of motion of 3 coordinates (deriving and printing "
                                "estimated at ")
@@ -32,7 +32,7 @@ def test_building_and_compiling_say_what_they_do(env, monkeypatch, fresh_cache):
     assert all(line.endswith("fast-call extension (once per Python and NumPy)") or
                line.startswith("compiled the fast-call extension in ") for line in lines[ends[0] + 1:]), text
     lines.clear()
-    gpmegen.load(nrfe=1, backend="c", progress=lines.append)  # up to date and cached: nothing to say
+    gpmegen.load("manipulator", nrfe=1, backend="c", progress=lines.append)  # up to date and cached: nothing to say
     assert lines == []
 
 

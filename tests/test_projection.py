@@ -29,7 +29,7 @@ STEPS = (4e-3, 2e-3, 1e-3)  # s: above RK4's stable step at n_rfe 2 (3.6 ms) dow
 def arm(env):
     """The reference case at n_rfe = 2 in C, its locked start and q(SPAN) of the compiled DOP853 at
     rtol = atol = 1e-12: ``(model, q0, final)``."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=2, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend="c"))
     _, y, outcome, _ = integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), SPAN, SPAN, rtol=1e-12, atol=1e-12)
     assert outcome.complete
     return model, q0, y[-1, :model.n_dof]

@@ -109,7 +109,7 @@ def test_radau_on_the_reference_arm_agrees_with_a_tight_dop853(arm):
 def arm(env):
     """The reference arm at n_rfe = 2 in C, its locked start, the save instants of 0.2 s every
     2 ms and the states there by the compiled DOP853 at rtol = atol = 1e-12."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=2, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend="c"))
     t, y, outcome, _ = integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), 0.2, 2e-3, rtol=1e-12, atol=1e-12)
     assert outcome.complete
     return model, q0, t, y
@@ -130,7 +130,7 @@ def test_dense_output_is_the_steps_own_state_where_one_lands(arm):
 def test_radau_takes_far_fewer_steps_than_dop853_on_a_stiff_arm(env):
     """The links 1e4 times stiffer and strongly damped: their modes decay far faster than the
     motion, which DOP853 must still follow with steps inside its stability region."""
-    base = gpmegen.load(nrfe=2, backend="c")
+    base = gpmegen.load("manipulator", nrfe=2, backend="c")
     stiff = base.with_params(E2=1e4 * base.params["E2"], G2=1e4 * base.params["G2"], d2=100.0)
     model, q0 = reference_case.initial_state(stiff)
     qd0 = np.zeros(model.n_dof)

@@ -81,13 +81,13 @@ def _states(model, count, seed, scale=0.3, start=None):
 
 @pytest.mark.parametrize("nrfe", [1, 3])
 def test_reference_arm_agrees_with_the_dense_solves(env, nrfe):
-    c_model = gpmegen.load(nrfe=nrfe, backend="c")
-    _check_states(c_model, gpmegen.load(nrfe=nrfe, backend="numpy"), _states(c_model, 8, nrfe))
+    c_model = gpmegen.load("manipulator", nrfe=nrfe, backend="c")
+    _check_states(c_model, gpmegen.load("manipulator", nrfe=nrfe, backend="numpy"), _states(c_model, 8, nrfe))
 
 
 def test_reference_arm_n_rfe_1_to_1e_11(env):
     """The rigid arm is well conditioned (κ < 1e3): there the two solves agree to 1e-11."""
-    c_model = gpmegen.load(nrfe=1, backend="c")
+    c_model = gpmegen.load("manipulator", nrfe=1, backend="c")
     for t, q, qd in _states(c_model, 8, 11):
         assert _relative(c_model.accelerations(t, q, qd), c_model.motion(t, q, qd)[0]) <= 1e-11
 
@@ -141,8 +141,8 @@ def test_power_of_the_constraint_forces(env):
     """The work of the constraint forces that RK4 integrates (stage powers qd · Dᵀλ from the
     recursion) against the NumPy RK4's, whose powers are qd · (M q̈ - f) from the dense terms:
     over 200 steps of the flexible arm the two agree to 1e-9 of the work."""
-    c_model = gpmegen.load(nrfe=2, backend="c")
-    numpy_model = gpmegen.load(nrfe=2, backend="numpy")
+    c_model = gpmegen.load("manipulator", nrfe=2, backend="c")
+    numpy_model = gpmegen.load("manipulator", nrfe=2, backend="numpy")
     t, q, qd = next(_states(c_model, 1, 5, scale=0.05))
     runs = [model.rk4(q, qd, t + 200 * 1e-4, 1e-4, save_every=50, t0=t) for model in (c_model, numpy_model)]
     (_, _, _, w_c, status_c), (_, _, _, w_numpy, status_numpy) = runs
@@ -204,7 +204,7 @@ def test_a_joint_without_mass_that_the_constraints_hold_is_solved(env, tmp_path)
     path = tmp_path / "massless_held.toml"
     path.write_text(MASSLESS_HELD)
     held = load_model_file(path)
-    cases = [(gpmegen.load(nrfe=1, backend=backend).with_params(m3=0.0) for backend in ("c", "numpy")),
+    cases = [(gpmegen.load("manipulator", nrfe=1, backend=backend).with_params(m3=0.0) for backend in ("c", "numpy")),
              (gpmegen.load(model=held, directory=env[0], backend=backend) for backend in ("c", "numpy"))]
     for c_model, numpy_model in cases:
         start = np.zeros(c_model.n_dof)
@@ -224,7 +224,7 @@ def test_constraints_near_a_loss_of_rank_are_solved_as_the_dense_solve_does(env)
     """The pivots of D M⁻¹ Dᵀ fall as cond(D)², those of the dense solve's basis as cond(D): with
     the arm stretched vertically (ψ2 = -π/2 + 1e-9, cond(D) ~ 2e8) the recursion stops and the
     dense solve, which still has an answer, gives it, bit for bit as ``motion``."""
-    c_model = gpmegen.load(nrfe=1, backend="c")
+    c_model = gpmegen.load("manipulator", nrfe=1, backend="c")
     q, qd = np.zeros(c_model.n_dof), np.zeros(c_model.n_dof)
     q[c_model.index("psi2")] = -np.pi / 2 + 1e-9
     D = c_model.constraint_terms(0.0, q, qd)[2]

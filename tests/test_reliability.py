@@ -31,7 +31,7 @@ def test_killed_build_leaves_the_previous_folder_loadable(tmp_path):
     proc.kill()
     proc.wait()
     assert (folder / "model_numpy.py").read_bytes() == before
-    model = gpmegen.load(nrfe=3, directory=tmp_path, build=False, backend="numpy")
+    model = gpmegen.load("manipulator", nrfe=3, directory=tmp_path, build=False, backend="numpy")
     assert model.n_dof == 9
     # the next build clears what the killed one left
     assert _run(["build", "--nrfe", "3", "--force", "--out", str(tmp_path)]).returncode == 0
@@ -45,7 +45,7 @@ def test_concurrent_builds_give_one_valid_result(tmp_path):
     assert [p.returncode for p in procs] == [0, 0, 0], outs
     assert sum("built in" in out for out, _ in outs) == 1  # the others found it up to date
     assert sorted(p.name for p in tmp_path.iterdir() if not p.name.endswith(".lock")) == ["manipulator_nrfe2"]
-    assert gpmegen.load(nrfe=2, directory=tmp_path, build=False, backend="numpy").n_dof == 6
+    assert gpmegen.load("manipulator", nrfe=2, directory=tmp_path, build=False, backend="numpy").n_dof == 6
 
 
 # each waits for the run's first progress line (10 s of running): make check-c (a signal that
@@ -80,16 +80,16 @@ def test_stale_generated_module_is_refused_with_the_rebuild_command(tmp_path):
     data["input_hash"] = "0" * 16
     manifest.write_text(json.dumps(data))
     with pytest.raises(StaleModelError, match="gpmegen build --nrfe 1 --force"):
-        gpmegen.load(nrfe=1, directory=tmp_path, build=False, backend="numpy")
+        gpmegen.load("manipulator", nrfe=1, directory=tmp_path, build=False, backend="numpy")
     # loading with building allowed repairs it
-    assert gpmegen.load(nrfe=1, directory=tmp_path, backend="numpy").n_dof == 3
+    assert gpmegen.load("manipulator", nrfe=1, directory=tmp_path, backend="numpy").n_dof == 3
 
 
 def test_half_swapped_folder_is_recovered(tmp_path):
     assert _run(["build", "--nrfe", "1", "--out", str(tmp_path)]).returncode == 0
     folder = tmp_path / "manipulator_nrfe1"
     folder.rename(tmp_path / ".manipulator_nrfe1.old-12345")  # killed between the two renames
-    assert gpmegen.load(nrfe=1, directory=tmp_path, build=False, backend="numpy").n_dof == 3
+    assert gpmegen.load("manipulator", nrfe=1, directory=tmp_path, build=False, backend="numpy").n_dof == 3
     assert folder.is_dir()
 
 

@@ -89,7 +89,7 @@ def test_an_unknown_option_is_refused_in_one_line():
     assert "\n" not in message and message.startswith("simulate() got an unknown option 'step'; its options are ")
     assert "dt" in message.split("; its options are ")[1].split(", ") and "nrfe" in message
     with pytest.raises(TypeError, match=r"^load\(\) got an unknown option 'backned'; its options are directory, "):
-        gpmegen.load(nrfe=1, backned="numpy")
+        gpmegen.load("manipulator", nrfe=1, backned="numpy")
     with pytest.raises(TypeError, match=r"^linearize\(\) got an unknown option 'time'; its options are .*times"):
         gpmegen.linearize(nrfe=1, backend="numpy", time=[0.1])
 

@@ -10,7 +10,7 @@ import gpmegen
 
 
 def test_gpme_terms_give_the_bits_of_the_functions_that_return_the_same_quantities(env):
-    model = gpmegen.load(nrfe=3, backend="numpy")
+    model = gpmegen.load("manipulator", nrfe=3, backend="numpy")
     module, p = model.module, np.array(model.module.DEFAULTS)
     rng = np.random.default_rng(5)
     for _ in range(5):

@@ -26,11 +26,10 @@ from hypothesis import strategies as st
 
 import gpmegen
 from gpmegen.cli import main
-from gpmegen.codegen import input_hash, render
+from gpmegen.codegen import backends, input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
 from gpmegen.codegen.render import read_manifest, stale_reason
 from gpmegen.errors import ModelError, StaleModelError
-from gpmegen.folder import BACKEND_FILES
 from gpmegen.model import reference_model, shapes
 from gpmegen.model.chain import (
     TIME,
@@ -54,7 +53,7 @@ from gpmegen.runtime.numpy_module import import_numpy_module
 
 ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")
-C_FILES = BACKEND_FILES["c"]
+C_FILES = backends.get("c").files
 
 
 # --- 1. free text in comments and docstrings ---------------------------------------------------
@@ -335,7 +334,7 @@ def test_defect3_loading_a_tampered_file_builds_it_again(tmp_path, name, change)
     folder, original = _built(tmp_path)
     change(folder / name)
     backend = "c" if name in C_FILES else "numpy"
-    model = gpmegen.load(nrfe=1, backend=backend, directory=tmp_path)
+    model = gpmegen.load("manipulator", nrfe=1, backend=backend, directory=tmp_path)
     assert model.backend == backend
     assert (folder / name).read_bytes() == original[name]
 
@@ -346,7 +345,7 @@ def test_defect3_loading_a_tampered_file_without_building_is_refused(tmp_path, n
     change(folder / name)
     backend = "c" if name in C_FILES else "numpy"
     with pytest.raises(StaleModelError) as exc:
-        gpmegen.load(nrfe=1, backend=backend, directory=tmp_path, build=False)
+        gpmegen.load("manipulator", nrfe=1, backend=backend, directory=tmp_path, build=False)
     message = str(exc.value)
     assert message == (f"{folder / name} differs from the sha256 recorded in manifest.json (edited or truncated); "
                        f"rebuild it with 'gpmegen build --nrfe 1 --force'")
@@ -378,8 +377,8 @@ def test_defect3_manifest_that_is_no_json_object_is_stale_not_a_crash(tmp_path):
     (folder / "manifest.json").write_text("[]\n")
     with pytest.raises(StaleModelError, match="manifest.json is missing or unreadable; rebuild it with "
                                               "'gpmegen build --nrfe 1 --force'"):
-        gpmegen.load(nrfe=1, directory=tmp_path, build=False, backend="numpy")
-    assert gpmegen.load(nrfe=1, directory=tmp_path, backend="numpy").n_dof == 3
+        gpmegen.load("manipulator", nrfe=1, directory=tmp_path, build=False, backend="numpy")
+    assert gpmegen.load("manipulator", nrfe=1, directory=tmp_path, backend="numpy").n_dof == 3
     assert (folder / "manifest.json").read_bytes() == original["manifest.json"]
 
 

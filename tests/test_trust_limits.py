@@ -105,7 +105,7 @@ def test_build_of_500_rfes_ran_until_killed(tmp_path, capsys):
 
 def test_build_of_500_rfes_ran_until_killed_from_python(tmp_path):
     with pytest.raises(LimitError, match=r"n_dof = 1500"):
-        gpmegen.load(nrfe=500, directory=tmp_path, backend="numpy")
+        gpmegen.load("manipulator", nrfe=500, directory=tmp_path, backend="numpy")
     assert not (tmp_path / "manipulator_nrfe500").exists()
 
 
@@ -212,7 +212,7 @@ def test_nrfe_of_24_digits_was_an_internal_error(tmp_path, capsys):
     assert exit_.value.code == 2
     assert "is more than any count can hold" in capsys.readouterr().err
     with pytest.raises(LimitError, match="n_dof = 300000000000000000000000"):
-        gpmegen.load(nrfe=10**23, directory=tmp_path, backend="numpy")
+        gpmegen.load("manipulator", nrfe=10**23, directory=tmp_path, backend="numpy")
 
 
 # --- 7. values that slip through ---------------------------------------------------------------
@@ -354,7 +354,7 @@ def test_read_only_cache_failed_on_a_temporary_file_name(tmp_path, capsys, monke
 
     monkeypatch.setattr(ccompile, "tempfile", types.SimpleNamespace(mkstemp=refused))
     with pytest.raises(BuildError, match=re.escape(f"C cache folder {cache} (Permission denied); set GPMEGEN_CACHE")):
-        gpmegen.load(nrfe=1, backend="c")
+        gpmegen.load("manipulator", nrfe=1, backend="c")
     out = tmp_path / "run.npz"
     assert main(["simulate", "--nrfe", "1", "--t-end", "0.002", "--dt", "1e-3", "--out", str(out)]) == 0
     err = capsys.readouterr().err

@@ -108,7 +108,7 @@ def test_last_row_off_the_save_grid_is_the_final_state_not_the_last_saved_one(cl
     assert res["t"][-1] == t_end
     assert np.abs(res["phi"][-1]).max() < 1e-12
     # the same final state as one continuous C call over the whole run
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="c"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="c"))
     np.testing.assert_array_equal(res["q"][0], q0)
     t, q, qd, w, status = model.rk4(q0, np.zeros(3), t_end, 1e-5, save_every=10 ** 9)
     assert status == 0 and list(t) == [0.0, t_end]
@@ -132,7 +132,7 @@ def test_c_and_numpy_save_the_same_rows_and_end_at_t_end(cli_runs, key):
 @pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)])
 def test_a_step_longer_than_the_run_is_cut_to_end_at_t_end(backend):
     """``--dt 2 --t-end 1`` used to take no step at all and report success."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend=backend))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend=backend))
     res = study.simulate(model, q0, RunSpec(t_end=1.0, dt=2.0, save_every=1))
     np.testing.assert_array_equal(res["t"], [0.0, 1.0])
     assert not np.array_equal(res["q"][-1], q0)  # a step of 1 s was taken (and diverges, as it should)
@@ -143,7 +143,7 @@ def test_a_step_longer_than_the_run_is_cut_to_end_at_t_end(backend):
 @pytest.fixture(scope="module")
 def short_run():
     """A small complete results dict (NumPy backend, 5 steps)."""
-    model, q0 = reference_case.initial_state(gpmegen.load(nrfe=1, backend="numpy"))
+    model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="numpy"))
     return study.simulate(model, q0, RunSpec(t_end=0.005, dt=1e-3, save_every=1))
 
 

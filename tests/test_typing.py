@@ -27,7 +27,7 @@ def _mypy(tmp_path, *args):
 def test_mypy_reports_a_wrong_argument_to_the_public_api(tmp_path):
     caller = tmp_path / "caller.py"
     caller.write_text("import gpmegen\n\n"
-                      "model = gpmegen.load(nrfe='five')\n"
+                      "model = gpmegen.load('manipulator', nrfe='five')\n"
                       "results = gpmegen.simulate(t_end=1.0)\n"
                       "results.coordinate(3)\n"
                       "right: float = model.mass_matrix([0.0])[0, 0]\n")
@@ -36,7 +36,7 @@ def test_mypy_reports_a_wrong_argument_to_the_public_api(tmp_path):
     assert done.returncode == 1, done.stdout + done.stderr
     # the two wrong calls, each on its line, and nothing about the right ones
     assert [line.split(":")[1] for line in lines] == ["3", "5"], done.stdout
-    assert 'Argument "nrfe" to "load" has incompatible type "str"; expected "int"' in lines[0]
+    assert 'Argument "nrfe" to "load" has incompatible type "str"; expected "int | None"' in lines[0]
     assert 'Argument 1 to "coordinate" of "Results" has incompatible type "int"; expected "str"' in lines[1]
 
 

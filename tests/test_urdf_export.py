@@ -24,7 +24,7 @@ pin = pytest.importorskip("pinocchio")
 def exported(env, tmp_path_factory):
     path = tmp_path_factory.mktemp("export") / "arm.urdf"
     assert main(["export", "--format", "urdf", "--nrfe", "5", "--out", str(path)]) == 0
-    return path, gpmegen.load(nrfe=5, directory=env[0], backend="numpy")
+    return path, gpmegen.load("manipulator", nrfe=5, directory=env[0], backend="numpy")
 
 
 def configuration(model, q):

@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 24859403f6a66e1d
+Input hash: 8fa70c707e6471f5
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe1_input_hash(void) { return "24859403f6a66e1d"; }
+const char *manipulator_nrfe1_input_hash(void) { return "8fa70c707e6471f5"; }
 int manipulator_nrfe1_n_dof(void) { return N_DOF; }
 int manipulator_nrfe1_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe1_n_parameters(void) { return N_PARAMETERS; }
@@ -1345,6 +1345,7 @@ static const struct gpmegen_model MODEL = {
     0,  /* redundant_rows: 1 where closures' rows may be redundant */
     25, 0,  /* n_parameters, n_controllers: the controller states end p */
     NULL,
+    NULL,  /* actuators: the ideal realization (the actuated entries below pass a copy with them) */
 };
 
 /* ---- GPME by the articulated-body recursion ------------------------------------------------ */
@@ -1700,6 +1701,28 @@ int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long
     (void)dependent;
     (void)independent;
     return gpmegen_rk4(&MODEL, t0, dt, n_steps, t_end, k_from, k_to, save_every, q0, qd0, w0, p, t_out, q_out,
+                       qd_out, w_out, n_saved);
+}
+
+/* The actuated realization on the coordinates actuators (N_CONSTRAINTS): qdd (N_DOF), the inputs
+   u (N_CONSTRAINTS) and the M, f they were solved from (model.h). */
+int manipulator_nrfe1_actuated_motion(double t, const double *q, const double *qd, const double *p, const int *actuators,
+    double *qdd, double *u, double *M, double *f)
+{
+    struct gpmegen_model model = MODEL;
+    double power;
+    model.actuators = actuators;
+    return gpmegen_actuated_solve(&model, t, q, qd, p, qdd, u, M, f, &power);
+}
+
+/* manipulator_nrfe1_rk4 of the actuated realization on the coordinates actuators (model.h). */
+int manipulator_nrfe1_rk4_actuated(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every,
+    const double *q0, const double *qd0, const double *w0, const double *p, const int *actuators, double *t_out,
+    double *q_out, double *qd_out, double *w_out, long *n_saved)
+{
+    struct gpmegen_model model = MODEL;
+    model.actuators = actuators;
+    return gpmegen_rk4(&model, t0, dt, n_steps, t_end, k_from, k_to, save_every, q0, qd0, w0, p, t_out, q_out,
                        qd_out, w_out, n_saved);
 }
 

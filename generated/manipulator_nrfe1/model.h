@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 24859403f6a66e1d
+Input hash: 8fa70c707e6471f5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -227,6 +227,17 @@ int manipulator_nrfe1_gpme_jacobian(double t, const double *q, const double *qd,
    GPMEGEN_OK, or the status of the first failed step (GPMEGEN_BAD_ARGUMENTS for invalid
    arguments); what was saved before is kept. */
 int manipulator_nrfe1_rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
+
+/* The actuated realization (servo-constraints): qdd (3,) and the inputs u (2,) on the
+   coordinates actuators (2,: the index in q of each constraint's input), from
+   M qdd = f + S u with the constraint rows of manipulator_nrfe1_gpme_accelerations, and the M (3, 3) and
+   f (3,) they were solved from. Returns GPMEGEN_OK, GPMEGEN_SINGULAR when the inputs cannot
+   move the constraints (D M^-1 S singular), GPMEGEN_NONFINITE. */
+int manipulator_nrfe1_actuated_motion(double t, const double *q, const double *qd, const double *p, const int *actuators, double *qdd, double *u, double *M, double *f);
+
+/* manipulator_nrfe1_rk4 of the actuated realization on the coordinates actuators (as in
+   manipulator_nrfe1_actuated_motion): the second work in w is that of the inputs. */
+int manipulator_nrfe1_rk4_actuated(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *actuators, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 
 /* DOP853 (adaptive, order 8) from t_a and y_a = [q, qd, w] (8,) to t_save[n_save - 1], saving y at the
    n_save increasing instants t_save (after t_a) into y_out (n_save, 8), by its dense output of order 7

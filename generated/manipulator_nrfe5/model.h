@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: d94730d07855e2a0
+Input hash: aff7073b66401d43
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -239,6 +239,17 @@ int manipulator_nrfe5_gpme_jacobian(double t, const double *q, const double *qd,
    GPMEGEN_OK, or the status of the first failed step (GPMEGEN_BAD_ARGUMENTS for invalid
    arguments); what was saved before is kept. */
 int manipulator_nrfe5_rk4(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *dependent, const int *independent, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
+
+/* The actuated realization (servo-constraints): qdd (15,) and the inputs u (2,) on the
+   coordinates actuators (2,: the index in q of each constraint's input), from
+   M qdd = f + S u with the constraint rows of manipulator_nrfe5_gpme_accelerations, and the M (15, 15) and
+   f (15,) they were solved from. Returns GPMEGEN_OK, GPMEGEN_SINGULAR when the inputs cannot
+   move the constraints (D M^-1 S singular), GPMEGEN_NONFINITE. */
+int manipulator_nrfe5_actuated_motion(double t, const double *q, const double *qd, const double *p, const int *actuators, double *qdd, double *u, double *M, double *f);
+
+/* manipulator_nrfe5_rk4 of the actuated realization on the coordinates actuators (as in
+   manipulator_nrfe5_actuated_motion): the second work in w is that of the inputs. */
+int manipulator_nrfe5_rk4_actuated(double t0, double dt, long n_steps, double t_end, long k_from, long k_to, long save_every, const double *q0, const double *qd0, const double *w0, const double *p, const int *actuators, double *t_out, double *q_out, double *qd_out, double *w_out, long *n_saved);
 
 /* DOP853 (adaptive, order 8) from t_a and y_a = [q, qd, w] (32,) to t_save[n_save - 1], saving y at the
    n_save increasing instants t_save (after t_a) into y_out (n_save, 32), by its dense output of order 7

@@ -170,10 +170,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--actuated", nargs="+", metavar="COORDINATE", default=None,
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
                         "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
-                        "actuators (--actuated none: ideally), else none")
+                        "actuators (--actuated none: ideally), else none; --method rk4 integrates it in the compiled "
+                        "loop on the C backend (in Python on the NumPy one), dop853, radau and genalpha refuse it")
     s.add_argument("--feedforward", type=path_argument, default=None, metavar="RUN.npz",
                    help="add the inputs u of an actuated run (simulate --actuated, or invert) to the drives of the "
                         "model's coordinates of the same names, interpolated linearly in t")
+    s.add_argument("--controller-model", type=path_argument, default=None, metavar="FILE",
+                   help="the model file of the computed-torque law's controller model, in place of the one the "
+                        "plant's [controller] table names (its nrfe kept)")
     s.add_argument("--internal-dynamics", action="store_true",
                    help="with an actuated realization: save the linearized internal dynamics' eigenvalues at "
                         "every saved sample (internal_eigenvalues)")

@@ -100,8 +100,8 @@ def cmd_simulate(args) -> int:
                                               ("--actuated", args.actuated)) if value is not None]
         if args.internal_dynamics:
             given.append("--internal-dynamics")
-        if args.feedforward is not None:
-            given.append("--feedforward")
+        given += [option for option, value in (("--feedforward", args.feedforward),
+                                               ("--controller-model", args.controller_model)) if value is not None]
         if given:
             raise UsageError(f"{', '.join(given)}: not taken by runs at several --nrfe, which save every --dt x "
                              f"--save-every with the methods' defaults; leave {'them' if len(given) > 1 else 'it'} out")
@@ -112,12 +112,14 @@ def cmd_simulate(args) -> int:
     case = open_case(args.model_file, args.nrfe)
     if args.feedforward is not None:
         case = case.feed_forward(args.feedforward)
+    if args.controller_model is not None:
+        case = case.controlled_by(args.controller_model)
     spec = run_spec(args, start_of(case, args.statics))
     name = default_name(case.results_stem, spec.start, spec.method,
                         case.actuators if spec.actuated is None else spec.actuated)
     out = Path(args.out if args.out is not None else f"results/{name}")
     _run_and_report(case, spec, args.backend, dict(args.param or []), out, overwrite=args.overwrite,
-                    inputs=[args.model_file] + ([args.feedforward] if args.feedforward is not None else []))
+                    inputs=[args.model_file] + [a for a in (args.feedforward, args.controller_model) if a is not None])
     return 0
 
 

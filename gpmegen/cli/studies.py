@@ -61,15 +61,13 @@ def cmd_linearize(args) -> int:
     return 0
 
 
-MANIPULATOR = "manipulator"  # metrics --reference: the built-in reference arm
-
-
 def cmd_metrics(args) -> int:
     """Tracking metrics of runs against a reference: printed, and with --out a CSV and a figure."""
     from .. import api
     from ..analysis.figures import tracking_plots
     from ..analysis.post import results as results_io
     from ..analysis.run import tracking
+    from ..analysis.run.opening import REFERENCE as MANIPULATOR  # the built-in reference arm
 
     try:
         runs = [results_io.load(p) for p in args.results]

@@ -54,10 +54,13 @@ class PythonPrinter(PythonCodePrinter):
 
 
 class CPrinter(C99CodePrinter):
-    """C99 with ``math.h``; π as a literal so no feature macro is needed."""
+    """C99 with ``math.h``; π and e as literals so no feature macro is needed (SymPy would print
+    ``pi/4`` as ``M_PI_4``, ``sqrt(2)`` as ``M_SQRT2``: POSIX names that ``-std=c99`` leaves
+    undeclared)."""
 
     def __init__(self, parameters, signals=()):
         super().__init__({"order": "none"})
+        self.math_macros = {}
         self._parameters = set(parameters)
         self._signals = {name: k for k, name in enumerate(signals)}
 
@@ -72,6 +75,9 @@ class CPrinter(C99CodePrinter):
 
     def _print_Pi(self, expr):
         return "3.14159265358979323846"
+
+    def _print_Exp1(self, expr):
+        return "2.71828182845904523536"
 
     def _print_Piecewise(self, expr):
         """Nested ternaries on one line (SymPy's own spread over lines); the last condition is

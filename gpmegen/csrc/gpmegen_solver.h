@@ -65,12 +65,18 @@ struct gpmegen_model {
     int redundant_rows;
     /* The controller states z (n_controllers, 0 in a model without, controller_rates then NULL):
        the last entries of p, after its n_parameters parameters, which the generated
-       functions read as they read the parameters; the integrators that carry them (RK4, DOP853)
-       put each stage's z there and integrate z with the motion, as the components of y after the
-       two work integrals; radau and genalpha refuse such a model (GPMEGEN_BAD_ARGUMENTS).
+       functions read as they read the parameters; every integrator puts each stage's z there and
+       integrates z with the motion, as the components of y after the two work integrals (radau
+       and genalpha in their Newton iterations, with the rates' Jacobians by differences).
        controller_rates: dz/dt (n_controllers) at (t, q, qd) and the z in p. */
     int n_parameters, n_controllers;
     void (*controller_rates)(double t, const double *q, const double *qd, const double *p, double *z_rate);
+    /* The actuated realization (actuated.c): the coordinate of each constraint's input
+       (n_constraints), whose stages then solve M qdd = f + S u with the constraint rows in place of
+       the GPME (gpmegen_stage); NULL (the model's own descriptor) for the ideal realization. Only
+       the model's actuated entries (its single actuated solve and RK4 loop) pass a copy of the
+       descriptor with it set. */
+    const int *actuators;
 };
 
 /* The small kernels that the model's recursion shares with the library's dense solve: defined
@@ -170,6 +176,12 @@ static inline void gpmegen_constraint_rhs(const struct gpmegen_model *model, con
 GPMEGEN_HIDDEN int gpmegen_gpme_solve(const struct gpmegen_model *model, double t, const double *q,
                                       const double *qd, const double *p, double *qdd, double *M, double *f,
                                       double *power);
+
+/* qdd (n_dof) and the inputs u (n_constraints) of the actuated realization on model->actuators
+   (actuated.c), with the M and f they were solved from and *power, that of the inputs. */
+GPMEGEN_HIDDEN int gpmegen_actuated_solve(const struct gpmegen_model *model, double t, const double *q,
+                                          const double *qd, const double *p, double *qdd, double *u, double *M,
+                                          double *f, double *power);
 
 /* The integrators and the Jacobians: the arguments of the model's exported functions of the same
    names (model.h) after the model. */

@@ -2,7 +2,16 @@
 
 #include "solver_internal.h"
 
-/* One stage: qdd from the GPME (the model's recursion), the power of the drive (qd . Q) and of
+/* A stage's qdd and the power of the inputs in the actuated realization (model->actuators set). */
+static int actuated_stage(const struct gpmegen_model *model, double t, const double *q, const double *qd,
+                          const double *p, double *qdd, double *power)
+{
+    const int N_DOF = model->n_dof;
+    double M[N_DOF * N_DOF] ALIGNED, f[N_DOF] ALIGNED, u[AT_LEAST_1(model->n_constraints)] ALIGNED;
+    return gpmegen_actuated_solve(model, t, q, qd, p, qdd, u, M, f, power);
+}
+
+/* One stage: qdd from the GPME (or, with model->actuators, of the actuated realization) (the model's recursion), the power of the drive (qd . Q) and of
    the constraint forces (qd . (M qdd - f)) whose integrals close the energy balance, and the rates
    of the controller states z (power[2 ...]), which the generated functions read from the end of p. */
 int gpmegen_stage(const struct gpmegen_model *model, double t, const double *q, const double *qd, const double *z,
@@ -19,7 +28,8 @@ int gpmegen_stage(const struct gpmegen_model *model, double t, const double *q, 
         }
         p = with_z;
     }
-    const int status = model->gpme_recursive(t, q, qd, p, qdd, &power[1]);
+    const int status = model->actuators ? actuated_stage(model, t, q, qd, p, qdd, &power[1])
+                                        : model->gpme_recursive(t, q, qd, p, qdd, &power[1]);
     if (status != GPMEGEN_OK) {
         return status;
     }

@@ -1,7 +1,7 @@
 /* gpmegen's FMU: the FMI 2.0 functions of Model Exchange and Co-Simulation, served by a model's
    generated C (model.c, its functions declared in model.h) and gpmegen's solver library (the
    GPME's dense solve, RK4, DOP853). What differs between models is in fmu_model.h, written by
-   gpmegen.codegen.fmu_export: the sizes, the model's function names, the value references, the
+   gpmegen.codegen.backends.fmu: the sizes, the model's function names, the value references, the
    start values and the GUID of modelDescription.xml.
 
    The model's exported names are <model name>_<function>: no name here ends like one of those

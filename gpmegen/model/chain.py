@@ -12,109 +12,42 @@ plain numbers); nothing here does algebra beyond naming symbols.
 
 from __future__ import annotations
 
-import keyword
-import re
 from dataclasses import dataclass
 
 import sympy as sp
 
-from ..errors import ModelError
-
-AXES = ("x", "y", "z")
-JOINT_KINDS = ("revolute", "prismatic")
-# Names reach generated Python and C: a strict pattern, matched in full, keeps them safe there.
-# A letter first also keeps them out of the generator's own names (gpmegen.symbolic.names),
-# which all begin with an underscore.
-NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,47}")
-RESERVED_NAMES = frozenset(
-    {"t", "q", "qd", "p", "pi", "out", "math", "np", "numpy",
-     "sin", "cos", "tan", "exp", "sqrt", "log", "abs", "min", "max", "fmin", "fmax", "double",
-     "int", "void", "return", "if", "else", "for", "while", "const", "def", "lambda", "None",
-     "Abs", "Min", "Max", "atan2", "Integer", "Float", "Symbol", "Rational"}
-    | set(keyword.kwlist)
-    | {"auto", "break", "case", "char", "continue", "default", "do", "enum", "extern", "float", "goto",
-       "inline", "long", "register", "restrict", "short", "signed", "sizeof", "static", "struct",
-       "switch", "typedef", "union", "unsigned", "volatile", "isfinite", "fabs", "pow"}
+from .names import (  # noqa: F401 (re-exported: the model's names are read from here too)
+    AXES,
+    GROUND_NAME,
+    NAME_PATTERN,
+    RESERVED_NAMES,
+    SOLVER_NAMESPACE,
+    SYMPY_NAMES,
+    TIME,
+    acceleration_symbol,
+    as_expr,
+    axis_symbols,
+    check_model_name,
+    check_name,
+    point_acceleration_symbols,
+    point_symbols,
+    point_velocity_symbols,
+    symbol,
+    velocity_symbol,
+)
+from .sections import (  # noqa: F401 (re-exported)
+    PAPER_FREEDOMS,
+    SDE_FREEDOMS,
+    SDE_JOINTS,
+    CircularSection,
+    FlexibleLink,
+    ISection,
+    RectangularSection,
+    StiffnessSection,
+    TubeSection,
 )
 
-# Names that stand bare in expressions (parameters, coordinates) must not shadow SymPy's own.
-SYMPY_NAMES = frozenset({"E", "I", "N", "S", "O", "Q", "oo", "zoo", "nan", "beta", "gamma", "zeta"})
-
-TIME = sp.Symbol("t", real=True)
-
-
-def check_name(name: str, what: str, bare: bool = False, subject: tuple = ()) -> str:
-    """Return ``name`` if it is a safe identifier, else raise ModelError naming ``what`` (about
-    the field ``subject``). ``bare``: the name stands alone in expressions, so it must not
-    shadow a SymPy name."""
-    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
-        raise ModelError(
-            f"{what} {name!r} is not a valid name: use a letter followed by letters, digits or "
-            f"underscores (at most 48 characters)", subject
-        )
-    if name in RESERVED_NAMES or name.startswith("_") or (bare and name in SYMPY_NAMES):
-        raise ModelError(f"{what} {name!r} is reserved in generated code: choose another name", subject)
-    return name
-
-
-#: The solver library's C namespace (functions ``gpmegen_*``, macros ``GPMEGEN_*``). A model's
-#: name is the prefix of its exported C names (``<name>_rk4``), so a name that is this word or
-#: begins with it and ``_`` would declare the library's own names again.
-SOLVER_NAMESPACE = "gpmegen"
-
-
-def check_model_name(name: str, subject: tuple = ()) -> str:
-    """Return ``name`` if it can name a model: a safe identifier (:func:`check_name`) outside the
-    solver library's C namespace; else raise ModelError naming the fix."""
-    check_name(name, "model name", subject=subject)
-    if name.lower() == SOLVER_NAMESPACE or name.lower().startswith(SOLVER_NAMESPACE + "_"):
-        raise ModelError(f"model name {name!r} would prefix its C names with '{name}_', the solver library's own "
-                         f"(gpmegen_rk4, GPMEGEN_OK, ...): choose another name, e.g. 'my_{name}'", subject)
-    return name
-
-
-def symbol(name: str) -> sp.Symbol:
-    """The real SymPy symbol of a parameter or coordinate name."""
-    return sp.Symbol(name, real=True)
-
-
-def velocity_symbol(coordinate: str) -> sp.Symbol:
-    """Symbol of a coordinate's velocity in constraint expressions: ``<name>_dot``."""
-    return sp.Symbol(f"{coordinate}_dot", real=True)
-
-
-def acceleration_symbol(coordinate: str) -> sp.Symbol:
-    """Symbol of a coordinate's acceleration in second-order constraints: ``<name>_ddot``."""
-    return sp.Symbol(f"{coordinate}_ddot", real=True)
-
-
-def point_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
-    """Symbols of a point's coordinates in {0}: ``x_P, y_P, z_P`` (m)."""
-    return tuple(sp.Symbol(f"{a}_{point}", real=True) for a in AXES)
-
-
-def point_velocity_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
-    """Symbols of a point's velocity in {0}: ``vx_P, vy_P, vz_P`` (m/s)."""
-    return tuple(sp.Symbol(f"v{a}_{point}", real=True) for a in AXES)
-
-
-def point_acceleration_symbols(point: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
-    """Symbols of a point's acceleration in {0} in second-order constraints: ``ax_P, ay_P, az_P``
-    (m/s²)."""
-    return tuple(sp.Symbol(f"a{a}_{point}", real=True) for a in AXES)
-
-
-def axis_symbols(point: str, axis: str) -> tuple[sp.Symbol, sp.Symbol, sp.Symbol]:
-    """Symbols of the unit vector along the ``axis`` ("x", "y" or "z") of the frame a point is
-    attached to, in {0}: what a closure's orientation rows are written in. Their names hold a
-    double underscore, which no expression of a model file may, so that they are a closure's
-    alone."""
-    return tuple(sp.Symbol(f"e{axis}__{point}__{a}", real=True) for a in AXES)
-
-
-def as_expr(value) -> sp.Expr:
-    """A number or SymPy expression as a SymPy expression."""
-    return sp.sympify(value)
+JOINT_KINDS = ("revolute", "prismatic")
 
 
 @dataclass(frozen=True)
@@ -231,99 +164,6 @@ class Branch:
     flexible link: its last rfe); ``parent="ground"`` starts from the base frame {0}."""
 
     parent: str
-
-
-GROUND_NAME = "ground"
-
-
-@dataclass(frozen=True)
-class RectangularSection:
-    """Rectangular cross-section: ``width`` along the link's local z, ``thickness`` along y (m)."""
-
-    width: sp.Expr
-    thickness: sp.Expr
-
-
-@dataclass(frozen=True)
-class CircularSection:
-    """Solid circular cross-section of ``radius`` (m)."""
-
-    radius: sp.Expr
-
-
-@dataclass(frozen=True)
-class TubeSection:
-    """Circular tube of ``outer_diameter`` and ``inner_diameter`` (m; inner 0: a solid rod)."""
-
-    outer_diameter: sp.Expr
-    inner_diameter: sp.Expr
-
-
-@dataclass(frozen=True)
-class ISection:
-    """I-section: web of ``web_thickness`` along the local y axis over the ``height``, two
-    flanges of ``width`` along z and ``flange_thickness`` (all m). Bending about z (``psi``) is
-    about the strong axis."""
-
-    height: sp.Expr
-    width: sp.Expr
-    flange_thickness: sp.Expr
-    web_thickness: sp.Expr
-
-
-@dataclass(frozen=True)
-class StiffnessSection:
-    """A cross-section given by what the RFEM uses of it, as data sheets and benchmarks give it:
-    bending stiffnesses ``EIz`` (about the local z axis) and ``EIy`` (N·m²), torsional stiffness
-    ``GJ`` (N·m²), mass per length ``rhoA`` (kg/m) and rotary inertias per length ``rhoIz = ρ∫y² dA``
-    and ``rhoIy = ρ∫z² dA`` (kg·m; 0 by default: rotary inertia neglected as in Euler–Bernoulli
-    beam data, which leaves torsion without inertia, so a link free in ``phi`` needs them), and
-    the axial stiffness ``EA`` (N), needed only by a link free to stretch (``u``)."""
-
-    EIz: sp.Expr
-    EIy: sp.Expr
-    GJ: sp.Expr
-    rhoA: sp.Expr
-    rhoIz: sp.Expr = sp.S.Zero
-    rhoIy: sp.Expr = sp.S.Zero
-    EA: sp.Expr | None = None
-
-
-# The freedoms of an sde in the order it applies them, each a joint of the current frame: the
-# axial stretch ``u`` along x (m), then the paper's rotations (eq. 1: bending ψ about z, bending
-# θ about y, torsion φ about x). A link has the paper's three unless it says otherwise.
-SDE_JOINTS = (("u", "prismatic", "x"), ("psi", "revolute", "z"), ("theta", "revolute", "y"), ("phi", "revolute", "x"))
-SDE_FREEDOMS = tuple(name for name, _, _ in SDE_JOINTS)
-PAPER_FREEDOMS = ("psi", "theta", "phi")
-
-
-@dataclass(frozen=True)
-class FlexibleLink:
-    """A slender link along the current frame's x axis, discretized by the modified rigid
-    finite element method into ``n_rfe`` rfes joined by ``n_rfe - 1`` sdes (spring-damping
-    elements) of up to three rotations each (bending about z: ``psi``, bending about y:
-    ``theta``, torsion about x: ``phi``) and, when asked for, an axial stretch ``u``.
-
-    ``label`` names the coordinates ``psi<label>_<r>``, ``theta<label>_<r>``, ``phi<label>_<r>``.
-    ``freedoms`` names the sde freedoms that are free (the three rotations by default, the
-    paper's choice; ``u`` adds the axial stretch, coordinates ``u<label>_<r>``); the others are
-    held rigid and are no coordinates. ``density`` (kg/m³), the moduli
-    (Pa) and ``torsion_constant`` (m⁴; ``None``: the section's own) belong with a section given
-    by its dimensions; a :class:`StiffnessSection` carries them itself and takes none of them.
-    ``damping`` holds the three damping coefficients of each sde, psi, theta, phi (N·m·s/rad;
-    the stretch is undamped).
-    """
-
-    label: str
-    length: sp.Expr
-    section: RectangularSection | CircularSection | TubeSection | ISection | StiffnessSection
-    density: sp.Expr | None = None
-    young_modulus: sp.Expr | None = None
-    shear_modulus: sp.Expr | None = None
-    n_rfe: int | None = None
-    torsion_constant: sp.Expr | None = None
-    damping: tuple = (0, 0, 0)
-    freedoms: tuple = PAPER_FREEDOMS
 
 
 @dataclass(frozen=True)
@@ -512,7 +352,8 @@ class Model:
     automatically at run time). ``closures``: the loops closed (:class:`Closure`), whose rows
     are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
     name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
-    controller states (:class:`Controller`) its drives may read.
+    controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
+    :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None.
     """
 
     name: str
@@ -527,6 +368,7 @@ class Model:
     signals: tuple = ()
     forces: tuple = ()
     controllers: tuple = ()
+    computed_torque: object = None
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

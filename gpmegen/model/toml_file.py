@@ -102,6 +102,7 @@ from ..errors import GpmegenError, ModelError
 from ..user_files import read_user_file
 from .chain import Model
 from .expand import expand
+from .file.controller_section import read_controller
 from .file.model_file import ModelFile
 from .file.reader import SCHEMA, Reader
 from .rfem import check_nrfe
@@ -135,13 +136,24 @@ def _parse(path, nrfe):
     return Reader(path, text, nrfe), data
 
 
-def read_model_file(path, nrfe: int | None = None) -> ModelFile:
+def read_model_file(path, nrfe: int | None = None, controller_model: str | None = None) -> ModelFile:
     """The model of a schema-1 TOML file with its ``[initial]`` configuration (a file whose
     name ends in ``.urdf``: :func:`read_urdf_file`).
 
     ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
     and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
-    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing."""
+    <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing.
+    ``controller_model``: a model file read in place of the ``[controller]`` table's ``model``."""
+    if Path(path).suffix.lower() == ".urdf":
+        return read_urdf_file(path)
+    reader, data = _parse(path, nrfe)
+    return read_controller(reader, data, reader.read(data), _read_plain, controller_model)
+
+
+def _read_plain(path, nrfe: int | None = None) -> ModelFile:
+    """A controller model: the file read as :func:`read_model_file` does, but for its own
+    ``[controller]`` table, which a controller model leaves out (as it does its drives), so a
+    plant may name its own file as its controller."""
     if Path(path).suffix.lower() == ".urdf":
         return read_urdf_file(path)
     reader, data = _parse(path, nrfe)

@@ -454,6 +454,10 @@ class CEvaluator:
         if not (y.flags.c_contiguous and y.dtype == float and S.flags.c_contiguous and pivot.dtype == np.intc
                 and have.dtype == np.intc):
             raise TypeError("y and S must be contiguous float64, pivot and have intc")
+        n_r = self.n + self.n_controllers   # Newton's unknowns: q̈ and the controller states
+        if S.shape != (n_r, n_r) or pivot.shape != (n_r,) or len(y) != 2 * self.n + 2 + self.n_controllers:
+            raise ValueError(f"genalpha needs y ({2 * self.n + 2 + self.n_controllers},), S ({n_r}, {n_r}) and "
+                             f"pivot ({n_r},), got {len(y)}, {S.shape}, {pivot.shape}")
         status = self.lib.genalpha(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, rho_inf, int(bool(project)),
                                    self._ptr(y),
                                    self._ptr(memory["a"]), self._ptr(S), self.ffi.from_buffer("int[]", pivot),
@@ -465,7 +469,7 @@ class CEvaluator:
 
     def _check_stack(self, call):
         """Refuse in one line a call of the solver library that would overflow the stack."""
-        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name)
+        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name, self.n_controllers)
 
     def _check_counts(self, counts, size):
         if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8 or len(counts) < size:

@@ -23,7 +23,7 @@ from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
 from ..status import SolveStatus
 from ..symbolic.names import SIGNAL_FUNCTION
-from . import finite, gpme, integrators, jacobians, signals
+from . import actuated, finite, gpme, integrators, jacobians, signals
 from .batch import is_batch, rows, stacked, states
 from .integrators import loop
 from .integrators.rk4 import rk4_steps
@@ -734,14 +734,9 @@ class LoadedModel:
     def actuation(self, t: float, q: ArrayLike, qd: ArrayLike) -> Four:
         """(q̈ (n,), u (m,), M, f) of the actuated realization on :attr:`actuators`: the inputs
         ``u`` (N·m on a rotation, N on a translation) that alone hold the programmed
-        constraints. SimulationError where ``D M⁻¹ S`` is singular."""
-        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd)
-        try:
-            qdd, u = gpme.actuated(M, f, phi, phid, D, gamma, self.alpha, self.beta, self.constraint_orders,
-                                   self.actuators)
-        except np.linalg.LinAlgError:
-            raise SimulationError(self.uncontrollable(t, D)) from None
-        return qdd, u, M, f
+        constraints (in C on the C backend, :mod:`gpmegen.runtime.actuated`). SimulationError where
+        ``D M⁻¹ S`` is singular."""
+        return actuated.actuation(self, t, q, qd)
 
     def uncontrollable(self, t: float, D: Array, condition: float = np.inf) -> str:
         """Why the actuated realization fails at ``t``: its inputs cannot move the constraints
@@ -792,9 +787,8 @@ class LoadedModel:
         w0 = np.concatenate([[0.0, 0.0], self.controller_initial]) if w0 is None else w0
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"),
                              vector(w0, 2 + len(self.controller_names), "w0")])
-        if len(self.actuators):  # the generated loops solve the GPME: the actuated one runs in Python
-            t, y, status = rk4_steps(loop.state_derivative(self), y0, g, k_from, k_to,
-                                               int(save_every))
+        if len(self.actuators):  # the generated loop's actuated entry, or the Python loop on NumPy
+            t, y, status = actuated.rk4(self, g, k_from, k_to, int(save_every), y0)
         else:
             model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
             t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
@@ -833,10 +827,10 @@ class LoadedModel:
     def genalpha(self, g: loop.Grid, k_from: int, k_to: int, rho_inf: float, project: bool, y: Array,
                  memory: dict[str, np.ndarray], t_save: Array, counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
-        grid ``g`` from the augmented state ``y`` (2n + 2,), replaced in place by the state at the
-        end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
-        ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the
-        Newton matrix "S" (n, n), "pivot" (n,) intc, "have" (1,) intc), ``counts`` as for
+        grid ``g`` from the augmented state ``y`` (2n + 2 + n_z,), replaced in place by the state at
+        the end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
+        ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the Newton
+        matrix "S" (n + n_z, n + n_z), "pivot" (n + n_z,) intc, "have" (1,) intc), ``counts`` as for
         :meth:`dop853` and (6th) the constraint evaluations of the projection. Saves at the
         increasing instants ``t_save`` (k,) within the steps. Returns ``(rows, status)``."""
         model = self.partitioned(g.time(k_from), np.asarray(y)[:self.n_dof])

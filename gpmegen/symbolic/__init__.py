@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from ..model.expand import FlatChain, expand
+from . import computed_torque as _computed_torque
 from . import constraints as _constraints
 from . import dynamics as _dynamics
 from . import recursive as _recursive
@@ -39,6 +40,8 @@ def derive(model) -> Derivation:
     program = Program()
     kin = forward(chain, program)
     dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces)
+    if model.computed_torque is not None:   # the law joins the drives, before the recursion reads them
+        dyn.drive_forces = dyn.drive_forces + _computed_torque.derive(kin, model.computed_torque)
     con = _constraints.derive(kin, model.constraints)
     rec = _recursive.derive(kin, dyn, model.gravity)
     rates = sp.Matrix(state_expressions(kin, [c.rate for c in model.controllers])) if model.controllers else None

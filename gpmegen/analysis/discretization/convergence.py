@@ -13,40 +13,41 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...errors import ModelError
-from ...model.chain import Body, FlexibleLink, Model, Parameter, Point, symbol
-from ...model.reference import PARAMETERS, reference_arm
+from ...model.chain import FlexibleLink, Joint, Model, Parameter, Point, symbol
+from ...model.reference import reference_model
 from ...model.requirements import evaluate
 from ...model.rfem import check_nrfe, section_properties
-from ...model.shapes import shape_quantities, solid_cylinder
 from ...runtime import statics
 from ..post import beam
 from ..post.modes import natural_frequencies
 from ..run.loading import load
 
-ARM_PARAMETERS = ("g", "L2", "b2", "t2", "rho2", "E2", "G2", "J2", "d2")
-SLIDER_PARAMETERS = ("m3", "L3", "R3")
 
 def clamped_arm_model(nrfe: int, with_slider: bool = False) -> Model:
-    """The reference arm alone, clamped at its root and horizontal along x0, gravity
-    ``(0, -g, 0)``; ``with_slider`` adds the slider as a rigid body fixed at the arm's tip (at
+    """The reference arm (the flexible link of :func:`gpmegen.model.reference_model`) alone,
+    clamped at its root and horizontal along x0, with the reference's gravity; ``with_slider``
+    adds what the link carries beyond its tip, the joints there held at zero (the slider at
     ``x3 = 0``). Coordinates ``psi2_r, theta2_r, phi2_r`` (r = 1..nrfe-1); points ``tip`` (the
-    arm's tip) and, with the slider, ``E``. Parameters and their names as in the reference."""
+    link's tip) and, with the slider, ``E``. The reference's parameters."""
     check_nrfe(nrfe, "the clamped arm (nrfe = 1 has no coordinate)", minimum=2)
-    names = ARM_PARAMETERS + (SLIDER_PARAMETERS if with_slider else ())
-    parameters = tuple(p for p in PARAMETERS if p.name in names)
-    P = {p.name: p.symbol for p in parameters}
-    chain = [reference_arm(P, nrfe), Point("tip", (0, 0, 0))]
+    whole = reference_model(nrfe)
+    at = next(k for k, element in enumerate(whole.chain) if isinstance(element, FlexibleLink))
+    chain = [whole.chain[at], Point("tip", (0, 0, 0))]
     if with_slider:
-        slider = Body("slider", solid_cylinder(P["m3"], P["R3"], P["L3"], "x"),
-                      shape_quantities(mass=P["m3"], radius=P["R3"], length=P["L3"]))
-        chain += [slider, Point("E", (P["L3"], 0, 0))]
+        chain += [element for element in whole.chain[at + 1:] if not isinstance(element, Joint)]
     return Model(
         name=f"clamped_arm{'_slider' if with_slider else ''}_nrfe{nrfe}",
-        parameters=parameters,
+        parameters=whole.parameters,
         chain=tuple(chain),
-        gravity=(0, -P["g"], 0),
+        gravity=whole.gravity,
         description="the reference arm clamped at its root" + (", slider at its tip" if with_slider else ""),
     )
+
+
+def arm_reference(params: dict) -> beam.ArmReference:
+    """Beam-theory values of the reference arm clamped (:func:`link_reference` of its flexible
+    link) at the parameter values ``params`` (``model.params`` of a loaded model)."""
+    return link_reference(flexible_links(reference_model(2))[0], params)
 
 
 GRAVITY = 9.81  # m/s², the clamped link's weight when its model has no parameter g
@@ -79,13 +80,21 @@ def clamped_link_model(model: Model, label: str, nrfe: int) -> Model:
     )
 
 
+def link_numbers(link: FlexibleLink, params: dict) -> dict[str, float]:
+    """The length ``L`` (m), ``EIz``, ``EIy``, ``GJ`` (N·m²), ``rhoA`` (kg/m), ``rhoIz``, ``rhoIy``
+    (kg·m) of ``link`` and the gravity ``g`` (m/s²) at the parameter values ``params`` (name ->
+    number, with ``g``): read from the link's own expressions, whatever its parameters' names."""
+    values = {symbol(name): float(value) for name, value in params.items()}
+    p = section_properties(link)
+    terms = {"L": link.length, "EIz": p.EIz, "EIy": p.EIy, "GJ": p.GJ, "rhoA": p.rhoA, "rhoIz": p.rhoIz,
+             "rhoIy": p.rhoIy, "g": symbol("g")}
+    return {key: evaluate(x, values) for key, x in terms.items()}
+
+
 def link_reference(link: FlexibleLink, params: dict) -> beam.ArmReference:
     """Beam-theory values of ``link`` clamped (:func:`gpmegen.analysis.post.beam.link_reference`) at
     the parameter values ``params`` (name -> number, with ``g``)."""
-    values = {symbol(name): float(value) for name, value in params.items()}
-    p = section_properties(link)
-    numbers = [evaluate(x, values) for x in (link.length, p.EIz, p.EIy, p.GJ, p.rhoA, p.rhoIz, p.rhoIy, symbol("g"))]
-    return beam.link_reference(*numbers)
+    return beam.link_reference(*link_numbers(link, params).values())
 
 
 @dataclass(frozen=True)
@@ -109,7 +118,7 @@ class Clamped:
 
     def reference(self, params: dict) -> beam.ArmReference:
         if self.model is None:
-            return beam.arm_reference(params)
+            return arm_reference(params)
         return link_reference(next(link for link in flexible_links(self.model) if link.label == self.label), params)
 
 
@@ -289,6 +298,7 @@ def convergence_table(nrfe_values, directory=None, params: dict | None = None, s
 
 __all__ = [
     "clamped_arm_model", "load_clamped_arm", "clamped_link_model", "flexible_links", "link_reference",
+    "link_numbers", "arm_reference",
     "Clamped", "ConvergenceTable", "convergence_table", "tip_deflection",
     "arm_quantities", "observed_order", "QUANTITIES", "LIMIT_KEYS",
 ]

@@ -109,9 +109,10 @@ def pool_size(levels: int, workers: int | None = None) -> int:
 def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     """Whether runs of ``method`` on ``backend`` integrate in compiled loops, which release
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
-    the compiled methods on the C backend, unless the constraints are realized by inputs (the
-    actuated realization steps in Python)."""
-    return backend == "c" and integrators.get(method).c_loop and not actuated
+    the compiled methods on the C backend; with the constraints realized by inputs (``actuated``),
+    those whose loop runs the actuated realization too (RK4; the others integrate the ideal GPME only)."""
+    integrator = integrators.get(method)
+    return backend == "c" and integrator.c_loop and (not actuated or integrator.actuated_loop)
 
 
 def _on_threads(tasks, levels_cases, size) -> list:

@@ -165,35 +165,26 @@ def link_reference(L, EIz, EIy, GJ, rhoA, rhoIz, rhoIy, g) -> ArmReference:
     )
 
 
-def arm_reference(params: dict) -> ArmReference:
-    """:class:`ArmReference` of the reference arm from a parameter dict with the reference
-    names ``L2, b2, t2, rho2, E2, G2, J2, g`` (``model.params`` of a loaded model)."""
-    s = rectangular_section(params["b2"], params["t2"])
-    L, rho, E, G, J, g = (float(params[k]) for k in ("L2", "rho2", "E2", "G2", "J2", "g"))
-    return link_reference(L, E * s.Iz, E * s.Iy, G * J, rho * s.A, rho * s.Iz, rho * s.Iy, g)
-
-
-def manipulator_arm_tip(params: dict, inclination: float) -> tuple[float, float]:
-    """Euler–Bernoulli estimate of the reference manipulator's arm-tip deflection (m,
-    perpendicular to the arm in its vertical plane, downwards positive) and rotation (rad) with
-    the arm clamped at ``inclination`` (rad above the horizontal) and the slider at ``x3 = 0``:
-    the arm's own weight, the slider's weight at the tip and the couple of the slider's weight
-    about the tip (its centre lies ``L3/2`` beyond the tip along the arm), each projected
-    perpendicular to the arm (factor ``cos(inclination)``). Axial loads (beam-column effect) and
+def inclined_cantilever_tip(L: float, EI: float, rhoA: float, g: float, tip_mass: float, lever: float,
+                            inclination: float) -> tuple[float, float]:
+    """Euler–Bernoulli estimate of the tip deflection (m, perpendicular to the link in its
+    vertical plane, downwards positive) and rotation (rad) of a link of length ``L`` (m), bending
+    stiffness ``EI`` (N·m²) and mass ``rhoA`` (kg/m), clamped at ``inclination`` (rad above the
+    horizontal) under gravity ``g`` (m/s²), carrying at its tip a body of mass ``tip_mass`` (kg)
+    whose centre lies ``lever`` (m) beyond the tip along the link: the link's own weight, the
+    body's weight at the tip and the couple of that weight about the tip, each projected
+    perpendicular to the link (factor ``cos(inclination)``). Axial loads (beam-column effect) and
     large-deflection geometry are left out: the estimate is for small loads."""
-    s = rectangular_section(params["b2"], params["t2"])
-    L, rho, E = (float(params[k]) for k in ("L2", "rho2", "E2"))
-    g, m3, L3 = (float(params[k]) for k in ("g", "m3", "L3"))
     c = math.cos(inclination)
-    w = rho * s.A * g * c
-    P = m3 * g * c
-    return cantilever_tip(L, E * s.Iz, w=w, P=P, M0=P * L3 / 2.0)
+    w = rhoA * g * c
+    P = tip_mass * g * c
+    return cantilever_tip(L, EI, w=w, P=P, M0=P * lever)
 
 
 __all__ = [
     "CLAMPED_FREE_LAMBDA", "Section", "rectangular_section", "cantilever_uniform_load",
     "cantilever_tip_force", "cantilever_tip_moment", "cantilever_tip",
     "cantilever_bending_frequency", "CLAMPED_FREE_SLOPE_RATIO", "cantilever_bending_frequency_rotary",
-    "shaft_torsion_frequency", "ArmReference", "arm_reference", "link_reference",
-    "manipulator_arm_tip",
+    "shaft_torsion_frequency", "ArmReference", "link_reference",
+    "inclined_cantilever_tip",
 ]

@@ -36,10 +36,16 @@ class Case:
     start_constants: tuple = ()  # parameters the start sets from the model itself (so per n_rfe)
     model: Model  # each subclass gives it (a property)
     label: str
+    command: str | None  # the build command that makes the model (None: made in Python)
 
     def located(self, action):
         """Run ``action()``; subclasses add where in their source a derivation error comes from."""
         return action()
+
+    def controlled_by(self, path):
+        """This case with another controller model: a model file's only (:class:`FileCase`)."""
+        raise ModelError(f"{self.label}: --controller-model replaces the controller model of a model file's "
+                         f"[controller] table; give the plant's model file")
 
     def feed_forward(self, run):
         """This case driven by the inputs of the run at ``run``: a model of the user's only
@@ -102,6 +108,12 @@ class Case:
         model's name, and its first four joints (not the sde rotations of its flexible links)."""
         joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
         return {"label": model.module.MODEL, "joints": joints[:4]}
+
+    def bound(self, loaded, params):
+        """The ``loaded`` model with the constants the start sets (:attr:`start_constants`) bound as
+        its runs bind them, those of ``params`` (the user's values) kept: what
+        :func:`gpmegen.load` returns. As loaded by default."""
+        return loaded
 
     def extras(self, model, results) -> dict:
         """Arrays added to a run's results (none by default)."""
@@ -203,12 +215,22 @@ class FileCase(ModelCase):
     """A model file (``path``) with ``nrfe`` rfes (None: the file's own); the file is read once,
     when first needed."""
 
+    controller_model = None  # a model file in place of the file's [controller] model (controlled_by)
+
     def __init__(self, path, nrfe=None):
         self.path, self.nrfe = path, nrfe
 
     @cached_property
     def file(self):
-        return read_model_file(self.path, nrfe=self.nrfe)
+        return read_model_file(self.path, nrfe=self.nrfe, controller_model=self.controller_model)
+
+    def controlled_by(self, path) -> FileCase:
+        """This case with the model file at ``path`` as its computed-torque law's controller
+        model, read now."""
+        self.controller_model = path
+        self.__dict__.pop("file", None)
+        _ = self.file
+        return self
 
     @property
     def model(self):

@@ -6,13 +6,11 @@ the reference case is one of its kinds."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
-from ...codegen.render import input_hash
 from ...errors import ModelError
 from ...folder import MANIFEST, read_manifest
-from ...runtime.loader import BACKENDS
+from ...model.rfem import check_nrfe
 from .cases import Case, FileCase, FolderCase
 from .reference_case import ReferenceCase
 
@@ -36,21 +34,24 @@ def case_of_path(path, nrfe=None) -> Case:
     if nrfe is not None:
         raise ModelError(f"--nrfe {nrfe} does not apply to {folders[0]}, built with its own; build the model with "
                          f"--nrfe {nrfe} into a folder and name that one")
-    reference = _reference_case_of(manifest)
+    reference = ReferenceCase.of_manifest(manifest)
     if reference is not None:
         reference.directory = folders[0].parent
         return reference
     return FolderCase(folders[0], manifest)
 
 
-def _reference_case_of(manifest):
-    """The reference case whose generated code the folder of ``manifest`` holds, or None: its
-    name and input hash are those of the built-in manipulator's."""
-    match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
-    if not match:
-        return None
-    case = ReferenceCase(int(match.group(1)))
-    return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
+#: The name that reaches the paper's arm as a path reaches a model file (``gpmegen.load("manipulator")``,
+#: ``gpmegen metrics --reference manipulator``); a file or folder of that name is taken first.
+REFERENCE = "manipulator"
+
+
+def case_of_name(model, nrfe=None) -> Case:
+    """The case a name or path ``model`` names: :data:`REFERENCE` (the paper's arm with ``nrfe``
+    rfes, default 5) where no file or folder has that name, else :func:`case_of_path`."""
+    if str(model) == REFERENCE and not Path(model).exists():
+        return ReferenceCase(check_nrfe(nrfe or 5, "the reference arm"))
+    return case_of_path(model, nrfe)
 
 
 def case_of_source(source, what) -> Case:

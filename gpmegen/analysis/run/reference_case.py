@@ -10,13 +10,16 @@ name the paper's.
 
 from __future__ import annotations
 
+import re
 from functools import cached_property
 
 import numpy as np
 
+from ...codegen.render import input_hash
 from ...model import reference_model
 from ...runtime import statics
 from ...runtime.consistent import consistent, project_onto_constraints
+from ...runtime.loader import BACKENDS
 from .cases import Case
 
 START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
@@ -40,7 +43,7 @@ def constraint_constants(model, q) -> dict:
 
 def with_constants(model, overrides=None):
     """``model`` with ``r_Ea`` and ``y_c`` set from its locked statics at the paper's joint start
-    (those of ``overrides`` kept), and that start q (n,). What both ``gpmegen.load(nrfe=N)``
+    (those of ``overrides`` kept), and that start q (n,). What both ``gpmegen.load("manipulator", nrfe=N)``
     and a run of the reference case bind."""
     overrides = dict(overrides or {})
     q = statics.locked(model, joint_start(model))
@@ -76,6 +79,17 @@ class ReferenceCase(Case):
     def __init__(self, nrfe: int = 5):
         self.nrfe = nrfe
 
+    @classmethod
+    def of_manifest(cls, manifest) -> ReferenceCase | None:
+        """The reference case whose generated code the folder of ``manifest`` (a built folder's
+        manifest.json) holds, or None: its model's name is one :func:`reference_model` gives
+        and its input hash that model's."""
+        match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
+        if not match:
+            return None
+        case = cls(int(match.group(1)))
+        return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
+
     @cached_property
     def model(self):
         return reference_model(self.nrfe)
@@ -103,6 +117,10 @@ class ReferenceCase(Case):
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
         model, q = initial_state(model, start, overrides)
         return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT, given_qd=frozenset())
+
+    def bound(self, loaded, params):
+        """``loaded`` with r_Ea and y_c from its locked statics (:func:`with_constants`)."""
+        return with_constants(loaded, params)[0]
 
     def shown(self, model) -> list[str]:
         return list(START_JOINTS)

@@ -81,8 +81,6 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
     if refusal:
         raise SimulationError(refusal)
     model.check_signal_span(0.0, t_end)
-    # the actuated realization runs the Python loop on either backend: estimated as the NumPy one (from above)
-    loop = "numpy" if len(model.actuators) else model.backend
     qd0 = np.zeros(model.n_dof) if qd0 is None else np.array(qd0, dtype=float)
     model.check_forces_apart(q0)   # before the start's modes, which its undefined force would spoil
     omega = None  # the natural frequency that bounds the method's steps, when one does
@@ -91,7 +89,7 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
             omega = modes.highest_frequency(model, 0.0, q0, qd0)
         elif integrator.frequency == "lowest":
             omega = modes.lowest_frequency(model, 0.0, q0, qd0)
-    limits.check_run(model.n_dof, len(model.constraint_names), spec, loop, omega)
+    limits.check_run(model.n_dof, len(model.constraint_names), spec, model.backend, omega)
     if omega is not None:
         unstable = integrator.unstable_step(dt, lambda: modes.motion_eigenvalues(model, 0.0, q0, qd0))
         if unstable:

@@ -94,10 +94,13 @@ class Integrator:
     #: a save interval ``save_dt`` must then be a whole number of steps.
     saves_on_steps: ClassVar[bool] = False
     #: Whether it runs only in the generated C loop (not on the NumPy backend, nor for the actuated
-    #: realization, which is integrated in Python).
+    #: realization, which only RK4's loop runs compiled).
     compiled: ClassVar[bool] = False
     #: Whether, on the C backend, it runs in the generated C loop (which releases Python's lock).
     c_loop: ClassVar[bool] = False
+    #: Whether that loop also runs the actuated realization (servo-constraints; the others
+    #: integrate the ideal GPME only).
+    actuated_loop: ClassVar[bool] = False
     #: Whether :func:`gpmegen.runtime.integrators.loop.chunked` drives it (it draws a progress bar).
     chunked: ClassVar[bool] = False
     #: Whether it integrates the controller states (a compiled loop whose Newton iterations and

@@ -35,7 +35,8 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     chunk = max(1, int(round(CHUNK_SECONDS / dt)))
     n = model.n_dof
     counts = np.zeros(COUNTS, dtype=np.int64)
-    memory = {"a": np.full(n, np.nan), "S": np.zeros((n, n)), "pivot": np.zeros(n, dtype=np.intc),
+    n_r = n + len(model.controller_names)   # Newton's unknowns: q̈ and the controller states
+    memory = {"a": np.full(n, np.nan), "S": np.zeros((n_r, n_r)), "pivot": np.zeros(n_r, dtype=np.intc),
               "have": np.zeros(1, dtype=np.intc)}
 
     def advance(model, y, k_from, k_to):
@@ -64,7 +65,6 @@ class GenAlpha(Integrator):
     name = entry = "genalpha"
     summary = "genalpha (implicit, order 2, numerically damped, step --dt, in C)"
     compiled = c_loop = chunked = True
-    controller_states = False
     options = (Option("rho_inf", RHO_INF, "", lambda v: 0 <= v <= 1, "must be a number from 0 to 1", "fraction",
                       "genalpha's numerical damping: its spectral radius at large steps, 0 (most damped) to 1 "
                       "(none; default 0.9)"),)

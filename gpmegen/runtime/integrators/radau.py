@@ -41,7 +41,6 @@ class Radau(CompiledAdaptive):
 
     name = entry = "radau"
     summary = "radau (implicit, adaptive, order 5, in C: for stiff, finely divided links)"
-    controller_states = False
     frequency = "lowest"
     stiff = True
 

@@ -128,7 +128,7 @@ class RK4(Integrator):
 
     name = entry = "rk4"
     summary = "fixed-step rk4 (the paper's, default)"
-    c_loop = chunked = saves_on_steps = True
+    c_loop = chunked = saves_on_steps = actuated_loop = True
     frequency = "highest"
 
     def unstable_step(self, dt, eigenvalues):

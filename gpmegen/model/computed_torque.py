@@ -1,0 +1,87 @@
+"""Computed torque with a model that is not the plant: the law and its checks (plain data).
+
+The plant's inputs on the coordinates ``c`` the law names are
+``u = M_c(q_c) v - f_c(q_c, q̇_c)``, with ``v = q̈_r + K_d (q̇_r - q̇) + K_p (q_r - q)`` per
+coordinate and ``M_c``, ``f_c`` (without drives: ``h - g - C q - damping`` and the force
+elements) the *controller model*'s mass matrix and forces, derived with the plant
+(:mod:`gpmegen.symbolic.computed_torque`). The controller reads its joint coordinates from the
+plant's coordinates of the same names; its elastic coordinates (a coarse flexible controller's
+sde freedoms, which the plant may lack or discretize otherwise) are held at rest, ``q = q̇ = 0``
+with no commanded acceleration. With ``M_c = M`` and ``f_c = f`` the closed loop is
+``ë + K_d ė + K_p e = 0`` for ``e = q_r - q``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ..errors import ModelError
+from .chain import TIME, Joint, Model, symbol
+
+
+@dataclass(frozen=True)
+class ComputedTorque:
+    """A computed-torque law: ``controller`` the controller's :class:`Model` (its parameters
+    enter at their default values), per actuated coordinate (``coordinates``, names of the
+    plant's and the controller's joints) its reference ``references`` (expressions of ``t`` and
+    the plant's parameters, rad or m), and its gains ``kp`` (1/s²) and ``kd`` (1/s), expressions
+    of the plant's parameters. ``source``: where the controller came from, for messages."""
+
+    controller: Model
+    coordinates: tuple
+    references: tuple
+    kp: tuple
+    kd: tuple
+    source: str = ""
+
+    def commanded(self) -> list:
+        """``v`` per coordinate, an expression of ``t``, the parameters and the plant's state
+        (``<coordinate>``, ``<coordinate>_dot``, as a feedback law names them)."""
+        out = []
+        for name, ref, kp, kd in zip(self.coordinates, self.references, self.kp, self.kd):
+            ref = sp.sympify(ref)
+            q, qd = symbol(name), symbol(f"{name}_dot")
+            out.append(sp.diff(ref, TIME, 2) + kd * (sp.diff(ref, TIME) - qd) + kp * (ref - q))
+        return out
+
+
+def joint_coordinates(model: Model) -> list[str]:
+    """The coordinates of ``model``'s joints (not its flexible links' sdes), in chain order."""
+    return [e.name for e in model.chain if isinstance(e, Joint)]
+
+
+def check(law: ComputedTorque, plant_coordinates, constant: set) -> None:
+    """Refuse, in one line, a law whose coordinates the plant or the controller lacks, a
+    controller joint the law does not actuate, a gain not of parameters or a reference not of
+    ``t`` and parameters. ``constant``: the plant's parameter symbols."""
+    where = f"controller {law.source or law.controller.name}"
+    controller = joint_coordinates(law.controller)
+    plant = list(plant_coordinates)
+    for name in controller:
+        if name not in plant:
+            raise ModelError(f"{where}: its coordinate {name} is no coordinate of the plant (the plant's: "
+                             f"{', '.join(plant)}); give the controller model the plant's joint names",
+                             ("controller", "model"))
+    for k, name in enumerate(law.coordinates):
+        if name not in controller:
+            raise ModelError(f"{where}: the law acts on {name}, which is no joint of the controller model "
+                             f"(its joints: {', '.join(controller)}); name one of them",
+                             ("controller", "computed_torque", k, "coordinate"))
+    if len(set(law.coordinates)) != len(law.coordinates):
+        raise ModelError(f"{where}: a coordinate is named twice in the law; name each once",
+                         ("controller", "computed_torque"))
+    missing = [name for name in controller if name not in law.coordinates]
+    if missing:
+        raise ModelError(f"{where}: computed torque needs every joint of the controller model actuated, "
+                         f"and the law leaves out {', '.join(missing)}; add it to the law",
+                         ("controller", "computed_torque"))
+    for k, (ref, kp, kd) in enumerate(zip(law.references, law.kp, law.kd)):
+        for field, value, allowed in (("reference", ref, constant | {TIME}), ("kp", kp, constant),
+                                      ("kd", kd, constant)):
+            extra = sorted(str(s) for s in sp.sympify(value).free_symbols - allowed)
+            if extra:
+                raise ModelError(f"{where}: {field} of {law.coordinates[k]} reads {', '.join(extra)}; a reference "
+                                 f"is a law of t and parameters, a gain of parameters",
+                                 ("controller", "computed_torque", k, field))

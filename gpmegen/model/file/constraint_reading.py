@@ -1,0 +1,255 @@
+"""Reading a model file's programmed constraints and closures, the dependent (prescribed)
+coordinates, the actuators and the initial values. A mixin of
+:class:`~gpmegen.model.file.reader.Reader`."""
+
+from __future__ import annotations
+
+import difflib
+
+from ...errors import ModelError, ModelWarning
+from ..chain import (
+    AXES,
+    CLOSURE_TYPES,
+    TIME,
+    Body,
+    Closure,
+    Constraint,
+    FlexibleLink,
+    acceleration_symbol,
+    check_name,
+    closure_rows,
+    point_acceleration_symbols,
+    point_symbols,
+    point_velocity_symbols,
+    symbol,
+    velocity_symbol,
+)
+from ..expand import expand
+from ..requirements import evaluate
+from ..rfem import discretize
+from .schema import (
+    CLOSURE_KEYS,
+    kind_of,
+)
+
+
+class ConstraintReading:
+    """Constraints, closures, dependent coordinates, actuators and initial values (a mixin of the Reader)."""
+
+    def constraint_scope(self, order):
+        """The names a constraint of ``order`` may use: parameters, t, coordinates and point
+        coordinates; velocities from order 1 on, accelerations at order 2."""
+        scope = {**self.params, "t": TIME}
+        highest = order if order in (1, 2) and not isinstance(order, bool) else 0   # other orders: expand()
+        made = ((symbol, point_symbols), (velocity_symbol, point_velocity_symbols),
+                (acceleration_symbol, point_acceleration_symbols))
+        for of_coordinate, of_point in made[:highest + 1]:
+            scope.update({of_coordinate(c).name: of_coordinate(c) for c in self.coordinates})
+            scope.update({s.name: s for point in self.points for s in of_point(point)})
+        return scope
+
+    def read_constraints(self, items):
+        self.array(items, ("constraints",), what="list of [[constraints]] tables")
+        moving = {f(c) for c in self.coordinates for f in (symbol, velocity_symbol, acceleration_symbol)}
+        for point in self.moving_points:
+            moving |= {s for f in (point_symbols, point_velocity_symbols, point_acceleration_symbols) for s in f(point)}
+        constraints = []
+        for k, item in enumerate(items):
+            path = ("constraints", k)
+            self.table(item, path, ("name", "expression", "order", "alpha", "beta"), ("name", "expression"),
+                       "constraint")
+            name = self.name(item["name"], path + ("name",), "constraint")
+            order = item.get("order", 0)   # its values: expand()
+            expr = self.quantity(item["expression"], path + ("expression",),
+                                 {**self.constraint_scope(order), **self.signal_expressions})
+            if not (expr.free_symbols & moving):
+                self.fail(path + ("expression",), f"the constraint {expr} = 0 does not depend on any coordinate "
+                                                  f"(it names no coordinate and no point that a joint moves), so "
+                                                  f"no motion can hold it; name a moving point or a coordinate")
+            extra = {}
+            for key in ("alpha", "beta"):
+                if key in item:
+                    if key == "beta" and order == 1:
+                        self.fail(path + ("beta",), "beta applies to position constraints only (a first-order "
+                                                    "constraint is stabilized by alpha); remove it")
+                    if order == 2:
+                        self.fail(path + (key,), f"{key} applies to position and first-order constraints only "
+                                                 f"(a second-order constraint is held as it stands); remove it")
+                    extra[key] = self.quantity(item[key], path + (key,), self.params)
+            constraints.append(Constraint(name, expr, order, **extra))
+        return tuple(constraints)
+
+    def taken_names(self, chain, constraints, closures=()) -> dict:
+        """The file's names so far (parameters, coordinates, points, bodies, constraints, closures
+        and their rows), each with what it names."""
+        bodies = [part.name for element in chain
+                  for part in (discretize(element) if isinstance(element, FlexibleLink) else (element,))
+                  if isinstance(part, Body)]
+        return {**{name: "parameter" for name in self.params}, **{name: "coordinate" for name in self.coordinates},
+                **{name: "point" for name in self.points}, **{name: "body" for name in bodies},
+                **{c.name: "constraint" for c in constraints},
+                **{name: "closure" for closure in closures for name in (closure.name,)}}
+
+    def read_closures(self, items, constraints, chain) -> tuple:
+        """The ``[[closures]]`` as :class:`Closure` with all the rows of their type (the ones that
+        vanish identically are dropped later: :meth:`drop_vanishing`); each name, and the names of
+        the rows it writes, checked against every name of the file."""
+        self.array(items, ("closures",), what="list of [[closures]] tables")
+        taken = self.taken_names(chain, constraints)
+        closures = []
+        for k, item in enumerate(items):
+            path = ("closures", k)
+            self.table(item, path, CLOSURE_KEYS, ("name", "points"), "closure")
+            name = self.name(item["name"], path + ("name",), "closure")
+            kind = item.get("type", "point")
+            if kind not in CLOSURE_TYPES:
+                close = difflib.get_close_matches(str(kind), CLOSURE_TYPES, 1)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                self.fail(path + ("type",), f"closure {name!r}: unknown type {kind!r}; {hint}use "
+                                            + ", ".join(f'"{t}"' for t in CLOSURE_TYPES))
+            axis = item.get("axis")
+            if kind == "point" and axis is not None:
+                self.fail(path + ("axis",), f"closure {name!r}: a point closure takes no axis; remove it, or use "
+                                            f"type = \"revolute\" or \"prismatic\"")
+            if kind != "point" and axis is None:
+                self.fail(path, f"closure {name!r}: a {kind} closure needs its axis; add axis = \"x\", \"y\" or "
+                                f"\"z\" (of the frame of its first point)")
+            if kind != "point":
+                self.choice(axis, path + ("axis",), AXES, "closure axis")
+            points = self.point_pair(item["points"], path + ("points",), f"closure {name!r}")
+            gains = {}
+            for key in ("alpha", "beta"):
+                if key in item:
+                    gains[key] = self.quantity(item[key], path + (key,), self.params)
+                    value = evaluate(gains[key], self.defaults)
+                    if value is not None and value < 0:
+                        self.fail(path + (key,), f"closure {name!r}: negative {key} {value:g}; Baumgarte gains must "
+                                                 f"be zero or positive")
+            closure = Closure(name, points, kind, axis, closure_rows(kind, axis), **gains)
+            named = [(f"closure {name!r}", name)] + [(f"the row {label!r} of closure {name!r}", closure.row_name(label))
+                                                     for label in closure.rows]
+            for what, text in named:
+                if text in taken:
+                    self.fail(path + ("name",), f"{what} is named {text!r}, and that name is already taken by a "
+                                                f"{taken[text]}; rename the closure")
+                try:
+                    check_name(text, "closure row")
+                except ModelError as exc:
+                    raise self.error(path + ("name",), f"{exc}: shorten the closure's name") from None
+                taken[text] = "closure" if text == name else "closure row"
+            closures.append(closure)
+        return tuple(closures)
+
+    def drop_vanishing(self, model, chain):
+        """``model`` without the rows of its closures that vanish identically (one warning line
+        each, naming the closure and the row); a row whose value is a constant other than zero
+        (the points can never meet along it) is refused."""
+        import dataclasses
+        import warnings
+
+        # The layer above the model's: these rows are judged from the derived kinematics of the
+        # model being read (an exception of the import contracts in pyproject.toml).
+        from ...symbolic.constraints import constant_rows
+        from ...symbolic.kinematics import forward
+        from ...symbolic.program import Program
+
+        try:
+            flat = expand(dataclasses.replace(model, dependent=None))
+        except ModelError:
+            return model   # the full check reports it
+        rows = [row for closure in model.closures for row in closure.constraints()]
+        kinds = dict(zip((row.name for row in rows), constant_rows(forward(flat, Program()), rows)))
+        closures, dropped = [], set()
+        for k, closure in enumerate(model.closures):
+            kept = []
+            for label, row in zip(closure.rows, closure.constraints()):
+                if kinds[row.name] == "constant":
+                    self.fail(("closures", k, "points"), f"closure {closure.name!r}: its row {label!r} "
+                                                         f"({closure.describe(label)} = 0) is a constant other than "
+                                                         f"zero, so the points can never meet; place them where the "
+                                                         f"loop can close")
+                if kinds[row.name] == "zero":
+                    dropped.add(row.name)
+                    warnings.warn(f"closure {closure.name!r}: row {label!r} ({closure.describe(label)}) vanishes "
+                                  f"identically on this chain and is dropped", ModelWarning, stacklevel=2)
+                else:
+                    kept.append(label)
+            if not kept:
+                self.fail(("closures", k), f"closure {closure.name!r}: every row vanishes identically, so it holds "
+                                           f"nothing; remove it")
+            closures.append(dataclasses.replace(closure, rows=tuple(kept)))
+        return dataclasses.replace(model, closures=tuple(closures),
+                                   constraints=tuple(c for c in model.constraints if c.name not in dropped))
+
+    def prescribe(self, constraints, dependent, closures=False):
+        """``constraints`` and ``dependent`` with each prescribed joint's law written as the
+        position constraint ``prescribed_<q>: q - law(t) = 0``, after the file's own, and ``q``
+        dependent: the GPME prescribes a joint's motion by a programmed constraint with that
+        joint's coordinate dependent. The one place this is written."""
+        if not self.prescribed:
+            return constraints, dependent
+        taken = {c.name for c in constraints} | set(self.params) | set(self.coordinates) | set(self.points)
+        written = []
+        for name, (law, here) in self.prescribed.items():
+            cname = f"prescribed_{name}"
+            try:
+                check_name(cname, "the name of the constraint that prescribed writes")
+            except ModelError as exc:
+                raise self.error(here, f"{exc}: shorten the joint's name") from None
+            if cname in taken:
+                self.fail(here, f"prescribed writes the constraint {cname!r}, and that name is already taken in "
+                                f"the file; rename the other one")
+            if dependent is not None and name in dependent:
+                self.fail(("dependent", dependent.index(name)), f"{name!r} is prescribed, which makes it dependent "
+                                                                f"already; remove it from dependent")
+            written.append(Constraint(cname, symbol(name) - law))
+        if dependent is None and constraints:
+            rows = "[[constraints]] and the rows of the [[closures]] kept" if closures else "[[constraints]]"
+            self.fail(("dependent",), f"with prescribed joints, list the dependent coordinates of the {rows} "
+                                      "(one per constraint; the prescribed joints are added after them): write "
+                                      "dependent = [\"...\"]")
+        return constraints + tuple(written), tuple(dependent or ()) + tuple(self.prescribed)
+
+    def read_dependent(self, value):
+        """None for "auto", else the list as a tuple (its entries: expand())."""
+        if value == "auto":
+            return None
+        if not isinstance(value, list):
+            self.fail(("dependent",), f"expected a list of coordinate names or \"auto\", got {kind_of(value)} "
+                                      f"{value!r}; write dependent = [\"psi2\"] or dependent = \"auto\"")
+        return tuple(value)
+
+    def check_coordinate(self, name, path):
+        """Refuse ``name`` (at ``path``) unless it is a coordinate of the chain read."""
+        if name not in self.coordinates:
+            close = difflib.get_close_matches(name, self.coordinates, 1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            self.fail(path, f"{name!r} is not a coordinate; {hint}the coordinates are {', '.join(self.coordinates)}")
+
+    def read_actuators(self, value, constraints: int) -> tuple:
+        """The coordinates whose inputs realize the constraints (none: ideally), one per
+        constraint."""
+        path = ("actuators",)
+        if not isinstance(value, list) or not all(isinstance(name, str) for name in value):
+            self.fail(path, f"expected a list of coordinate names, got {kind_of(value)} {value!r}; write "
+                            f"actuators = [\"psi2\", \"x3\"]")
+        for name in value:
+            self.check_coordinate(name, path)
+        if value and (len(value) != constraints or len(set(value)) != len(value)):
+            self.fail(path, f"name {constraints} distinct coordinate(s), one input per constraint, got {len(value)}")
+        return tuple(value)
+
+    def read_initial(self, table):
+        """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities."""
+        path = ("initial",)
+        self.table(table, path, ("q", "qd"), what="initial table")
+        return tuple(self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
+
+    def read_coordinate_values(self, table, path):
+        """A table of coordinate name -> quantity (at ``path``)."""
+        q = self.table(table, path, what="table of coordinates")
+        values = {}
+        for name, value in q.items():
+            self.check_coordinate(name, path + (name,))
+            values[name] = self.quantity(value, path + (name,), self.params)
+        return values

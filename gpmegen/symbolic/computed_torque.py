@@ -1,0 +1,59 @@
+"""The computed-torque law's generalized forces, derived with the plant
+(:class:`gpmegen.model.computed_torque.ComputedTorque`).
+
+The controller model is derived in a program of its own (its mass matrix ``M_c`` and its forces
+without drives ``f_c = h - g - C q - damping``, force elements included), and the definitions
+those need are copied into the plant's program, each renamed to a new intermediate of the plant:
+so the two models' intermediates never share a name, and the law becomes part of the plant's
+drive forces, emitted into both backends and every compiled loop like any feedback law. The
+controller's coordinate and velocity symbols are the plant's of the same names (both are
+:func:`gpmegen.symbolic.names.coordinate` of the name); its elastic coordinates the plant reads as
+0, its parameters as their default values (numbers).
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from ..model.computed_torque import ComputedTorque, joint_coordinates
+from ..model.expand import expand
+from . import dynamics as _dynamics
+from . import names
+from .constraints import state_expressions
+from .kinematics import Kinematics, forward
+from .program import Program
+
+
+def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, sp.Matrix, tuple]:
+    """``(M_c, f_c, coordinates)`` of the controller model as expressions of ``program``'s
+    intermediates (copied in) and the plant's state symbols; ``f_c`` without drives (n_c,)."""
+    controller = law.controller
+    chain = expand(controller)
+    own = Program()
+    kin = forward(chain, own)
+    dyn = _dynamics.derive(kin, controller.gravity, (), controller.forces)
+    joints = set(joint_coordinates(controller))
+    mapping = {p.symbol: sp.Float(float(p.default)) for p in controller.parameters}
+    for name in chain.coordinates:
+        if name not in joints:   # elastic: held at rest
+            mapping[names.coordinate(name)] = sp.S.Zero
+            mapping[names.velocity(name)] = sp.S.Zero
+    mass, forces = dyn.mass_matrix, dyn.forces
+    for sym, expr in own.closure([*mass, *forces]):
+        mapping[sym] = program.define(expr.xreplace(mapping))
+    return mass.xreplace(mapping), forces.xreplace(mapping), chain.coordinates
+
+
+def derive(kin: Kinematics, law: ComputedTorque) -> sp.Matrix:
+    """The law's generalized force on the plant whose kinematics is ``kin`` (n,): on each
+    coordinate the law names ``(M_c v - f_c)`` of the controller's same coordinate, elsewhere 0."""
+    mass, forces, coordinates = controller_terms(law, kin.program)
+    commanded = dict(zip(law.coordinates, state_expressions(kin, law.commanded())))
+    v = sp.Matrix([commanded.get(name, sp.S.Zero) for name in coordinates])
+    u = mass * v - forces
+    index = {name: j for j, name in enumerate(kin.chain.coordinates)}
+    out = sp.zeros(len(kin.q), 1)
+    for k, name in enumerate(coordinates):
+        if name in commanded:
+            out[index[name]] = kin.program.define(u[k])
+    return out
