@@ -210,7 +210,7 @@ def simulate(model: ModelSource = None, spec: RunSpec | None = None, *, params: 
     ``backend`` and the options ``nrfe``, ``directory``, ``progress`` as :func:`statics`. The run
     is ``spec`` (a :class:`RunSpec`; default all its defaults) with the fields given as keyword
     options changed: ``start``, ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in
-    1 ms, whatever the method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method``
+    1 ms, whatever the method, :func:`gpmegen.runtime.integrators.loop.default_save_every`), ``method``
     ("rk4"; on the C backend "genalpha", implicit with step ``dt`` and damping ``rho_inf``,
     "dop853", adaptive, or "radau", implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the
     save interval, default ``dt·save_every``), ``rtol``, ``atol`` (adaptive methods),

@@ -16,7 +16,7 @@ import pytest
 import gpmegen
 from gpmegen.analysis.run import linear
 from gpmegen.errors import ModelError
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 from gpmegen.status import SolveStatus
 from tests.refusals import refused_in_one_line
 
@@ -92,12 +92,12 @@ def test_pid_removes_the_steady_error_that_pd_leaves(pid, backend):
     model = _on(pid, backend)
     zero = np.zeros(1)
     # PD (ki = 0): poles -6 ± 2j, so e^(-6 t) < 1e-12 by t = 5 s; the error settles at F/kp
-    t, y, outcome = integrate.rk4(model.with_params(ki=0.0), zero, zero, 5.0, 1e-3, save_every=100)
+    t, y, outcome = integrators.rk4.rk4(model.with_params(ki=0.0), zero, zero, 5.0, 1e-3, save_every=100)
     assert outcome.complete
     assert X_REF - y[-1, 0] == pytest.approx(F / KP, abs=1e-10)
     # PID: s³ + 12 s² + 40 s + 60 has its slowest poles at about -2.05 ± 1.84j; from t = 12 s on
     # the transient is below e^(-24), and the integral alone balances F
-    t, y, outcome = integrate.rk4(model, zero, zero, 15.0, 2e-3, save_every=500)
+    t, y, outcome = integrators.rk4.rk4(model, zero, zero, 15.0, 2e-3, save_every=500)
     assert outcome.complete
     assert np.abs(y[t >= 12.0, 0] - X_REF).max() < 1e-6
     e_int = y[:, 4]   # [x, x_dot, W_drive, W_constraint, e_int]
@@ -128,12 +128,13 @@ def test_a_first_order_filter_follows_its_closed_form(env, tmp_path, backend):
 def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backend):
     model = _on(pid, backend)
     zero = np.zeros(1)
-    t, y, outcome = integrate.rk4(model, zero, zero, 2.0, 1e-3, save_every=100)
+    t, y, outcome = integrators.rk4.rk4(model, zero, zero, 2.0, 1e-3, save_every=100)
     assert outcome.complete
-    runs = {"scipy-radau": integrate.scipy_solve(model, zero, zero, 2.0, method="Radau", rtol=1e-10, atol=1e-12,
-                                                 t_eval=t)}
+    runs = {"scipy-radau": integrators.scipy_radau.scipy_solve(model, zero, zero, 2.0, method="Radau", rtol=1e-10,
+                                                               atol=1e-12,
+                                                               t_eval=t)}
     if backend == "c":
-        runs["dop853"] = integrate.dop853(model, zero, zero, 2.0, 0.1, rtol=1e-10, atol=1e-12)
+        runs["dop853"] = integrators.dop853.dop853(model, zero, zero, 2.0, 0.1, rtol=1e-10, atol=1e-12)
     for method, (t_m, y_m, outcome_m, _) in runs.items():
         assert outcome_m.complete, method
         np.testing.assert_allclose(t_m, t, rtol=0, atol=1e-12)
@@ -145,7 +146,7 @@ def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backen
 def test_numpy_and_c_give_the_same_run(pid):
     zero = np.zeros(1)
     # the Python loop over the NumPy functions and the compiled loop
-    runs = [integrate.rk4(_on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
+    runs = [integrators.rk4.rk4(_on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
     assert runs[1][1].shape[1] == 5
     np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-13)
 
@@ -162,7 +163,7 @@ def reference(pid):
     """DOP853 of the PID slider on the C backend over 15 s at rtol 1e-12, saved every 0.5 s: the
     run the implicit loops are compared with (its own error some 1e-12)."""
     zero = np.zeros(1)
-    t, y, outcome, _ = integrate.dop853(_on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-12, atol=1e-14)
+    t, y, outcome, _ = integrators.dop853.dop853(_on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-12, atol=1e-14)
     assert outcome.complete
     return t, y
 
@@ -177,7 +178,7 @@ def _slowest_settled(t, y):
 def test_radau_carries_the_states_as_dop853_does(pid, reference):
     zero = np.zeros(1)
     t_ref, y_ref = reference
-    t, y, outcome, effort = integrate.radau(_on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-10, atol=1e-12)
+    t, y, outcome, effort = integrators.radau.radau(_on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-10, atol=1e-12)
     assert outcome.complete
     np.testing.assert_allclose(t, t_ref, rtol=0, atol=1e-12)
     # Radau's global error stays at a few rtol times the state's size (|x| <= 0.1, |x_dot|, e_int
@@ -196,7 +197,7 @@ def test_generalized_alpha_carries_the_states_to_second_order(pid, reference):
     model = _on(pid, "c")
     errors = []
     for dt in (4e-3, 2e-3, 1e-3):
-        t, y, outcome, _ = integrate.genalpha(model, zero, zero, 15.0, dt, 0.5)
+        t, y, outcome, _ = integrators.genalpha.genalpha(model, zero, zero, 15.0, dt, 0.5)
         assert outcome.complete
         np.testing.assert_allclose(t, t_ref, rtol=0, atol=1e-12)
         error = np.abs(y[:, [0, 1, 4]] - y_ref[:, [0, 1, 4]]).max(axis=0)
@@ -216,25 +217,25 @@ def test_generalized_alpha_carries_the_states_to_second_order(pid, reference):
 def test_the_compiled_loops_called_directly_carry_the_states(pid):
     # past the Python drivers: each loop takes the state with z and returns it with z
     model, zero = _on(pid, "c"), np.zeros(1)
-    y = integrate.start_state(model, zero, zero)
+    y = integrators.loop.start_state(model, zero, zero)
     y[4] = 0.5
     rows, status = model.radau(0.0, y, np.array([0.01]), 1e-10, 1e-12, np.zeros(1),
-                               np.zeros(integrate.ADAPTIVE_COUNTS, dtype=np.int64))
+                               np.zeros(integrators.base.ADAPTIVE_COUNTS, dtype=np.int64))
     assert status == SolveStatus.OK and rows.shape == (1, 5)
     # e_int' = x_ref - x, x = O(t^2) from rest: e_int(0.01) = 0.5 + 0.01 x_ref - O(1e-6 x'')
     assert rows[0, 4] == pytest.approx(0.5 + 0.01 * X_REF, abs=1e-5)
     memory = {"a": np.full(1, np.nan), "S": np.zeros((2, 2)), "pivot": np.zeros(2, dtype=np.intc),
               "have": np.zeros(1, dtype=np.intc)}
     y_ga = y.copy()
-    rows_ga, status = model.genalpha(integrate.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y_ga, memory,
-                                     np.array([0.01]), np.zeros(integrate.COUNTS, dtype=np.int64))
+    rows_ga, status = model.genalpha(integrators.loop.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y_ga, memory,
+                                     np.array([0.01]), np.zeros(integrators.base.COUNTS, dtype=np.int64))
     assert status == SolveStatus.OK
     # x, x_dot, e_int to generalized-alpha's error: (h |lambda|)^2 = 6e-5 of |x_dot| = 0.3
     np.testing.assert_allclose(rows_ga[:, [0, 1, 4]], rows[:, [0, 1, 4]], rtol=0, atol=2e-5)
     with pytest.raises(ValueError, match=r"S \(2, 2\)"):   # a Newton matrix without the states' room
-        model.genalpha(integrate.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y.copy(),
+        model.genalpha(integrators.loop.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y.copy(),
                        {**memory, "S": np.zeros((1, 1)), "pivot": np.zeros(1, dtype=np.intc)},
-                       np.array([0.01]), np.zeros(integrate.COUNTS, dtype=np.int64))
+                       np.array([0.01]), np.zeros(integrators.base.COUNTS, dtype=np.int64))
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

@@ -54,7 +54,7 @@ static inline int all_finite(const double *x, int n)
     return 1;
 }
 
-/* Time at the end of step k of the grid, the one gpmegen.runtime.integrate.grid defines: step
+/* Time at the end of step k of the grid, the one gpmegen.runtime.integrators.loop.grid defines: step
    k = 1 .. n_steps ends at t0 + k dt (no accumulated round-off in t), the last at t_end. */
 static inline double grid_time(double t0, double dt, long n_steps, double t_end, long k)
 {

@@ -34,7 +34,7 @@
 #define METHOD_RK4 0
 #define METHOD_DOP853 1
 /* Relative difference of a communication step from a whole number of integrator steps taken as
-   round-off (gpmegen.runtime.integrate.STEP_ROUND_OFF). */
+   round-off (gpmegen.runtime.integrators.loop.STEP_ROUND_OFF). */
 #define STEP_ROUND_OFF 1e-6
 
 enum fmu_phase { INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED, FAILED };
@@ -609,7 +609,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component component, const fmi2Value
 }
 
 /* Whole steps of dt over h, and one shorter last step where h is not a whole number of them (the
-   grid of gpmegen.runtime.integrate.grid). */
+   grid of gpmegen.runtime.integrators.loop.grid). */
 static long steps_over(double h, double dt)
 {
     const double steps = h / dt;

@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
-from . import ccompile, cprobe, cstack, fastcall, integrate
+from . import ccompile, cprobe, cstack, fastcall
+from .integrators.base import ADAPTIVE_COUNTS, COUNTS
 from .model import TRANSFORM_FUNCTIONS, LoadedModel, NumpyEvaluator, vector
 
 #: The number of coordinates from which a single fast call lets other threads run while its C
@@ -431,7 +432,7 @@ class CEvaluator:
         from ``first`` (the rows the calls before saved) on."""
         dep, ind = self._partition_pointers(model)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
-        self._check_counts(counts, integrate.ADAPTIVE_COUNTS)
+        self._check_counts(counts, ADAPTIVE_COUNTS)
         if max_steps and (memory is None or memory.dtype != np.uint8 or not memory.flags.c_contiguous):
             raise TypeError("a call with max_steps needs its memory: contiguous uint8 from loop_memory()")
         y_out = np.empty((len(t_save), len(y_a)))
@@ -445,7 +446,7 @@ class CEvaluator:
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         self._check_stack("genalpha")
         dep, ind = self._partition_pointers(model)
-        self._check_counts(counts, integrate.COUNTS)
+        self._check_counts(counts, COUNTS)
         t_save = np.ascontiguousarray(t_save, dtype=float)
         y_out = np.empty((len(t_save), len(y)))
         n_saved = self.ffi.new("long *")

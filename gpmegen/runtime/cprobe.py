@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import BuildError
 from .ccompile import HEADER, declarations, open_library, short_names
 from .gpme import choose_dependent
-from .integrate import ADAPTIVE_COUNTS, COUNTS
+from .integrators.base import ADAPTIVE_COUNTS, COUNTS
 from .numpy_module import import_numpy_module
 
 #: Seconds the child may take: it calls each function a few times, so anything longer is a hang.
