@@ -27,7 +27,7 @@ import numpy as np
 
 import gpmegen
 from gpmegen.analysis.run import reference_case, study
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 ROOT = Path(__file__).resolve().parents[1]
 DT = 1e-5
@@ -60,13 +60,13 @@ def steps_of(model, q0, qd0, steps, span):
 
 
 def python_loop(model, q0, qd0, steps, span):
-    """The Python loop (integrate.rk4_steps) over ``model``'s rates, as :func:`steps_of`."""
-    y0 = integrate.start_state(model, q0, qd0)
+    """The Python loop (integrators.rk4.rk4_steps) over ``model``'s rates, as :func:`steps_of`."""
+    y0 = integrators.loop.start_state(model, q0, qd0)
     span = min(steps, span)
-    g = integrate.grid(0.0, span * DT, DT)
+    g = integrators.loop.grid(0.0, span * DT, DT)
     start = time.process_time()
     for _ in range(steps // span):
-        _, y, status = integrate.rk4_steps(integrate.state_derivative(model), y0, g, 0, span, span)
+        _, y, status = integrators.rk4.rk4_steps(integrators.loop.state_derivative(model), y0, g, 0, span, span)
     seconds = time.process_time() - start
     if status != 0:
         raise SystemExit(f"{model}: the Python loop ended {status!r}")

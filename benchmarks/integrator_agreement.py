@@ -17,7 +17,7 @@ import numpy as np
 import gpmegen
 from gpmegen.analysis.run import reference_case, study
 from gpmegen.analysis.run.runspec import RunSpec
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 
 def main(t_end=10.0):
@@ -30,8 +30,9 @@ def main(t_end=10.0):
         res = study.simulate(model, q0, RunSpec(t_end=t_end, dt=1e-5, save_every=100000))
         t_rk4 = time.perf_counter() - t0
         t0 = time.perf_counter()
-        t, y, status = integrate.adaptive(model, q0, qd0, t_end, method=method, rtol=rtol, atol=rtol * 1e-2,
-                                          t_eval=[t_end])
+        t, y, status = integrators.scipy_radau.adaptive(model, q0, qd0, t_end, method=method, rtol=rtol,
+                                                        atol=rtol * 1e-2,
+                                                        t_eval=[t_end])
         t_ad = time.perf_counter() - t0
         q_rk4, q_ad = res["q"][-1], y[-1, :model.n_dof]
         joints = [model.index(c) for c in ("theta1", "psi2", "x3")]

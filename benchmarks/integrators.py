@@ -27,7 +27,7 @@ import numpy as np
 
 import gpmegen
 from gpmegen.analysis.run import reference_case
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 SAVE_DT = 1e-3
 #: (label, method, options): the paper's RK4, DOP853 at two tolerances, generalized-α at three
@@ -46,6 +46,9 @@ METHODS = (
     ("radau rtol 1e-8", "radau", {"rtol": 1e-8, "atol": 1e-10}),
 )
 
+#: The adaptive methods in the compiled loop, by name.
+ADAPTIVE = {"dop853": integrators.dop853.dop853, "radau": integrators.radau.radau}
+
 
 def run(model, q0, t_end, method, options):
     """``(wall s, t, y, effort)`` of one integration from ``q0`` at rest."""
@@ -53,18 +56,19 @@ def run(model, q0, t_end, method, options):
     start = time.perf_counter()
     if method == "rk4":
         dt = options["dt"]
-        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every=round(SAVE_DT / dt))
-        effort = integrate.rk4_effort(t, 0.0, dt)
-    elif method in integrate.ADAPTIVE:
-        t, y, outcome, effort = integrate.ADAPTIVE[method](model, q0, qd0, t_end, SAVE_DT, **options)
-    elif method in integrate.SCIPY:
-        times = integrate.grid(0.0, t_end, SAVE_DT)
+        t, y, outcome = integrators.rk4.rk4(model, q0, qd0, t_end, dt, save_every=round(SAVE_DT / dt))
+        effort = integrators.rk4.rk4_effort(t, 0.0, dt)
+    elif method in ADAPTIVE:
+        t, y, outcome, effort = ADAPTIVE[method](model, q0, qd0, t_end, SAVE_DT, **options)
+    elif method in integrators.scipy_radau.SCIPY:
+        times = integrators.loop.grid(0.0, t_end, SAVE_DT)
         t_eval = np.array([times.time(k) for k in range(times.n_steps + 1)])
-        t, y, outcome, effort = integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method],
-                                                      t_eval=t_eval, **options)
+        t, y, outcome, effort = integrators.scipy_radau.scipy_solve(model, q0, qd0, t_end,
+                                                                    method=integrators.scipy_radau.SCIPY[method],
+                                                                    t_eval=t_eval, **options)
     else:
-        t, y, outcome, effort = integrate.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT,
-                                                   project=options.get("project", True))
+        t, y, outcome, effort = integrators.genalpha.genalpha(model, q0, qd0, t_end, options["dt"], SAVE_DT,
+                                                              project=options.get("project", True))
     wall = time.perf_counter() - start
     if not outcome.complete:
         raise SystemExit(f"{method} {options}: {outcome}")

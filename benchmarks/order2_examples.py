@@ -27,7 +27,7 @@ import gpmegen
 from gpmegen.analysis.post import point_motion
 from gpmegen.analysis.run import study
 from gpmegen.model.toml_file import read_model_file
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -42,7 +42,7 @@ def start(path, backend="c", nrfe=None):
 
 def run(model, q0, qd0, t_end, dt, save_every):
     """RK4 from ``(q0, qd0)``; the results dict of :func:`gpmegen.analysis.run.study.collect`."""
-    t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, save_every)
+    t, y, outcome = integrators.rk4.rk4(model, q0, qd0, t_end, dt, save_every)
     settings = dict(method="rk4", dt=dt, save_every=save_every, t_end=t_end, start="locked", backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent], repartitions=[])
     return study.collect(model, t, y, str(outcome), settings)
@@ -140,7 +140,7 @@ def drift(t_end):
     print(f"{'run':<28}{'dt [s]':>8}" + "".join(f"{f'|Φ| ≤{m:g} s':>14}{f'|Φ̇| ≤{m:g} s':>14}" for m in marks))
     for label, model in (("second order (Φ̈ = 0)", second), ("position (Baumgarte 10, 10)", position)):
         for dt in (1e-3, 1e-4):
-            t, y, _ = integrate.rk4(model, q0, qd0, t_end, dt, max(1, round(0.01 / dt)))
+            t, y, _ = integrators.rk4.rk4(model, q0, qd0, t_end, dt, max(1, round(0.01 / dt)))
             terms = [position.constraint_terms(tk, y[k, :n], y[k, n:2 * n]) for k, tk in enumerate(t)]
             phi = np.array([np.max(np.abs(c[0])) for c in terms])
             rate = np.array([np.max(np.abs(c[1])) for c in terms])

@@ -24,7 +24,7 @@ import gpmegen
 from gpmegen import limits
 from gpmegen.analysis.post import modes
 from gpmegen.analysis.run import reference_case
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 SAVE_DT = 1e-3
 RK4_DT, GENALPHA_DT = 1e-5, 1e-4
@@ -60,10 +60,10 @@ def main(t_end=0.5, levels=(1, 5, 10, 20)):
             np.eye(n) - model.evaluator.acceleration_jacobians(0.0, q0, qd0, model)[1]))
 
         def rk4():
-            return (*integrate.rk4(model, q0, qd0, t_end, RK4_DT, save_every=round(SAVE_DT / RK4_DT)), None)
+            return (*integrators.rk4.rk4(model, q0, qd0, t_end, RK4_DT, save_every=round(SAVE_DT / RK4_DT)), None)
 
         wall, (t, *_) = _timed(rk4)
-        solve = wall / integrate.rk4_effort(t, 0.0, RK4_DT).solves
+        solve = wall / integrators.rk4.rk4_effort(t, 0.0, RK4_DT).solves
         print(f"\nn_rfe = {nrfe} (n_dof {n}, highest natural frequency {omega / (2 * np.pi):.4g} Hz): one GPME solve "
               f"{solve * 1e6:.3g} µs (limits {limits.solve_seconds(n) * 1e6:.3g}), one Jacobian with its LU "
               f"{jacobian * 1e3:.3g} ms (limits {limits.jacobian_seconds(n) * 1e3:.3g}); load "
@@ -72,11 +72,12 @@ def main(t_end=0.5, levels=(1, 5, 10, 20)):
               f"{'Jacobians':>9}")
         runs = (("rk4 dt 1e-5", "rk4", RK4_DT, rk4),
                 ("genalpha dt 1e-4", "genalpha", GENALPHA_DT,
-                 lambda: integrate.genalpha(model, q0, qd0, t_end, GENALPHA_DT, SAVE_DT)),
-                ("dop853 rtol 1e-8", "dop853", SAVE_DT, lambda: integrate.dop853(model, q0, qd0, t_end, SAVE_DT)))
+                 lambda: integrators.genalpha.genalpha(model, q0, qd0, t_end, GENALPHA_DT, SAVE_DT)),
+                ("dop853 rtol 1e-8", "dop853", SAVE_DT,
+                 lambda: integrators.dop853.dop853(model, q0, qd0, t_end, SAVE_DT)))
         for label, method, dt, call in runs:
             wall, (t, y, outcome, effort) = _timed(call)
-            effort = effort or integrate.rk4_effort(t, 0.0, dt)
+            effort = effort or integrators.rk4.rk4_effort(t, 0.0, dt)
             estimate = limits.integration_estimate(n, t_end, dt, method, "c", omega)
             bound = "≥" if estimate.at_least else ""
             print(f"{label:>20} {wall:>9.3f} {bound:>1}{estimate.seconds:>9.3f} {estimate.seconds / wall:>6.2f} "

@@ -2,7 +2,7 @@
 
 Two NumPy figures per step: ``bare``, four ``accelerations`` calls and the stage sums in a
 Python loop (a lower bound), and ``loop``, the NumPy RK4 of ``gpmegen simulate --backend numpy``
-(``gpmegen.runtime.integrate.rk4``), which computes what the C loop computes: q, q̇ and the work of
+(``gpmegen.runtime.integrators.rk4.rk4``), which computes what the C loop computes: q, q̇ and the work of
 the drive and of the constraint forces, with a finite-state check per step. The speed-up is
 given against both; like for like is the second.
 
@@ -33,7 +33,8 @@ import timeit
 import numpy as np
 
 import gpmegen
-from gpmegen.runtime.integrate import grid, rk4
+from gpmegen.runtime.integrators.loop import grid
+from gpmegen.runtime.integrators.rk4 import rk4
 
 PAPER_DT, PAPER_T_END = 1e-5, 10.0
 
@@ -194,7 +195,7 @@ def main():
               f"{step_c * 1e6:>11.2f} {step_np / step_c:>6.0f}× {loop_np / step_c:>6.0f}×", flush=True)
     print("q̈: one model.accelerations call from Python (the C figure includes the cffi call); steps in µs.")
     print("numpy bare step: four accelerations calls and the stage sums in a Python loop (no work integrals);")
-    print("numpy loop step: gpmegen.runtime.integrate.rk4, the NumPy integrator, which like the C loop also")
+    print("numpy loop step: gpmegen.runtime.integrators.rk4.rk4, the NumPy integrator, which like the C loop also")
     print("integrates the work of the drive and of the constraint forces; C step: inside the C rk4 loop.")
     print(f"Each figure is the best of {args.rounds} rounds that alternate the backends, each a best of repeats.")
 

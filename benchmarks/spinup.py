@@ -127,11 +127,11 @@ def integration_seconds(level, dt):
     """The wall seconds of the compiled generalized-α loop alone on ``level``'s loaded model from
     its run's start (in this process), and the largest difference of its final q from the run's
     (0: the same integration)."""
-    from gpmegen.runtime import integrate
+    from gpmegen.runtime import integrators
 
     q, qd = level.results["q"], level.results["qd"]
     start = time.perf_counter()
-    y = integrate.genalpha(level.loaded, q[0], qd[0], T_END, dt, SAVED)[1]
+    y = integrators.genalpha.genalpha(level.loaded, q[0], qd[0], T_END, dt, SAVED)[1]
     seconds = time.perf_counter() - start
     return seconds, float(np.max(np.abs(y[-1, :q.shape[1]] - q[-1])))
 

@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python benchmarks/step_speed.py [--nrfe 5] [--rounds 7] [--other DIR]``.
 Measured: RK4 (the model library's ``rk4``, 20 000 steps of 1e-5 s) and generalized-α
-(``gpmegen.runtime.integrate.genalpha``, 2 000 steps of 1e-4 s with projection, the Newton matrix
+(``gpmegen.runtime.integrators.genalpha.genalpha``, 2 000 steps of 1e-4 s with projection, the Newton matrix
 kept across steps), from the paper's start with the flexible coordinates zero, in CPU time (the
 process's own: on a shared machine its wall time counts the other processes' turns), the best of
 3 runs per round.
@@ -50,7 +50,7 @@ import copy, json, sys, time
 from pathlib import Path
 import numpy as np
 import gpmegen
-from gpmegen.runtime import ccompile, integrate
+from gpmegen.runtime import ccompile, integrators
 
 nrfe, rounds, other = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 model = gpmegen.load("manipulator", nrfe=nrfe, backend="c")
@@ -82,7 +82,7 @@ def rk4(m):
 
 
 def genalpha(m):
-    *_, outcome, effort = integrate.genalpha(m, q, qd, 2000 * 1e-4, 1e-4, 1e-2, project=True)
+    *_, outcome, effort = integrators.genalpha.genalpha(m, q, qd, 2000 * 1e-4, 1e-4, 1e-2, project=True)
     assert outcome.complete, outcome
 
 

@@ -33,7 +33,8 @@ from .analysis.run.runs import Results
 from .analysis.run.runspec import NAMES as RUN_OPTIONS
 from .analysis.run.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
-from .codegen import casadi_export, fmu_export
+from .codegen.backends import casadi as casadi_export
+from .codegen.backends import fmu as fmu_export
 from .errors import (
     BuildError,
     DerivationError,
@@ -209,7 +210,7 @@ def simulate(model: ModelSource = None, spec: RunSpec | None = None, *, params: 
     ``backend`` and the options ``nrfe``, ``directory``, ``progress`` as :func:`statics`. The run
     is ``spec`` (a :class:`RunSpec`; default all its defaults) with the fields given as keyword
     options changed: ``start``, ``t_end``, ``dt`` (s), ``save_every`` (steps; default: those in
-    1 ms, whatever the method, :func:`gpmegen.runtime.integrate.default_save_every`), ``method``
+    1 ms, whatever the method, :func:`gpmegen.runtime.integrators.loop.default_save_every`), ``method``
     ("rk4"; on the C backend "genalpha", implicit with step ``dt`` and damping ``rho_inf``,
     "dop853", adaptive, or "radau", implicit and adaptive; "scipy-radau"), ``save_dt`` (s, the
     save interval, default ``dt·save_every``), ``rtol``, ``atol`` (adaptive methods),
@@ -234,7 +235,7 @@ def simulate(model: ModelSource = None, spec: RunSpec | None = None, *, params: 
 def export_casadi(folder: str | Path, model: ModelSource = None, *, nrfe: int | None = None,
                   inputs: Iterable[str] = (), overwrite: bool = False) -> dict[str, Any]:
     """The model's functions as CasADi functions, as ``gpmegen export --format casadi`` writes them
-    into ``folder`` (:mod:`gpmegen.codegen.casadi_export`): ``qdd(t, q, qd, u, p)``, ``M(q, p)``,
+    into ``folder`` (:mod:`gpmegen.codegen.backends.casadi`): ``qdd(t, q, qd, u, p)``, ``M(q, p)``,
     ``f(t, q, qd, u, p)``, ``Phi``, ``Phi_rate``, ``D``, ``gamma`` ``(t, q, qd, p)``, ``points(q, p)``,
     ``energies(q, qd, p)``, by name; ``u`` holds a generalized force on each coordinate of
     ``inputs``. ``model``, ``nrfe`` as :func:`statics`; ``overwrite`` replaces an earlier export.
@@ -248,7 +249,7 @@ def export_fmu(out: str | Path, model: ModelSource = None, *, inputs: Iterable[s
                **options: Any) -> Path:
     """The model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one archive), as
     ``gpmegen export --format fmu`` writes it into the file ``out`` (``NAME.fmu``;
-    :mod:`gpmegen.codegen.fmu_export`): its states q and q̇, the GPME's q̈, the points, the
+    :mod:`gpmegen.codegen.backends.fmu`): its states q and q̇, the GPME's q̈, the points, the
     multipliers λ and the constraints' values as outputs, the parameters (tunable) and an input
     ``u_<coordinate>`` (a generalized force) on each coordinate of ``inputs``; its start values are
     :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``, and

@@ -19,22 +19,17 @@ from pathlib import Path
 from .errors import BuildError, OutputError, StaleModelError
 from .fileio import atomic_write_bytes
 
-#: The files each backend is generated into (the C library's header beside its source).
-BACKEND_FILES = {"numpy": ("model_numpy.py",), "c": ("model.h", "model.c")}
 MANIFEST = "manifest.json"
 #: A built model's start from its source (a model file's ``[initial]`` at the parameter
 #: defaults), beside the generated files: what a run from the folder alone starts from.
 START = "start.json"
 
 
-#: Every file a build writes into a model's folder.
-OWN_FILES = frozenset((*BACKEND_FILES["numpy"], *BACKEND_FILES["c"], MANIFEST, START))
-
-
-def check_replaceable(folder: Path) -> None:
+def check_replaceable(folder: Path, generated=()) -> None:
     """Refuse (OutputError) to replace ``folder`` unless gpmegen made it: missing, empty, or a
-    folder with a manifest that holds only files a build writes, so that nothing else is lost
-    (a damaged manifest among them counts: the folder is rebuilt)."""
+    folder with a manifest that holds only files a build writes (its manifest, its start and
+    the backends' files ``generated``: :func:`gpmegen.codegen.backends.folder_files`), so that
+    nothing else is lost (a damaged manifest among them counts: the folder is rebuilt)."""
     folder = Path(folder)
     if not folder.exists() and not folder.is_symlink():
         return
@@ -43,7 +38,8 @@ def check_replaceable(folder: Path) -> None:
         raise OutputError(f"{folder} is not a folder gpmegen made (a {'link' if folder.is_symlink() else 'file'}); "
                           f"{fix}")
     entries = sorted(folder.iterdir())
-    others = [p.name for p in entries if p.name not in OWN_FILES or p.is_symlink() or not p.is_file()]
+    own = {MANIFEST, START, *generated}
+    others = [p.name for p in entries if p.name not in own or p.is_symlink() or not p.is_file()]
     if others or (entries and not (folder / MANIFEST).is_file()):
         held = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
         raise OutputError(f"{folder} is not a folder gpmegen made (it holds {held or 'no ' + MANIFEST}); a build "
@@ -126,13 +122,13 @@ def stale_reason(folder: Path, manifest: dict | None, digest: str, names, jacobi
     return next((problem for name in names if (problem := _checked(folder, name, manifest)[1])), None)
 
 
-def write_folder(folder: Path, files: dict[str, str]) -> None:
+def write_folder(folder: Path, files: dict[str, str], generated=()) -> None:
     """Write ``files`` as the whole content of ``folder``, atomically: written under a
     temporary name beside it, then swapped in by renames; a folder gpmegen did not make is
-    refused (:func:`check_replaceable`)."""
+    refused (:func:`check_replaceable`, ``generated`` and ``files`` the names a build writes)."""
     folder = Path(folder)
     parent = folder.parent
-    check_replaceable(folder)
+    check_replaceable(folder, {*generated, *files})
     try:
         parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.tmp-", dir=parent))

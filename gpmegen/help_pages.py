@@ -33,8 +33,9 @@ constraints holding.""",
     "linearize": """\
 The state-space model x' = A x + B u of the constrained motion about the statics (--statics, as
 'gpmegen statics' finds it) or at saved states of a run (--at, --times). States: the independent
-coordinates of the partition at that state and their rates; the dependent ones follow from the
-position constraints to first order. A from the model's exact acceleration Jacobians (the model
+coordinates of the partition at that state and their rates, then a model file's controller
+states (their initial values, or the run's); the dependent ones follow from the position
+constraints to first order. A from the model's exact acceleration Jacobians (the model
 is built with --jacobians when they are missing); inputs: generalized forces on the driven
 coordinates (and a model file's actuators), B exact from the same GPME solve. With --at the run's
 parameter values are used (--param is for the statics). Prints the eigenvalues as frequency and

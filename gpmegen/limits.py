@@ -259,70 +259,31 @@ class Integration(NamedTuple):
     what: str
 
 
-def _rk4(n_dof, t_end, dt, omega, backend) -> Integration:
-    n = steps(t_end, dt)
-    where = "in C" if backend == "c" else "in NumPy"
-    return Integration(n, n * interpolate(STEP_SECONDS["c" if backend == "c" else "numpy"], n_dof), False,
-                       f"{n:.3g} RK4 steps of n_dof = {n_dof} {where}")
+#: How each integrator's run is known before it starts, by ``--method`` name: filled by
+#: :func:`gpmegen.runtime.integrators.register` with the integrators themselves, whose
+#: ``estimate(n_dof, t_end, dt, omega, backend)`` returns an :class:`Integration` or None (nothing
+#: can be said); ``dt`` the fixed step (for adaptive methods the save grid's unit), ``omega`` the
+#: natural frequency at the start that bounds its steps (rad/s; None when not computed), as its
+#: ``frequency`` says: the "highest", whose stability bounds an explicit step, or the "lowest"
+#: vibrating one, whose period an implicit step does not exceed (:data:`STEPS_PER_LOWEST_PERIOD`);
+#: its ``stiff``: its steps are not bound by the stiff modes. An implicit adaptive integrator (no
+#: stable step bounds it) can bound its steps from below by its largest step, each costing its
+#: solves (:func:`solve_seconds`) and its Jacobians and factorizations (:func:`jacobian_seconds`).
+ESTIMATORS: dict = {}
 
 
-def _genalpha(n_dof, t_end, dt, omega, backend) -> Integration:
-    n = steps(t_end, dt)
-    step = interpolate(GENALPHA_SOLVES_PER_STEP, n_dof) * solve_seconds(n_dof)
-    jacobian = jacobian_seconds(n_dof)
-    return Integration(n, n * step + JACOBIANS_PER_RUN * jacobian, False,
-                       f"{n:.3g} generalized-α steps of n_dof = {n_dof} ({step:.2g} s each, and "
-                       f"{JACOBIANS_PER_RUN} Jacobians with their LU of {jacobian:.2g} s)")
-
-
-def _dop853(n_dof, t_end, dt, omega, backend) -> Integration | None:
-    if omega is None or not omega > 0:
-        return None
-    stable = DOP853_STABILITY_RADIUS / omega
-    n = math.ceil(t_end / stable)
-    return Integration(n, n * DOP853_SOLVES_PER_STEP * solve_seconds(n_dof), True,
-                       f"at least {n:.3g} DOP853 steps of n_dof = {n_dof} (its stable step {stable:.2g} s for the "
-                       f"highest natural frequency {omega / (2 * math.pi):.4g} Hz at the start)")
-
-
-def _radau(n_dof, t_end, dt, omega, backend, name="Radau IIA") -> Integration | None:
-    if omega is None or not omega > 0:
-        return None
-    period = 2 * math.pi / omega
-    n = math.ceil(t_end / period * STEPS_PER_LOWEST_PERIOD)
-    return Integration(n, n * RADAU_SOLVES_PER_STEP * solve_seconds(n_dof), True,
-                       f"at least {n:.3g} {name} steps of n_dof = {n_dof} ({STEPS_PER_LOWEST_PERIOD} a period, "
-                       f"{period:.2g} s, of the lowest natural frequency {omega / (2 * math.pi):.4g} Hz at the start)")
-
-
-def _scipy_radau(n_dof, t_end, dt, omega, backend) -> Integration | None:
-    return _radau(n_dof, t_end, dt, omega, backend, "scipy Radau")
-
-
-#: How each integrator's run is known before it starts: ``estimator(n_dof, t_end, dt, omega,
-#: backend)`` returns an :class:`Integration` or None (nothing can be said); ``dt`` the fixed step
-#: (for adaptive methods the save grid's unit), ``omega`` the natural frequency at the start that
-#: bounds its steps (rad/s; None when not computed): the highest (:data:`NEEDS_FREQUENCY`), whose
-#: stability bounds an explicit step, or the lowest vibrating one (:data:`NEEDS_LOWEST_FREQUENCY`),
-#: whose period an implicit step does not exceed (:data:`STEPS_PER_LOWEST_PERIOD`). A new integrator adds its
-#: own; an implicit adaptive one (no stable step bounds it) can bound its steps from below by
-#: its largest step, each costing its solves (:func:`solve_seconds`) and its Jacobians and
-#: factorizations (:func:`jacobian_seconds`).
-ESTIMATORS = {"rk4": _rk4, "genalpha": _genalpha, "dop853": _dop853, "radau": _radau, "scipy-radau": _scipy_radau}
-#: The integrators whose estimate needs the highest natural frequency at the start.
-NEEDS_FREQUENCY = {"rk4", "dop853"}
-#: The integrators whose estimate needs the lowest vibrating natural frequency at the start.
-NEEDS_LOWEST_FREQUENCY = {"radau", "scipy-radau"}
-#: The integrators whose steps the stiff modes do not bound, named when an explicit one is refused.
-STIFF_METHODS = ["genalpha", "radau"]
+def _frequency(method: str) -> str | None:
+    """The natural frequency the estimate of ``method`` needs: "highest", "lowest" or None."""
+    integrator = ESTIMATORS.get(method)
+    return integrator.frequency if integrator is not None else None
 
 
 def integration_estimate(n_dof: int, t_end: float, dt: float, method: str, backend: str,
                          omega: float | None = None) -> Integration | None:
     """What the integration alone of a run of ``method`` will take (see :data:`ESTIMATORS`), or
     None when nothing can be said before it starts."""
-    estimator = ESTIMATORS.get(method)
-    return estimator(n_dof, t_end, dt, omega, backend) if estimator else None
+    integrator = ESTIMATORS.get(method)
+    return integrator.estimate(n_dof, t_end, dt, omega, backend) if integrator is not None else None
 
 
 class RunEstimate(NamedTuple):
@@ -345,9 +306,9 @@ def run_estimate(n_dof: int, n_constraints: int, spec, backend: str, omega: floa
     starts (no estimator, or no frequency to bound its steps) is taken at zero seconds, a lower
     bound: what its saved samples take is still known."""
     t_end, dt, method = spec.t_end, spec.dt, spec.method
-    save_dt = None if method == "rk4" else spec.save_dt
+    save_dt = None if method in ESTIMATORS and ESTIMATORS[method].saves_on_steps else spec.save_dt
     integration = integration_estimate(n_dof, t_end, dt, method, backend, omega)
-    stiff = integration is not None and integration.at_least and method not in NEEDS_LOWEST_FREQUENCY
+    stiff = integration is not None and integration.at_least and _frequency(method) != "lowest"
     if integration is None:
         integration = Integration(0, 0.0, True, f"a {method} run of n_dof = {n_dof}")
     samples = (steps(t_end, save_dt) if save_dt else steps(t_end, dt) // max(1, int(spec.save_every))) + 2
@@ -364,9 +325,9 @@ def check_run(n_dof: int, n_constraints: int, spec, backend: str, omega: float |
     method = spec.method
     estimate = run_estimate(n_dof, n_constraints, spec, backend, omega)
     if estimate.stiff:
-        others = " or ".join(m for m in STIFF_METHODS if m != method)
+        others = " or ".join(m for m, integrator in ESTIMATORS.items() if integrator.stiff and m != method)
         fix = f"use a shorter --t-end, fewer rfes, or --method {others} (steps the stiff modes do not bound)"
-    elif method in NEEDS_LOWEST_FREQUENCY:
+    elif _frequency(method) == "lowest":
         fix = ("use a shorter --t-end (its steps do not exceed the lowest mode's period) or a larger "
                "--save-every (or --save-dt)")
     else:

@@ -367,16 +367,16 @@ def test_cache_directory_default_and_override(monkeypatch, tmp_path):
 
 
 def test_rk4_work_integrals_match_the_numpy_integrator(pairs):
-    """The C loop integrates the work of drive and constraints like integrate.rk4 does."""
+    """The C loop integrates the work of drive and constraints like integrators.rk4.rk4 does."""
     from gpmegen.analysis.run import reference_case
-    from gpmegen.runtime import integrate
+    from gpmegen.runtime import integrators
 
     c, n = pairs("nrfe1")
     model_n, q0 = reference_case.initial_state(n)
     model_c = c.with_params(r_Ea=model_n.params["r_Ea"], y_c=model_n.params["y_c"], tdr0=50.0)
     model_n = model_n.with_params(tdr0=50.0)
     t, q, qd, w, status = model_c.rk4(q0, np.zeros(3), 4.3, 1e-3, save_every=100, t0=4.0)
-    tn, yn, status_n = integrate.rk4(model_n, q0, np.zeros(3), 4.3, 1e-3, save_every=100, t0=4.0)
+    tn, yn, status_n = integrators.rk4.rk4(model_n, q0, np.zeros(3), 4.3, 1e-3, save_every=100, t0=4.0)
     assert status == SolveStatus.OK and status_n.complete
     np.testing.assert_allclose(t, tn, atol=1e-12)
     np.testing.assert_allclose(w, yn[:, 6:8], rtol=1e-9, atol=1e-12)

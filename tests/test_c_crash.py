@@ -24,7 +24,7 @@ from conftest import stacked_gpme
 import gpmegen
 from gpmegen.errors import BuildError
 from gpmegen.model.toml_file import load_model_file
-from gpmegen.runtime import ccompile, cprobe, integrate
+from gpmegen.runtime import ccompile, cprobe, integrators
 
 SPINNING_BEAM = Path(__file__).parent / "models" / "spinning_beam.toml"
 
@@ -63,7 +63,7 @@ def test_spinning_beam_runs_compiled_for_avx512_and_agrees_with_numpy(env, beam)
     # the whole RK4 loop in C against the NumPy loop over 200 steps
     t, q, qd, _, status = compiled.rk4(zero, zero, 2e-3, 1e-5, save_every=50)
     assert status == 0
-    t_np, y_np, outcome = integrate.rk4(beam, zero, zero, 2e-3, 1e-5, 50)
+    t_np, y_np, outcome = integrators.rk4.rk4(beam, zero, zero, 2e-3, 1e-5, 50)
     assert outcome.complete
     np.testing.assert_allclose(t, t_np, rtol=0, atol=1e-15)
     np.testing.assert_allclose(q, y_np[:, :beam.n_dof], rtol=1e-10, atol=1e-13)

@@ -4,7 +4,8 @@ compiles it (``-O3 -march=native``, and ``-march=x86-64-v4`` where the processor
 
 The spread: each example, the reference arm rigid, flexible and at n_rfe = 12 (its largest
 reduced system), a model without constraints, one with three
-flexible links and constraints of both orders, and the spinning beam that once crashed. Each run
+flexible links and constraints of both orders, the spinning beam that once crashed, and the PID
+slider (a controller state). Each run
 is :mod:`gpmegen.runtime.cprobe` in a child process: a sanitizer report or a signal fails it.
 """
 
@@ -93,6 +94,8 @@ def _models():
     for path in sorted((ROOT / "examples").glob("*.toml")):
         models[path.stem] = lambda path=path: load_model_file(path)
     models["spinning_beam_nrfe10"] = lambda: load_model_file(ROOT / "tests" / "models" / "spinning_beam.toml")
+    # a controller state: the implicit loops' Newton matrices grow by its rows and columns
+    models["pid_slider"] = lambda: load_model_file(ROOT / "tests" / "models" / "pid_slider.toml")
     return models
 
 

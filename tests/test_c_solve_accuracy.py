@@ -18,7 +18,7 @@ import pytest
 
 import gpmegen
 from gpmegen.errors import SimulationError
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 if _HERE not in sys.path:
@@ -84,5 +84,5 @@ def test_a_singular_solve_names_the_constraints_not_the_partition(arm):
     with pytest.raises(SimulationError, match="constraints are not independent") as failure:
         arm.accelerations(0.0, q, np.zeros(arm.n_dof))
     assert "dependent coordinates" not in str(failure.value)
-    t, _, outcome = integrate.rk4(arm, q, np.zeros(arm.n_dof), 1e-4, 1e-5, 1)
+    t, _, outcome = integrators.rk4.rk4(arm, q, np.zeros(arm.n_dof), 1e-4, 1e-5, 1)
     assert len(t) == 1 and "constraints are not independent" in outcome.why and "repartition" not in outcome.why

@@ -54,6 +54,11 @@ def test_the_bound_grows_with_the_constraints_and_the_exact_jacobians():
         small = cstack.call_bytes(call, 100, 0, False)
         assert cstack.call_bytes(call, 100, 10, False) > small
         assert cstack.call_bytes(call, 100, 0, True) >= small
+        # controller states: the state, and the implicit loops' Newton matrices, grow by them
+        assert cstack.call_bytes(call, 100, 0, False, 3) >= small
+    for call in ("radau", "genalpha"):
+        # the Newton unknowns are n + z: their Jacobian blocks (n x z at least) on the stack
+        assert cstack.call_bytes(call, 100, 0, False, 3) - cstack.call_bytes(call, 100, 0, False) > 8 * 3 * 100
     # Radau at n_dof = 450 (where it overflows the default 8 MiB) is beyond it
     assert cstack.call_bytes("radau", 450, 0, False) > 8 * 2**20
 

@@ -20,7 +20,7 @@ import gpmegen
 from gpmegen.analysis.post import energy
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 TIP = """schema = 1
 name = "tip_feedback"
@@ -117,7 +117,7 @@ def test_jacobians_hold_the_law_derivatives(slider, backend):
 
 def test_pd_on_a_slider_matches_its_closed_form_with_rk4(slider):
     model = slider["numpy"]
-    t, y, outcome = integrate.rk4(model, np.zeros(1), np.zeros(1), 1.0, 1e-3, save_every=10)
+    t, y, outcome = integrators.rk4.rk4(model, np.zeros(1), np.zeros(1), 1.0, 1e-3, save_every=10)
     assert outcome.complete
     assert np.abs(y[:, 0] - pd_response(t, 2.0, 50.0, 4.0, 0.3)).max() < 1e-8
 
@@ -128,11 +128,11 @@ def test_each_compiled_integrator_follows_the_closed_form(slider, kp, kd):
     model = _on(slider, "c").with_params(kp=kp, kd=kd)
     zero = np.zeros(1)
     runs = {
-        "rk4": (integrate.rk4(model, zero, zero, 0.5, 1e-5, save_every=500), 1e-8),
-        "dop853": (integrate.dop853(model, zero, zero, 0.5, 5e-3, rtol=1e-12, atol=1e-14), 1e-8),
-        "radau": (integrate.radau(model, zero, zero, 0.5, 5e-3, rtol=1e-12, atol=1e-14), 1e-8),
+        "rk4": (integrators.rk4.rk4(model, zero, zero, 0.5, 1e-5, save_every=500), 1e-8),
+        "dop853": (integrators.dop853.dop853(model, zero, zero, 0.5, 5e-3, rtol=1e-12, atol=1e-14), 1e-8),
+        "radau": (integrators.radau.radau(model, zero, zero, 0.5, 5e-3, rtol=1e-12, atol=1e-14), 1e-8),
         # second order in its step, (ω h)² at most 5e-5 of the 0.3 m travel
-        "genalpha": (integrate.genalpha(model, zero, zero, 0.5, 1e-5 if kp > 1e3 else 1e-4, 5e-3), 1e-6),
+        "genalpha": (integrators.genalpha.genalpha(model, zero, zero, 0.5, 1e-5 if kp > 1e3 else 1e-4, 5e-3), 1e-6),
     }
     for method, ((t, y, outcome, *_), tolerance) in runs.items():
         assert outcome.complete, (method, str(outcome))
@@ -143,7 +143,7 @@ def test_each_compiled_integrator_follows_the_closed_form(slider, kp, kd):
 @pytest.mark.requires_cc
 def test_numpy_and_c_give_the_same_run(slider):
     zero = np.zeros(1)
-    runs = [integrate.rk4(_on(slider, b).with_params(u_max=5.0), zero, zero, 0.5, 1e-3, save_every=10)
+    runs = [integrators.rk4.rk4(_on(slider, b).with_params(u_max=5.0), zero, zero, 0.5, 1e-3, save_every=10)
             for b in ("numpy", "c")]
     np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-13)
 
@@ -188,7 +188,7 @@ def test_a_drive_of_an_acceleration_is_refused_from_python():
 
 def test_the_casadi_export_carries_the_law():
     casadi = pytest.importorskip("casadi")
-    from gpmegen.codegen import casadi_export
+    from gpmegen.codegen.backends import casadi as casadi_export
 
     model = gpmegen.load_model_file(MODELS / "pd_slider.toml")
     qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]

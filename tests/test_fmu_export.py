@@ -22,7 +22,7 @@ from test_trust_codegen import DANGEROUS
 
 import gpmegen
 from gpmegen.cli import main
-from gpmegen.codegen import fmu_export
+from gpmegen.codegen.backends import fmu as fmu_export
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Joint, Model, Parameter, Point, symbol
 

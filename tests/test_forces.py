@@ -24,7 +24,7 @@ from gpmegen.codegen.render import render
 from gpmegen.errors import ModelError
 from gpmegen.model.chain import Point
 from gpmegen.model.expand import expand
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 ROOT = Path(__file__).resolve().parents[1]
 HANGER = ROOT / "tests" / "models" / "spring_hanger.toml"
@@ -184,7 +184,7 @@ def test_hanger_static_deflection_and_frequency_are_the_closed_form(env, hanger)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_hanger_oscillates_about_its_deflection_at_sqrt_k_over_m(hanger, backend):
     model = _on(hanger, backend)
-    t, y, outcome = integrate.rk4(model, np.zeros(1), np.zeros(1), 0.3, 2e-4, save_every=50)
+    t, y, outcome = integrators.rk4.rk4(model, np.zeros(1), np.zeros(1), 0.3, 2e-4, save_every=50)
     assert outcome.complete
     sag, omega = MASS * G / K, math.sqrt(K / MASS)
     np.testing.assert_allclose(y[:, 0], -sag + sag * np.cos(omega * t), rtol=0, atol=1e-10)
@@ -413,14 +413,14 @@ def test_points_meeting_in_a_run_stop_it_naming_the_element(hanger, backend):
     # no gravity, no spring: the mass rises at 1 m/s and meets A (0.5 m up) exactly in the last
     # stage of the fourth step of 0.125 s (all binary fractions), where e = d/L is 0/0
     model = _on(hanger, backend).with_params(g=0.0, k=0.0)
-    t, y, outcome = integrate.rk4(model, np.zeros(1), np.ones(1), 1.0, 0.125)
+    t, y, outcome = integrators.rk4.rk4(model, np.zeros(1), np.ones(1), 1.0, 0.125)
     assert not outcome.complete and t[-1] == 0.375
     assert ("non-finite state" in str(outcome) and "the shortest force element, 'spring', was 0.125 m long at "
             "t = 0.375 s (at length 0 its direction is undefined and its force NaN: keep its points apart)"
             in str(outcome))
     with pytest.raises(gpmegen.errors.SimulationError, match="force element 'spring' has length 0 at the start: its "
                                                              "points 'A' and 'B' meet"):
-        integrate.rk4(model, np.array([H]), np.zeros(1), 1.0, 0.125)
+        integrators.rk4.rk4(model, np.array([H]), np.zeros(1), 1.0, 0.125)
 
 
 @pytest.mark.long
@@ -442,7 +442,7 @@ def test_the_c_backend_and_its_recursion_agree_with_numpy(env, files, name):
 
 def test_the_casadi_export_carries_the_element():
     pytest.importorskip("casadi")
-    from gpmegen.codegen import casadi_export
+    from gpmegen.codegen.backends import casadi as casadi_export
 
     model = gpmegen.load_model_file(HANGER)
     qdd = casadi_export.module_of(casadi_export.render_casadi(model, ())).functions()["qdd"]

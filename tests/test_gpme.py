@@ -9,7 +9,7 @@ from gpmegen.analysis.run import reference_case, study
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import SimulationError, StaticsError
-from gpmegen.runtime import integrate, statics
+from gpmegen.runtime import integrators, statics
 
 
 def _random_state(model, rng):
@@ -113,8 +113,8 @@ def test_short_study_holds_constraints_and_balances_power(which, request):
 def test_rk4_agrees_with_adaptive(rigid):
     model, q0 = reference_case.initial_state(rigid)
     qd0 = np.zeros(3)
-    t, y, status = integrate.rk4(model, q0, qd0, 1.0, 1e-3)
-    ta, ya, status_a = integrate.adaptive(model, q0, qd0, 1.0, rtol=1e-11, atol=1e-12)
+    t, y, status = integrators.rk4.rk4(model, q0, qd0, 1.0, 1e-3)
+    ta, ya, status_a = integrators.scipy_radau.adaptive(model, q0, qd0, 1.0, rtol=1e-11, atol=1e-12)
     assert status.complete and status_a.complete
     assert np.abs(y[-1, :3] - ya[-1, :3]).max() < 1e-7
 

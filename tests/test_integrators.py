@@ -15,7 +15,7 @@ from gpmegen.analysis.post.results import metadata
 from gpmegen.analysis.run import reference_case, study
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import build_parser, main
-from gpmegen.runtime import integrate, stability
+from gpmegen.runtime import integrators, stability
 
 pytestmark = pytest.mark.requires_cc
 
@@ -30,7 +30,7 @@ def arm(env):
     qd0 = np.zeros(model.n_dof)
 
     def reference(t):
-        _, y, outcome = integrate.adaptive(model, q0, qd0, float(t[-1]), rtol=1e-13, atol=1e-15, t_eval=t)
+        _, y, outcome = integrators.scipy_radau.adaptive(model, q0, qd0, float(t[-1]), rtol=1e-13, atol=1e-15, t_eval=t)
         assert outcome.complete
         return y[:, :2 * model.n_dof]
 
@@ -38,8 +38,8 @@ def arm(env):
 
 
 def _dop853(model, q0, save_dt, rtol, atol=None, t_end=SPAN):
-    return integrate.dop853(model, q0, np.zeros(model.n_dof), t_end, save_dt, rtol=rtol,
-                            atol=rtol * 1e-2 if atol is None else atol)
+    return integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), t_end, save_dt, rtol=rtol,
+                                     atol=rtol * 1e-2 if atol is None else atol)
 
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-9])
@@ -70,8 +70,8 @@ def test_dense_output_is_the_steps_own_state_where_one_lands_and_accurate_betwee
     # (binary fractions, so both grids hold the same instants exactly) has the same chunks, so the
     # same steps, and holds only the steps' own states
     fine = 2.0 ** -10
-    coarse = round(integrate.CHUNK_SECONDS / fine) * fine
-    assert round(integrate.CHUNK_SECONDS / coarse) == 1
+    coarse = round(integrators.loop.CHUNK_SECONDS / fine) * fine
+    assert round(integrators.loop.CHUNK_SECONDS / coarse) == 1
     tc, yc, _, ec = _dop853(model, q0, coarse, 1e-9)
     tf, yf, _, ef = _dop853(model, q0, fine, 1e-9)
     assert (ec.steps, ec.rejected) == (ef.steps, ef.rejected)
@@ -86,7 +86,7 @@ def test_dense_output_is_the_steps_own_state_where_one_lands_and_accurate_betwee
 def test_dop853_counts_what_it_did(arm):
     model, q0, _ = arm
     t, _, _, effort = _dop853(model, q0, 1e-3, 1e-8)
-    chunks = math.ceil(SPAN / integrate.CHUNK_SECONDS - 1e-9)
+    chunks = math.ceil(SPAN / integrators.loop.CHUNK_SECONDS - 1e-9)
     attempts = effort.steps + effort.rejected
     # 12 solves a step tried, 3 more for the dense output of a step holding a save instant, one to
     # begin each chunk and one to choose the first step
@@ -98,7 +98,7 @@ def test_rk4_through_the_chunked_driver_is_unchanged(arm):
     """The driver now serves every compiled loop; RK4 must give the loop's bits in one call."""
     model, q0, _ = arm
     qd0 = np.zeros(model.n_dof)
-    t, y, outcome = integrate.rk4(model, q0, qd0, 0.12, 1e-4, save_every=7)
+    t, y, outcome = integrators.rk4.rk4(model, q0, qd0, 0.12, 1e-4, save_every=7)
     t1, q1, qd1, w1, status = model.rk4(q0, qd0, 0.12, 1e-4, save_every=7)
     assert outcome.complete and np.array_equal(t, t1)
     assert np.array_equal(y, np.column_stack([q1, qd1, w1]))
@@ -113,7 +113,7 @@ def test_rk4_above_the_stable_step_is_refused_and_that_step_is_the_edge(arm):
     qd0 = np.zeros(model.n_dof)
     peaks = []
     for factor in (0.9, 1.25):
-        _, y, _ = integrate.rk4(model, q0, qd0, 0.2, factor * stable)
+        _, y, _ = integrators.rk4.rk4(model, q0, qd0, 0.2, factor * stable)
         peaks.append(np.abs(y[:, :model.n_dof]).max())
     assert peaks[0] < 1.0 and peaks[1] > 10 * peaks[0]
     with limits.lifted():  # an expert may go on
@@ -159,7 +159,7 @@ def test_rk4_stable_step_comes_from_the_damped_eigenvalues(env, tmp_path):
     q0, qd0 = np.array([0.1, -0.05]), np.zeros(2)
     ends = {}
     for factor in (0.99, 1.01):
-        _, y, outcome = integrate.rk4(model, q0, qd0, 1000 * stable, factor * stable)
+        _, y, outcome = integrators.rk4.rk4(model, q0, qd0, 1000 * stable, factor * stable)
         assert outcome.complete
         ends[factor] = np.abs(y[-1, :4]).max()
     assert ends[0.99] < 1e-6 * np.abs(q0).max() and ends[1.01] > 1e3 * np.abs(q0).max()
@@ -227,7 +227,7 @@ def rigid_arm(env):
     """The rigid reference arm in C, its locked start and q, q̇ at 0.5 s by SciPy's DOP853 at
     rtol 1e-13: ``(model, q0, final)``."""
     model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=1, backend="c"))
-    _, y, outcome = integrate.adaptive(model, q0, np.zeros(3), 0.5, rtol=1e-13, atol=1e-15)
+    _, y, outcome = integrators.scipy_radau.adaptive(model, q0, np.zeros(3), 0.5, rtol=1e-13, atol=1e-15)
     assert outcome.complete
     return model, q0, y[-1, :6]
 
@@ -239,10 +239,10 @@ def _order(errors):
 def test_rk4_is_fourth_order_and_genalpha_second_by_step_halving(rigid_arm):
     model, q0, final = rigid_arm
     qd0 = np.zeros(3)
-    rk4 = [np.abs(integrate.rk4(model, q0, qd0, 0.5, dt)[1][-1, :6] - final).max() for dt in (4e-3, 2e-3, 1e-3)]
+    rk4 = [np.abs(integrators.rk4.rk4(model, q0, qd0, 0.5, dt)[1][-1, :6] - final).max() for dt in (4e-3, 2e-3, 1e-3)]
     assert all(3.7 < p < 4.5 for p in _order(rk4)), rk4
     for rho_inf in (1.0, 0.8):
-        errors = [np.abs(integrate.genalpha(model, q0, qd0, 0.5, dt, dt, rho_inf)[1][-1, :6] - final).max()
+        errors = [np.abs(integrators.genalpha.genalpha(model, q0, qd0, 0.5, dt, dt, rho_inf)[1][-1, :6] - final).max()
                   for dt in (2e-3, 1e-3, 5e-4)]
         assert all(1.9 < p < 2.1 for p in _order(errors)), errors
         assert errors[-1] < 1e-6
@@ -252,12 +252,12 @@ def test_genalpha_dense_output_lands_on_its_steps_and_is_as_good_between(rigid_a
     model, q0, _ = rigid_arm
     qd0 = np.zeros(3)
     dt = 2.0 ** -10  # binary fractions: the finer save grid holds every step's instant exactly
-    ts, ys, _, es = integrate.genalpha(model, q0, qd0, 0.25, dt, dt)
-    tf, yf, _, ef = integrate.genalpha(model, q0, qd0, 0.25, dt, dt / 4)
+    ts, ys, _, es = integrators.genalpha.genalpha(model, q0, qd0, 0.25, dt, dt)
+    tf, yf, _, ef = integrators.genalpha.genalpha(model, q0, qd0, 0.25, dt, dt / 4)
     assert es == ef  # the saves do not change the steps
     on_steps = np.isin(tf, ts)
     assert on_steps.sum() == len(ts) and np.array_equal(yf[on_steps], ys)
-    _, reference, _ = integrate.adaptive(model, q0, qd0, 0.25, rtol=1e-13, atol=1e-15, t_eval=tf)
+    _, reference, _ = integrators.scipy_radau.adaptive(model, q0, qd0, 0.25, rtol=1e-13, atol=1e-15, t_eval=tf)
     error = np.abs(yf[:, :6] - reference[:, :6]).max(axis=1)
     # cubic Hermite between the steps adds less than the method's own O(h²) error
     assert error[~on_steps].max() < 1.5 * error[on_steps].max()
@@ -279,7 +279,8 @@ def _energy(model, y):
 def test_genalpha_without_damping_keeps_the_energy_to_second_order(pendulum):
     drifts = []
     for dt in (0.02, 0.01, 0.005):
-        _, y, outcome, _ = integrate.genalpha(pendulum, np.array([-0.5]), np.zeros(1), 10.0, dt, 0.1, rho_inf=1.0)
+        _, y, outcome, _ = integrators.genalpha.genalpha(pendulum, np.array([-0.5]), np.zeros(1), 10.0, dt, 0.1,
+                                                         rho_inf=1.0)
         energy = _energy(pendulum, y)
         drifts.append(np.abs(energy - energy[0]).max() / abs(energy[0]))
         assert outcome.complete
@@ -293,7 +294,7 @@ def test_genalpha_damps_an_unresolved_mode_by_rho_inf_a_step(pendulum, rho_inf):
     over many steps, within a few percent)."""
     oscillator = pendulum.with_params(g=0.0, k=1e4)  # I = 1 kg m²: ω = 100 rad/s
     h = 10.0
-    _, y, outcome, _ = integrate.genalpha(oscillator, np.array([0.1]), np.zeros(1), 400 * h, h, h, rho_inf)
+    _, y, outcome, _ = integrators.genalpha.genalpha(oscillator, np.array([0.1]), np.zeros(1), 400 * h, h, h, rho_inf)
     energy = _energy(oscillator, y)
     assert outcome.complete
     assert (energy[-1] / energy[200]) ** (1 / 400) == pytest.approx(rho_inf, rel=0.03)

@@ -18,7 +18,7 @@ import pytest
 import gpmegen
 from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import reference_case
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 pytestmark = pytest.mark.requires_cc
 
@@ -34,14 +34,14 @@ def arm():
 
 
 RUNS = {
-    "rk4": lambda model, q0, qd0, calls: integrate.rk4(model, q0, qd0, 0.2, 1e-4, 7, steps_per_call=calls)
+    "rk4": lambda model, q0, qd0, calls: integrators.rk4.rk4(model, q0, qd0, 0.2, 1e-4, 7, steps_per_call=calls)
     + (None,),
-    "genalpha": lambda model, q0, qd0, calls: integrate.genalpha(model, q0, qd0, 0.2, 1e-3, 7e-3,
-                                                                 steps_per_call=calls),
-    "dop853": lambda model, q0, qd0, calls: integrate.dop853(model, q0, qd0, 0.2, 7e-3, rtol=1e-9,
-                                                             steps_per_call=calls),
-    "radau": lambda model, q0, qd0, calls: integrate.radau(model, q0, qd0, 0.2, 7e-3, rtol=1e-7,
-                                                           steps_per_call=calls),
+    "genalpha": lambda model, q0, qd0, calls: integrators.genalpha.genalpha(model, q0, qd0, 0.2, 1e-3, 7e-3,
+                                                                            steps_per_call=calls),
+    "dop853": lambda model, q0, qd0, calls: integrators.dop853.dop853(model, q0, qd0, 0.2, 7e-3, rtol=1e-9,
+                                                                      steps_per_call=calls),
+    "radau": lambda model, q0, qd0, calls: integrators.radau.radau(model, q0, qd0, 0.2, 7e-3, rtol=1e-7,
+                                                                   steps_per_call=calls),
 }
 
 
@@ -65,7 +65,7 @@ def test_an_adaptive_loop_stopped_returns_after_its_budget_and_goes_on(arm):
     y0 = np.concatenate([q0, qd0, [0.0, 0.0]])
     t_save = np.array([0.1, 0.2])
     for method in ("dop853", "radau"):
-        counts, step = np.zeros(integrate.COUNTS, dtype=np.int64), np.zeros(1)
+        counts, step = np.zeros(integrators.base.COUNTS, dtype=np.int64), np.zeros(1)
         memory, rows, calls = model.loop_memory(method), [], 0
         while sum(len(r) for r in rows) < len(t_save):
             got, status = getattr(model, method)(0.0, y0, t_save, 1e-8, 1e-10, step, counts, memory, 2,
@@ -74,7 +74,7 @@ def test_an_adaptive_loop_stopped_returns_after_its_budget_and_goes_on(arm):
             rows.append(got)
             calls += 1
         whole, status = getattr(model, method)(0.0, y0, t_save, 1e-8, 1e-10, np.zeros(1),
-                                               np.zeros(integrate.COUNTS, dtype=np.int64))
+                                               np.zeros(integrators.base.COUNTS, dtype=np.int64))
         assert calls > 2 and np.array_equal(np.concatenate(rows), whole)
 
 

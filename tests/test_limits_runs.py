@@ -14,7 +14,7 @@ from gpmegen.analysis.post import modes
 from gpmegen.analysis.run import reference_case, study
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 pytestmark = pytest.mark.requires_cc
 
@@ -43,7 +43,7 @@ def test_the_dop853_stability_radius_is_that_of_its_tableau():
 
 
 def test_a_generalized_alpha_run_that_cannot_finish_is_refused_before_it_starts(capsys, tmp_path, env, monkeypatch):
-    monkeypatch.setattr(integrate, "genalpha", lambda *a, **k: pytest.fail("the run started"))
+    monkeypatch.setattr(type(integrators.get("genalpha")), "run", lambda *a, **k: pytest.fail("the run started"))
     code = main(["simulate", "--nrfe", "1", "--method", "genalpha", "--dt", "1e-9", "--t-end", "100", "--save-dt", "1",
                  "--out", str(tmp_path / "run.npz")])
     out, err = capsys.readouterr()
@@ -69,7 +69,7 @@ def arm(env):
 
 def test_a_dop853_run_its_stable_step_cannot_finish_is_refused_naming_the_methods_that_can(arm, monkeypatch):
     model, q0, omega = arm
-    monkeypatch.setattr(integrate, "dop853", lambda *a, **k: pytest.fail("the run started"))
+    monkeypatch.setattr(type(integrators.get("dop853")), "run", lambda *a, **k: pytest.fail("the run started"))
     with pytest.raises(limits.LimitError) as refused:
         study.simulate(model, q0, RunSpec(t_end=1e6, method="dop853", save_dt=1e3,
                                           save_every=1))  # 1e6 s: 1.5e9 steps at least
@@ -87,8 +87,8 @@ def test_the_dop853_bound_is_below_the_steps_it_takes_and_near_them_at_a_loose_t
     bound = limits.integration_estimate(model.n_dof, span, 1e-3, "dop853", "c", omega)
     assert bound.at_least
     for rtol in (1e-3, 1e-8):
-        _, _, outcome, effort = integrate.dop853(model, q0, np.zeros(model.n_dof), span, 1e-3, rtol=rtol,
-                                                 atol=rtol)
+        _, _, outcome, effort = integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), span, 1e-3, rtol=rtol,
+                                                          atol=rtol)
         assert outcome.complete and effort.steps >= bound.steps
         if rtol == 1e-3:
             assert effort.steps <= 2 * bound.steps
@@ -100,8 +100,7 @@ def test_the_dop853_bound_is_below_the_steps_it_takes_and_near_them_at_a_loose_t
 @pytest.mark.parametrize("method", ["radau", "scipy-radau"])
 def test_an_implicit_run_over_an_absurd_span_is_refused_before_it_starts(capsys, tmp_path, env, monkeypatch, method):
     """radau and scipy-radau had no estimate: over 1e9 s they started (and ran for hours)."""
-    monkeypatch.setitem(integrate.ADAPTIVE, "radau", lambda *a, **k: pytest.fail("the run started"))
-    monkeypatch.setattr(integrate, "scipy_solve", lambda *a, **k: pytest.fail("the run started"))
+    monkeypatch.setattr(type(integrators.get(method)), "run", lambda *a, **k: pytest.fail("the run started"))
     out = tmp_path / "run.npz"
     code = main(["simulate", "--nrfe", "5", "--backend", "c", "--method", method, "--t-end", "1e9", "--save-dt", "1e8",
                  "--out", str(out)])
@@ -121,8 +120,9 @@ def test_the_lowest_period_bound_is_below_the_steps_radau_takes(arm):
     lowest, span = modes.lowest_frequency(model, 0.0, q0), 0.5
     bound = limits.integration_estimate(model.n_dof, span, 1e-3, "radau", "c", lowest)
     assert bound.at_least and bound.steps == np.ceil(span * lowest / (2 * np.pi))
-    for rtol in (1e-4, integrate.RTOL):
-        _, _, outcome, effort = integrate.radau(model, q0, np.zeros(model.n_dof), span, 1e-2, rtol=rtol, atol=rtol)
+    for rtol in (1e-4, integrators.base.RTOL):
+        _, _, outcome, effort = integrators.radau.radau(model, q0, np.zeros(model.n_dof), span, 1e-2, rtol=rtol,
+                                                        atol=rtol)
         assert outcome.complete and effort.steps >= 2 * bound.steps
     limits.check_run(model.n_dof, 2, RunSpec(t_end=100.0, dt=1e-3, save_every=1, method="radau", save_dt=1e-3), "c",
                      omega=lowest)

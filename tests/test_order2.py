@@ -24,7 +24,7 @@ from gpmegen.errors import ModelError, SimulationError, StaticsError
 from gpmegen.model.chain import TIME
 from gpmegen.model.expand import expand
 from gpmegen.model.toml_file import read_model_file
-from gpmegen.runtime import integrate, partition, statics
+from gpmegen.runtime import integrators, partition, statics
 
 ROOT = Path(__file__).resolve().parents[1]
 REACHING = ROOT / "tests" / "models" / "reaching_arm.toml"
@@ -82,8 +82,8 @@ def test_position_constraint_and_its_second_derivative_give_the_same_motion(env)
     qd0 = np.zeros(position.n_dof)   # Φ = 0 (moved there) and Φ̇ = 0: both laws start at rest
     assert np.max(np.abs(position.constraint_terms(0.0, q0, qd0)[0])) <= 1e-12
     n = position.n_dof
-    t, y0, end0 = integrate.rk4(position, q0, qd0, 1.0, 1e-4, 100)
-    _, y2, end2 = integrate.rk4(second, q0, qd0, 1.0, 1e-4, 100)
+    t, y0, end0 = integrators.rk4.rk4(position, q0, qd0, 1.0, 1e-4, 100)
+    _, y2, end2 = integrators.rk4.rk4(second, q0, qd0, 1.0, 1e-4, 100)
     assert str(end0) == str(end2) == "complete"
     assert np.max(np.abs(y0[:, :2 * n] - y2[:, :2 * n])) <= 1e-8
     assert np.max(_residuals(second, t, y2)) <= 1e-10
@@ -103,7 +103,7 @@ def test_curvature_example_keeps_its_curvature_and_speed(env):
                              file.initial_velocities(model.params))
     model, q0, qd0 = begun.model, begun.q, begun.qd
     assert qd0[model.index("theta1")] == model.params["w0"]     # the file's [initial] qd
-    t, y, end = integrate.rk4(model, q0, qd0, 1.0, 1e-4, 50)
+    t, y, end = integrators.rk4.rk4(model, q0, qd0, 1.0, 1e-4, 50)
     assert str(end) == "complete"
     n, p = model.n_dof, model.params
     v, a = np.zeros((len(t), 3)), np.zeros((len(t), 3))
@@ -143,7 +143,7 @@ def test_tangential_example_follows_its_speed_law_on_the_circle(env):
     begun = study.file_start(model, file.initial_values(model.params), "locked")
     model, q0 = begun.model, begun.q
     n, p = model.n_dof, model.params
-    t, y, end = integrate.rk4(model, q0, np.zeros(n), 1.0, 1e-5, 2000)
+    t, y, end = integrators.rk4.rk4(model, q0, np.zeros(n), 1.0, 1e-5, 2000)
     assert str(end) == "complete"
     speed, along = np.zeros(len(t)), np.zeros(len(t))
     for k, tk in enumerate(t):
@@ -167,7 +167,7 @@ def test_curvature_rows_vanish_at_rest_and_runs_and_partitions_say_so(env):
     with pytest.raises(SimulationError, match=at_rest):
         partition.partition_at(model, q)
     with pytest.raises(SimulationError, match=at_rest):
-        integrate.rk4(model, q, np.zeros(model.n_dof), 0.01, 1e-3)
+        integrators.rk4.rk4(model, q, np.zeros(model.n_dof), 0.01, 1e-3)
     qd = np.zeros(model.n_dof)
     qd[model.index("theta1")] = 0.5
     chosen = partition.partition_at(model, q, qd=qd)

@@ -1,5 +1,5 @@
 """Typed outcomes and one RK4 driver: both backends offer the same ``rk4`` (C loop, Python loop)
-with the same status codes, and :func:`gpmegen.runtime.integrate.rk4` runs either in chunks,
+with the same status codes, and :func:`gpmegen.runtime.integrators.rk4.rk4` runs either in chunks,
 looking at the run at the same instants on both."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis.run import reference_case
-from gpmegen.runtime import integrate, partition
+from gpmegen.runtime import integrators, partition
 from gpmegen.status import MESSAGES, Ending, Outcome, SolveStatus
 
 pytestmark = pytest.mark.requires_cc
@@ -59,12 +59,12 @@ def test_the_driver_looks_at_both_backends_at_the_same_instants(both):
     # Baumgarte poles at -2790 /s, just beyond RK4's stability at dt = 1e-3 s (-2785 /s): Φ grows
     # above 1e-3 within the first chunk, and the state is still finite at its end
     gains = dict(alpha_height=2.79e3, beta_height=2.79e3)
-    runs = [integrate.rk4(model.with_params(**gains), q0, np.zeros(3), 0.5, 1e-3, max_violation=1e-3)
+    runs = [integrators.rk4.rk4(model.with_params(**gains), q0, np.zeros(3), 0.5, 1e-3, max_violation=1e-3)
             for model in (c, n)]
     (t, _, outcome), (tn, _, outcome_n) = runs
     assert outcome.ending is outcome_n.ending is Ending.DIVERGED
     assert outcome.t == outcome_n.t == t[-1] == tn[-1] < 0.5 and len(t) == len(tn)
-    assert round(t[-1] / integrate.CHUNK_SECONDS, 9).is_integer()  # at the end of a chunk
+    assert round(t[-1] / integrators.loop.CHUNK_SECONDS, 9).is_integer()  # at the end of a chunk
     assert str(outcome).startswith("diverged: constraint violation") and str(outcome) == str(outcome_n)
 
 
@@ -88,10 +88,10 @@ class Counted:
 def test_an_interrupted_run_keeps_the_chunks_computed(both, backend):
     model, q0 = both[0] if backend == "c" else both[1], both[2]
     # one call per chunk (a call's steps are otherwise sized by wall time)
-    t, y, outcome = integrate.rk4(Counted(model, interrupt=3), q0, np.zeros(3), 1.0, 1e-3, save_every=10,
-                                  steps_per_call=10**9)
+    t, y, outcome = integrators.rk4.rk4(Counted(model, interrupt=3), q0, np.zeros(3), 1.0, 1e-3, save_every=10,
+                                        steps_per_call=10**9)
     assert outcome.ending is Ending.INTERRUPTED and str(outcome) == "interrupted"
-    assert outcome.t == t[-1] == pytest.approx(2 * integrate.CHUNK_SECONDS) and len(t) == len(y) == 11
+    assert outcome.t == t[-1] == pytest.approx(2 * integrators.loop.CHUNK_SECONDS) and len(t) == len(y) == 11
     assert np.all(np.isfinite(y))
 
 
@@ -101,8 +101,8 @@ def test_the_run_goes_on_with_the_model_the_partition_watch_chose(both):
     # any condition number is too large: after the first chunk the watch chooses anew (the same
     # coordinates) and the run goes on with the model it returns, a copy of the one it started with
     watch = partition.Watch(start, repartition=True, limit=0.0)
-    t, _, outcome = integrate.rk4(start, q0, np.zeros(3), 0.2, 1e-3, save_every=10, watch=watch,
-                                  steps_per_call=10**9)  # one call per chunk
+    t, _, outcome = integrators.rk4.rk4(start, q0, np.zeros(3), 0.2, 1e-3, save_every=10, watch=watch,
+                                        steps_per_call=10**9)  # one call per chunk
     assert outcome.complete and t[-1] == 0.2
     assert start.calls == 1 and watch.model is not start and watch.model.dependent.tolist() == n.dependent.tolist()
 

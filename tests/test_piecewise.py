@@ -24,7 +24,7 @@ from gpmegen.model import Body, Constraint, FlexibleLink, Joint, Model, Paramete
 from gpmegen.model.chain import TIME, CircularSection, symbol
 from gpmegen.model.shapes import solid_cylinder
 from gpmegen.model.toml_file import load_model_file
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 from gpmegen.symbolic import derive
 
 PARAMETERS = (
@@ -137,10 +137,10 @@ def test_spin_up_runs_like_its_two_branches_switched_at_T(hubs):
                                   w0=w1[-1])
     assert abs(q[-1][0] - SPEED * 1.5 * T_SWITCH) < 1e-6   # θ(2T) = W(2T - T/2): on the law
     assert _close(np.r_[q[-1], qd[-1]], np.r_[q2[-1], qd2[-1]], 1e-9)
-    _, y, _ = integrate.rk4(numpy_model, q0, qd0, 2 * T_SWITCH, dt)
-    _, y1, _ = integrate.rk4(numpy_first, q0, qd0, T_SWITCH, dt)
+    _, y, _ = integrators.rk4.rk4(numpy_model, q0, qd0, 2 * T_SWITCH, dt)
+    _, y1, _ = integrators.rk4.rk4(numpy_first, q0, qd0, T_SWITCH, dt)
     n = model.n_dof
-    _, y2, _ = integrate.rk4(numpy_second, y1[-1, :n], y1[-1, n:2 * n], 2 * T_SWITCH, dt, t0=T_SWITCH)
+    _, y2, _ = integrators.rk4.rk4(numpy_second, y1[-1, :n], y1[-1, n:2 * n], 2 * T_SWITCH, dt, t0=T_SWITCH)
     assert _close(y[-1, :2 * n], y2[-1, :2 * n], 1e-9)
     assert _close(y[-1, :2 * n], np.r_[q[-1], qd[-1]], 1e-9)
 
@@ -154,11 +154,11 @@ def test_ramp_runs_like_its_two_branches_switched_at_T(hubs, backend):
     model, first, second = (hubs("ramp", part)[backend] for part in (0, 1, 2))
     q0, qd0 = start("ramp", model.n_dof)
     tight = dict(rtol=1e-12, atol=1e-12)
-    _, y, status = integrate.adaptive(model, q0, qd0, 2 * T_SWITCH, **tight)
+    _, y, status = integrators.scipy_radau.adaptive(model, q0, qd0, 2 * T_SWITCH, **tight)
     assert status.complete
-    _, y1, _ = integrate.adaptive(first, q0, qd0, T_SWITCH, **tight)
+    _, y1, _ = integrators.scipy_radau.adaptive(first, q0, qd0, T_SWITCH, **tight)
     n = model.n_dof
-    _, y2, _ = integrate.adaptive(second, y1[-1, :n], y1[-1, n:2 * n], 2 * T_SWITCH, t0=T_SWITCH, **tight)
+    _, y2, _ = integrators.scipy_radau.adaptive(second, y1[-1, :n], y1[-1, n:2 * n], 2 * T_SWITCH, t0=T_SWITCH, **tight)
     assert abs(y1[-1, n] - SPEED) < 1e-6          # still turning at W when the hold starts
     assert abs(y[-1, n]) < 0.2 * SPEED            # then pulled back to rest by the Baumgarte terms
     assert _close(y[-1, :2 * n], y2[-1, :2 * n], 1e-9)

@@ -65,11 +65,12 @@ def test_long_runs_outside_a_terminal_say_how_far_they_are(monkeypatch, capsys):
     """A run of the NumPy backend printed nothing for 96 s when its output went to a log (the bar
     is drawn on a terminal only): away from a terminal, a line every 10 s of wall time, and the
     end; work shorter than that prints nothing."""
-    from gpmegen.runtime import integrate
+    from gpmegen.runtime import integrators
 
     clock = _Clock()
-    monkeypatch.setattr(integrate.time, "perf_counter", clock)
-    bar = integrate.Progress(10.0, "n_rfe = 5, t (s)", enabled=False, lines_every=integrate.PROGRESS_LINES)
+    monkeypatch.setattr(integrators.loop.time, "perf_counter", clock)
+    bar = integrators.loop.Progress(10.0, "n_rfe = 5, t (s)", enabled=False,
+                                    lines_every=integrators.loop.PROGRESS_LINES)
     for wall, done in ((3, 0.5), (9.9, 1.0), (10.5, 1.2), (15, 2.0), (20.6, 3.0), (30, 10.0), (31, 10.0)):
         clock.now = 1000.0 + wall
         bar.update(done)
@@ -78,7 +79,7 @@ def test_long_runs_outside_a_terminal_say_how_far_they_are(monkeypatch, capsys):
                      "n_rfe = 5, t (s): 3 of 10 (30 %) in 21 s, about 48 s left",
                      "n_rfe = 5, t (s): 10 of 10 (100 %) in 30 s, done"]
     clock.now = 1000.0
-    short = integrate.Progress(10.0, "short", enabled=False, lines_every=integrate.PROGRESS_LINES)
+    short = integrators.loop.Progress(10.0, "short", enabled=False, lines_every=integrators.loop.PROGRESS_LINES)
     for wall, done in ((2, 5.0), (4, 10.0)):
         clock.now = 1000.0 + wall
         short.update(done)

@@ -16,7 +16,7 @@ import gpmegen
 from gpmegen.analysis.run import reference_case
 from gpmegen.analysis.run.cases import FileCase
 from gpmegen.model import reference_model
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 pytestmark = pytest.mark.requires_cc
 
@@ -30,14 +30,14 @@ def arm(env):
     """The reference case at n_rfe = 2 in C, its locked start and q(SPAN) of the compiled DOP853 at
     rtol = atol = 1e-12: ``(model, q0, final)``."""
     model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend="c"))
-    _, y, outcome, _ = integrate.dop853(model, q0, np.zeros(model.n_dof), SPAN, SPAN, rtol=1e-12, atol=1e-12)
+    _, y, outcome, _ = integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), SPAN, SPAN, rtol=1e-12, atol=1e-12)
     assert outcome.complete
     return model, q0, y[-1, :model.n_dof]
 
 
 def _genalpha(model, q0, dt, project, qd0=None, span=SPAN):
     qd0 = np.zeros(model.n_dof) if qd0 is None else qd0
-    t, y, outcome, effort = integrate.genalpha(model, q0, qd0, span, dt, dt, project=project)
+    t, y, outcome, effort = integrators.genalpha.genalpha(model, q0, qd0, span, dt, dt, project=project)
     assert outcome.complete, outcome
     return t, y, effort
 

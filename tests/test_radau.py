@@ -14,7 +14,7 @@ import gpmegen
 from gpmegen.analysis.post.results import metadata
 from gpmegen.analysis.run import reference_case
 from gpmegen.cli import build_parser, main
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 from gpmegen.status import SolveStatus
 
 pytestmark = pytest.mark.requires_cc
@@ -44,7 +44,7 @@ def chain(env):
 
 
 def _radau(model, q0, qd0, t_end, save_dt, rtol, atol=None):
-    return integrate.radau(model, q0, qd0, t_end, save_dt, rtol=rtol, atol=rtol if atol is None else atol)
+    return integrators.radau.radau(model, q0, qd0, t_end, save_dt, rtol=rtol, atol=rtol if atol is None else atol)
 
 
 def test_radau_meets_the_exact_motion_to_a_few_times_its_tolerance(chain):
@@ -110,7 +110,7 @@ def arm(env):
     """The reference arm at n_rfe = 2 in C, its locked start, the save instants of 0.2 s every
     2 ms and the states there by the compiled DOP853 at rtol = atol = 1e-12."""
     model, q0 = reference_case.initial_state(gpmegen.load("manipulator", nrfe=2, backend="c"))
-    t, y, outcome, _ = integrate.dop853(model, q0, np.zeros(model.n_dof), 0.2, 2e-3, rtol=1e-12, atol=1e-12)
+    t, y, outcome, _ = integrators.dop853.dop853(model, q0, np.zeros(model.n_dof), 0.2, 2e-3, rtol=1e-12, atol=1e-12)
     assert outcome.complete
     return model, q0, t, y
 
@@ -119,7 +119,7 @@ def test_dense_output_is_the_steps_own_state_where_one_lands(arm):
     model, q0, _, _ = arm
     qd0 = np.zeros(model.n_dof)
     fine = 2.0 ** -10  # binary fractions: both grids hold the chunks' ends exactly
-    coarse = round(integrate.CHUNK_SECONDS / fine) * fine
+    coarse = round(integrators.loop.CHUNK_SECONDS / fine) * fine
     tc, yc, _, ec = _radau(model, q0, qd0, 0.2, coarse, 1e-8)
     tf, yf, _, ef = _radau(model, q0, qd0, 0.2, fine, 1e-8)
     assert ec == ef  # the saves do not change the steps
@@ -134,7 +134,7 @@ def test_radau_takes_far_fewer_steps_than_dop853_on_a_stiff_arm(env):
     stiff = base.with_params(E2=1e4 * base.params["E2"], G2=1e4 * base.params["G2"], d2=100.0)
     model, q0 = reference_case.initial_state(stiff)
     qd0 = np.zeros(model.n_dof)
-    _, y_d, outcome_d, dop = integrate.dop853(model, q0, qd0, 0.2, 2e-3, rtol=1e-9, atol=1e-11)
+    _, y_d, outcome_d, dop = integrators.dop853.dop853(model, q0, qd0, 0.2, 2e-3, rtol=1e-9, atol=1e-11)
     _, y_r, outcome_r, radau = _radau(model, q0, qd0, 0.2, 2e-3, 1e-6, 1e-8)
     assert outcome_d.complete and outcome_r.complete
     assert radau.steps + radau.rejected < 0.1 * (dop.steps + dop.rejected), (radau, dop)
@@ -151,7 +151,7 @@ def test_bad_arguments_are_refused(arm):
     rows, status = model.radau(0.0, np.full_like(y, np.nan), np.array([1e-3]), 1e-6, 1e-8, np.zeros(1), counts)
     assert status == SolveStatus.NONFINITE and not counts.any()
     with pytest.raises(ValueError, match="rtol > 0"):
-        integrate.radau(model, q0, np.zeros(model.n_dof), 0.01, 1e-3, rtol=-1.0)
+        integrators.radau.radau(model, q0, np.zeros(model.n_dof), 0.01, 1e-3, rtol=-1.0)
 
 
 def _run(argv, capsys, tmp_path):

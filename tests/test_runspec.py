@@ -11,7 +11,7 @@ from gpmegen.analysis.run.runspec import METHODS, NAMES, RunSpec
 from gpmegen.analysis.sweep import SweepError
 from gpmegen.cli import main
 from gpmegen.errors import RunSpecError
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 
 
 @pytest.mark.parametrize("given, message", [
@@ -45,8 +45,9 @@ def test_each_rule_refuses_in_one_line(given, message):
 
 def test_defaults_are_set_once_and_by_method():
     spec = RunSpec(dt=2.5e-4)
-    assert spec.save_every == integrate.default_save_every(2.5e-4) == 4  # the steps in 1 ms
-    assert (spec.rtol, spec.atol, spec.rho_inf) == (integrate.RTOL, integrate.ATOL, integrate.RHO_INF)
+    assert spec.save_every == integrators.loop.default_save_every(2.5e-4) == 4  # the steps in 1 ms
+    assert (spec.rtol, spec.atol, spec.rho_inf) == (integrators.base.RTOL, integrators.base.ATOL,
+                                                    integrators.genalpha.RHO_INF)
     assert spec.save_dt is None and spec.save_interval == pytest.approx(1e-3)
     # rk4 saves every whole number of steps: save_dt sets save_every, whatever was given
     assert RunSpec(dt=1e-4, save_dt=5e-4, save_every=7).save_every == 5
@@ -59,7 +60,7 @@ def test_defaults_are_set_once_and_by_method():
 
 def test_equal_runs_give_equal_specs():
     default = RunSpec(dt=1e-4)
-    spelled = RunSpec(t_end=10, dt=1e-4, save_every=10, rtol=integrate.RTOL, method="rk4")
+    spelled = RunSpec(t_end=10, dt=1e-4, save_every=10, rtol=integrators.base.RTOL, method="rk4")
     assert default == spelled and hash(default) == hash(spelled)
     assert RunSpec(dt=1e-4, save_dt=1e-3) == RunSpec(dt=1e-4, save_every=10, save_dt=1e-3)
     assert RunSpec(dt=1e-4) != RunSpec(dt=1e-4, save_every=20)
@@ -71,7 +72,7 @@ def test_equal_runs_give_equal_specs():
 
 def test_of_changes_fields_and_makes_the_defaults_anew():
     spec = RunSpec.of(dt=1e-4)
-    assert RunSpec.of(spec, dt=1e-3).save_every == integrate.default_save_every(1e-3)  # not the 10 of dt 1e-4
+    assert RunSpec.of(spec, dt=1e-3).save_every == integrators.loop.default_save_every(1e-3)  # not the 10 of dt 1e-4
     kept = RunSpec.of(RunSpec(dt=1e-4, save_every=3), dt=1e-3)
     assert kept.save_every == 3  # given, so kept
     assert RunSpec.of(spec, method="dop853", rtol=1e-6).rtol == 1e-6

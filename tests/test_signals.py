@@ -17,7 +17,7 @@ import pytest
 import gpmegen
 from gpmegen import cli
 from gpmegen.analysis.post import feedforward
-from gpmegen.codegen import casadi_export
+from gpmegen.codegen.backends import casadi as casadi_export
 from gpmegen.errors import ModelError, SimulationError
 from gpmegen.model.expand import expand
 from gpmegen.runtime import signals

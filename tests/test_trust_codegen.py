@@ -26,11 +26,10 @@ from hypothesis import strategies as st
 
 import gpmegen
 from gpmegen.cli import main
-from gpmegen.codegen import input_hash, render
+from gpmegen.codegen import backends, input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
 from gpmegen.codegen.render import read_manifest, stale_reason
 from gpmegen.errors import ModelError, StaleModelError
-from gpmegen.folder import BACKEND_FILES
 from gpmegen.model import reference_model, shapes
 from gpmegen.model.chain import (
     TIME,
@@ -54,7 +53,7 @@ from gpmegen.runtime.numpy_module import import_numpy_module
 
 ROOT = Path(__file__).resolve().parents[1]
 BACKENDS = ("numpy", "c")
-C_FILES = BACKEND_FILES["c"]
+C_FILES = backends.get("c").files
 
 
 # --- 1. free text in comments and docstrings ---------------------------------------------------

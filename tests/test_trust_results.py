@@ -23,7 +23,7 @@ from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import reference_case, study
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
-from gpmegen.runtime import integrate
+from gpmegen.runtime import integrators
 from gpmegen.status import Outcome, SolveStatus
 
 
@@ -85,7 +85,7 @@ def cli_runs(tmp_path_factory):
     (0.0, 0.0, 1e-5, 0, None),
 ])
 def test_grid_ends_at_t_end_with_a_shorter_last_step_where_needed(t0, t_end, dt, n_steps, last):
-    g = integrate.grid(t0, t_end, dt)
+    g = integrators.loop.grid(t0, t_end, dt)
     assert g.n_steps == n_steps
     assert g.time(0) == t0 and g.time(n_steps) == t_end
     if n_steps:
@@ -103,7 +103,7 @@ def test_last_row_off_the_save_grid_is_the_final_state_not_the_last_saved_one(cl
     res, t_end = cli_runs(key, "c"), _t_end(key)
     argv = RUNS[key]
     every = int(argv[argv.index("--save-every") + 1]) if "--save-every" in argv else 100
-    grid = integrate.grid(0.0, t_end, 1e-5)
+    grid = integrators.loop.grid(0.0, t_end, 1e-5)
     np.testing.assert_array_equal(res["t"], [grid.time(k) for k in [*range(0, grid.n_steps, every), grid.n_steps]])
     assert res["t"][-1] == t_end
     assert np.abs(res["phi"][-1]).max() < 1e-12

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: a5585e7de6abad63
+Input hash: 8fa70c707e6471f5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -12,7 +12,7 @@ it (the order the import contracts in pyproject.toml keep):
 
 
 def __getattr__(name):
-    # gpmegen/codegen/fmu_export.py imports ``from ..analysis import driving``: codegen's sources
+    # gpmegen/codegen/backends/fmu.py imports ``from ...analysis import driving``: codegen's sources
     # enter the digest every generated file records, so that line keeps the module's former place.
     if name == "driving":
         import importlib

@@ -11,6 +11,7 @@ from .common import UsageError, open_case, progress
 
 
 def cmd_build(args) -> int:
+    from ..codegen import backends as registry
     from ..codegen import build
     from ..folder import check_replaceable, read_manifest
     from ..runtime.loader import default_directory
@@ -21,7 +22,7 @@ def cmd_build(args) -> int:
     models = [case.model for case in cases]  # a bad model is refused before anything is written
     for model in models:  # a folder without gpmegen's manifest is always built again, so refused at once
         if args.force or read_manifest(out / model.name) is None:
-            check_replaceable(out / model.name)
+            check_replaceable(out / model.name, registry.folder_files())
             # and a build too long for the limits, before --out is created
             limits.check_build(limits.model_coordinates(model), model.name, jacobians=args.jacobians)
     outputs.writable_folder(out)
@@ -67,7 +68,7 @@ def cmd_export(args) -> int:
 
 def _export_casadi(case, out, args) -> int:
     """``export --format casadi``: the model's CasADi functions in the folder ``out``."""
-    from ..codegen import casadi_export
+    from ..codegen.backends import casadi as casadi_export
 
     casadi_export.require_casadi()  # before the derivation, which takes a while
     outputs.check([out], [args.model_file], overwrite=True)  # never over the model file; its own files below
@@ -83,7 +84,7 @@ def _export_casadi(case, out, args) -> int:
 
 def _export_fmu(case, out, args) -> int:
     """``export --format fmu``: the model as an FMU (FMI 2.0 Model Exchange and Co-Simulation) in the file ``out``."""
-    from ..codegen import fmu_export
+    from ..codegen.backends import fmu as fmu_export
 
     outputs.check([out], [args.model_file], overwrite=True)  # never over the model file
     made = case.located(functools.partial(fmu_export.export, case, out, args.inputs or (), args.overwrite,

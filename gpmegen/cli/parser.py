@@ -5,7 +5,9 @@ import argparse
 import difflib
 import re
 
-from ..analysis.run.runspec import METHODS
+from ..analysis.run.runspec import integrator_options
+from ..runtime import integrators
+from ..runtime.integrators.registry import spoken
 from .build import cmd_build, cmd_export
 from .figures import cmd_animate, cmd_plot
 from .runs import cmd_demo, cmd_invert, cmd_simulate, cmd_statics, cmd_sweep
@@ -65,6 +67,10 @@ class Parser(argparse.ArgumentParser):
         return parsed
 
 
+#: The command line's parser of each kind of integrator option (an Option's ``kind``).
+OPTION_KINDS = {"positive": positive_float, "fraction": unit_interval}
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..help_pages import DESCRIPTIONS, EPILOGS
     from ..version import __version__
@@ -76,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
                "done, 1 failure, 2 usage or model error, 130 interrupted.",
     )
     parser.add_argument("--version", action="version", version=f"gpmegen {__version__}")
+    methods = "{" + ",".join(integrators.names()) + "}"
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
 
@@ -141,11 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
                             "every method")
         p.add_argument("--save-every", type=positive_int, default=None,
                        help="keep every k-th step of --dt (default: the steps in 1 ms, at least 1)")
-        p.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
-                       help="integrator, in any case: fixed-step rk4 (the paper's, default), genalpha (implicit, "
-                            "order 2, numerically damped, step --dt, in C), dop853 (adaptive, order 8, in C), radau "
-                            "(implicit, adaptive, order 5, in C: for stiff, finely divided links) or scipy-radau "
-                            "(implicit, SciPy on the model from Python)")
+        p.add_argument("--method", type=method_name, default="rk4", metavar=methods,
+                       help="integrator, in any case: "
+                            + spoken([integrators.get(name).summary for name in integrators.names()]))
         p.add_argument("--backend", choices=("numpy", "c"), default=None,
                        help="generated code to run (default: c when a compiler is present)")
         p.add_argument("--repartition", action="store_true",
@@ -157,13 +162,8 @@ def build_parser() -> argparse.ArgumentParser:
     run_options(s)
     s.add_argument("--save-dt", type=positive_float, default=None,
                    help="save interval in s (default --dt x --save-every); for rk4 a whole number of steps")
-    s.add_argument("--rtol", type=positive_float, default=None,
-                   help="relative tolerance of the adaptive methods (default 1e-8)")
-    s.add_argument("--atol", type=positive_float, default=None,
-                   help="absolute tolerance of the adaptive methods, in the units of q and q' (default 1e-10)")
-    s.add_argument("--rho-inf", type=unit_interval, default=None,
-                   help="genalpha's numerical damping: its spectral radius at large steps, 0 (most damped) to 1 "
-                        "(none; default 0.9)")
+    for option in integrator_options():  # the integrators' own: --rtol, --atol, --rho-inf
+        s.add_argument(option.flag, type=OPTION_KINDS[option.kind], default=None, help=option.help)
     s.add_argument("--out", type=path_argument, default=None,
                    help="results file .npz (default results/<run_nrfe<N> or the file's name>_<start>_<method>.npz)")
     s.add_argument("--overwrite", action="store_true", help="replace the results of an earlier run at --out")
@@ -261,7 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--dt", type=positive_float, default=1e-4, help="with --output: RK4 step in s (default 1e-4)")
     c.add_argument("--save-every", type=positive_int, default=None, help="with --output: keep every k-th step "
                                                                            "(default: the steps in 1 ms, at least 1)")
-    c.add_argument("--method", type=method_name, default="rk4", metavar="{" + ",".join(METHODS) + "}",
+    c.add_argument("--method", type=method_name, default="rk4", metavar=methods,
                    help="with --output: integrator, as for simulate")
     c.add_argument("--backend", choices=("numpy", "c"), default=None,
                    help="with --output: generated code to run (default: c when a compiler is present)")

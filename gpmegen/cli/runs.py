@@ -29,12 +29,12 @@ def _run_and_report(case, spec, backend, overrides, out, overwrite=False, inputs
     from ..analysis.post.results import metadata
     from ..analysis.run import runs
     from ..analysis.run.cases import FileCase
-    from ..runtime import integrate
+    from ..runtime import integrators
 
     check_results_path(out, overwrite, inputs)
     backend = backend or default_backend()
     actuated = spec.actuated if spec.actuated is not None else case.actuators
-    refusal = integrate.compiled_only(spec.method, backend, bool(actuated))
+    refusal = integrators.get(spec.method).refusal(backend, bool(actuated))
     if refusal:
         raise UsageError(refusal)
     done = runs.run(case, spec, backend, overrides, out, progress)
@@ -61,14 +61,15 @@ def _integration(settings: dict, realization: str = "") -> str:
     """How a run was integrated, as its summary says it: the method, its step or tolerances, the
     ``realization`` (", actuated on …" or nothing), the save interval and what it took
     (``settings``: the results' meta settings)."""
-    from ..runtime.integrate import Effort
+    from ..analysis.run.runspec import integrator_options
+    from ..runtime import integrators
+    from ..runtime.integrators import Effort
 
-    if settings["method"] == "rk4":
-        how = f"rk4, dt = {settings['dt']:g} s"
-    elif settings["method"] == "genalpha":
-        how = f"genalpha, dt = {settings['dt']:g} s, rho_inf = {settings['rho_inf']:g}"
-    else:
-        how = f"{settings['method']}, rtol = {settings['rtol']:g}, atol = {settings['atol']:g}"
+    method = integrators.get(settings["method"])
+    step = [f"dt = {settings['dt']:g} s"] if method.fixed_step else []
+    taken = [f"{option.name} = {settings[option.name]:g}" for option in integrator_options()
+             if option in method.options]
+    how = ", ".join([method.name, *step, *taken])
     return f"{how}{realization}; saved every {settings['save_dt']:g} s; {Effort(**settings['effort']).describe()}"
 
 

@@ -8,8 +8,8 @@ import sys
 
 import numpy as np
 
-from ..analysis.run.runspec import METHODS
 from ..errors import ModelError
+from ..runtime import integrators
 
 
 def _count(hint: str):
@@ -88,12 +88,13 @@ def parameter_override(text: str):
 
 def method_name(text: str) -> str:
     """argparse type: an integrator's name in any case (``DOP853`` → ``dop853``)."""
-    by_lower = {method.lower(): method for method in METHODS}
+    methods = integrators.names()
+    by_lower = {method.lower(): method for method in methods}
     if text.lower() in by_lower:
         return by_lower[text.lower()]
     close = difflib.get_close_matches(text.lower(), by_lower, 1)
     hint = f"; did you mean {by_lower[close[0]]}?" if close else ""
-    raise argparse.ArgumentTypeError(f"{text!r} is not an integrator (choose from {', '.join(METHODS)}){hint}")
+    raise argparse.ArgumentTypeError(f"{text!r} is not an integrator (choose from {', '.join(methods)}){hint}")
 
 
 def figure_formats(text: str) -> tuple:

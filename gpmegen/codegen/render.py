@@ -1,114 +1,28 @@
-"""Rendering of the Jinja templates into a generated model folder (:mod:`gpmegen.folder`), and
-the input hash that says whether a folder is up to date."""
+"""Rendering of a model's folder (:mod:`gpmegen.folder`): the model derived once, then each
+backend asked for (:mod:`gpmegen.codegen.backends`) printed and written, and the manifest."""
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import shutil
 import time
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
-
-import jinja2
 
 from .. import limits
 from ..errors import ModelError
-from ..folder import BACKEND_FILES, MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
+from ..folder import MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
 from ..status import SolveStatus
 from ..symbolic import derive
 from ..symbolic.names import SIGNAL_FUNCTION
 from ..symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
 from ..version import __version__
-from .comments import comment_text
-from .functions import arguments, lower, model_functions, prepare_all
-from .printers import CPrinter, PythonPrinter
-
-
-def template_environment() -> jinja2.Environment:
-    """The Jinja environment over the installed ``templates/``."""
-    root = resources.files("gpmegen.templates")
-    env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(root)),
-        undefined=jinja2.StrictUndefined,
-        keep_trailing_newline=True,
-        autoescape=False,
-    )
-    env.filters["repr"] = repr
-    env.filters["comment"] = comment_text
-    env.filters["wrap"] = _wrap
-    return env
-
-
-def _wrap(values, per_line=6, indent=8):
-    """Join code values with commas, ``per_line`` to a line."""
-    values = list(values)
-    lines = [", ".join(values[k:k + per_line]) for k in range(0, len(values), per_line)]
-    return (",\n" + " " * indent).join(lines)
-
-
-GENERATOR_PACKAGES = ("model", "symbolic", "codegen")
-# Readers of model descriptions produce the Model, which is hashed itself.
-NOT_GENERATOR = frozenset({"model/toml_file.py"})
-
-
-@functools.cache
-def generator_digest() -> bytes:
-    """sha256 of the generator itself: the package version, the source of the generator's
-    modules, the templates and the solver library's header (the descriptor model.c fills). Read
-    once per process (they do not change while it runs)."""
-    h = hashlib.sha256()
-    h.update(__version__.encode())
-    package = resources.files("gpmegen")
-    for sub in GENERATOR_PACKAGES:
-        for name in sorted(p.name for p in package.joinpath(sub).iterdir() if p.name.endswith(".py")):
-            if f"{sub}/{name}" in NOT_GENERATOR:
-                continue
-            h.update(f"{sub}/{name}".encode())
-            h.update(package.joinpath(sub, name).read_bytes())
-    root = resources.files("gpmegen.templates")
-    for name in sorted(p.name for p in root.iterdir() if p.name.endswith(".j2")):
-        h.update(name.encode())
-        h.update(root.joinpath(name).read_bytes())
-    h.update(b"csrc/gpmegen_solver.h")
-    h.update(package.joinpath("csrc", "gpmegen_solver.h").read_bytes())
-    return h.digest()
-
-
-def input_hash(model: Model, backends, transforms=DEFAULT_TRANSFORMS, jacobians: bool = False) -> str:
-    """Hash of everything the generated code depends on: the model, the generator
-    (:func:`generator_digest`), the backends, the body transforms and the Jacobians asked for."""
-    h = hashlib.sha256()
-    h.update(repr(model).encode())
-    h.update(generator_digest())
-    h.update(",".join(sorted(backends)).encode())
-    h.update(("transforms:" + ",".join(transforms)).encode())
-    if jacobians:
-        h.update(b"jacobians")
-    return h.hexdigest()[:16]
-
-
-def check_no_signals(model, export: str) -> None:
-    """Refuse, in one line, the export (``export``: what it makes) of a model whose drives read
-    table signals: the tables are read at run time by gpmegen's runtime, which an export leaves
-    behind."""
-    if model is not None and model.signals:
-        names = ", ".join(s.name for s in model.signals)
-        raise ModelError(f"model {model.name}: its drives read the table signals {names}, which gpmegen's runtime "
-                         f"supplies and {export} cannot carry; drive the model through its inputs instead (--inputs)")
-
-
-def check_no_controllers(model, export: str) -> None:
-    """Refuse, in one line, the export (``export``: what it makes) of a model with controller
-    states: their rates are integrated by gpmegen's own integrators, which an export leaves
-    behind."""
-    if model is not None and model.controllers:
-        names = ", ".join(c.state for c in model.controllers)
-        raise ModelError(f"model {model.name}: {export} does not carry controller states ({names}) yet; "
-                         f"simulate it with gpmegen simulate, or write the controller outside the export")
+from . import backends as registry
+from .digest import input_hash
+from .functions import lower, model_functions, prepare_all
+from .templating import model_context, template_environment
 
 
 @dataclass
@@ -121,33 +35,6 @@ class BuildResult:
     files: dict  # file name -> size in bytes
 
 
-def model_context(model: Model, d, digest: str, command: str) -> dict:
-    """What every backend's template says of ``model`` (derived as ``d``): its name and text,
-    sizes, coordinates, parameters and defaults, points, constraints, the generator's version,
-    the input hash and the command that regenerates it, and the arguments' docs."""
-    names = d.chain.model.parameter_names
-    return dict(
-        model=model,
-        version=__version__,
-        input_hash=digest,
-        command=command,
-        n_dof=d.chain.n_dof,
-        coordinates=d.chain.coordinates,
-        parameters=model.parameters,
-        parameter_names=names,
-        controllers=tuple(c.state for c in model.controllers),
-        defaults=tuple(float(p.default) for p in model.parameters),
-        points=d.chain.points,
-        constraints=d.constraints.names,
-        constraint_orders=d.constraints.orders,
-        forces=tuple(f.name for f in model.forces),
-        limited=tuple(coordinate for coordinate, _, _ in d.dynamics.limited),
-        force_points=tuple(tuple(f.points) for f in model.forces),
-        arguments=functools.partial(arguments, n_dof=d.chain.n_dof, n_parameters=len(d.chain.model.p_names),
-                                    n_constraints=len(d.constraints.names)),
-    )
-
-
 def render(model: Model, backends=("numpy",), progress=None, command=None, digest=None,
            transforms=DEFAULT_TRANSFORMS, jacobians: bool = False) -> dict[str, str]:
     """Derive ``model`` and render the requested backends; returns file name -> text.
@@ -155,6 +42,11 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     transforms to generate (:data:`gpmegen.symbolic.transforms.KINDS`); ``jacobians``: with the
     generated derivatives of the GPME residuals (else the C Jacobian is by differences)."""
     say = progress or (lambda msg: None)
+    chosen = [registry.get(name) for name in backends]
+    export = next((b.name for b in chosen if not b.folder), None)
+    if export is not None:
+        raise ModelError(f"the {export} backend is an export, not a part of a model's folder; write it with "
+                         f"'gpmegen export --format {export}'")
     digest = digest or input_hash(model, backends, transforms, jacobians)
     t0 = time.perf_counter()
     n_dof = limits.model_coordinates(model)
@@ -187,16 +79,13 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     env = template_environment()
     files = {}
     signals = context["signals"]
-    printers = {"numpy": PythonPrinter(names, signals), "c": CPrinter(names, signals)}
     say(f"common subexpressions of {len(fns)} functions")
     prepared = prepare_all(fns, d)
-    for backend in backends:
-        say(f"printing the {backend} backend")
-        cache: dict = {}
-        lowered = [lower(fn, d, printers[backend], p, split=backend == "c", cache=cache)
-                   for fn, p in zip(fns, prepared)]
-        for name in BACKEND_FILES[backend]:
-            files[name] = env.get_template(name + ".j2").render(functions=lowered, **context)
+    for backend in chosen:
+        say(f"printing the {backend.name} backend")
+        printer, cache = backend.printer(names, signals), {}
+        lowered = [lower(fn, d, printer, p, split=backend.split, cache=cache) for fn, p in zip(fns, prepared)]
+        files.update(backend.write(env, lowered, context))
     manifest = {
         "model": model.name,
         "gpmegen_version": __version__,
@@ -236,7 +125,7 @@ def build(model: Model, out: Path, backends=("numpy",), force=False, progress=No
 
 def _stale(folder, manifest, digest, backends, transforms, jacobians) -> str | None:
     """Why the build in ``folder`` (its ``manifest``) is not the one asked for; None: it is."""
-    return stale_reason(folder, manifest, digest, [name for b in backends for name in BACKEND_FILES[b]],
+    return stale_reason(folder, manifest, digest, [name for b in backends for name in registry.get(b).files],
                         jacobians, transforms)
 
 
@@ -256,7 +145,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest, tra
             progress(f"{reason}: building it again")
     limits.check_build(limits.model_coordinates(model), model.name, jacobians=jacobians)
     texts = render(model, backends, progress, command, digest, transforms, jacobians)
-    write_folder(folder, texts)
+    write_folder(folder, texts, registry.folder_files())
     return BuildResult(
         model.name, folder, json.loads(texts[MANIFEST])["n_dof"], False, time.perf_counter() - t0,
         {name: len(text.encode()) for name, text in sorted(texts.items())},

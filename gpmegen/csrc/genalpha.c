@@ -20,32 +20,53 @@ static struct genalpha_parameters genalpha_parameters(double rho_inf)
     return c;
 }
 
-/* Newton's iteration matrix S = I - (beta h^2 dq_dx) dqdd/dq - (gamma h dqd_dx) dqdd/dqd at the state
-   (t, q, qd), with c = (1 - alpha_f) / (1 - alpha_m) the change of a per change of qdd, factored
-   into S and pivot. Adds the solves, the Jacobian and the factorization to counts. */
-static int genalpha_matrix(const struct gpmegen_model *model, double t, const double *q, const double *qd, double h,
+/* Newton's iteration matrix at the state y = [q, qd, w, z] at t, for the unknowns qdd_{n+1}
+   (N_DOF) and the controller states z_{n+1} (N_Z; none in most models) of a step h, factored into
+   S (N_R x N_R, N_R = N_DOF + N_Z) and pivot:
+       S = [[I - dq A_q - dqd A_qd, -A_z], [-(h / 2) (dq R_q + dqd R_qd), I - (h / 2) R_z]]
+   (the A of qdd, the R of z's rates, of gpmegen_state_jacobian), with dq = beta h^2 c and
+   dqd = gamma h c the changes of q and qd per change of qdd, c = (1 - alpha_f) / (1 - alpha_m)
+   that of a, and h / 2 the trapezoidal rule's weight of z's rate at the step's end. Adds the
+   solves, the Jacobian and the factorization to counts. */
+static int genalpha_matrix(const struct gpmegen_model *model, double t, const double *y, double h,
                            struct genalpha_parameters c, const double *p, double *S, int *pivot, long *counts)
 {
-    const int N_DOF = model->n_dof;
-    double qdd[N_DOF] ALIGNED, J_qd[N_DOF * N_DOF] ALIGNED;
+    const int N_DOF = model->n_dof, N_Z = model->n_controllers, N_R = N_DOF + N_Z;
+    /* A_q in S itself where S is N_DOF x N_DOF (no controller states): each entry of S is made
+       from the same entry of A_q alone, and the stack keeps one matrix less */
+    double qdd[N_DOF] ALIGNED, A_q_room[N_Z ? N_DOF * N_DOF : 1] ALIGNED, A_qd[N_DOF * N_DOF] ALIGNED;
+    double *const A_q = N_Z ? A_q_room : S;
+    double A_z[AT_LEAST_1(N_DOF * N_Z)] ALIGNED, R_q[AT_LEAST_1(N_Z * N_DOF)] ALIGNED;
+    double R_qd[AT_LEAST_1(N_Z * N_DOF)] ALIGNED, R_z[AT_LEAST_1(N_Z * N_Z)] ALIGNED;
     const double da = (1.0 - c.alpha_f) / (1.0 - c.alpha_m), dq = c.beta * h * h * da, dqd = c.gamma * h * da;
     int status;
-    counts[2] += 4 * N_DOF + 1;
+    counts[2] += 4 * N_DOF + 1 + 2 * N_Z;
     ++counts[3];
-    if ((status = gpmegen_gpme_jacobian(model, t, q, qd, p, qdd, S, J_qd)) != GPMEGEN_OK) {
+    if ((status = gpmegen_state_jacobian(model, t, y, p, qdd, A_q, A_qd, A_z, R_q, R_qd, R_z)) != GPMEGEN_OK) {
         return status;
     }
-    for (int i = 0; i < N_DOF * N_DOF; ++i) {
-        S[i] = -dq * S[i] - dqd * J_qd[i];
-    }
     for (int i = 0; i < N_DOF; ++i) {
-        S[i * N_DOF + i] += 1.0;
+        for (int j = 0; j < N_DOF; ++j) {
+            S[i * N_R + j] = -dq * A_q[i * N_DOF + j] - dqd * A_qd[i * N_DOF + j];
+        }
+        S[i * N_R + i] += 1.0;
+        for (int j = 0; j < N_Z; ++j) {
+            S[i * N_R + N_DOF + j] = -A_z[i * N_Z + j];
+        }
+    }
+    for (int k = 0; k < N_Z; ++k) {
+        for (int j = 0; j < N_DOF; ++j) {
+            S[(N_DOF + k) * N_R + j] = -0.5 * h * (dq * R_q[k * N_DOF + j] + dqd * R_qd[k * N_DOF + j]);
+        }
+        for (int j = 0; j < N_Z; ++j) {
+            S[(N_DOF + k) * N_R + N_DOF + j] = (k == j) - 0.5 * h * R_z[k * N_Z + j];
+        }
     }
     ++counts[4];
-    return gpmegen_lu_factor(N_DOF, S, pivot);
+    return gpmegen_lu_factor(N_R, S, pivot);
 }
 
-/* The state y = [q, qd, w] at t + x h within a step from y0 (rates: qd0, qdd0, powers P0) to y1
+/* The state y = [q, qd, w, z] at t + x h within a step from y0 (rates: qd0, qdd0, powers P0) to y1
    (qd1, qdd1, P1): each part the cubic Hermite interpolant of its values and rates at the ends,
    exact for cubics, so its error O(h^4) stays below the method's O(h^2). */
 static void hermite_state(int N_Y, double x, double h, const double *y0, const double *r0, const double *y1,
@@ -189,7 +210,8 @@ static int project_state(const struct gpmegen_model *model, double t, double *y,
     return GPMEGEN_OK;
 }
 
-/* Newton's iterations stop when max |dqdd| <= NEWTON_TOLERANCE max(1, |qdd|); the matrix is
+/* Newton's iterations stop when the largest increment of qdd and of the controller states z is at
+   most NEWTON_TOLERANCE max(1, |qdd|, |z|); the matrix is
    refreshed when they have not converged after NEWTON_ITERATIONS or converge slower than
    NEWTON_RATE a step, and the step fails when they do not converge with a fresh one. The
    tolerance stays above the round-off of the solve itself: qdd of the reference arm at
@@ -198,15 +220,19 @@ static const double NEWTON_TOLERANCE = 1e-8, NEWTON_RATE = 0.5;
 enum { NEWTON_ITERATIONS = 6 };
 
 /* Generalized-alpha over steps k_from + 1 .. k_to of the grid of gpmegen_rk4 (n_steps steps of dt from
-   t0, the last ending at t_end), with numerical damping rho_inf (0..1), from y_io = [q, qd, w]
-   (N_Y) and a_io (N_DOF), the method's acceleration-like variable (NaN at the start of a run: it
-   starts as qdd there), both replaced by their values at the end of step k_to. Each step solves
+   t0, the last ending at t_end), with numerical damping rho_inf (0..1), from y_io = [q, qd, w, z]
+   (N_Y; z the controller states) and a_io (N_DOF), the method's acceleration-like variable (NaN
+   at the start of a run: it starts as qdd there), both replaced by their values at the end of step
+   k_to. Each step solves
    qdd_{n+1} = a(t_{n+1}, q_{n+1}, qd_{n+1}) with
        q_{n+1}  = q_n + h qd_n + h^2 ((1/2 - beta) a_n + beta a_{n+1}),
        qd_{n+1} = qd_n + h ((1 - gamma) a_n + gamma a_{n+1}),
        (1 - alpha_m) a_{n+1} + alpha_m a_n = (1 - alpha_f) qdd_{n+1} + alpha_f qdd_n
-   by modified Newton (S of genalpha_matrix, kept across steps and chunks while it converges,
-   *have_matrix says whether S and pivot hold one); w by the trapezoidal rule on the powers.
+   and the controller states by the trapezoidal rule (second order as the scheme is on the motion,
+   and A-stable), z_{n+1} = z_n + (h / 2) (r_n + r(t_{n+1}, q_{n+1}, qd_{n+1}, z_{n+1})),
+   solved with qdd_{n+1} in the same modified Newton iteration (S of genalpha_matrix, N_R x N_R,
+   kept across steps and chunks while it converges, *have_matrix says whether S and pivot (N_R)
+   hold one); w by the trapezoidal rule on the powers.
    Saves y at the n_save increasing instants t_save within (t_{k_from}, t_{k_to}] into y_out
    (n_save x N_Y): the step's own state where one ends on it, hermite_state between. With
    project (and constraints of order 0 or 1), each step's end is put back onto the constraints
@@ -219,18 +245,18 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
                      int *have_matrix, long n_save, const double *t_save, const double *p, double *y_out,
                      long *n_saved, long *counts)
 {
-    const int N_DOF = model->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
+    const int N_DOF = model->n_dof, N_Z = model->n_controllers, N_R = N_DOF + N_Z;
+    const int N_Y = 2 * N_DOF + 2 + N_Z, N_MOTION = 2 * N_DOF;
     const struct genalpha_parameters c = genalpha_parameters(rho_inf);
     double y[N_Y] ALIGNED, y_new[N_Y] ALIGNED, r[N_Y] ALIGNED, r_new[N_Y] ALIGNED;
-    double a[N_DOF] ALIGNED, a_new[N_DOF] ALIGNED, x[N_DOF] ALIGNED, dx[N_DOF] ALIGNED, base_q[N_DOF] ALIGNED;
-    double base_qd[N_DOF] ALIGNED;
+    double a[N_DOF] ALIGNED, a_new[N_DOF] ALIGNED, base_q[N_DOF] ALIGNED, base_qd[N_DOF] ALIGNED;
+    /* the unknowns [qdd_{n+1}, z_{n+1}] and their Newton increments; base_z: z_n + (h / 2) r_n */
+    double x[N_R] ALIGNED, dx[N_R] ALIGNED, base_z[AT_LEAST_1(N_Z)] ALIGNED;
+    const int Z = N_MOTION + 2;  /* where z starts in y */
     long j = 0;
     int status;
 
     *n_saved = 0;
-    if (model->n_controllers) {  /* its second-order update does not carry first-order states yet */
-        return GPMEGEN_BAD_ARGUMENTS;
-    }
     if (k_from < 0 || k_to < k_from || n_steps < k_to || !isfinite(t0) || !(dt > 0.0) || !isfinite(t_end)
         || !(rho_inf >= 0.0 && rho_inf <= 1.0) || n_save < 0) {
         return GPMEGEN_BAD_ARGUMENTS;
@@ -260,15 +286,21 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
             base_q[i] = y[i] + h * y[N_DOF + i] + h * h * ((0.5 - c.beta) * a[i] + c.beta * a_known);
             base_qd[i] = y[N_DOF + i] + h * ((1.0 - c.gamma) * a[i] + c.gamma * a_known);
         }
+        for (int k = 0; k < N_Z; ++k) {
+            base_z[k] = y[Z + k] + 0.5 * h * r[Z + k];
+        }
         while (!converged) {
             if (!*have_matrix || fresh) {
-                for (int i = 0; i < N_DOF; ++i) {  /* the Jacobian at the predictor qdd_{n+1} = qdd_n */
+                /* the Jacobian at the predictor qdd_{n+1} = qdd_n, z_{n+1} = z_n + h r_n */
+                for (int i = 0; i < N_DOF; ++i) {
                     y_new[i] = base_q[i] + c.beta * h * h * da * qdd[i];
                     y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * qdd[i];
                 }
+                for (int k = 0; k < N_Z; ++k) {
+                    y_new[Z + k] = y[Z + k] + h * r[Z + k];
+                }
                 *have_matrix = 0;
-                if ((status = genalpha_matrix(model, t_new, y_new, y_new + N_DOF, h, c, p, S, pivot, counts))
-                    != GPMEGEN_OK) {
+                if ((status = genalpha_matrix(model, t_new, y_new, h, c, p, S, pivot, counts)) != GPMEGEN_OK) {
                     return status;
                 }
                 *have_matrix = 1;
@@ -276,11 +308,17 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
             for (int i = 0; i < N_DOF; ++i) {
                 x[i] = qdd[i];
             }
+            for (int k = 0; k < N_Z; ++k) {
+                x[N_DOF + k] = y[Z + k] + h * r[Z + k];
+            }
             double previous = INFINITY;
             for (int iteration = 0; iteration < NEWTON_ITERATIONS; ++iteration) {
                 for (int i = 0; i < N_DOF; ++i) {
                     y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
                     y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+                }
+                for (int k = 0; k < N_Z; ++k) {
+                    y_new[Z + k] = x[N_DOF + k];
                 }
                 ++counts[2];
                 if ((status = gpmegen_state_rate(model, t_new, y_new, p, r_new)) != GPMEGEN_OK) {
@@ -290,8 +328,11 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
                 for (int i = 0; i < N_DOF; ++i) {
                     dx[i] = r_new[N_DOF + i] - x[i];
                 }
-                gpmegen_lu_solve(N_DOF, S, pivot, 1, dx);
-                for (int i = 0; i < N_DOF; ++i) {
+                for (int k = 0; k < N_Z; ++k) {
+                    dx[N_DOF + k] = base_z[k] + 0.5 * h * r_new[Z + k] - x[N_DOF + k];
+                }
+                gpmegen_lu_solve(N_R, S, pivot, 1, dx);
+                for (int i = 0; i < N_R; ++i) {
                     x[i] += dx[i];
                     size = fmax(size, fabs(dx[i]));
                     scale = fmax(scale, fabs(x[i]));
@@ -317,6 +358,9 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
             a_new[i] = (c.alpha_f * qdd[i] - c.alpha_m * a[i] + (1.0 - c.alpha_f) * x[i]) / (1.0 - c.alpha_m);
             y_new[i] = base_q[i] + c.beta * h * h * da * x[i];
             y_new[N_DOF + i] = base_qd[i] + c.gamma * h * da * x[i];
+        }
+        for (int k = 0; k < N_Z; ++k) {
+            y_new[Z + k] = x[N_DOF + k];
         }
         if (project && model->n_constraints > 0
             && (status = project_state(model, t_new, y_new, p, &counts[5])) != GPMEGEN_OK) {

@@ -65,9 +65,9 @@ struct gpmegen_model {
     int redundant_rows;
     /* The controller states z (n_controllers, 0 in a model without, controller_rates then NULL):
        the last entries of p, after its n_parameters parameters, which the generated
-       functions read as they read the parameters; the integrators that carry them (RK4, DOP853)
-       put each stage's z there and integrate z with the motion, as the components of y after the
-       two work integrals; radau and genalpha refuse such a model (GPMEGEN_BAD_ARGUMENTS).
+       functions read as they read the parameters; every integrator puts each stage's z there and
+       integrates z with the motion, as the components of y after the two work integrals (radau
+       and genalpha in their Newton iterations, with the rates' Jacobians by differences).
        controller_rates: dz/dt (n_controllers) at (t, q, qd) and the z in p. */
     int n_parameters, n_controllers;
     void (*controller_rates)(double t, const double *q, const double *qd, const double *p, double *z_rate);

@@ -36,16 +36,20 @@ enum { RADAU_ITERATIONS = 7 };
 static const double RADAU_SAFETY = 0.9, RADAU_KEEP_JACOBIAN = 0.1, RADAU_KEEP_STEP = 1.2;
 static const double RADAU_GROWTH = 8.0, RADAU_SHRINK = 0.2;
 
-/* The Newton matrices of a step h (see radau_solve): with the Jacobian J = [[0, I], [A_q, A_qd]]
-   of [qd, qdd] (the rates of w do not feed back: their rows of J are taken as zero, exact for the
-   stages once q and qd have converged), (s I - J) x = r reduces to the N_DOF system
-   (s^2 I - s A_qd - A_q) x_q = r_qd + (s I - A_qd) r_q, x_qd = s x_q - r_q, x_w = r_w / s. real:
-   that matrix at s = GAMMA / h, LU-factored; re, im: at s = (ALPHA + i BETA) / h, the real and
-   imaginary parts of its complex LU; A_qd kept for the right-hand sides. */
+/* The Newton matrices of a step h (see radau_solve): with the Jacobian
+   J = [[0, I, 0], [A_q, A_qd, A_z], [R_q, R_qd, R_z]] of [qd, qdd, dz/dt] in [q, qd, z] (z the
+   controller states, N_Z of them, and r their rates; the rates of w do not feed back: their rows
+   of J are taken as zero, exact for the stages once the rest has converged), (s I - J) x = r
+   reduces, with x_qd = s x_q - r_q and x_w = r_w / s, to the N_R = N_DOF + N_Z system
+       [[s^2 I - s A_qd - A_q, -A_z], [-R_q - s R_qd, s I - R_z]] [x_q, x_z]
+           = [r_qd + (s I - A_qd) r_q, r_z - R_qd r_q].
+   real: that matrix at s = GAMMA / h, LU-factored; re, im: at s = (ALPHA + i BETA) / h, the real
+   and imaginary parts of its complex LU; A_qd and R_qd kept for the right-hand sides. */
 struct radau_matrices {
-    int n_dof;
-    double *A_qd, *real, *re, *im;  /* N_DOF x N_DOF each */
-    int *real_pivot, *complex_pivot;  /* N_DOF each */
+    int n_dof, n_z;
+    double *A_qd, *real, *re, *im;  /* N_DOF x N_DOF; N_R x N_R each */
+    const double *A_z, *R_q, *R_qd, *R_z;  /* N_DOF x N_Z, N_Z x N_DOF (two), N_Z x N_Z */
+    int *real_pivot, *complex_pivot;  /* N_R each */
     double s_real, s_re, s_im;
 };
 
@@ -132,32 +136,54 @@ static void complex_lu_solve(int n, const double *re, const double *im, const in
    Returns GPMEGEN_OK, or GPMEGEN_SINGULAR / GPMEGEN_NONFINITE of a factorization. */
 static int radau_factor(double h, const double *A_q, struct radau_matrices *m)
 {
-    const int N_DOF = m->n_dof;
+    const int N_DOF = m->n_dof, N_Z = m->n_z, N_R = N_DOF + N_Z;
     const double g = RADAU_GAMMA / h, a = RADAU_ALPHA / h, b = RADAU_BETA / h;
     int status;
     m->s_real = g;
     m->s_re = a;
     m->s_im = b;
-    for (int i = 0; i < N_DOF * N_DOF; ++i) {  /* s^2 I - s A_qd - A_q, s^2 = a^2 - b^2 + 2 a b i */
-        m->real[i] = -g * m->A_qd[i] - A_q[i];
-        m->re[i] = -a * m->A_qd[i] - A_q[i];
-        m->im[i] = -b * m->A_qd[i];
+    for (int i = 0; i < N_DOF; ++i) {  /* s^2 I - s A_qd - A_q, s^2 = a^2 - b^2 + 2 a b i; -A_z */
+        for (int j = 0; j < N_DOF; ++j) {
+            const double A_qd = m->A_qd[i * N_DOF + j], A = A_q[i * N_DOF + j];
+            m->real[i * N_R + j] = -g * A_qd - A;
+            m->re[i * N_R + j] = -a * A_qd - A;
+            m->im[i * N_R + j] = -b * A_qd;
+        }
+        for (int j = 0; j < N_Z; ++j) {
+            m->real[i * N_R + N_DOF + j] = m->re[i * N_R + N_DOF + j] = -m->A_z[i * N_Z + j];
+            m->im[i * N_R + N_DOF + j] = 0.0;
+        }
+        m->real[i * N_R + i] += g * g;
+        m->re[i * N_R + i] += a * a - b * b;
+        m->im[i * N_R + i] += 2.0 * a * b;
     }
-    for (int i = 0; i < N_DOF; ++i) {
-        m->real[i * N_DOF + i] += g * g;
-        m->re[i * N_DOF + i] += a * a - b * b;
-        m->im[i * N_DOF + i] += 2.0 * a * b;
+    for (int k = 0; k < N_Z; ++k) {  /* -R_q - s R_qd; s I - R_z */
+        double *real = m->real + (N_DOF + k) * N_R, *re = m->re + (N_DOF + k) * N_R, *im = m->im + (N_DOF + k) * N_R;
+        for (int j = 0; j < N_DOF; ++j) {
+            const double R_qd = m->R_qd[k * N_DOF + j], R = m->R_q[k * N_DOF + j];
+            real[j] = -R - g * R_qd;
+            re[j] = -R - a * R_qd;
+            im[j] = -b * R_qd;
+        }
+        for (int j = 0; j < N_Z; ++j) {
+            real[N_DOF + j] = re[N_DOF + j] = -m->R_z[k * N_Z + j];
+            im[N_DOF + j] = 0.0;
+        }
+        real[N_DOF + k] += g;
+        re[N_DOF + k] += a;
+        im[N_DOF + k] += b;
     }
-    if ((status = gpmegen_lu_factor(N_DOF, m->real, m->real_pivot)) != GPMEGEN_OK) {
+    if ((status = gpmegen_lu_factor(N_R, m->real, m->real_pivot)) != GPMEGEN_OK) {
         return status;
     }
-    return complex_lu_factor(N_DOF, m->re, m->im, m->complex_pivot);
+    return complex_lu_factor(N_R, m->re, m->im, m->complex_pivot);
 }
 
-/* A_qd times the q part of r (N_DOF). */
+/* A_qd times the q part of r (N_DOF), then R_qd times it (N_Z): the products with r_q of the
+   reduced right-hand sides (out: N_R). */
 static void times_A_qd(const struct radau_matrices *m, const double *r, double *out)
 {
-    const int N_DOF = m->n_dof;
+    const int N_DOF = m->n_dof, N_Z = m->n_z;
     for (int i = 0; i < N_DOF; ++i) {
         double s = 0.0;
         for (int j = 0; j < N_DOF; ++j) {
@@ -165,49 +191,69 @@ static void times_A_qd(const struct radau_matrices *m, const double *r, double *
         }
         out[i] = s;
     }
+    for (int k = 0; k < N_Z; ++k) {
+        double s = 0.0;
+        for (int j = 0; j < N_DOF; ++j) {
+            s += m->R_qd[k * N_DOF + j] * r[j];
+        }
+        out[N_DOF + k] = s;
+    }
 }
 
 /* Solves (s_real I - J) x = r (N_Y, overwritten by x) by the reduction of struct radau_matrices. */
 static void radau_solve_real(const struct radau_matrices *m, double *r)
 {
-    const int N_DOF = m->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
+    const int N_DOF = m->n_dof, N_Z = m->n_z, N_R = N_DOF + N_Z, N_MOTION = 2 * N_DOF;
     const double s = m->s_real;
-    double x[N_DOF] ALIGNED;
+    double x[N_R] ALIGNED, *r_z = r + N_MOTION + 2;
     times_A_qd(m, r, x);
     for (int i = 0; i < N_DOF; ++i) {
         x[i] = r[N_DOF + i] + s * r[i] - x[i];
     }
-    gpmegen_lu_solve(N_DOF, m->real, m->real_pivot, 1, x);
+    for (int k = 0; k < N_Z; ++k) {
+        x[N_DOF + k] = r_z[k] - x[N_DOF + k];
+    }
+    gpmegen_lu_solve(N_R, m->real, m->real_pivot, 1, x);
     for (int i = 0; i < N_DOF; ++i) {
         r[N_DOF + i] = s * x[i] - r[i];
         r[i] = x[i];
     }
-    for (int i = N_MOTION; i < N_Y; ++i) {
-        r[i] /= s;
+    for (int k = 0; k < N_Z; ++k) {
+        r_z[k] = x[N_DOF + k];
     }
+    r[N_MOTION] /= s;
+    r[N_MOTION + 1] /= s;
 }
 
 /* Solves ((s_re + i s_im) I - J) (x + i y) = r + i u (N_Y each, overwritten by x and y). */
 static void radau_solve_complex(const struct radau_matrices *m, double *r, double *u)
 {
-    const int N_DOF = m->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
+    const int N_DOF = m->n_dof, N_Z = m->n_z, N_R = N_DOF + N_Z, N_MOTION = 2 * N_DOF;
     const double a = m->s_re, b = m->s_im;
-    double x[N_DOF] ALIGNED, y[N_DOF] ALIGNED;
+    double x[N_R] ALIGNED, y[N_R] ALIGNED, *r_z = r + N_MOTION + 2, *u_z = u + N_MOTION + 2;
     times_A_qd(m, r, x);
     times_A_qd(m, u, y);
     for (int i = 0; i < N_DOF; ++i) {
         x[i] = r[N_DOF + i] + a * r[i] - b * u[i] - x[i];
         y[i] = u[N_DOF + i] + a * u[i] + b * r[i] - y[i];
     }
-    complex_lu_solve(N_DOF, m->re, m->im, m->complex_pivot, x, y);
+    for (int k = 0; k < N_Z; ++k) {
+        x[N_DOF + k] = r_z[k] - x[N_DOF + k];
+        y[N_DOF + k] = u_z[k] - y[N_DOF + k];
+    }
+    complex_lu_solve(N_R, m->re, m->im, m->complex_pivot, x, y);
     for (int i = 0; i < N_DOF; ++i) {
         r[N_DOF + i] = a * x[i] - b * y[i] - r[i];
         u[N_DOF + i] = a * y[i] + b * x[i] - u[i];
         r[i] = x[i];
         u[i] = y[i];
     }
+    for (int k = 0; k < N_Z; ++k) {
+        r_z[k] = x[N_DOF + k];
+        u_z[k] = y[N_DOF + k];
+    }
     const double size = a * a + b * b;
-    for (int i = N_MOTION; i < N_Y; ++i) {
+    for (int i = N_MOTION; i < N_MOTION + 2; ++i) {
         const double re = (r[i] * a + u[i] * b) / size;
         u[i] = (u[i] * a - r[i] * b) / size;
         r[i] = re;
@@ -254,12 +300,19 @@ static void radau_dense_value(int N_Y, double x, double h, const double *y0, con
     }
 }
 
+/* The place in y = [q, qd, w, z] of the e-th component of the error norms (N_Y - 2 of them: q, qd
+   and the controller states z, not the works w). */
+static inline int error_component(int N_MOTION, int e)
+{
+    return e < N_MOTION ? e : e + 2;
+}
+
 /* The outcome of Newton's iterations on one step (radau_newton). */
 enum radau_newton { RADAU_CONVERGED, RADAU_DIVERGED, RADAU_SLOW };
 
 /* Simplified Newton for the stage increments z (3 x N_Y) of the step (t, y) -> t + h, from their
    starting values in z and w = TI z (3 x N_Y each, both updated), with the factored matrices m;
-   rates: room for the stages' rates (3 x N_Y). scale (N_MOTION): the error weights; tolerance:
+   rates: room for the stages' rates (3 x N_Y). scale (N_Y - 2, see error_component): the error weights; tolerance:
    the iterations' stopping tolerance. *theta: the last contraction rate (RADAU_KEEP_JACOBIAN when
    one iteration sufficed), *faccon: Hairer's theta / (1 - theta), carried from step to step;
    *iterations: the iterations done. On RADAU_SLOW, *shrink: the step's factor Hairer's estimate
@@ -270,7 +323,7 @@ static enum radau_newton radau_newton(const struct gpmegen_model *model, int N_Y
                                       double *theta, double *faccon, int *iterations, double *shrink, long *counts,
                                       int *status)
 {
-    const int N_MOTION = N_Y - 2;
+    const int N_MOTION = 2 * model->n_dof, N_ERROR = N_Y - 2;
     const double nodes[3] ALIGNED = { RADAU_C1, RADAU_C2, 1.0 };
     double ys[N_Y] ALIGNED, dw[3][N_Y] ALIGNED, previous = 0.0, previous_rate = 0.0;
     *faccon = pow(fmax(*faccon, DBL_EPSILON), 0.8);
@@ -301,11 +354,12 @@ static enum radau_newton radau_newton(const struct gpmegen_model *model, int N_Y
         radau_solve_complex(m, dw[1], dw[2]);
         double size = 0.0;
         for (int k = 0; k < 3; ++k) {
-            for (int i = 0; i < N_MOTION; ++i) {
-                size += (dw[k][i] / scale[i]) * (dw[k][i] / scale[i]);
+            for (int e = 0; e < N_ERROR; ++e) {
+                const int i = error_component(N_MOTION, e);
+                size += (dw[k][i] / scale[e]) * (dw[k][i] / scale[e]);
             }
         }
-        size = sqrt(size / (3 * N_MOTION));
+        size = sqrt(size / (3 * N_ERROR));
         *iterations = newt;
         if (!isfinite(size)) {
             return RADAU_DIVERGED;
@@ -344,39 +398,44 @@ static enum radau_newton radau_newton(const struct gpmegen_model *model, int N_Y
    the next to go on from, bit for bit as if it had not stopped (see gpmegen_dop853): the
    Jacobian and the LUs kept, the last step's collocation polynomial (cont), the state and its
    rate, and the step control's memory. started: 0 (all zero bytes) before a span's first call.
-   The memory holds a struct radau_place, then the doubles of radau_kept_doubles() (A_qd, real, re,
-   im and A_q, N_DOF x N_DOF each; y, f0, N_Y each; cont, 3 x N_Y), then the pivots (2 x N_DOF). */
+   The memory holds a struct radau_place, then the doubles of radau_kept_doubles() (A_qd, N_DOF x
+   N_DOF; real, re, im, N_R x N_R each (N_R = N_DOF + N_Z); A_q, N_DOF x N_DOF; A_z, R_q, R_qd,
+   N_DOF x N_Z each; R_z, N_Z x N_Z; y, f0, N_Y each; cont, 3 x N_Y), then the pivots (2 x N_R). */
 struct radau_place {
     double t, h_factored, h_cont, h_accepted, err_accepted, theta, faccon, s_real, s_re, s_im;
     long k;
     int have_jacobian, fresh_jacobian, have_cont, rejected, accepted, failure, chosen, started;
 };
 
-static size_t radau_kept_doubles(int n_dof)
+static size_t radau_kept_doubles(int n_dof, int n_z)
 {
-    return 5 * (size_t)n_dof * (size_t)n_dof + 5 * (size_t)(2 * n_dof + 2);
+    const size_t n = (size_t)n_dof, z = (size_t)n_z, r = n + z;
+    return 2 * n * n + 3 * r * r + 3 * n * z + z * z + 5 * (2 * n + 2 + z);
 }
 
 /* The bytes of the memory, which the caller holds between calls. */
 long gpmegen_radau_memory_bytes(const struct gpmegen_model *model)
 {
-    return (long)(sizeof(struct radau_place) + radau_kept_doubles(model->n_dof) * sizeof(double)
-                  + 2 * (size_t)model->n_dof * sizeof(int));
+    return (long)(sizeof(struct radau_place)
+                  + radau_kept_doubles(model->n_dof, model->n_controllers) * sizeof(double)
+                  + 2 * (size_t)(model->n_dof + model->n_controllers) * sizeof(int));
 }
 
-/* Radau IIA of order 5 from t_a and y_a = [q, qd, w] (N_Y) to t_save[n_save - 1], saving y at the
+/* Radau IIA of order 5 from t_a and y_a = [q, qd, w, z] (N_Y; z the controller states, integrated
+   with the motion in the same implicit system) to t_save[n_save - 1], saving y at the
    n_save increasing instants t_save (after t_a) into y_out (n_save x N_Y): the step's own state
    where a step ends on one (always the last), radau_dense_value between. Hairer's
-   RADAU5: simplified Newton in the transformed real and complex systems (reduced to N_DOF ones,
-   struct radau_matrices), from the previous step's collocation polynomial; the embedded error
+   RADAU5: simplified Newton in the transformed real and complex systems (reduced to N_DOF + N_Z
+   ones, struct radau_matrices), from the previous step's collocation polynomial; the embedded error
    estimate filtered by (GAMMA / h I - J)^-1 (and, on the first step or after a rejection,
-   once more through a rate), in the root mean square over q and qd of err / (atol' + rtol' |y|)
+   once more through a rate), in the root mean square over q, qd and z of err / (atol' + rtol' |y|)
    below 1, with rtol' = 1e-3^(1/5) rtol^(4/5), atol' = atol rtol' / rtol: the estimate is
    O(h^4), the error it leaves after many steps O(h^5), so the latter follows rtol (Hairer's
    0.1 rtol^(2/3), equal at rtol 1e-3, counts the local error, O(h^6), and let the error against
    an exact linear motion grow from 2 to 40 rtol between rtol 1e-4 and 1e-10; this one keeps it
    at 1.6 to 3 rtol); Gustafsson's predictive step control; the
-   Jacobian of gpmegen_gpme_jacobian kept while Newton contracts fast, the LUs while the step is kept.
+   Jacobian of gpmegen_state_jacobian (the controller states' blocks by differences) kept while
+   Newton contracts fast, the LUs while the step is kept.
    *h, max_steps, memory (gpmegen_radau_memory_bytes()) and counts (5: steps, rejected steps (by the
    error or Newton's failure), GPME solves, Jacobians, LU factorizations, the real and the
    complex one each counting) as for dop853.
@@ -388,18 +447,21 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
                   double rtol, double atol, double *h, long max_steps, void *memory, const double *p, double *y_out,
                   long *n_saved, long *counts)
 {
-    const int N_DOF = model->n_dof, N_Y = 2 * N_DOF + 2, N_MOTION = 2 * N_DOF;
-    const size_t n_kept = radau_kept_doubles(N_DOF), nn = (size_t)N_DOF * (size_t)N_DOF;
-    const size_t kept_bytes = n_kept * sizeof(double), pivot_bytes = 2 * (size_t)N_DOF * sizeof(int);
+    const int N_DOF = model->n_dof, N_Z = model->n_controllers, N_R = N_DOF + N_Z;
+    const int N_Y = 2 * N_DOF + 2 + N_Z, N_MOTION = 2 * N_DOF, N_ERROR = N_Y - 2;
+    const size_t n_kept = radau_kept_doubles(N_DOF, N_Z), nn = (size_t)N_DOF * (size_t)N_DOF;
+    const size_t rr = (size_t)N_R * (size_t)N_R, nz = (size_t)N_DOF * (size_t)N_Z;
+    const size_t kept_bytes = n_kept * sizeof(double), pivot_bytes = 2 * (size_t)N_R * sizeof(int);
     struct radau_place run;
     double kept[n_kept] ALIGNED;
-    int kept_pivots[2 * N_DOF] ALIGNED;
-    struct radau_matrices matrices = { N_DOF, kept, kept + nn, kept + 2 * nn, kept + 3 * nn, kept_pivots,
-                                       kept_pivots + N_DOF, 0.0, 0.0, 0.0 };
-    double qdd[N_DOF] ALIGNED, y_new[N_Y] ALIGNED, scale[N_MOTION] ALIGNED;
+    int kept_pivots[2 * N_R] ALIGNED;
+    double *const A_q = kept + nn + 3 * rr, *const A_z = A_q + nn, *const R_q = A_z + nz, *const R_qd = R_q + nz;
+    double *const R_z = R_qd + nz, *const y = R_z + (size_t)N_Z * (size_t)N_Z, *const f0 = y + N_Y;
+    struct radau_matrices matrices = { N_DOF, N_Z, kept, kept + nn, kept + nn + rr, kept + nn + 2 * rr,
+                                       A_z, R_q, R_qd, R_z, kept_pivots, kept_pivots + N_R, 0.0, 0.0, 0.0 };
+    double qdd[N_DOF] ALIGNED, y_new[N_Y] ALIGNED, scale[N_ERROR] ALIGNED;
     double z[3][N_Y] ALIGNED, w[3][N_Y] ALIGNED, rates[3][N_Y] ALIGNED;
     double err[N_Y] ALIGNED, ys[N_Y] ALIGNED;
-    double *const A_q = kept + 4 * nn, *const y = A_q + nn, *const f0 = y + N_Y;
     double (*const cont)[N_Y] = (double (*)[N_Y])(f0 + N_Y);
     double t = t_a, h_factored = 0.0, h_cont = 0.0, h_accepted = 0.0, err_accepted = 0.0;
     double theta = 0.0, faccon = 1.0;
@@ -408,9 +470,6 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
     long k = 0, taken = 0;
 
     *n_saved = 0;
-    if (model->n_controllers) {  /* its Newton iteration and state do not hold controller states yet */
-        return GPMEGEN_BAD_ARGUMENTS;
-    }
     if (n_save < 1 || !isfinite(t_a) || !(rtol > 0.0) || !(atol >= 0.0) || !isfinite(*h) || max_steps < 0
         || (max_steps > 0 && memory == NULL)) {
         return GPMEGEN_BAD_ARGUMENTS;
@@ -476,9 +535,10 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
             return failure;
         }
         if (!have_jacobian) {
-            counts[2] += gpmegen_jacobian_solves(model);
+            counts[2] += gpmegen_state_jacobian_solves(model);
             ++counts[3];
-            if ((status = gpmegen_gpme_jacobian(model, t, y, y + N_DOF, p, qdd, A_q, matrices.A_qd)) != GPMEGEN_OK) {
+            if ((status = gpmegen_state_jacobian(model, t, y, p, qdd, A_q, matrices.A_qd, A_z, R_q, R_qd, R_z))
+                != GPMEGEN_OK) {
                 return status;
             }
             have_jacobian = fresh_jacobian = 1;
@@ -492,8 +552,9 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
             h_factored = (status = radau_factor(step, A_q, &matrices)) == GPMEGEN_OK ? step : 0.0;
         }
         if (h_factored == step) {
-            for (int i = 0; i < N_MOTION; ++i) {
-                scale[i] = error_scale(tol, abs_tol, y[i], y[i]);
+            for (int e = 0; e < N_ERROR; ++e) {
+                const double y_e = y[error_component(N_MOTION, e)];
+                scale[e] = error_scale(tol, abs_tol, y_e, y_e);
             }
             /* the starting values: the last step's collocation polynomial, extrapolated */
             for (int s = 0; s < 3; ++s) {
@@ -531,10 +592,11 @@ int gpmegen_radau(const struct gpmegen_model *model, double t_a, const double *y
             }
             radau_solve_real(&matrices, err);
             error = 0.0;
-            for (int i = 0; i < N_MOTION; ++i) {
-                error += (err[i] / scale[i]) * (err[i] / scale[i]);
+            for (int e = 0; e < N_ERROR; ++e) {
+                const int i = error_component(N_MOTION, e);
+                error += (err[i] / scale[e]) * (err[i] / scale[e]);
             }
-            error = fmax(sqrt(error / N_MOTION), 1e-10);
+            error = fmax(sqrt(error / N_ERROR), 1e-10);
             if (pass || error < 1.0 || !((chosen && accepted == 0) || rejected) || !isfinite(error)) {
                 break;
             }

@@ -54,7 +54,7 @@ static inline int all_finite(const double *x, int n)
     return 1;
 }
 
-/* Time at the end of step k of the grid, the one gpmegen.runtime.integrate.grid defines: step
+/* Time at the end of step k of the grid, the one gpmegen.runtime.integrators.loop.grid defines: step
    k = 1 .. n_steps ends at t0 + k dt (no accumulated round-off in t), the last at t_end. */
 static inline double grid_time(double t0, double dt, long n_steps, double t_end, long k)
 {
@@ -84,5 +84,13 @@ GPMEGEN_HIDDEN int gpmegen_elimination_step(int n_dof, double *D, double *c, int
 GPMEGEN_HIDDEN int gpmegen_lu_factor(int n, double *a, int *piv);
 GPMEGEN_HIDDEN void gpmegen_lu_solve(int n, const double *a, const int *piv, int k, double *b);
 GPMEGEN_HIDDEN long gpmegen_jacobian_solves(const struct gpmegen_model *model);
+/* controllers.c: p with the controller states z in place; the Jacobian of the whole rate
+   (mechanics and controller states) at y = [q, qd, w, z] and the GPME solves it takes. */
+GPMEGEN_HIDDEN void gpmegen_with_controllers(const struct gpmegen_model *model, const double *p, const double *z,
+                                             double *out);
+GPMEGEN_HIDDEN int gpmegen_state_jacobian(const struct gpmegen_model *model, double t, const double *y,
+                                          const double *p, double *qdd, double *A_q, double *A_qd, double *A_z,
+                                          double *R_q, double *R_qd, double *R_z);
+GPMEGEN_HIDDEN long gpmegen_state_jacobian_solves(const struct gpmegen_model *model);
 
 #endif

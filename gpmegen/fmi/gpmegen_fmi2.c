@@ -1,7 +1,7 @@
 /* gpmegen's FMU: the FMI 2.0 functions of Model Exchange and Co-Simulation, served by a model's
    generated C (model.c, its functions declared in model.h) and gpmegen's solver library (the
    GPME's dense solve, RK4, DOP853). What differs between models is in fmu_model.h, written by
-   gpmegen.codegen.fmu_export: the sizes, the model's function names, the value references, the
+   gpmegen.codegen.backends.fmu: the sizes, the model's function names, the value references, the
    start values and the GUID of modelDescription.xml.
 
    The model's exported names are <model name>_<function>: no name here ends like one of those
@@ -34,7 +34,7 @@
 #define METHOD_RK4 0
 #define METHOD_DOP853 1
 /* Relative difference of a communication step from a whole number of integrator steps taken as
-   round-off (gpmegen.runtime.integrate.STEP_ROUND_OFF). */
+   round-off (gpmegen.runtime.integrators.loop.STEP_ROUND_OFF). */
 #define STEP_ROUND_OFF 1e-6
 
 enum fmu_phase { INSTANTIATED, INITIALIZATION, STEPPING, TERMINATED, FAILED };
@@ -609,7 +609,7 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component component, const fmi2Value
 }
 
 /* Whole steps of dt over h, and one shorter last step where h is not a whole number of them (the
-   grid of gpmegen.runtime.integrate.grid). */
+   grid of gpmegen.runtime.integrators.loop.grid). */
 static long steps_over(double h, double dt)
 {
     const double steps = h / dt;

@@ -2,7 +2,7 @@
 backend: its solve at one state and its RK4 loop. On the C backend both run in the model's
 library (``gpmegen/csrc/actuated.c``: the ``(n + m)``-row system by dense LU in every stage);
 on the NumPy backend the solve is :func:`gpmegen.runtime.gpme.actuated` and the loop
-:func:`gpmegen.runtime.integrate.rk4_steps`, the check of the compiled one.
+:func:`gpmegen.runtime.integrators.rk4.rk4_steps`, the check of the compiled one.
 """
 
 from __future__ import annotations
@@ -11,7 +11,9 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..status import SolveStatus
-from . import gpme, integrate
+from . import gpme
+from .integrators.loop import Grid, state_derivative
+from .integrators.rk4 import rk4_steps
 
 
 def actuation(model, t: float, q, qd) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -51,13 +53,13 @@ def _indices(model):
     return model.evaluator.ffi.from_buffer("int[]", np.array(list(model.actuators) or [0], dtype=np.intc))
 
 
-def rk4(model, g: integrate.Grid, k_from: int, k_to: int, save_every: int, y0: np.ndarray):
+def rk4(model, g: Grid, k_from: int, k_to: int, save_every: int, y0: np.ndarray):
     """Steps ``k_from + 1 … k_to`` of classical RK4 on grid ``g`` of ``model``'s actuated
     realization from the augmented state ``y0`` (``[q, q̇, w, z]``, the second work that of the
     inputs), in the compiled loop on the C backend and in Python on the NumPy one. Returns
-    ``(t, y, status)`` as :func:`gpmegen.runtime.integrate.rk4_steps`."""
+    ``(t, y, status)`` as :func:`gpmegen.runtime.integrators.rk4.rk4_steps`."""
     if model.backend != "c":
-        return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
+        return rk4_steps(state_derivative(model), y0, g, k_from, k_to, save_every)
     evaluator = model.evaluator
     evaluator._check_stack("actuated_rk4")
     n = model.n_dof

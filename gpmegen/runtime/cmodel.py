@@ -17,7 +17,8 @@ import numpy as np
 from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
-from . import ccompile, cprobe, cstack, fastcall, integrate
+from . import ccompile, cprobe, cstack, fastcall
+from .integrators.base import ADAPTIVE_COUNTS, COUNTS
 from .model import TRANSFORM_FUNCTIONS, LoadedModel, NumpyEvaluator, vector
 
 #: The number of coordinates from which a single fast call lets other threads run while its C
@@ -431,7 +432,7 @@ class CEvaluator:
         from ``first`` (the rows the calls before saved) on."""
         dep, ind = self._partition_pointers(model)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
-        self._check_counts(counts, integrate.ADAPTIVE_COUNTS)
+        self._check_counts(counts, ADAPTIVE_COUNTS)
         if max_steps and (memory is None or memory.dtype != np.uint8 or not memory.flags.c_contiguous):
             raise TypeError("a call with max_steps needs its memory: contiguous uint8 from loop_memory()")
         y_out = np.empty((len(t_save), len(y_a)))
@@ -445,7 +446,7 @@ class CEvaluator:
     def genalpha(self, model, g, k_from, k_to, rho_inf, project, y, memory, t_save, counts):
         self._check_stack("genalpha")
         dep, ind = self._partition_pointers(model)
-        self._check_counts(counts, integrate.COUNTS)
+        self._check_counts(counts, COUNTS)
         t_save = np.ascontiguousarray(t_save, dtype=float)
         y_out = np.empty((len(t_save), len(y)))
         n_saved = self.ffi.new("long *")
@@ -453,6 +454,10 @@ class CEvaluator:
         if not (y.flags.c_contiguous and y.dtype == float and S.flags.c_contiguous and pivot.dtype == np.intc
                 and have.dtype == np.intc):
             raise TypeError("y and S must be contiguous float64, pivot and have intc")
+        n_r = self.n + self.n_controllers   # Newton's unknowns: q̈ and the controller states
+        if S.shape != (n_r, n_r) or pivot.shape != (n_r,) or len(y) != 2 * self.n + 2 + self.n_controllers:
+            raise ValueError(f"genalpha needs y ({2 * self.n + 2 + self.n_controllers},), S ({n_r}, {n_r}) and "
+                             f"pivot ({n_r},), got {len(y)}, {S.shape}, {pivot.shape}")
         status = self.lib.genalpha(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, rho_inf, int(bool(project)),
                                    self._ptr(y),
                                    self._ptr(memory["a"]), self._ptr(S), self.ffi.from_buffer("int[]", pivot),
@@ -464,7 +469,7 @@ class CEvaluator:
 
     def _check_stack(self, call):
         """Refuse in one line a call of the solver library that would overflow the stack."""
-        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name)
+        cstack.check(call, self.n, self.m, self._exact_jacobians, self.model_name, self.n_controllers)
 
     def _check_counts(self, counts, size):
         if counts.dtype != np.int64 or self.ffi.sizeof("long") != 8 or len(counts) < size:

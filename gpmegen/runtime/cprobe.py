@@ -27,7 +27,7 @@ import numpy as np
 from ..errors import BuildError
 from .ccompile import HEADER, declarations, open_library, short_names
 from .gpme import choose_dependent
-from .integrate import ADAPTIVE_COUNTS, COUNTS
+from .integrators.base import ADAPTIVE_COUNTS, COUNTS
 from .numpy_module import import_numpy_module
 
 #: Seconds the child may take: it calls each function a few times, so anything longer is a hang.
@@ -154,7 +154,8 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
                                    ind, doubles(np.zeros(2 * n_y)), n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
         say("genalpha")
         lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, np.zeros(2 + n_z)])),
-                     doubles(np.full(n, np.nan)), doubles(np.zeros(n * n)), ffi.new("int[]", n), ffi.new("int[]", 1),
+                     doubles(np.full(n, np.nan)), doubles(np.zeros((n + n_z) ** 2)), ffi.new("int[]", n + n_z),
+                     ffi.new("int[]", 1),
                      1, doubles([t + 1.5e-4]), doubles(p), dep, ind, doubles(np.zeros(n_y)), n_saved,
                      ffi.new("long[]", COUNTS))
     batch = {"t": [t for t, _, _ in states], "q": [q for _, q, _ in states], "qd": [qd for _, _, qd in states],

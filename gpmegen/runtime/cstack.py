@@ -28,12 +28,13 @@ RESERVE = 512 * 1024
 CALLS = ("solve", "jacobian", "rk4", "dop853", "radau", "genalpha", "actuated", "actuated_rk4")
 
 
-def call_bytes(call: str, n: int, m: int, exact_jacobians: bool) -> int:
+def call_bytes(call: str, n: int, m: int, exact_jacobians: bool, z: int = 0) -> int:
     """Bytes of stack (an upper bound, without :data:`RESERVE`) of the library's ``call`` (one of
-    :data:`CALLS`) for a model of ``n`` coordinates and ``m`` constraints; ``exact_jacobians``:
-    built with its residual Jacobians (``--jacobians``: the Jacobian solves one system of
-    ``n + m`` rows for ``2 n`` columns, else it takes central differences)."""
-    ny = 2 * n + 2
+    :data:`CALLS`) for a model of ``n`` coordinates, ``m`` constraints and ``z`` controller states;
+    ``exact_jacobians``: built with its residual Jacobians (``--jacobians``: the Jacobian solves one
+    system of ``n + m`` rows for ``2 n`` columns, else it takes central differences)."""
+    ny = 2 * n + 2 + z
+    r = n + z   # the implicit loops' Newton unknowns
     solve = n * n + 3 * m * n + 2 * m + 8 * (n + m) + 8          # gpme.c: L, or D, X, W and R
     recursive = 32 * n + 2 * m * n + m * m + 8 * m + n * n + n + solve   # recursive.c.j2, its dense fallback
     if exact_jacobians:   # jacobian.c: exact_jacobian, and independent_rows (Q, basis) for redundant rows
@@ -41,6 +42,8 @@ def call_bytes(call: str, n: int, m: int, exact_jacobians: bool) -> int:
                     + recursive)
     else:                                                         # jacobian.c: differenced_jacobian
         jacobian = 4 * n + recursive
+    if z:   # controllers.c: the state's copy and the rates' differences around the GPME Jacobian
+        jacobian += 4 * n + 2 * z
     actuated = (n + m) ** 2 + 2 * n * n + 2 * m * n + 8 * (n + m) + 8   # actuated.c: A, x, the terms; a stage's M
     doubles = {
         "actuated": actuated,
@@ -49,8 +52,10 @@ def call_bytes(call: str, n: int, m: int, exact_jacobians: bool) -> int:
         "jacobian": jacobian,
         "rk4": 12 * n + 8 + n + recursive,                        # rk4.c: the loop, a stage
         "dop853": 35 * ny + n + recursive,                        # dop853.c: K, F, the states, a rate
-        "radau": 5 * n * n + 25 * ny + 3 * n + jacobian,          # radau.c: kept, the stages, the Jacobian
-        "genalpha": 4 * ny + 8 * n + n * n + 2 * m * n + 3 * m + jacobian,   # genalpha.c
+        # radau.c: kept (the Jacobian's blocks, the three LUs of r x r), the stages, the Jacobian
+        "radau": 2 * n * n + 3 * r * r + 3 * n * z + z * z + 25 * ny + 3 * r + jacobian,
+        # genalpha.c: the states, the Newton iteration, dq''/dqd (and dq''/dq with controller states)
+        "genalpha": 4 * ny + 8 * r + (2 if z else 1) * n * n + 3 * n * z + z * z + 2 * m * n + 3 * m + jacobian,
     }[call]
     return 8 * doubles
 
@@ -63,11 +68,12 @@ def stack_limit() -> int | None:
     return None if soft == resource.RLIM_INFINITY else int(soft)
 
 
-def check(call: str, n: int, m: int, exact_jacobians: bool, model: str) -> None:
+def check(call: str, n: int, m: int, exact_jacobians: bool, model: str, z: int = 0) -> None:
     """Raise :class:`gpmegen.limits.LimitError` in one line when the library's ``call`` on the
-    model ``model`` (``n`` coordinates, ``m`` constraints) needs more stack than the limit."""
+    model ``model`` (``n`` coordinates, ``m`` constraints, ``z`` controller states) needs more
+    stack than the limit."""
     limit = stack_limit()
-    need = call_bytes(call, n, m, exact_jacobians) + RESERVE
+    need = call_bytes(call, n, m, exact_jacobians, z) + RESERVE
     if limit is not None and need > limit:
         raise LimitError(
             f"model {model} (n_dof = {n}): the C solver's {call} keeps about {need / 2**20:.1f} MiB of scratch "

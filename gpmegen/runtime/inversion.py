@@ -24,7 +24,7 @@ from scipy.integrate import solve_bvp
 
 from ..errors import SimulationError
 from . import internal
-from .integrate import PROGRESS_LINES
+from .integrators.loop import PROGRESS_LINES
 
 # Relative step of the differences of the actuated equations.
 STEP = 1e-7
@@ -151,7 +151,7 @@ def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6, pro
     motion at rest before ``t0`` and after ``t1`` (s), on ``[t0 - pre, t1 + post]`` with
     ``nodes`` mesh points at first and the BVP's relative residual ``tol``; ``q_guess`` (n,)
     starts the Newton search of the rest states. ``progress`` (a callable taking one line) is
-    told the mesh the solver works on, every :data:`gpmegen.runtime.integrate.PROGRESS_LINES` s."""
+    told the mesh the solver works on, every :data:`gpmegen.runtime.integrators.loop.PROGRESS_LINES` s."""
     n = model.n_dof
     rhs = _rhs(model)
     ta, tb = t0 - pre, t1 + post

@@ -20,7 +20,6 @@ from .numpy_module import import_numpy_module
 #: beside the package).
 CHECKOUT = Path(__file__).resolve().parents[2]
 CHECKOUT = CHECKOUT if (CHECKOUT / "pyproject.toml").is_file() and (CHECKOUT / "generated").is_dir() else None
-BACKENDS = ("numpy", "c")
 
 
 def default_directory() -> Path:
@@ -38,10 +37,29 @@ def default_directory() -> Path:
     return Path("generated")
 
 
+def _open_numpy(module, params, folder, rebuild, requirements, progress) -> LoadedModel:
+    return LoadedModel(module, params, "numpy", folder, requirements)
+
+
+def _open_c(module, params, folder, rebuild, requirements, progress) -> LoadedModel:
+    from .cmodel import CModel  # cffi and the C compiler, needed on the C backend only
+
+    return CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
+
+
+#: How the runtime opens each backend a folder holds, keyed by the names of
+#: :mod:`gpmegen.codegen.backends` (which codegen renders; the runtime does not import codegen):
+#: each takes the folder's verified NumPy module (the model's constants), the parameter
+#: values, the folder, the rebuild command, the requirements and ``progress``.
+OPENERS = {"numpy": _open_numpy, "c": _open_c}
+#: The backends a model is opened on (and so built for).
+BACKENDS = tuple(OPENERS)
+
+
 def check_backend(backend: str) -> str:
-    """``backend`` when it is one gpmegen has, else ModelError."""
-    if backend not in BACKENDS:
-        raise ModelError(f"unknown backend {backend!r}; use 'numpy' or 'c'")
+    """``backend`` when it is one the runtime opens, else ModelError."""
+    if backend not in OPENERS:
+        raise ModelError(f"unknown backend {backend!r}; use {' or '.join(map(repr, OPENERS))}")
     return backend
 
 
@@ -73,11 +91,7 @@ def open_folder(folder: Path, backend: str = "numpy", params: Mapping[str, float
     if digest is not None and getattr(module, "INPUT_HASH", None) != digest:
         raise StaleModelError(f"{folder}/model_numpy.py does not match its model; rebuild it with "
                               f"'{rebuild} --force'")
-    if backend == "c":
-        from .cmodel import CModel  # cffi and the C compiler, needed on the C backend only
-        loaded = CModel(module, params, folder=folder, rebuild=rebuild, requirements=requirements, progress=progress)
-    else:
-        loaded = LoadedModel(module, params, "numpy", folder, requirements)
+    loaded = OPENERS[backend](module, params, folder, rebuild, requirements, progress)
     return with_tables(loaded, folder) if loaded.signal_names else loaded
 
 

@@ -23,8 +23,10 @@ from ..errors import BuildError, EvaluationError, ModelError, SimulationError
 from ..model.requirements import first_violation
 from ..status import SolveStatus
 from ..symbolic.names import SIGNAL_FUNCTION
-from . import actuated, finite, gpme, integrate, jacobians, signals
+from . import actuated, finite, gpme, integrators, jacobians, signals
 from .batch import is_batch, rows, stacked, states
+from .integrators import loop
+from .integrators.rk4 import rk4_steps
 from .partition import partition_at
 from .signals import Table
 
@@ -152,11 +154,11 @@ class Evaluator(Protocol):
     def acceleration_jacobians(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Three:
         """(q̈ (n,), ∂q̈/∂q, ∂q̈/∂q̇ (n, n)) of the GPME."""
 
-    def rk4(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, save_every: int,
+    def rk4(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, save_every: int,
             y0: Array) -> tuple[Array, Array, SolveStatus]:
         """Steps ``k_from + 1 … k_to`` of RK4 on ``g`` from the augmented state ``y0``
         (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
-        :func:`gpmegen.runtime.integrate.rk4_steps`."""
+        :func:`gpmegen.runtime.integrators.rk4.rk4_steps`."""
 
     def dop853(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
                step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
@@ -168,7 +170,7 @@ class Evaluator(Protocol):
               first: int = 0) -> tuple[Array, SolveStatus]:
         """See :meth:`LoadedModel.radau` (compiled backends only)."""
 
-    def genalpha(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, rho_inf: float, project: bool,
+    def genalpha(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, rho_inf: float, project: bool,
                  y: Array, memory: dict[str, np.ndarray], t_save: Array,
                  counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
         """See :meth:`LoadedModel.genalpha` (compiled backends only)."""
@@ -298,27 +300,27 @@ class NumpyEvaluator:
         """Set the module's signal function to the linear interpolation of ``tables``."""
         setattr(self.module, SIGNAL_FUNCTION, signals.numpy_function(tables))
 
-    def rk4(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, save_every: int,
+    def rk4(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, save_every: int,
             y0: Array) -> tuple[Array, Array, SolveStatus]:
-        return integrate.rk4_steps(integrate.state_derivative(model), y0, g, k_from, k_to, save_every)
+        return rk4_steps(loop.state_derivative(model), y0, g, k_from, k_to, save_every)
 
     def dop853(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
                step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
                first: int = 0) -> tuple[Array, SolveStatus]:
-        raise SimulationError(integrate.compiled_only("dop853", "numpy", False))
+        raise SimulationError(integrators.get("dop853").refusal("numpy", False))
 
     def radau(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
               step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
               first: int = 0) -> tuple[Array, SolveStatus]:
-        raise SimulationError(integrate.compiled_only("radau", "numpy", False))
+        raise SimulationError(integrators.get("radau").refusal("numpy", False))
 
-    def genalpha(self, model: LoadedModel, g: integrate.Grid, k_from: int, k_to: int, rho_inf: float, project: bool,
+    def genalpha(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, rho_inf: float, project: bool,
                  y: Array, memory: dict[str, np.ndarray], t_save: Array,
                  counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
-        raise SimulationError(integrate.compiled_only("genalpha", "numpy", False))
+        raise SimulationError(integrators.get("genalpha").refusal("numpy", False))
 
     def loop_memory(self, method: str) -> NDArray[np.uint8]:
-        raise SimulationError(integrate.compiled_only(method, "numpy", False))
+        raise SimulationError(integrators.get(method).refusal("numpy", False))
 
 
 class LoadedModel:
@@ -767,7 +769,7 @@ class LoadedModel:
             w0: ArrayLike | None = None,
             steps: tuple[int, int] | None = None) -> tuple[Array, Array, Array, Array, SolveStatus]:
         """Classical RK4 of the GPME from ``t0`` to ``t_end`` (s) with step ``dt`` (s), on the grid
-        of :func:`gpmegen.runtime.integrate.grid`, in one call of the backend's loop (C or Python).
+        of :func:`gpmegen.runtime.integrators.loop.grid`, in one call of the backend's loop (C or Python).
 
         ``steps = (k_from, k_to)`` integrates only those steps of that grid, from ``q0``, ``qd0``
         (n,) and the work ``w0`` (2,) J at the end of step ``k_from`` (default: all of it, from
@@ -780,7 +782,7 @@ class LoadedModel:
         :class:`gpmegen.status.SolveStatus`, OK when all steps were done, else with the states
         saved before the failure (none when the start is not finite).
         """
-        g = integrate.grid(t0, t_end, dt)
+        g = loop.grid(t0, t_end, dt)
         k_from, k_to = g.span(steps, save_every)
         w0 = np.concatenate([[0.0, 0.0], self.controller_initial]) if w0 is None else w0
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"),
@@ -822,13 +824,13 @@ class LoadedModel:
         "radau") keeps between the calls of one span (see :meth:`dop853`)."""
         return self.evaluator.loop_memory(method)
 
-    def genalpha(self, g: integrate.Grid, k_from: int, k_to: int, rho_inf: float, project: bool, y: Array,
+    def genalpha(self, g: loop.Grid, k_from: int, k_to: int, rho_inf: float, project: bool, y: Array,
                  memory: dict[str, np.ndarray], t_save: Array, counts: NDArray[np.int64]) -> tuple[Array, SolveStatus]:
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
-        grid ``g`` from the augmented state ``y`` (2n + 2,), replaced in place by the state at the
-        end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
-        ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the
-        Newton matrix "S" (n, n), "pivot" (n,) intc, "have" (1,) intc), ``counts`` as for
+        grid ``g`` from the augmented state ``y`` (2n + 2 + n_z,), replaced in place by the state at
+        the end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
+        ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the Newton
+        matrix "S" (n + n_z, n + n_z), "pivot" (n + n_z,) intc, "have" (1,) intc), ``counts`` as for
         :meth:`dop853` and (6th) the constraint evaluations of the projection. Saves at the
         increasing instants ``t_save`` (k,) within the steps. Returns ``(rows, status)``."""
         model = self.partitioned(g.time(k_from), np.asarray(y)[:self.n_dof])

@@ -70,7 +70,7 @@ def drift(phi, D, orders) -> tuple[np.ndarray, np.ndarray]:
 
 class RowWatch:
     """A run's look at the rank of a model's constraint rows and at its redundant rows, at the
-    instants :func:`gpmegen.runtime.integrate.chunked` checks the constraints (the chunks' ends,
+    instants :func:`gpmegen.runtime.integrators.loop.chunked` checks the constraints (the chunks' ends,
     about every 0.05 s of simulated time, the same on both backends). For a model that closes
     loops (``model.closure_rows``) or whose rows are redundant at the start (``model.redundant``):
     one :class:`ModelWarning` line when the rank first differs from the start's ``D0``, one when

@@ -18,7 +18,7 @@ positive (``F e`` on B, ``-F e`` on A) does the virtual work ``F δL``: its gene
 - actuator: ``F`` a law of ``t``, parameters and the state, in the drives' ``Q`` as well.
 
 ``L = 0`` makes ``e`` 0/0: the generated code gives NaN there (the run stops as a non-finite
-state, named by :func:`gpmegen.runtime.integrate.chunked`'s caller); points that coincide
+state, named by :func:`gpmegen.runtime.integrators.loop.chunked`'s caller); points that coincide
 identically are refused when the model is derived.
 """
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ... import limits
 from ...errors import ExtrapolationError
-from ...runtime import integrate
+from ...runtime import integrators
 from ..post.coordinates import joint_names, point_names
 from ..run import opening, runs
 from ..run.runspec import RunSpec
@@ -110,8 +110,9 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     """Whether runs of ``method`` on ``backend`` integrate in compiled loops, which release
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
     the compiled methods on the C backend; with the constraints realized by inputs (``actuated``),
-    RK4 alone (the others integrate the ideal GPME only)."""
-    return backend == "c" and (method == "rk4" or (method in integrate.COMPILED and not actuated))
+    those whose loop runs the actuated realization too (RK4; the others integrate the ideal GPME only)."""
+    integrator = integrators.get(method)
+    return backend == "c" and integrator.c_loop and (not actuated or integrator.actuated_loop)
 
 
 def _on_threads(tasks, levels_cases, size) -> list:

@@ -90,7 +90,7 @@ def metadata(results: Mapping[str, Any]) -> dict[str, Any]:
     """The metadata of ``results``: ``model``, ``coordinates``, ``constraint_names``,
     ``backend``, ``start``, ``settings`` (method, dt, save_every, save_dt, the adaptive methods'
     rtol and atol, effort: steps, rejected, solves, jacobians, factorizations as
-    :class:`gpmegen.runtime.integrate.Effort`, t_end, dependent, repartitions), ``params`` and,
+    :class:`gpmegen.runtime.integrators.base.Effort`, t_end, dependent, repartitions), ``params`` and,
     from the run's case (:mod:`gpmegen.analysis.run.cases`), what plots use: ``label``, ``joints``,
     ``joint_labels``, ``constraint_units``, ``figures``, ``start_tag``, ``colour``,
     ``tag_offset``, ``prescribed``; ``start_moved``: how far the start was moved onto the

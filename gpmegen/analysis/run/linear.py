@@ -22,12 +22,21 @@ constraints by its drift, it does so by ``O(β²|Φ| + α|Φ̇|)``.
 Inputs ``u`` are generalized forces on chosen coordinates: ``f → f + S u``. The GPME are linear in
 ``f``, so ``B = [[0], [P q̈_u]]`` with ``q̈_u`` the GPME's solution for ``f = S`` (and the
 constraint rows' right side zero): exact, one solve.
+
+A model's controller states ``z`` (``[[controllers]]``, ``ż = r(t, q, q̇, z)``, read by its drives)
+are states too, after the mechanical ones: ``x = (δq_ind, δq̇_ind, δz)``, with ``A_z = ∂q̈/∂z`` and
+the rates' ``R_q``, ``R_q̇``, ``R_z`` by central differences (the rates are linear in most laws,
+where the differences are exact to round-off):
+
+    A = [[0, I, 0], [P (A_q N + A_q̇ V), P A_q̇ N, P A_z], [R_q N + R_q̇ V, R_q̇ N, R_z]],
+
+and zero rows of ``B`` for ``z`` (a rate reads positions and velocities, not forces).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -41,18 +50,23 @@ from ..post import results as results_io
 
 # Relative step of the central differences of Φ̇ in q (constraint terms only).
 STEP = 1e-7
+# Relative step of the central differences in the controller states and of their rates: the cube
+# root of the machine epsilon, where truncation and round-off of a central difference balance.
+CONTROLLER_STEP = np.finfo(float).eps ** (1 / 3)
 # Eigenvalues below this fraction of the largest modulus are zero to round-off.
 NEUTRAL = 1e-9
 
 
 @dataclass
 class LinearModel:
-    """``ẋ = A x + B u`` about ``(t, q, qd)``: ``A`` (2k, 2k) 1/s and 1/s², ``B`` (2k, j),
-    ``states`` (2k,) names (``<coordinate>`` and ``<coordinate>_dot``), ``inputs`` (j,) names (a
-    generalized force on that coordinate, N·m or N), ``eigenvalues`` (2k,) 1/s of ``A`` sorted by
-    frequency, ``t`` s, ``q``, ``qd`` (n,) the state, ``qdd`` (n,) its accelerations (zero at an
-    equilibrium; else the linear model holds for the deviation from the motion through it, over
-    times short against its change), ``where`` how the state was chosen."""
+    """``ẋ = A x + B u`` about ``(t, q, qd, z)``: ``A`` (2k + c, 2k + c) 1/s and 1/s², ``B``
+    (2k + c, j), ``states`` (2k + c,) names (``<coordinate>`` and ``<coordinate>_dot``, then the
+    c controller states by their names), ``inputs`` (j,) names (a generalized force on that
+    coordinate, N·m or N), ``eigenvalues`` (2k + c,) 1/s of ``A`` sorted by frequency, ``t`` s,
+    ``q``, ``qd`` (n,) the state, ``qdd`` (n,) its accelerations (zero at an equilibrium; else the
+    linear model holds for the deviation from the motion through it, over times short against
+    its change), ``where`` how the state was chosen, ``controllers`` (c,) the controller states'
+    names, ``z`` (c,) their values and ``z_rate`` (c,) their rates there (zero at an equilibrium)."""
 
     A: np.ndarray
     B: np.ndarray
@@ -65,13 +79,20 @@ class LinearModel:
     qdd: np.ndarray
     coordinates: tuple
     where: str = ""
+    controllers: tuple = ()
+    z: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    z_rate: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def summary(self) -> str:
         """One line: where, the states, the inputs and how far the state is from an equilibrium."""
-        coordinates = ", ".join(self.states[:len(self.states) // 2])
-        return (f"linear model about the {self.where}: {len(self.states)} states ({coordinates} and their rates), "
-                f"inputs {', '.join(self.inputs) or 'none'}; max|q''| there {np.max(np.abs(self.qdd)):.3g} "
-                f"(0 at an equilibrium)")
+        k = (len(self.states) - len(self.controllers)) // 2
+        coordinates = ", ".join(self.states[:k])
+        controllers, off = "", f"max|q''| there {np.max(np.abs(self.qdd)):.3g}"
+        if self.controllers:
+            controllers = f", controller states {', '.join(self.controllers)}"
+            off += f", max|z'| {np.max(np.abs(self.z_rate)):.3g}"
+        return (f"linear model about the {self.where}: {len(self.states)} states ({coordinates} and their rates"
+                f"{controllers}), inputs {', '.join(self.inputs) or 'none'}; {off} (0 at an equilibrium)")
 
     def state_space(self, outputs=None):
         """``control.StateSpace(A, B, C, D)`` of python-control, with the state and input names:
@@ -94,7 +115,9 @@ class LinearModel:
         return {"A": self.A, "B": self.B, "state_names": np.array(self.states, dtype=object),
                 "input_names": np.array(self.inputs, dtype=object), "eigenvalues": self.eigenvalues,
                 "t": np.float64(self.t), "q": self.q, "qd": self.qd, "qdd": self.qdd,
-                "coordinates": np.array(self.coordinates, dtype=object), "where": self.where}
+                "coordinates": np.array(self.coordinates, dtype=object), "where": self.where,
+                **({"controller_names": np.array(self.controllers, dtype=object), "z": self.z, "z_rate": self.z_rate}
+                   if self.controllers else {})}
 
 
 def refuse_velocity_constraints(names, orders) -> None:
@@ -121,20 +144,43 @@ def rate_jacobian(model, t, q, qd) -> np.ndarray:
     return out
 
 
-def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
+def controller_jacobians(model, t, q, qd, z):
+    """``(A_z, R_q, R_qd, R_z)`` of ``model``'s controller states ``z`` (c,) at ``(t, q, qd)``:
+    ``∂q̈/∂z`` (n, c) and the rates' ``∂ż/∂q``, ``∂ż/∂q̇`` (c, n) and ``∂ż/∂z`` (c, c), by
+    central differences with steps :data:`CONTROLLER_STEP` ``max(1, |x_j|)``."""
+    def differences(f, x):
+        columns = []
+        for j in range(len(x)):
+            h = CONTROLLER_STEP * max(1.0, abs(x[j]))
+            up, down = x.copy(), x.copy()
+            up[j] += h
+            down[j] -= h
+            columns.append((f(up) - f(down)) / (2 * h))
+        return np.column_stack(columns) if columns else np.zeros((0, 0))
+
+    at = model.at_controller_states(z)
+    A_z = differences(lambda x: model.at_controller_states(x).accelerations(t, q, qd), z)
+    R_q = differences(lambda x: at.controller_rates(t, x, qd), q)
+    R_qd = differences(lambda x: at.controller_rates(t, q, x), qd)
+    R_z = differences(lambda x: model.at_controller_states(x).controller_rates(t, q, qd), z)
+    return A_z, R_q, R_qd, R_z
+
+
+def linearize(model, t, q, qd, inputs=(), where="", z=None) -> LinearModel:
     """The linear model of ``model`` (loaded with its Jacobians, ideal realization) about
-    ``(t, q, qd)``, with inputs on the coordinates named in ``inputs``. The partition is chosen at
-    the state (pivoted QR of ``D``) unless the model fixes it."""
+    ``(t, q, qd)`` and, for a model with controller states, ``z`` (c,; None: those the model
+    holds, the start's unless set by :meth:`~gpmegen.runtime.model.LoadedModel.at_controller_states`),
+    with inputs on the coordinates named in ``inputs``. The partition is chosen at the state
+    (pivoted QR of ``D``) unless the model fixes it."""
     refuse_velocity_constraints(model.constraint_names, model.constraint_orders)
-    if model.controller_names:
-        raise ModelError(f"model {model.module.MODEL} has controller states ({', '.join(model.controller_names)}), "
-                         f"which the linear model does not include yet; linearize the model without them")
     unknown = [name for name in inputs if name not in model.coordinates]
     if unknown:
         raise ModelError(f"inputs {', '.join(map(repr, unknown))}: not coordinates of {model.module.MODEL}; name "
                          f"among {', '.join(model.coordinates)}")
     q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
-    model = model.with_actuators(()).partitioned(t, q)
+    held = np.asarray(model.p[len(model.parameter_names):], dtype=float)
+    z = held.copy() if z is None else np.asarray(z, dtype=float)
+    model = model.at_controller_states(z).with_actuators(()).partitioned(t, q)
     n = model.n_dof
     ind, dep = np.asarray(model.independent), np.asarray(model.dependent)
     A_q, A_qd = model.acceleration_jacobians(t, q, qd)
@@ -154,14 +200,19 @@ def linearize(model, t, q, qd, inputs=(), where="") -> LinearModel:
     else:
         N, V = np.eye(n), np.zeros((n, n))
         forced = np.linalg.solve(M, S)
-    k = len(ind)
+    k, c = len(ind), len(z)
     A = np.block([[np.zeros((k, k)), np.eye(k)], [(A_q @ N + A_qd @ V)[ind], (A_qd @ N)[ind]]])
-    B = np.vstack([np.zeros((k, S.shape[1])), forced[ind]])
+    B = np.vstack([np.zeros((k, S.shape[1])), forced[ind], np.zeros((c, S.shape[1]))])
+    z_rate = model.controller_rates(t, q, qd) if c else np.zeros(0)
+    if c:
+        A_z, R_q, R_qd, R_z = controller_jacobians(model, t, q, qd, z)
+        A = np.block([[A, np.vstack([np.zeros((k, c)), A_z[ind]])], [R_q @ N + R_qd @ V, R_qd @ N, R_z]])
     names = [model.coordinates[j] for j in ind]
     values = np.linalg.eigvals(A)
     order = np.lexsort((values.imag, np.abs(values)))
-    return LinearModel(A, B, tuple(names + [f"{c}_dot" for c in names]), tuple(inputs), values[order], float(t),
-                       q, qd, qdd, tuple(model.coordinates), where)
+    states = tuple(names + [f"{name}_dot" for name in names] + list(model.controller_names))
+    return LinearModel(A, B, states, tuple(inputs), values[order], float(t), q, qd, qdd, tuple(model.coordinates),
+                       where, tuple(model.controller_names), z, z_rate)
 
 
 def neutral(values) -> np.ndarray:
@@ -257,6 +308,7 @@ def along_run(model, path, times, inputs=()) -> list:
     out = []
     for x in times:
         k = int(np.argmin(np.abs(t - x)))
+        z = run["controller_states"][k] if model.controller_names else None
         out.append(linearize(model, t[k], run["q"][k], run["qd"][k], inputs,
-                             where=f"saved state at t = {t[k]:.6g} s of {path} (nearest to {x:g} s)"))
+                             where=f"saved state at t = {t[k]:.6g} s of {path} (nearest to {x:g} s)", z=z))
     return out

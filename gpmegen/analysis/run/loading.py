@@ -8,10 +8,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+from ...codegen import backends as registry
 from ...codegen.render import build as build_model
 from ...codegen.render import input_hash
 from ...errors import StaleModelError
-from ...folder import BACKEND_FILES, check_replaceable, read_manifest, recover_folder, stale_reason
+from ...folder import check_replaceable, read_manifest, recover_folder, stale_reason
 from ...model.requirements import requirements
 from ...runtime.loader import BACKENDS, chosen_backend, default_directory, open_folder
 from ...symbolic.transforms import DEFAULT as DEFAULT_TRANSFORMS
@@ -48,12 +49,13 @@ def load(model, backend: str | None = None, params: Mapping[str, float] | None =
     manifest = read_manifest(folder)
     transforms, jacobians = _at_least(manifest, check_kinds(transforms), jacobians)
     digest = input_hash(model, BACKENDS, transforms, jacobians)
-    used = BACKEND_FILES["numpy"] + (BACKEND_FILES["c"] if backend == "c" else ())
+    # the NumPy module supplies every backend's constants, so it is checked for each
+    used = tuple(dict.fromkeys(registry.get("numpy").files + registry.get(backend).files))
     reason = stale_reason(folder, manifest, digest, used, jacobians, transforms)
     if reason is not None:
         if not build:
             raise StaleModelError(f"{reason}; rebuild it with '{rebuild} --force'")
-        check_replaceable(folder)  # before the derivation, which the build would write there
+        check_replaceable(folder, registry.folder_files())  # before the derivation, which the build would write there
         build_model(model, directory, BACKENDS, progress=progress, command=command, digest=digest,
                     transforms=transforms, jacobians=jacobians)
     loaded = open_folder(folder, backend, params, digest=digest, rebuild=rebuild, requirements=requirements(model),

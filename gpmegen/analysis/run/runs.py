@@ -14,7 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ... import limits, outputs
-from ...runtime import integrate
+from ...runtime import integrators
+from ...runtime.integrators.loop import PROGRESS_LINES, Progress
 from ..post import drive_limits, driving, joint_limits
 from ..post import results as results_io
 from . import study
@@ -63,9 +64,8 @@ def run(case: Case, spec: RunSpec, backend: str, overrides: Mapping[str, float],
              + case.start_note(model))
     t0 = time.perf_counter()
     bar = None
-    if spec.method in ("rk4", *integrate.COMPILED):  # the chunked loops
-        bar = integrate.Progress(spec.t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(),
-                                 lines_every=integrate.PROGRESS_LINES)
+    if integrators.get(spec.method).chunked:
+        bar = Progress(spec.t_end, f"{case.label}, t (s)", enabled=sys.stderr.isatty(), lines_every=PROGRESS_LINES)
     res = study.simulate(model, q0, spec, qd0=begun.qd, progress=bar, notify=progress)
     wall = time.perf_counter() - t0
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),

@@ -19,10 +19,13 @@ from dataclasses import dataclass, field, fields
 from typing import Any, cast
 
 from ...errors import RunSpecError
-from ...runtime import integrate
+from ...runtime import integrators
+from ...runtime.integrators import registry
+from ...runtime.integrators.loop import default_save_every, save_steps
 
-#: The integrators a run may use, as ``--method`` names them.
-METHODS = ("rk4", "genalpha", "dop853", "radau", "scipy-radau")
+#: The built-in integrators, as ``--method`` names them (:func:`gpmegen.runtime.integrators.names`
+#: lists those registered now).
+METHODS = integrators.names()
 #: The starts a case may take (each case takes some: :attr:`gpmegen.analysis.run.cases.Case.starts`).
 STARTS = ("locked", "constrained", "none")
 
@@ -48,16 +51,18 @@ class RunSpec:
     - ``t_end``: the end time, s (from t = 0; 0 runs no step); default 10.
     - ``dt``: the step of rk4 and genalpha, s; with ``save_every``, the save interval of every
       method; default 1e-5 (the paper's).
-    - ``method``: the integrator, one of :data:`METHODS`; default "rk4".
+    - ``method``: the integrator, one of :func:`gpmegen.runtime.integrators.names`; default "rk4".
     - ``save_every``: the steps of ``dt`` between saved states (a count); default those in 1 ms
-      (:func:`gpmegen.runtime.integrate.default_save_every`); for rk4 with ``save_dt``, the steps
+      (:func:`gpmegen.runtime.integrators.loop.default_save_every`); for rk4 with ``save_dt``, the steps
       in ``save_dt``.
     - ``save_dt``: the save interval, s, or None: ``dt`` x ``save_every`` (:attr:`save_interval`);
       for rk4 a whole number of steps.
     - ``rtol``, ``atol``: the adaptive methods' tolerances, relative and absolute (in the units
-      of q and q̇: rad, m, rad/s, m/s); default :data:`gpmegen.runtime.integrate.RTOL`, ``ATOL``.
+      of q and q̇: rad, m, rad/s, m/s); default :data:`gpmegen.runtime.integrators.base.RTOL`, ``ATOL``.
     - ``rho_inf``: genalpha's numerical damping, its spectral radius at large steps, from 0 to 1
-      (dimensionless); default :data:`gpmegen.runtime.integrate.RHO_INF`.
+      (dimensionless); default :data:`gpmegen.runtime.integrators.genalpha.RHO_INF`.
+    - the integrators' options (:func:`integrator_options`) are checked and defaulted by the
+      integrators' own rules, whatever the method.
     - ``start``: the start, one of :data:`STARTS` ("locked" or "constrained" statics, or "none":
       the configuration as given), or None: the case's own (its first in ``case.starts``; the
       case refuses a start it does not take).
@@ -92,16 +97,16 @@ class RunSpec:
 
     def __post_init__(self) -> None:
         value: dict[str, object] = {}
-        if self.method not in METHODS:
-            raise RunSpecError(f"{self.method!r} is not an integrator (choose from {', '.join(METHODS)})")
+        integrators.get(self.method)  # an unknown method refused in one line
         value["t_end"] = _number("t_end", self.t_end, lambda v: v >= 0,
                                  "is below zero or not finite; give the end time in seconds")
         value["dt"] = dt = _positive("dt", self.dt)
-        for name in ("save_dt", "rtol", "atol"):
-            if getattr(self, name) is not None:
-                value[name] = _positive(name, getattr(self, name))
-        if self.rho_inf is not None:
-            value["rho_inf"] = _number("rho_inf", self.rho_inf, lambda v: 0 <= v <= 1, "must be a number from 0 to 1")
+        if self.save_dt is not None:
+            value["save_dt"] = _positive("save_dt", self.save_dt)
+        options = integrator_options()
+        for option in options:
+            if getattr(self, option.name) is not None:
+                value[option.name] = _number(option.name, getattr(self, option.name), option.accept, option.problem)
         if self.max_violation is not None:
             value["max_violation"] = _positive("max_violation", self.max_violation)
         if self.save_every is not None:
@@ -122,19 +127,19 @@ class RunSpec:
             value["actuated"] = names
         defaulted = set()
         save_dt = cast(float | None, value.get("save_dt"))
-        if self.method == "rk4" and save_dt is not None:
-            value["save_every"] = integrate.save_steps(dt, save_dt)
+        if integrators.get(self.method).saves_on_steps and save_dt is not None:
+            value["save_every"] = save_steps(dt, save_dt)
             if value["save_every"] is None:
                 raise RunSpecError(f"--save-dt {save_dt:g} s is not a whole number of RK4 steps --dt {dt:g} s; make "
                                    f"it a multiple of --dt, or use --save-every")
             defaulted.add("save_every")
         elif self.save_every is None:
-            value["save_every"] = integrate.default_save_every(dt)
+            value["save_every"] = default_save_every(dt)
             defaulted.add("save_every")
-        for name, default in (("rtol", integrate.RTOL), ("atol", integrate.ATOL), ("rho_inf", integrate.RHO_INF)):
-            if getattr(self, name) is None:
-                value[name] = default
-                defaulted.add(name)
+        for option in options:
+            if getattr(self, option.name) is None:
+                value[option.name] = option.default
+                defaulted.add(option.name)
         value["defaulted"] = frozenset(defaulted)
         for name, v in value.items():
             object.__setattr__(self, name, v)
@@ -148,7 +153,7 @@ class RunSpec:
     @property
     def adaptive(self) -> bool:
         """Whether the method chooses its own steps (and takes ``rtol``, ``atol``)."""
-        return self.method not in ("rk4", "genalpha")
+        return not integrators.get(self.method).fixed_step
 
     def given(self) -> dict[str, Any]:
         """The fields as given (those set from a default here left out)."""
@@ -172,6 +177,12 @@ class RunSpec:
 
 #: The fields of a :class:`RunSpec`, in order.
 NAMES = tuple(f.name for f in fields(RunSpec) if f.name != "defaulted")
+
+
+def integrator_options() -> list:
+    """The registered integrators' options (:class:`gpmegen.runtime.integrators.Option`), each a
+    field of :class:`RunSpec`, in the fields' order."""
+    return sorted(registry.options(), key=lambda option: NAMES.index(option.name))
 
 
 def split_options(spec: RunSpec | None, options: dict[str, Any], others: dict[str, Any],

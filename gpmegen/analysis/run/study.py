@@ -9,8 +9,10 @@ import numpy as np
 
 from ... import limits
 from ...errors import ModelError, SimulationError
-from ...runtime import gpme, integrate, internal, partition, statics
+from ...runtime import gpme, integrators, internal, partition, statics
 from ...runtime.consistent import Start, check_redundant, consistent, project_velocities
+from ...runtime.integrators.base import Effort
+from ...runtime.integrators.loop import interruptible, start_state
 from ...status import Ending, Outcome
 from ..post import drive_limits, modes
 from ..post import energy as energy_balance
@@ -61,8 +63,8 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
     (a :class:`gpmegen.analysis.run.runspec.RunSpec`); returns a results dict (see
     :mod:`gpmegen.analysis.post.results`). Its ``method``: "rk4" (step ``dt``, saving every
     ``save_every``-th step), "genalpha" (compiled, implicit, step ``dt``, numerical damping
-    ``rho_inf``), "dop853" (compiled, adaptive), "radau" (compiled, implicit and adaptive) or a
-    name of :data:`gpmegen.runtime.integrate.SCIPY`; all but rk4 save every
+    ``rho_inf``), "dop853" (compiled, adaptive), "radau" (compiled, implicit and adaptive),
+    "scipy-radau" or another name of :mod:`gpmegen.runtime.integrators`; all but rk4 save every
     :attr:`~gpmegen.analysis.run.runspec.RunSpec.save_interval` s, the adaptive ones to ``rtol``,
     ``atol``. The conditioning of the dependent block of ``D`` is watched: ``notify`` (a callable
     taking a message) is told when it degrades, and with ``repartition`` the dependent coordinates
@@ -74,7 +76,8 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
     with actuators) tells ``notify`` its internal dynamics at the start and, with
     ``internal_dynamics``, saves them at every saved sample (``internal_eigenvalues``)."""
     method, t_end, dt = spec.method, spec.t_end, spec.dt
-    refusal = integrate.compiled_only(method, model.backend, bool(len(model.actuators)))
+    integrator = integrators.get(method)
+    refusal = integrator.refusal(model.backend, bool(len(model.actuators)))
     if refusal:
         raise SimulationError(refusal)
     model.check_signal_span(0.0, t_end)
@@ -82,13 +85,13 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
     model.check_forces_apart(q0)   # before the start's modes, which its undefined force would spoil
     omega = None  # the natural frequency that bounds the method's steps, when one does
     if t_end > 0 and not limits.are_lifted():  # t_end 0: no step
-        if method in limits.NEEDS_FREQUENCY:
+        if integrator.frequency == "highest":
             omega = modes.highest_frequency(model, 0.0, q0, qd0)
-        elif method in limits.NEEDS_LOWEST_FREQUENCY:
+        elif integrator.frequency == "lowest":
             omega = modes.lowest_frequency(model, 0.0, q0, qd0)
     limits.check_run(model.n_dof, len(model.constraint_names), spec, model.backend, omega)
-    if method == "rk4" and omega is not None:
-        unstable = integrate.unstable_step(dt, modes.motion_eigenvalues(model, 0.0, q0, qd0))
+    if omega is not None:
+        unstable = integrator.unstable_step(dt, lambda: modes.motion_eigenvalues(model, 0.0, q0, qd0))
         if unstable:
             raise limits.LimitError(f"{unstable} (or pass --no-limits to start it anyway)")
     model.check_actuators(0.0, q0)
@@ -103,21 +106,21 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
     # the actuated realization does not use the partition: nothing to watch
     watch = partition.Watch(model, spec.repartition, notify, limit=np.inf if len(model.actuators) else
                             partition.ILL_CONDITIONED)
-    with integrate.interruptible():
+    with interruptible():
         try:  # from the line below on, a signal keeps at least the start
             (notify or (lambda message: None))(f"integrating with {method} to t = {t_end:g} s; Ctrl-C or SIGTERM "
                                                f"stops it, keeping the results so far")
-            t, y, outcome, effort = _integrate(model, q0, qd0, spec, progress, watch)
+            t, y, outcome, effort = integrator.run(model, q0, qd0, spec, progress, watch)
         except KeyboardInterrupt:  # before the integrator's own loop began, or in the line
-            t, y = np.zeros(1), integrate.start_state(model, q0, qd0)[None, :]
-            outcome, effort = Outcome(Ending.INTERRUPTED, 0.0), integrate.Effort(0, 0, 0, 0, 0)
+            t, y = np.zeros(1), start_state(model, q0, qd0)[None, :]
+            outcome, effort = Outcome(Ending.INTERRUPTED, 0.0), Effort(0, 0, 0, 0, 0)
     model = watch.model  # with the dependent coordinates the run ended with
     if actuated:
         outcome = internal.explain(outcome, stability, actuated)
-    adaptive = spec.adaptive
+    taken = {option.name for option in integrator.options}  # the others are recorded as None
     settings = dict(method=method, dt=dt, save_every=spec.save_every, save_dt=spec.save_interval,
-                    rtol=spec.rtol if adaptive else None, atol=spec.atol if adaptive else None,
-                    rho_inf=spec.rho_inf if method == "genalpha" else None,
+                    **{option.name: getattr(spec, option.name) if option.name in taken else None
+                       for option in integrators.registry.options()},
                     effort=effort._asdict(), t_end=t_end, start=spec.start,
                     backend=model.backend,
                     dependent=[model.coordinates[k] for k in model.dependent] if model.dependent is not None else [],
@@ -130,24 +133,6 @@ def simulate(model, q0, spec, *, qd0=None, progress=None, notify=None):
         (notify or (lambda message: None))(
             f"internal dynamics along the run: largest real part {worst[k]:.4g} 1/s at t = {t[k]:.6g} s")
     return results
-
-
-def _integrate(model, q0, qd0, spec, progress, watch):
-    """The integration of :func:`simulate` by ``spec.method``: ``(t, y, outcome, effort)``."""
-    method, t_end, dt, save_dt, max_violation = spec.method, spec.t_end, spec.dt, spec.save_interval, spec.max_violation
-    if method == "rk4":
-        t, y, outcome = integrate.rk4(model, q0, qd0, t_end, dt, spec.save_every, progress=progress,
-                                      max_violation=max_violation, watch=watch)
-        return t, y, outcome, integrate.rk4_effort(t, 0.0, dt)
-    if method == "genalpha":
-        return integrate.genalpha(model, q0, qd0, t_end, dt, save_dt, spec.rho_inf, progress=progress,
-                                  max_violation=max_violation, watch=watch)
-    if method in integrate.ADAPTIVE:
-        return integrate.ADAPTIVE[method](model, q0, qd0, t_end, save_dt, rtol=spec.rtol, atol=spec.atol,
-                                          progress=progress, max_violation=max_violation, watch=watch)
-    times = integrate.grid(0.0, t_end, save_dt)
-    return integrate.scipy_solve(model, q0, qd0, t_end, method=integrate.SCIPY[method], rtol=spec.rtol,
-                                 atol=spec.atol, t_eval=np.array([times.time(k) for k in range(times.n_steps + 1)]))
 
 
 def collect(model, t, y, status, settings) -> dict:

@@ -22,7 +22,7 @@ from typing import Any
 from ... import limits
 from ...codegen.render import input_hash
 from ...errors import GpmegenError
-from ...runtime.integrate import Progress, interruptible
+from ...runtime.integrators.loop import Progress, interruptible
 from ...runtime.loader import BACKENDS
 from ..run.opening import case_for
 from ..run.runspec import NAMES, RunSpec, split_options

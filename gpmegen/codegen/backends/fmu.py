@@ -48,14 +48,14 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-from .. import limits
-from ..errors import BuildError, ModelError
-from ..runtime import ccompile
-from ..version import __version__
-from .casadi_export import check_inputs
-from .render import check_no_controllers, check_no_signals
+from ... import limits
+from ...errors import BuildError, ModelError
+from ...runtime import ccompile
+from ...version import __version__
+from .base import Backend
+from .casadi import check_inputs
 
-#: The FMI wrapper's files (package data ``gpmegen.fmi``) and the header fmu_export writes for it.
+#: The FMI wrapper's files (package data ``gpmegen.fmi``) and the header this module writes for it.
 WRAPPER = ("gpmegen_fmi2.c", "gpmegen_fmi2.h")
 CONFIG = "fmu_model.h"
 #: The model's generated files the FMU is compiled from.
@@ -70,6 +70,19 @@ COORDINATE_UNITS = {"revolute": "rad", "prismatic": "m"}
 FORCE_UNITS = {"revolute": "N.m", "prismatic": "N"}
 #: Characters XML 1.0 allows (its Char production); any other is written as U+XXXX.
 _XML_RANGES = ((0x9, 0x9), (0xA, 0xA), (0xD, 0xD), (0x20, 0xD7FF), (0xE000, 0xFFFD), (0x10000, 0x10FFFF))
+
+
+class FmuBackend(Backend):
+    """The FMU export: one archive ``<model>.fmu`` compiled from the C backend's files
+    (:data:`MODEL_FILES`), gpmegen's solver library and the FMI wrapper; made by :func:`export`."""
+
+    name = "fmu"
+    files = ("NAME.fmu",)   # the one archive, at the path its caller names
+    refuses = ("signals", "controllers")
+    made = "an FMU"
+
+    def templates(self) -> tuple[str, ...]:
+        return ()   # it compiles the C backend's files, which it renders none of its own
 
 
 @dataclass(frozen=True)
@@ -116,8 +129,8 @@ def _number(value) -> str:
 
 def coordinate_kinds(model) -> dict:
     """Joint kind ("revolute", "prismatic") of each coordinate of the symbolic ``model``."""
-    from ..model.chain import Joint
-    from ..model.expand import expand
+    from ...model.chain import Joint
+    from ...model.expand import expand
 
     return {e.name: e.kind for e in expand(model).elements if isinstance(e, Joint)}
 
@@ -310,7 +323,7 @@ def stack_bytes(n: int, m: int) -> int:
     constraints: the solver library's RK4 or DOP853 (:func:`gpmegen.runtime.cstack.call_bytes`),
     whose stages solve the GPME through the wrapper's own M and f (n² + n doubles), and
     :data:`gpmegen.runtime.cstack.RESERVE`."""
-    from ..runtime import cstack
+    from ...runtime import cstack
 
     calls = max(cstack.call_bytes(call, n, m, False) for call in ("rk4", "dop853"))
     return calls + 8 * (n * n + n) + cstack.RESERVE
@@ -372,8 +385,8 @@ def fmu_files(case, inputs=(), start=None, progress=None) -> dict:
     """The FMU's files (archive name → bytes) of ``case`` (:mod:`gpmegen.analysis.cases`) started as
     ``gpmegen simulate`` starts it (``start``: its statics, default the case's first), with inputs on
     the coordinates ``inputs``."""
-    from .. import folder as folders
-    from ..analysis import driving
+    from ... import folder as folders
+    from ...analysis import driving
 
     say = progress or (lambda line: None)
     ccompile.find_compiler()  # refused in one line before the statics when there is none
@@ -404,11 +417,10 @@ def fmu_files(case, inputs=(), start=None, progress=None) -> dict:
 def export(case, out, inputs=(), overwrite=False, start=None, progress=None) -> Path:
     """Write the FMU of ``case`` into the file ``out`` (``NAME.fmu``); ``overwrite`` replaces an
     earlier one. Returns its path."""
-    from .. import outputs
-    from ..fileio import atomic_write_bytes
+    from ... import outputs
+    from ...fileio import atomic_write_bytes
 
-    check_no_signals(case.source, "an FMU")
-    check_no_controllers(case.source, "an FMU")
+    FmuBackend().check(case.source)
     out = Path(out)
     if out.is_dir():
         raise outputs.OutputError(f"--out {out} is a folder; give the file to write, e.g. --out "

@@ -25,12 +25,14 @@ import json
 import tempfile
 from pathlib import Path
 
-from .. import extras
-from ..errors import GpmegenError, ModelError
-from ..symbolic import derive
-from .functions import lower, model_functions, prepare_all
-from .printers import CASADI, CasadiPrinter
-from .render import check_no_controllers, check_no_signals, input_hash, model_context, template_environment
+from ... import extras
+from ...errors import GpmegenError, ModelError
+from ...symbolic import derive
+from ..digest import input_hash
+from ..functions import lower, model_functions, prepare_all
+from ..printers import CASADI, CasadiPrinter
+from ..templating import model_context, template_environment
+from .base import Backend
 
 SOURCE = "model_casadi.py"
 MANIFEST = "casadi.json"
@@ -38,6 +40,22 @@ MANIFEST = "casadi.json"
 PRINTED = ("mass_matrix", "forces", "points", "constraint_terms", "baumgarte_gains", "energies")
 #: The exported functions, each saved as ``<name>.casadi``.
 EXPORTED = ("qdd", "M", "f", "Phi", "Phi_rate", "D", "gamma", "points", "energies")
+
+
+class CasadiBackend(Backend):
+    """The CasADi export: its source and the functions it saves, printed by :class:`CasadiPrinter`
+    from ``templates/model_casadi.py.j2``; made by :func:`export`, opened by :func:`load`."""
+
+    name = "casadi"
+    files = (SOURCE, MANIFEST, *(f"{name}.casadi" for name in EXPORTED))
+    refuses = ("signals", "controllers")
+    made = "a CasADi export"
+
+    def printer(self, parameters, signals=()):
+        return CasadiPrinter(parameters)
+
+    def templates(self) -> tuple[str, ...]:
+        return (SOURCE + ".j2",)
 
 
 def require_casadi():
@@ -60,12 +78,11 @@ def check_inputs(coordinates, inputs) -> tuple:
 
 def render_casadi(model, inputs=(), command=None) -> str:
     """The CasADi source of ``model`` with inputs on the coordinates ``inputs``."""
-    check_no_signals(model, "a CasADi export")
-    check_no_controllers(model, "a CasADi export")
+    CasadiBackend().check(model)
     d = derive(model)
     inputs = check_inputs(d.chain.coordinates, inputs)
     fns = [fn for fn in model_functions(d, transforms=()) if fn.name in PRINTED]
-    printer, cache = CasadiPrinter(model.parameter_names), {}
+    printer, cache = CasadiBackend().printer(model.parameter_names), {}
     try:
         lowered = [lower(fn, d, printer, p, cache=cache) for fn, p in zip(fns, prepare_all(fns, d))]
     except (KeyError, ValueError, NotImplementedError) as exc:  # a function CasADi has no counterpart for
@@ -73,7 +90,7 @@ def render_casadi(model, inputs=(), command=None) -> str:
         raise ModelError(f"model {model.name}: the CasADi export cannot print {what}; write the model with the "
                          f"functions of a model file (sin, cos, tan, exp, log, sqrt, Abs, Min, Max, atan2, "
                          f"Heaviside, Piecewise)") from None
-    return template_environment().get_template(SOURCE + ".j2").render(
+    return template_environment().get_template(CasadiBackend().templates()[0]).render(
         functions=lowered,
         casadi=CASADI,
         inputs=inputs,
@@ -111,14 +128,14 @@ def export(model, folder, inputs=(), command=None, overwrite=False) -> dict:
     """Write ``model``'s CasADi functions into ``folder``: the source, ``casadi.json`` (the order of
     the arguments' entries) and ``<name>.casadi`` of each of :data:`EXPORTED`. Returns the
     functions by name. ``overwrite``: replace files of an earlier export."""
-    from .. import outputs
-    from ..fileio import atomic_write_all
+    from ... import outputs
+    from ...fileio import atomic_write_all
 
     require_casadi()
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise outputs.OutputError(f"--out {folder} is a file; give a folder to write the CasADi functions into")
-    targets = [folder / SOURCE, folder / MANIFEST] + [folder / f"{name}.casadi" for name in EXPORTED]
+    targets = [folder / name for name in CasadiBackend.files]
     outputs.check(targets, (), overwrite)
     source = render_casadi(model, inputs, command)
     module = module_of(source)
