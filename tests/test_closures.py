@@ -24,7 +24,7 @@ from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import consistent, gpme, partition
-from gpmegen.runtime.model import redundant_acceleration_jacobians
+from gpmegen.runtime.evaluator import redundant_acceleration_jacobians
 
 _HERE = str(Path(__file__).resolve().parent)
 if _HERE not in sys.path:

@@ -7,13 +7,19 @@ on the NumPy backend the solve is :func:`gpmegen.runtime.gpme.actuated` and the 
 
 from __future__ import annotations
 
-import numpy as np
+from typing import TYPE_CHECKING
 
-from ..errors import SimulationError
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..errors import ModelError, SimulationError
 from ..status import SolveStatus
 from . import gpme
 from .integrators.loop import Grid, state_derivative
 from .integrators.rk4 import rk4_steps
+
+if TYPE_CHECKING:
+    from .evaluator import Array, Four
 
 
 def actuation(model, t: float, q, qd) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -73,3 +79,40 @@ def rk4(model, g: Grid, k_from: int, k_to: int, save_every: int, y0: np.ndarray)
                                         *(ptr(part) for part in y_out), n_saved)
     k = int(n_saved[0])
     return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
+
+
+# Above this condition number of D M⁻¹ S the actuated coordinates are refused at the start.
+UNCONTROLLABLE = 1e10
+
+
+class Actuation:
+    """The actuated realization's inputs and checks on a :class:`~gpmegen.runtime.model.LoadedModel` (a mixin
+    of it)."""
+
+    def actuation(self, t: float, q: ArrayLike, qd: ArrayLike) -> Four:
+        """(q̈ (n,), u (m,), M, f) of the actuated realization on :attr:`actuators`: the inputs
+        ``u`` (N·m on a rotation, N on a translation) that alone hold the programmed
+        constraints (in C on the C backend, :mod:`gpmegen.runtime.actuated`). SimulationError where
+        ``D M⁻¹ S`` is singular."""
+        return actuation(self, t, q, qd)
+
+    def uncontrollable(self, t: float, D: Array, condition: float = np.inf) -> str:
+        """Why the actuated realization fails at ``t``: its inputs cannot move the constraints
+        (``D`` (m, n) their Jacobian there; ``condition`` that of ``D M⁻¹ S``)."""
+        names = ", ".join(self.coordinates[k] for k in self.actuators)
+        moved = ", ".join(self.coordinates[k] for k in np.flatnonzero(np.any(D != 0, axis=0)))
+        return (f"at t = {t:.6g} s the inputs on {names} cannot hold the constraints "
+                f"{', '.join(self.constraint_names)} (D M⁻¹ S is singular, condition number {condition:.2e}); "
+                f"actuate coordinates the constraints depend on ({moved}) with --actuated")
+
+    def check_actuators(self, t: float, q: ArrayLike) -> None:
+        """ModelError naming the actuated coordinates when their inputs cannot hold the
+        constraints at ``(t, q)`` from rest: ``D M⁻¹ S`` singular (condition above
+        :data:`UNCONTROLLABLE`), e.g. an input on a coordinate no constraint depends on."""
+        if not len(self.actuators):
+            return
+        M, _, _, _, D, _ = self.gpme_terms(t, q, np.zeros(self.n_dof))
+        with np.errstate(all="ignore"):
+            c = np.linalg.cond(gpme.input_coupling(M, D, self.actuators))
+        if not c <= UNCONTROLLABLE:
+            raise ModelError(self.uncontrollable(t, D, c))

@@ -1,6 +1,6 @@
 """The C backend: a generated model whose functions, GPME solve and RK4 loop run compiled.
 
-:class:`CEvaluator` is the :class:`gpmegen.runtime.model.Evaluator` over the compiled library;
+:class:`CEvaluator` is the :class:`gpmegen.runtime.evaluator.Evaluator` over the compiled library;
 :class:`CModel` is a :class:`LoadedModel` that evaluates through it (same methods, shapes and
 units). The NumPy module of the same folder still supplies the model's constants (coordinates,
 parameters, points, …).
@@ -18,8 +18,9 @@ from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
 from . import ccompile, cprobe, cstack, fastcall
+from .evaluator import TRANSFORM_FUNCTIONS, NumpyEvaluator, vector
 from .integrators.base import ADAPTIVE_COUNTS, COUNTS
-from .model import TRANSFORM_FUNCTIONS, LoadedModel, NumpyEvaluator, vector
+from .model import LoadedModel
 
 #: The number of coordinates from which a single fast call lets other threads run while its C
 #: does. Releasing and taking back the GIL costs about 0.05 µs a call: 5% of the C at n_rfe = 5
@@ -60,7 +61,7 @@ class CModel(LoadedModel):
 
 class CEvaluator:
     """The generated functions, GPME solve and RK4 loop of ``<folder>/model.c``, compiled and
-    loaded (an :class:`gpmegen.runtime.model.Evaluator`)."""
+    loaded (an :class:`gpmegen.runtime.evaluator.Evaluator`)."""
 
     def __init__(self, module: ModuleType, folder, flags, cache, rebuild, progress=None):
         source = Path(folder) / "model.c"
