@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 98267a3deea66889
+Input hash: efea274e6230378c
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

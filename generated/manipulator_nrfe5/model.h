@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 43d7e6b0fd662792
+Input hash: 6b623f6b3f215388
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
