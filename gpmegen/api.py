@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
+from .analysis.export import fmu as fmu_export
 from .analysis.post import results as results_io
 from .analysis.run import cases, linear, loading, opening, runs, tracking
 from .analysis.run.loading import checked_backend, keyword_options
@@ -34,7 +35,6 @@ from .analysis.run.runspec import NAMES as RUN_OPTIONS
 from .analysis.run.runspec import RunSpec, split_options
 from .analysis.sweep import sweep
 from .codegen.backends import casadi as casadi_export
-from .codegen.backends import fmu as fmu_export
 from .errors import (
     BuildError,
     DerivationError,
@@ -249,7 +249,7 @@ def export_fmu(out: str | Path, model: ModelSource = None, *, inputs: Iterable[s
                **options: Any) -> Path:
     """The model as an FMU (FMI 2.0, Model Exchange and Co-Simulation in one archive), as
     ``gpmegen export --format fmu`` writes it into the file ``out`` (``NAME.fmu``;
-    :mod:`gpmegen.codegen.backends.fmu`): its states q and q̇, the GPME's q̈, the points, the
+    :mod:`gpmegen.analysis.export.fmu`): its states q and q̇, the GPME's q̈, the points, the
     multipliers λ and the constraints' values as outputs, the parameters (tunable) and an input
     ``u_<coordinate>`` (a generalized force) on each coordinate of ``inputs``; its start values are
     :func:`statics`'s start (``start`` as there) and the run's parameter values. ``model``, and

@@ -1,8 +1,8 @@
-"""The FMU export (``gpmegen export --format fmu``, :mod:`gpmegen.codegen.fmu_export`), checked by
-FMPy: the FMU is valid, its Model Exchange (CVode) and Co-Simulation (RK4, DOP853) runs are
-gpmegen's own runs, an input and a parameter set through FMPy change the run as the same force and
-parameter do in gpmegen, the archive is the same byte for byte each time, and a model's free text
-and names cannot break its XML or C.
+"""The FMU export (``gpmegen export --format fmu``, :mod:`gpmegen.codegen.backends.fmu` and
+:mod:`gpmegen.analysis.export.fmu`), checked by FMPy: the FMU is valid, its Model Exchange (CVode)
+and Co-Simulation (RK4, DOP853) runs are gpmegen's own runs, an input and a parameter set through
+FMPy change the run as the same force and parameter do in gpmegen, the archive is the same byte for
+byte each time, and a model's free text and names cannot break its XML or C.
 
 Two models: the reference arm at n_rfe = 1 and tests/models/two_link_traced.toml (a programmed
 constraint, and a torque ``tau`` on theta1 as a drive, the same force as an input on theta1)."""
@@ -21,6 +21,7 @@ import pytest
 from test_trust_codegen import DANGEROUS
 
 import gpmegen
+from gpmegen.analysis.export import fmu as fmu_archive
 from gpmegen.cli import main
 from gpmegen.codegen.backends import fmu as fmu_export
 from gpmegen.model import shapes
@@ -195,7 +196,7 @@ def test_same_model_same_bytes(fmus, tmp_path):
     with zipfile.ZipFile(again) as archive:
         infos = archive.infolist()
     assert [i.filename for i in infos] == sorted(i.filename for i in infos)
-    assert {i.date_time for i in infos} == {fmu_export.ZIP_TIME}
+    assert {i.date_time for i in infos} == {fmu_archive.ZIP_TIME}
 
 
 def test_export_refuses_in_one_line(env, tmp_path, capsys):
@@ -277,7 +278,7 @@ def test_sources_rebuild_the_binary(fmpy, fmus, tmp_path):
                     "-o", str(binary), *sources, "-lm"], check=True, capture_output=True)
     files[f"binaries/linux64/{identifier}.so"] = binary.read_bytes()
     rebuilt = tmp_path / "rebuilt.fmu"
-    rebuilt.write_bytes(fmu_export.archive(files))
+    rebuilt.write_bytes(fmu_archive.archive(files))
     runs = [_simulate(fmpy, path, "CoSimulation", ("theta1", "theta2"), {"u_theta1": 0.3})
             for path in (original, rebuilt)]
     for name in ("theta1", "theta2", "theta1_dot", "theta2_dot"):

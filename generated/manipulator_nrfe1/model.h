@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: d363716b8e7f9794
+Input hash: efea274e6230378c
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

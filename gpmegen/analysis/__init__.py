@@ -5,17 +5,9 @@ it (the order the import contracts in pyproject.toml keep):
 - :mod:`~gpmegen.analysis.discretization`: one model at several ``n_rfe``, the discretization
   error and its extrapolation;
 - :mod:`~gpmegen.analysis.sweep`: many runs of one model with new parameters;
+- :mod:`~gpmegen.analysis.export`: the FMU of a case started as a run starts it, its binary compiled;
 - :mod:`~gpmegen.analysis.run`: cases, a run's specification, simulation and statics, results files;
 - :mod:`~gpmegen.analysis.post`: what is computed from a loaded model and its states (energy,
   modes, driving functions, closures' reactions, beam theory, Richardson extrapolation).
 """
 
-
-def __getattr__(name):
-    # gpmegen/codegen/backends/fmu.py imports ``from ...analysis import driving``: codegen's sources
-    # enter the digest every generated file records, so that line keeps the module's former place.
-    if name == "driving":
-        import importlib
-
-        return importlib.import_module(f"{__name__}.post.driving")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -85,7 +85,7 @@ def _export_casadi(case, out, args) -> int:
 
 def _export_fmu(case, out, args) -> int:
     """``export --format fmu``: the model as an FMU (FMI 2.0 Model Exchange and Co-Simulation) in the file ``out``."""
-    from ..codegen.backends import fmu as fmu_export
+    from ..analysis.export import fmu as fmu_export
 
     outputs.check([out], [args.model_file], overwrite=True)  # never over the model file
     made = case.located(functools.partial(fmu_export.export, case, out, args.inputs or (), args.overwrite,
