@@ -3,9 +3,9 @@ name given after a path (`path` `name`, `path` `Class.method`, ...) is defined i
 
 A path is read relative to `gpmegen/` (or the repository, for `tests/`, `templates/`, `docs/`);
 a folder stands for itself (`cli/`). After a Python file, each following backticked name up to
-the next `;`, `|`, sentence end or other path must be a def, class or assignment there (each part
-of a dotted name, the last a def or attribute of the first); after a C, header or template file it
-must occur there as a word (its `<k>`/`*` placeholders left out).
+the next `;`, `|`, other text or other path must be a def, class or assignment there (each part
+of a dotted name, as `Reader.read`); after a C, header or template file it must occur there as
+part of a word (its `<k>`/`*` placeholders left out).
 """
 
 from __future__ import annotations
