@@ -382,16 +382,3 @@ def check_frames(width: int, height: int, frames: int, held: int) -> None:
     check(f"drawing {frames} frame{'s' if frames > 1 else ''} of {width} x {height} pixels "
           f"({frame / 1e6:.3g} MB each, {held} held until written)", 0.0, n_bytes,
           "give a smaller --dpi, or fewer frames with a larger --every")
-
-
-def model_coordinates(model) -> int:
-    """n_dof of ``model`` (a :class:`gpmegen.model.Model`) counted without expanding it: one per
-    joint, one per free rotation of each sde of each flexible link."""
-    # The model's layer is above this module's (the model file reader checks its sizes here), and
-    # codegen/render.py, whose bytes enter the generated files' digest, calls this function: an
-    # exception of the import contracts in pyproject.toml.
-    from .model.chain import FlexibleLink, Joint
-    from .model.rfem import link_coordinates
-
-    return sum(1 if isinstance(e, Joint) else link_coordinates(e.n_rfe, e.freedoms) if isinstance(e, FlexibleLink)
-               else 0 for e in model.chain)

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 8fa70c707e6471f5
+Input hash: d363716b8e7f9794
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

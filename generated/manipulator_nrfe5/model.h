@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: aff7073b66401d43
+Input hash: 388927c9a69b81a5
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from .. import limits, outputs
+from ..model.size import coordinate_count
 from .common import UsageError, open_case, progress
 
 
@@ -24,7 +25,7 @@ def cmd_build(args) -> int:
         if args.force or read_manifest(out / model.name) is None:
             check_replaceable(out / model.name, registry.folder_files())
             # and a build too long for the limits, before --out is created
-            limits.check_build(limits.model_coordinates(model), model.name, jacobians=args.jacobians)
+            limits.check_build(coordinate_count(model), model.name, jacobians=args.jacobians)
     outputs.writable_folder(out)
     backends = ("numpy", "c")  # both are always rendered: the NumPy module is the C one's oracle
     transforms, asked = DEFAULT_TRANSFORMS, ""

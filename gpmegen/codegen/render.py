@@ -14,6 +14,7 @@ from .. import limits
 from ..errors import ModelError
 from ..folder import MANIFEST, FolderLock, read_manifest, recover_folder, stale_reason, write_folder
 from ..model.chain import Model
+from ..model.size import coordinate_count
 from ..status import SolveStatus
 from ..symbolic import derive
 from ..symbolic.names import SIGNAL_FUNCTION
@@ -49,7 +50,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
                          f"'gpmegen export --format {export}'")
     digest = digest or input_hash(model, backends, transforms, jacobians)
     t0 = time.perf_counter()
-    n_dof = limits.model_coordinates(model)
+    n_dof = coordinate_count(model)
     say(f"deriving the equations of motion of {n_dof} coordinates (deriving and printing estimated at "
         f"{limits.duration(limits.build_seconds(n_dof, jacobians))} of CPU time"
         + (", with the acceleration Jacobians)" if jacobians else ")"))
@@ -118,7 +119,7 @@ def build(model: Model, out: Path, backends=("numpy",), force=False, progress=No
     # A build that would be refused is refused before the lock creates anything in ``out``
     # (looked at without the lock: the answer is checked again under it).
     if force or _stale(folder, read_manifest(folder), digest, backends, transforms, jacobians) is not None:
-        limits.check_build(limits.model_coordinates(model), model.name, jacobians=jacobians)
+        limits.check_build(coordinate_count(model), model.name, jacobians=jacobians)
     with FolderLock(folder):
         return _build_locked(model, folder, backends, force, progress, command, digest, transforms, jacobians)
 
@@ -143,7 +144,7 @@ def _build_locked(model, folder, backends, force, progress, command, digest, tra
             return BuildResult(model.name, folder, manifest["n_dof"], True, 0.0, files)
         if manifest is not None and progress is not None:
             progress(f"{reason}: building it again")
-    limits.check_build(limits.model_coordinates(model), model.name, jacobians=jacobians)
+    limits.check_build(coordinate_count(model), model.name, jacobians=jacobians)
     texts = render(model, backends, progress, command, digest, transforms, jacobians)
     write_folder(folder, texts, registry.folder_files())
     return BuildResult(

@@ -10,10 +10,10 @@ from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ... import limits
 from ...errors import BuildError, DerivationError, ModelError
 from ...folder import read_start, write_start
 from ...model.chain import Joint
+from ...model.size import coordinate_count
 from ...model.toml_file import read_model_file
 from ...runtime.loader import open_folder
 from ..post import feedforward
@@ -135,7 +135,7 @@ class Case:
 
     def size(self) -> tuple[int, int]:
         """(coordinates, constraints) of the model, known before it is derived or loaded."""
-        return limits.model_coordinates(self.model), len(self.model.constraints)
+        return coordinate_count(self.model), len(self.model.constraints)
 
 
 class ModelCase(Case):

@@ -8,6 +8,7 @@ from scipy.integrate import cumulative_trapezoid
 
 from ... import limits
 from ...errors import ModelError
+from ...model.size import coordinate_count
 from ...runtime import inversion
 from ..post import driving
 from ..post import results as results_io
@@ -24,7 +25,7 @@ def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, prog
     its programmed motion at rest before ``t0`` and after ``t1`` (s), with the inputs on
     ``actuated`` (None: the case's own); writes ``out`` and returns ``(results, inversion,
     written)``."""
-    limits.check_inversion(limits.model_coordinates(case.model), nodes)
+    limits.check_inversion(coordinate_count(case.model), nodes)
     begun = case.started("numpy", start, overrides, progress)
     model, q0 = begun.model, begun.q
     model = model.with_actuators(case.actuators if actuated is None else actuated)

@@ -22,6 +22,7 @@ from typing import Any
 from ... import limits
 from ...codegen.render import input_hash
 from ...errors import GpmegenError
+from ...model.size import coordinate_count
 from ...runtime.integrators.loop import Progress, interruptible
 from ...runtime.loader import BACKENDS
 from ..run.opening import case_for
@@ -160,7 +161,7 @@ def _check_limits(models, per_model: int, size: int, settings: dict) -> None:
     of each model on ``size`` workers."""
     spec = RunSpec(t_end=settings["t_end"], dt=settings["dt"], save_every=settings["save_every"],
                    method=settings["method"])
-    limits.check_sweep([(per_model, limits.run_estimate(limits.model_coordinates(case.model),
+    limits.check_sweep([(per_model, limits.run_estimate(coordinate_count(case.model),
                                                         len(case.model.constraints), spec, settings["backend"]))
                         for case, _, _ in models], size)
 
