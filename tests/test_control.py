@@ -21,6 +21,7 @@ from gpmegen.analysis.post import energy
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
 from gpmegen.runtime import integrators
+from tests.backends import each_backend, on
 
 TIP = """schema = 1
 name = "tip_feedback"
@@ -76,13 +77,7 @@ def files(tmp_path_factory):
 def slider(env):
     """The slider on each backend, with the generated Jacobians, its limit out of reach (a plain
     PD law)."""
-    model = gpmegen.load_model_file(MODELS / "pd_slider.toml")
-    loaded = {"numpy": gpmegen.load(model=model, backend="numpy", jacobians=True, params={"u_max": 1e9})}
-    try:
-        loaded["c"] = gpmegen.load(model=model, backend="c", jacobians=True, params={"u_max": 1e9})
-    except gpmegen.errors.BuildError:   # no compiler: the tests of "c" skip
-        pass
-    return loaded
+    return each_backend(gpmegen.load_model_file(MODELS / "pd_slider.toml"), jacobians=True, params={"u_max": 1e9})
 
 
 @pytest.fixture(scope="module")
@@ -90,15 +85,11 @@ def tip(env, files):
     return gpmegen.load(model=gpmegen.load_model_file(files / "tip.toml"), backend="numpy", jacobians=True)
 
 
-def _on(slider, backend):
-    if backend not in slider:
-        pytest.skip("no C compiler")
-    return slider[backend]
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_drive_force_is_the_law_at_the_state(slider, backend):
-    model = _on(slider, backend)
+    model = on(slider, backend)
     q, qd = np.array([0.1]), np.array([0.5])
     assert model.drive_forces(0.0, q, qd) == pytest.approx([50.0 * (0.3 - 0.1) - 4.0 * 0.5], rel=1e-15)
     assert model.accelerations(0.0, q, qd) == pytest.approx([8.0 / 2.0], rel=1e-15)
@@ -109,7 +100,7 @@ def test_drive_force_is_the_law_at_the_state(slider, backend):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_jacobians_hold_the_law_derivatives(slider, backend):
-    model = _on(slider, backend).with_params(kp=1e6, kd=2e3)
+    model = on(slider, backend).with_params(kp=1e6, kd=2e3)
     A_q, A_qd = model.acceleration_jacobians(0.0, np.array([0.1]), np.array([0.2]))
     assert A_q[0, 0] == pytest.approx(-1e6 / 2.0, rel=1e-14)
     assert A_qd[0, 0] == pytest.approx(-2e3 / 2.0, rel=1e-14)
@@ -125,7 +116,7 @@ def test_pd_on_a_slider_matches_its_closed_form_with_rk4(slider):
 @pytest.mark.requires_cc
 @pytest.mark.parametrize("kp, kd", [(50.0, 4.0), (1e6, 2e3)])   # the second stiff: ω = 707 rad/s
 def test_each_compiled_integrator_follows_the_closed_form(slider, kp, kd):
-    model = _on(slider, "c").with_params(kp=kp, kd=kd)
+    model = on(slider, "c").with_params(kp=kp, kd=kd)
     zero = np.zeros(1)
     runs = {
         "rk4": (integrators.rk4.rk4(model, zero, zero, 0.5, 1e-5, save_every=500), 1e-8),
@@ -143,7 +134,7 @@ def test_each_compiled_integrator_follows_the_closed_form(slider, kp, kd):
 @pytest.mark.requires_cc
 def test_numpy_and_c_give_the_same_run(slider):
     zero = np.zeros(1)
-    runs = [integrators.rk4.rk4(_on(slider, b).with_params(u_max=5.0), zero, zero, 0.5, 1e-3, save_every=10)
+    runs = [integrators.rk4.rk4(on(slider, b).with_params(u_max=5.0), zero, zero, 0.5, 1e-3, save_every=10)
             for b in ("numpy", "c")]
     np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-13)
 

@@ -18,6 +18,7 @@ from gpmegen.analysis.run import linear
 from gpmegen.errors import ModelError
 from gpmegen.runtime import integrators
 from gpmegen.status import SolveStatus
+from tests.backends import each_backend, on
 from tests.refusals import refused_in_one_line
 
 MODELS = Path(__file__).parent / "models"
@@ -60,19 +61,7 @@ expression = "k*(s - x)"
 @pytest.fixture(scope="module")
 def pid(env):
     """The PID slider on each backend (the C one missing without a compiler)."""
-    model = gpmegen.load_model_file(PID)
-    loaded = {"numpy": gpmegen.load(model=model, backend="numpy")}
-    try:
-        loaded["c"] = gpmegen.load(model=model, backend="c")
-    except gpmegen.errors.BuildError:
-        pass
-    return loaded
-
-
-def _on(loaded, backend):
-    if backend not in loaded:
-        pytest.skip("no C compiler")
-    return loaded[backend]
+    return each_backend(gpmegen.load_model_file(PID))
 
 
 def test_a_drive_reads_the_controller_state_the_model_holds(pid):
@@ -89,7 +78,7 @@ def test_a_drive_reads_the_controller_state_the_model_holds(pid):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_pid_removes_the_steady_error_that_pd_leaves(pid, backend):
-    model = _on(pid, backend)
+    model = on(pid, backend)
     zero = np.zeros(1)
     # PD (ki = 0): poles -6 ± 2j, so e^(-6 t) < 1e-12 by t = 5 s; the error settles at F/kp
     t, y, outcome = integrators.rk4.rk4(model.with_params(ki=0.0), zero, zero, 5.0, 1e-3, save_every=100)
@@ -126,7 +115,7 @@ def test_a_first_order_filter_follows_its_closed_form(env, tmp_path, backend):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backend):
-    model = _on(pid, backend)
+    model = on(pid, backend)
     zero = np.zeros(1)
     t, y, outcome = integrators.rk4.rk4(model, zero, zero, 2.0, 1e-3, save_every=100)
     assert outcome.complete
@@ -146,7 +135,7 @@ def test_every_integrator_that_carries_the_states_gives_the_same_run(pid, backen
 def test_numpy_and_c_give_the_same_run(pid):
     zero = np.zeros(1)
     # the Python loop over the NumPy functions and the compiled loop
-    runs = [integrators.rk4.rk4(_on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
+    runs = [integrators.rk4.rk4(on(pid, b), zero, zero, 1.0, 1e-3, save_every=10) for b in ("numpy", "c")]
     assert runs[1][1].shape[1] == 5
     np.testing.assert_allclose(runs[0][1], runs[1][1], rtol=0, atol=1e-13)
 
@@ -163,7 +152,7 @@ def reference(pid):
     """DOP853 of the PID slider on the C backend over 15 s at rtol 1e-12, saved every 0.5 s: the
     run the implicit loops are compared with (its own error some 1e-12)."""
     zero = np.zeros(1)
-    t, y, outcome, _ = integrators.dop853.dop853(_on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-12, atol=1e-14)
+    t, y, outcome, _ = integrators.dop853.dop853(on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-12, atol=1e-14)
     assert outcome.complete
     return t, y
 
@@ -178,7 +167,7 @@ def _slowest_settled(t, y):
 def test_radau_carries_the_states_as_dop853_does(pid, reference):
     zero = np.zeros(1)
     t_ref, y_ref = reference
-    t, y, outcome, effort = integrators.radau.radau(_on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-10, atol=1e-12)
+    t, y, outcome, effort = integrators.radau.radau(on(pid, "c"), zero, zero, 15.0, 0.5, rtol=1e-10, atol=1e-12)
     assert outcome.complete
     np.testing.assert_allclose(t, t_ref, rtol=0, atol=1e-12)
     # Radau's global error stays at a few rtol times the state's size (|x| <= 0.1, |x_dot|, e_int
@@ -194,7 +183,7 @@ def test_radau_carries_the_states_as_dop853_does(pid, reference):
 def test_generalized_alpha_carries_the_states_to_second_order(pid, reference):
     zero = np.zeros(1)
     t_ref, y_ref = reference
-    model = _on(pid, "c")
+    model = on(pid, "c")
     errors = []
     for dt in (4e-3, 2e-3, 1e-3):
         t, y, outcome, _ = integrators.genalpha.genalpha(model, zero, zero, 15.0, dt, 0.5)
@@ -216,7 +205,7 @@ def test_generalized_alpha_carries_the_states_to_second_order(pid, reference):
 @pytest.mark.requires_cc
 def test_the_compiled_loops_called_directly_carry_the_states(pid):
     # past the Python drivers: each loop takes the state with z and returns it with z
-    model, zero = _on(pid, "c"), np.zeros(1)
+    model, zero = on(pid, "c"), np.zeros(1)
     y = integrators.loop.start_state(model, zero, zero)
     y[4] = 0.5
     rows, status = model.radau(0.0, y, np.array([0.01]), 1e-10, 1e-12, np.zeros(1),

@@ -25,6 +25,7 @@ from gpmegen.errors import ModelError
 from gpmegen.model.chain import Point
 from gpmegen.model.expand import expand
 from gpmegen.runtime import integrators
+from tests.backends import each_backend, on
 
 ROOT = Path(__file__).resolve().parents[1]
 HANGER = ROOT / "tests" / "models" / "spring_hanger.toml"
@@ -141,19 +142,7 @@ def arm(env, files):
 @pytest.fixture(scope="module")
 def hanger(env):
     """The hanger on each backend (C where there is a compiler), with the generated Jacobians."""
-    model = gpmegen.load_model_file(HANGER)
-    loaded = {"numpy": gpmegen.load(model=model, backend="numpy", jacobians=True)}
-    try:
-        loaded["c"] = gpmegen.load(model=model, backend="c", jacobians=True)
-    except gpmegen.errors.BuildError:
-        pass
-    return loaded
-
-
-def _on(models, backend):
-    if backend not in models:
-        pytest.skip("no C compiler")
-    return models[backend]
+    return each_backend(gpmegen.load_model_file(HANGER), jacobians=True)
 
 
 BACKENDS = ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)]
@@ -163,7 +152,7 @@ BACKENDS = ["numpy", pytest.param("c", marks=pytest.mark.requires_cc)]
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_hanger_readings_and_force_are_the_spring_law(hanger, backend):
-    model = _on(hanger, backend).with_params(c=3.0)
+    model = on(hanger, backend).with_params(c=3.0)
     y, rate = -0.01, 0.3
     q, qd = np.array([y]), np.array([rate])
     L, Ldot = H - y, -rate                         # A is H above the mass
@@ -183,7 +172,7 @@ def test_hanger_static_deflection_and_frequency_are_the_closed_form(env, hanger)
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_hanger_oscillates_about_its_deflection_at_sqrt_k_over_m(hanger, backend):
-    model = _on(hanger, backend)
+    model = on(hanger, backend)
     t, y, outcome = integrators.rk4.rk4(model, np.zeros(1), np.zeros(1), 0.3, 2e-4, save_every=50)
     assert outcome.complete
     sag, omega = MASS * G / K, math.sqrt(K / MASS)
@@ -197,7 +186,7 @@ def test_the_damped_hanger_linearizes_to_its_closed_form(env):
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_the_jacobians_hold_the_element(hanger, backend):
-    model = _on(hanger, backend).with_params(c=7.0)
+    model = on(hanger, backend).with_params(c=7.0)
     A_q, A_qd = model.acceleration_jacobians(0.0, np.array([-0.02]), np.array([0.4]))
     assert A_q[0, 0] == pytest.approx(-K / MASS, rel=1e-13)
     assert A_qd[0, 0] == pytest.approx(-7.0 / MASS, rel=1e-13)
@@ -412,7 +401,7 @@ def test_generated_code_is_deterministic(env):
 def test_points_meeting_in_a_run_stop_it_naming_the_element(hanger, backend):
     # no gravity, no spring: the mass rises at 1 m/s and meets A (0.5 m up) exactly in the last
     # stage of the fourth step of 0.125 s (all binary fractions), where e = d/L is 0/0
-    model = _on(hanger, backend).with_params(g=0.0, k=0.0)
+    model = on(hanger, backend).with_params(g=0.0, k=0.0)
     t, y, outcome = integrators.rk4.rk4(model, np.zeros(1), np.ones(1), 1.0, 0.125)
     assert not outcome.complete and t[-1] == 0.375
     assert ("non-finite state" in str(outcome) and "the shortest force element, 'spring', was 0.125 m long at "

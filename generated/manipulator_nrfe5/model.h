@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6b623f6b3f215388
+Input hash: b4809e30a6da771d
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -11,9 +11,10 @@ static int actuated_stage(const struct gpmegen_model *model, double t, const dou
     return gpmegen_actuated_solve(model, t, q, qd, p, qdd, u, M, f, power);
 }
 
-/* One stage: qdd from the GPME (or, with model->actuators, of the actuated realization) (the model's recursion), the power of the drive (qd . Q) and of
-   the constraint forces (qd . (M qdd - f)) whose integrals close the energy balance, and the rates
-   of the controller states z (power[2 ...]), which the generated functions read from the end of p. */
+/* One stage: qdd from the GPME (the model's recursion; with model->actuators, the actuated
+   realization's solve), the power of the drive (qd . Q) and of the constraint forces
+   (qd . (M qdd - f)) whose integrals close the energy balance, and the rates of the controller
+   states z (power[2 ...]), which the generated functions read from the end of p. */
 int gpmegen_stage(const struct gpmegen_model *model, double t, const double *q, const double *qd, const double *z,
                   const double *p, double *qdd, double *power)
 {

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..errors import ModelError
-from .chain import TIME, Joint, Model, symbol
+from .chain import TIME, Joint, Model, symbol, velocity_symbol
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,7 @@ class ComputedTorque:
         out = []
         for name, ref, kp, kd in zip(self.coordinates, self.references, self.kp, self.kd):
             ref = sp.sympify(ref)
-            q, qd = symbol(name), symbol(f"{name}_dot")
+            q, qd = symbol(name), velocity_symbol(name)
             out.append(sp.diff(ref, TIME, 2) + kd * (sp.diff(ref, TIME) - qd) + kp * (ref - q))
         return out
 

@@ -47,8 +47,7 @@ def spoken(names_: list[str]) -> str:
 
 
 def carrying_controller_states() -> str:
-    """The integrators that integrate controller states, as a refusal names them: ``rk4, dop853 or
-    scipy-radau``."""
+    """The integrators that integrate controller states, as a refusal names them (``a, b or c``)."""
     return spoken([name for name, i in INTEGRATORS.items() if i.controller_states])
 
 

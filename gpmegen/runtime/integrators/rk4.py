@@ -51,7 +51,6 @@ def _steps(rhs, y, g, k_from, k_to, save_every, ts, ys) -> SolveStatus:
     return SolveStatus.OK
 
 
-
 def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_violation=None, watch=None,
         steps_per_call=None):
     """Classical RK4 from ``t0`` to ``t_end`` (s) on :func:`grid` with step ``dt`` (s), run by
@@ -87,13 +86,11 @@ def rk4(model, q0, qd0, t_end, dt, save_every=1, t0=0.0, progress=None, max_viol
     return chunked(model, y0, g, chunk, advance, progress, max_violation, watch, steps_per_call)
 
 
-
 def rk4_effort(t, t0: float, dt: float) -> Effort:
     """The :class:`Effort` of an RK4 run on :func:`grid` with step ``dt`` whose last saved state
     is at ``t[-1]`` (s): four GPME solves a step."""
     steps = math.ceil((float(t[-1]) - t0) / dt - STEP_ROUND_OFF) if len(t) else 0
     return Effort(steps, 0, 4 * steps, 0, 0)
-
 
 
 #: The methods that take steps above RK4's stable one: they choose their own.
@@ -118,7 +115,6 @@ def unstable_step(dt: float, values) -> str | None:
     return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (set by the eigenvalue {real:.4g} ± "
             f"{abs(value.imag):.4g}j 1/s of the motion linearized at the start, {abs(value) / (2 * math.pi):.4g} Hz, "
             f"{kind}): use --dt {stable:.2g} or less, or {LONG_STEPS}")
-
 
 
 @register
