@@ -12,7 +12,7 @@ plain numbers); nothing here does algebra beyond naming symbols.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -354,6 +354,9 @@ class Model:
     name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
     controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
     :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None.
+    ``start_constants``: the parameters its start sets
+    (:class:`gpmegen.model.start_constants.StartConstants`), or None; left out of ``repr``, and
+    so of the input hash, since the generated code does not depend on it.
     """
 
     name: str
@@ -369,6 +372,7 @@ class Model:
     forces: tuple = ()
     controllers: tuple = ()
     computed_torque: object = None
+    start_constants: object = field(default=None, repr=False)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -332,6 +332,8 @@ def expand(model: Model) -> FlatChain:
     check_dependent(model, coordinates)
     if model.computed_torque is not None:
         check_computed_torque(model.computed_torque, coordinates, constant)
+    if model.start_constants is not None:
+        model.start_constants.check(model, coordinates, points)
     return FlatChain(model, elements, tuple(coordinates), tree, _couplings(elements, coordinates))
 
 
