@@ -129,3 +129,14 @@ def test_refusals(tmp_path, message, body):
         gpmegen.load_model_file(plant)
     text = str(caught.value)
     assert message in text and "\n" not in text and "plant.toml:" in text
+
+
+def test_controller_with_more_joints_than_a_point_has_components_refused(tmp_path):
+    six = Path(__file__).parents[1] / "examples" / "spatial_six_joint.toml"
+    plant = tmp_path / "plant.toml"
+    plant.write_text(_law(LAW.replace('components = ["x", "y"]\n', "")).replace('model = "ct_task_arm.toml"',
+                                                                               f"model = {str(six)!r}"))
+    with pytest.raises(ModelError) as caught:
+        gpmegen.load_model_file(plant)
+    text = str(caught.value)
+    assert "has 6 joints" in text and "so J_c cannot be square; use a joint law" in text and "\n" not in text
