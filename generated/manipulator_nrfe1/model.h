@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 0c4adb769cabf88e
+Input hash: 72e3d431e47e2906
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: c4e12d25161f9003
+Input hash: 7b5035f6109d9673
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -353,7 +353,8 @@ class Model:
     are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
     name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
     controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
-    :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None.
+    :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None;
+    ``task_torque``: a :class:`gpmegen.model.task_torque.TaskTorque` law, or None.
     ``start_constants``: the parameters its start sets
     (:class:`gpmegen.model.start_constants.StartConstants`), or None; left out of ``repr``, and
     so of the input hash, since the generated code does not depend on it.
@@ -372,6 +373,7 @@ class Model:
     forces: tuple = ()
     controllers: tuple = ()
     computed_torque: object = None
+    task_torque: object = None
     start_constants: object = field(default=None, repr=False)
 
     @property
