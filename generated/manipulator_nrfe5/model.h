@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: b4809e30a6da771d
+Input hash: 52fb06e9adf35461
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

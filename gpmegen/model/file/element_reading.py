@@ -6,7 +6,6 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
-from ...errors import ModelError
 from ..chain import (
     FORCE_TYPES,
     MAX_SIGNALS,
@@ -20,9 +19,7 @@ from ..chain import (
     point_velocity_symbols,
     symbol,
 )
-from ..expand import expand
 from ..law_checks import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS
-from .locator import located
 from .schema import (
     SIGNAL_KEYS,
 )
@@ -194,19 +191,3 @@ class ElementReading:
                 values["force"] = self.law(item["force"], path + ("force",), "an actuator's")
             forces.append(ForceElement(name, points, kind, **values))
         return tuple(forces)
-
-    def check_forces(self, model):
-        """Refuse a force element whose points coincide in every configuration (derived from
-        the kinematics, as the build would)."""
-        import dataclasses
-
-        # The layer above the model's: the points are compared in the derived kinematics of the
-        # model being read (an exception of the import contracts in pyproject.toml).
-        from ...symbolic.forces import check_coincident
-        from ...symbolic.kinematics import forward
-        from ...symbolic.program import Program
-
-        try:
-            check_coincident(forward(expand(dataclasses.replace(model, dependent=None)), Program()), model.forces)
-        except ModelError as exc:
-            raise located(exc, self.file, self.locator) from None

@@ -134,8 +134,6 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             if "urdf" in data and exc.subject[:1] == ("chain",):
                 raise chain_error(self, exc) from None
             raise located(exc, self.file, self.locator, chain) from None
-        if forces:
-            self.check_forces(model)
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
                          limits=robot.limits if robot is not None else {})
