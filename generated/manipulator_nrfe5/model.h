@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 52fb06e9adf35461
+Input hash: 150214e80221380c
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -354,6 +354,8 @@ class Model:
     name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
     controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
     :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None.
+    ``elements``: the entries of the element kinds registered from outside
+    (:class:`gpmegen.model.elements.Element`), each adding its own terms.
     """
 
     name: str
@@ -369,6 +371,7 @@ class Model:
     forces: tuple = ()
     controllers: tuple = ()
     computed_torque: object = None
+    elements: tuple = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

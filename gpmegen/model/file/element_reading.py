@@ -19,6 +19,8 @@ from ..chain import (
     point_velocity_symbols,
     symbol,
 )
+from ..elements import get as element_kind
+from ..elements import kinds as element_kinds
 from ..law_checks import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS
 from .schema import (
     SIGNAL_KEYS,
@@ -117,7 +119,7 @@ class ElementReading:
         states: dict[str, tuple] = {}
         for k, item in enumerate(items):
             path = ("controllers", k)
-            self.table(item, path, ("state", "rate", "initial"), ("state", "rate"), "controller")
+            self.entry(item, path, element_kind("controllers"))
             name = self.name(item["state"], path + ("state",), "controller state", bare=True)
             self.fresh_name(name, path + ("state",), "controller state", taken, states)
         self.controller_states = {name: symbol(name) for name in states}
@@ -161,8 +163,7 @@ class ElementReading:
         forces = []
         for k, item in enumerate(items):
             path = ("forces", k)
-            self.table(item, path, ("name", "points", "type", "stiffness", "rest_length", "damping", "force"),
-                       ("name", "points", "type"), "force")
+            self.entry(item, path, element_kind("forces"))
             name = self.name(item["name"], path + ("name",), "force")
             if name in taken:
                 self.fail(path + ("name",), f"force {name!r}: the name is already taken by a {taken[name]}; "
@@ -191,3 +192,22 @@ class ElementReading:
                 values["force"] = self.law(item["force"], path + ("force",), "an actuator's")
             forces.append(ForceElement(name, points, kind, **values))
         return tuple(forces)
+
+    def entry(self, item, path, kind) -> None:
+        """Refuse the entry ``item`` (at ``path``) of the element kind ``kind`` unless it is a
+        table of that kind's keys holding its required ones."""
+        self.table(item, path, kind.keys, kind.required, kind.what)
+
+    def read_elements(self, data) -> tuple:
+        """The entries of the registered element kinds held in ``Model.elements`` (those that
+        are no field of their own), kind by kind in the registry's order, each read by its kind."""
+        elements = []
+        for kind in element_kinds():
+            if kind.field is not None:
+                continue
+            items = data.get(kind.table, [])
+            self.array(items, (kind.table,), what=f"list of [[{kind.table}]] tables")
+            for k, item in enumerate(items):
+                self.entry(item, (kind.table, k), kind)
+                elements.append(kind.read(self, item, (kind.table, k)))
+        return tuple(elements)
