@@ -6,6 +6,7 @@ its table is refused again."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,37 +17,20 @@ from gpmegen.model import elements
 from gpmegen.model.chain import symbol, velocity_symbol
 from gpmegen.model.toml_file import read_model_file
 
-# a point mass m at r from a revolute joint about z, no gravity: J = m r², and the spring alone
-# gives ω = sqrt(k/J)
-ROTOR = '''schema = 1
-name = "torsion_rotor"
-
-[parameters]
-k = { value = 4.0, unit = "N m/rad", doc = "torsion spring" }
-c = { value = 0.0, unit = "N m s/rad", doc = "torsion damper" }
-
-[[chain]]
-joint = "theta1"
-type = "revolute"
-axis = "z"
-
-[[chain]]
-body = "bob"
-shape = { type = "point_mass", mass = 1.0, position = [1.0, 0, 0] }
-
-[[chain]]
-point = "tip"
-position = [1.0, 0, 0]
-
-[[torsion_springs]]
-coordinate = "theta1"
-stiffness = "k"
-damping = "c"
-
-[initial]
-q = { theta1 = 0.3 }
-'''
-J, K, Q0 = 1.0, 4.0, 0.3
+# the pendulum of tests/models (a point mass m at r from a revolute joint about z) without
+# gravity, its tip named, and a torsion spring and damper on its joint: J = m r², and the spring
+# alone gives ω = sqrt(k/J)
+PENDULUM = Path(__file__).parent / "models" / "pendulum.toml"
+ROTOR = (PENDULUM.read_text()
+         .replace('name = "pendulum"', 'name = "torsion_rotor"')
+         .replace('gravity = [0, "-g", 0]', 'gravity = [0, 0, 0]')
+         .replace('[[chain]]\njoint', 'kt = { value = 4.0, unit = "N m/rad", doc = "torsion spring" }\n'
+                                      'c = { value = 0.0, unit = "N m s/rad", doc = "torsion damper" }\n\n'
+                                      '[[chain]]\njoint')
+         .replace('[initial]', '[[chain]]\npoint = "tip"\nposition = [1.0, 0, 0]\n\n'
+                               '[[torsion_springs]]\ncoordinate = "theta1"\nstiffness = "kt"\ndamping = "c"\n\n'
+                               '[initial]'))
+J, K, Q0 = 1.0, 4.0, -0.5
 
 
 @dataclass(frozen=True)
@@ -96,7 +80,7 @@ def test_a_registered_kind_is_read_and_oscillates_at_its_closed_form_frequency(r
     """Undamped: q = q0 cos(ωt), ω = sqrt(k/J), to the RK4 error of 2 s at 1 ms, and the spring
     energy k q²/2 plus the kinetic energy J q̇²/2 stays k q0²/2."""
     model = read_model_file(rotor).model
-    assert model.elements == (TorsionSpring("theta1", symbol("k"), symbol("c")),)
+    assert model.elements == (TorsionSpring("theta1", symbol("kt"), symbol("c")),)
     run = gpmegen.simulate(str(rotor), t_end=2.0, dt=1e-3, backend="numpy", directory=env[0])
     omega = np.sqrt(K / J)
     np.testing.assert_allclose(run.coordinate("theta1"), Q0 * np.cos(omega * run.t), rtol=0, atol=1e-9)
@@ -124,8 +108,9 @@ def test_an_unregistered_table_is_refused_in_one_line(rotor):
 
 def test_a_faulty_entry_is_refused_at_its_line(registered, rotor):
     rotor.write_text(ROTOR.replace('coordinate = "theta1"', 'coordinate = "theta2"'))
-    with pytest.raises(ModelError, match=r"torsion_rotor.toml:22: torsion_springs\[0\]\.coordinate: 'theta2' is not a "
-                                         r"coordinate"):
+    line = ROTOR.splitlines().index('coordinate = "theta1"') + 1
+    with pytest.raises(ModelError, match=rf"torsion_rotor.toml:{line}: torsion_springs\[0\]\.coordinate: 'theta2' "
+                                         "is not a coordinate"):
         read_model_file(rotor)
     rotor.write_text(ROTOR.replace('damping = "c"', 'mass = "c"'))
     with pytest.raises(ModelError, match=r"torsion_springs\[0\]\.mass: unknown key 'mass'; the keys of a torsion "
