@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 5b7fa6fcde93e2a6
+Input hash: 28b78fdd20473adc
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 150214e80221380c
+Input hash: e103c6f097c0635e
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
