@@ -217,6 +217,10 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--out", type=path_argument, default="figures", help="folder for the figures (default figures/)")
     pl.add_argument("--format", type=figure_formats, default=("png",), metavar="png,pdf,svg",
                     help="figure formats, separated by commas: png (200 dpi), pdf and svg (vector); default png")
+    pl.add_argument("--reference", type=path_argument, default=None, metavar="REF",
+                    help="also measure the runs against REF as 'gpmegen metrics --reference' does (a model file, a "
+                         "folder made by 'build --out', manipulator, or a run .npz): the path-error figure and "
+                         "metrics.csv and metrics.md beside the figures")
     pl.set_defaults(func=cmd_plot)
 
     m = command("modes", "natural frequencies and mode shapes about the static equilibrium")
