@@ -171,7 +171,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
                         "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
                         "actuators (--actuated none: ideally), else none; --method rk4 integrates it in the compiled "
-                        "loop on the C backend (in Python on the NumPy one), dop853, radau and genalpha refuse it")
+                        "loop on the C backend (in Python on the NumPy one), dop853 in the compiled loop, radau and "
+                        "genalpha refuse it")
     s.add_argument("--feedforward", type=path_argument, default=None, metavar="RUN.npz",
                    help="add the inputs u of an actuated run (simulate --actuated, or invert) to the drives of the "
                         "model's coordinates of the same names, interpolated linearly in t")
