@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: fc3d8c811a0c81f3
+Input hash: dc1bfa7b016c49bd
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -52,18 +52,24 @@ def joint_coordinates(model: Model) -> list[str]:
     return [e.name for e in model.chain if isinstance(e, Joint)]
 
 
+def check_joints_in_plant(law, plant_coordinates) -> None:
+    """Refuse, in one line, a joint of ``law.controller`` that is no coordinate of the plant (the
+    law, joint or task-space, reads the controller's joints from the plant's)."""
+    plant = list(plant_coordinates)
+    for name in joint_coordinates(law.controller):
+        if name not in plant:
+            raise ModelError(f"controller {law.source or law.controller.name}: its coordinate {name} is no coordinate "
+                             f"of the plant (the plant's: {', '.join(plant)}); give the controller model the plant's "
+                             f"joint names", ("controller", "model"))
+
+
 def check(law: ComputedTorque, plant_coordinates, constant: set) -> None:
     """Refuse, in one line, a law whose coordinates the plant or the controller lacks, a
     controller joint the law does not actuate, a gain not of parameters or a reference not of
     ``t`` and parameters. ``constant``: the plant's parameter symbols."""
     where = f"controller {law.source or law.controller.name}"
     controller = joint_coordinates(law.controller)
-    plant = list(plant_coordinates)
-    for name in controller:
-        if name not in plant:
-            raise ModelError(f"{where}: its coordinate {name} is no coordinate of the plant (the plant's: "
-                             f"{', '.join(plant)}); give the controller model the plant's joint names",
-                             ("controller", "model"))
+    check_joints_in_plant(law, plant_coordinates)
     for k, name in enumerate(law.coordinates):
         if name not in controller:
             raise ModelError(f"{where}: the law acts on {name}, which is no joint of the controller model "

@@ -14,6 +14,7 @@ from . import computed_torque as _computed_torque
 from . import constraints as _constraints
 from . import dynamics as _dynamics
 from . import recursive as _recursive
+from . import task_torque as _task_torque
 from .constraints import state_expressions
 from .kinematics import Kinematics, forward
 from .program import Program
@@ -42,6 +43,8 @@ def derive(model) -> Derivation:
     dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces)
     if model.computed_torque is not None:   # the law joins the drives, before the recursion reads them
         dyn.drive_forces = dyn.drive_forces + _computed_torque.derive(kin, model.computed_torque)
+    if model.task_torque is not None:
+        dyn.drive_forces = dyn.drive_forces + _task_torque.derive(kin, model.task_torque)
     con = _constraints.derive(kin, model.constraints)
     rec = _recursive.derive(kin, dyn, model.gravity)
     rates = sp.Matrix(state_expressions(kin, [c.rate for c in model.controllers])) if model.controllers else None

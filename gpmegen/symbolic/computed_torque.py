@@ -27,7 +27,15 @@ from .program import Program
 def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, sp.Matrix, tuple]:
     """``(M_c, f_c, coordinates)`` of the controller model as expressions of ``program``'s
     intermediates (copied in) and the plant's state symbols; ``f_c`` without drives (n_c,)."""
-    controller = law.controller
+    (mass, forces), coordinates = controller_outputs(law.controller, program,
+                                                     lambda kin, dyn: [dyn.mass_matrix, dyn.forces])
+    return mass, forces, coordinates
+
+
+def controller_outputs(controller, program: Program, outputs) -> tuple[list, tuple]:
+    """``(matrices, coordinates)``: the matrices ``outputs(kin, dyn)`` gives of the controller
+    model's kinematics and dynamics (its forces without drives), as expressions of ``program``'s
+    intermediates (copied in) and the plant's state symbols; ``coordinates`` the controller's."""
     chain = expand(controller)
     own = Program()
     kin = forward(chain, own)
@@ -38,10 +46,10 @@ def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, 
         if name not in joints:   # elastic: held at rest
             mapping[names.coordinate(name)] = sp.S.Zero
             mapping[names.velocity(name)] = sp.S.Zero
-    mass, forces = dyn.mass_matrix, dyn.forces
-    for sym, expr in own.closure([*mass, *forces]):
+    matrices = [sp.Matrix(m) for m in outputs(kin, dyn)]
+    for sym, expr in own.closure([e for m in matrices for e in m]):
         mapping[sym] = program.define(expr.xreplace(mapping))
-    return mass.xreplace(mapping), forces.xreplace(mapping), chain.coordinates
+    return [m.xreplace(mapping) for m in matrices], chain.coordinates
 
 
 def derive(kin: Kinematics, law: ComputedTorque) -> sp.Matrix:
@@ -49,6 +57,12 @@ def derive(kin: Kinematics, law: ComputedTorque) -> sp.Matrix:
     coordinate the law names ``(M_c v - f_c)`` of the controller's same coordinate, elsewhere 0."""
     mass, forces, coordinates = controller_terms(law, kin.program)
     commanded = dict(zip(law.coordinates, state_expressions(kin, law.commanded())))
+    return on_plant(kin, mass, forces, coordinates, commanded)
+
+
+def on_plant(kin: Kinematics, mass, forces, coordinates, commanded: dict) -> sp.Matrix:
+    """``u = M_c v - f_c`` (``v``: ``commanded[name]`` on the coordinates it names, 0 on the
+    controller's others) placed on the plant's coordinates of those names (n,), 0 elsewhere."""
     v = sp.Matrix([commanded.get(name, sp.S.Zero) for name in coordinates])
     u = mass * v - forces
     index = {name: j for j, name in enumerate(kin.chain.coordinates)}

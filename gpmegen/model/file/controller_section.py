@@ -16,8 +16,9 @@ from ..computed_torque import ComputedTorque
 from ..expand import expand
 from .locator import located
 from .model_file import ModelFile
+from .task_space_section import read_task_space
 
-CONTROLLER_KEYS = ("model", "nrfe", "computed_torque")
+CONTROLLER_KEYS = ("model", "nrfe", "computed_torque", "task_space")
 LAW_KEYS = ("coordinate", "reference", "kp", "kd")
 
 
@@ -38,13 +39,32 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
                              f"name the law's coordinates, references and gains; add one (docs/model-file.md)")
         return model_file
     path = ("controller",)
-    table = reader.table(data["controller"], path, CONTROLLER_KEYS, ("model", "computed_torque"), "controller")
+    table = reader.table(data["controller"], path, CONTROLLER_KEYS, ("model",), "controller")
+    if "computed_torque" not in table and "task_space" not in table:
+        reader.fail(path, "no law: add [[controller.computed_torque]] per joint or one [[controller.task_space]]")
     nrfe = reader.nrfe(table["nrfe"], path + ("nrfe",)) if "nrfe" in table else None
     source = controller_path(reader.file, reader.string(table["model"], path + ("model",),
                                                         "a model file's path in quotes"))
     source = str(override) if override is not None else source
     controller = load(source, nrfe).model
-    items = reader.array(table["computed_torque"], path + ("computed_torque",),
+    model = model_file.model
+    if "task_space" in table:
+        model = dataclasses.replace(model, task_torque=read_task_space(reader, table["task_space"], controller,
+                                                                       Path(source).name, _reference))
+    if "computed_torque" in table:
+        model = dataclasses.replace(model, computed_torque=_joint_law(reader, table["computed_torque"], controller,
+                                                                      Path(source).name))
+    try:
+        expand(model)
+    except ModelError as exc:
+        raise located(exc, reader.file, reader.locator) from None
+    return dataclasses.replace(model_file, model=model)
+
+
+def _joint_law(reader, value, controller, source: str) -> ComputedTorque:
+    """The law of the ``[[controller.computed_torque]]`` tables ``value``."""
+    path = ("controller",)
+    items = reader.array(value, path + ("computed_torque",),
                          what="list of [[controller.computed_torque]] tables")
     coordinates, references, kp, kd = [], [], [], []
     for k, item in enumerate(items):
@@ -54,14 +74,7 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
         references.append(_reference(reader, item["reference"], here + ("reference",)))
         kp.append(reader.quantity(item["kp"], here + ("kp",), reader.params))
         kd.append(reader.quantity(item["kd"], here + ("kd",), reader.params))
-    law = ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd),
-                         source=Path(source).name)
-    model = dataclasses.replace(model_file.model, computed_torque=law)
-    try:
-        expand(model)
-    except ModelError as exc:
-        raise located(exc, reader.file, reader.locator) from None
-    return dataclasses.replace(model_file, model=model)
+    return ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd), source=source)
 
 
 def _reference(reader, value, path):
