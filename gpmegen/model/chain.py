@@ -355,6 +355,8 @@ class Model:
     controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
     :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None;
     ``task_torque``: a :class:`gpmegen.model.task_torque.TaskTorque` law, or None.
+    ``elements``: the entries of the element kinds registered from outside
+    (:class:`gpmegen.model.elements.Element`), each adding its own terms.
     """
 
     name: str
@@ -371,6 +373,7 @@ class Model:
     controllers: tuple = ()
     computed_torque: object = None
     task_torque: object = None
+    elements: tuple = ()
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
