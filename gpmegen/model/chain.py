@@ -358,6 +358,8 @@ class Model:
     ``start_constants``: the parameters its start sets
     (:class:`gpmegen.model.start_constants.StartConstants`), or None; left out of ``repr``, and
     so of the input hash, since the generated code does not depend on it.
+    ``elements``: the entries of the element kinds registered from outside
+    (:class:`gpmegen.model.elements.Element`), each adding its own terms.
     """
 
     name: str
@@ -374,6 +376,7 @@ class Model:
     controllers: tuple = ()
     computed_torque: object = None
     task_torque: object = None
+    elements: tuple = ()
     start_constants: object = field(default=None, repr=False)
 
     @property

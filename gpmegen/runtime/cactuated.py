@@ -1,5 +1,5 @@
 """The actuated realization's calls of a model's C library (``gpmegen/csrc/actuated.c``: the
-``(n + m)``-row system by dense LU): its solve at one state and its compiled RK4 loop. A mixin of
+``(n + m)``-row system by dense LU): its solve at one state and its compiled RK4 and DOP853 loops. A mixin of
 :class:`gpmegen.runtime.cmodel.CEvaluator`, apart from it because it is a concern of its own."""
 
 from __future__ import annotations
@@ -39,6 +39,18 @@ class CActuated:
                                        *(ptr(part) for part in y_out), n_saved)
         k = int(n_saved[0])
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
+
+    def actuated_dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first):
+        """:meth:`~gpmegen.runtime.model.LoadedModel.dop853` of ``model``'s actuated realization in
+        the compiled loop (its arguments and results)."""
+        self._check_stack("actuated_dop853")
+        indices = self._actuator_indices(model)
+
+        def entry(*arguments):   # the ideal entry's arguments, the actuators in place of the partition's two
+            return self.lib.dop853_actuated(*arguments[:10], indices, *arguments[12:])
+
+        return self._adaptive(entry, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first,
+                              partitioned=False)
 
     def _actuator_indices(self, model):
         """``model``'s actuated coordinates as C ints (one at least: C has no empty arrays)."""

@@ -16,6 +16,7 @@ from ...model.chain import Joint
 from ...model.size import coordinate_count
 from ...model.toml_file import read_model_file
 from ...runtime.loader import open_folder
+from ...symbolic.forces import check_apart
 from ..post import feedforward
 from . import loading, set_at_start, study
 
@@ -241,7 +242,12 @@ class FileCase(ModelCase):
 
     @cached_property
     def file(self):
-        return read_model_file(self.path, nrfe=self.nrfe, controller_model=self.controller_model)
+        file = read_model_file(self.path, nrfe=self.nrfe, controller_model=self.controller_model)
+        try:   # from the derived kinematics, which the model layer that reads the file cannot see
+            check_apart(file.model)
+        except DerivationError as exc:
+            raise file.locate(exc) from None
+        return file
 
     def controlled_by(self, path) -> FileCase:
         """This case with the model file at ``path`` as its computed-torque law's controller

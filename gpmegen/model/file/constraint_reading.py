@@ -24,14 +24,12 @@ from ..chain import (
     symbol,
     velocity_symbol,
 )
+from ..elements import get as element_kind
 from ..expand import expand
 from ..requirements import evaluate
 from ..rfem import discretize
 from ..start_constants import StartConstants
-from .schema import (
-    CLOSURE_KEYS,
-    kind_of,
-)
+from .schema import kind_of
 
 
 class ConstraintReading:
@@ -100,7 +98,7 @@ class ConstraintReading:
         closures = []
         for k, item in enumerate(items):
             path = ("closures", k)
-            self.table(item, path, CLOSURE_KEYS, ("name", "points"), "closure")
+            self.entry(item, path, element_kind("closures"))
             name = self.name(item["name"], path + ("name",), "closure")
             kind = item.get("type", "point")
             if kind not in CLOSURE_TYPES:
