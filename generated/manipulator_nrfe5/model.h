@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 014082ab09b61e55
+Input hash: bad38af2f4e47e79
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

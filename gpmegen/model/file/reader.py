@@ -117,13 +117,14 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         if robot is not None and robot.constraints:   # the URDF's mimic joints follow their leaders
             constraints += robot.constraints
             dependent = None if dependent is None else tuple(dependent) + robot.dependent
-        initial, initial_qd = self.read_initial(data.get("initial", {}))
+        initial, initial_qd, start = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
         forces = self.read_forces(data.get("forces", []), self.taken_names(chain, constraints, closures))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, closures=closures,
-            signals=signals, forces=forces, controllers=controllers, elements=self.read_elements(data),
+            signals=signals, forces=forces, controllers=controllers, start_constants=start,
+            elements=self.read_elements(data),
         )
         if closures:
             model = self.drop_vanishing(model, chain)
