@@ -18,7 +18,7 @@ constraints, from the statics with the joints locked:
 
 (a) the rigid driving functions fed forward plus PD about the rigid joint references;
 (b) the flexible model's inversion of E's path fed forward plus the same PD about the joints'
-    motion of that inversion (examples/tracking_study_pd_inverse.toml), the plant started with
+    motion of that inversion (examples/tracking_study/tracking_study_pd_inverse.toml), the plant started with
     its joints where the inversion rests before the motion (the arm raised against its sag);
 (b') the flexible model's realization of the rigid joint references fed forward plus the PD
     of (a);
@@ -50,7 +50,7 @@ HERE = Path(__file__).parent
 MOTION = HERE / "tracking_study.toml"           # E's path held by constraints
 JOINTS = HERE / "tracking_study_joints.toml"    # the joints held on the rigid references
 PD = HERE / "tracking_study_pd.toml"            # the plant under PD (plus a feedforward)
-PD_INVERSE = HERE / "tracking_study_pd_inverse.toml"   # the plant under PD about the inversion's joints
+PD_INVERSE = HERE / "tracking_study" / "tracking_study_pd_inverse.toml"   # PD about the inversion (a template)
 INVERSION = "flexible_inversion.npz"            # the name PD_INVERSE's table signals read, beside it
 CT = HERE / "tracking_study_ct.toml"            # the plant under computed torque
 T_END = 3.5      # s: the motion lasts T = 2 s, then 1.5 s of residual vibration
