@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..errors import ModelError
-from .chain import TIME, Joint, Model, symbol, velocity_symbol
+from .chain import TIME, Joint, Model
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,8 @@ class ComputedTorque:
     enter at their default values), per actuated coordinate (``coordinates``, names of the
     plant's and the controller's joints) its reference ``references`` (expressions of ``t`` and
     the plant's parameters, rad or m), and its gains ``kp`` (1/s²) and ``kd`` (1/s), expressions
-    of the plant's parameters. ``source``: where the controller came from, for messages."""
+    of the plant's parameters. ``source``: where the controller came from, ``signals``: the
+    references' signal names, for messages."""
 
     controller: Model
     coordinates: tuple
@@ -35,16 +36,7 @@ class ComputedTorque:
     kp: tuple
     kd: tuple
     source: str = ""
-
-    def commanded(self) -> list:
-        """``v`` per coordinate, an expression of ``t``, the parameters and the plant's state
-        (``<coordinate>``, ``<coordinate>_dot``, as a feedback law names them)."""
-        out = []
-        for name, ref, kp, kd in zip(self.coordinates, self.references, self.kp, self.kd):
-            ref = sp.sympify(ref)
-            q, qd = symbol(name), velocity_symbol(name)
-            out.append(sp.diff(ref, TIME, 2) + kd * (sp.diff(ref, TIME) - qd) + kp * (ref - q))
-        return out
+    signals: tuple = ()
 
 
 def joint_coordinates(model: Model) -> list[str]:

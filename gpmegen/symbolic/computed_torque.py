@@ -9,19 +9,77 @@ drive forces, emitted into both backends and every compiled loop like any feedba
 controller's coordinate and velocity symbols are the plant's of the same names (both are
 :func:`gpmegen.symbolic.names.coordinate` of the name); its elastic coordinates the plant reads as
 0, its parameters as their default values (numbers).
+
+A reference that switches (``Min``, ``Max``, ``Abs``, ``Heaviside``, ``Piecewise``: a move that
+ends) is differentiated branch by branch as a programmed constraint is
+(:mod:`gpmegen.symbolic.piecewise`): the impulse of ``q̈_r`` at a switch where ``q̇_r`` or
+``q_r`` jumps is not applied, and :func:`warnings` says where that happens.
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DerivationError
 from ..model.computed_torque import ComputedTorque, joint_coordinates
 from ..model.expand import expand
+from ..model.names import TIME, symbol, velocity_symbol
 from . import dynamics as _dynamics
 from . import names
 from .constraints import state_expressions
 from .kinematics import Kinematics, forward
+from .piecewise import as_piecewise, exact, jump_warnings
 from .program import Program
+
+# what a jump in a reference leaves out, and what to write instead
+CONSEQUENCE = ("the impulse there is not applied and the gains pull the motion back onto the reference: make "
+               "the reference continuously differentiable there (see docs/model-file.md)")
+
+
+def _field(law: ComputedTorque, k: int) -> str:
+    """The reference field of the law's ``k``-th coordinate, for messages."""
+    name = law.signals[k] if k < len(law.signals) else ""
+    return f"controller.computed_torque[{k}].reference" + (f": signal {name!r}" if name else "")
+
+
+def reference_rates(law: ComputedTorque) -> list[tuple]:
+    """``(q_r, q̇_r, q̈_r)`` per coordinate of the law, expressions of ``t`` and parameters
+    (rad or m, per s, per s²), switches written as Piecewise and differentiated branch by branch.
+    A reference whose rates generated code could not evaluate (floor, Mod) is refused."""
+    out = []
+    for k, reference in enumerate(law.references):
+        r = as_piecewise(reference)
+        rd = sp.diff(r, TIME)
+        rdd = sp.diff(rd, TIME)
+        stuck = sorted(rdd.atoms(sp.Derivative, sp.DiracDelta), key=sp.default_sort_key)
+        if stuck:
+            function = stuck[0].expr.func if isinstance(stuck[0], sp.Derivative) else stuck[0].func
+            raise DerivationError(f"{_field(law, k)}: it uses {function}, whose derivatives generated code cannot "
+                                  f"evaluate; write it with smooth functions, Min, Max, Abs, Heaviside or Piecewise",
+                                  ("controller", "computed_torque", k, "reference"))
+        out.append((r, rd, rdd))
+    return out
+
+
+def commanded(law: ComputedTorque) -> list:
+    """``v = q̈_r + kd (q̇_r - q̇) + kp (q_r - q)`` per coordinate, an expression of ``t``, the
+    parameters and the plant's state (``<coordinate>``, ``<coordinate>_dot``, as a feedback law
+    names them)."""
+    out = []
+    for name, (r, rd, rdd), kp, kd in zip(law.coordinates, reference_rates(law), law.kp, law.kd):
+        out.append(rdd + kd * (rd - velocity_symbol(name)) + kp * (r - symbol(name)))
+    return out
+
+
+def warnings(law: ComputedTorque, defaults) -> list[str]:
+    """One line per switch where a reference's value or velocity jumps (and one for the switches
+    that cannot be decided), naming the field; ``defaults``: the plant's parameter symbols ->
+    numbers."""
+    out = []
+    for k, reference in enumerate(law.references):
+        r = as_piecewise(exact(reference))
+        out += jump_warnings(_field(law, k), (("q_r", r), ("q̇_r", sp.diff(r, TIME))), defaults, CONSEQUENCE)
+    return out
 
 
 def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, sp.Matrix, tuple]:
@@ -48,12 +106,12 @@ def derive(kin: Kinematics, law: ComputedTorque) -> sp.Matrix:
     """The law's generalized force on the plant whose kinematics is ``kin`` (n,): on each
     coordinate the law names ``(M_c v - f_c)`` of the controller's same coordinate, elsewhere 0."""
     mass, forces, coordinates = controller_terms(law, kin.program)
-    commanded = dict(zip(law.coordinates, state_expressions(kin, law.commanded())))
-    v = sp.Matrix([commanded.get(name, sp.S.Zero) for name in coordinates])
+    by_name = dict(zip(law.coordinates, state_expressions(kin, commanded(law))))
+    v = sp.Matrix([by_name.get(name, sp.S.Zero) for name in coordinates])
     u = mass * v - forces
     index = {name: j for j, name in enumerate(kin.chain.coordinates)}
     out = sp.zeros(len(kin.q), 1)
     for k, name in enumerate(coordinates):
-        if name in commanded:
+        if name in by_name:
             out[index[name]] = kin.program.define(u[k])
     return out

@@ -46,16 +46,17 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
     controller = load(source, nrfe).model
     items = reader.array(table["computed_torque"], path + ("computed_torque",),
                          what="list of [[controller.computed_torque]] tables")
-    coordinates, references, kp, kd = [], [], [], []
+    coordinates, references, kp, kd, signals = [], [], [], [], []
     for k, item in enumerate(items):
         here = path + ("computed_torque", k)
         reader.table(item, here, LAW_KEYS, LAW_KEYS, "computed-torque law")
         coordinates.append(reader.string(item["coordinate"], here + ("coordinate",), "a coordinate name in quotes"))
-        references.append(_reference(reader, item["reference"], here + ("reference",)))
+        signals.append(reader.string(item["reference"], here + ("reference",), "a signal's name in quotes"))
+        references.append(_reference(reader, signals[-1], here + ("reference",)))
         kp.append(reader.quantity(item["kp"], here + ("kp",), reader.params))
         kd.append(reader.quantity(item["kd"], here + ("kd",), reader.params))
     law = ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd),
-                         source=Path(source).name)
+                         source=Path(source).name, signals=tuple(signals))
     model = dataclasses.replace(model_file.model, computed_torque=law)
     try:
         expand(model)
@@ -64,10 +65,9 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
     return dataclasses.replace(model_file, model=model)
 
 
-def _reference(reader, value, path):
-    """The law of t of the signal named ``value``: an expression signal (its derivatives are
+def _reference(reader, name, path):
+    """The law of t of the signal named ``name``: an expression signal (its derivatives are
     exact); a table signal is refused (its derivatives would be differences of samples)."""
-    name = reader.string(value, path, "a signal's name in quotes")
     if name in reader.signal_expressions:
         return reader.signal_expressions[name]
     if name in reader.table_signals:
