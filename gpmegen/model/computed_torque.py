@@ -23,12 +23,14 @@ from .chain import TIME, Joint, Model
 
 @dataclass(frozen=True)
 class ComputedTorque:
-    """A computed-torque law: ``controller`` the controller's :class:`Model` (its parameters
-    enter at their default values), per actuated coordinate (``coordinates``, names of the
-    plant's and the controller's joints) its reference ``references`` (expressions of ``t`` and
-    the plant's parameters, rad or m), and its gains ``kp`` (1/s²) and ``kd`` (1/s), expressions
-    of the plant's parameters. ``source``: where the controller came from, ``signals``: the
-    references' signal names, for messages."""
+    """A computed-torque law: ``controller`` the controller's :class:`Model`, per actuated
+    coordinate (``coordinates``, names of the plant's and the controller's joints) its reference
+    ``references`` (expressions of ``t`` and the plant's parameters, rad or m), and its gains
+    ``kp`` (1/s²) and ``kd`` (1/s), expressions of the plant's parameters. The controller's
+    parameters enter at their default values but those ``params`` sets: ``(name, expression)``
+    pairs, a controller parameter's name and an expression of the plant's parameters.
+    ``source``: where the controller came from, ``signals``: the references' signal names, for
+    messages."""
 
     controller: Model
     coordinates: tuple
@@ -37,6 +39,7 @@ class ComputedTorque:
     kd: tuple
     source: str = ""
     signals: tuple = ()
+    params: tuple = ()
 
 
 def joint_coordinates(model: Model) -> list[str]:
@@ -47,8 +50,18 @@ def joint_coordinates(model: Model) -> list[str]:
 def check(law: ComputedTorque, plant_coordinates, constant: set) -> None:
     """Refuse, in one line, a law whose coordinates the plant or the controller lacks, a
     controller joint the law does not actuate, a gain not of parameters or a reference not of
-    ``t`` and parameters. ``constant``: the plant's parameter symbols."""
+    ``t`` and parameters, a controller parameter set that the controller model lacks or set to
+    more than the plant's parameters. ``constant``: the plant's parameter symbols."""
     where = f"controller {law.source or law.controller.name}"
+    own = [p.name for p in law.controller.parameters]
+    for name, value in law.params:
+        if name not in own:
+            raise ModelError(f"{where}: {name} is no parameter of the controller model (its parameters: "
+                             f"{', '.join(own) or 'none'}); name one of them", ("controller", "params", name))
+        extra = sorted(str(s) for s in sp.sympify(value).free_symbols - constant)
+        if extra:
+            raise ModelError(f"{where}: its parameter {name} reads {', '.join(extra)}; give it an expression of the "
+                             f"plant's parameters", ("controller", "params", name))
     controller = joint_coordinates(law.controller)
     plant = list(plant_coordinates)
     for name in controller:

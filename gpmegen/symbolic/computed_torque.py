@@ -8,7 +8,8 @@ so the two models' intermediates never share a name, and the law becomes part of
 drive forces, emitted into both backends and every compiled loop like any feedback law. The
 controller's coordinate and velocity symbols are the plant's of the same names (both are
 :func:`gpmegen.symbolic.names.coordinate` of the name); its elastic coordinates the plant reads as
-0, its parameters as their default values (numbers).
+0, its parameters as their default values (numbers) but those the law's ``params`` sets, which it
+reads as their expressions of the plant's parameters (run-time parameters of the plant).
 
 A reference that switches (``Min``, ``Max``, ``Abs``, ``Heaviside``, ``Piecewise``: a move that
 ends) is differentiated branch by branch as a programmed constraint is
@@ -91,7 +92,9 @@ def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, 
     kin = forward(chain, own)
     dyn = _dynamics.derive(kin, controller.gravity, (), controller.forces)
     joints = set(joint_coordinates(controller))
-    mapping = {p.symbol: sp.Float(float(p.default)) for p in controller.parameters}
+    given = dict(law.params)   # the controller's parameters set from the plant's: read at run time
+    mapping = {p.symbol: sp.sympify(given[p.name]) if p.name in given else sp.Float(float(p.default))
+               for p in controller.parameters}
     for name in chain.coordinates:
         if name not in joints:   # elastic: held at rest
             mapping[names.coordinate(name)] = sp.S.Zero

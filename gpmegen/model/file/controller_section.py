@@ -17,7 +17,7 @@ from ..expand import expand
 from .locator import located
 from .model_file import ModelFile
 
-CONTROLLER_KEYS = ("model", "nrfe", "computed_torque")
+CONTROLLER_KEYS = ("model", "nrfe", "params", "computed_torque")
 LAW_KEYS = ("coordinate", "reference", "kp", "kd")
 
 
@@ -55,8 +55,12 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
         references.append(_reference(reader, signals[-1], here + ("reference",)))
         kp.append(reader.quantity(item["kp"], here + ("kp",), reader.params))
         kd.append(reader.quantity(item["kd"], here + ("kd",), reader.params))
+    params = reader.table(table.get("params", {}), path + ("params",), what="table of the controller model's "
+                          "parameters (name = expression of the plant's parameters)")
+    values = tuple((str(name), reader.quantity(value, path + ("params", name), reader.params))
+                   for name, value in params.items())
     law = ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd),
-                         source=Path(source).name, signals=tuple(signals))
+                         source=Path(source).name, signals=tuple(signals), params=values)
     model = dataclasses.replace(model_file.model, computed_torque=law)
     try:
         expand(model)
