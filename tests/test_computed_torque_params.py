@@ -9,6 +9,7 @@ import pytest
 
 import gpmegen
 from gpmegen.errors import ModelError
+from gpmegen.model.toml_file import read_model_file
 
 ARM = Path(__file__).parent / "models" / "ct_arm.toml"
 A, W = 0.4, 2.0   # ct_arm.toml's amplitude and frequency of the references
@@ -67,3 +68,25 @@ def test_refusals(tmp_path, params, message):
         gpmegen.load_model_file(write(tmp_path, "ct_refused", params))
     text = str(caught.value)
     assert message in text and "\n" not in text and "ct_refused.toml:" in text
+
+
+def test_the_table_sets_the_parameters_of_a_controller_model_given_in_place(tmp_path, env, rng):
+    """``--controller-model``'s file (here with a 0.9 kg tip) gets the table's parameters: with
+    ``m_tip = "m_c"`` the law is the perfect one, q̈ = r̈ + kd (ṙ - q̇) + kp (r - q); a file
+    without that parameter is refused in one line."""
+    plant = write(tmp_path, "ct_in_place", "params = { m_tip = \"m_c\" }\n")
+    other = tmp_path / "other.toml"
+    other.write_text(ARM.read_text().replace('m_tip = { value = 0.3', 'm_tip = { value = 0.9'))
+    model = gpmegen.load(model=read_model_file(plant, controller_model=str(other)).model, backend="numpy")
+    wn = 10.0   # kp = wn², kd = 2 wn
+    for _ in range(3):
+        t, q, qd = rng.uniform(0, 3), rng.uniform(-2, 2, 2), rng.uniform(-2, 2, 2)
+        r = np.array([A * np.sin(W * t), np.pi / 4 + A * (1 - np.cos(W * t))])
+        rd = np.array([A * W * np.cos(W * t), A * W * np.sin(W * t)])
+        rdd = np.array([-A * W**2 * np.sin(W * t), A * W**2 * np.cos(W * t)])
+        assert np.allclose(model.accelerations(t, q, qd), rdd + 2 * wn * (rd - qd) + wn**2 * (r - q),
+                           rtol=1e-12, atol=1e-10)
+    other.write_text(ARM.read_text().replace("m_tip", "m_load"))
+    with pytest.raises(ModelError, match="m_tip is no parameter of the controller model") as caught:
+        read_model_file(plant, controller_model=str(other))
+    assert "\n" not in str(caught.value)
