@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 89f5850ee8b71d36
+Input hash: 9c598e0e42053b8e
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
