@@ -1,10 +1,11 @@
 """Cost of computed torque in the compiled loop: one RK4 step of a flexible plant whose joints a
 rigid controller model drives, against the same plant's open-loop step.
 
-Run: ``.venv/bin/python benchmarks/computed_torque.py [--nrfe 5] [--rounds 5]``. The plant is
-``examples/manipulator_computed_torque.toml`` (the reference arm without constraints, its three
-joints under computed torque with the rigid arm, ``manipulator.toml`` at ``n_rfe = 1``, as the
-controller model); the open loop is the same model without the law (no drives at all). Both are
+Run: ``.venv/bin/python benchmarks/computed_torque.py [--nrfe 5] [--rounds 5] [--plant FILE]``. The
+plant is ``examples/manipulator_computed_torque.toml`` (the reference arm without constraints, its
+three joints under computed torque with the rigid arm, ``manipulator.toml`` at ``n_rfe = 1``, as the
+controller model), or ``--plant examples/manipulator_task_space.toml`` (the same under the
+task-space law); the open loop is the same model without the law (no drives at all). Both are
 built and compiled first (not timed), then timed in one process, in alternation round after round
 (so both see the same load): the model library's ``rk4``, 4 000 steps of 1e-5 s from the arm
 straight at the references' start, CPU time of the process, the best of 3 per round. Prints the
@@ -44,10 +45,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nrfe", type=int, default=5)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--plant", type=Path, default=PLANT, help="a plant model file with a [controller] table")
     args = parser.parse_args()
     print("load average before:", os.getloadavg())
-    closed = gpmegen.load_model_file(PLANT, nrfe=args.nrfe)
-    opened = dataclasses.replace(closed, name=f"{closed.name}_open", computed_torque=None)
+    closed = gpmegen.load_model_file(args.plant, nrfe=args.nrfe)
+    opened = dataclasses.replace(closed, name=f"{closed.name}_open", computed_torque=None, task_torque=None)
     models = {"closed": gpmegen.load(model=closed, backend="c"), "open": gpmegen.load(model=opened, backend="c")}
     n = models["open"].n_dof
     q, qd = np.zeros(n), np.zeros(n)

@@ -90,3 +90,14 @@ def test_the_table_sets_the_parameters_of_a_controller_model_given_in_place(tmp_
     with pytest.raises(ModelError, match="m_tip is no parameter of the controller model") as caught:
         read_model_file(plant, controller_model=str(other))
     assert "\n" not in str(caught.value)
+
+
+def test_params_with_a_task_space_law_is_refused(tmp_path):
+    text = (ARM.parent / "ct_task_arm.toml").read_text()
+    (tmp_path / "ct_task_arm.toml").write_text(text.replace('model = "ct_task_arm.toml"\n',
+                                                            'model = "ct_task_arm.toml"\nparams = { m2 = "m2" }\n'))
+    with pytest.raises(ModelError) as caught:
+        gpmegen.load_model_file(tmp_path / "ct_task_arm.toml")
+    text = str(caught.value)
+    assert "controller.params: sets the controller model's parameters of a [[controller.computed_torque]] law only" \
+        in text and "\n" not in text

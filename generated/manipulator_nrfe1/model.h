@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 9c598e0e42053b8e
+Input hash: 65615d197d5e7b42
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

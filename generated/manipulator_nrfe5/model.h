@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 18f9e88cff9d282f
+Input hash: fd13702128095985
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -353,7 +353,8 @@ class Model:
     are among ``constraints``. ``signals``: the table signals (:class:`Signal`) its drives may
     name. ``forces``: the forces between points (:class:`ForceElement`). ``controllers``: the
     controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
-    :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None.
+    :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None;
+    ``task_torque``: a :class:`gpmegen.model.task_torque.TaskTorque` law, or None.
     """
 
     name: str
@@ -369,6 +370,7 @@ class Model:
     forces: tuple = ()
     controllers: tuple = ()
     computed_torque: object = None
+    task_torque: object = None
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..errors import ModelError
-from .chain import TIME, Joint, Model
+from .chain import TIME, Joint, Model, symbol, velocity_symbol
 
 
 @dataclass(frozen=True)
@@ -41,10 +41,34 @@ class ComputedTorque:
     signals: tuple = ()
     params: tuple = ()
 
+    def commanded(self, rates=None) -> list:
+        """``v = q̈_r + kd (q̇_r - q̇) + kp (q_r - q)`` per coordinate, an expression of ``t``, the
+        parameters and the plant's state (``<coordinate>``, ``<coordinate>_dot``, as a feedback
+        law names them). ``rates``: ``(q_r, q̇_r, q̈_r)`` per coordinate (the joint law's, from
+        :func:`gpmegen.symbolic.computed_torque.reference_rates`, which differentiates switches
+        branch by branch); by default the references' derivatives as SymPy takes them."""
+        if rates is None:
+            rates = [(r, sp.diff(r, TIME), sp.diff(r, TIME, 2)) for r in map(sp.sympify, self.references)]
+        out = []
+        for name, (r, rd, rdd), kp, kd in zip(self.coordinates, rates, self.kp, self.kd):
+            out.append(rdd + kd * (rd - velocity_symbol(name)) + kp * (r - symbol(name)))
+        return out
+
 
 def joint_coordinates(model: Model) -> list[str]:
     """The coordinates of ``model``'s joints (not its flexible links' sdes), in chain order."""
     return [e.name for e in model.chain if isinstance(e, Joint)]
+
+
+def check_joints_in_plant(law, plant_coordinates) -> None:
+    """Refuse, in one line, a joint of ``law.controller`` that is no coordinate of the plant (the
+    law, joint or task-space, reads the controller's joints from the plant's)."""
+    plant = list(plant_coordinates)
+    for name in joint_coordinates(law.controller):
+        if name not in plant:
+            raise ModelError(f"controller {law.source or law.controller.name}: its coordinate {name} is no coordinate "
+                             f"of the plant (the plant's: {', '.join(plant)}); give the controller model the plant's "
+                             f"joint names", ("controller", "model"))
 
 
 def check(law: ComputedTorque, plant_coordinates, constant: set) -> None:
@@ -63,12 +87,7 @@ def check(law: ComputedTorque, plant_coordinates, constant: set) -> None:
             raise ModelError(f"{where}: its parameter {name} reads {', '.join(extra)}; give it an expression of the "
                              f"plant's parameters", ("controller", "params", name))
     controller = joint_coordinates(law.controller)
-    plant = list(plant_coordinates)
-    for name in controller:
-        if name not in plant:
-            raise ModelError(f"{where}: its coordinate {name} is no coordinate of the plant (the plant's: "
-                             f"{', '.join(plant)}); give the controller model the plant's joint names",
-                             ("controller", "model"))
+    check_joints_in_plant(law, plant_coordinates)
     for k, name in enumerate(law.coordinates):
         if name not in controller:
             raise ModelError(f"{where}: the law acts on {name}, which is no joint of the controller model "

@@ -39,6 +39,7 @@ from .law_checks import (
 )
 from .names import Names, check_expression
 from .rfem import MATERIAL, check_link, discretize
+from .task_torque import check as check_task_torque
 from .topology import GROUND, Topology
 
 
@@ -332,6 +333,8 @@ def expand(model: Model) -> FlatChain:
     check_dependent(model, coordinates)
     if model.computed_torque is not None:
         check_computed_torque(model.computed_torque, coordinates, constant)
+    if model.task_torque is not None:
+        check_task_torque(model.task_torque, coordinates, constant, model.computed_torque)
     return FlatChain(model, elements, tuple(coordinates), tree, _couplings(elements, coordinates))
 
 

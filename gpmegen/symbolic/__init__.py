@@ -14,6 +14,7 @@ from . import computed_torque as _computed_torque
 from . import constraints as _constraints
 from . import dynamics as _dynamics
 from . import recursive as _recursive
+from . import task_torque as _task_torque
 from .constraints import state_expressions
 from .kinematics import Kinematics, forward
 from .program import Program
@@ -47,6 +48,8 @@ def derive(model) -> Derivation:
         dyn.drive_forces = dyn.drive_forces + _computed_torque.derive(kin, model.computed_torque)
         defaults = {p.symbol: sp.Float(p.default) for p in model.parameters}
         warnings = tuple(_computed_torque.warnings(model.computed_torque, defaults))
+    if model.task_torque is not None:
+        dyn.drive_forces = dyn.drive_forces + _task_torque.derive(kin, model.task_torque)
     con = _constraints.derive(kin, model.constraints)
     warnings = con.warnings + warnings
     rec = _recursive.derive(kin, dyn, model.gravity)

@@ -24,7 +24,7 @@ import sympy as sp
 from ..errors import DerivationError
 from ..model.computed_torque import ComputedTorque, joint_coordinates
 from ..model.expand import expand
-from ..model.names import TIME, symbol, velocity_symbol
+from ..model.names import TIME
 from . import dynamics as _dynamics
 from . import names
 from .constraints import state_expressions
@@ -62,16 +62,6 @@ def reference_rates(law: ComputedTorque) -> list[tuple]:
     return out
 
 
-def commanded(law: ComputedTorque) -> list:
-    """``v = q̈_r + kd (q̇_r - q̇) + kp (q_r - q)`` per coordinate, an expression of ``t``, the
-    parameters and the plant's state (``<coordinate>``, ``<coordinate>_dot``, as a feedback law
-    names them)."""
-    out = []
-    for name, (r, rd, rdd), kp, kd in zip(law.coordinates, reference_rates(law), law.kp, law.kd):
-        out.append(rdd + kd * (rd - velocity_symbol(name)) + kp * (r - symbol(name)))
-    return out
-
-
 def warnings(law: ComputedTorque, defaults) -> list[str]:
     """One line per switch where a reference's value or velocity jumps (and one for the switches
     that cannot be decided), naming the field; ``defaults``: the plant's parameter symbols ->
@@ -86,35 +76,51 @@ def warnings(law: ComputedTorque, defaults) -> list[str]:
 def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, sp.Matrix, tuple]:
     """``(M_c, f_c, coordinates)`` of the controller model as expressions of ``program``'s
     intermediates (copied in) and the plant's state symbols; ``f_c`` without drives (n_c,)."""
-    controller = law.controller
+    (mass, forces), coordinates = controller_outputs(law.controller, program,
+                                                     lambda kin, dyn: [dyn.mass_matrix, dyn.forces], law.params)
+    return mass, forces, coordinates
+
+
+def controller_outputs(controller, program: Program, outputs, params=()) -> tuple[list, tuple]:
+    """``(matrices, coordinates)``: the matrices ``outputs(kin, dyn)`` gives of the controller
+    model's kinematics and dynamics (its forces without drives), as expressions of ``program``'s
+    intermediates (copied in) and the plant's state symbols; ``coordinates`` the controller's.
+    ``params``: ``(name, expression of the plant's parameters)`` for the controller's parameters
+    set so; the others are their default values."""
     chain = expand(controller)
     own = Program()
     kin = forward(chain, own)
     dyn = _dynamics.derive(kin, controller.gravity, (), controller.forces)
     joints = set(joint_coordinates(controller))
-    given = dict(law.params)   # the controller's parameters set from the plant's: read at run time
+    given = dict(params)   # the controller's parameters set from the plant's: read at run time
     mapping = {p.symbol: sp.sympify(given[p.name]) if p.name in given else sp.Float(float(p.default))
                for p in controller.parameters}
     for name in chain.coordinates:
         if name not in joints:   # elastic: held at rest
             mapping[names.coordinate(name)] = sp.S.Zero
             mapping[names.velocity(name)] = sp.S.Zero
-    mass, forces = dyn.mass_matrix, dyn.forces
-    for sym, expr in own.closure([*mass, *forces]):
+    matrices = [sp.Matrix(m) for m in outputs(kin, dyn)]
+    for sym, expr in own.closure([e for m in matrices for e in m]):
         mapping[sym] = program.define(expr.xreplace(mapping))
-    return mass.xreplace(mapping), forces.xreplace(mapping), chain.coordinates
+    return [m.xreplace(mapping) for m in matrices], chain.coordinates
 
 
 def derive(kin: Kinematics, law: ComputedTorque) -> sp.Matrix:
     """The law's generalized force on the plant whose kinematics is ``kin`` (n,): on each
     coordinate the law names ``(M_c v - f_c)`` of the controller's same coordinate, elsewhere 0."""
     mass, forces, coordinates = controller_terms(law, kin.program)
-    by_name = dict(zip(law.coordinates, state_expressions(kin, commanded(law))))
-    v = sp.Matrix([by_name.get(name, sp.S.Zero) for name in coordinates])
+    commanded = dict(zip(law.coordinates, state_expressions(kin, law.commanded(reference_rates(law)))))
+    return on_plant(kin, mass, forces, coordinates, commanded)
+
+
+def on_plant(kin: Kinematics, mass, forces, coordinates, commanded: dict) -> sp.Matrix:
+    """``u = M_c v - f_c`` (``v``: ``commanded[name]`` on the coordinates it names, 0 on the
+    controller's others) placed on the plant's coordinates of those names (n,), 0 elsewhere."""
+    v = sp.Matrix([commanded.get(name, sp.S.Zero) for name in coordinates])
     u = mass * v - forces
     index = {name: j for j, name in enumerate(kin.chain.coordinates)}
     out = sp.zeros(len(kin.q), 1)
     for k, name in enumerate(coordinates):
-        if name in by_name:
+        if name in commanded:
             out[index[name]] = kin.program.define(u[k])
     return out

@@ -16,8 +16,9 @@ from ..computed_torque import ComputedTorque
 from ..expand import expand
 from .locator import located
 from .model_file import ModelFile
+from .task_space_section import read_task_space
 
-CONTROLLER_KEYS = ("model", "nrfe", "params", "computed_torque")
+CONTROLLER_KEYS = ("model", "nrfe", "params", "computed_torque", "task_space")
 LAW_KEYS = ("coordinate", "reference", "kp", "kd")
 
 
@@ -38,30 +39,25 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
                              f"name the law's coordinates, references and gains; add one (docs/model-file.md)")
         return model_file
     path = ("controller",)
-    table = reader.table(data["controller"], path, CONTROLLER_KEYS, ("model", "computed_torque"), "controller")
+    table = reader.table(data["controller"], path, CONTROLLER_KEYS, ("model",), "controller")
+    if "computed_torque" not in table and "task_space" not in table:
+        reader.fail(path, "no law: add [[controller.computed_torque]] per joint or one [[controller.task_space]]")
     nrfe = reader.nrfe(table["nrfe"], path + ("nrfe",)) if "nrfe" in table else None
     source = controller_path(reader.file, reader.string(table["model"], path + ("model",),
                                                         "a model file's path in quotes"))
     source = str(override) if override is not None else source
     controller = load(source, nrfe).model
-    items = reader.array(table["computed_torque"], path + ("computed_torque",),
-                         what="list of [[controller.computed_torque]] tables")
-    coordinates, references, kp, kd, signals = [], [], [], [], []
-    for k, item in enumerate(items):
-        here = path + ("computed_torque", k)
-        reader.table(item, here, LAW_KEYS, LAW_KEYS, "computed-torque law")
-        coordinates.append(reader.string(item["coordinate"], here + ("coordinate",), "a coordinate name in quotes"))
-        signals.append(reader.string(item["reference"], here + ("reference",), "a signal's name in quotes"))
-        references.append(_reference(reader, signals[-1], here + ("reference",)))
-        kp.append(reader.quantity(item["kp"], here + ("kp",), reader.params))
-        kd.append(reader.quantity(item["kd"], here + ("kd",), reader.params))
-    params = reader.table(table.get("params", {}), path + ("params",), what="table of the controller model's "
-                          "parameters (name = expression of the plant's parameters)")
-    values = tuple((str(name), reader.quantity(value, path + ("params", name), reader.params))
-                   for name, value in params.items())
-    law = ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd),
-                         source=Path(source).name, signals=tuple(signals), params=values)
-    model = dataclasses.replace(model_file.model, computed_torque=law)
+    model = model_file.model
+    if "task_space" in table:
+        model = dataclasses.replace(model, task_torque=read_task_space(reader, table["task_space"], controller,
+                                                                       Path(source).name, _reference))
+    if "computed_torque" in table:
+        law = _joint_law(reader, table["computed_torque"], controller, Path(source).name)
+        model = dataclasses.replace(model, computed_torque=dataclasses.replace(law, params=_params(reader, table)))
+    elif "params" in table:
+        reader.fail(path + ("params",), "sets the controller model's parameters of a [[controller.computed_torque]] "
+                                        "law only, and this table has none; a task-space law reads them at the "
+                                        "controller model's values")
     try:
         expand(model)
     except ModelError as exc:
@@ -69,9 +65,38 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
     return dataclasses.replace(model_file, model=model)
 
 
-def _reference(reader, name, path):
-    """The law of t of the signal named ``name``: an expression signal (its derivatives are
+def _joint_law(reader, value, controller, source: str) -> ComputedTorque:
+    """The law of the ``[[controller.computed_torque]]`` tables ``value``."""
+    path = ("controller",)
+    items = reader.array(value, path + ("computed_torque",),
+                         what="list of [[controller.computed_torque]] tables")
+    coordinates, references, kp, kd, signals = [], [], [], [], []
+    for k, item in enumerate(items):
+        here = path + ("computed_torque", k)
+        reader.table(item, here, LAW_KEYS, LAW_KEYS, "computed-torque law")
+        coordinates.append(reader.string(item["coordinate"], here + ("coordinate",), "a coordinate name in quotes"))
+        signals.append(reader.string(item["reference"], here + ("reference",), "a signal's name in quotes"))
+        references.append(_reference(reader, item["reference"], here + ("reference",)))
+        kp.append(reader.quantity(item["kp"], here + ("kp",), reader.params))
+        kd.append(reader.quantity(item["kd"], here + ("kd",), reader.params))
+    return ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd), source=source,
+                          signals=tuple(signals))
+
+
+def _params(reader, table) -> tuple:
+    """``(name, expression)`` per entry of the table's ``params``: a controller model's parameter
+    set to an expression of the plant's parameters (checked against the controller model by
+    :func:`gpmegen.model.computed_torque.check`)."""
+    path = ("controller", "params")
+    params = reader.table(table.get("params", {}), path, what="table of the controller model's parameters "
+                          "(name = expression of the plant's parameters)")
+    return tuple((str(name), reader.quantity(value, path + (name,), reader.params)) for name, value in params.items())
+
+
+def _reference(reader, value, path):
+    """The law of t of the signal named ``value``: an expression signal (its derivatives are
     exact); a table signal is refused (its derivatives would be differences of samples)."""
+    name = reader.string(value, path, "a signal's name in quotes")
     if name in reader.signal_expressions:
         return reader.signal_expressions[name]
     if name in reader.table_signals:

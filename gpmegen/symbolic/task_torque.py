@@ -1,0 +1,43 @@
+"""The task-space computed-torque law's generalized forces, derived with the plant
+(:class:`gpmegen.model.task_torque.TaskTorque`).
+
+The controller model's mass matrix, forces and its point's kinematics (position, velocity, the
+velocity-product part ``J̇_c q̇`` of its acceleration, the Jacobian columns of the controller's
+joints) are derived in a program of their own and copied into the plant's, as the joint law's
+are (:func:`gpmegen.symbolic.computed_torque.controller_outputs`). ``J_c`` is at most 3 × 3 (a
+point has three components), so ``J_c⁻¹`` is written out as ``adj(J_c) / det(J_c)``: a few
+products, no pivoting, emitted like any other expression into every backend; ``det(J_c) = 0``
+(a singular pose) divides by zero, where the law is undefined.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from ..model.computed_torque import joint_coordinates
+from ..model.task_torque import TaskTorque
+from .computed_torque import controller_outputs, on_plant
+from .kinematics import Kinematics
+
+
+def derive(kin: Kinematics, law: TaskTorque) -> sp.Matrix:
+    """The law's generalized force on the plant whose kinematics is ``kin`` (n,): on each joint
+    coordinate of the controller ``(M_c v - f_c)`` of the controller's same coordinate, with
+    ``v = J_c⁻¹ (a_r - J̇_c q̇)`` on its joints and 0 on its elastic coordinates; elsewhere 0."""
+    joints = joint_coordinates(law.controller)
+    rows = law.rows()
+
+    def outputs(own, dyn):
+        point = own.points[law.point]
+        columns = [own.chain.coordinates.index(name) for name in joints]
+        jacobian = sp.Matrix([[point.jacobian[j][r] for j in columns] for r in rows])
+        return [dyn.mass_matrix, dyn.forces, point.position, point.velocity, point.acceleration, jacobian]
+
+    (mass, forces, position, velocity, bias, jacobian), coordinates = controller_outputs(
+        law.controller, kin.program, outputs)
+    define = kin.program.define
+    wanted = sp.Matrix(law.commanded([position[r] for r in rows], [velocity[r] for r in rows]))
+    rhs = (wanted - sp.Matrix([bias[r] for r in rows])).applyfunc(define)
+    inverse_det = define(1 / define(jacobian.det(method="berkowitz")))
+    solved = dict(zip(joints, (jacobian.adjugate(method="berkowitz") * rhs * inverse_det).applyfunc(define)))
+    return on_plant(kin, mass, forces, coordinates, solved)
