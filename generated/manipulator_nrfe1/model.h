@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 65615d197d5e7b42
+Input hash: b3cc37db0d664f04
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

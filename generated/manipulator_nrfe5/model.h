@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: fd13702128095985
+Input hash: 5619b671f8082032
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
