@@ -163,10 +163,13 @@ files written:
 examples:
   gpmegen plot results/run_nrfe1.npz results/run_nrfe5.npz
   gpmegen plot results/*.npz --out figures/paper --format png,pdf,svg
+  gpmegen plot results/pd.npz results/ct.npz --reference tests/models/flexible_link.toml
 
 files written:
   <out>/<figure> as .png (200 dpi), .pdf or .svg for each --format (default out: figures/); the
-  same input gives the same bytes. The figures, in this order:
+  same input gives the same bytes. With --reference, also <out>/metrics.csv (as 'gpmegen metrics
+  --out' writes it: run, quantity, of, value, unit) and <out>/metrics.md (the same rows as a
+  Markdown table). The figures, in this order:
 """ + listing(),
     "modes": """\
 examples:

@@ -76,7 +76,8 @@ def test_the_cffi_declarations_are_the_header_without_preprocessor_lines(built):
         [fn.name for fn in functions] + [fn.name + "_batch" for fn in functions if fn.batched]
         + ["input_hash", "n_dof", "n_constraints", "n_parameters", "n_points", "gpme_motion",
            "gpme_accelerations", "gpme_accelerations_batch", "gpme_jacobian", "rk4", "dop853", "radau", "genalpha",
-           "dop853_memory_bytes", "radau_memory_bytes", "actuated_motion", "rk4_actuated"])
+           "dop853_memory_bytes", "radau_memory_bytes", "actuated_motion", "rk4_actuated",
+           "dop853_actuated"])
 
 
 @pytest.mark.requires_cc

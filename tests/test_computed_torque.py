@@ -148,3 +148,31 @@ def test_command_line_controller_model_needs_the_table(tmp_path, capsys):
                  "--out", str(tmp_path / "x.npz")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "has no [controller] table" in err and len(err.splitlines()) == 1
+
+
+def test_results_hold_the_reference_and_the_error(tmp_path):
+    """Started e0 off the reference, the saved error q_r - q of theta1 is e0 (1 + ω t) exp(-ω t)
+    to 1e-6, theta2's below 1e-8, and the saved reference is the signal's closed form; the CSV
+    repeats both columns."""
+    e0 = 0.1
+    run = gpmegen.simulate(ARM, t_end=1.0, dt=1e-3, backend="c", params={"e0": e0})
+    r, _, _ = references(run.t)
+    assert list(run["reference_coordinates"]) == ["theta1", "theta2"]
+    assert np.abs(run["q_reference"] - r).max() < 1e-12
+    error = run["tracking_error"]
+    assert np.abs(error[:, 0] - e0 * (1 + WN * run.t) * np.exp(-WN * run.t)).max() < 1e-6
+    assert np.abs(error[:, 1]).max() < 1e-8
+    run.save(tmp_path / "run.npz")
+    read = results.load(tmp_path / "run.npz")
+    assert np.array_equal(read["tracking_error"], error)
+    with open(tmp_path / "run.csv") as fh:
+        fh.readline()
+        header = fh.readline().strip().split(",")
+    table = np.loadtxt(tmp_path / "run.csv", delimiter=",", skiprows=2)
+    assert np.allclose(table[:, header.index("e_theta1")], error[:, 0], rtol=1e-10, atol=1e-14)
+    assert np.allclose(table[:, header.index("qr_theta2")], r[:, 1], rtol=1e-10)
+
+
+def test_results_without_a_law_hold_no_reference():
+    run = gpmegen.simulate(ARM.parent / "cart.toml", t_end=0.1, dt=1e-3, backend="numpy")
+    assert "tracking_error" not in run.keys() and "q_reference" not in run.keys()

@@ -201,10 +201,11 @@ def test_command_line_page_is_the_one_its_parser_and_help_pages_make():
     assert committed == cli_docs.page(), "docs/command-line.md is out of date: make docs"
 
 
-def _three_runs(tmp_path) -> tuple:
-    """Short runs of a model that has everything but closed loops and forces between points (the
-    flexible arm), of one that closes a loop (the four-bar) and of one with a force element (the
-    hung mass): their results files."""
+def _runs(tmp_path) -> tuple:
+    """Short runs of a model that has everything but closed loops, forces between points and
+    control (the flexible arm), of one that closes a loop (the four-bar), of one with a force
+    element (the hung mass) and of one under computed torque (the two links of ct_arm.toml):
+    their results files."""
     from gpmegen.cli import main
 
     run = tmp_path / "run.npz"
@@ -216,13 +217,16 @@ def _three_runs(tmp_path) -> tuple:
     hung = tmp_path / "hung.npz"
     assert main(["simulate", str(ROOT / "tests" / "models" / "spring_hanger.toml"), "--t-end", "0.002", "--dt",
                  "1e-4", "--save-every", "5", "--backend", "numpy", "--out", str(hung)]) == 0
-    return run, loop, hung
+    controlled = tmp_path / "controlled.npz"
+    assert main(["simulate", str(ROOT / "tests" / "models" / "ct_arm.toml"), "--t-end", "0.002", "--dt", "1e-4",
+                 "--save-every", "5", "--backend", "numpy", "--out", str(controlled)]) == 0
+    return run, loop, hung, controlled
 
 
 def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
     """The help pages of plot and demo list the figures from the list the plots are drawn from,
-    and the three runs between them have every figure of the list, each its own (the test below
-    draws them, in make check-c)."""
+    and the four runs between them have every figure of the list but those of --reference, each
+    its own (the test below draws them, in make check-c)."""
     from gpmegen import cli_docs
     from gpmegen.analysis.figures import run_figures
     from gpmegen.analysis.figures.figure_list import FIGURES
@@ -232,26 +236,29 @@ def test_plot_lists_exactly_the_figures_its_help_page_lists(tmp_path):
     for command in ("plot", "demo"):
         help_text = page.split(f"## gpmegen {command}\n", 1)[1].split("\n## ", 1)[0]
         assert all(f"  {figure.stem}: " in help_text for figure in FIGURES), command
-    stems = [{stem for stem, _ in run_figures.figures([results_io.load(path)])} for path in _three_runs(tmp_path)]
-    assert not {"closure_reactions", "force_elements"} & stems[0]
+    stems = [{stem for stem, _ in run_figures.figures([results_io.load(path)])} for path in _runs(tmp_path)]
+    assert not {"closure_reactions", "force_elements", "tracking_error", "control_effort"} & stems[0]
     assert "closure_reactions" in stems[1] and "force_elements" in stems[2]
-    assert sorted(set().union(*stems)) == sorted(figure.stem for figure in FIGURES)
+    assert {"tracking_error", "control_effort"} <= stems[3]
+    assert sorted(set().union(*stems)) == sorted(figure.stem for figure in FIGURES if not figure.reference)
 
 
 @pytest.mark.long
 def test_plot_writes_exactly_the_figures_its_help_page_lists(tmp_path):
-    """Real plots of the three runs write exactly the figures of the list between them."""
+    """Real plots of the four runs (the controlled one with --reference) write exactly the figures
+    of the list between them."""
     from gpmegen.analysis.figures.figure_list import FIGURES
     from gpmegen.cli import main
 
-    run, loop, hung = _three_runs(tmp_path)
+    run, loop, hung, controlled = _runs(tmp_path)
     out = tmp_path / "figures"
     assert main(["plot", str(run), "--out", str(out)]) == 0
     assert main(["plot", str(loop), "--out", str(tmp_path / "loop_figures")]) == 0
     assert main(["plot", str(hung), "--out", str(tmp_path / "hung_figures")]) == 0
+    assert main(["plot", str(controlled), "--reference", str(controlled), "--out", str(tmp_path / "ct_figures")]) == 0
     assert "force_elements.png" in {p.name for p in (tmp_path / "hung_figures").iterdir()}
-    written = {p.name for folder in (out, tmp_path / "loop_figures", tmp_path / "hung_figures")
-               for p in folder.iterdir()}
+    written = {p.name for folder in (out, tmp_path / "loop_figures", tmp_path / "hung_figures",
+                                     tmp_path / "ct_figures") for p in folder.iterdir() if p.suffix == ".png"}
     assert not {"closure_reactions.png", "force_elements.png"} & {p.name for p in out.iterdir()}
     assert sorted(written) == sorted(f"{figure.stem}.png" for figure in FIGURES)
 

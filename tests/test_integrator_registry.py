@@ -85,10 +85,11 @@ def test_an_unknown_integrator_is_refused_in_one_line_with_the_known_ones():
 
 
 @pytest.mark.parametrize("name, numpy, actuated", [("rk4", True, True), ("genalpha", False, False),
-                                                   ("dop853", False, False), ("radau", False, False),
+                                                   ("dop853", False, True), ("radau", False, False),
                                                    ("scipy-radau", True, True)])
 def test_what_each_integrator_refuses(name, numpy, actuated):
-    """The compiled loops run on the C backend alone and integrate the ideal GPME only."""
+    """The compiled loops run on the C backend alone; of them only DOP853's runs the actuated
+    realization (RK4 and SciPy's Radau run it on either backend)."""
     integrator = integrators.get(name)
     assert (integrator.refusal("numpy", False) is None) == numpy
     assert (integrator.refusal("c", True) is None) == actuated

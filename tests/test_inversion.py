@@ -130,3 +130,51 @@ def test_the_boundary_value_solve_says_how_far_it_is(env, monkeypatch):
                                progress=lines.append)
     assert lines and all(line.startswith("stable inversion: solving on a mesh of ") for line in lines)
     assert {int(line.split("mesh of ")[1].split()[0]) for line in lines} >= {80}
+
+
+TRACKING = Path(__file__).resolve().parents[1] / "examples" / "tracking_study.toml"
+
+
+def tracking_arm(nrfe):
+    """The tracking study's arm, E held on its path by inputs on its three joints, and its start."""
+    start = gpmegen.statics(TRACKING, nrfe=nrfe, start="none", backend="numpy")
+    return start.model.with_actuators(["theta1", "psi2", "x3"]), start.q
+
+
+def test_the_first_guess_holds_the_programmed_motion_at_rest_at_every_node(env):
+    """The boundary-value solve starts from the quasi-static motion: at each mesh time E's path
+    constraints hold and the unactuated coordinates are in static balance; outside the motion it
+    is the rest states themselves. (The straight blend of the two rest states used before was off
+    E's path by centimetres mid-motion, and from it Newton left the states where the inputs hold
+    the constraints at n_rfe 3.)"""
+    model, q0 = tracking_arm(2)
+    n = model.n_dof
+    start = np.concatenate([inversion.rest(model, q0, 0.0), np.zeros(n)])
+    end = np.concatenate([inversion.rest(model, start[:n], 2.0), np.zeros(n)])
+    mesh = np.linspace(-0.1, 2.1, 45)
+    guess = inversion.quasi_static(model, mesh, start, end, 0.0, 2.0)
+    free = [k for k in range(n) if k not in set(model.actuators.tolist())]
+    for t, q in zip(mesh, guess[:n].T):
+        assert np.max(np.abs(model.constraint_terms(t, q, np.zeros(n))[0])) < 1e-10
+        assert np.max(np.abs(model.static_residual(q)[free])) < 1e-8 * np.max(np.abs(model.static_residual(q)))
+    assert np.array_equal(guess[:n, mesh <= 0.0], np.repeat(start[:n, None], np.sum(mesh <= 0.0), axis=1))
+    assert np.array_equal(guess[:n, mesh >= 2.0], np.repeat(end[:n, None], np.sum(mesh >= 2.0), axis=1))
+    blend = np.clip(mesh / 2.0, 0.0, 1.0)
+    straight = start[:n, None] + (end - start)[:n, None] * blend[None, :]
+    off = max(np.max(np.abs(model.constraint_terms(t, q, np.zeros(n))[0])) for t, q in zip(mesh, straight.T))
+    assert off > 0.01   # m (or m²): what the straight blend left to Newton
+
+
+@pytest.mark.long   # about 20 s of CPU: the BVP on the n_rfe 3 arm
+@pytest.mark.filterwarnings("ignore:overflow", "ignore:invalid value")
+def test_the_tracking_arm_at_nrfe_3_is_inverted(env):
+    """E's path on the tracking study's arm at n_rfe 3 (internal dynamics ±45.6, ±362 1/s and a
+    lightly damped pair, -0.0185 ± 52.3j 1/s): from the straight blend the solve diverged in its
+    first Newton iteration (at 200 nodes as at 1000); from the quasi-static motion it converges,
+    and the inputs hold E on its path along the solution."""
+    model, q0 = tracking_arm(3)
+    inv = inversion.stable_inversion(model, q0, 0.0, 2.0, 0.1, 0.1, nodes=200)
+    assert inv.residual <= 1e-6
+    for k in range(0, len(inv.t), 25):
+        assert np.max(np.abs(model.constraint_terms(inv.t[k], inv.q[k], inv.qd[k])[0])) < 1e-6
+    assert 20.0 < np.abs(inv.u[:, 1]).max() < 25.0   # N·m on psi2: near the rigid arm's 23.3

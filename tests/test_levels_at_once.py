@@ -24,6 +24,8 @@ def test_threads_where_the_loops_are_compiled():
     assert not compiled_loops("rk4", "numpy", actuated=False)  # the NumPy loop holds the lock
     assert not compiled_loops("scipy-radau", "c", actuated=False)
     assert compiled_loops("rk4", "c", actuated=True)  # the actuated realization's compiled RK4
+    assert compiled_loops("dop853", "c", actuated=True)  # and DOP853
+    assert not compiled_loops("radau", "c", actuated=True)
     assert not compiled_loops("rk4", "numpy", actuated=True)
 
 

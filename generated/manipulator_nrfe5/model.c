@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5619b671f8082032
+Input hash: b325c021ce6d055a
 The interface (exported functions, the orders and shapes of their arrays, status codes): model.h.
 */
 
@@ -52,7 +52,7 @@ The interface (exported functions, the orders and shapes of their arrays, status
 #endif
 
 #ifdef HOT_PART
-const char *manipulator_nrfe5_input_hash(void) { return "5619b671f8082032"; }
+const char *manipulator_nrfe5_input_hash(void) { return "b325c021ce6d055a"; }
 int manipulator_nrfe5_n_dof(void) { return N_DOF; }
 int manipulator_nrfe5_n_constraints(void) { return N_CONSTRAINTS; }
 int manipulator_nrfe5_n_parameters(void) { return N_PARAMETERS; }
@@ -6664,6 +6664,17 @@ int manipulator_nrfe5_dop853(double t_a, const double *y_a, long n_save, const d
     (void)dependent;
     (void)independent;
     return gpmegen_dop853(&MODEL, t_a, y_a, n_save, t_save, rtol, atol, h, max_steps, memory, p, y_out, n_saved,
+                          counts);
+}
+
+/* manipulator_nrfe5_dop853 of the actuated realization on the coordinates actuators (model.h). */
+int manipulator_nrfe5_dop853_actuated(double t_a, const double *y_a, long n_save, const double *t_save, double rtol,
+    double atol, double *h, long max_steps, void *memory, const double *p, const int *actuators, double *y_out,
+    long *n_saved, long *counts)
+{
+    struct gpmegen_model model = MODEL;
+    model.actuators = actuators;
+    return gpmegen_dop853(&model, t_a, y_a, n_save, t_save, rtol, atol, h, max_steps, memory, p, y_out, n_saved,
                           counts);
 }
 

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5619b671f8082032
+Input hash: b325c021ce6d055a
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -263,6 +263,11 @@ int manipulator_nrfe5_rk4_actuated(double t0, double dt, long n_steps, double t_
    GPMEGEN_STEP_TOO_SMALL or GPMEGEN_BAD_ARGUMENTS; *n_saved counts the rows saved, also on a failure. */
 int manipulator_nrfe5_dop853(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, long max_steps, void *memory, const double *p, const int *dependent, const int *independent, double *y_out, long *n_saved, long *counts);
 long manipulator_nrfe5_dop853_memory_bytes(void);
+
+/* manipulator_nrfe5_dop853 of the actuated realization on the coordinates actuators (as in
+   manipulator_nrfe5_actuated_motion): the second work in y is that of the inputs; the memory is
+   manipulator_nrfe5_dop853_memory_bytes() bytes. */
+int manipulator_nrfe5_dop853_actuated(double t_a, const double *y_a, long n_save, const double *t_save, double rtol, double atol, double *h, long max_steps, void *memory, const double *p, const int *actuators, double *y_out, long *n_saved, long *counts);
 
 /* Radau IIA (implicit, order 5, Hairer's RADAU5) with the arguments, saves, counts and statuses of
    manipulator_nrfe5_dop853, saving between steps by the polynomial of degree 4 whose derivative passes through the rates

@@ -8,15 +8,27 @@ from .common import UsageError, progress
 
 
 def cmd_plot(args) -> int:
-    from ..analysis.figures import plots, run_figures
-    from ..analysis.post import results as results_io
+    from ..analysis.figures import plots, run_figures, tracking_plots
+    from ..analysis.run import tracking
+    from .studies import load_results, measured, reference_label, tracking_reference
 
-    runs = [results_io.load(p) for p in args.results]
+    runs = load_results(args.results)
     plots.check_compatible(runs, args.results)  # before any folder or figure is made
-    outputs.check(run_figures.targets(runs, Path(args.out), args.format), args.results, args.overwrite)
-    outputs.writable_folder(Path(args.out))
-    for path in run_figures.plot_all(runs, Path(args.out), args.format, names=args.results):
+    out = Path(args.out)
+    reference = tracking_reference(args.reference) if args.reference is not None else None
+    tables = [out / "metrics.csv", out / "metrics.md"] if args.reference is not None else []
+    extra = [*tables, *tracking_plots.targets(out, args.format)] if args.reference is not None else []
+    outputs.check([*run_figures.targets(runs, out, args.format), *extra],
+                  [*args.results, *([reference] if reference else [])], args.overwrite)
+    outputs.writable_folder(out)
+    found = measured(args.results, reference) if args.reference is not None else None  # before any figure
+    for path in run_figures.plot_all(runs, out, args.format, names=args.results):
         print(path)
+    if found is not None:
+        print(tracking.write_csv(found, tables[0]))
+        print(tracking.write_markdown(found, tables[1]))
+        for path in tracking_plots.path_error(runs, found, reference_label(reference), out, args.format):
+            print(path)
     return 0
 
 

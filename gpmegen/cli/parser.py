@@ -171,7 +171,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="realize the programmed constraints by inputs on these coordinates alone, one per "
                         "constraint (e.g. --actuated psi2 x3), instead of ideally; default: a model file's "
                         "actuators (--actuated none: ideally), else none; --method rk4 integrates it in the compiled "
-                        "loop on the C backend (in Python on the NumPy one), dop853, radau and genalpha refuse it")
+                        "loop on the C backend (in Python on the NumPy one), dop853 in the compiled loop, radau and "
+                        "genalpha refuse it")
     s.add_argument("--feedforward", type=path_argument, default=None, metavar="RUN.npz",
                    help="add the inputs u of an actuated run (simulate --actuated, or invert) to the drives of the "
                         "model's coordinates of the same names, interpolated linearly in t")
@@ -217,6 +218,10 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--out", type=path_argument, default="figures", help="folder for the figures (default figures/)")
     pl.add_argument("--format", type=figure_formats, default=("png",), metavar="png,pdf,svg",
                     help="figure formats, separated by commas: png (200 dpi), pdf and svg (vector); default png")
+    pl.add_argument("--reference", type=path_argument, default=None, metavar="REF",
+                    help="also measure the runs against REF as 'gpmegen metrics --reference' does (a model file, a "
+                         "folder made by 'build --out', manipulator, or a run .npz): the path-error figure and "
+                         "metrics.csv and metrics.md beside the figures")
     pl.set_defaults(func=cmd_plot)
 
     m = command("modes", "natural frequencies and mode shapes about the static equilibrium")

@@ -63,37 +63,64 @@ def cmd_linearize(args) -> int:
 
 def cmd_metrics(args) -> int:
     """Tracking metrics of runs against a reference: printed, and with --out a CSV and a figure."""
-    from .. import api
     from ..analysis.figures import tracking_plots
-    from ..analysis.post import results as results_io
     from ..analysis.run import tracking
-    from ..analysis.run.opening import REFERENCE as MANIPULATOR  # the built-in reference arm
 
-    try:
-        runs = [results_io.load(p) for p in args.results]
-    except results_io.ResultsError as exc:
-        raise UsageError(str(exc)) from None
-    reference = None if args.reference == MANIPULATOR and not Path(MANIPULATOR).exists() else args.reference
-    if reference is not None and not Path(reference).exists():
-        raise UsageError(f"--reference {reference}: no such file or folder; give a model file, a folder made by "
-                         f"'gpmegen build --out', a results file (.npz) or {MANIPULATOR} (the reference arm)")
+    runs = load_results(args.results)
+    reference = tracking_reference(args.reference)
     out = Path(args.out) if args.out is not None else None
     if out is not None:
         outputs.check([out / "metrics.csv", *tracking_plots.targets(out, args.format)],
                       [*args.results, *([reference] if reference else [])], args.overwrite)
         outputs.writable_folder(out)
-    try:
-        found = api.metrics(args.results, reference, after=args.after, nrfe=args.nrfe,
-                            backend=args.backend or default_backend(), progress=progress)
-    except (tracking.TrackingError, results_io.ResultsError) as exc:
-        raise UsageError(str(exc)) from None
+    found = measured(args.results, reference, args.after, args.nrfe, args.backend)
     print(tracking.table(found))
     if out is not None:
-        label = Path(reference).name if reference is not None else "the reference manipulator"
         print(f"wrote {tracking.write_csv(found, out / 'metrics.csv')}")
-        for path in tracking_plots.path_error(runs, found, label, out, args.format):
+        for path in tracking_plots.path_error(runs, found, reference_label(reference), out, args.format):
             print(f"wrote {path}")
     return 0
+
+
+def load_results(paths) -> list:
+    """The results files ``paths``, a damaged or foreign one a usage error."""
+    from ..analysis.post import results as results_io
+
+    try:
+        return [results_io.load(p) for p in paths]
+    except results_io.ResultsError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def tracking_reference(value):
+    """``--reference`` of ``metrics`` and ``plot``: the path it names, or None for the built-in
+    reference arm (``manipulator`` where no such file is); a missing path a usage error."""
+    from ..analysis.run.opening import REFERENCE as MANIPULATOR  # the built-in reference arm
+
+    reference = None if value == MANIPULATOR and not Path(MANIPULATOR).exists() else value
+    if reference is not None and not Path(reference).exists():
+        raise UsageError(f"--reference {reference}: no such file or folder; give a model file, a folder made by "
+                         f"'gpmegen build --out', a results file (.npz) or {MANIPULATOR} (the reference arm)")
+    return reference
+
+
+def reference_label(reference) -> str:
+    """How the path-error figure names the reference of :func:`tracking_reference`."""
+    return Path(reference).name if reference is not None else "the reference manipulator"
+
+
+def measured(paths, reference, after=None, nrfe=None, backend=None) -> list:
+    """The tracking metrics of the results files ``paths`` against ``reference`` (see
+    :func:`gpmegen.api.metrics`); what cannot be measured a usage error."""
+    from .. import api
+    from ..analysis.post import results as results_io
+    from ..analysis.run import tracking
+
+    try:
+        return api.metrics(paths, reference, after=after, nrfe=nrfe, backend=backend or default_backend(),
+                           progress=progress)
+    except (tracking.TrackingError, results_io.ResultsError) as exc:
+        raise UsageError(str(exc)) from None
 
 
 CLAMPED_LEVELS = (2, 3, 5, 8, 10, 15, 20)  # convergence's n_rfe against beam theory

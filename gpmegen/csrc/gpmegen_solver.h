@@ -74,8 +74,8 @@ struct gpmegen_model {
     /* The actuated realization (actuated.c): the coordinate of each constraint's input
        (n_constraints), whose stages then solve M qdd = f + S u with the constraint rows in place of
        the GPME (gpmegen_stage); NULL (the model's own descriptor) for the ideal realization. Only
-       the model's actuated entries (its single actuated solve and RK4 loop) pass a copy of the
-       descriptor with it set. */
+       the model's actuated entries (its single actuated solve, RK4 and DOP853 loops) pass a copy
+       of the descriptor with it set. */
     const int *actuators;
 };
 

@@ -1,7 +1,7 @@
 """The actuated realization (servo-constraints, :func:`gpmegen.runtime.gpme.actuated`) on either
-backend: its solve at one state and its RK4 loop. On the C backend both run in the model's
-library (``gpmegen/csrc/actuated.c``: the ``(n + m)``-row system by dense LU in every stage);
-on the NumPy backend the solve is :func:`gpmegen.runtime.gpme.actuated` and the loop
+backend: its solve at one state and its RK4 loop, and on the C backend its DOP853 loop. On the C
+backend they run in the model's library (``gpmegen/csrc/actuated.c``: the ``(n + m)``-row system
+by dense LU in every stage); on the NumPy backend the solve is :func:`gpmegen.runtime.gpme.actuated` and the loop
 :func:`gpmegen.runtime.integrators.rk4.rk4_steps`, the check of the compiled one.
 """
 
@@ -79,6 +79,19 @@ def rk4(model, g: Grid, k_from: int, k_to: int, save_every: int, y0: np.ndarray)
                                         *(ptr(part) for part in y_out), n_saved)
     k = int(n_saved[0])
     return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
+
+
+def dop853(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first):
+    """:meth:`~gpmegen.runtime.model.LoadedModel.dop853` of ``model``'s actuated realization, in
+    the compiled loop (the C backend's; its arguments and results)."""
+    evaluator = model.evaluator
+    evaluator._check_stack("actuated_dop853")
+
+    def entry(*arguments):   # the ideal entry's arguments, the actuators in place of the partition's two
+        return evaluator.lib.dop853_actuated(*arguments[:10], _indices(model), *arguments[12:])
+
+    return evaluator._adaptive(entry, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first,
+                               partitioned=False)
 
 
 # Above this condition number of D M⁻¹ S the actuated coordinates are refused at the start.

@@ -428,10 +428,12 @@ class CEvaluator:
         between the calls of one span."""
         return np.zeros(getattr(self.lib, f"{method}_memory_bytes")(), dtype=np.uint8)
 
-    def _adaptive(self, function, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first):
+    def _adaptive(self, function, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first,
+                  partitioned=True):
         """A call of the adaptive C loop ``function`` (dop853 or radau: one interface); its rows
-        from ``first`` (the rows the calls before saved) on."""
-        dep, ind = self._partition_pointers(model)
+        from ``first`` (the rows the calls before saved) on. Not ``partitioned``: the partition's
+        arguments are NULL (the actuated realization's loop takes none)."""
+        dep, ind = self._partition_pointers(model) if partitioned else (self.ffi.NULL, self.ffi.NULL)
         y_a, t_save = np.ascontiguousarray(y_a, dtype=float), np.ascontiguousarray(t_save, dtype=float)
         self._check_counts(counts, ADAPTIVE_COUNTS)
         if max_steps and (memory is None or memory.dtype != np.uint8 or not memory.flags.c_contiguous):

@@ -25,7 +25,7 @@ except ImportError:  # not a POSIX system: no limit to read
 #: Bytes of stack beyond the arrays :func:`call_bytes` counts.
 RESERVE = 512 * 1024
 #: The library's entry points whose stack :func:`call_bytes` bounds.
-CALLS = ("solve", "jacobian", "rk4", "dop853", "radau", "genalpha", "actuated", "actuated_rk4")
+CALLS = ("solve", "jacobian", "rk4", "dop853", "radau", "genalpha", "actuated", "actuated_rk4", "actuated_dop853")
 
 
 def call_bytes(call: str, n: int, m: int, exact_jacobians: bool, z: int = 0) -> int:
@@ -48,6 +48,7 @@ def call_bytes(call: str, n: int, m: int, exact_jacobians: bool, z: int = 0) -> 
     doubles = {
         "actuated": actuated,
         "actuated_rk4": 12 * n + 8 + n + actuated,                # rk4.c: the loop, a stage
+        "actuated_dop853": 35 * ny + n + actuated,                # dop853.c: K, F, the states; a stage
         "solve": recursive,
         "jacobian": jacobian,
         "rk4": 12 * n + 8 + n + recursive,                        # rk4.c: the loop, a stage

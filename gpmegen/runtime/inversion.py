@@ -146,6 +146,27 @@ def check_at_rest_outside(model, q, t0, t1, pre, post) -> None:
                 f"rest)")
 
 
+def quasi_static(model, mesh, start, end, t0, t1) -> np.ndarray:
+    """The boundary-value problem's first guess (2n, k) on ``mesh`` (k,) s: the quasi-static
+    motion, at each time the rest state of the programmed law there (:func:`rest`, each from the
+    one before; ``start``'s before ``t0``, ``end``'s after ``t1``), its velocities by
+    differences. It holds the constraints, so Newton starts near the bounded solution of a slow
+    motion; the straight blend of the rest states ``start`` and ``end`` (2n,) with zero
+    velocities does not, and its first steps can leave the states where the inputs hold the
+    constraints. Where a time has no rest state, that blend."""
+    n = model.n_dof
+    q, qs = start[:n], []
+    try:
+        for t in mesh:  # at rest outside [t0, t1]: the rest states there are start's and end's
+            q = start[:n] if t <= t0 else end[:n] if t >= t1 else rest(model, q, t)
+            qs.append(q)
+    except SimulationError:
+        blend = np.clip((mesh - t0) / (t1 - t0), 0.0, 1.0)
+        return start[:, None] + (end - start)[:, None] * blend[None, :]
+    qs = np.array(qs).T
+    return np.vstack([qs, np.gradient(qs, mesh, axis=1)])
+
+
 def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6, progress=None) -> Inversion:
     """The bounded solution of ``model``'s actuated realization (actuators set) for a programmed
     motion at rest before ``t0`` and after ``t1`` (s), on ``[t0 - pre, t1 + post]`` with
@@ -178,9 +199,12 @@ def stable_inversion(model, q_guess, t0, t1, pre, post, nodes=200, tol=1e-6, pro
         return np.concatenate([rows_a @ (ya - start), rows_b @ (yb - end)])
 
     mesh = np.linspace(ta, tb, nodes)
-    blend = np.clip((mesh - t0) / (t1 - t0), 0.0, 1.0)
-    guess = start[:, None] + (end - start)[:, None] * blend[None, :]
-    sol = solve_bvp(fun, bc, mesh, guess, tol=tol, max_nodes=20 * nodes)
+    try:
+        sol = solve_bvp(fun, bc, mesh, quasi_static(model, mesh, start, end, t0, t1), tol=tol, max_nodes=20 * nodes)
+    except SimulationError:  # a Newton iterate, not the motion, where the inputs cannot hold the constraints
+        raise SimulationError("stable inversion did not converge: the solver's Newton iterates left the states where "
+                              "the inputs can hold the constraints; lengthen the pre- and post-actuation windows or "
+                              "raise the mesh nodes") from None
     if not sol.success:
         raise SimulationError(f"stable inversion did not converge ({sol.message}); lengthen the pre- and "
                               f"post-actuation windows or raise the mesh nodes")

@@ -58,7 +58,8 @@ class CompiledLoops:
     def dop853(self, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float, step: Array,
                counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
                first: int = 0) -> tuple[Array, SolveStatus]:
-        """DOP853 of the GPME in the compiled loop from ``t_a`` (s) and the augmented state
+        """DOP853 of the GPME (or, with :attr:`actuators`, of the actuated realization) in the
+        compiled loop from ``t_a`` (s) and the augmented state
         ``y_a = [q, q̇, w, z]`` (2n + 2 + n_z,) to ``t_save[-1]``, saving at the increasing instants
         ``t_save`` (k,) s. ``step`` (1,): the step to try first (0: chosen), updated to the one to
         try next; ``counts`` (5,) int64: steps, rejected, GPME solves, Jacobians and LU
@@ -67,6 +68,8 @@ class CompiledLoops:
         span's start); calls with the same arguments, ``first`` the rows saved by those before,
         go on from it to the same bits as one call. Returns ``(y, status)``: ``y`` the rows saved
         from ``first`` on (to k when the span is done)."""
+        if len(self.actuators):   # the actuated realization's loop (C backend): no partition
+            return actuated.dop853(self, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
         return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
 

@@ -1,8 +1,8 @@
 /* One call of the solver library (gpmegen/csrc) on a model of n uncoupled unit oscillators,
    qdd_i = -q_i, whose recursion falls back to the dense solve as a generated model's does (its M
    and f on the stack, then gpmegen_gpme_solve): run as "stack_probe CALL N" with CALL one of
-   solve, jacobian, rk4, dop853, radau, genalpha, actuated, actuated_rk4 (the actuated realization's
-   solve and RK4; tests/test_c_stack.py runs it under a stack limit).
+   solve, jacobian, rk4, dop853, radau, genalpha, actuated, actuated_rk4, actuated_dop853 (the actuated
+   realization's solve, RK4 and DOP853; tests/test_c_stack.py runs it under a stack limit).
    Prints "ok CALL N STATUS" and exits 0 when the call returns. */
 
 #include <stdio.h>
@@ -83,15 +83,20 @@ int main(int argc, char **argv)
     } else if (!strcmp(call, "genalpha")) {
         status = gpmegen_genalpha(&model, 0.0, 1e-3, 1, 1e-3, 0, 1, 0.8, 0, y, a, A, pivot, &have, 1, t_save, p,
                                   y_out, &n_saved, counts);
-    } else if (!strcmp(call, "actuated") || !strcmp(call, "actuated_rk4")) {
+    } else if (!strcmp(call, "actuated") || !strcmp(call, "actuated_rk4") || !strcmp(call, "actuated_dop853")) {
         static const int no_actuators[1] = { 0 };  /* no constraints: no inputs */
         struct gpmegen_model actuated = model;
         double u[1];
         actuated.actuators = no_actuators;
-        status = !strcmp(call, "actuated")
-                     ? gpmegen_actuated_solve(&actuated, 0.0, y, y + n, p, a, u, A, B, &power)
-                     : gpmegen_rk4(&actuated, 0.0, 1e-3, 2, 2e-3, 0, 2, 1, y, y + n, w0, p, t_out, A, B, y_out,
-                                   &n_saved);
+        if (!strcmp(call, "actuated")) {
+            status = gpmegen_actuated_solve(&actuated, 0.0, y, y + n, p, a, u, A, B, &power);
+        } else if (!strcmp(call, "actuated_rk4")) {
+            status = gpmegen_rk4(&actuated, 0.0, 1e-3, 2, 2e-3, 0, 2, 1, y, y + n, w0, p, t_out, A, B, y_out,
+                                 &n_saved);
+        } else {
+            status = gpmegen_dop853(&actuated, 0.0, y, 1, t_save, 1e-6, 1e-8, &h, 0, NULL, p, y_out, &n_saved,
+                                    counts);
+        }
     } else {
         fprintf(stderr, "unknown call %s\n", call);
         return 2;

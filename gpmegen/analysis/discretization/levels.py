@@ -110,7 +110,7 @@ def compiled_loops(method: str, backend: str, actuated: bool) -> bool:
     """Whether runs of ``method`` on ``backend`` integrate in compiled loops, which release
     Python's lock (cffi's calls do), so that runs on threads of one process go on at once: RK4 and
     the compiled methods on the C backend; with the constraints realized by inputs (``actuated``),
-    those whose loop runs the actuated realization too (RK4; the others integrate the ideal GPME only)."""
+    those whose loop runs the actuated realization too (RK4, DOP853; the others integrate the ideal GPME only)."""
     integrator = integrators.get(method)
     return backend == "c" and integrator.c_loop and (not actuated or integrator.actuated_loop)
 

@@ -15,12 +15,14 @@ from dataclasses import dataclass
 @dataclass(frozen=True)
 class Figure:
     """One figure: its file name without extension, what it shows, when it is drawn (``None``:
-    always) and the test of that on the runs drawn together (results dicts)."""
+    always) and the test of that on the runs drawn together (results dicts); ``reference``: one
+    of the tracking metrics against ``plot --reference`` (:mod:`gpmegen.analysis.run.tracking`)."""
 
     stem: str
     shows: str
     when: str | None
     applies: Callable[[list], bool]
+    reference: bool = False   # drawn by ``plot --reference`` from the runs' metrics, not by run_figures
 
 
 def _always(runs) -> bool:
@@ -56,6 +58,18 @@ def _forces(runs) -> bool:
     return bool(names[0]) and all(n == names[0] for n in names)
 
 
+def _law(runs) -> bool:
+    return any("tracking_error" in r for r in runs)
+
+
+def _controlled(runs) -> bool:
+    """A run under control: inputs u (actuated realization), a computed-torque law, or drives on
+    a plant without programmed constraints (its controllers alone move it); an ideal run's drives
+    beside its constraints' reactions are the driving functions' figure."""
+    return any("u" in r or "tracking_error" in r
+               or (not len(r["constraint_names"]) and "drive_forces" in r and r["drive_forces"].any()) for r in runs)
+
+
 FIGURES = (
     Figure("joint_coordinates", "the joint coordinates against time", None, _always),
     Figure("end_effector", "the coordinates of the end-effector against time", None, _always),
@@ -74,12 +88,19 @@ FIGURES = (
            "when the results hold the multipliers", _multipliers),
     Figure("closure_reactions", "each closed loop's reaction force (and moment) in {0}",
            "when the model closes loops ([[closures]])", _closures),
+    Figure("tracking_error", "each computed-torque coordinate's reference less the coordinate, q_r − q",
+           "when a run holds them: a [controller] table", _law),
+    Figure("control_effort", "each drive's force (and input u) against time, its peak marked",
+           "when a run is controlled: inputs u, a [controller] table, or drives on a model without programmed "
+           "constraints", _controlled),
+    Figure("tracking", "the end-effector's path error |E − E_ref| against time, beside metrics.csv and "
+           "metrics.md (the table of 'gpmegen metrics')", "with plot --reference REF", _always, reference=True),
 )
 
 
 def stems(runs) -> list[str]:
-    """The stems of the figures drawn for ``runs``, in order."""
-    return [figure.stem for figure in FIGURES if figure.applies(runs)]
+    """The stems of the figures drawn for ``runs``, in order (those of ``--reference`` apart)."""
+    return [figure.stem for figure in FIGURES if not figure.reference and figure.applies(runs)]
 
 
 def listing(indent: str = "  ", width: int = 96) -> str:

@@ -1,14 +1,14 @@
 """The figures of runs of one model, in the order and under the conditions of
 :data:`gpmegen.analysis.figures.figure_list.FIGURES`, drawn by :mod:`plots` (the paper's, the
-constraints', the energy balance's) and :mod:`driving_plots` (the driving functions and the
-elastic deformation), and written."""
+constraints', the energy balance's), :mod:`driving_plots` (the driving functions and the
+elastic deformation) and :mod:`control_plots` (tracking error, control effort), and written."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from ...fileio import atomic_write_all
-from . import driving_plots, figure_list, plots
+from . import control_plots, driving_plots, figure_list, plots
 
 
 def figures(runs) -> list:
@@ -16,7 +16,8 @@ def figures(runs) -> list:
     :data:`gpmegen.analysis.figures.figure_list.FIGURES`: draw(plt, runs, styles) -> Figure."""
     draws = {"joint_coordinates": plots.joint_coordinates, "end_effector": plots.end_effector, "path": plots.path,
              "constraint_violation": plots.constraint_violation, "energy_balance": plots.energy_balance,
-             "force_elements": plots.force_elements, **driving_plots.DRAWS}
+             "force_elements": plots.force_elements, **driving_plots.DRAWS,
+             **control_plots.DRAWS}
     return [(stem, draws[stem]) for stem in figure_list.stems(runs)]
 
 

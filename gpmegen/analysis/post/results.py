@@ -19,7 +19,10 @@ closed loops adds each closure's reaction, ``closure_<name>_force`` and ``closur
 ``L_<name> [m]``, ``Ldot_<name> [m/s]`` and ``F_<name> [N]``. A model with drives that have a
 ``limit`` adds ``limited_drives`` (l,) their coordinates, ``drive_laws`` and ``drive_limits``
 (k, l) each law before its clip and its limit, and ``time_at_limit`` (l,) s
-(:mod:`gpmegen.analysis.post.drive_limits`).
+(:mod:`gpmegen.analysis.post.drive_limits`). A model under computed torque adds
+``reference_coordinates`` (r,) the law's coordinates, ``q_reference`` (k, r) their references
+``q_r`` and ``tracking_error`` (k, r) ``q_r - q`` (:mod:`gpmegen.analysis.post.law_references`),
+also in the CSV as ``qr_<name>`` and ``e_<name>``.
 """
 
 from __future__ import annotations
@@ -49,7 +52,8 @@ ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "
                       "lambda", "point_forces", "u", "actuators", "kinetic_energy", "gravity_energy", "spring_energy",
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
                       "internal_eigenvalues", "force_names", "force_elements", "limited_drives", "drive_laws",
-                      "drive_limits", "time_at_limit", "controller_names", "controller_states")
+                      "drive_limits", "time_at_limit", "controller_names", "controller_states",
+                      "reference_coordinates", "q_reference", "tracking_error")
 #: A closure's reaction (:mod:`gpmegen.analysis.post.closures`): ``closure_<name>_force`` and
 #: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
 CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")
@@ -142,6 +146,15 @@ def force_columns(results: Mapping[str, Any]) -> tuple[list[str], list[np.ndarra
     return names, [results["force_elements"].reshape(len(results["t"]), -1)]
 
 
+def reference_columns(results: Mapping[str, Any]) -> tuple[list[str], list[np.ndarray]]:
+    """The CSV's columns of a computed-torque law: each coordinate's reference and error, in its
+    coordinate's unit. Returns (names, arrays (k, j))."""
+    if "tracking_error" not in results:
+        return [], []
+    names = [str(c) for c in results["reference_coordinates"]]
+    return [f"qr_{c}" for c in names] + [f"e_{c}" for c in names], [results["q_reference"], results["tracking_error"]]
+
+
 def save(results: Mapping[str, Any], path: str | Path, csv: bool = True) -> list[Path]:
     """Write ``results`` to ``path`` (.npz) and, with ``csv``, a CSV of t, q, E, Φ and the driving
     functions (:func:`driving_columns`) beside it,
@@ -158,8 +171,8 @@ def save(results: Mapping[str, Any], path: str | Path, csv: bool = True) -> list
         cons = [f"phi_{c}" for c in results.get("constraint_names", [])]
         state = "complete" if status == "complete" else f"partial ({' '.join(status.split())})"
         columns, driving = driving_columns(results)
-        elements = force_columns(results)
-        columns, driving = columns + elements[0], driving + elements[1]
+        for extra_names, extra in (force_columns(results), reference_columns(results)):
+            columns, driving = columns + extra_names, driving + extra
         header = (f"# {FORMAT} run {run_id}: {state}\n"
                   + ",".join(["t"] + names + [f"{c}_dot" for c in names] + ["x_E", "y_E", "z_E"] + cons
                              + ["tau_drive"] + columns))

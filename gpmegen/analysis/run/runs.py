@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from ... import limits, outputs
 from ...runtime import integrators
 from ...runtime.integrators.loop import PROGRESS_LINES, Progress
-from ..post import drive_limits, driving, joint_limits
+from ..post import drive_limits, driving, joint_limits, law_references
 from ..post import results as results_io
 from . import study
 from .runspec import RunSpec
@@ -71,6 +71,8 @@ def run(case: Case, spec: RunSpec, backend: str, overrides: Mapping[str, float],
     res = results_io.annotate(res, {**case.metadata(model), "start_moved": begun.meta(),
                                     "model_source": case.locator()}, case.extras(model, res))
     res = driving.annotate(res, case.source, model)
+    if case.source is not None:   # a computed-torque law's references are the symbolic model's
+        res = results_io.annotate(res, {}, law_references.reference_arrays(case.source, model, res["t"], res["q"]))
     for line in joint_limits.exceeded(case.joint_limits(), model.coordinates, res["t"], res["q"], res["qd"]):
         progress(line)
     if "time_at_limit" in res and len(res["t"]):

@@ -316,3 +316,12 @@ def write_csv(metrics: list, path) -> Path:
     for row in rows(metrics):
         writer.writerow([f"{v:.12g}" if isinstance(v, float) else v for v in row])
     return atomic_write_bytes(Path(path), buffer.getvalue().encode("utf-8"))
+
+
+def write_markdown(metrics: list, path) -> Path:
+    """Write :func:`rows` to ``path`` as a Markdown table (UTF-8), atomically."""
+    header, *body = rows(metrics)
+    cells = [[f"{v:.6g}" if isinstance(v, float) else str(v).replace("|", "\\|") for v in row] for row in body]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in cells]
+    return atomic_write_bytes(Path(path), ("\n".join(lines) + "\n").encode("utf-8"))

@@ -9,7 +9,7 @@ from typing import ClassVar, NamedTuple
 
 from ...errors import SimulationError
 from ...limits import Integration
-from .registry import carrying_controller_states
+from .registry import carrying_actuated, carrying_controller_states
 
 
 class Effort(NamedTuple):
@@ -94,7 +94,7 @@ class Integrator:
     #: a save interval ``save_dt`` must then be a whole number of steps.
     saves_on_steps: ClassVar[bool] = False
     #: Whether it runs only in the generated C loop (not on the NumPy backend, nor for the actuated
-    #: realization, which only RK4's loop runs compiled).
+    #: realization unless :attr:`actuated_loop`).
     compiled: ClassVar[bool] = False
     #: Whether, on the C backend, it runs in the generated C loop (which releases Python's lock).
     c_loop: ClassVar[bool] = False
@@ -142,8 +142,9 @@ class Integrator:
             return None
         if backend != "c":
             return f"--method {self.name} runs in the compiled C loop: use --backend c (it needs a C compiler)"
-        if actuated:
-            return f"--method {self.name} integrates the ideal GPME only: use --method rk4 for an actuated realization"
+        if actuated and not self.actuated_loop:
+            return (f"--method {self.name} integrates the ideal GPME only: use --method {carrying_actuated()} "
+                    f"for an actuated realization")
         return None
 
     def check_model(self, model) -> None:

@@ -24,11 +24,13 @@ def dop853(model, q0, qd0, t_end, save_dt, t0=0.0, rtol=RTOL, atol=ATOL, progres
 
 @register
 class DOP853(CompiledAdaptive):
-    """DOP853 in C: its steps bound by the stable step of the stiffest mode."""
+    """DOP853 in C, for the ideal or the actuated realization: its steps bound by the stable step
+    of the stiffest mode."""
 
     name = entry = "dop853"
     summary = "dop853 (adaptive, order 8, in C)"
     frequency = "highest"
+    actuated_loop = True   # its stages solve the actuated realization where the model has actuators
 
     def estimate(self, n_dof, t_end, dt, omega, backend):
         if omega is None or not omega > 0:

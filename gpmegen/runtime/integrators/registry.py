@@ -51,6 +51,11 @@ def carrying_controller_states() -> str:
     return spoken([name for name, i in INTEGRATORS.items() if i.controller_states])
 
 
+def carrying_actuated() -> str:
+    """The integrators whose loop runs the actuated realization, as a refusal names them."""
+    return spoken([name for name, i in INTEGRATORS.items() if i.actuated_loop])
+
+
 def options() -> list:
     """Every registered integrator's options, each once (the first of its name), in the order
     registered."""
