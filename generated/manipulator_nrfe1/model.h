@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: dc1bfa7b016c49bd
+Input hash: 5961cd70894bf7e3
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
