@@ -95,10 +95,11 @@ def load(model: ModelSource | int = None, backend: str | None = None, params: Ma
     uses differs from the sha256 its manifest records, unless ``build=False``, which raises
     :class:`StaleModelError` with the command to rebuild (``command``, for a model of your own).
 
-    A case whose start sets constants of the model binds them as its runs do (the paper's arm:
-    ``r_Ea`` and ``y_c`` that put E of the locked statics at its joint start on the constraints,
-    unless ``params`` gives them; :attr:`gpmegen.analysis.run.cases.Case.start_constants`); any
-    other model is bound with its parameters' defaults.
+    A model whose start sets parameters (a model file's ``[initial] set``; the paper's arm:
+    ``r_Ea`` and ``y_c`` that put E of the locked statics at its joint start on the constraints)
+    binds them as its runs do, unless ``params`` gives them
+    (:attr:`gpmegen.analysis.run.cases.Case.start_constants`); any other model is bound with its
+    parameters' defaults.
 
     ``progress`` (a callable taking one line) is told each step of a build and of a C compile.
     ``transforms``: the body transforms to generate, of "T", "T_i", "T_ij"

@@ -21,7 +21,7 @@ frequency at the start is refused, naming that step. The summary line names how 
 rejections, GPME solves, Jacobians, LU factorizations.""",
     "statics": """\
 Print the static start configuration: every coordinate, the positions of the points and the
-constants the start sets (the reference case's r_Ea and y_c).""",
+parameters the start sets (a model file's [initial] set; the reference case's r_Ea and y_c).""",
     "plot": """\
 Draw the figures of one or more results files of one model, overlaid: each run keeps its colour
 and line style in every figure. Results of different models, or with different constraints, are

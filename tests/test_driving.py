@@ -15,11 +15,14 @@ from gpmegen.analysis.post import driving
 from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import reference_case, study
 from gpmegen.errors import ModelError
+from gpmegen.model.reference import start_constants
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle as ref  # noqa: E402  (tests/oracle.py: shares no code with gpmegen)
 
 from gpmegen.analysis.run.runspec import RunSpec
+
+JOINTS = tuple(name for name, _ in start_constants().at)  # the arm's joints, held at its start
 
 
 def started(model):
@@ -61,7 +64,7 @@ def test_multipliers_realize_the_constraints_ideally(flexible3, ideal3):
         generalized = M @ res["qdd"][k] - f
         assert relative(generalized - D.T @ res["lambda"][k], generalized) < 1e-9
         assert np.allclose(res["constraint_forces"][k], generalized, rtol=1e-12, atol=1e-12)
-    elastic = [k for k, name in enumerate(model.coordinates) if name not in reference_case.START_JOINTS]
+    elastic = [k for k, name in enumerate(model.coordinates) if name not in JOINTS]
     assert np.max(np.abs(res["constraint_forces"][:, elastic])) > 1.0  # N·m: not actuator torques
     assert np.max(np.abs(res["phi"])) < 1e-8
 
@@ -91,7 +94,7 @@ def test_units_of_the_driving_functions():
     assert driving.lambda_units(model, {}) == {"circle": "N/m", "height": "N"}
     units = driving.force_units(model)
     assert units["psi2"] == units["theta1"] == "N·m" and units["x3"] == "N"
-    assert {units[name] for name in units if name not in reference_case.START_JOINTS} == {"N·m"}
+    assert {units[name] for name in units if name not in JOINTS} == {"N·m"}
 
 
 def test_actuated_realization_holds_the_constraints_by_the_inputs(rigid_runs):
@@ -188,7 +191,7 @@ def test_deformation_is_the_springs_and_the_flexible_displacement_of_E(flexible3
     out = driving.deformation(model, ideal3["q"])
     assert np.allclose(out["spring_forces"], ideal3["q"] @ orc.chain.stiffness().T, rtol=1e-12, atol=1e-9)
     rigid = ideal3["q"].copy()
-    rigid[:, [k for k, name in enumerate(model.coordinates) if name not in reference_case.START_JOINTS]] = 0.0
+    rigid[:, [k for k, name in enumerate(model.coordinates) if name not in JOINTS]] = 0.0
     assert np.max(np.abs(driving.deformation(model, rigid)["deflection"])) == 0.0
     k = -1
     assert np.allclose(out["deflection"][k], orc.end_effector(ideal3["q"][k]) - orc.end_effector(rigid[k]),

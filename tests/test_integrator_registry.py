@@ -94,3 +94,30 @@ def test_what_each_integrator_refuses(name, numpy, actuated):
     assert (integrator.refusal("numpy", False) is None) == numpy
     assert (integrator.refusal("c", True) is None) == actuated
     assert integrator.refusal("c", False) is None
+
+
+class Implicit(Euler):
+    """Euler under another name that says its steps are not bound by the stiff modes."""
+
+    name = "implicit-euler"
+    summary = "implicit-euler (a test's own)"
+    stiff = True
+
+
+def test_rk4s_refusal_names_the_registered_methods_that_take_longer_steps(euler):
+    """An unstable RK4 step names every registered stiff or adaptive method with its help phrase:
+    one registered here appears without an edit to rk4, explicit Euler (fixed step, explicit)
+    does not."""
+    from gpmegen.runtime.integrators.rk4 import unstable_step
+
+    undamped = np.array([1000j, -1000j])   # RK4's stable step: 2√2/1000 s
+    integrators.register(Implicit)
+    try:
+        refusal = unstable_step(1e-2, undamped)
+    finally:
+        integrators.unregister(Implicit.name)
+    assert unstable_step(1e-3, undamped) is None
+    for name in ("genalpha", "radau", "dop853", "scipy-radau"):
+        assert integrators.get(name).summary in refusal
+    assert refusal.endswith(f"or {Implicit.summary}") and "euler (explicit" not in refusal
+    assert Implicit.summary not in unstable_step(1e-2, undamped)

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 5961cd70894bf7e3
+Input hash: 4eb383bdc52fa98a
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

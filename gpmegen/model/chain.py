@@ -12,7 +12,7 @@ plain numbers); nothing here does algebra beyond naming symbols.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -355,6 +355,11 @@ class Model:
     controller states (:class:`Controller`) its drives may read. ``computed_torque``: a
     :class:`gpmegen.model.computed_torque.ComputedTorque` law on some coordinates, or None;
     ``task_torque``: a :class:`gpmegen.model.task_torque.TaskTorque` law, or None.
+    ``start_constants``: the parameters its start sets
+    (:class:`gpmegen.model.start_constants.StartConstants`), or None; left out of ``repr``, and
+    so of the input hash, since the generated code does not depend on it.
+    ``elements``: the entries of the element kinds registered from outside
+    (:class:`gpmegen.model.elements.Element`), each adding its own terms.
     """
 
     name: str
@@ -371,6 +376,8 @@ class Model:
     controllers: tuple = ()
     computed_torque: object = None
     task_torque: object = None
+    elements: tuple = ()
+    start_constants: object = field(default=None, repr=False)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

@@ -335,6 +335,8 @@ def expand(model: Model) -> FlatChain:
         check_computed_torque(model.computed_torque, coordinates, constant)
     if model.task_torque is not None:
         check_task_torque(model.task_torque, coordinates, constant, model.computed_torque)
+    if model.start_constants is not None:
+        model.start_constants.check(model, coordinates, points)
     return FlatChain(model, elements, tuple(coordinates), tree, _couplings(elements, coordinates))
 
 

@@ -21,6 +21,7 @@ from .chain import (
     symbol,
 )
 from .shapes import shape_quantities, solid_cylinder
+from .start_constants import StartConstants
 
 PARAMETERS = (
     Parameter("g", 9.81, "m/s^2", "gravitational acceleration, along -y0"),
@@ -49,6 +50,16 @@ PARAMETERS = (
     Parameter("alpha_height", 100.0, "1/s", "Baumgarte alpha of the height constraint"),
     Parameter("beta_height", 50.0, "1/s", "Baumgarte beta of the height constraint"),
 )
+
+
+def start_constants() -> StartConstants:
+    """The paper's start (reference-model.md, "Initial state"): the joints at ``θ1 = 0, ψ2 = 45°,
+    x3 = 0``, and at their locked statics ``r_Ea = sqrt(x_E² + z_E²)`` and ``y_c = y_E - A``, so
+    that the motion starts on the constraints and at rest."""
+    P = {p.name: p.symbol for p in PARAMETERS}
+    x, y, z = point_symbols("E")
+    return StartConstants(at=(("theta1", sp.S.Zero), ("psi2", sp.pi / 4), ("x3", sp.S.Zero)),
+                          values=(("r_Ea", sp.sqrt(x**2 + z**2)), ("y_c", y - P["A"])))
 
 
 def drive_torque(t, tdr0, t0):
@@ -108,7 +119,8 @@ def reference_model(nrfe: int = 5) -> Model:
         constraints=constraints,
         dependent=("psi2", "x3"),
         description="three-link spatial manipulator: rotary column, flexible rotary arm, slider",
+        start_constants=start_constants(),
     )
 
 
-__all__ = ["reference_model", "PARAMETERS", "drive_torque", "symbol"]
+__all__ = ["reference_model", "PARAMETERS", "drive_torque", "start_constants", "symbol"]

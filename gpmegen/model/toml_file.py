@@ -62,6 +62,7 @@ numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; 
     [initial]                             # start configuration; unnamed coordinates are 0
     q = { theta1 = 0, psi2 = "pi/4" }
     qd = { theta1 = 0.1 }                 # start velocities (rad/s, m/s); dependent ones are solved
+    set = { r_Ea = "sqrt(x_E^2 + z_E^2)" } # parameters from the points at the locked statics of q
 
 Body shapes: ``cylinder`` (mass, radius, length, axis: along ``axis`` from 0 to ``length``),
 ``bar`` (mass, length, width, thickness: along x, thickness along y, width along z), ``rod``

@@ -18,6 +18,7 @@ from ..errors import BuildError, ModelError, SimulationError
 from ..folder import read_verified
 from ..status import SolveStatus
 from . import ccompile, cprobe, cstack, fastcall
+from .cactuated import CActuated
 from .evaluator import TRANSFORM_FUNCTIONS, NumpyEvaluator, vector
 from .integrators.base import ADAPTIVE_COUNTS, COUNTS
 from .model import LoadedModel
@@ -59,7 +60,7 @@ class CModel(LoadedModel):
         return other
 
 
-class CEvaluator:
+class CEvaluator(CActuated):
     """The generated functions, GPME solve and RK4 loop of ``<folder>/model.c``, compiled and
     loaded (an :class:`gpmegen.runtime.evaluator.Evaluator`)."""
 

@@ -156,6 +156,14 @@ class Evaluator(Protocol):
         (``[q, q̇, W_drive, W_constraint]``): ``(t, y, status)`` as
         :func:`gpmegen.runtime.integrators.rk4.rk4_steps`."""
 
+    def actuated_motion(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Four | None:
+        """(q̈ (n,), u (m,), M (n, n), f (n,)) of ``model``'s actuated realization on its
+        ``actuators`` (:func:`gpmegen.runtime.gpme.actuated`); None where ``D M⁻¹ S`` is singular."""
+
+    def actuated_rk4(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, save_every: int,
+                     y0: Array) -> tuple[Array, Array, SolveStatus]:
+        """:meth:`rk4` of ``model``'s actuated realization, ``y0`` ending with the inputs' work."""
+
     def dop853(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,
                step: Array, counts: NDArray[np.int64], memory: NDArray[np.uint8] | None = None, max_steps: int = 0,
                first: int = 0) -> tuple[Array, SolveStatus]:
@@ -298,6 +306,19 @@ class NumpyEvaluator:
 
     def rk4(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, save_every: int,
             y0: Array) -> tuple[Array, Array, SolveStatus]:
+        return rk4_steps(loop.state_derivative(model), y0, g, k_from, k_to, save_every)
+
+    def actuated_motion(self, t: float, q: ArrayLike, qd: ArrayLike, model: LoadedModel) -> Four | None:
+        M, f, phi, phid, D, gamma = self.gpme_terms(t, q, qd, model.p)
+        try:
+            qdd, u = gpme.actuated(M, f, phi, phid, D, gamma, model.alpha, model.beta, model.constraint_orders,
+                                   model.actuators)
+        except np.linalg.LinAlgError:
+            return None
+        return qdd, u, M, f
+
+    def actuated_rk4(self, model: LoadedModel, g: loop.Grid, k_from: int, k_to: int, save_every: int,
+                     y0: Array) -> tuple[Array, Array, SolveStatus]:
         return rk4_steps(loop.state_derivative(model), y0, g, k_from, k_to, save_every)
 
     def dop853(self, model: LoadedModel, t_a: float, y_a: ArrayLike, t_save: Array, rtol: float, atol: float,

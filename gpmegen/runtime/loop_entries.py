@@ -11,7 +11,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..status import SolveStatus
-from . import actuated
 from .evaluator import (
     Array,
     vector,
@@ -48,7 +47,7 @@ class CompiledLoops:
         y0 = np.concatenate([vector(q0, self.n_dof, "q0"), vector(qd0, self.n_dof, "qd0"),
                              vector(w0, 2 + len(self.controller_names), "w0")])
         if len(self.actuators):  # the generated loop's actuated entry, or the Python loop on NumPy
-            t, y, status = actuated.rk4(self, g, k_from, k_to, int(save_every), y0)
+            t, y, status = self.evaluator.actuated_rk4(self, g, k_from, k_to, int(save_every), y0)
         else:
             model = self.partitioned(g.time(k_from), y0[:self.n_dof])  # "auto": chosen at the start
             t, y, status = model.evaluator.rk4(model, g, k_from, k_to, int(save_every), y0)
@@ -69,7 +68,8 @@ class CompiledLoops:
         go on from it to the same bits as one call. Returns ``(y, status)``: ``y`` the rows saved
         from ``first`` on (to k when the span is done)."""
         if len(self.actuators):   # the actuated realization's loop (C backend): no partition
-            return actuated.dop853(self, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
+            return self.evaluator.actuated_dop853(self, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps,
+                                                  first)
         model = self.partitioned(t_a, np.asarray(y_a)[:self.n_dof])
         return model.evaluator.dop853(model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first)
 

@@ -42,7 +42,7 @@ def derive(model) -> Derivation:
     chain = expand(model)
     program = Program()
     kin = forward(chain, program)
-    dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces)
+    dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces, model.elements)
     warnings: tuple = ()
     if model.computed_torque is not None:   # the law joins the drives, before the recursion reads them
         dyn.drive_forces = dyn.drive_forces + _computed_torque.derive(kin, model.computed_torque)

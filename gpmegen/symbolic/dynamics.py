@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..model.topology import GROUND
+from . import elements as _elements
 from . import forces as _forces
 from .algebra import cross, dot, mul
 from .constraints import state_expressions
@@ -128,11 +129,11 @@ def _add_composite(total, part, define, define_all):
             define_all(total[3] + torque), define_all(total[4] + force))
 
 
-def derive(kin: Kinematics, gravity, drives, forces=()) -> Dynamics:
+def derive(kin: Kinematics, gravity, drives, forces=(), registered=()) -> Dynamics:
     """Dynamics of the chain whose kinematics is ``kin``; ``gravity`` is the vector g⃗ in {0}
     (expressions), ``drives`` a sequence of Drive, ``forces`` of ForceElement
     (:mod:`.forces`: their springs join the joints' springs, their dampers and actuators the
-    drives)."""
+    drives), ``registered`` the elements of registered kinds (:mod:`.elements`: the same slots)."""
     program = kin.program
     define, define_all = program.define, program.define_all
     n = len(kin.joints)
@@ -219,5 +220,9 @@ def derive(kin: Kinematics, gravity, drives, forces=()) -> Dynamics:
         elements = _forces.derive(kin, forces)
         spring, drive, K = spring + elements.spring, drive + elements.applied, K + elements.stiffness
         spring_energy += elements.potential
+    if registered:
+        terms = _elements.derive(kin, registered)
+        spring, drive, K = spring + terms.spring, drive + terms.applied, K + terms.stiffness
+        spring_energy += terms.potential
     return Dynamics(M, h, grav, spring, damping, drive, K, potential, spring_energy, tuple(columns), tuple(per_body),
                     elements, limited)

@@ -28,10 +28,12 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from ..errors import ModelError
+from ..errors import DerivationError
+from ..model.expand import expand
 from .algebra import cross, dot
 from .constraints import state_expressions
-from .kinematics import Kinematics
+from .kinematics import Kinematics, forward
+from .program import Program
 
 
 @dataclass
@@ -55,12 +57,23 @@ def coincident(kin: Kinematics, element) -> bool:
 
 
 def check_coincident(kin: Kinematics, forces) -> None:
-    """Refuse an element whose points coincide identically (its direction is nowhere defined)."""
+    """Refuse an element whose points coincide identically (its direction is nowhere defined): a
+    DerivationError about the element's ``points``, which a model file's case places at its line
+    (:meth:`gpmegen.model.toml_file.ModelFile.locate`)."""
     for k, element in enumerate(forces):
         if coincident(kin, element):
             first, second = element.points
-            raise ModelError(f"force {element.name!r}: points {first!r} and {second!r} coincide in every "
+            raise DerivationError(f"force {element.name!r}: points {first!r} and {second!r} coincide in every "
                              f"configuration, so the force has no line; place them apart", ("forces", k, "points"))
+
+
+def check_apart(model) -> None:
+    """Refuse a force element of ``model`` (a valid Model) whose points coincide in every
+    configuration, from its kinematics derived for that alone: a model file's case checks this
+    as the file is read (:class:`gpmegen.analysis.run.cases.FileCase`), before any derivation is
+    said, so that the one line names the file and the element."""
+    if model.forces:
+        check_coincident(forward(expand(model), Program()), model.forces)
 
 
 def _second(kin: Kinematics, point, i: int, j: int) -> sp.Matrix:

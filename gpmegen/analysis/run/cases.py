@@ -16,8 +16,9 @@ from ...model.chain import Joint
 from ...model.size import coordinate_count
 from ...model.toml_file import read_model_file
 from ...runtime.loader import open_folder
+from ...symbolic.forces import check_apart
 from ..post import feedforward
-from . import loading, study
+from . import loading, set_at_start, study
 
 if TYPE_CHECKING:
     from ...model import Model
@@ -33,7 +34,6 @@ class Case:
     starts: tuple = ()
     actuators: tuple = ()  # coordinates whose inputs realize the constraints by default (none: ideally)
     start_refusal = ""  # why a start not in ``starts`` is refused, and what to use instead
-    start_constants: tuple = ()  # parameters the start sets from the model itself (so per n_rfe)
     model: Model  # each subclass gives it (a property)
     label: str
     command: str | None  # the build command that makes the model (None: made in Python)
@@ -57,6 +57,17 @@ class Case:
     def source(self):
         """The symbolic model where the case has it (None: a built folder's code alone)."""
         return self.model
+
+    @property
+    def declared(self):
+        """The parameters the start sets (:class:`gpmegen.model.start_constants.StartConstants`,
+        a model file's ``[initial] set``), or None."""
+        return getattr(self.source, "start_constants", None)
+
+    @property
+    def start_constants(self) -> tuple[str, ...]:
+        """The names of the parameters the start sets from the model itself (so per n_rfe)."""
+        return self.declared.names if self.declared is not None else ()
 
     directory: str | Path | None = None  # where generated models live (None: gpmegen.runtime.loader.default_directory)
     jacobians = False  # load the model with the generated derivatives of the GPME (gpmegen build --jacobians)
@@ -95,12 +106,16 @@ class Case:
         return list(model.coordinates[:3])
 
     def start_note(self, model) -> str:
-        """What the start line adds after the shown coordinates (e.g. constants set at the start)."""
-        return ""
+        """What the start line adds after the shown coordinates: the parameters set at the start."""
+        return "; " + self._described(model, ".6g") if self.declared is not None else ""
 
     def constants(self, model) -> str:
-        """The constants the scenario sets at the start, as ``gpmegen statics`` prints them."""
-        return ""
+        """The parameters the start sets, as ``gpmegen statics`` prints them."""
+        return self._described(model, ".9f") if self.declared is not None else ""
+
+    def _described(self, model, form) -> str:
+        units = {p.name: p.unit for p in self.source.parameters}
+        return set_at_start.described(self.declared, model, units, form)
 
     def metadata(self, model) -> dict:
         """What plots need beyond the results' generic metadata (see :func:`results.metadata`):
@@ -110,10 +125,10 @@ class Case:
         return {"label": model.module.MODEL, "joints": joints[:4]}
 
     def bound(self, loaded, params):
-        """The ``loaded`` model with the constants the start sets (:attr:`start_constants`) bound as
-        its runs bind them, those of ``params`` (the user's values) kept: what
-        :func:`gpmegen.load` returns. As loaded by default."""
-        return loaded
+        """The ``loaded`` model with the parameters the start sets (:attr:`declared`) bound as its
+        runs bind them, those of ``params`` (the user's values) kept: what :func:`gpmegen.load`
+        returns. As loaded where the start sets none."""
+        return set_at_start.bind(self.declared, loaded, params)[0] if self.declared is not None else loaded
 
     def extras(self, model, results) -> dict:
         """Arrays added to a run's results (none by default)."""
@@ -188,8 +203,11 @@ class ModelCase(Case):
 
     def initial(self, params) -> tuple[dict, dict]:
         """The start configuration and velocities before they are made consistent: coordinate
-        name -> value (rad, m; rad/s, m/s) at the parameter values ``params``."""
-        return {}, {}
+        name -> value (rad, m; rad/s, m/s) at the parameter values ``params``: at rest, at the
+        configuration the start's parameters are set at (:attr:`declared`), else at q = 0."""
+        if self.declared is None:
+            return {}, {}
+        return self.declared.configuration({p.symbol: params.get(p.name, p.default) for p in self.model.parameters}), {}
 
     def metadata(self, model) -> dict:
         """As :meth:`Case.metadata`, and the results file fed forward (``feedforward``), if any."""
@@ -203,6 +221,8 @@ class ModelCase(Case):
         :meth:`initial` (see :func:`gpmegen.analysis.run.study.file_start`)."""
         model = self.load(backend, overrides, progress)
         progress(f"start of {self.label} ({'no statics' if start == 'none' else start + ' statics'})")
+        if self.declared is not None:   # its [initial] set, from the locked statics of [initial] q
+            model = self.bound(model, overrides)
         q, qd = self.initial(model.params)
         return study.file_start(model, q, start, qd, closures=self.closure_rows())
 
@@ -222,7 +242,12 @@ class FileCase(ModelCase):
 
     @cached_property
     def file(self):
-        return read_model_file(self.path, nrfe=self.nrfe, controller_model=self.controller_model)
+        file = read_model_file(self.path, nrfe=self.nrfe, controller_model=self.controller_model)
+        try:   # from the derived kinematics, which the model layer that reads the file cannot see
+            check_apart(file.model)
+        except DerivationError as exc:
+            raise file.locate(exc) from None
+        return file
 
     def controlled_by(self, path) -> FileCase:
         """This case with the model file at ``path`` as its computed-torque law's controller

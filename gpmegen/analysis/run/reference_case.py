@@ -1,11 +1,11 @@
 """The paper's case: the reference manipulator and its scenario.
 
-Start (reference-model.md, "Initial state"): joints at ``θ1 = 0, ψ2 = 45°, x3 = 0``, flexible
-coordinates from the locked statics; ``r_E,a = sqrt(x_E² + z_E²)`` and ``y_c = y_E(0) - A``, so
-the motion starts on the constraints and at rest. ``start="constrained"`` then moves to the
-equilibrium of the constrained system itself (no jolt when the joints are freed). Its runs are
-labelled rigid or flexible, show θ1, ψ2, x3 and the prescribed height of E, and their figures
-name the paper's.
+Its start is the model's own declaration (:func:`gpmegen.model.reference.start_constants`, as a
+model file's ``[initial] set``): the locked statics at ``θ1 = 0, ψ2 = 45°, x3 = 0`` set
+``r_E,a`` and ``y_c``, so the motion starts on the constraints and at rest. It starts from those
+statics only: ``start="constrained"`` then moves to the equilibrium of the constrained system
+itself (no jolt when the joints are freed). What is the paper's alone is labelling: its runs are
+labelled rigid or flexible, show the prescribed height of E, and their figures name the paper's.
 """
 
 from __future__ import annotations
@@ -17,50 +17,30 @@ import numpy as np
 
 from ...codegen.render import input_hash
 from ...model import reference_model
+from ...model.reference import start_constants
 from ...runtime import statics
 from ...runtime.consistent import consistent, project_onto_constraints
 from ...runtime.loader import BACKENDS
+from . import set_at_start
 from .cases import Case
-
-START_JOINTS = {"theta1": 0.0, "psi2": np.pi / 4, "x3": 0.0}
-CONSTANTS = ("r_Ea", "y_c")  # set from the locked statics unless the user gives them
-REACH_HINT = "is the circle radius r_Ea or the height y_c beyond the arm's reach?"
 
 
 def joint_start(model) -> np.ndarray:
     """q with the joints at the paper's start and the flexible coordinates zero."""
-    q = np.zeros(model.n_dof)
-    for name, value in START_JOINTS.items():
-        q[model.index(name)] = value
-    return q
+    return set_at_start.configuration(start_constants(), model)
 
 
-def constraint_constants(model, q) -> dict:
-    """``r_Ea`` and ``y_c`` that put E of configuration ``q`` on the programmed constraints."""
-    x, y, z = model.end_effector(q)
-    return {"r_Ea": float(np.hypot(x, z)), "y_c": float(y - model.params["A"])}
+def initial_state(model, start="locked", overrides=None, declared=None):
+    """The model with the parameters its start sets bound (``declared``, default the paper's
+    :func:`start_constants`), and the start configuration q0 (n,): their locked statics.
 
-
-def with_constants(model, overrides=None):
-    """``model`` with ``r_Ea`` and ``y_c`` set from its locked statics at the paper's joint start
-    (those of ``overrides`` kept), and that start q (n,). What both ``gpmegen.load("manipulator", nrfe=N)``
-    and a run of the reference case bind."""
+    ``overrides``: parameter values given by the user; an explicit one of those set is kept and
+    the start is moved onto the constraints it defines."""
+    declared = declared or start_constants()
     overrides = dict(overrides or {})
-    q = statics.locked(model, joint_start(model))
-    constants = constraint_constants(model, q)
-    constants.update({k: v for k, v in overrides.items() if k in constants})
-    return model.with_params(**constants), q
-
-
-def initial_state(model, start="locked", overrides=None):
-    """The model with its constraint constants set, and the start configuration q0 (n,).
-
-    ``overrides``: parameter values given by the user; an explicit ``r_Ea`` or ``y_c`` is kept
-    and the start is moved onto the constraints it defines."""
-    overrides = dict(overrides or {})
-    model, q = with_constants(model, overrides)
-    if set(CONSTANTS) & overrides.keys():
-        q = project_onto_constraints(model, q, hint=REACH_HINT)
+    model, q = set_at_start.bind(declared, model, overrides)
+    if set(declared.names) & overrides.keys():
+        q = project_onto_constraints(model, q, hint=set_at_start.reach_hint(declared))
     if start == "constrained":
         q = statics.constrained(model, q)
     elif start != "locked":
@@ -72,7 +52,6 @@ class ReferenceCase(Case):
     """The paper's manipulator with its arm cut into ``nrfe`` rfes (1: rigid)."""
 
     starts = ("locked", "constrained")
-    start_constants = CONSTANTS
     start_refusal = ("--statics none is for model files; the reference case starts from statics "
                      "(--statics locked or constrained)")
 
@@ -111,32 +90,23 @@ class ReferenceCase(Case):
         return f"run_{self.name}"
 
     def start(self, backend, start, overrides, progress):
-        """The loaded model with r_Ea and y_c set, at rest at q0 (see :func:`initial_state`), as
-        a :class:`gpmegen.runtime.consistent.Start`."""
-        model = self.load(backend, {k: v for k, v in overrides.items() if k not in CONSTANTS}, progress)
+        """The loaded model with the parameters its start sets bound, at rest at q0 (see
+        :func:`initial_state`), as a :class:`gpmegen.runtime.consistent.Start`."""
+        declared = self.model.start_constants
+        model = self.load(backend, {k: v for k, v in overrides.items() if k not in declared.names}, progress)
         progress(f"statics ({start} start) for n_rfe = {self.nrfe}")
-        model, q = initial_state(model, start, overrides)
-        return consistent(model, q, np.zeros(model.n_dof), hint=REACH_HINT, given_qd=frozenset())
-
-    def bound(self, loaded, params):
-        """``loaded`` with r_Ea and y_c from its locked statics (:func:`with_constants`)."""
-        return with_constants(loaded, params)[0]
+        model, q = initial_state(model, start, overrides, declared)
+        return consistent(model, q, np.zeros(model.n_dof), hint=set_at_start.reach_hint(declared),
+                          given_qd=frozenset())
 
     def shown(self, model) -> list[str]:
-        return list(START_JOINTS)
-
-    def start_note(self, model) -> str:
-        return f"; r_Ea = {model.params['r_Ea']:.6g} m, y_c = {model.params['y_c']:.6g} m"
-
-    def constants(self, model) -> str:
-        """The constraint constants set at the start, as ``statics`` prints them."""
-        return f"r_Ea = {model.params['r_Ea']:.9f} m, y_c = {model.params['y_c']:.9f} m"
+        return [name for name, _ in self.model.start_constants.at]
 
     def metadata(self, model) -> dict:
         rigid = self.nrfe == 1
         return {
             "label": "rigid arm" if rigid else f"flexible arm, n_rfe = {self.nrfe}",
-            "joints": list(START_JOINTS),
+            "joints": self.shown(model),
             "joint_labels": {"theta1": "θ1 [rad]", "psi2": "ψ2 [rad]", "x3": "x3 [m]"},
             "constraint_units": {"circle": "m²", "height": "m"},
             "figures": {"joint_coordinates": "paper Fig. 2", "end_effector": "paper Fig. 3", "path": "paper Fig. 4"},

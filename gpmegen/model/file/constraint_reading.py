@@ -24,13 +24,12 @@ from ..chain import (
     symbol,
     velocity_symbol,
 )
+from ..elements import get as element_kind
 from ..expand import expand
 from ..requirements import evaluate
 from ..rfem import discretize
-from .schema import (
-    CLOSURE_KEYS,
-    kind_of,
-)
+from ..start_constants import StartConstants
+from .schema import kind_of
 
 
 class ConstraintReading:
@@ -99,7 +98,7 @@ class ConstraintReading:
         closures = []
         for k, item in enumerate(items):
             path = ("closures", k)
-            self.table(item, path, CLOSURE_KEYS, ("name", "points"), "closure")
+            self.entry(item, path, element_kind("closures"))
             name = self.name(item["name"], path + ("name",), "closure")
             kind = item.get("type", "point")
             if kind not in CLOSURE_TYPES:
@@ -240,10 +239,25 @@ class ConstraintReading:
         return tuple(value)
 
     def read_initial(self, table):
-        """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities."""
+        """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities;
+        and ``set``: the :class:`StartConstants` taken at the locked statics of ``q`` (None
+        without ``set``)."""
         path = ("initial",)
-        self.table(table, path, ("q", "qd"), what="initial table")
-        return tuple(self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
+        self.table(table, path, ("q", "qd", "set"), what="initial table")
+        q, qd = (self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
+        if "set" not in table:
+            return q, qd, None
+        values = self.table(table["set"], path + ("set",), what="table of parameters")
+        scope = {**self.params, **{s.name: s for point in self.points for s in point_symbols(point)}}
+        for name in values:
+            if name not in self.params:
+                close = difflib.get_close_matches(name, list(self.params), 1)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                self.fail(path + ("set", name), f"{name!r} is not a parameter; {hint}the start sets parameters "
+                                                f"declared under [parameters]")
+        return q, qd, StartConstants(
+            at=tuple(q.items()),
+            values=tuple((name, self.quantity(value, path + ("set", name), scope)) for name, value in values.items()))
 
     def read_coordinate_values(self, table, path):
         """A table of coordinate name -> quantity (at ``path``)."""

@@ -6,7 +6,6 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
-from ...errors import ModelError
 from ..chain import (
     FORCE_TYPES,
     MAX_SIGNALS,
@@ -20,9 +19,9 @@ from ..chain import (
     point_velocity_symbols,
     symbol,
 )
-from ..expand import expand
+from ..elements import get as element_kind
+from ..elements import kinds as element_kinds
 from ..law_checks import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS
-from .locator import located
 from .schema import (
     SIGNAL_KEYS,
 )
@@ -120,7 +119,7 @@ class ElementReading:
         states: dict[str, tuple] = {}
         for k, item in enumerate(items):
             path = ("controllers", k)
-            self.table(item, path, ("state", "rate", "initial"), ("state", "rate"), "controller")
+            self.entry(item, path, element_kind("controllers"))
             name = self.name(item["state"], path + ("state",), "controller state", bare=True)
             self.fresh_name(name, path + ("state",), "controller state", taken, states)
         self.controller_states = {name: symbol(name) for name in states}
@@ -164,8 +163,7 @@ class ElementReading:
         forces = []
         for k, item in enumerate(items):
             path = ("forces", k)
-            self.table(item, path, ("name", "points", "type", "stiffness", "rest_length", "damping", "force"),
-                       ("name", "points", "type"), "force")
+            self.entry(item, path, element_kind("forces"))
             name = self.name(item["name"], path + ("name",), "force")
             if name in taken:
                 self.fail(path + ("name",), f"force {name!r}: the name is already taken by a {taken[name]}; "
@@ -195,18 +193,21 @@ class ElementReading:
             forces.append(ForceElement(name, points, kind, **values))
         return tuple(forces)
 
-    def check_forces(self, model):
-        """Refuse a force element whose points coincide in every configuration (derived from
-        the kinematics, as the build would)."""
-        import dataclasses
+    def entry(self, item, path, kind) -> None:
+        """Refuse the entry ``item`` (at ``path``) of the element kind ``kind`` unless it is a
+        table of that kind's keys holding its required ones."""
+        self.table(item, path, kind.keys, kind.required, kind.what)
 
-        # The layer above the model's: the points are compared in the derived kinematics of the
-        # model being read (an exception of the import contracts in pyproject.toml).
-        from ...symbolic.forces import check_coincident
-        from ...symbolic.kinematics import forward
-        from ...symbolic.program import Program
-
-        try:
-            check_coincident(forward(expand(dataclasses.replace(model, dependent=None)), Program()), model.forces)
-        except ModelError as exc:
-            raise located(exc, self.file, self.locator) from None
+    def read_elements(self, data) -> tuple:
+        """The entries of the registered element kinds held in ``Model.elements`` (those that
+        are no field of their own), kind by kind in the registry's order, each read by its kind."""
+        elements = []
+        for kind in element_kinds():
+            if kind.field is not None:
+                continue
+            items = data.get(kind.table, [])
+            self.array(items, (kind.table,), what=f"list of [[{kind.table}]] tables")
+            for k, item in enumerate(items):
+                self.entry(item, (kind.table, k), kind)
+                elements.append(kind.read(self, item, (kind.table, k)))
+        return tuple(elements)

@@ -27,7 +27,7 @@ from .locator import Locator, field_text, located
 from .model_file import ModelFile
 from .schema import (
     SCHEMA,
-    TOP_KEYS,
+    top_keys,
 )
 from .urdf_section import chain_error, read_urdf_chain
 from .values import ValueReading
@@ -72,7 +72,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
 
     # ---- sections ----------------------------------------------------------------------------
     def read(self, data) -> ModelFile:
-        self.table(data, (), TOP_KEYS, what="model file")
+        self.table(data, (), top_keys(), what="model file")
         if "schema" not in data:
             self.fail(("schema",), "missing schema version; add schema = 1 at the top of the file")
         schema = data["schema"]
@@ -117,13 +117,14 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         if robot is not None and robot.constraints:   # the URDF's mimic joints follow their leaders
             constraints += robot.constraints
             dependent = None if dependent is None else tuple(dependent) + robot.dependent
-        initial, initial_qd = self.read_initial(data.get("initial", {}))
+        initial, initial_qd, start = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
         forces = self.read_forces(data.get("forces", []), self.taken_names(chain, constraints, closures))
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, closures=closures,
-            signals=signals, forces=forces, controllers=controllers,
+            signals=signals, forces=forces, controllers=controllers, start_constants=start,
+            elements=self.read_elements(data),
         )
         if closures:
             model = self.drop_vanishing(model, chain)
@@ -134,8 +135,6 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             if "urdf" in data and exc.subject[:1] == ("chain",):
                 raise chain_error(self, exc) from None
             raise located(exc, self.file, self.locator, chain) from None
-        if forces:
-            self.check_forces(model)
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
                          limits=robot.limits if robot is not None else {})

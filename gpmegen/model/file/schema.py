@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 
+from .. import elements
 from ..chain import CircularSection, ISection, RectangularSection, StiffnessSection, TubeSection
 
 SCHEMA = 1
@@ -16,11 +17,11 @@ RATES = {"v": ("velocity", "first- and second-order constraints; set order = 1 o
           "a": ("acceleration", "second-order constraints; set order = 2")}
 TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
+# the tables of the element kinds beside the chain ([[forces]], [[closures]], [[controllers]], ...)
+# are the registry's (gpmegen.model.elements), read with the keys each kind names
 TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "closures", "forces", "initial", "actuators", "urdf", "signals",
-            "controllers", "controller")
+            "chain", "drives", "constraints", "initial", "actuators", "urdf", "signals", "controller")
 SIGNAL_KEYS = ("name", "expression", "table", "column")
-CLOSURE_KEYS = ("name", "points", "type", "axis", "alpha", "beta")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
 SHAPE_KEYS = {
     "cylinder": ("type", "mass", "radius", "length", "axis"),
@@ -39,6 +40,11 @@ SECTION_KEYS = {
 SECTION_OPTIONAL = {"stiffness": ("rhoIz", "rhoIy", "EA")}
 SECTION_TYPES = {"rectangular": RectangularSection, "circular": CircularSection, "tube": TubeSection,
                  "I": ISection, "stiffness": StiffnessSection}
+
+
+def top_keys() -> tuple:
+    """The keys a model file may hold at its top: its own and the element kinds' tables."""
+    return TOP_KEYS + elements.tables()
 
 
 def kind_of(value) -> str:

@@ -12,7 +12,7 @@ from ...errors import EvaluationError, SimulationError
 from ...status import SolveStatus
 from .base import Effort, Integrator
 from .loop import CHUNK_SECONDS, STEP_ROUND_OFF, Grid, check_start, chunked, grid, start_state
-from .registry import register
+from .registry import INTEGRATORS, register, spoken
 
 
 def rk4_steps(rhs, y, g: Grid, k_from: int, k_to: int, save_every: int):
@@ -93,9 +93,11 @@ def rk4_effort(t, t0: float, dt: float) -> Effort:
     return Effort(steps, 0, 4 * steps, 0, 0)
 
 
-#: The methods that take steps above RK4's stable one: they choose their own.
-LONG_STEPS = ("--method genalpha (implicit, in C), radau (implicit, adaptive, in C), dop853 (adaptive, in C) or "
-              "scipy-radau (implicit)")
+def long_steps() -> str:
+    """The registered methods that take steps above RK4's stable one (those not bound by the
+    stiff modes, and those that choose their own steps), each with its ``--method`` help phrase,
+    in the order registered: ``--method a (…), b (…) or c (…)``."""
+    return "--method " + spoken([i.summary for i in INTEGRATORS.values() if i.stiff or not i.fixed_step])
 
 
 def unstable_step(dt: float, values) -> str | None:
@@ -114,7 +116,7 @@ def unstable_step(dt: float, values) -> str | None:
             f"damping ratio {-value.real / abs(value):.3g}")
     return (f"--dt {dt:g} s is above RK4's stable step {stable:.3g} s (set by the eigenvalue {real:.4g} ± "
             f"{abs(value.imag):.4g}j 1/s of the motion linearized at the start, {abs(value) / (2 * math.pi):.4g} Hz, "
-            f"{kind}): use --dt {stable:.2g} or less, or {LONG_STEPS}")
+            f"{kind}): use --dt {stable:.2g} or less, or {long_steps()}")
 
 
 @register

@@ -1,0 +1,99 @@
+"""Parameters a model sets at its start (``[initial] set``): taken at the locked statics of
+``[initial] q`` on every path (load, statics, a run), a value the user gives kept, refusals in one
+line; the reference arm declares its r_Ea and y_c so, with the values its former code gave."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gpmegen
+from gpmegen.errors import ModelError
+from gpmegen.model.toml_file import load_model_file
+from gpmegen.runtime import statics
+
+ROOT = Path(__file__).resolve().parent.parent
+REACH = ROOT / "tests" / "models" / "sprung_reach.toml"
+
+
+def _hand(p):
+    """P of sprung_reach at the locked statics of θ = 30°: the spring carries both masses,
+    k s = -(m1 + m2) g, and P = (L cos θ, s + L sin θ, 0)."""
+    s = -(p["m1"] + p["m2"]) * p["g"] / p["k"]
+    theta = math.pi / 6
+    return {"h": s + p["L"] * math.sin(theta), "w": p["L"] * math.cos(theta) - p["L"]}
+
+
+def test_a_model_file_sets_parameters_from_its_locked_statics(env):
+    loaded = gpmegen.load(REACH, backend="numpy")
+    hand = _hand(loaded.params)
+    assert loaded.params["h"] == pytest.approx(hand["h"], abs=1e-12)
+    assert loaded.params["w"] == pytest.approx(hand["w"], abs=1e-12)
+    assert abs(hand["h"] - 0.4) > 0.05   # the sag counts: not the undeformed P
+    begun = gpmegen.statics(REACH, backend="numpy", start="locked")
+    assert begun.model.params["h"] == loaded.params["h"] and begun.moved["q"][0] < 1e-12  # on the constraint
+    assert begun.q[1] == pytest.approx(math.pi / 6, abs=1e-12)
+    stiffer = gpmegen.load(REACH, backend="numpy", params={"k": 800.0})
+    assert stiffer.params["h"] == pytest.approx(_hand(stiffer.params)["h"], abs=1e-12)
+    given = gpmegen.load(REACH, backend="numpy", params={"h": 0.3})
+    assert given.params["h"] == 0.3 and given.params["w"] == loaded.params["w"]
+
+
+def test_the_reference_arm_sets_r_ea_and_y_c_as_before(env):
+    """E at the locked statics of θ1 = 0, ψ2 = 45°, x3 = 0, by the former formulas (hypot; y - A),
+    to the bit; the example file declares the same start and gets the same values."""
+    for nrfe in (1, 2):
+        loaded = gpmegen.load("manipulator", nrfe=nrfe, backend="numpy")
+        q = np.zeros(loaded.n_dof)
+        q[loaded.index("psi2")] = np.pi / 4
+        x, y, z = loaded.end_effector(statics.locked(loaded, q))
+        assert loaded.params["r_Ea"] == float(np.hypot(x, z))
+        assert loaded.params["y_c"] == float(y - loaded.params["A"])
+        from_file = gpmegen.load(ROOT / "examples" / "manipulator.toml", nrfe=nrfe, backend="numpy")
+        assert (from_file.params["r_Ea"], from_file.params["y_c"]) == (loaded.params["r_Ea"], loaded.params["y_c"])
+
+
+@pytest.mark.parametrize("change, words", [
+    ('set = { h = "y_P", hh = "y_P" }', ["initial.set.hh", "'hh' is not a parameter", "did you mean 'h'?"]),
+    ('set = { h = "y_Q" }', ["initial.set.h", "'y_Q' names no declared point 'Q'", "points: P"]),
+    ('set = { h = "theta" }', ["initial.set.h", "coordinate 'theta' may appear only in drives"]),
+    ('set = { h = "__import__" }', ["initial.set.h"]),
+    ('set = "h"', ["initial.set", "expected a table of parameters"]),
+])
+def test_a_bad_set_is_refused_in_one_line(tmp_path, change, words):
+    path = tmp_path / "reach.toml"
+    path.write_text(REACH.read_text().replace('set = { h = "y_P", w = "x_P - L" }', change))
+    with pytest.raises(ModelError) as caught:
+        load_model_file(path)
+    message = str(caught.value)
+    assert "\n" not in message and message.startswith(f"{path}:")
+    for word in words:
+        assert word in message, message
+
+
+def test_a_python_models_start_constants_are_checked_as_it_expands():
+    from dataclasses import replace
+
+    import sympy as sp
+
+    from gpmegen.model import reference_model
+    from gpmegen.model.expand import expand
+    from gpmegen.model.start_constants import StartConstants
+
+    arm = reference_model(1)
+    for declared, words in [
+        (StartConstants(values=(("nope", sp.S.Zero),)), "the start sets 'nope', which is not a parameter"),
+        (StartConstants(values=(("y_c", sp.Symbol("y_F", real=True)),)), "reads y_F, which is neither a parameter"),
+        (StartConstants(at=(("x9", sp.S.Zero),)), "the start holds 'x9', which is not a coordinate"),
+    ]:
+        with pytest.raises(ModelError, match=words):
+            expand(replace(arm, start_constants=declared))
+
+
+def test_a_value_that_is_not_a_number_at_the_start_is_refused_in_one_line(tmp_path, env):
+    path = tmp_path / "reach.toml"
+    path.write_text(REACH.read_text().replace('w = "x_P - L"', 'w = "sqrt(-1 - x_P^2)"'))
+    with pytest.raises(ModelError, match=r"^the value set at the start of w, .* is not a finite real number") as caught:
+        gpmegen.load(path, backend="numpy")
+    assert "\n" not in str(caught.value)
