@@ -116,7 +116,8 @@ def test_every_toml_block_loads_as_a_model_file_or_a_fragment_of_one(block, tmp_
     read_model_file(path)
 
 
-FREE_NAMES = ("parameters", "q", "qd", "set")  # tables whose keys are the model's own names
+# tables whose keys are the model's own names (params: a controller's)
+FREE_NAMES = ("parameters", "q", "qd", "set", "params")
 
 
 def _keys(table: dict):

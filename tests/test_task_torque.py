@@ -140,3 +140,24 @@ def test_controller_with_more_joints_than_a_point_has_components_refused(tmp_pat
         gpmegen.load_model_file(plant)
     text = str(caught.value)
     assert "has 6 joints" in text and "so J_c cannot be square; use a joint law" in text and "\n" not in text
+
+
+def test_a_reference_that_switches_is_tracked(tmp_path):
+    """x_r written with Min (a quintic move of D m in T0 s, then at rest) is differentiated branch
+    by branch as the joint law's references are: the perfect model's E follows it to 1e-8
+    through the switch at T0 and after it."""
+    d, t0 = 0.05, 0.5
+    s = f"Min(t/{t0}, 1)"
+    text = ARM.read_text().replace('expression = "L1 - A*(1 - cos(w*t))"',
+                                   f'expression = "L1 - {d}*{s}^3*(10 - 15*{s} + 6*{s}^2)"')
+    assert text != ARM.read_text()
+    path_file = tmp_path / "ct_task_arm.toml"
+    path_file.write_text(text)
+    run = gpmegen.simulate(path_file, t_end=1.0, dt=1e-3, backend="c")
+    u = np.minimum(run.t / t0, 1.0)
+    x_r = L1 - d * u**3 * (10 - 15 * u + 6 * u**2)
+    y_r = path(run.t)[0][:, 1]   # the y reference is the file's, unchanged
+    x = tip(run.coordinate("theta1"), run.coordinate("theta2"))
+    assert run.status == "complete"
+    assert np.abs(x[:, 0] - x_r).max() < 1e-8
+    assert np.abs(x[:, 1] - y_r).max() < 1e-8

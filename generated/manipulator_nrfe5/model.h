@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: bad38af2f4e47e79
+Input hash: d1b9938d6d085a8a
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -57,7 +57,7 @@ def render(model: Model, backends=("numpy",), progress=None, command=None, diges
     d = derive(model)
     say(f"derived {len(d.program.definitions)} intermediate quantities for {d.chain.n_dof} coordinates "
         f"in {time.perf_counter() - t0:.1f} s")
-    for warning in d.constraints.warnings:
+    for warning in d.warnings:
         say(f"warning: {warning}")
     fns = model_functions(d, transforms, jacobians)
     names = d.chain.model.p_names   # the controller states read from p as the parameters are

@@ -23,11 +23,14 @@ from .chain import TIME, Joint, Model, symbol, velocity_symbol
 
 @dataclass(frozen=True)
 class ComputedTorque:
-    """A computed-torque law: ``controller`` the controller's :class:`Model` (its parameters
-    enter at their default values), per actuated coordinate (``coordinates``, names of the
-    plant's and the controller's joints) its reference ``references`` (expressions of ``t`` and
-    the plant's parameters, rad or m), and its gains ``kp`` (1/s²) and ``kd`` (1/s), expressions
-    of the plant's parameters. ``source``: where the controller came from, for messages."""
+    """A computed-torque law: ``controller`` the controller's :class:`Model`, per actuated
+    coordinate (``coordinates``, names of the plant's and the controller's joints) its reference
+    ``references`` (expressions of ``t`` and the plant's parameters, rad or m), and its gains
+    ``kp`` (1/s²) and ``kd`` (1/s), expressions of the plant's parameters. The controller's
+    parameters enter at their default values but those ``params`` sets: ``(name, expression)``
+    pairs, a controller parameter's name and an expression of the plant's parameters.
+    ``source``: where the controller came from, ``signals``: the references' signal names, for
+    messages."""
 
     controller: Model
     coordinates: tuple
@@ -35,15 +38,20 @@ class ComputedTorque:
     kp: tuple
     kd: tuple
     source: str = ""
+    signals: tuple = ()
+    params: tuple = ()
 
-    def commanded(self) -> list:
-        """``v`` per coordinate, an expression of ``t``, the parameters and the plant's state
-        (``<coordinate>``, ``<coordinate>_dot``, as a feedback law names them)."""
+    def commanded(self, rates=None) -> list:
+        """``v = q̈_r + kd (q̇_r - q̇) + kp (q_r - q)`` per coordinate, an expression of ``t``, the
+        parameters and the plant's state (``<coordinate>``, ``<coordinate>_dot``, as a feedback
+        law names them). ``rates``: ``(q_r, q̇_r, q̈_r)`` per coordinate (the joint law's, from
+        :func:`gpmegen.symbolic.computed_torque.reference_rates`, which differentiates switches
+        branch by branch); by default the references' derivatives as SymPy takes them."""
+        if rates is None:
+            rates = [(r, sp.diff(r, TIME), sp.diff(r, TIME, 2)) for r in map(sp.sympify, self.references)]
         out = []
-        for name, ref, kp, kd in zip(self.coordinates, self.references, self.kp, self.kd):
-            ref = sp.sympify(ref)
-            q, qd = symbol(name), velocity_symbol(name)
-            out.append(sp.diff(ref, TIME, 2) + kd * (sp.diff(ref, TIME) - qd) + kp * (ref - q))
+        for name, (r, rd, rdd), kp, kd in zip(self.coordinates, rates, self.kp, self.kd):
+            out.append(rdd + kd * (rd - velocity_symbol(name)) + kp * (r - symbol(name)))
         return out
 
 
@@ -66,8 +74,18 @@ def check_joints_in_plant(law, plant_coordinates) -> None:
 def check(law: ComputedTorque, plant_coordinates, constant: set) -> None:
     """Refuse, in one line, a law whose coordinates the plant or the controller lacks, a
     controller joint the law does not actuate, a gain not of parameters or a reference not of
-    ``t`` and parameters. ``constant``: the plant's parameter symbols."""
+    ``t`` and parameters, a controller parameter set that the controller model lacks or set to
+    more than the plant's parameters. ``constant``: the plant's parameter symbols."""
     where = f"controller {law.source or law.controller.name}"
+    own = [p.name for p in law.controller.parameters]
+    for name, value in law.params:
+        if name not in own:
+            raise ModelError(f"{where}: {name} is no parameter of the controller model (its parameters: "
+                             f"{', '.join(own) or 'none'}); name one of them", ("controller", "params", name))
+        extra = sorted(str(s) for s in sp.sympify(value).free_symbols - constant)
+        if extra:
+            raise ModelError(f"{where}: its parameter {name} reads {', '.join(extra)}; give it an expression of the "
+                             f"plant's parameters", ("controller", "params", name))
     controller = joint_coordinates(law.controller)
     check_joints_in_plant(law, plant_coordinates)
     for k, name in enumerate(law.coordinates):

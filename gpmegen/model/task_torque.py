@@ -43,18 +43,23 @@ class TaskTorque:
     kd: object
     source: str = ""
 
-    def commanded(self, position, velocity) -> list:
-        """``a_r`` per component, an expression of ``t``, the parameters and the given
-        ``position`` and ``velocity`` of the point on the components (expressions)."""
-        # The joint law's reference and feedback terms, on stand-ins for the point's components
-        # (an underscore first: no name of a model), so both laws differentiate references alike.
+    def joint_law(self) -> ComputedTorque:
+        """The joint law of the same references and gains on stand-ins for the point's
+        components (an underscore first: no name of a model), so that both laws differentiate
+        references alike (:func:`gpmegen.symbolic.computed_torque.reference_rates`)."""
         stand_ins = tuple(f"_{self.point}_{axis}" for axis in self.components)
         n = len(stand_ins)
-        law = ComputedTorque(self.controller, stand_ins, self.references, (self.kp,) * n, (self.kd,) * n)
+        return ComputedTorque(self.controller, stand_ins, self.references, (self.kp,) * n, (self.kd,) * n)
+
+    def commanded(self, position, velocity, rates=None) -> list:
+        """``a_r`` per component, an expression of ``t``, the parameters and the given
+        ``position`` and ``velocity`` of the point on the components (expressions); ``rates``:
+        the references' ``(x_r, ẋ_r, ẍ_r)`` as :meth:`ComputedTorque.commanded` takes them."""
+        law = self.joint_law()
         swap = {}
-        for name, x, xd in zip(stand_ins, position, velocity):
+        for name, x, xd in zip(law.coordinates, position, velocity):
             swap[symbol(name)], swap[velocity_symbol(name)] = x, xd
-        return [sp.sympify(a).xreplace(swap) for a in law.commanded()]
+        return [sp.sympify(a).xreplace(swap) for a in law.commanded(rates)]
 
     def rows(self) -> list[int]:
         """The rows of the components in a vector of {0}."""

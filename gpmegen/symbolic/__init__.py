@@ -33,6 +33,8 @@ class Derivation:
     recursive: _recursive.RecursiveTerms
     # the controller states' rates (n_z,), 1/s times the state's unit, in the order of the model's
     controller_rates: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 1))
+    # one line per switch where a programmed constraint's or a computed-torque reference's law jumps
+    warnings: tuple = ()
 
 
 def derive(model) -> Derivation:
@@ -41,14 +43,18 @@ def derive(model) -> Derivation:
     program = Program()
     kin = forward(chain, program)
     dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces, model.elements)
+    warnings: tuple = ()
     if model.computed_torque is not None:   # the law joins the drives, before the recursion reads them
         dyn.drive_forces = dyn.drive_forces + _computed_torque.derive(kin, model.computed_torque)
+        defaults = {p.symbol: sp.Float(p.default) for p in model.parameters}
+        warnings = tuple(_computed_torque.warnings(model.computed_torque, defaults))
     if model.task_torque is not None:
         dyn.drive_forces = dyn.drive_forces + _task_torque.derive(kin, model.task_torque)
     con = _constraints.derive(kin, model.constraints)
+    warnings = con.warnings + warnings
     rec = _recursive.derive(kin, dyn, model.gravity)
     rates = sp.Matrix(state_expressions(kin, [c.rate for c in model.controllers])) if model.controllers else None
-    return Derivation(chain, program, kin, dyn, con, rec, *([rates] if rates is not None else []))
+    return Derivation(chain, program, kin, dyn, con, rec, *([rates] if rates is not None else []), warnings=warnings)
 
 
 __all__ = ["Derivation", "derive"]

@@ -41,7 +41,7 @@ from ..model.chain import (
 )
 from .kinematics import Kinematics
 from .names import point_acceleration
-from .piecewise import as_piecewise, exact, jumps
+from .piecewise import as_piecewise, exact, jump_warnings
 
 
 @dataclass
@@ -225,26 +225,9 @@ def _check_printable(name, derivatives, subject):
 
 
 def _jump_warnings(name, checked, defaults, smooth) -> list[str]:
-    """Messages about the switches where a quantity of constraint ``name`` jumps: one per
-    located switch (naming the first of ``checked``, ``(label, expression)`` pairs, that jumps
-    there), and one for all the switches that could not be located or decided; ``smooth``
-    says what the law should be instead."""
-    variables = list(dict.fromkeys([TIME] + sorted((s for _, e in checked for s in e.free_symbols
-                                                    if s != TIME and s not in defaults), key=str)))
+    """Messages about the switches where a quantity of constraint ``name`` jumps
+    (:func:`~gpmegen.symbolic.piecewise.jump_warnings`); ``smooth`` says what the law should be
+    instead."""
     consequence = ("the impulse there is not applied and the Baumgarte terms pull the motion back onto the "
                    f"constraint: make the law {smooth} there (see docs/model-file.md)")
-    messages, seen, undecided = [], set(), {}
-    for label, expr in checked:
-        for switch in jumps(expr, variables, defaults):
-            if not switch.certain:
-                undecided.setdefault(switch.describe(defaults), None)
-            elif switch.where not in seen:
-                seen.add(switch.where)
-                messages.append(f"constraint {name!r}: {label} jumps {switch.describe(defaults)}; {consequence}")
-    if undecided:
-        places = list(undecided)
-        where = ", ".join(places[:3]) + (f" and {len(places) - 3} more places" if len(places) > 3 else "")
-        labels = " or ".join(label for label, _ in checked)
-        messages.append(f"constraint {name!r}: its law switches {where}, and gpmegen cannot tell whether {labels} "
-                        f"jumps there; if it does, {consequence}")
-    return messages
+    return jump_warnings(f"constraint {name!r}", checked, defaults, consequence)

@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from ..model.names import TIME
+
 SWITCHING = (sp.Min, sp.Max, sp.Abs, sp.sign, sp.Heaviside)
 
 
@@ -73,7 +75,7 @@ class Switch:
         messages; ``defaults``: parameter symbol -> number."""
         if self.value is None:
             return f"where {_decimal(self.where)} = 0"
-        unit = " s" if self.variable == sp.Symbol("t", real=True) else ""
+        unit = " s" if self.variable == TIME else ""
         if self.value.is_number:
             return f"at {self.variable} = {float(self.value):.6g}{unit}"
         number = self.value.xreplace(defaults)
@@ -166,4 +168,28 @@ def jumps(expr, variables, defaults) -> list[Switch]:
     return sorted(dict.fromkeys(switches), key=lambda s: not s.certain)
 
 
-__all__ = ["SWITCHING", "Switch", "as_piecewise", "exact", "jumps"]
+def jump_warnings(subject, checked, defaults, consequence) -> list[str]:
+    """Messages, each ``subject: ...``, about the switches where a quantity of one law jumps:
+    one per located switch (naming the first of ``checked``, ``(label, expression)`` pairs given
+    :func:`exact`, that jumps there), and one for all the switches that could not be located or
+    decided; ``consequence`` says what the impulse left out does and what to write instead."""
+    variables = list(dict.fromkeys([TIME] + sorted((s for _, e in checked for s in e.free_symbols
+                                                    if s != TIME and s not in defaults), key=str)))
+    messages, seen, undecided = [], set(), {}
+    for label, expr in checked:
+        for switch in jumps(expr, variables, defaults):
+            if not switch.certain:
+                undecided.setdefault(switch.describe(defaults), None)
+            elif switch.where not in seen:
+                seen.add(switch.where)
+                messages.append(f"{subject}: {label} jumps {switch.describe(defaults)}; {consequence}")
+    if undecided:
+        places = list(undecided)
+        where = ", ".join(places[:3]) + (f" and {len(places) - 3} more places" if len(places) > 3 else "")
+        labels = " or ".join(label for label, _ in checked)
+        messages.append(f"{subject}: its law switches {where}, and gpmegen cannot tell whether {labels} "
+                        f"jumps there; if it does, {consequence}")
+    return messages
+
+
+__all__ = ["SWITCHING", "Switch", "as_piecewise", "exact", "jump_warnings", "jumps"]

@@ -16,7 +16,7 @@ import sympy as sp
 
 from ..model.computed_torque import joint_coordinates
 from ..model.task_torque import TaskTorque
-from .computed_torque import controller_outputs, on_plant
+from .computed_torque import controller_outputs, on_plant, reference_rates
 from .kinematics import Kinematics
 
 
@@ -36,7 +36,8 @@ def derive(kin: Kinematics, law: TaskTorque) -> sp.Matrix:
     (mass, forces, position, velocity, bias, jacobian), coordinates = controller_outputs(
         law.controller, kin.program, outputs)
     define = kin.program.define
-    wanted = sp.Matrix(law.commanded([position[r] for r in rows], [velocity[r] for r in rows]))
+    wanted = sp.Matrix(law.commanded([position[r] for r in rows], [velocity[r] for r in rows],
+                                     reference_rates(law.joint_law())))
     rhs = (wanted - sp.Matrix([bias[r] for r in rows])).applyfunc(define)
     inverse_det = define(1 / define(jacobian.det(method="berkowitz")))
     solved = dict(zip(joints, (jacobian.adjugate(method="berkowitz") * rhs * inverse_det).applyfunc(define)))

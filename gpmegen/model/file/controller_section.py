@@ -18,7 +18,7 @@ from .locator import located
 from .model_file import ModelFile
 from .task_space_section import read_task_space
 
-CONTROLLER_KEYS = ("model", "nrfe", "computed_torque", "task_space")
+CONTROLLER_KEYS = ("model", "nrfe", "params", "computed_torque", "task_space")
 LAW_KEYS = ("coordinate", "reference", "kp", "kd")
 
 
@@ -52,8 +52,12 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
         model = dataclasses.replace(model, task_torque=read_task_space(reader, table["task_space"], controller,
                                                                        Path(source).name, _reference))
     if "computed_torque" in table:
-        model = dataclasses.replace(model, computed_torque=_joint_law(reader, table["computed_torque"], controller,
-                                                                      Path(source).name))
+        law = _joint_law(reader, table["computed_torque"], controller, Path(source).name)
+        model = dataclasses.replace(model, computed_torque=dataclasses.replace(law, params=_params(reader, table)))
+    elif "params" in table:
+        reader.fail(path + ("params",), "sets the controller model's parameters of a [[controller.computed_torque]] "
+                                        "law only, and this table has none; a task-space law reads them at the "
+                                        "controller model's values")
     try:
         expand(model)
     except ModelError as exc:
@@ -66,15 +70,27 @@ def _joint_law(reader, value, controller, source: str) -> ComputedTorque:
     path = ("controller",)
     items = reader.array(value, path + ("computed_torque",),
                          what="list of [[controller.computed_torque]] tables")
-    coordinates, references, kp, kd = [], [], [], []
+    coordinates, references, kp, kd, signals = [], [], [], [], []
     for k, item in enumerate(items):
         here = path + ("computed_torque", k)
         reader.table(item, here, LAW_KEYS, LAW_KEYS, "computed-torque law")
         coordinates.append(reader.string(item["coordinate"], here + ("coordinate",), "a coordinate name in quotes"))
+        signals.append(reader.string(item["reference"], here + ("reference",), "a signal's name in quotes"))
         references.append(_reference(reader, item["reference"], here + ("reference",)))
         kp.append(reader.quantity(item["kp"], here + ("kp",), reader.params))
         kd.append(reader.quantity(item["kd"], here + ("kd",), reader.params))
-    return ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd), source=source)
+    return ComputedTorque(controller, tuple(coordinates), tuple(references), tuple(kp), tuple(kd), source=source,
+                          signals=tuple(signals))
+
+
+def _params(reader, table) -> tuple:
+    """``(name, expression)`` per entry of the table's ``params``: a controller model's parameter
+    set to an expression of the plant's parameters (checked against the controller model by
+    :func:`gpmegen.model.computed_torque.check`)."""
+    path = ("controller", "params")
+    params = reader.table(table.get("params", {}), path, what="table of the controller model's parameters "
+                          "(name = expression of the plant's parameters)")
+    return tuple((str(name), reader.quantity(value, path + (name,), reader.params)) for name, value in params.items())
 
 
 def _reference(reader, value, path):
