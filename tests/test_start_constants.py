@@ -1,6 +1,7 @@
 """Parameters a model sets at its start (``[initial] set``): taken at the locked statics of
 ``[initial] q`` on every path (load, statics, a run; at ``q`` itself in a run without statics), a
-value the user gives kept, refusals in one line; the reference arm declares its r_Ea and y_c so, with the values its former code gave."""
+value the user gives kept, refusals in one line; the reference arm declares its r_Ea and y_c so,
+with the values its former code gave."""
 
 import json
 import math
