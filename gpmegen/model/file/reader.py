@@ -130,9 +130,9 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         )
         if closures:
             model = self.drop_vanishing(model, chain)
-        self.check_requirements(model)
         if laws is not None:
             model = laws(model)
+        self.check_requirements(model)   # the controller's believed bounds too (requirements._believed)
         try:
             expand(model)
         except ModelError as exc:
