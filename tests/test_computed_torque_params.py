@@ -101,3 +101,19 @@ def test_params_with_a_task_space_law_is_refused(tmp_path):
     text = str(caught.value)
     assert "controller.params: sets the controller model's parameters of a [[controller.computed_torque]] law only" \
         in text and "\n" not in text
+
+
+def test_a_belief_the_plants_values_make_unphysical_is_refused_as_the_plants_own(tmp_path, env):
+    """A tip mass believed negative is refused like a negative mass of the plant: with the
+    defaults as the file is read, at the params entry's line; with a value given at run time,
+    as the model is loaded (a run with it went on to 1e5 rad without a word)."""
+    path = write(tmp_path, "ct_negative", 'params = { m_tip = "-1" }\n')
+    with pytest.raises(ModelError, match=r"ct_negative\.toml:\d+: controller\.params\.m_tip: negative value -1; "
+                                         r"masses must be zero or positive") as caught:
+        read_model_file(path)
+    assert "\n" not in str(caught.value)
+    path = write(tmp_path, "ct_lighter", 'params = { m_tip = "m_c - 0.2" }\n')
+    assert tracking_error(path) > 1e-4   # 0.1 kg believed: fine, and wrong
+    with pytest.raises(ModelError, match=r"^model ct_lighter: the mass of controller model's body 'tip' = m_c - 0\.2 "
+                                         r"is -0\.1 with m_c = 0\.1; masses must be zero or positive: change m_c$"):
+        gpmegen.simulate(path, t_end=0.1, dt=1e-3, backend="c", params={"m_c": 0.1})

@@ -118,10 +118,14 @@ def test_a_faulty_entry_is_refused_at_its_line(registered, rotor):
         read_model_file(rotor)
 
 
-def test_a_table_taken_is_refused():
+@pytest.mark.parametrize("table", ["forces", "parameters", "chain"])
+def test_a_table_taken_is_refused(table):
+    """Another kind's table, or a key the model file has of its own (which, taken, would make
+    every model file's parameters or chain read as entries of the kind)."""
     class Again(TorsionSprings):
-        table = "forces"
+        pass
 
-    with pytest.raises(ValueError, match="the table 'forces' is empty or taken"):
+    Again.table = table
+    with pytest.raises(ValueError, match=f"the table '{table}' is empty, another kind's or a model file's own key"):
         elements.register(Again)
     assert [kind.table for kind in elements.kinds()] == ["closures", "controllers", "forces"]

@@ -1,7 +1,9 @@
 """Parameters a model sets at its start (``[initial] set``): taken at the locked statics of
-``[initial] q`` on every path (load, statics, a run), a value the user gives kept, refusals in one
-line; the reference arm declares its r_Ea and y_c so, with the values its former code gave."""
+``[initial] q`` on every path (load, statics, a run; at ``q`` itself in a run without statics), a
+value the user gives kept, refusals in one line; the reference arm declares its r_Ea and y_c so,
+with the values its former code gave."""
 
+import json
 import math
 from pathlib import Path
 
@@ -60,6 +62,8 @@ def test_the_reference_arm_sets_r_ea_and_y_c_as_before(env):
     ('set = { h = "theta" }', ["initial.set.h", "coordinate 'theta' may appear only in drives"]),
     ('set = { h = "__import__" }', ["initial.set.h"]),
     ('set = "h"', ["initial.set", "expected a table of parameters"]),
+    # each value is taken from the others as they were: reading one set too would take its default
+    ('set = { h = "y_P", w = "h + 1" }', ["initial.set.w", "reads h, which the start also sets"]),
 ])
 def test_a_bad_set_is_refused_in_one_line(tmp_path, change, words):
     path = tmp_path / "reach.toml"
@@ -97,3 +101,29 @@ def test_a_value_that_is_not_a_number_at_the_start_is_refused_in_one_line(tmp_pa
     with pytest.raises(ModelError, match=r"^the value set at the start of w, .* is not a finite real number") as caught:
         gpmegen.load(path, backend="numpy")
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize("change, moved", [
+    ('set = { h = "y_P", L = "0.5" }', "the points' positions"),   # a length of the chain
+    ('set = { h = "y_P", k = "1000 + 0*y_P" }', "the static balance"),   # the spring the statics solved
+])
+def test_a_value_that_moves_what_it_was_taken_at_is_refused(tmp_path, env, change, moved):
+    """A value set for a parameter the chain or its forces read would move the points or the
+    springs' balance the values were taken at: refused in one line naming it."""
+    path = tmp_path / "reach.toml"
+    path.write_text(REACH.read_text().replace('set = { h = "y_P", w = "x_P - L" }', change))
+    with pytest.raises(ModelError, match=rf"^\[initial\] set: the value set for \w+ changes {moved}") as caught:
+        gpmegen.load(path, backend="numpy")
+    assert "\n" not in str(caught.value)
+
+
+def test_a_run_without_statics_takes_the_values_at_the_undeformed_start(env):
+    """With --statics none the run starts from [initial] q itself: the values are P's there
+    (s = 0: P = (L cos θ, L sin θ)), so the start is on the constraints and is not moved."""
+    run = gpmegen.simulate(REACH, t_end=0.01, dt=1e-3, backend="numpy", start="none")
+    meta, theta = json.loads(str(run["meta"])), math.pi / 6
+    p = meta["params"]
+    assert p["h"] == pytest.approx(p["L"] * math.sin(theta), abs=1e-12)
+    assert p["w"] == pytest.approx(p["L"] * math.cos(theta) - p["L"], abs=1e-12)
+    assert meta["start_moved"]["q"]["max_change"] == 0.0
+    assert run.coordinate("s")[0] == 0.0 and run.coordinate("theta")[0] == pytest.approx(theta, abs=1e-12)

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 94812b0f23df4e7c
+Input hash: 6b7a414b8cdb95a5
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -162,6 +162,28 @@ def requirements(model: Model) -> tuple[Requirement, ...]:
     for k, element in enumerate(getattr(model, "forces", ())):
         out += [Requirement(sp.sympify(getattr(element, key)), NONNEGATIVE, "force", element.name, (key,),
                             ("forces", k)) for key in ("stiffness", "rest_length", "damping")]
+    return tuple(out) + _believed(model)
+
+
+def _believed(model: Model) -> tuple[Requirement, ...]:
+    """The controller model's bounds that the computed-torque law's ``params`` (its parameters
+    as expressions of the plant's) reach, written in the plant's parameters (the controller's
+    others at their defaults): a belief the plant's values make unphysical, a negative mass, is
+    refused as the plant's own bounds are, at the line of the ``params`` entry."""
+    law = getattr(model, "computed_torque", None)
+    if law is None or not law.params:
+        return ()
+    given = dict(law.params)
+    own = {p.symbol: p.name for p in law.controller.parameters}
+    mapping = {p.symbol: sp.sympify(given[p.name]) if p.name in given else sp.Float(float(p.default))
+               for p in law.controller.parameters}
+    out = []
+    for need in requirements(law.controller):
+        reached = sorted(own[s] for s in need.expression.free_symbols if own.get(s) in given)
+        if reached:
+            out.append(dataclasses.replace(
+                need, expression=need.expression.xreplace(mapping), kind=f"controller model's {need.kind}",
+                key=(reached[0],), element=("controller", "params"), word=need.word or _word(need.key)))
     return tuple(out)
 
 

@@ -45,6 +45,9 @@ class StartConstants:
                                  f"under [parameters] or remove it from [initial] set", ("initial", "set", name))
             self._reads(name, expression, readable, "is neither a parameter nor a named point's x_P, y_P, z_P; "
                         "fix the name or declare the point", ("initial", "set", name))
+            self._reads(name, expression, readable - {p.symbol for p in model.parameters if p.name in self.names},
+                        "the start also sets; write each value from the other parameters and the points",
+                        ("initial", "set", name))
 
     @staticmethod
     def _reads(name, expression, readable, why, subject) -> None:

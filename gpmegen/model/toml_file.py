@@ -148,7 +148,7 @@ def read_model_file(path, nrfe: int | None = None, controller_model: str | None 
     if Path(path).suffix.lower() == ".urdf":
         return read_urdf_file(path)
     reader, data = _parse(path, nrfe)
-    return read_controller(reader, data, reader.read(data), _read_plain, controller_model)
+    return reader.read(data, lambda model: read_controller(reader, data, model, _read_plain, controller_model))
 
 
 def _read_plain(path, nrfe: int | None = None) -> ModelFile:

@@ -29,7 +29,7 @@ from . import dynamics as _dynamics
 from . import names
 from .constraints import state_expressions
 from .kinematics import Kinematics, forward
-from .piecewise import as_piecewise, exact, jump_warnings
+from .piecewise import PRINTABLE_HINT, as_piecewise, exact, jump_warnings, unprintable
 from .program import Program
 
 # what a jump in a reference leaves out, and what to write instead
@@ -52,12 +52,11 @@ def reference_rates(law: ComputedTorque) -> list[tuple]:
         r = as_piecewise(reference)
         rd = sp.diff(r, TIME)
         rdd = sp.diff(rd, TIME)
-        stuck = sorted(rdd.atoms(sp.Derivative, sp.DiracDelta), key=sp.default_sort_key)
-        if stuck:
-            function = stuck[0].expr.func if isinstance(stuck[0], sp.Derivative) else stuck[0].func
+        function = unprintable((rdd,))
+        if function is not None:
             raise DerivationError(f"{_field(law, k)}: it uses {function}, whose derivatives generated code cannot "
-                                  f"evaluate; write it with smooth functions, Min, Max, Abs, Heaviside or Piecewise",
-                                  ("controller", "computed_torque", k, "reference"))
+                                  f"evaluate; write it with {PRINTABLE_HINT}", ("controller", "computed_torque", k,
+                                                                                "reference"))
         out.append((r, rd, rdd))
     return out
 

@@ -41,7 +41,7 @@ from ..model.chain import (
 )
 from .kinematics import Kinematics
 from .names import point_acceleration
-from .piecewise import as_piecewise, exact, jump_warnings
+from .piecewise import PRINTABLE_HINT, as_piecewise, exact, jump_warnings, unprintable
 
 
 @dataclass
@@ -212,16 +212,12 @@ def derive(kin: Kinematics, constraints) -> ConstraintTerms:
 
 
 def _check_printable(name, derivatives, subject):
-    """Refuse a law whose derivatives SymPy leaves unevaluated or impulsive (floor, Mod,
-    DiracDelta, undefined functions): generated code could not evaluate them. ``subject``: the
-    path of the law's field."""
-    for d in derivatives:
-        stuck = sorted(d.atoms(sp.Derivative, sp.DiracDelta), key=sp.default_sort_key)
-        if stuck:
-            function = stuck[0].expr.func if isinstance(stuck[0], sp.Derivative) else stuck[0].func
-            raise DerivationError(
-                f"constraint {name!r}: its law uses {function}, whose derivative generated code cannot "
-                f"evaluate; write the law with smooth functions, Min, Max, Abs, Heaviside or Piecewise", subject)
+    """Refuse a law whose derivatives generated code could not evaluate (:func:`unprintable`).
+    ``subject``: the path of the law's field."""
+    function = unprintable(derivatives)
+    if function is not None:
+        raise DerivationError(f"constraint {name!r}: its law uses {function}, whose derivative generated code "
+                              f"cannot evaluate; write the law with {PRINTABLE_HINT}", subject)
 
 
 def _jump_warnings(name, checked, defaults, smooth) -> list[str]:

@@ -168,6 +168,21 @@ def jumps(expr, variables, defaults) -> list[Switch]:
     return sorted(dict.fromkeys(switches), key=lambda s: not s.certain)
 
 
+#: What a law whose derivatives generated code cannot evaluate is told to use instead.
+PRINTABLE_HINT = "smooth functions, Min, Max, Abs, Heaviside or Piecewise"
+
+
+def unprintable(derivatives):
+    """The first function whose derivative SymPy leaves unevaluated or impulsive (floor, Mod,
+    DiracDelta, an undefined function) in ``derivatives``, which generated code could not
+    evaluate; None when there is none."""
+    for d in derivatives:
+        stuck = sorted(d.atoms(sp.Derivative, sp.DiracDelta), key=sp.default_sort_key)
+        if stuck:
+            return stuck[0].expr.func if isinstance(stuck[0], sp.Derivative) else stuck[0].func
+    return None
+
+
 def jump_warnings(subject, checked, defaults, consequence) -> list[str]:
     """Messages, each ``subject: ...``, about the switches where a quantity of one law jumps:
     one per located switch (naming the first of ``checked``, ``(label, expression)`` pairs given

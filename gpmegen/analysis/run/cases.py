@@ -124,11 +124,12 @@ class Case:
         joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
         return {"label": model.module.MODEL, "joints": joints[:4]}
 
-    def bound(self, loaded, params):
+    def bound(self, loaded, params, locked=True):
         """The ``loaded`` model with the parameters the start sets (:attr:`declared`) bound as its
         runs bind them, those of ``params`` (the user's values) kept: what :func:`gpmegen.load`
-        returns. As loaded where the start sets none."""
-        return set_at_start.bind(self.declared, loaded, params)[0] if self.declared is not None else loaded
+        returns. ``locked`` False: taken at the start configuration itself (a run without
+        statics). As loaded where the start sets none."""
+        return set_at_start.bind(self.declared, loaded, params, locked)[0] if self.declared is not None else loaded
 
     def extras(self, model, results) -> dict:
         """Arrays added to a run's results (none by default)."""
@@ -221,8 +222,8 @@ class ModelCase(Case):
         :meth:`initial` (see :func:`gpmegen.analysis.run.study.file_start`)."""
         model = self.load(backend, overrides, progress)
         progress(f"start of {self.label} ({'no statics' if start == 'none' else start + ' statics'})")
-        if self.declared is not None:   # its [initial] set, from the locked statics of [initial] q
-            model = self.bound(model, overrides)
+        if self.declared is not None:   # its [initial] set, at [initial] q (its locked statics unless none)
+            model = self.bound(model, overrides, locked=start != "none")
         q, qd = self.initial(model.params)
         return study.file_start(model, q, start, qd, closures=self.closure_rows())
 

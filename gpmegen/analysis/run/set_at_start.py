@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import ModelError
 from ...model.names import symbol
 from ...runtime import statics
 
@@ -26,13 +27,40 @@ def values_at(declared, loaded, q) -> dict[str, float]:
     return declared.evaluated(points, _symbols(loaded.params))
 
 
-def bind(declared, loaded, given=None):
+def bind(declared, loaded, given=None, locked=True):
     """``loaded`` with the parameters ``declared`` sets taken at the locked statics of its start
-    configuration (those the user ``given``, name -> value, kept), and that configuration q (n,)."""
-    q = statics.locked(loaded, configuration(declared, loaded))
+    configuration (``locked`` False: at that configuration itself, as a start without statics
+    begins there), those the user ``given`` (name -> value) kept, and that configuration q (n,).
+    ModelError when a value set moves what it was taken from (:func:`check_unmoved`)."""
+    q = configuration(declared, loaded)
+    if locked:
+        q = statics.locked(loaded, q)
     values = values_at(declared, loaded, q)
     values.update({k: v for k, v in (given or {}).items() if k in values})
+    for name, value in values.items():
+        check_unmoved(loaded, loaded.with_params(**{name: value}), q, name)
     return loaded.with_params(**values), q
+
+
+# The relative change of the points or of the springs' statics that a value set may cause: none
+# but rounding (the values feed the constraints, not the chain, its forces or gravity).
+UNMOVED = 1e-9
+
+
+def check_unmoved(before, after, q, name) -> None:
+    """Refuse in one line a parameter ``name`` set at the start whose value (``after``, the model
+    with it; ``before`` without) moves the points or the elastic coordinates' static balance at
+    ``q`` (n,): the values were taken there, so the start would no longer be where they hold."""
+    moved = []
+    for what, of in (("the points' positions", lambda m: np.ravel(m.point_positions(q))),
+                     ("the static balance", lambda m: m.static_residual(q))):
+        was = of(before)
+        if not np.allclose(of(after), was, rtol=UNMOVED, atol=UNMOVED * max(1.0, np.abs(was).max(initial=0.0))):
+            moved.append(what)
+    if moved:
+        raise ModelError(f"[initial] set: the value set for {name} changes {moved[0]} at the start the values are "
+                         f"taken at; set only parameters the chain, its forces and gravity do not read (such as the "
+                         f"constants of programmed constraints)", ("initial", "set", name))
 
 
 def reach_hint(declared) -> str:

@@ -53,15 +53,20 @@ class ElementKind:
 
 _KINDS: dict[str, ElementKind] = {}
 
+#: The top-level keys of a model file that are its own, not an element kind's table: no kind may
+#: take one (its entries would be read as the file's).
+FILE_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters", "chain", "drives",
+             "constraints", "initial", "actuators", "urdf", "signals", "controller")
+
 
 def register(kind):
     """Register ``kind`` (an :class:`ElementKind` subclass or instance) under its table; returns
     it (a class decorator). A table taken by another kind, or a top-level key of the file, is
     refused."""
     instance = kind() if isinstance(kind, type) else kind
-    if not instance.table or instance.table in _KINDS:
-        raise ValueError(f"element kind {type(instance).__name__}: the table {instance.table!r} is empty or "
-                         f"taken; give the kind a table of its own")
+    if not instance.table or instance.table in _KINDS or instance.table in FILE_KEYS:
+        raise ValueError(f"element kind {type(instance).__name__}: the table {instance.table!r} is empty, "
+                         f"another kind's or a model file's own key; give the kind a table of its own")
     _KINDS[instance.table] = instance
     return kind
 

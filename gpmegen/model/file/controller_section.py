@@ -1,5 +1,5 @@
 """The model file's ``[controller]`` table: a computed-torque law with a controller model of its
-own (:class:`gpmegen.model.computed_torque.ComputedTorque`), read after the rest of the file.
+own (:class:`gpmegen.model.computed_torque.ComputedTorque`), read after the rest of the file and expanded with it.
 
 The controller model is another model file, read by the ``load`` the caller passes (the file
 reader itself, :func:`gpmegen.model.toml_file.read_model_file`), so that this module does not
@@ -12,10 +12,8 @@ import dataclasses
 from pathlib import Path
 
 from ...errors import ModelError
+from ..chain import Model
 from ..computed_torque import ComputedTorque
-from ..expand import expand
-from .locator import located
-from .model_file import ModelFile
 from .task_space_section import read_task_space
 
 CONTROLLER_KEYS = ("model", "nrfe", "params", "computed_torque", "task_space")
@@ -28,16 +26,17 @@ def controller_path(plant_file: str, model: str) -> str:
     return model if Path(model).is_absolute() else str(Path(plant_file).resolve().parent / model)
 
 
-def read_controller(reader, data: dict, model_file: ModelFile, load, override: str | None = None) -> ModelFile:
-    """``model_file`` with the computed-torque law of ``data["controller"]`` (the parsed file's
-    table; ``reader`` the :class:`~gpmegen.model.file.reader.Reader` that read the rest);
+def read_controller(reader, data: dict, model: Model, load, override: str | None = None) -> Model:
+    """``model`` with the computed-torque law of ``data["controller"]`` (the parsed file's table;
+    ``reader`` the :class:`~gpmegen.model.file.reader.Reader` that reads the rest and then
+    expands the model once, the law with it);
     ``load(path, nrfe)`` reads a model file; ``override``: a controller model file read in
     place of the table's ``model`` (``--controller-model``, relative to the working directory)."""
     if "controller" not in data:
         if override is not None:
             raise ModelError(f"{reader.file}: --controller-model {override}: the file has no [controller] table to "
                              f"name the law's coordinates, references and gains; add one (docs/model-file.md)")
-        return model_file
+        return model
     path = ("controller",)
     table = reader.table(data["controller"], path, CONTROLLER_KEYS, ("model",), "controller")
     if "computed_torque" not in table and "task_space" not in table:
@@ -47,7 +46,6 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
                                                         "a model file's path in quotes"))
     source = str(override) if override is not None else source
     controller = load(source, nrfe).model
-    model = model_file.model
     if "task_space" in table:
         model = dataclasses.replace(model, task_torque=read_task_space(reader, table["task_space"], controller,
                                                                        Path(source).name, _reference))
@@ -58,11 +56,7 @@ def read_controller(reader, data: dict, model_file: ModelFile, load, override: s
         reader.fail(path + ("params",), "sets the controller model's parameters of a [[controller.computed_torque]] "
                                         "law only, and this table has none; a task-space law reads them at the "
                                         "controller model's values")
-    try:
-        expand(model)
-    except ModelError as exc:
-        raise located(exc, reader.file, reader.locator) from None
-    return dataclasses.replace(model_file, model=model)
+    return model
 
 
 def _joint_law(reader, value, controller, source: str) -> ComputedTorque:

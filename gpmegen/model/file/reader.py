@@ -71,7 +71,9 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         raise self.error(path, message)
 
     # ---- sections ----------------------------------------------------------------------------
-    def read(self, data) -> ModelFile:
+    def read(self, data, laws=None) -> ModelFile:
+        """The model file of the parsed ``data``; ``laws(model)``: the model with what is read
+        apart added (the ``[controller]`` table's law), before the one expansion that checks it."""
         self.table(data, (), top_keys(), what="model file")
         if "schema" not in data:
             self.fail(("schema",), "missing schema version; add schema = 1 at the top of the file")
@@ -128,7 +130,9 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         )
         if closures:
             model = self.drop_vanishing(model, chain)
-        self.check_requirements(model)
+        if laws is not None:
+            model = laws(model)
+        self.check_requirements(model)   # the controller's believed bounds too (requirements._believed)
         try:
             expand(model)
         except ModelError as exc:

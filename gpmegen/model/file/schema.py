@@ -19,8 +19,7 @@ TEXT_FORBIDDEN = re.compile(r'["\\]|\*/|[\x00-\x08\x0b-\x1f\x7f]')
 
 # the tables of the element kinds beside the chain ([[forces]], [[closures]], [[controllers]], ...)
 # are the registry's (gpmegen.model.elements), read with the keys each kind names
-TOP_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters",
-            "chain", "drives", "constraints", "initial", "actuators", "urdf", "signals", "controller")
+TOP_KEYS = elements.registry.FILE_KEYS
 SIGNAL_KEYS = ("name", "expression", "table", "column")
 ELEMENT_KINDS = ("joint", "body", "flexible", "point")
 SHAPE_KEYS = {
