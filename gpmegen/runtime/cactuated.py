@@ -28,17 +28,8 @@ class CActuated:
 
     def actuated_rk4(self, model, g, k_from, k_to, save_every, y0):
         self._check_stack("actuated_rk4")
-        n = self.n
-        q0, qd0, w0 = (np.ascontiguousarray(part) for part in (y0[:n], y0[n:2 * n], y0[2 * n:]))
-        n_save = k_to // save_every - k_from // save_every + 2
-        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)), np.empty((n_save, len(w0)))]
-        n_saved = self.ffi.new("long *")
-        ptr = self._ptr
-        status = self.lib.rk4_actuated(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, ptr(q0), ptr(qd0),
-                                       ptr(w0), self._params(model.p), self._actuator_indices(model), ptr(t_out),
-                                       *(ptr(part) for part in y_out), n_saved)
-        k = int(n_saved[0])
-        return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
+        return self._steps(self.lib.rk4_actuated, model, g, k_from, k_to, save_every, y0,
+                           self._actuator_indices(model))
 
     def actuated_dop853(self, model, t_a, y_a, t_save, rtol, atol, step, counts, memory, max_steps, first):
         """:meth:`~gpmegen.runtime.model.LoadedModel.dop853` of ``model``'s actuated realization in

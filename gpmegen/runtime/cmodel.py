@@ -401,16 +401,21 @@ class CEvaluator(CActuated):
 
     def rk4(self, model, g, k_from, k_to, save_every, y0):
         self._check_stack("rk4")
+        return self._steps(self.lib.rk4, model, g, k_from, k_to, save_every, y0, *self._partition_pointers(model))
+
+    def _steps(self, entry, model, g, k_from, k_to, save_every, y0, *choice):
+        """A compiled fixed-step loop ``entry`` (``rk4``, ``rk4_actuated``) over steps ``k_from + 1
+        … k_to`` of grid ``g`` from ``y0`` (``[q, q̇, w]``, ``w`` the work integrals and controller
+        states): ``(t, y, status)`` of the rows saved. ``choice``: the entry's arguments after
+        ``p`` that pick the solve (the partition's two, or the actuators)."""
         n = self.n
-        dep, ind = self._partition_pointers(model)
         q0, qd0, w0 = (np.ascontiguousarray(part) for part in (y0[:n], y0[n:2 * n], y0[2 * n:]))
         n_save = k_to // save_every - k_from // save_every + 2
-        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)),
-                                          np.empty((n_save, 2 + self.n_controllers))]
+        t_out, y_out = np.empty(n_save), [np.empty((n_save, n)), np.empty((n_save, n)), np.empty((n_save, len(w0)))]
         n_saved = self.ffi.new("long *")
-        status = self.lib.rk4(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, self._ptr(q0),
-                              self._ptr(qd0), self._ptr(w0), self._params(model.p), dep, ind, self._ptr(t_out),
-                              *(self._ptr(part) for part in y_out), n_saved)
+        status = entry(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, save_every, self._ptr(q0), self._ptr(qd0),
+                       self._ptr(w0), self._params(model.p), *choice, self._ptr(t_out),
+                       *(self._ptr(part) for part in y_out), n_saved)
         k = int(n_saved[0])
         return t_out[:k].copy(), np.column_stack([part[:k] for part in y_out]), SolveStatus(status)
 

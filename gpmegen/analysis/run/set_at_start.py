@@ -37,8 +37,9 @@ def bind(declared, loaded, given=None, locked=True):
         q = statics.locked(loaded, q)
     values = values_at(declared, loaded, q)
     values.update({k: v for k, v in (given or {}).items() if k in values})
+    was = measured(loaded, q)
     for name, value in values.items():
-        check_unmoved(loaded, loaded.with_params(**{name: value}), q, name)
+        check_unmoved(was, loaded.with_params(**{name: value}), q, name)
     return loaded.with_params(**values), q
 
 
@@ -47,20 +48,22 @@ def bind(declared, loaded, given=None, locked=True):
 UNMOVED = 1e-9
 
 
-def check_unmoved(before, after, q, name) -> None:
+def measured(model, q) -> tuple:
+    """What the values set are taken from at ``q`` (n,): ``(what, values)`` of the points'
+    positions and of the static balance ``g + C q``."""
+    return (("the points' positions", np.ravel(model.point_positions(q))),
+            ("the static balance", model.static_residual(q)))
+
+
+def check_unmoved(was, after, q, name) -> None:
     """Refuse in one line a parameter ``name`` set at the start whose value (``after``, the model
-    with it; ``before`` without) moves the points or the elastic coordinates' static balance at
-    ``q`` (n,): the values were taken there, so the start would no longer be where they hold."""
-    moved = []
-    for what, of in (("the points' positions", lambda m: np.ravel(m.point_positions(q))),
-                     ("the static balance", lambda m: m.static_residual(q))):
-        was = of(before)
-        if not np.allclose(of(after), was, rtol=UNMOVED, atol=UNMOVED * max(1.0, np.abs(was).max(initial=0.0))):
-            moved.append(what)
-    if moved:
-        raise ModelError(f"[initial] set: the value set for {name} changes {moved[0]} at the start the values are "
-                         f"taken at; set only parameters the chain, its forces and gravity do not read (such as the "
-                         f"constants of programmed constraints)", ("initial", "set", name))
+    with it) moves what ``was`` (:func:`measured` of the model without it at ``q``) holds: the
+    values were taken there, so the start would no longer be where they hold."""
+    for (what, before), (_, now) in zip(was, measured(after, q)):
+        if not np.allclose(now, before, rtol=UNMOVED, atol=UNMOVED * max(1.0, np.abs(before).max(initial=0.0))):
+            raise ModelError(f"[initial] set: the value set for {name} changes {what} at the start the values are "
+                             f"taken at; set only parameters the chain, its forces and gravity do not read (such as "
+                             f"the constants of programmed constraints)", ("initial", "set", name))
 
 
 def reach_hint(declared) -> str:
