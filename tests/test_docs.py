@@ -131,9 +131,11 @@ def _keys(table: dict):
 
 
 def _vocabulary() -> set[str]:
-    """The keys the model file reader knows: the names it asks for, as quoted in its source."""
+    """The keys the model file reader knows: the names it asks for, as quoted in its source and
+    in the element kinds' (which read their own tables)."""
     words = set()
-    for source in (ROOT / "gpmegen" / "model" / "file").glob("*.py"):
+    for source in [*(ROOT / "gpmegen" / "model" / "file").glob("*.py"),
+                   *(ROOT / "gpmegen" / "model" / "elements").glob("*.py")]:
         words |= set(re.findall(r"[\"']([A-Za-z_][A-Za-z0-9_]*)[\"']", source.read_text(encoding="utf-8")))
     return words
 
