@@ -30,6 +30,7 @@ from .analysis.post import results as results_io
 from .analysis.run import cases, linear, loading, opening, runs, tracking
 from .analysis.run.loading import checked_backend, keyword_options
 from .analysis.run.loading import gravity_function as gravity_function
+from .analysis.run.model_files import load_model_file, read_model_file
 from .analysis.run.runs import Results
 from .analysis.run.runspec import NAMES as RUN_OPTIONS
 from .analysis.run.runspec import RunSpec, split_options
@@ -58,7 +59,6 @@ from .model import (
     Signal,
     reference_model,
 )
-from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
 from .version import __version__

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.errors import ModelError
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import statics
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -14,11 +14,11 @@ from ...errors import BuildError, DerivationError, ModelError
 from ...folder import read_start, write_start
 from ...model.chain import Joint
 from ...model.size import coordinate_count
-from ...model.toml_file import read_model_file
 from ...runtime.loader import open_folder
 from ...symbolic.forces import check_apart
 from ..post import feedforward
 from . import loading, set_at_start, study
+from .model_files import read_model_file
 
 if TYPE_CHECKING:
     from ...model import Model

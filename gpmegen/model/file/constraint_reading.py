@@ -25,7 +25,6 @@ from ..chain import (
     velocity_symbol,
 )
 from ..elements import get as element_kind
-from ..expand import expand
 from ..requirements import evaluate
 from ..rfem import discretize
 from ..start_constants import StartConstants
@@ -139,25 +138,20 @@ class ConstraintReading:
             closures.append(closure)
         return tuple(closures)
 
-    def drop_vanishing(self, model, chain):
+    def drop_vanishing(self, model):
         """``model`` without the rows of its closures that vanish identically (one warning line
         each, naming the closure and the row); a row whose value is a constant other than zero
-        (the points can never meet along it) is refused."""
+        (the points can never meet along it) is refused. The rows are judged by the reader's
+        ``row_kinds`` (each closure row's name -> "zero", "constant" or ""), which the caller
+        derives from the chain's kinematics in the layer above this one
+        (:func:`gpmegen.analysis.run.model_files.closure_row_kinds`)."""
         import dataclasses
         import warnings
 
-        # The layer above the model's: these rows are judged from the derived kinematics of the
-        # model being read (an exception of the import contracts in pyproject.toml).
-        from ...symbolic.constraints import constant_rows
-        from ...symbolic.kinematics import forward
-        from ...symbolic.program import Program
-
         try:
-            flat = expand(dataclasses.replace(model, dependent=None))
+            kinds = self.row_kinds(dataclasses.replace(model, dependent=None))
         except ModelError:
             return model   # the full check reports it
-        rows = [row for closure in model.closures for row in closure.constraints()]
-        kinds = dict(zip((row.name for row in rows), constant_rows(forward(flat, Program()), rows)))
         closures, dropped = [], set()
         for k, closure in enumerate(model.closures):
             kept = []

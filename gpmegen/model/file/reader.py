@@ -36,8 +36,9 @@ from .values import ValueReading
 class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
     """Reads one parsed file into a Model; every failure names the file, line and field."""
 
-    def __init__(self, path, text: str, nrfe):
+    def __init__(self, path, text: str, nrfe, row_kinds):
         self.file = str(path)
+        self.row_kinds = row_kinds   # a model's closure rows judged (ConstraintReading.drop_vanishing)
         self.source = text
         self.nrfe_argument = nrfe
         self.params: dict[str, sp.Symbol] = {}
@@ -129,7 +130,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             elements=self.read_elements(data),
         )
         if closures:
-            model = self.drop_vanishing(model, chain)
+            model = self.drop_vanishing(model)
         if laws is not None:
             model = laws(model)
         self.check_requirements(model)   # the controller's believed bounds too (requirements._believed)
