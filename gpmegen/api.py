@@ -123,7 +123,8 @@ def load(model: ModelSource | int = None, backend: str | None = None, params: Ma
                         f"has its rfes already (gpmegen.load_model_file(path, nrfe={nrfe}))")
     case = _case(model, nrfe)
     if isinstance(case, cases.FolderCase):
-        return case.open(checked_backend(backend, chosen["progress"]), params, chosen["progress"] or _silent)
+        opened = case.open(checked_backend(backend, chosen["progress"]), params, chosen["progress"] or _silent)
+        return case.bound(opened, params or {})
     backend = checked_backend(backend, chosen["progress"])
     free = {k: v for k, v in (params or {}).items() if k not in case.start_constants}
     loaded = case.located(lambda: loading.load(case.model, backend, free,

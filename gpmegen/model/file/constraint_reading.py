@@ -235,7 +235,8 @@ class ConstraintReading:
     def read_initial(self, table):
         """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities;
         and ``set``: the :class:`StartConstants` taken at the locked statics of ``q`` (None
-        without ``set``)."""
+        without ``set``), kept too as the file gives them in ``self.start_text`` (``at`` and
+        ``values``: [name, number or expression string] pairs), which a built folder records."""
         path = ("initial",)
         self.table(table, path, ("q", "qd", "set"), what="initial table")
         q, qd = (self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
@@ -249,6 +250,8 @@ class ConstraintReading:
                 hint = f"did you mean {close[0]!r}? " if close else ""
                 self.fail(path + ("set", name), f"{name!r} is not a parameter; {hint}the start sets parameters "
                                                 f"declared under [parameters]")
+        self.start_text = {"at": [[name, value] for name, value in table.get("q", {}).items()],
+                           "values": [[name, value] for name, value in values.items()]}
         return q, qd, StartConstants(
             at=tuple(q.items()),
             values=tuple((name, self.quantity(value, path + ("set", name), scope)) for name, value in values.items()))

@@ -54,6 +54,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         self.controller_states: dict[str, sp.Symbol] = {}   # a controller state's name -> its symbol
         self.signal_expressions: dict[str, sp.Expr] = {}   # a signal given by an expression: name -> it
         self.table_signals: dict[str, Signal] = {}   # a signal read from a table: name -> it
+        self.start_text: dict | None = None   # [initial] q and set as the file gives them (read_initial)
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -142,7 +143,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             raise located(exc, self.file, self.locator, chain) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
-                         limits=robot.limits if robot is not None else {})
+                         limits=robot.limits if robot is not None else {}, start_text=self.start_text)
 
     def read_parameters(self, table):
         path = ("parameters",)
