@@ -11,7 +11,7 @@ What each fence holds, and what is done with it:
   command): run with the environment's ``gpmegen`` on PATH. A ``console`` command whose shown
   output holds ``error:`` must fail with that error's text up to its first comma; the others
   must succeed;
-- ``toml``: loads as a model file (``gpmegen.model.toml_file.read_model_file``), or, after
+- ``toml``: loads as a model file (``gpmegen.read_model_file``), or, after
   ``<!-- fragment -->``, parses as TOML with the top-level keys of a model file;
 - ``text``: output, diagrams and help text, not run.
 
@@ -103,7 +103,7 @@ def _reason(block: Block) -> str:
 
 @pytest.mark.parametrize("block", [b for b in ALL if b.language == "toml"], ids=lambda b: b.where())
 def test_every_toml_block_loads_as_a_model_file_or_a_fragment_of_one(block, tmp_path):
-    from gpmegen.model.toml_file import read_model_file
+    from gpmegen.analysis.run.model_files import read_model_file
 
     data = tomllib.loads(block.code)  # a block that is no TOML fails here, naming its line
     if block.mark == "fragment":

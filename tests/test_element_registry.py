@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.errors import ModelError
 from gpmegen.model import elements
 from gpmegen.model.chain import ForceElement, symbol, velocity_symbol
 from gpmegen.model.expand import expand
-from gpmegen.model.toml_file import read_model_file
 
 # the pendulum of tests/models (a point mass m at r from a revolute joint about z) without
 # gravity, its tip named, and a torsion spring and damper on its joint: J = m r², and the spring

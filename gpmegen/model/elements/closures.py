@@ -54,7 +54,7 @@ class Closures(ElementKind):
     def finish(self, reader, model):
         """``model`` without its closures' rows that vanish identically
         (:meth:`gpmegen.model.file.constraint_reading.ConstraintReading.drop_vanishing`)."""
-        return reader.drop_vanishing(model, model.chain) if model.closures else model
+        return reader.drop_vanishing(model) if model.closures else model
 
 
 def _closure(reader, item, path) -> Closure:

@@ -20,7 +20,6 @@ from ..chain import (
     symbol,
     velocity_symbol,
 )
-from ..expand import expand
 from ..rfem import discretize
 from ..start_constants import StartConstants
 from .schema import kind_of
@@ -96,25 +95,20 @@ class ConstraintReading:
         return (tuple(c.name for c in self.constraints) + tuple(prescribed_name(q) for q in self.prescribed)
                 + tuple(c.name for c in self.mimic))
 
-    def drop_vanishing(self, model, chain):
+    def drop_vanishing(self, model):
         """``model`` without the rows of its closures that vanish identically (one warning line
         each, naming the closure and the row); a row whose value is a constant other than zero
-        (the points can never meet along it) is refused."""
+        (the points can never meet along it) is refused. The rows are judged by the reader's
+        ``row_kinds`` (each closure row's name -> "zero", "constant" or ""), which the caller
+        derives from the chain's kinematics in the layer above this one
+        (:func:`gpmegen.analysis.run.model_files.closure_row_kinds`)."""
         import dataclasses
         import warnings
 
-        # The layer above the model's: these rows are judged from the derived kinematics of the
-        # model being read (an exception of the import contracts in pyproject.toml).
-        from ...symbolic.constraints import constant_rows
-        from ...symbolic.kinematics import forward
-        from ...symbolic.program import Program
-
         try:
-            flat = expand(dataclasses.replace(model, dependent=None))
+            kinds = self.row_kinds(dataclasses.replace(model, dependent=None))
         except ModelError:
             return model   # the full check reports it
-        rows = [row for closure in model.closures for row in closure.constraints()]
-        kinds = dict(zip((row.name for row in rows), constant_rows(forward(flat, Program()), rows)))
         closures, dropped = [], set()
         for k, closure in enumerate(model.closures):
             kept = []
@@ -199,7 +193,8 @@ class ConstraintReading:
     def read_initial(self, table):
         """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities;
         and ``set``: the :class:`StartConstants` taken at the locked statics of ``q`` (None
-        without ``set``)."""
+        without ``set``), kept too as the file gives them in ``self.start_text`` (``at`` and
+        ``values``: [name, number or expression string] pairs), which a built folder records."""
         path = ("initial",)
         self.table(table, path, ("q", "qd", "set"), what="initial table")
         q, qd = (self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
@@ -213,6 +208,8 @@ class ConstraintReading:
                 hint = f"did you mean {close[0]!r}? " if close else ""
                 self.fail(path + ("set", name), f"{name!r} is not a parameter; {hint}the start sets parameters "
                                                 f"declared under [parameters]")
+        self.start_text = {"at": [[name, value] for name, value in table.get("q", {}).items()],
+                           "values": [[name, value] for name, value in values.items()]}
         return q, qd, StartConstants(
             at=tuple(q.items()),
             values=tuple((name, self.quantity(value, path + ("set", name), scope)) for name, value in values.items()))

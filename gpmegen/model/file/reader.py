@@ -37,8 +37,9 @@ from .values import ValueReading
 class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
     """Reads one parsed file into a Model; every failure names the file, line and field."""
 
-    def __init__(self, path, text: str, nrfe):
+    def __init__(self, path, text: str, nrfe, row_kinds):
         self.file = str(path)
+        self.row_kinds = row_kinds   # a model's closure rows judged (ConstraintReading.drop_vanishing)
         self.source = text
         self.nrfe_argument = nrfe
         self.params: dict[str, sp.Symbol] = {}
@@ -58,6 +59,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         self.constraints: tuple = ()   # the file's programmed constraints, then the element kinds' rows
         self.mimic: tuple = ()   # the constraints of a URDF's mimic joints
         self.entries: dict[str, tuple] = {}   # a Model field -> the entries of the element kinds read so far
+        self.start_text: dict | None = None   # [initial] q and set as the file gives them (read_initial)
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -143,7 +145,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             raise located(exc, self.file, self.locator, chain) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
-                         limits=robot.limits if robot is not None else {})
+                         limits=robot.limits if robot is not None else {}, start_text=self.start_text)
 
     def read_parameters(self, table):
         path = ("parameters",)
