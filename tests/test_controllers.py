@@ -213,7 +213,7 @@ def test_the_compiled_loops_called_directly_carry_the_states(pid):
     assert status == SolveStatus.OK and rows.shape == (1, 5)
     # e_int' = x_ref - x, x = O(t^2) from rest: e_int(0.01) = 0.5 + 0.01 x_ref - O(1e-6 x'')
     assert rows[0, 4] == pytest.approx(0.5 + 0.01 * X_REF, abs=1e-5)
-    memory = {"a": np.full(1, np.nan), "S": np.zeros((2, 2)), "pivot": np.zeros(2, dtype=np.intc),
+    memory = {"a": np.full(2, np.nan), "S": np.zeros((2, 2)), "pivot": np.zeros(2, dtype=np.intc),
               "have": np.zeros(1, dtype=np.intc)}
     y_ga = y.copy()
     rows_ga, status = model.genalpha(integrators.loop.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y_ga, memory,
@@ -224,6 +224,10 @@ def test_the_compiled_loops_called_directly_carry_the_states(pid):
     with pytest.raises(ValueError, match=r"S \(2, 2\)"):   # a Newton matrix without the states' room
         model.genalpha(integrators.loop.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y.copy(),
                        {**memory, "S": np.zeros((1, 1)), "pivot": np.zeros(1, dtype=np.intc)},
+                       np.array([0.01]), np.zeros(integrators.base.COUNTS, dtype=np.int64))
+    with pytest.raises(ValueError, match=r"a \(2,\)"):   # no room for the q̈ the iteration starts from
+        model.genalpha(integrators.loop.grid(0.0, 0.01, 1e-3), 0, 10, 0.9, True, y.copy(),
+                       {**memory, "a": np.full(1, np.nan)},
                        np.array([0.01]), np.zeros(integrators.base.COUNTS, dtype=np.int64))
 
 

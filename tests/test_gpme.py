@@ -218,3 +218,15 @@ def test_partition_watch_warns_and_repartitions(rigid):
     assert watch.events and watch.events[0][1] == ("theta1", "x3") and watch.events[0][2] == ("psi2", "x3")
     _, _, D, _ = model.constraint_terms(0.0, q, 0 * q)
     assert partition.condition(D, model.dependent) < 1e3
+
+
+@pytest.mark.parametrize("entry", [2.5, -1e-9, 1e-300, 0.0])
+def test_the_condition_of_one_constraint_is_numpys(entry):
+    """One constraint's dependent block is a 1 x 1 matrix: 1 unless singular, as its SVD says (the
+    watch takes it without one)."""
+    from gpmegen.runtime import partition
+
+    D = np.array([[3.0, entry, 1.0]])
+    with np.errstate(all="ignore"):
+        expected = np.linalg.cond(D[:, [1]])
+    assert partition.condition(D, [1]) == (expected if np.isfinite(expected) else np.inf)

@@ -210,8 +210,10 @@ static int project_state(const struct gpmegen_model *model, double t, double *y,
     return GPMEGEN_OK;
 }
 
-/* Newton's iterations stop when the largest increment of qdd and of the controller states z is at
-   most NEWTON_TOLERANCE max(1, |qdd|, |z|); the matrix is
+/* Newton's iterations stop when the largest increment of qdd and of the controller states z, or
+   from the second iteration on the error that increment leaves, estimated from the iteration's
+   contraction theta (the ratio of two increments) as theta / (1 - theta) times it (Hairer and
+   Wanner, Radau5), is at most NEWTON_TOLERANCE max(1, |qdd|, |z|); the matrix is
    refreshed when they have not converged after NEWTON_ITERATIONS or converge slower than
    NEWTON_RATE a step, and the step fails when they do not converge with a fresh one. The
    tolerance stays above the round-off of the solve itself: qdd of the reference arm at
@@ -221,9 +223,12 @@ enum { NEWTON_ITERATIONS = 6 };
 
 /* Generalized-alpha over steps k_from + 1 .. k_to of the grid of gpmegen_rk4 (n_steps steps of dt from
    t0, the last ending at t_end), with numerical damping rho_inf (0..1), from y_io = [q, qd, w, z]
-   (N_Y; z the controller states) and a_io (N_DOF), the method's acceleration-like variable (NaN
-   at the start of a run: it starts as qdd there), both replaced by their values at the end of step
-   k_to. Each step solves
+   (N_Y; z the controller states) and a_io (2 N_DOF): the method's acceleration-like variable (NaN
+   at the start of a run: it starts as qdd there) and qdd at the start of the step before (NaN
+   where there is none), both replaced by their values at the end of step k_to. Newton's iteration
+   starts from qdd extrapolated linearly from the last two steps (from qdd_n at a run's first step):
+   its error O(h^2) rather than O(h) takes an iteration less a step where the motion is smooth.
+   Each step solves
    qdd_{n+1} = a(t_{n+1}, q_{n+1}, qd_{n+1}) with
        q_{n+1}  = q_n + h qd_n + h^2 ((1/2 - beta) a_n + beta a_{n+1}),
        qd_{n+1} = qd_n + h ((1 - gamma) a_n + gamma a_{n+1}),
@@ -250,6 +255,7 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
     const struct genalpha_parameters c = genalpha_parameters(rho_inf);
     double y[N_Y] ALIGNED, y_new[N_Y] ALIGNED, r[N_Y] ALIGNED, r_new[N_Y] ALIGNED;
     double a[N_DOF] ALIGNED, a_new[N_DOF] ALIGNED, base_q[N_DOF] ALIGNED, base_qd[N_DOF] ALIGNED;
+    double qdd_before[N_DOF] ALIGNED;  /* qdd at the start of the step before (NaN: none) */
     /* the unknowns [qdd_{n+1}, z_{n+1}] and their Newton increments; base_z: z_n + (h / 2) r_n */
     double x[N_R] ALIGNED, dx[N_R] ALIGNED, base_z[AT_LEAST_1(N_Z)] ALIGNED;
     const int Z = N_MOTION + 2;  /* where z starts in y */
@@ -274,6 +280,7 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
     }
     for (int i = 0; i < N_DOF; ++i) {
         a[i] = isfinite(a_io[i]) ? a_io[i] : r[N_DOF + i];
+        qdd_before[i] = a_io[N_DOF + i];
     }
     for (long k = k_from + 1; k <= k_to; ++k) {
         const double t = grid_time(t0, dt, n_steps, t_end, k - 1), t_new = grid_time(t0, dt, n_steps, t_end, k);
@@ -306,7 +313,7 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
                 *have_matrix = 1;
             }
             for (int i = 0; i < N_DOF; ++i) {
-                x[i] = qdd[i];
+                x[i] = isfinite(qdd_before[i]) ? 2.0 * qdd[i] - qdd_before[i] : qdd[i];
             }
             for (int k = 0; k < N_Z; ++k) {
                 x[N_DOF + k] = y[Z + k] + h * r[Z + k];
@@ -340,8 +347,10 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
                 if (!isfinite(size) || size > NEWTON_RATE * previous) {
                     break;
                 }
+                /* the error left after this increment: theta / (1 - theta) of it (theta <= NEWTON_RATE) */
+                const double left = iteration > 0 ? size * (size / previous) / (1.0 - size / previous) : size;
                 previous = size;
-                if (size <= NEWTON_TOLERANCE * scale) {
+                if (left <= NEWTON_TOLERANCE * scale) {
                     converged = 1;
                     break;
                 }
@@ -387,6 +396,9 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
             }
         }
         *n_saved = j;
+        for (int i = 0; i < N_DOF; ++i) {
+            qdd_before[i] = qdd[i];  /* qdd_n, before r holds qdd_{n+1} */
+        }
         for (int i = 0; i < N_Y; ++i) {
             y[i] = y_new[i];
             r[i] = r_new[i];
@@ -400,6 +412,7 @@ int gpmegen_genalpha(const struct gpmegen_model *model, double t0, double dt, lo
     }
     for (int i = 0; i < N_DOF; ++i) {
         a_io[i] = a[i];
+        a_io[N_DOF + i] = qdd_before[i];
     }
     return GPMEGEN_OK;
 }

@@ -459,17 +459,19 @@ class CEvaluator(CActuated):
         t_save = np.ascontiguousarray(t_save, dtype=float)
         y_out = np.empty((len(t_save), len(y)))
         n_saved = self.ffi.new("long *")
-        S, pivot, have = memory["S"], memory["pivot"], memory["have"]
-        if not (y.flags.c_contiguous and y.dtype == float and S.flags.c_contiguous and pivot.dtype == np.intc
-                and have.dtype == np.intc):
-            raise TypeError("y and S must be contiguous float64, pivot and have intc")
+        a, S, pivot, have = memory["a"], memory["S"], memory["pivot"], memory["have"]
+        if not (y.flags.c_contiguous and y.dtype == float and a.flags.c_contiguous and a.dtype == float
+                and S.flags.c_contiguous and pivot.dtype == np.intc and have.dtype == np.intc):
+            raise TypeError("y, a and S must be contiguous float64, pivot and have intc")
+        if a.shape != (2 * self.n,):
+            raise ValueError(f"genalpha needs a ({2 * self.n},): a and the q̈ of the step before, got {a.shape}")
         n_r = self.n + self.n_controllers   # Newton's unknowns: q̈ and the controller states
         if S.shape != (n_r, n_r) or pivot.shape != (n_r,) or len(y) != 2 * self.n + 2 + self.n_controllers:
             raise ValueError(f"genalpha needs y ({2 * self.n + 2 + self.n_controllers},), S ({n_r}, {n_r}) and "
                              f"pivot ({n_r},), got {len(y)}, {S.shape}, {pivot.shape}")
         status = self.lib.genalpha(g.t0, g.dt, g.n_steps, g.t_end, k_from, k_to, rho_inf, int(bool(project)),
                                    self._ptr(y),
-                                   self._ptr(memory["a"]), self._ptr(S), self.ffi.from_buffer("int[]", pivot),
+                                   self._ptr(a), self._ptr(S), self.ffi.from_buffer("int[]", pivot),
                                    self.ffi.from_buffer("int[]", have), len(t_save),
                                    self._ptr(t_save) if len(t_save) else self.ffi.new("double[]", 1),
                                    self._params(model.p), dep, ind, self._ptr(y_out), n_saved,

@@ -154,7 +154,7 @@ def exercise(library: Path, source: Path, module_path: Path, say=print) -> None:
                                    ind, doubles(np.zeros(2 * n_y)), n_saved, ffi.new("long[]", ADAPTIVE_COUNTS))
         say("genalpha")
         lib.genalpha(t, 1e-4, 2, t + 2e-4, 0, 2, 0.9, 1, doubles(np.concatenate([q, qd, np.zeros(2 + n_z)])),
-                     doubles(np.full(n, np.nan)), doubles(np.zeros((n + n_z) ** 2)), ffi.new("int[]", n + n_z),
+                     doubles(np.full(2 * n, np.nan)), doubles(np.zeros((n + n_z) ** 2)), ffi.new("int[]", n + n_z),
                      ffi.new("int[]", 1),
                      1, doubles([t + 1.5e-4]), doubles(p), dep, ind, doubles(np.zeros(n_y)), n_saved,
                      ffi.new("long[]", COUNTS))

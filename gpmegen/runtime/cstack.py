@@ -55,8 +55,9 @@ def call_bytes(call: str, n: int, m: int, exact_jacobians: bool, z: int = 0) -> 
         "dop853": 35 * ny + n + recursive,                        # dop853.c: K, F, the states, a rate
         # radau.c: kept (the Jacobian's blocks, the three LUs of r x r), the stages, the Jacobian
         "radau": 2 * n * n + 3 * r * r + 3 * n * z + z * z + 25 * ny + 3 * r + jacobian,
-        # genalpha.c: the states, the Newton iteration, dq''/dqd (and dq''/dq with controller states)
-        "genalpha": 4 * ny + 8 * r + (2 if z else 1) * n * n + 3 * n * z + z * z + 2 * m * n + 3 * m + jacobian,
+        # genalpha.c: the states, the Newton iteration and the qdd it starts from, dq''/dqd (and
+        # dq''/dq with controller states)
+        "genalpha": 4 * ny + 8 * r + n + (2 if z else 1) * n * n + 3 * n * z + z * z + 2 * m * n + 3 * m + jacobian,
     }[call]
     return 8 * doubles
 

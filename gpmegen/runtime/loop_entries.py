@@ -92,8 +92,9 @@ class CompiledLoops:
         """Generalized-α of the GPME in the compiled loop over steps ``k_from + 1 … k_to`` of the
         grid ``g`` from the augmented state ``y`` (2n + 2 + n_z,), replaced in place by the state at
         the end; with ``project``, each step's end put back onto the constraints of orders 0 and 1;
-        ``memory`` holds the method's state across calls ("a" (n,), NaN at the start; the Newton
-        matrix "S" (n + n_z, n + n_z), "pivot" (n + n_z,) intc, "have" (1,) intc), ``counts`` as for
+        ``memory`` holds the method's state across calls ("a" (2n,): the method's a and the q̈ at
+        the start of the step before, NaN at the start; the Newton matrix "S" (n + n_z, n + n_z),
+        "pivot" (n + n_z,) intc, "have" (1,) intc), ``counts`` as for
         :meth:`dop853` and (6th) the constraint evaluations of the projection. Saves at the
         increasing instants ``t_save`` (k,) within the steps. Returns ``(rows, status)``."""
         model = self.partitioned(g.time(k_from), np.asarray(y)[:self.n_dof])

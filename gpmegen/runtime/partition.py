@@ -22,6 +22,8 @@ def condition(D, dependent) -> float:
     if len(dependent) == 0:
         return 1.0
     block = np.asarray(D)[:, dependent]
+    if block.shape == (1, 1) and np.isfinite(block[0, 0]):  # one constraint, looked at between every chunk
+        return 1.0 if block[0, 0] != 0 else float("inf")   # of a run: its SVD's answer without one
     with np.errstate(all="ignore"):
         c = np.linalg.cond(block)
     return float(c) if np.isfinite(c) else float("inf")

@@ -59,13 +59,13 @@ int main(int argc, char **argv)
     model = (struct gpmegen_model){ N, 0, NULL, terms, constraint_terms, gains, drive, recursive, NULL };
     const size_t n = (size_t)N, ny = 2 * n + 2;
     double *y = calloc(ny, sizeof(double)), *y_out = calloc(4 * ny, sizeof(double));
-    double *a = calloc(n, sizeof(double)), *A = calloc(n * n, sizeof(double)), *B = calloc(n * n, sizeof(double));
+    double *a = calloc(2 * n, sizeof(double)), *A = calloc(n * n, sizeof(double)), *B = calloc(n * n, sizeof(double));
     int *pivot = calloc(n, sizeof(int)), have = 0;
     double p[1] = { 0.0 }, t_save[1] = { 1e-3 }, h = 0.0, power = 0.0, w0[2] = { 0.0, 0.0 }, t_out[4];
     long n_saved = 0, counts[8] = { 0 };
     for (size_t i = 0; i < n; ++i) {
         y[i] = 0.1;
-        a[i] = NAN;
+        a[i] = a[n + i] = NAN;  /* genalpha's a_io: a and the qdd of the step before */
     }
     int status = -1;
     if (!strcmp(call, "solve")) {

@@ -36,7 +36,7 @@ def genalpha(model, q0, qd0, t_end, dt, save_dt, rho_inf=RHO_INF, t0=0.0, progre
     n = model.n_dof
     counts = np.zeros(COUNTS, dtype=np.int64)
     n_r = n + len(model.controller_names)   # Newton's unknowns: q̈ and the controller states
-    memory = {"a": np.full(n, np.nan), "S": np.zeros((n_r, n_r)), "pivot": np.zeros(n_r, dtype=np.intc),
+    memory = {"a": np.full(2 * n, np.nan), "S": np.zeros((n_r, n_r)), "pivot": np.zeros(n_r, dtype=np.intc),
               "have": np.zeros(1, dtype=np.intc)}
 
     def advance(model, y, k_from, k_to):
