@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: f68ed07b5fa76df4
+Input hash: a55007fe19b55833
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

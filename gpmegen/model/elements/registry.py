@@ -56,7 +56,7 @@ _KINDS: dict[str, ElementKind] = {}
 #: The top-level keys of a model file that are its own, not an element kind's table: no kind may
 #: take one (its entries would be read as the file's).
 FILE_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters", "chain", "drives",
-             "constraints", "initial", "actuators", "urdf", "signals", "controller")
+             "constraints", "initial", "actuators", "urdf", "signals", "controller", "presentation")
 
 
 def register(kind):

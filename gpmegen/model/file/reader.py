@@ -25,6 +25,7 @@ from .constraint_reading import ConstraintReading
 from .element_reading import ElementReading
 from .locator import Locator, field_text, located
 from .model_file import ModelFile
+from .presentation_section import read_presentation
 from .schema import (
     SCHEMA,
     top_keys,
@@ -122,11 +123,12 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         initial, initial_qd, start = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
         forces = self.read_forces(data.get("forces", []), self.taken_names(chain, constraints, closures))
+        presentation = read_presentation(self, data["presentation"], constraints) if "presentation" in data else None
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, closures=closures,
             signals=signals, forces=forces, controllers=controllers, start_constants=start,
-            elements=self.read_elements(data),
+            elements=self.read_elements(data), presentation=presentation,
         )
         if closures:
             model = self.drop_vanishing(model, chain)
