@@ -1,10 +1,12 @@
 """How a model's runs are shown is the model's data (a model file's ``[presentation]``, the
 reference arm's :func:`gpmegen.model.reference.presentation`): the reference case labels its
 runs as the paper does from it, its model file gives the same labels, a user's file labels its
-own figures so, and each entry is checked in one line."""
+own figures so, each entry is checked in one line, and a built folder is taken for the reference
+arm by its input hash, never by its name."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -15,13 +17,15 @@ import sympy as sp
 from gpmegen.analysis.figures import plots
 from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import runs
-from gpmegen.analysis.run.cases import FileCase
+from gpmegen.analysis.run.cases import FileCase, FolderCase
+from gpmegen.analysis.run.opening import case_of_path
 from gpmegen.analysis.run.reference_case import ReferenceCase
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.codegen.render import input_hash
 from gpmegen.errors import ModelError
 from gpmegen.model.chain import TIME
 from gpmegen.model.names import point_symbols
+from gpmegen.model.size import coordinate_count
 from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime.loader import BACKENDS
 
@@ -166,3 +170,40 @@ def test_a_label_with_nrfe_needs_an_nrfe(tmp_path):
                     + '\n[presentation]\nlabel = "cart, {nrfe} rfes"\n', encoding="utf-8")
     with pytest.raises(ModelError, match="label: the label uses {nrfe} but no nrfe is set"):
         read_model_file(path)
+
+
+def _manifest(model) -> dict:
+    """What of a built folder's manifest.json the reference case is recognized by."""
+    return {"model": model.name, "n_dof": coordinate_count(model), "input_hash": input_hash(model, BACKENDS)}
+
+
+@pytest.mark.parametrize("nrfe", (1, 2, 5))
+def test_a_folder_of_the_reference_arm_is_the_reference_case(nrfe):
+    case = ReferenceCase.of_manifest(_manifest(ReferenceCase(nrfe).model))
+    assert isinstance(case, ReferenceCase) and case.nrfe == nrfe
+
+
+def test_a_model_of_another_named_like_the_reference_arm_is_not_taken_for_it(tmp_path):
+    """Named manipulator_nrfe3, with the reference's coordinates: one default changed is another
+    model. Neither the name nor a manifest that is not one gpmegen writes makes a reference case."""
+    text = MANIPULATOR.read_text(encoding="utf-8").replace('m3 = { value = 2.0,', 'm3 = { value = 2.5,')
+    path = tmp_path / "mine.toml"
+    path.write_text(text, encoding="utf-8")
+    mine = read_model_file(path, nrfe=3).model
+    assert mine.name == "manipulator_nrfe3" and coordinate_count(mine) == coordinate_count(ReferenceCase(3).model)
+    assert ReferenceCase.of_manifest(_manifest(mine)) is None
+    reference = _manifest(ReferenceCase(3).model)
+    for broken in ({**reference, "n_dof": "9"}, {**reference, "n_dof": 10}, {**reference, "n_dof": 1},
+                   {key: value for key, value in reference.items() if key != "n_dof"}):
+        assert ReferenceCase.of_manifest(broken) is None
+
+
+def test_the_built_reference_folder_opens_as_the_reference_case(generated_elsewhere, tmp_path):
+    """A folder of the reference arm runs as the reference case, a lookalike's as a folder."""
+    case = case_of_path(generated_elsewhere / "manipulator_nrfe1")
+    assert isinstance(case, ReferenceCase) and case.nrfe == 1
+    folder = tmp_path / "manipulator_nrfe3"
+    folder.mkdir()
+    manifest = _manifest(read_model_file(MANIPULATOR.parent / "manipulator.toml", nrfe=3).model)
+    (folder / "manifest.json").write_text(json.dumps({**manifest, "input_hash": "0" * 16}))
+    assert isinstance(case_of_path(folder), FolderCase)

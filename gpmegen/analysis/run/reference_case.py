@@ -11,7 +11,6 @@ paper's figures), as any case's are (:meth:`Case.metadata`).
 
 from __future__ import annotations
 
-import re
 from functools import cached_property
 
 import numpy as np
@@ -19,6 +18,7 @@ import numpy as np
 from ...codegen.render import input_hash
 from ...model import reference_model
 from ...model.reference import start_constants
+from ...model.size import coordinate_count
 from ...runtime import statics
 from ...runtime.consistent import consistent, project_onto_constraints
 from ...runtime.loader import BACKENDS
@@ -62,12 +62,18 @@ class ReferenceCase(Case):
     @classmethod
     def of_manifest(cls, manifest) -> ReferenceCase | None:
         """The reference case whose generated code the folder of ``manifest`` (a built folder's
-        manifest.json) holds, or None: its model's name is one :func:`reference_model` gives
-        and its input hash that model's."""
-        match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
-        if not match:
+        manifest.json) holds, or None: the one with as many coordinates as the folder's
+        (``n_dof``), when its input hash is the folder's. The model's name is not read: a model
+        of another's called like the reference arm is not taken for it."""
+        n_dof = manifest.get("n_dof")
+        if type(n_dof) is not int:
             return None
-        case = cls(int(match.group(1)))
+        # each rfe beyond the first adds as many coordinates as the second does
+        rigid = coordinate_count(reference_model(1))
+        extra, rest = divmod(n_dof - rigid, coordinate_count(reference_model(2)) - rigid)
+        if extra < 0 or rest:
+            return None
+        case = cls(extra + 1)
         return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
 
     @cached_property
