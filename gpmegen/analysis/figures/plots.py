@@ -119,7 +119,7 @@ def joint_names(results) -> list:
 
 def family(results) -> str:
     """The model a run belongs to, whatever its number of rfes: its name without a trailing
-    ``nrfe<N>`` (``arm_nrfe5`` → ``arm``)."""
+    ``nrfe<N>`` (``arm_nrfe3`` → ``arm``)."""
     return re.sub(r"[_-]?nrfe\d+$", "", metadata(results)["model"]) or metadata(results)["model"]
 
 
