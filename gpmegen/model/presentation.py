@@ -10,10 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-#: The figures whose caption may name the figure of a source they correspond to
-#: (:mod:`gpmegen.analysis.figures.plots`).
-FIGURES = ("joint_coordinates", "end_effector", "path")
-
 
 @dataclass(frozen=True)
 class Prescribed:
@@ -31,7 +27,8 @@ class Presentation:
     """``label``: the runs' legend label ("": the model's name). ``coordinates``: (coordinate,
     axis label with its unit) pairs, the coordinates the joint-coordinates figure draws, in
     order. ``constraint_units``: (constraint, unit of its expression) pairs. ``figures``:
-    (figure of :data:`FIGURES`, the source's figure it corresponds to) pairs. ``start_tag``,
+    (figure, the source's figure it corresponds to) pairs, the figures those whose caption may
+    name one (:data:`gpmegen.model.file.presentation_section.FIGURES`). ``start_tag``,
     ``colour`` (one of the plot cycle's C0 ... C9), ``tag_offset`` ((dx, dy) in points, None:
     placed by the figure): the start point in the path figure. ``prescribed``: a
     :class:`Prescribed`, or None."""

@@ -8,13 +8,16 @@ import math
 import re
 
 from ..chain import AXES, TIME
-from ..presentation import FIGURES, Prescribed, Presentation
+from ..presentation import Prescribed, Presentation
 
 PRESENTATION_KEYS = ("label", "coordinates", "constraint_units", "figures", "start_tag", "colour", "tag_offset",
                      "prescribed", "rigid")
 #: What a ``[presentation.rigid]`` table may change for the file read with nrfe = 1.
 RIGID_KEYS = ("label", "start_tag", "colour", "tag_offset")
 PRESCRIBED_KEYS = ("axis", "label", "value")
+#: The figures whose caption may name the figure of a source they correspond to
+#: (:mod:`gpmegen.analysis.figures.plots`).
+FIGURES = ("joint_coordinates", "end_effector", "path")
 COLOUR = re.compile(r"C[0-9]")
 LONGEST = 80   # characters of one text: a label, a unit, a caption
 FARTHEST = 200  # points a start tag may sit from its point
