@@ -39,6 +39,7 @@ if TYPE_CHECKING:
         export_casadi,
         export_fmu,
         import_urdf,
+        invert,
         linearize,
         load,
         load_model_file,
@@ -58,7 +59,7 @@ __all__ = [
     "Controller", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi",
+    "import_urdf", "urdf_text", "linearize", "invert", "metrics", "export_casadi",
     "export_fmu", "RunSpec",
 ]
 

@@ -12,6 +12,7 @@
 - :func:`export_casadi`: the model's functions as CasADi functions, saved as ``.casadi`` files;
 - :func:`export_fmu`: the model as an FMU (FMI 2.0 Model Exchange and Co-Simulation);
 - :func:`linearize`: the state-space model ``ẋ = A x + B u`` about the statics or at instants of a run;
+- :func:`invert`: the bounded inputs of a programmed motion's actuated realization (stable inversion);
 - :func:`metrics`: tracking metrics of runs against a reference motion (a model or a run);
 - :func:`sweep`: many runs over parameter values, on all local cores or a Dask cluster;
 - the errors, one type per failure family (:class:`GpmegenError` and its subclasses).
@@ -27,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 from . import limits  # gpmegen.limits.lifted() lifts the bounds on resources
 from .analysis.export import fmu as fmu_export
 from .analysis.post import results as results_io
-from .analysis.run import cases, linear, loading, opening, runs, tracking
+from .analysis.run import cases, inversions, linear, loading, opening, runs, tracking
 from .analysis.run.loading import checked_backend, keyword_options
 from .analysis.run.loading import gravity_function as gravity_function
 from .analysis.run.runs import Results
@@ -293,6 +294,38 @@ def linearize(model: ModelSource = None, *, params: Mapping[str, float] | None =
     return linear.along_run(loaded, at, times, inputs)
 
 
+def invert(model: ModelSource = None, *, t1: float, t0: float = 0.0, pre: float = 0.1, post: float = 0.1,
+           params: Mapping[str, float] | None = None, **options: Any) -> Results:
+    """The bounded inputs ``u`` of the model's actuated realization that move it along its
+    programmed motion, at rest before ``t0`` and after ``t1`` (s), found by stable inversion as
+    ``gpmegen invert`` finds them (NumPy backend): :class:`Results` on ``[t0 - pre, t1 + post]``
+    with ``u`` (k, a) on ``actuators`` (a,), ``q``, ``qd`` and the driving functions; nothing is
+    written (:meth:`Results.save`). The inputs may start before ``t0`` (pre-actuation, within
+    ``pre`` s) and end after ``t1`` (within ``post`` s): the internal dynamics of a non-minimum
+    phase motion. ``model``, ``params`` and the options ``nrfe``, ``directory``, ``start`` and
+    ``progress`` as :func:`statics`; ``actuated``: the inputs' coordinates, one per constraint
+    (default: a model file's actuators); ``nodes``: the boundary-value problem's first mesh
+    (default 200). An option that is none of these is refused in one line."""
+    chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None, "actuated": None, "nodes": 200},
+                             "invert")
+    window = {"t0": t0, "t1": t1, "pre": pre, "post": post}
+    for name, value in window.items():
+        if not isinstance(value, (int, float)) or value != value or abs(value) == float("inf"):
+            raise ModelError(f"invert(): {name} = {value!r} is not a finite number of seconds; give one")
+    if not t1 > t0:
+        raise ModelError(f"invert(): t1 ({t1:g} s) must come after t0 ({t0:g} s)")
+    if not (pre > 0 and post > 0):
+        raise ModelError(f"invert(): pre ({pre:g} s) and post ({post:g} s) must be positive windows")
+    nodes = chosen["nodes"]
+    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 2:
+        raise ModelError(f"invert(): nodes = {nodes!r}; give a whole number of mesh nodes, 2 or more")
+    case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
+    actuated = chosen["actuated"]
+    res, _ = inversions.invert(case, start, t0, t1, pre, post, nodes, dict(params or {}),
+                               None if actuated is None else list(actuated), _messages(chosen["progress"]))
+    return runs.Results(res)
+
+
 def metrics(runs: str | Path | Results | Iterable[str | Path | Results], reference: ModelSource = None, *,
             after: float | None = None, backend: str | None = None, nrfe: int | None = None,
             progress: Progress | None = None) -> list[Metrics]:
@@ -321,5 +354,5 @@ __all__ = [
     "Controller", "Constraint",
     "GpmegenError", "ModelError", "DerivationError", "BuildError", "StaleModelError", "StaticsError",
     "SimulationError", "limits", "__version__", "sweep",
-    "import_urdf", "urdf_text", "linearize", "metrics", "export_casadi", "export_fmu", "RunSpec",
+    "import_urdf", "urdf_text", "linearize", "invert", "metrics", "export_casadi", "export_fmu", "RunSpec",
 ]

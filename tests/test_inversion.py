@@ -178,3 +178,30 @@ def test_the_tracking_arm_at_nrfe_3_is_inverted(env):
     for k in range(0, len(inv.t), 25):
         assert np.max(np.abs(model.constraint_terms(inv.t[k], inv.q[k], inv.qd[k])[0])) < 1e-6
     assert 20.0 < np.abs(inv.u[:, 1]).max() < 25.0   # N·m on psi2: near the rigid arm's 23.3
+
+
+def test_python_invert_is_the_commands(env, tmp_path, capsys):
+    """``gpmegen.invert`` returns what ``gpmegen invert`` writes, to the bit, and writes nothing;
+    a window or option out of range is one line (an unknown option a TypeError, as in Python)."""
+    from gpmegen import cli
+    from gpmegen.analysis.post import results as results_io
+    from gpmegen.errors import ModelError
+
+    out = tmp_path / "inv.npz"
+    assert cli.main(["invert", str(LINK), "--nrfe", "2", "--t1", "0.2", "--nodes", "80", "--out", str(out)]
+                    + [f"--param={k}={v}" for k, v in MOVE.items()]) == 0
+    written = results_io.load(out)
+    run = gpmegen.invert(LINK, nrfe=2, t1=0.2, nodes=80, params=MOVE)
+    assert [str(a) for a in run["actuators"]] == ["theta1"]
+    for name in ("t", "q", "qd", "u", "drive_forces"):
+        assert np.array_equal(run[name], written[name]), name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["inv.csv", "inv.npz"]
+    for kwargs, message in [({"t1": 0.2, "t0": 0.3}, "t1 (0.2 s) must come after t0 (0.3 s)"),
+                            ({"t1": float("nan")}, "t1 = nan is not a finite number of seconds"),
+                            ({"t1": 0.2, "pre": 0.0}, "must be positive windows"),
+                            ({"t1": 0.2, "nodes": 1.5}, "give a whole number of mesh nodes")]:
+        with pytest.raises(ModelError) as caught:
+            gpmegen.invert(LINK, nrfe=2, **kwargs)
+        assert message in str(caught.value) and "\n" not in str(caught.value), str(caught.value)
+    with pytest.raises(TypeError, match="unknown option 'mesh'; its options are nrfe, directory, start"):
+        gpmegen.invert(LINK, nrfe=2, t1=0.2, mesh=3)

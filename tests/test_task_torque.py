@@ -11,6 +11,7 @@ from backends import each_backend, on
 
 import gpmegen
 from gpmegen.errors import ModelError
+from gpmegen.symbolic import derive
 
 ARM = Path(__file__).parent / "models" / "ct_task_arm.toml"
 SPATIAL = Path(__file__).parents[1] / "examples" / "manipulator_task_space.toml"
@@ -161,3 +162,27 @@ def test_a_reference_that_switches_is_tracked(tmp_path):
     assert run.status == "complete"
     assert np.abs(x[:, 0] - x_r).max() < 1e-8
     assert np.abs(x[:, 1] - y_r).max() < 1e-8
+
+
+def test_run_saves_the_task_reference_and_error():
+    """The results hold x_r of each component and x_r - x of the controller model's E at the
+    saved states (here the plant itself): against the path and the tip written by hand."""
+    run = gpmegen.simulate(ARM, t_end=0.5, dt=1e-3, backend="c", params={"d1": 0.05})
+    x_r, _, _ = path(run.t)
+    x = tip(run.coordinate("theta1"), run.coordinate("theta2"))
+    assert [str(c) for c in run["reference_coordinates"]] == ["x_E", "y_E"]
+    assert [str(u) for u in run["reference_units"]] == ["m", "m"]
+    assert np.abs(run["q_reference"] - x_r).max() < 1e-12
+    assert np.abs(run["tracking_error"] - (x_r - x)).max() < 1e-12
+    assert np.abs(run["tracking_error"][0]).min() > 0.01   # started off the path: the error is seen
+
+
+def test_a_task_reference_that_jumps_is_warned_about(tmp_path):
+    """A component's reference with a kink (ẋ_r jumps) is warned about in one line naming the
+    field, as a joint law's; the smooth path is not."""
+    assert derive(gpmegen.load_model_file(ARM)).warnings == ()
+    text = ARM.read_text().replace('expression = "L1 - A*(1 - cos(w*t))"', 'expression = "L1 - A*Min(t, 0.5)"')
+    (tmp_path / "ct_task_arm.toml").write_text(text)
+    warnings = derive(gpmegen.load_model_file(tmp_path / "ct_task_arm.toml")).warnings
+    assert len(warnings) == 1 and "\n" not in warnings[0], warnings
+    assert warnings[0].startswith("controller.task_space.reference[0] (x): ẋ_r jumps at t = 0.5"), warnings

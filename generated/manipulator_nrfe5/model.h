@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 329cd9e15a7cacf5
+Input hash: 1f5065d8d5cf0567
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -44,12 +44,13 @@ def derive(model) -> Derivation:
     kin = forward(chain, program)
     dyn = _dynamics.derive(kin, model.gravity, model.drives, model.forces, model.elements)
     warnings: tuple = ()
+    defaults = {p.symbol: sp.Float(p.default) for p in model.parameters}
     if model.computed_torque is not None:   # the law joins the drives, before the recursion reads them
         dyn.drive_forces = dyn.drive_forces + _computed_torque.derive(kin, model.computed_torque)
-        defaults = {p.symbol: sp.Float(p.default) for p in model.parameters}
         warnings = tuple(_computed_torque.warnings(model.computed_torque, defaults))
     if model.task_torque is not None:
         dyn.drive_forces = dyn.drive_forces + _task_torque.derive(kin, model.task_torque)
+        warnings = tuple(_task_torque.warnings(model.task_torque, defaults))
     con = _constraints.derive(kin, model.constraints)
     warnings = con.warnings + warnings
     rec = _recursive.derive(kin, dyn, model.gravity)

@@ -19,6 +19,8 @@ ends) is differentiated branch by branch as a programmed constraint is
 
 from __future__ import annotations
 
+import unicodedata
+
 import sympy as sp
 
 from ..errors import DerivationError
@@ -61,14 +63,18 @@ def reference_rates(law: ComputedTorque) -> list[tuple]:
     return out
 
 
-def warnings(law: ComputedTorque, defaults) -> list[str]:
+def warnings(law: ComputedTorque, defaults, fields=None, symbol="q") -> list[str]:
     """One line per switch where a reference's value or velocity jumps (and one for the switches
-    that cannot be decided), naming the field; ``defaults``: the plant's parameter symbols ->
-    numbers."""
+    that cannot be decided), naming the field (``fields``: one name per reference, default the
+    joint law's) and the reference as ``<symbol>_r``; ``defaults``: the plant's parameter symbols
+    -> numbers."""
     out = []
     for k, reference in enumerate(law.references):
         r = as_piecewise(exact(reference))
-        out += jump_warnings(_field(law, k), (("q_r", r), ("q̇_r", sp.diff(r, TIME))), defaults, CONSEQUENCE)
+        field = _field(law, k) if fields is None else fields[k]
+        # the dot composed with its letter where Unicode has the pair (ẋ), else combining (q̇)
+        checked = ((f"{symbol}_r", r), (unicodedata.normalize("NFC", f"{symbol}\u0307_r"), sp.diff(r, TIME)))
+        out += jump_warnings(field, checked, defaults, CONSEQUENCE)
     return out
 
 

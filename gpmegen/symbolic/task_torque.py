@@ -17,6 +17,7 @@ import sympy as sp
 from ..model.computed_torque import joint_coordinates
 from ..model.task_torque import TaskTorque
 from .computed_torque import controller_outputs, on_plant, reference_rates
+from .computed_torque import warnings as joint_warnings
 from .kinematics import Kinematics
 
 
@@ -42,3 +43,10 @@ def derive(kin: Kinematics, law: TaskTorque) -> sp.Matrix:
     inverse_det = define(1 / define(jacobian.det(method="berkowitz")))
     solved = dict(zip(joints, (jacobian.adjugate(method="berkowitz") * rhs * inverse_det).applyfunc(define)))
     return on_plant(kin, mass, forces, coordinates, solved)
+
+
+def warnings(law: TaskTorque, defaults) -> list[str]:
+    """One line per switch where a component's reference ``x_r`` or its velocity jumps, naming
+    the field, as the joint law's (``defaults``: the plant's parameter symbols -> numbers)."""
+    fields = [f"controller.task_space.reference[{k}] ({axis})" for k, axis in enumerate(law.components)]
+    return joint_warnings(law.joint_law(), defaults, fields, symbol="x")

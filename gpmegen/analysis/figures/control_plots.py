@@ -30,11 +30,16 @@ def _unit(runs, name) -> str:
 
 
 def tracking_error(plt, runs, style):
-    """``q_r - q`` of each coordinate of the runs' computed-torque laws against time, a panel
-    each; runs without a law are left out of the figure."""
+    """``q_r - q`` of each coordinate of the runs' computed-torque laws (a task-space law's: ``x_r -
+    x`` of each component of its point) against time, a panel each; runs without a law are left
+    out of the figure."""
     pairs = [(r, s) for r, s in zip(runs, style) if "tracking_error" in r]
     names = _union([str(c) for c in r["reference_coordinates"]] for r, _ in pairs)
     units = {name: COORDINATE_UNITS.get(_unit(runs, name), "rad or m") for name in names}
+    task = {}   # a task-space law's components say their unit
+    for r, _ in pairs:
+        task.update(zip((str(c) for c in r["reference_coordinates"]), (str(u) for u in r.get("reference_units", ()))))
+    units.update(task)
     fig, axes = plots._figure(plt, len(names), 1, 2.0 * len(names) + 1.0, sharex=True)
     shaded = False
     for r, s in pairs:
@@ -43,7 +48,7 @@ def tracking_error(plt, runs, style):
             if name in own:
                 shaded |= plots.trace(ax, r["t"], r["tracking_error"][:, own.index(name)], s)
     for ax, name in zip(axes[:, 0], names):
-        ax.set_ylabel(plots.literal(f"{name}: q_r − q [{units[name]}]"))
+        ax.set_ylabel(plots.literal(f"{name}: {'x_r − x' if name in task else 'q_r − q'} [{units[name]}]"))
     return driving_plots._finish_panels(fig, axes, runs, pairs, "Tracking error",
                                         "Each law coordinate's reference less the coordinate.", shaded)
 

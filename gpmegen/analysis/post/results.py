@@ -22,7 +22,9 @@ closed loops adds each closure's reaction, ``closure_<name>_force`` and ``closur
 (:mod:`gpmegen.analysis.post.drive_limits`). A model under computed torque adds
 ``reference_coordinates`` (r,) the law's coordinates, ``q_reference`` (k, r) their references
 ``q_r`` and ``tracking_error`` (k, r) ``q_r - q`` (:mod:`gpmegen.analysis.post.law_references`),
-also in the CSV as ``qr_<name>`` and ``e_<name>``.
+also in the CSV as ``qr_<name>`` and ``e_<name>``; under a task-space law the names are its
+point's coordinates (``x_E``, ...), ``x_r - x`` the error of the controller model's point, and
+``reference_units`` (r,) says they are in m.
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ ENTRIES = REQUIRED + ("format", "run_id", "status", "qdd", "constraint_names", "
                       "work_drive", "work_constraints", "work_dampers", "prescribed", "spring_forces", "deflection",
                       "internal_eigenvalues", "force_names", "force_elements", "limited_drives", "drive_laws",
                       "drive_limits", "time_at_limit", "controller_names", "controller_states",
-                      "reference_coordinates", "q_reference", "tracking_error")
+                      "reference_coordinates", "q_reference", "tracking_error", "reference_units")
 #: A closure's reaction (:mod:`gpmegen.analysis.post.closures`): ``closure_<name>_force`` and
 #: ``closure_<name>_moment`` (k, 3), the closure's name being a model's name.
 CLOSURE_ENTRY = re.compile(r"closure_[A-Za-z][A-Za-z0-9_]{0,47}_(force|moment)")

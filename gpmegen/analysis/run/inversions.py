@@ -20,11 +20,10 @@ def work(t, qd, forces) -> np.ndarray:
     return cumulative_trapezoid(np.einsum("ij,ij->i", qd, forces), t, initial=0.0)
 
 
-def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, progress):
+def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, progress):
     """Stable inversion of ``case`` (from its ``start``, the guess of the first rest state) for
     its programmed motion at rest before ``t0`` and after ``t1`` (s), with the inputs on
-    ``actuated`` (None: the case's own); writes ``out`` and returns ``(results, inversion,
-    written)``."""
+    ``actuated`` (None: the case's own): ``(results, inversion)``, nothing written."""
     limits.check_inversion(coordinate_count(case.model), nodes)
     begun = case.started("numpy", start, overrides, progress)
     model, q0 = begun.model, begun.q
@@ -45,4 +44,4 @@ def invert(case, start, t0, t1, pre, post, nodes, overrides, actuated, out, prog
     res = study.collect(model, inv.t, y, "complete", settings)
     res = results_io.annotate(res, {**case.metadata(model), "model_source": case.locator()}, case.extras(model, res))
     res = driving.annotate(res, case.source, model)
-    return res, inv, results_io.save(res, out)
+    return res, inv

@@ -30,6 +30,7 @@ import numpy as np
 from ...errors import GpmegenError
 from ...fileio import atomic_write_bytes
 from ...model import Model
+from ...model.expand import expand
 from ..post import results as results_io
 from . import runs as runs_io
 from .cases import ModelCase
@@ -131,15 +132,22 @@ def drives(run) -> dict:
     return out
 
 
+def check_coordinates(run, coordinates, name) -> list[str]:
+    """The names of ``run``'s coordinates; TrackingError naming those of ``coordinates`` (the
+    reference model ``name``'s) it lacks."""
+    names = [str(c) for c in run["coordinates"]]
+    missing = [c for c in coordinates if c not in names]
+    if missing:
+        raise TrackingError(f"the run has no coordinate {', '.join(missing)} of the reference model "
+                            f"{name} (the run's: {', '.join(names)}); measure it against a model "
+                            f"of the same coordinates")
+    return names
+
+
 def columns_of(run, model) -> list[int]:
     """The columns of ``run``'s state arrays in the order of ``model``'s coordinates;
     TrackingError naming the coordinates the run lacks."""
-    names = [str(c) for c in run["coordinates"]]
-    missing = [c for c in model.coordinates if c not in names]
-    if missing:
-        raise TrackingError(f"the run has no coordinate {', '.join(missing)} of the reference model "
-                            f"{model.module.MODEL} (the run's: {', '.join(names)}); measure it against a model "
-                            f"of the same coordinates")
+    names = check_coordinates(run, model.coordinates, model.module.MODEL)
     return [names.index(c) for c in model.coordinates]
 
 
@@ -231,6 +239,9 @@ def model_reference(case, runs, backend, progress) -> Reference:
     saved = float(np.median(np.diff(t0))) if len(t0) > 1 else t_end
     dt = float(first.get("dt") or min(RunSpec().dt, saved))
     spec = RunSpec.of(t_end=t_end, dt=dt, save_every=max(1, int(round(saved / dt))), actuated=())
+    if case.source is not None:   # a reference the runs cannot be measured against is refused before its run
+        for run in runs:
+            check_coordinates(run, expand(case.source).coordinates, case.source.name)
     known = {p.name for p in case.model.parameters} if case.source is not None else set()
     shared = {k: v for k, v in results_io.metadata(runs[0]).get("params", {}).items() if k in known}
     done = runs_io.run(case, spec, backend, shared, None, progress)
