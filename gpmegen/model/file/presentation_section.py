@@ -59,10 +59,10 @@ def _text(reader, value, path) -> str:
     """One line of text for a figure (mathtext allowed: figures draw what they cannot parse as
     it is)."""
     reader.string(value, path)
-    if len(value) > LONGEST or any(ord(c) < 32 or ord(c) == 127 for c in value):
-        reader.fail(path, f"expected one line of at most {LONGEST} characters for a figure, got "
-                          f"{len(value)} characters" + (" with a line break or control character"
-                                                        if len(value) <= LONGEST else "") + "; shorten it")
+    if any(ord(c) < 32 or ord(c) == 127 for c in value):
+        reader.fail(path, "the text holds a line break or control character; write one line for the figure")
+    if len(value) > LONGEST:
+        reader.fail(path, f"the text has {len(value)} characters, more than a figure's {LONGEST}; shorten it")
     return value
 
 
