@@ -26,7 +26,7 @@ import numpy as np
 import gpmegen
 from gpmegen.analysis.post import point_motion
 from gpmegen.analysis.run import study
-from gpmegen.model.toml_file import read_model_file
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.runtime import integrators
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -31,6 +31,7 @@ from .analysis.post import results as results_io
 from .analysis.run import cases, inversions, linear, loading, opening, runs, tracking
 from .analysis.run.loading import checked_backend, keyword_options
 from .analysis.run.loading import gravity_function as gravity_function
+from .analysis.run.model_files import load_model_file, read_model_file
 from .analysis.run.runs import Results
 from .analysis.run.runspec import NAMES as RUN_OPTIONS
 from .analysis.run.runspec import RunSpec, split_options
@@ -59,7 +60,6 @@ from .model import (
     Signal,
     reference_model,
 )
-from .model.toml_file import load_model_file, read_model_file
 from .model.urdf import import_urdf
 from .model.urdf_export import urdf_text
 from .version import __version__
@@ -124,7 +124,8 @@ def load(model: ModelSource | int = None, backend: str | None = None, params: Ma
                         f"has its rfes already (gpmegen.load_model_file(path, nrfe={nrfe}))")
     case = _case(model, nrfe)
     if isinstance(case, cases.FolderCase):
-        return case.open(checked_backend(backend, chosen["progress"]), params, chosen["progress"] or _silent)
+        opened = case.open(checked_backend(backend, chosen["progress"]), params, chosen["progress"] or _silent)
+        return case.bound(opened, params or {})
     backend = checked_backend(backend, chosen["progress"])
     free = {k: v for k, v in (params or {}).items() if k not in case.start_constants}
     loaded = case.located(lambda: loading.load(case.model, backend, free,

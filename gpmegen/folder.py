@@ -55,24 +55,61 @@ def read_manifest(folder: Path) -> dict | None:
     return manifest if isinstance(manifest, dict) else None
 
 
-def write_start(folder: Path, q: dict, qd: dict) -> None:
-    """Record the start ``q``, ``qd`` (coordinate name -> number) in the built ``folder``."""
-    text = json.dumps({"q": q, "qd": qd}, indent=2, sort_keys=True) + "\n"
+def write_start(folder: Path, q: dict, qd: dict, declared: dict | None = None) -> None:
+    """Record the start ``q``, ``qd`` (coordinate name -> number) in the built ``folder``, and the
+    parameters the start sets, ``declared`` (a model file's ``[initial] q`` and ``set`` as the file
+    gives them: ``at``, ``values``, lists of [name, number or expression string]), if any."""
+    record = {"q": q, "qd": qd} if declared is None else {"q": q, "qd": qd, "set": declared}
+    text = json.dumps(record, indent=2, sort_keys=True) + "\n"
     atomic_write_bytes(Path(folder) / START, text.encode())
 
 
 def read_start(folder: Path) -> tuple[dict, dict]:
     """The start recorded in ``folder`` by :func:`write_start`, or ``({}, {})`` (rest at q = 0)
     when none is; a damaged record raises BuildError."""
-    path = Path(folder) / START
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        return {str(k): float(v) for k, v in data["q"].items()}, {str(k): float(v) for k, v in data["qd"].items()}
-    except FileNotFoundError:
+    data = _start_record(folder)
+    if data is None:
         return {}, {}
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        raise BuildError(f"{path} is damaged; build the model into this folder again with 'gpmegen build "
-                         f"<its model file> --out {Path(folder).parent}'") from None
+    try:
+        return {str(k): float(v) for k, v in data["q"].items()}, {str(k): float(v) for k, v in data["qd"].items()}
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise _damaged(folder) from None
+
+
+def read_start_set(folder: Path) -> dict | None:
+    """The parameters the start sets as :func:`write_start` recorded them in ``folder`` (``at``
+    and ``values``: lists of (name, number or expression string) pairs, the text not yet read),
+    or None when it records none; a damaged record raises BuildError."""
+    data = _start_record(folder)
+    if data is None or "set" not in data:
+        return None
+    declared = data["set"]
+    try:
+        pairs = {key: [(name, value) for name, value in declared[key]] for key in ("at", "values")}
+    except (ValueError, KeyError, TypeError):
+        raise _damaged(folder) from None
+    for name, value in pairs["at"] + pairs["values"]:
+        if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            raise _damaged(folder)
+    return pairs
+
+
+def _start_record(folder: Path) -> dict | None:
+    """The JSON object of ``folder``'s start record, None without one; BuildError when damaged."""
+    try:
+        data = json.loads((Path(folder) / START).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError):
+        raise _damaged(folder) from None
+    if not isinstance(data, dict):
+        raise _damaged(folder)
+    return data
+
+
+def _damaged(folder: Path) -> BuildError:
+    return BuildError(f"{Path(folder) / START} is damaged; build the model into this folder again with 'gpmegen build "
+                      f"<its model file> --out {Path(folder).parent}'")
 
 
 def _checked(folder: Path, name: str, manifest: dict | None) -> tuple[str | None, str | None]:

@@ -12,9 +12,9 @@ import pytest
 import sympy as sp
 from sympy.printing.str import StrPrinter
 
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.codegen import backends, build
 from gpmegen.errors import ModelError
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime.loader import OPENERS
 from gpmegen.runtime.numpy_module import import_numpy_module
 

@@ -22,8 +22,8 @@ import pytest
 from conftest import stacked_gpme
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.errors import BuildError
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, cprobe, integrators
 
 SPINNING_BEAM = Path(__file__).parent / "models" / "spinning_beam.toml"

@@ -21,6 +21,7 @@ import pytest
 import sympy as sp
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.model import reference_model
 from gpmegen.model.chain import (
     GROUND_NAME,
@@ -41,7 +42,6 @@ from gpmegen.model.chain import (
     symbol,
     velocity_symbol,
 )
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, cprobe
 
 pytestmark = [pytest.mark.sanitizers, pytest.mark.requires_cc]

@@ -20,13 +20,13 @@ from test_trust_codegen import COLLIDING, NEUTRAL, _named_model, _python_code, _
 
 import gpmegen
 from gpmegen.analysis.post.coordinates import elastic_coordinates
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.cli import main
 from gpmegen.codegen import input_hash
 from gpmegen.codegen.backends import casadi as casadi_export
 from gpmegen.errors import ModelError
 from gpmegen.model import reference_model
 from gpmegen.model.chain import TIME
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import gpme
 
 casadi = pytest.importorskip("casadi")

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import gpmegen
 from gpmegen.analysis.figures import plots, run_figures
 from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import runs
@@ -70,7 +71,7 @@ def test_results_carry_the_cases_metadata_as_json(tmp_path):
     # the prescribed height of E (eq. 18) holds along the run
     np.testing.assert_allclose(reference["end_effector"][:, 1], reference["prescribed"], atol=1e-9)
 
-    name = toml_file.read_model_file(EXAMPLE).model.name
+    name = gpmegen.read_model_file(EXAMPLE).model.name
     assert plots.label(reference) == "rigid arm"
     assert plots.label(mine) == f"{name} (no statics)"
     assert plots.joint_names(reference) == ["theta1", "psi2", "x3"]

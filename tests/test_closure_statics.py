@@ -18,9 +18,9 @@ import pytest
 import scipy.optimize
 
 import gpmegen
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.cli import main
 from gpmegen.errors import ModelWarning
-from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import consistent
 
 G, M, L = 9.81, 0.7, 0.4

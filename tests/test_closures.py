@@ -18,11 +18,11 @@ from gpmegen.analysis.figures.figure_list import stems
 from gpmegen.analysis.post import closures as closure_reactions
 from gpmegen.analysis.post import energy
 from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.cli import main
 from gpmegen.errors import ModelWarning, SimulationError
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Branch, Closure, Joint, Model, Offset, Parameter, Point, closure_rows
-from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import consistent, gpme, partition
 from gpmegen.runtime.evaluator import redundant_acceleration_jacobians
 

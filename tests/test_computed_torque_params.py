@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.errors import ModelError
-from gpmegen.model.toml_file import read_model_file
 
 ARM = Path(__file__).parent / "models" / "ct_arm.toml"
 A, W = 0.4, 2.0   # ct_arm.toml's amplitude and frequency of the references

@@ -11,7 +11,7 @@ What each fence holds, and what is done with it:
   command): run with the environment's ``gpmegen`` on PATH. A ``console`` command whose shown
   output holds ``error:`` must fail with that error's text up to its first comma; the others
   must succeed;
-- ``toml``: loads as a model file (``gpmegen.model.toml_file.read_model_file``), or, after
+- ``toml``: loads as a model file (``gpmegen.read_model_file``), or, after
   ``<!-- fragment -->``, parses as TOML with the top-level keys of a model file;
 - ``text``: output, diagrams and help text, not run.
 
@@ -103,7 +103,7 @@ def _reason(block: Block) -> str:
 
 @pytest.mark.parametrize("block", [b for b in ALL if b.language == "toml"], ids=lambda b: b.where())
 def test_every_toml_block_loads_as_a_model_file_or_a_fragment_of_one(block, tmp_path):
-    from gpmegen.model.toml_file import read_model_file
+    from gpmegen.analysis.run.model_files import read_model_file
 
     data = tomllib.loads(block.code)  # a block that is no TOML fails here, naming its line
     if block.mark == "fragment":
@@ -132,9 +132,11 @@ def _keys(table: dict):
 
 
 def _vocabulary() -> set[str]:
-    """The keys the model file reader knows: the names it asks for, as quoted in its source."""
+    """The keys the model file reader knows: the names it asks for, as quoted in its source and
+    in the element kinds' (which read their own tables)."""
     words = set()
-    for source in (ROOT / "gpmegen" / "model" / "file").glob("*.py"):
+    for source in [*(ROOT / "gpmegen" / "model" / "file").glob("*.py"),
+                   *(ROOT / "gpmegen" / "model" / "elements").glob("*.py")]:
         words |= set(re.findall(r"[\"']([A-Za-z_][A-Za-z0-9_]*)[\"']", source.read_text(encoding="utf-8")))
     return words
 

@@ -283,8 +283,8 @@ def test_units_of_multipliers_come_from_the_forms_of_their_constraints(tmp_path)
 
     import sympy
 
+    from gpmegen.analysis.run.model_files import read_model_file
     from gpmegen.model.chain import TIME, point_symbols, point_velocity_symbols, symbol, velocity_symbol
-    from gpmegen.model.toml_file import read_model_file
 
     path = tmp_path / "slider.toml"
     path.write_text("""schema = 1

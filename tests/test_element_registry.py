@@ -5,6 +5,7 @@ its table is refused again."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -12,10 +13,11 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.errors import ModelError
 from gpmegen.model import elements
-from gpmegen.model.chain import symbol, velocity_symbol
-from gpmegen.model.toml_file import read_model_file
+from gpmegen.model.chain import ForceElement, symbol, velocity_symbol
+from gpmegen.model.expand import expand
 
 # the pendulum of tests/models (a point mass m at r from a revolute joint about z) without
 # gravity, its tip named, and a torsion spring and damper on its joint: J = m r², and the spring
@@ -129,3 +131,59 @@ def test_a_table_taken_is_refused(table):
     with pytest.raises(ValueError, match=f"the table '{table}' is empty, another kind's or a model file's own key"):
         elements.register(Again)
     assert [kind.table for kind in elements.kinds()] == ["closures", "controllers", "forces"]
+
+
+class OnePerCoordinate(TorsionSprings):
+    """Torsion springs read together (``read_all``, the whole array): at most one per coordinate."""
+
+    def read_all(self, reader, items):
+        springs = super().read_all(reader, items)
+        seen = set()
+        for k, spring in enumerate(springs):
+            if spring.coordinate in seen:
+                reader.fail((self.table, k, "coordinate"), f"a second torsion spring on {spring.coordinate!r}; "
+                                                           f"join them into one")
+            seen.add(spring.coordinate)
+        return springs
+
+
+def test_a_kind_reading_its_whole_array_refuses_at_the_entry(rotor):
+    elements.register(OnePerCoordinate)
+    try:
+        entry = '[[torsion_springs]]\ncoordinate = "theta1"\nstiffness = "kt"\n'
+        assert len(read_model_file(rotor).model.elements) == 1
+        rotor.write_text(ROTOR.replace("[initial]", entry + "\n[initial]"))
+        line = rotor.read_text().splitlines().index('coordinate = "theta1"', ROTOR.splitlines().index("[initial]")) + 1
+        with pytest.raises(ModelError, match=rf"torsion_rotor.toml:{line}: torsion_springs\[1\]\.coordinate: a second "
+                                             r"torsion spring on 'theta1'; join them into one"):
+            read_model_file(rotor)
+    finally:
+        elements.unregister("torsion_springs")
+
+
+def test_a_field_no_kind_fills_is_refused():
+    class Drives(TorsionSprings):
+        table = "torques"
+        field = "drives"
+
+    with pytest.raises(ValueError, match="field 'drives' is no Model field a kind fills; use one of closures, forces, "
+                                         "controllers, elements"):
+        elements.register(Drives)
+    assert "torques" not in elements.tables()
+
+
+@pytest.mark.parametrize("entries, words", [
+    (("kt",), r"Model.elements\[0\] is a str, not an element"),
+    ((TorsionSpring("theta1", symbol("kt")), ForceElement("f", ("A", "B"), "actuator", force=1)),
+     r"Model.elements\[1\] is a ForceElement, not an element: .* goes in Model.forces, closures or controllers"),
+    (TorsionSpring("theta1", symbol("kt")), r"Model.elements is a TorsionSpring, not a tuple"),
+])
+def test_a_python_model_holding_no_element_is_refused_in_one_line(entries, words, env):
+    """A Model built in Python whose elements are not Elements: one ModelError about the entry as
+    it is validated (it was an AttributeError deep in the derivation), before any build."""
+    model = dataclasses.replace(read_model_file(PENDULUM).model, elements=entries)
+    with pytest.raises(ModelError, match=words) as caught:
+        expand(model)
+    assert caught.value.subject[0] == "elements" and "\n" not in str(caught.value)
+    with pytest.raises(ModelError, match=words):
+        gpmegen.load(model=model, backend="numpy", directory=env[0])

@@ -13,8 +13,8 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis.post import results as results_io
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.cli import main
-from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import partition
 
 ROOT = Path(__file__).resolve().parents[1]

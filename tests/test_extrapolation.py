@@ -278,7 +278,7 @@ def test_extrapolation_of_the_papers_arm_runs_though_its_start_sets_constants_pe
 def test_levels_of_different_models_are_refused_by_the_check_made_before_any_level_runs(tmp_path):
     """Levels are compared by their symbolic models before the first runs (run_levels calls this
     check): the same file at two n_rfe passes, a parameter default that differs is refused."""
-    from gpmegen.model.toml_file import read_model_file
+    from gpmegen.analysis.run.model_files import read_model_file
 
     other = tmp_path / "other.toml"
     text = SPINUP.read_text(encoding="utf-8")

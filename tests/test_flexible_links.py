@@ -16,6 +16,7 @@ import sympy as sp
 
 import gpmegen
 from gpmegen.analysis.post import modes
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.errors import ModelError
 from gpmegen.model.chain import (
     TIME,
@@ -30,7 +31,6 @@ from gpmegen.model.chain import (
 from gpmegen.model.expand import expand
 from gpmegen.model.rfem import section_properties
 from gpmegen.model.shapes import point_mass
-from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import statics
 from gpmegen.status import SolveStatus
 

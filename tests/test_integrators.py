@@ -344,7 +344,7 @@ def test_a_start_whose_second_order_rows_vanish_at_rest_gets_its_stable_step(env
     from gpmegen.runtime.gpme import tangent_basis
 
     path = Path(__file__).resolve().parent.parent / "examples" / "curvature_arm.toml"
-    file = gpmegen.model.toml_file.read_model_file(path)
+    file = gpmegen.read_model_file(path)
     model = gpmegen.load(model=file.model, backend="numpy")
     begun = study.file_start(model, file.initial_values(model.params), "locked", file.initial_velocities(model.params))
     omega = modes.highest_frequency(model, 0.0, begun.q, begun.qd)

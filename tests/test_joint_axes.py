@@ -10,11 +10,11 @@ import pytest
 import sympy as sp
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.errors import ModelError
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Joint, Model, Offset, Parameter, Point
 from gpmegen.model.expand import expand
-from gpmegen.model.toml_file import load_model_file
 
 pin = pytest.importorskip("pinocchio")
 

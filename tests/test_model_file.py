@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file, locate, read_initial, read_model_file
 from gpmegen.codegen import render
 from gpmegen.errors import DerivationError, ModelError
 from gpmegen.model import Body, reference_model
 from gpmegen.model.expand import expand
-from gpmegen.model.toml_file import load_model_file, locate, read_initial, read_model_file
 from gpmegen.symbolic import derive
 
 ROOT = Path(__file__).resolve().parents[1]

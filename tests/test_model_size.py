@@ -5,10 +5,10 @@ from pathlib import Path
 
 import pytest
 
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.model.expand import expand
 from gpmegen.model.reference import reference_model
 from gpmegen.model.size import coordinate_count
-from gpmegen.model.toml_file import load_model_file
 
 ROOT = Path(__file__).resolve().parents[1]
 FILES = sorted(p for folder in ("examples", "tests/models") for p in (ROOT / folder).glob("*.toml")

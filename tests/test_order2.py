@@ -19,11 +19,11 @@ import sympy as sp
 import gpmegen
 from gpmegen.analysis.post import modes, point_motion
 from gpmegen.analysis.run import study
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.cli import main
 from gpmegen.errors import ModelError, SimulationError, StaticsError
 from gpmegen.model.chain import TIME
 from gpmegen.model.expand import expand
-from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime import integrators, partition, statics
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,11 +19,11 @@ import sympy as sp
 from test_model_file import BASE
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.errors import DerivationError, ModelError
 from gpmegen.model import Body, Constraint, FlexibleLink, Joint, Model, Parameter, Point
 from gpmegen.model.chain import TIME, CircularSection, symbol
 from gpmegen.model.shapes import solid_cylinder
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import integrators
 from gpmegen.symbolic import derive
 
@@ -293,7 +293,7 @@ def test_laws_that_cannot_become_code_are_refused_in_one_line(law, error, messag
 def test_piecewise_generation_is_deterministic_whatever_the_hash_seed(tmp_path):
     path = tmp_path / "hub.toml"
     path.write_text(FILE.replace('"theta1 - Piecewise', '"theta1 - Abs(t - T) - Max(t, 2*T) - Piecewise') + DRIVES)
-    code = ("import hashlib, sys; from gpmegen.codegen import render; from gpmegen.model.toml_file import "
+    code = ("import hashlib, sys; from gpmegen.codegen import render; from gpmegen.analysis.run.model_files import "
             "load_model_file; f = render(load_model_file(sys.argv[1]), ('numpy', 'c'));"
             "print(hashlib.sha256(''.join(f[k] for k in sorted(f)).encode()).hexdigest())")
     digests = {subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True,

@@ -18,6 +18,7 @@ from gpmegen.analysis.figures import plots
 from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run import runs
 from gpmegen.analysis.run.cases import FileCase, FolderCase
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.analysis.run.opening import case_of_path
 from gpmegen.analysis.run.reference_case import ReferenceCase
 from gpmegen.analysis.run.runspec import RunSpec
@@ -26,7 +27,6 @@ from gpmegen.errors import ModelError
 from gpmegen.model.chain import TIME
 from gpmegen.model.names import point_symbols
 from gpmegen.model.size import coordinate_count
-from gpmegen.model.toml_file import read_model_file
 from gpmegen.runtime.loader import BACKENDS
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file, read_initial
 from gpmegen.errors import SimulationError
 from gpmegen.model import shapes
 from gpmegen.model.chain import Body, Joint, Model, Parameter
-from gpmegen.model.toml_file import load_model_file, read_initial
 from gpmegen.runtime import gpme
 
 _HERE = str(Path(__file__).resolve().parent)

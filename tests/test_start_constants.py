@@ -5,14 +5,16 @@ with the values its former code gave."""
 
 import json
 import math
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
+from gpmegen.cli import main
 from gpmegen.errors import ModelError
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import statics
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -127,3 +129,55 @@ def test_a_run_without_statics_takes_the_values_at_the_undeformed_start(env):
     assert p["w"] == pytest.approx(p["L"] * math.cos(theta) - p["L"], abs=1e-12)
     assert meta["start_moved"]["q"]["max_change"] == 0.0
     assert run.coordinate("s")[0] == 0.0 and run.coordinate("theta")[0] == pytest.approx(theta, abs=1e-12)
+
+
+@pytest.fixture(scope="module")
+def reach_folder(env, tmp_path_factory):
+    """sprung_reach built by ``gpmegen build --out``: its folder."""
+    out = tmp_path_factory.mktemp("built")
+    assert main(["build", str(REACH), "--out", str(out)]) == 0
+    return out / "sprung_reach"
+
+
+@pytest.mark.parametrize("start", ["locked", "none"])
+def test_a_built_folder_starts_as_its_file_does(reach_folder, start):
+    """The folder records [initial] set: from it the start binds h and w as from the file, to the
+    bit, at the locked statics (the sag by hand) or, without statics, at [initial] q itself."""
+    mine, built = (gpmegen.statics(source, backend="numpy", start=start) for source in (REACH, reach_folder))
+    assert built.model.params == mine.model.params
+    np.testing.assert_array_equal(built.q, mine.q)
+    np.testing.assert_array_equal(built.qd, mine.qd)
+    p, theta = built.model.params, math.pi / 6
+    undeformed = {"h": p["L"] * math.sin(theta), "w": p["L"] * math.cos(theta) - p["L"]}   # s = 0
+    expected = _hand(p) if start == "locked" else undeformed
+    assert (p["h"], p["w"]) == (pytest.approx(expected["h"], abs=1e-12), pytest.approx(expected["w"], abs=1e-12))
+    assert built.moved["q"][0] < 1e-12   # started on the constraint the value set defines
+
+
+def test_a_built_folder_loads_and_keeps_given_values_as_its_file_does(reach_folder):
+    assert gpmegen.load(reach_folder, backend="numpy").params == gpmegen.load(REACH, backend="numpy").params
+    given = gpmegen.load(reach_folder, backend="numpy", params={"h": 0.3, "k": 800.0})
+    assert given.params == gpmegen.load(REACH, backend="numpy", params={"h": 0.3, "k": 800.0}).params
+    assert given.params["h"] == 0.3 and given.params["w"] != 0.0
+
+
+@pytest.mark.parametrize("value, words", [
+    ("__builtins__", "double underscore"),
+    ("open(1)", "'open' is not a name this value may read here"),
+    ("y_Q", "'y_Q' is not a name this value may read here"),
+    ("w + y_P", "'w' is not a name this value may read here"),   # another value set: its default
+])
+def test_a_folders_recorded_set_is_read_by_the_safe_reader(reach_folder, tmp_path, value, words):
+    """The folder may come from someone else: its recorded text goes through the model file's
+    expression reader, with the manifest's names only, refused in one line."""
+    folder = tmp_path / "sprung_reach"
+    shutil.copytree(reach_folder, folder)
+    record = json.loads((folder / "start.json").read_text())
+    assert record["set"]["values"] == [["h", "y_P"], ["w", "x_P - L"]]
+    record["set"]["values"][0][1] = value
+    (folder / "start.json").write_text(json.dumps(record))
+    with pytest.raises(ModelError) as caught:
+        gpmegen.statics(folder, backend="numpy")
+    message = str(caught.value)
+    assert message.startswith(f"{folder / 'start.json'}: initial.set.h: ") and words in message
+    assert "gpmegen build" in message and "\n" not in message

@@ -8,9 +8,9 @@ import pytest
 
 from gpmegen.analysis.post import results as results_io
 from gpmegen.analysis.run.cases import FileCase
+from gpmegen.analysis.run.model_files import read_model_file
 from gpmegen.cli import main
 from gpmegen.errors import ModelError
-from gpmegen.model.toml_file import read_model_file
 
 TIP_LAW = Path(__file__).parent / "models" / "tip_law.toml"
 

@@ -552,7 +552,7 @@ expression = "y_left_hand - 0.4"
 
 
 def test_a_model_file_branches_with_parent_keys(tmp_path):
-    from gpmegen.model.toml_file import load_model_file
+    from gpmegen.analysis.run.model_files import load_model_file
 
     path = tmp_path / "tree.toml"
     path.write_text(TREE_FILE)
@@ -578,7 +578,7 @@ def test_a_model_file_branches_with_parent_keys(tmp_path):
 def test_model_file_errors_after_a_branch_name_their_line(tmp_path, change, problem):
     """The Branch a parent key makes is no [[chain]] table of its own: errors about the
     elements after it still name their table and the line of the changed text."""
-    from gpmegen.model.toml_file import load_model_file
+    from gpmegen.analysis.run.model_files import load_model_file
 
     old, new = change
     assert TREE_FILE.count(old) == 1

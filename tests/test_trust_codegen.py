@@ -25,6 +25,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import gpmegen
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.cli import main
 from gpmegen.codegen import backends, input_hash, render
 from gpmegen.codegen.comments import PAIRED, comment_text
@@ -46,7 +47,6 @@ from gpmegen.model.chain import (
     symbol,
 )
 from gpmegen.model.expand import expand
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile, statics
 from gpmegen.runtime.cmodel import CModel
 from gpmegen.runtime.numpy_module import import_numpy_module

@@ -16,12 +16,12 @@ import pytest
 import gpmegen
 from gpmegen import limits
 from gpmegen.analysis.run import reference_case, study
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.analysis.run.runspec import RunSpec
 from gpmegen.cli import main
 from gpmegen.errors import BuildError, EvaluationError, ModelError
 from gpmegen.limits import LimitError
 from gpmegen.model import Body, Joint, Model, Parameter, Point, shapes
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.runtime import ccompile
 from gpmegen.runtime.numpy_module import import_numpy_module
 

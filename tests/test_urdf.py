@@ -17,10 +17,10 @@ import pytest
 import gpmegen
 from gpmegen.analysis.figures import arm_geometry as geometry
 from gpmegen.analysis.post.driving import point_constraints
+from gpmegen.analysis.run.model_files import load_model_file, read_model_file
 from gpmegen.cli import main
 from gpmegen.errors import ModelError
 from gpmegen.model.expand import expand
-from gpmegen.model.toml_file import load_model_file, read_model_file
 from gpmegen.model.urdf import import_urdf
 
 pin = pytest.importorskip("pinocchio")

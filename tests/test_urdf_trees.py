@@ -22,11 +22,11 @@ import pytest
 
 import gpmegen
 from gpmegen.analysis.figures import arm_geometry as geometry
+from gpmegen.analysis.run.model_files import load_model_file
 from gpmegen.errors import ModelWarning
 from gpmegen.model.chain import Branch, FlexibleLink, RectangularSection
 from gpmegen.model.expand import expand
 from gpmegen.model.rfem import discretize
-from gpmegen.model.toml_file import load_model_file
 from gpmegen.model.urdf import FlexibleUrdfLink, import_urdf
 
 pin = pytest.importorskip("pinocchio")

@@ -28,6 +28,7 @@ from .chain import (
     check_model_name,
 )
 from .computed_torque import check as check_computed_torque
+from .elements import check as check_elements
 from .law_checks import (
     check_closures,
     check_constraints,
@@ -330,6 +331,7 @@ def expand(model: Model) -> FlatChain:
     tree = topology(elements)
     check_closures(model, points, tree, names)
     check_forces(model, coordinates, points, tree, names)
+    check_elements(model)
     check_dependent(model, coordinates)
     if model.computed_torque is not None:
         check_computed_torque(model.computed_torque, coordinates, constant)

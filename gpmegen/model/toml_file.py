@@ -1,9 +1,11 @@
 """Model description files: a chain, its parameters, drives and programmed constraints in TOML.
 
-:func:`load_model_file` reads a file of schema version 1 with the standard library's
-``tomllib`` and returns a :class:`~gpmegen.model.Model`; :func:`read_model_file` returns it
-with the file's ``[initial]`` configuration; :func:`read_initial` gives that configuration as
-numbers. Nothing here writes files. ``docs/model-file.md`` is the user's guide; in short::
+:func:`read_file` reads a file of schema version 1 with the standard library's ``tomllib``
+and returns its :class:`~gpmegen.model.Model` with the file's ``[initial]`` configuration, the
+rows of its closures judged by a function its caller passes (they are judged from the derived
+kinematics, a layer above this one): :mod:`gpmegen.analysis.run.model_files` is the public face
+(``gpmegen.read_model_file``, ``gpmegen.load_model_file``). Nothing here writes files.
+``docs/model-file.md`` is the user's guide; in short::
 
     schema = 1                            # required: the schema version
     name = "arm_nrfe{nrfe}"               # required: "{nrfe}" becomes the n_rfe in use
@@ -88,20 +90,21 @@ Errors raise :class:`~gpmegen.errors.ModelError` as ``"<file>:<line>: <field>: <
 ``[[chain]]``). The model layer's errors say which field is at fault by its path
 (``error.subject``, see :mod:`gpmegen.errors`); :meth:`ModelFile.locate` puts the same context
 on an error raised later from a model read here (e.g. the derivation's ``DerivationError``)
-from the text read once, :func:`locate` reads the file again to do so.
+from the text read once, :func:`gpmegen.analysis.run.model_files.locate` reads the file again to
+do so.
 
-Here: the public functions, reading the file's bytes as TOML. The reader lives in
+Here: the readers of a file, reading the file's bytes as TOML. The reader lives in
 :mod:`gpmegen.model.file` by concern: ``locator`` (lines by field path), ``expressions`` (the
 safe parse and its checks), ``reader`` (schema -> Model), ``model_file`` (the result).
 """
 
+import functools
 import re
 import tomllib
 from pathlib import Path
 
-from ..errors import GpmegenError, ModelError
+from ..errors import ModelError
 from ..user_files import read_user_file
-from .chain import Model
 from .expand import expand
 from .file.controller_section import read_controller
 from .file.model_file import ModelFile
@@ -109,12 +112,13 @@ from .file.reader import SCHEMA, Reader
 from .rfem import check_nrfe
 from .urdf import import_urdf
 
-__all__ = ["ModelFile", "SCHEMA", "load_model_file", "locate", "read_initial", "read_model_file"]
+__all__ = ["ModelFile", "SCHEMA", "read_file", "read_urdf_file"]
 
 
-def _parse(path, nrfe):
-    """A reader for the file at ``path`` and the file's TOML data; a ModelError at the line of a
-    file that cannot be read, decoded or parsed."""
+def _parse(path, nrfe, row_kinds):
+    """A reader for the file at ``path`` (closure rows judged by ``row_kinds``: :func:`read_file`)
+    and the file's TOML data; a ModelError at the line of a file that cannot be read, decoded or
+    parsed."""
     if nrfe is not None:
         check_nrfe(nrfe, f"{path}")
     file = str(path)
@@ -134,30 +138,35 @@ def _parse(path, nrfe):
         where = f"column {m.group(2)}" if m else "end of file"
         raise ModelError(f"{file}:{line}: TOML syntax error ({where}): {detail}; fix the syntax "
                          f"(see docs/model-file.md)") from None
-    return Reader(path, text, nrfe), data
+    return Reader(path, text, nrfe, row_kinds), data
 
 
-def read_model_file(path, nrfe: int | None = None, controller_model: str | None = None) -> ModelFile:
+def read_file(path, row_kinds, nrfe: int | None = None, controller_model: str | None = None) -> ModelFile:
     """The model of a schema-1 TOML file with its ``[initial]`` configuration (a file whose
     name ends in ``.urdf``: :func:`read_urdf_file`).
 
+    ``row_kinds(model)``: each closure row's name -> "zero" (it vanishes identically: dropped,
+    with a warning), "constant" (a constant other than zero: refused at the closure's line) or ""
+    (kept), judged from the chain's kinematics, which this layer does not derive: the caller
+    above passes it (:func:`gpmegen.analysis.run.model_files.read_model_file`, the public face).
     ``nrfe`` replaces the file's default ``nrfe`` (flexible links that give their own keep it)
     and fills ``{nrfe}`` in the name. Raises ModelError ``"<file>:<line>: <field>: <problem>;
     <fix>"``. Validates with :func:`gpmegen.model.expand.expand`; writes nothing.
     ``controller_model``: a model file read in place of the ``[controller]`` table's ``model``."""
     if Path(path).suffix.lower() == ".urdf":
         return read_urdf_file(path)
-    reader, data = _parse(path, nrfe)
-    return reader.read(data, lambda model: read_controller(reader, data, model, _read_plain, controller_model))
+    reader, data = _parse(path, nrfe, row_kinds)
+    plain = functools.partial(_read_plain, row_kinds=row_kinds)
+    return reader.read(data, lambda model: read_controller(reader, data, model, plain, controller_model))
 
 
-def _read_plain(path, nrfe: int | None = None) -> ModelFile:
-    """A controller model: the file read as :func:`read_model_file` does, but for its own
+def _read_plain(path, nrfe: int | None = None, *, row_kinds) -> ModelFile:
+    """A controller model: the file read as :func:`read_file` does, but for its own
     ``[controller]`` table, which a controller model leaves out (as it does its drives), so a
     plant may name its own file as its controller."""
     if Path(path).suffix.lower() == ".urdf":
         return read_urdf_file(path)
-    reader, data = _parse(path, nrfe)
+    reader, data = _parse(path, nrfe, row_kinds)
     return reader.read(data)
 
 
@@ -171,23 +180,3 @@ def read_urdf_file(path) -> ModelFile:
     except ModelError as exc:
         raise ModelError(f"{path}: {exc}") from None
     return ModelFile(str(path), robot.model, initial=robot.start, limits=robot.limits)
-
-
-def load_model_file(path, nrfe: int | None = None) -> Model:
-    """The :class:`~gpmegen.model.Model` described by the TOML file at ``path`` (see
-    :func:`read_model_file`), or by the URDF file at ``path`` when its name ends in ``.urdf``."""
-    return read_model_file(path, nrfe).model
-
-
-def read_initial(path, nrfe: int | None = None, params: dict | None = None) -> dict[str, float]:
-    """The file's start configuration ``[initial] q`` as numbers (rad, m), coordinate name ->
-    value, evaluated with the parameter defaults overridden by ``params``; coordinates not named
-    start at 0."""
-    return read_model_file(path, nrfe).initial_values(params)
-
-
-def locate(path, error: GpmegenError, nrfe: int | None = None) -> GpmegenError:
-    """``error`` (e.g. a DerivationError from deriving a model read from ``path``) as an error of
-    the same type whose message starts with the file, line and field it is about. Reads the
-    file again: :meth:`ModelFile.locate` on the file already read does not."""
-    return read_model_file(path, nrfe).locate(error)

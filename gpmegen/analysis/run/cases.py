@@ -14,11 +14,11 @@ from ...errors import BuildError, DerivationError, ModelError
 from ...folder import read_start, write_start
 from ...model.chain import Joint
 from ...model.size import coordinate_count
-from ...model.toml_file import read_model_file
 from ...runtime.loader import open_folder
 from ...symbolic.forces import check_apart
 from ..post import feedforward, law_references
-from . import loading, set_at_start, study
+from . import loading, recorded_start, set_at_start, study
+from .model_files import read_model_file
 
 if TYPE_CHECKING:
     from ...model import Model
@@ -114,7 +114,7 @@ class Case:
         return self._described(model, ".9f") if self.declared is not None else ""
 
     def _described(self, model, form) -> str:
-        units = {p.name: p.unit for p in self.source.parameters}
+        units = {p.name: p.unit for p in self.source.parameters} if self.source is not None else {}
         return set_at_start.described(self.declared, model, units, form)
 
     def metadata(self, model) -> dict:
@@ -306,19 +306,26 @@ class FileCase(ModelCase):
         return {"file": str(Path(self.path).resolve()), "nrfe": self.nrfe}
 
     def record_start(self, folder) -> None:
-        """The file's ``[initial]`` at the parameter defaults, for :class:`FolderCase`."""
-        write_start(folder, *self.initial(None))
+        """The file's ``[initial]`` at the parameter defaults, and the parameters its start sets as
+        the file gives them, for :class:`FolderCase`."""
+        write_start(folder, *self.initial(None), self.file.start_text)
 
 
 class FolderCase(ModelCase):
     """A model built by ``gpmegen build --out`` and opened from its ``folder`` (the files its
     manifest records), without its source: it starts from the model file's ``[initial]`` at the
     parameter defaults that the build recorded (:func:`gpmegen.folder.read_start`; at rest at
-    q = 0 without one), and parameter values are not checked against the model's physical
-    bounds (those live in the source)."""
+    q = 0 without one), with the parameters the file's start sets bound as the file's runs bind
+    them (:mod:`gpmegen.analysis.run.recorded_start`), and parameter values are not checked
+    against the model's physical bounds (those live in the source)."""
 
     def __init__(self, folder, manifest):
         self.folder, self.manifest = Path(folder), manifest
+
+    @cached_property
+    def declared(self):
+        """The parameters the start sets, as the build recorded them (None: none)."""
+        return recorded_start.declared(self.folder, self.manifest)
 
     @property
     def model(self):

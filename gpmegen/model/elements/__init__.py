@@ -3,6 +3,6 @@
 :mod:`.registry`; one module per built-in kind."""
 
 from . import closures, controllers, forces  # noqa: F401  (the built-in kinds, registered in this order)
-from .registry import Element, ElementKind, get, kinds, register, tables, unregister
+from .registry import Element, ElementKind, check, get, kinds, register, tables, unregister
 
-__all__ = ["Element", "ElementKind", "get", "kinds", "register", "tables", "unregister"]
+__all__ = ["Element", "ElementKind", "check", "get", "kinds", "register", "tables", "unregister"]

@@ -1,5 +1,5 @@
-"""Reading a model file's programmed constraints and closures, the dependent (prescribed)
-coordinates, the actuators and the initial values. A mixin of
+"""Reading a model file's programmed constraints, the dependent (prescribed) coordinates, the
+actuators and the initial values; dropping the closures' rows that vanish identically. A mixin of
 :class:`~gpmegen.model.file.reader.Reader`."""
 
 from __future__ import annotations
@@ -8,32 +8,31 @@ import difflib
 
 from ...errors import ModelError, ModelWarning
 from ..chain import (
-    AXES,
-    CLOSURE_TYPES,
     TIME,
     Body,
-    Closure,
     Constraint,
     FlexibleLink,
     acceleration_symbol,
     check_name,
-    closure_rows,
     point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
     symbol,
     velocity_symbol,
 )
-from ..elements import get as element_kind
-from ..expand import expand
-from ..requirements import evaluate
 from ..rfem import discretize
 from ..start_constants import StartConstants
 from .schema import kind_of
 
 
+def prescribed_name(coordinate: str) -> str:
+    """The name of the constraint that prescribes the joint of ``coordinate``."""
+    return f"prescribed_{coordinate}"
+
+
 class ConstraintReading:
-    """Constraints, closures, dependent coordinates, actuators and initial values (a mixin of the Reader)."""
+    """Constraints, dependent coordinates, actuators and initial values; the closures' rows that
+    vanish identically (a mixin of the Reader)."""
 
     def constraint_scope(self, order):
         """The names a constraint of ``order`` may use: parameters, t, coordinates and point
@@ -78,86 +77,38 @@ class ConstraintReading:
             constraints.append(Constraint(name, expr, order, **extra))
         return tuple(constraints)
 
-    def taken_names(self, chain, constraints, closures=()) -> dict:
-        """The file's names so far (parameters, coordinates, points, bodies, constraints, closures
-        and their rows), each with what it names."""
-        bodies = [part.name for element in chain
+    def taken_names(self, constraints=(), closures=()) -> dict:
+        """The file's names so far (parameters, coordinates, points, bodies, the names
+        ``constraints``, ``closures`` and their rows), each with what it names."""
+        bodies = [part.name for element in self.chain
                   for part in (discretize(element) if isinstance(element, FlexibleLink) else (element,))
                   if isinstance(part, Body)]
         return {**{name: "parameter" for name in self.params}, **{name: "coordinate" for name in self.coordinates},
                 **{name: "point" for name in self.points}, **{name: "body" for name in bodies},
-                **{c.name: "constraint" for c in constraints},
+                **{name: "constraint" for name in constraints},
                 **{name: "closure" for closure in closures for name in (closure.name,)}}
 
-    def read_closures(self, items, constraints, chain) -> tuple:
-        """The ``[[closures]]`` as :class:`Closure` with all the rows of their type (the ones that
-        vanish identically are dropped later: :meth:`drop_vanishing`); each name, and the names of
-        the rows it writes, checked against every name of the file."""
-        self.array(items, ("closures",), what="list of [[closures]] tables")
-        taken = self.taken_names(chain, constraints)
-        closures = []
-        for k, item in enumerate(items):
-            path = ("closures", k)
-            self.entry(item, path, element_kind("closures"))
-            name = self.name(item["name"], path + ("name",), "closure")
-            kind = item.get("type", "point")
-            if kind not in CLOSURE_TYPES:
-                close = difflib.get_close_matches(str(kind), CLOSURE_TYPES, 1)
-                hint = f"did you mean {close[0]!r}? " if close else ""
-                self.fail(path + ("type",), f"closure {name!r}: unknown type {kind!r}; {hint}use "
-                                            + ", ".join(f'"{t}"' for t in CLOSURE_TYPES))
-            axis = item.get("axis")
-            if kind == "point" and axis is not None:
-                self.fail(path + ("axis",), f"closure {name!r}: a point closure takes no axis; remove it, or use "
-                                            f"type = \"revolute\" or \"prismatic\"")
-            if kind != "point" and axis is None:
-                self.fail(path, f"closure {name!r}: a {kind} closure needs its axis; add axis = \"x\", \"y\" or "
-                                f"\"z\" (of the frame of its first point)")
-            if kind != "point":
-                self.choice(axis, path + ("axis",), AXES, "closure axis")
-            points = self.point_pair(item["points"], path + ("points",), f"closure {name!r}")
-            gains = {}
-            for key in ("alpha", "beta"):
-                if key in item:
-                    gains[key] = self.quantity(item[key], path + (key,), self.params)
-                    value = evaluate(gains[key], self.defaults)
-                    if value is not None and value < 0:
-                        self.fail(path + (key,), f"closure {name!r}: negative {key} {value:g}; Baumgarte gains must "
-                                                 f"be zero or positive")
-            closure = Closure(name, points, kind, axis, closure_rows(kind, axis), **gains)
-            named = [(f"closure {name!r}", name)] + [(f"the row {label!r} of closure {name!r}", closure.row_name(label))
-                                                     for label in closure.rows]
-            for what, text in named:
-                if text in taken:
-                    self.fail(path + ("name",), f"{what} is named {text!r}, and that name is already taken by a "
-                                                f"{taken[text]}; rename the closure")
-                try:
-                    check_name(text, "closure row")
-                except ModelError as exc:
-                    raise self.error(path + ("name",), f"{exc}: shorten the closure's name") from None
-                taken[text] = "closure" if text == name else "closure row"
-            closures.append(closure)
-        return tuple(closures)
+    def constraint_names(self) -> tuple:
+        """The names of the model's constraints known so far: the file's, the rows of the
+        element kinds read, and those the reader writes after them (each prescribed joint's,
+        :meth:`prescribe`; a URDF's mimic joints')."""
+        return (tuple(c.name for c in self.constraints) + tuple(prescribed_name(q) for q in self.prescribed)
+                + tuple(c.name for c in self.mimic))
 
-    def drop_vanishing(self, model, chain):
+    def drop_vanishing(self, model):
         """``model`` without the rows of its closures that vanish identically (one warning line
         each, naming the closure and the row); a row whose value is a constant other than zero
-        (the points can never meet along it) is refused."""
+        (the points can never meet along it) is refused. The rows are judged by the reader's
+        ``row_kinds`` (each closure row's name -> "zero", "constant" or ""), which the caller
+        derives from the chain's kinematics in the layer above this one
+        (:func:`gpmegen.analysis.run.model_files.closure_row_kinds`)."""
         import dataclasses
         import warnings
 
-        # The layer above the model's: these rows are judged from the derived kinematics of the
-        # model being read (an exception of the import contracts in pyproject.toml).
-        from ...symbolic.constraints import constant_rows
-        from ...symbolic.kinematics import forward
-        from ...symbolic.program import Program
-
         try:
-            flat = expand(dataclasses.replace(model, dependent=None))
+            kinds = self.row_kinds(dataclasses.replace(model, dependent=None))
         except ModelError:
             return model   # the full check reports it
-        rows = [row for closure in model.closures for row in closure.constraints()]
-        kinds = dict(zip((row.name for row in rows), constant_rows(forward(flat, Program()), rows)))
         closures, dropped = [], set()
         for k, closure in enumerate(model.closures):
             kept = []
@@ -180,17 +131,18 @@ class ConstraintReading:
         return dataclasses.replace(model, closures=tuple(closures),
                                    constraints=tuple(c for c in model.constraints if c.name not in dropped))
 
-    def prescribe(self, constraints, dependent, closures=False):
+    def prescribe(self, constraints, dependent, rows=()):
         """``constraints`` and ``dependent`` with each prescribed joint's law written as the
         position constraint ``prescribed_<q>: q - law(t) = 0``, after the file's own, and ``q``
         dependent: the GPME prescribes a joint's motion by a programmed constraint with that
-        joint's coordinate dependent. The one place this is written."""
+        joint's coordinate dependent. The one place this is written. ``rows``: the tables of the
+        element kinds whose rows are among ``constraints`` (``closures``), for the message."""
         if not self.prescribed:
             return constraints, dependent
         taken = {c.name for c in constraints} | set(self.params) | set(self.coordinates) | set(self.points)
         written = []
         for name, (law, here) in self.prescribed.items():
-            cname = f"prescribed_{name}"
+            cname = prescribed_name(name)
             try:
                 check_name(cname, "the name of the constraint that prescribed writes")
             except ModelError as exc:
@@ -203,8 +155,8 @@ class ConstraintReading:
                                                                 f"already; remove it from dependent")
             written.append(Constraint(cname, symbol(name) - law))
         if dependent is None and constraints:
-            rows = "[[constraints]] and the rows of the [[closures]] kept" if closures else "[[constraints]]"
-            self.fail(("dependent",), f"with prescribed joints, list the dependent coordinates of the {rows} "
+            listed = "[[constraints]]" + "".join(f" and the rows of the [[{table}]] kept" for table in rows)
+            self.fail(("dependent",), f"with prescribed joints, list the dependent coordinates of the {listed} "
                                       "(one per constraint; the prescribed joints are added after them): write "
                                       "dependent = [\"...\"]")
         return constraints + tuple(written), tuple(dependent or ()) + tuple(self.prescribed)
@@ -241,7 +193,8 @@ class ConstraintReading:
     def read_initial(self, table):
         """``[initial] q`` and ``qd``: coordinate name -> quantity, for positions and velocities;
         and ``set``: the :class:`StartConstants` taken at the locked statics of ``q`` (None
-        without ``set``)."""
+        without ``set``), kept too as the file gives them in ``self.start_text`` (``at`` and
+        ``values``: [name, number or expression string] pairs), which a built folder records."""
         path = ("initial",)
         self.table(table, path, ("q", "qd", "set"), what="initial table")
         q, qd = (self.read_coordinate_values(table.get(key, {}), path + (key,)) for key in ("q", "qd"))
@@ -255,6 +208,8 @@ class ConstraintReading:
                 hint = f"did you mean {close[0]!r}? " if close else ""
                 self.fail(path + ("set", name), f"{name!r} is not a parameter; {hint}the start sets parameters "
                                                 f"declared under [parameters]")
+        self.start_text = {"at": [[name, value] for name, value in table.get("q", {}).items()],
+                           "values": [[name, value] for name, value in values.items()]}
         return q, qd, StartConstants(
             at=tuple(q.items()),
             values=tuple((name, self.quantity(value, path + ("set", name), scope)) for name, value in values.items()))

@@ -2,8 +2,8 @@
 own (:class:`gpmegen.model.computed_torque.ComputedTorque`), read after the rest of the file and expanded with it.
 
 The controller model is another model file, read by the ``load`` the caller passes (the file
-reader itself, :func:`gpmegen.model.toml_file.read_model_file`), so that this module does not
-import it back.
+reader itself, :func:`gpmegen.model.toml_file.read_file`), so that this module does not import it
+back.
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
-"""Reading what acts on a model file's chain: signals, controllers, drives and their laws, force
-elements. A mixin of :class:`~gpmegen.model.file.reader.Reader`."""
+"""Reading what acts on a model file's chain: signals, drives and their laws, and the entries of
+the element kinds (``[[forces]]``, ``[[closures]]``, ``[[controllers]]``, any kind registered),
+each read by its kind (:mod:`gpmegen.model.elements`). A mixin of
+:class:`~gpmegen.model.file.reader.Reader`."""
 
 from __future__ import annotations
 
@@ -7,28 +9,23 @@ import difflib
 from pathlib import Path
 
 from ..chain import (
-    FORCE_TYPES,
     MAX_SIGNALS,
     TIME,
-    Controller,
     Drive,
-    ForceElement,
     Signal,
     point_acceleration_symbols,
     point_symbols,
     point_velocity_symbols,
-    symbol,
 )
-from ..elements import get as element_kind
 from ..elements import kinds as element_kinds
-from ..law_checks import FORCE_KEYS, FORCE_OF_ACCELERATIONS, RATE_OF_ACCELERATIONS
+from ..law_checks import FORCE_OF_ACCELERATIONS
 from .schema import (
     SIGNAL_KEYS,
 )
 
 
 class ElementReading:
-    """Signals, controllers, drives and force elements (a mixin of the Reader)."""
+    """Signals, drives and the element kinds' entries (a mixin of the Reader)."""
 
     def expression_names(self) -> dict:
         """What every name of an expression stands for beside parameters and t: coordinates,
@@ -109,29 +106,6 @@ class ElementReading:
                                        f"\"{point}\" element")
         return points
 
-    def read_controllers(self, items, chain) -> tuple:
-        """The ``[[controllers]]`` as :class:`Controller`: each state a name of its own among the
-        file's names, its ``rate`` a law of t, parameters, positions and velocities, signals and
-        the controller states (any of them, read before the rates), ``initial`` of parameters."""
-        self.array(items, ("controllers",), what="list of [[controllers]] tables")
-        taken = {**self.taken_names(chain, ()), **self.expression_names(),
-                 **{name: "a signal" for name in self.signal_scope()}}
-        states: dict[str, tuple] = {}
-        for k, item in enumerate(items):
-            path = ("controllers", k)
-            self.entry(item, path, element_kind("controllers"))
-            name = self.name(item["state"], path + ("state",), "controller state", bare=True)
-            self.fresh_name(name, path + ("state",), "controller state", taken, states)
-        self.controller_states = {name: symbol(name) for name in states}
-        scope = {**self.constraint_scope(1), **self.signal_scope(), **self.controller_states}
-        controllers = []
-        for k, item in enumerate(items):
-            path = ("controllers", k)
-            rate = self.law(item["rate"], path + ("rate",), "a controller state's rate", scope, RATE_OF_ACCELERATIONS)
-            initial = self.quantity(item.get("initial", 0), path + ("initial",), self.params)
-            controllers.append(Controller(item["state"], rate, initial))
-        return tuple(controllers)
-
     def read_drives(self, items):
         self.array(items, ("drives",), what="list of [[drives]] tables")
         # a feedback law: t, parameters, positions and velocities; the signals and controller states
@@ -156,58 +130,22 @@ class ElementReading:
         finally:
             self.reading_drive, self.reading_why = "", FORCE_OF_ACCELERATIONS
 
-    def read_forces(self, items, taken) -> tuple:
-        """The ``[[forces]]`` as :class:`ForceElement`: each name free among the file's names
-        (``taken``: name -> what it is), its type with the keys it needs, two points of the chain."""
-        self.array(items, ("forces",), what="list of [[forces]] tables")
-        forces = []
-        for k, item in enumerate(items):
-            path = ("forces", k)
-            self.entry(item, path, element_kind("forces"))
-            name = self.name(item["name"], path + ("name",), "force")
-            if name in taken:
-                self.fail(path + ("name",), f"force {name!r}: the name is already taken by a {taken[name]}; "
-                                            f"rename the force")
-            taken[name] = "force"
-            kind = self.choice(item["type"], path + ("type",), FORCE_TYPES, "force type")
-            needed, allowed = FORCE_KEYS[kind]
-            for key in ("stiffness", "rest_length", "damping", "force"):
-                if key in item and key not in allowed:
-                    self.fail(path + (key,), f"force {name!r}: a {kind} takes no {key}; remove it, or use the type "
-                                             f"that has it")
-            if not any(key in item for key in needed):
-                article = "an" if kind[0] in "aeiou" else "a"
-                self.fail(path, f"force {name!r}: {article} {kind} needs " + " or ".join(needed) + "; add "
-                                + " = ... or ".join(needed) + " = ...")
-            if kind == "spring-damper" and "stiffness" in item and "rest_length" not in item:
-                self.fail(path, f"force {name!r}: a spring needs its rest_length (m) with its stiffness; add "
-                                f"rest_length = ...")
-            points = self.point_pair(item["points"], path + ("points",), f"force {name!r}")
-            if points[0] == points[1]:
-                self.fail(path + ("points", 1), f"force {name!r}: the point {points[0]!r} is named twice, so the "
-                                                f"force has no line; name two different points")
-            values = {key: self.quantity(item[key], path + (key,), self.params)
-                      for key in ("stiffness", "rest_length", "damping") if key in item}
-            if kind == "actuator":
-                values["force"] = self.law(item["force"], path + ("force",), "an actuator's")
-            forces.append(ForceElement(name, points, kind, **values))
-        return tuple(forces)
-
     def entry(self, item, path, kind) -> None:
         """Refuse the entry ``item`` (at ``path``) of the element kind ``kind`` unless it is a
         table of that kind's keys holding its required ones."""
         self.table(item, path, kind.keys, kind.required, kind.what)
 
-    def read_elements(self, data) -> tuple:
-        """The entries of the registered element kinds held in ``Model.elements`` (those that
-        are no field of their own), kind by kind in the registry's order, each read by its kind."""
-        elements = []
+    def read_kinds(self, data) -> tuple[dict, list]:
+        """The entries of every element kind (:mod:`gpmegen.model.elements`), kind by kind in
+        the registry's order, each read by its kind from its table's array: ``Model`` field ->
+        the entries of the kinds that fill it, and the tables of the kinds that wrote constraint
+        rows. As each kind is read, its entries join ``self.entries`` and its rows
+        ``self.constraints``, for the kinds after it."""
+        rows = []
         for kind in element_kinds():
-            if kind.field is not None:
-                continue
-            items = data.get(kind.table, [])
-            self.array(items, (kind.table,), what=f"list of [[{kind.table}]] tables")
-            for k, item in enumerate(items):
-                self.entry(item, (kind.table, k), kind)
-                elements.append(kind.read(self, item, (kind.table, k)))
-        return tuple(elements)
+            entries = tuple(kind.read_all(self, data.get(kind.table, [])))
+            self.entries[kind.field] = self.entries.get(kind.field, ()) + entries
+            written = tuple(kind.rows(entries))
+            self.constraints += written
+            rows += [kind.table] if written else []
+        return dict(self.entries), rows

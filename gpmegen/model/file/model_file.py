@@ -24,7 +24,10 @@ class ModelFile:
     ``prescribed = "law(t)"``, whose constraints the model holds. ``actuators``: the coordinates
     whose inputs realize the constraints (empty: ideally). ``limits``: coordinate -> (lower,
     upper, velocity, unit) of the URDF's joints (:attr:`gpmegen.model.urdf.ImportedRobot.limits`),
-    which runs are checked against afterwards."""
+    which runs are checked against afterwards. ``start_text``: the ``[initial] q`` and ``set`` of
+    a file that sets parameters at its start, as the file gives them (``at``, ``values``: [name,
+    number or expression string] pairs; None without ``set``), which a built folder records
+    (:mod:`gpmegen.analysis.run.recorded_start`)."""
 
     path: str
     model: Model
@@ -34,6 +37,7 @@ class ModelFile:
     prescribed: dict = field(default_factory=dict)
     actuators: tuple = ()
     limits: dict = field(default_factory=dict, compare=False)
+    start_text: dict | None = field(default=None, compare=False)
 
     @functools.cached_property
     def _locator(self) -> Locator:

@@ -17,6 +17,7 @@ from ..chain import (
     check_name,
     symbol,
 )
+from ..elements import kinds as element_kinds
 from ..expand import expand
 from ..law_checks import FORCE_OF_ACCELERATIONS
 from ..requirements import evaluate
@@ -37,8 +38,9 @@ from .values import ValueReading
 class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
     """Reads one parsed file into a Model; every failure names the file, line and field."""
 
-    def __init__(self, path, text: str, nrfe):
+    def __init__(self, path, text: str, nrfe, row_kinds):
         self.file = str(path)
+        self.row_kinds = row_kinds   # a model's closure rows judged (ConstraintReading.drop_vanishing)
         self.source = text
         self.nrfe_argument = nrfe
         self.params: dict[str, sp.Symbol] = {}
@@ -54,6 +56,11 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         self.controller_states: dict[str, sp.Symbol] = {}   # a controller state's name -> its symbol
         self.signal_expressions: dict[str, sp.Expr] = {}   # a signal given by an expression: name -> it
         self.table_signals: dict[str, Signal] = {}   # a signal read from a table: name -> it
+        self.chain: tuple = ()
+        self.constraints: tuple = ()   # the file's programmed constraints, then the element kinds' rows
+        self.mimic: tuple = ()   # the constraints of a URDF's mimic joints
+        self.entries: dict[str, tuple] = {}   # a Model field -> the entries of the element kinds read so far
+        self.start_text: dict | None = None   # [initial] q and set as the file gives them (read_initial)
 
     @functools.cached_property
     def locator(self) -> Locator:
@@ -110,28 +117,25 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
         up = [0, 0, "-g"] if "urdf" in data else [0, 0, 0]   # URDF robots are described z up
         gravity = self.read_vector(data.get("gravity", up), ("gravity",), self.params)
         signals = self.read_signals(data.get("signals", []))
-        controllers = self.read_controllers(data.get("controllers", []), chain)
-        drives = self.read_drives(data.get("drives", []))
-        constraints = self.read_constraints(data.get("constraints", []))
-        closures = self.read_closures(data.get("closures", []), constraints, chain)
-        constraints += tuple(row for closure in closures for row in closure.constraints())
+        self.chain, self.mimic = chain, robot.constraints if robot is not None else ()
+        self.constraints = self.read_constraints(data.get("constraints", []))
+        fields, rows = self.read_kinds(data)   # the element kinds' entries; their rows join the constraints
+        drives = self.read_drives(data.get("drives", []))   # after the controllers, whose states they read
         dependent = self.read_dependent(data.get("dependent", "auto"))
-        constraints, dependent = self.prescribe(constraints, dependent, bool(closures))
-        if robot is not None and robot.constraints:   # the URDF's mimic joints follow their leaders
-            constraints += robot.constraints
+        constraints, dependent = self.prescribe(self.constraints, dependent, rows)
+        if self.mimic:   # the URDF's mimic joints follow their leaders
+            constraints += self.mimic
             dependent = None if dependent is None else tuple(dependent) + robot.dependent
         initial, initial_qd, start = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
-        forces = self.read_forces(data.get("forces", []), self.taken_names(chain, constraints, closures))
         presentation = read_presentation(self, data["presentation"], constraints) if "presentation" in data else None
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
-            constraints=constraints, dependent=dependent, description=description, closures=closures,
-            signals=signals, forces=forces, controllers=controllers, start_constants=start,
-            elements=self.read_elements(data), presentation=presentation,
+            constraints=constraints, dependent=dependent, description=description, signals=signals,
+            start_constants=start, presentation=presentation, **fields,
         )
-        if closures:
-            model = self.drop_vanishing(model, chain)
+        for kind in element_kinds():
+            model = kind.finish(self, model)
         if laws is not None:
             model = laws(model)
         self.check_requirements(model)   # the controller's believed bounds too (requirements._believed)
@@ -143,7 +147,7 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             raise located(exc, self.file, self.locator, chain) from None
         laws = {name: law for name, (law, _) in self.prescribed.items()}
         return ModelFile(self.file, model, initial, self.source, initial_qd, prescribed=laws, actuators=actuators,
-                         limits=robot.limits if robot is not None else {})
+                         limits=robot.limits if robot is not None else {}, start_text=self.start_text)
 
     def read_parameters(self, table):
         path = ("parameters",)
