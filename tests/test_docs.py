@@ -116,8 +116,9 @@ def test_every_toml_block_loads_as_a_model_file_or_a_fragment_of_one(block, tmp_
     read_model_file(path)
 
 
-# tables whose keys are the model's own names (params: a controller's)
-FREE_NAMES = ("parameters", "q", "qd", "set", "params")
+# tables whose keys are the model's own names (params: a controller's; coordinates and
+# constraint_units: [presentation]'s labels of its coordinates and constraints)
+FREE_NAMES = ("parameters", "q", "qd", "set", "params", "coordinates", "constraint_units")
 
 
 def _keys(table: dict):

@@ -1,7 +1,8 @@
 """The reference case is data, not names: generic code reads the flexible link's length, stiffness
 and mass from the link itself, so a copy of the reference's model file with every parameter and
 the model renamed gives the same beam-theory values, the same convergence study and its figure;
-and no module of gpmegen outside those that hold the reference case names its parameters."""
+and no module of gpmegen outside the one that holds the reference model names its parameters, its
+joints or its name."""
 
 from __future__ import annotations
 
@@ -14,12 +15,13 @@ import numpy as np
 import gpmegen
 from gpmegen.analysis.discretization import convergence
 from gpmegen.analysis.figures import modes_output
-from gpmegen.model.reference import PARAMETERS
+from gpmegen.model.chain import Joint
+from gpmegen.model.reference import PARAMETERS, reference_model
 
 ROOT = Path(__file__).resolve().parents[1]
 ORIGINAL = ROOT / "examples" / "manipulator.toml"
-# where the reference case's data lives: its model and its scenario
-HOLDERS = {Path("gpmegen/model/reference.py"), Path("gpmegen/analysis/run/reference_case.py")}
+# where the reference case's data lives: its model (its scenario, ReferenceCase, reads it from there)
+HOLDERS = {Path("gpmegen/model/reference.py")}
 
 
 def _renamed_copy(folder: Path) -> tuple[Path, dict]:
@@ -74,8 +76,9 @@ def _string_constants(path: Path) -> set[str]:
 
 def test_no_generic_module_names_the_references_parameters():
     """Outside the reference case's own modules, no string literal of gpmegen is one of its
-    parameters' names (one-letter ones, g, A, T, are too common to tell: left out)."""
-    names = {p.name for p in PARAMETERS if len(p.name) > 1}
+    parameters' names (one-letter ones, g, A, T, and t0, any window's start time in s, are too
+    common to tell: left out)."""
+    names = {p.name for p in PARAMETERS if len(p.name) > 1} - {"t0"}
     found = {}
     for path in sorted((ROOT / "gpmegen").rglob("*.py")):
         relative = path.relative_to(ROOT)
@@ -85,3 +88,21 @@ def test_no_generic_module_names_the_references_parameters():
         if hits:
             found[str(relative)] = sorted(hits)
     assert found == {}, f"modules that read the reference's parameters by name: {found}"
+
+
+def test_no_generic_module_names_the_references_joints_or_its_model():
+    """Outside the reference model's module, no string literal of gpmegen is one of its joints'
+    names (the figures' labels come from its presentation) or its model's name, whole or as the
+    start of a pattern (a built folder is recognized by its input hash, not its name)."""
+    joints = {element.name for element in reference_model(2).chain if isinstance(element, Joint)}
+    assert joints == {"theta1", "psi2", "x3"}
+    found = {}
+    for path in sorted((ROOT / "gpmegen").rglob("*.py")):
+        relative = path.relative_to(ROOT)
+        if relative in HOLDERS:
+            continue
+        strings = _string_constants(path)
+        hits = (joints & strings) | {s for s in strings if s.startswith("manipulator_nrfe")}
+        if hits:
+            found[str(relative)] = sorted(hits)
+    assert found == {}, f"modules that name the reference's joints or model: {found}"

@@ -360,6 +360,9 @@ class Model:
     so of the input hash, since the generated code does not depend on it.
     ``elements``: the entries of the element kinds registered from outside
     (:class:`gpmegen.model.elements.Element`), each adding its own terms.
+    ``presentation``: how its runs are shown in figures
+    (:class:`gpmegen.model.presentation.Presentation`), or None; left out of ``repr`` too: text
+    for figures only, never for the generated code.
     """
 
     name: str
@@ -378,6 +381,7 @@ class Model:
     task_torque: object = None
     elements: tuple = ()
     start_constants: object = field(default=None, repr=False)
+    presentation: object = field(default=None, repr=False)
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

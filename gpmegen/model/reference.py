@@ -20,6 +20,7 @@ from .chain import (
     point_symbols,
     symbol,
 )
+from .presentation import Prescribed, Presentation
 from .shapes import shape_quantities, solid_cylinder
 from .start_constants import StartConstants
 
@@ -60,6 +61,30 @@ def start_constants() -> StartConstants:
     x, y, z = point_symbols("E")
     return StartConstants(at=(("theta1", sp.S.Zero), ("psi2", sp.pi / 4), ("x3", sp.S.Zero)),
                           values=(("r_Ea", sp.sqrt(x**2 + z**2)), ("y_c", y - P["A"])))
+
+
+def prescribed_height(P: dict):
+    """Eq. 18: the height of E (m) the height constraint prescribes; ``P`` maps parameter names
+    to symbols."""
+    return P["y_c"] + P["A"] * sp.cos(2 * sp.pi * TIME / P["T"])
+
+
+def presentation(nrfe: int) -> Presentation:
+    """How the paper labels the runs of the arm with ``nrfe`` rfes (1: the rigid arm): its joints
+    and constraints with units, the paper's figures, and the prescribed height of E; the rigid
+    and flexible arms' start points tagged E'_r and E'_f on opposite sides (they lie close)."""
+    rigid = nrfe == 1
+    P = {p.name: p.symbol for p in PARAMETERS}
+    return Presentation(
+        label="rigid arm" if rigid else f"flexible arm, n_rfe = {nrfe}",
+        coordinates=(("theta1", "θ1 [rad]"), ("psi2", "ψ2 [rad]"), ("x3", "x3 [m]")),
+        constraint_units=(("circle", "m²"), ("height", "m")),
+        figures=(("joint_coordinates", "paper Fig. 2"), ("end_effector", "paper Fig. 3"), ("path", "paper Fig. 4")),
+        start_tag=r"$E'_r$" if rigid else r"$E'_f$",
+        colour="C0" if rigid else "C2",
+        tag_offset=(-22, 8) if rigid else (8, -14),
+        prescribed=Prescribed(1, "prescribed y_E,a", prescribed_height(P)),
+    )
 
 
 def drive_torque(t, tdr0, t0):
@@ -106,7 +131,7 @@ def reference_model(nrfe: int = 5) -> Model:
         Constraint("circle", x**2 + z**2 - P["r_Ea"] ** 2, 0, P["alpha_circle"], P["beta_circle"]),
         # eq. 3 with eq. 18: prescribed height of E
         Constraint(
-            "height", y - (P["y_c"] + P["A"] * sp.cos(2 * sp.pi * t / P["T"])), 0,
+            "height", y - prescribed_height(P), 0,
             P["alpha_height"], P["beta_height"],
         ),
     )
@@ -120,6 +145,7 @@ def reference_model(nrfe: int = 5) -> Model:
         dependent=("psi2", "x3"),
         description="three-link spatial manipulator: rotary column, flexible rotary arm, slider",
         start_constants=start_constants(),
+        presentation=presentation(nrfe),
     )
 
 

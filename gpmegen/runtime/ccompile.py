@@ -17,7 +17,7 @@ into every model library, whose generated ``model.c`` includes its header ``gpme
 and hands it the model's descriptor. A model library's key includes the solver's.
 
 The functions to bind are those the header declares (:func:`declarations`). Their C names carry
-the model's name as prefix (``manipulator_nrfe5_mass_matrix``), so that several models link into
+the model's name as prefix (``arm_nrfe3_mass_matrix`` for the model ``arm_nrfe3``), so that several models link into
 one program; the binding :func:`load_library` returns names them without it (:func:`short_names`).
 """
 

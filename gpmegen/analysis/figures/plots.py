@@ -2,8 +2,9 @@
 and energy balance, for one or more runs of one model drawn together.
 
 Each run keeps its colour and line style in every figure (:func:`styles`); the legend sits under
-the axes; titles name the model, and the paper's figure number appears, in a caption line, only
-when every run is the paper's case. Figures are byte-reproducible: the layout is made once and
+the axes; titles name the model, and the figure of a source a figure corresponds to (the paper's
+figure number for the reference arm: its model's presentation) appears, in a caption line, only
+when every run names the same. Figures are byte-reproducible: the layout is made once and
 rounded, the files carry no dates and SVG ids come from a fixed salt.
 """
 
@@ -118,7 +119,7 @@ def joint_names(results) -> list:
 
 def family(results) -> str:
     """The model a run belongs to, whatever its number of rfes: its name without a trailing
-    ``nrfe<N>`` (``manipulator_nrfe5`` → ``manipulator``)."""
+    ``nrfe<N>`` (``arm_nrfe3`` → ``arm``)."""
     return re.sub(r"[_-]?nrfe\d+$", "", metadata(results)["model"]) or metadata(results)["model"]
 
 

@@ -6,7 +6,8 @@ component's ``x_r(t)`` of its point: expressions of ``t`` and the plant's parame
 generated drive forces were derived from, evaluated here at the saved times with the run's
 parameter values. The task law's point is the controller model's, at the plant's joint
 coordinates (what the law acts on), not the plant's own point of that name: so the saved error is
-the one the law acted on.
+the one the law acted on. Other expressions of time and the parameters (a presentation's
+prescribed coordinate) are evaluated along a run the same way (:func:`along`).
 """
 
 from __future__ import annotations
@@ -21,13 +22,15 @@ from ...symbolic.computed_torque import controller_outputs
 from ...symbolic.program import Program
 
 
-def _references(references, model, loaded, t) -> np.ndarray:
-    """The expressions ``references`` of ``t`` and the plant's parameters at the times ``t``
-    (k,) with the loaded model's parameter values: (k, r)."""
+def along(expressions, model, loaded, t) -> np.ndarray:
+    """``expressions`` of time and the parameters of the symbolic ``model`` (a law's references,
+    a presentation's prescribed coordinate) at the saved times ``t`` (k,) s, at the parameter
+    values of ``loaded`` (the run's): (k, r), r expressions."""
     params = [p.symbol for p in model.parameters]
     values = [loaded.params[p.name] for p in model.parameters]
-    evaluate = sp.lambdify([TIME, params], list(references), modules="numpy")
-    # a constant reference evaluates to a number: broadcast it over the samples
+    evaluate = sp.lambdify([TIME, params], list(expressions), modules="numpy")
+    t = np.asarray(t, dtype=float)
+    # a constant expression evaluates to a number: broadcast it over the samples
     return np.stack([np.broadcast_to(np.asarray(r, dtype=float), t.shape) for r in evaluate(t, values)], axis=-1)
 
 
@@ -57,12 +60,12 @@ def reference_arrays(model, loaded, t, q) -> dict:
     t = np.asarray(t, dtype=float)
     joint, task = getattr(model, "computed_torque", None), getattr(model, "task_torque", None)
     if joint is not None:
-        reference = _references(joint.references, model, loaded, t)
+        reference = along(joint.references, model, loaded, t)
         columns = [loaded.index(name) for name in joint.coordinates]
         return {"reference_coordinates": np.array(joint.coordinates), "q_reference": reference,
                 "tracking_error": reference - np.asarray(q)[:, columns]}
     if task is not None:
-        reference = _references(task.references, model, loaded, t)
+        reference = along(task.references, model, loaded, t)
         components = [point_symbols(task.point)[r].name for r in task.rows()]
         return {"reference_coordinates": np.array(components), "q_reference": reference,
                 "tracking_error": reference - _controller_point(task, loaded, q),

@@ -16,7 +16,7 @@ from ...model.chain import Joint
 from ...model.size import coordinate_count
 from ...runtime.loader import open_folder
 from ...symbolic.forces import check_apart
-from ..post import feedforward
+from ..post import feedforward, law_references
 from . import loading, recorded_start, set_at_start, study
 from .model_files import read_model_file
 
@@ -120,9 +120,17 @@ class Case:
     def metadata(self, model) -> dict:
         """What plots need beyond the results' generic metadata (see :func:`results.metadata`):
         ``label`` and those listed in :func:`gpmegen.analysis.post.results.metadata`. By default the
-        model's name, and its first four joints (not the sde rotations of its flexible links)."""
+        model's name, and its first four joints (not the sde rotations of its flexible links);
+        what the model's presentation gives (:class:`gpmegen.model.presentation.Presentation`, a
+        model file's ``[presentation]``) in their place and beside them."""
         joints = [element.name for element in self.model.chain if isinstance(element, Joint)]
-        return {"label": model.module.MODEL, "joints": joints[:4]}
+        shown = self.presentation.metadata() if self.presentation is not None else {}
+        return {"label": model.module.MODEL, "joints": joints[:4], **shown}
+
+    @property
+    def presentation(self):
+        """How the model's runs are shown (:class:`gpmegen.model.presentation.Presentation`), or None."""
+        return getattr(self.source, "presentation", None)
 
     def bound(self, loaded, params, locked=True):
         """The ``loaded`` model with the parameters the start sets (:attr:`declared`) bound as its
@@ -132,8 +140,12 @@ class Case:
         return set_at_start.bind(self.declared, loaded, params, locked)[0] if self.declared is not None else loaded
 
     def extras(self, model, results) -> dict:
-        """Arrays added to a run's results (none by default)."""
-        return {}
+        """Arrays added to a run's results: the prescribed coordinate of the presentation, if
+        any (``prescribed``, m, one per saved time), at the parameter values of the run."""
+        prescribed = self.presentation.prescribed if self.presentation is not None else None
+        if prescribed is None:
+            return {}
+        return {"prescribed": law_references.along([prescribed.value], self.source, model, results["t"])[:, 0]}
 
     def joint_limits(self) -> dict:
         """Coordinate -> (lower, upper, velocity, unit) limits a run is checked against after

@@ -4,13 +4,13 @@ Its start is the model's own declaration (:func:`gpmegen.model.reference.start_c
 model file's ``[initial] set``): the locked statics at ``θ1 = 0, ψ2 = 45°, x3 = 0`` set
 ``r_E,a`` and ``y_c``, so the motion starts on the constraints and at rest. It starts from those
 statics only: ``start="constrained"`` then moves to the equilibrium of the constrained system
-itself (no jolt when the joints are freed). What is the paper's alone is labelling: its runs are
-labelled rigid or flexible, show the prescribed height of E, and their figures name the paper's.
+itself (no jolt when the joints are freed). Its runs are labelled as the model presents them
+(:func:`gpmegen.model.reference.presentation`: rigid or flexible, the prescribed height of E, the
+paper's figures), as any case's are (:meth:`Case.metadata`).
 """
 
 from __future__ import annotations
 
-import re
 from functools import cached_property
 
 import numpy as np
@@ -18,6 +18,7 @@ import numpy as np
 from ...codegen.render import input_hash
 from ...model import reference_model
 from ...model.reference import start_constants
+from ...model.size import coordinate_count
 from ...runtime import statics
 from ...runtime.consistent import consistent, project_onto_constraints
 from ...runtime.loader import BACKENDS
@@ -61,12 +62,18 @@ class ReferenceCase(Case):
     @classmethod
     def of_manifest(cls, manifest) -> ReferenceCase | None:
         """The reference case whose generated code the folder of ``manifest`` (a built folder's
-        manifest.json) holds, or None: its model's name is one :func:`reference_model` gives
-        and its input hash that model's."""
-        match = re.fullmatch(r"manipulator_nrfe(\d+)", str(manifest["model"]))
-        if not match:
+        manifest.json) holds, or None: the one with as many coordinates as the folder's
+        (``n_dof``), when its input hash is the folder's. The model's name is not read: a model
+        of another's called like the reference arm is not taken for it."""
+        n_dof = manifest.get("n_dof")
+        if type(n_dof) is not int:
             return None
-        case = cls(int(match.group(1)))
+        # each rfe beyond the first adds as many coordinates as the second does
+        rigid = coordinate_count(reference_model(1))
+        extra, rest = divmod(n_dof - rigid, coordinate_count(reference_model(2)) - rigid)
+        if extra < 0 or rest:
+            return None
+        case = cls(extra + 1)
         return case if input_hash(case.model, BACKENDS) == manifest.get("input_hash") else None
 
     @cached_property
@@ -102,25 +109,5 @@ class ReferenceCase(Case):
     def shown(self, model) -> list[str]:
         return [name for name, _ in self.model.start_constants.at]
 
-    def metadata(self, model) -> dict:
-        rigid = self.nrfe == 1
-        return {
-            "label": "rigid arm" if rigid else f"flexible arm, n_rfe = {self.nrfe}",
-            "joints": self.shown(model),
-            "joint_labels": {"theta1": "θ1 [rad]", "psi2": "ψ2 [rad]", "x3": "x3 [m]"},
-            "constraint_units": {"circle": "m²", "height": "m"},
-            "figures": {"joint_coordinates": "paper Fig. 2", "end_effector": "paper Fig. 3", "path": "paper Fig. 4"},
-            "start_tag": r"$E'_r$" if rigid else r"$E'_f$",
-            "colour": "C0" if rigid else "C2",
-            # the rigid and flexible starting points lie close together: tags on opposite sides
-            "tag_offset": (-22, 8) if rigid else (8, -14),
-            "prescribed": {"axis": 1, "label": "prescribed y_E,a"},
-        }
-
     def locator(self) -> dict:
         return {"reference": self.nrfe}
-
-    def extras(self, model, results) -> dict:
-        """The prescribed height of E (eq. 18) at the saved times, for the figures."""
-        p = model.params
-        return {"prescribed": p["y_c"] + p["A"] * np.cos(2 * np.pi * results["t"] / p["T"])}

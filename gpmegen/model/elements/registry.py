@@ -88,7 +88,7 @@ _KINDS: dict[str, ElementKind] = {}
 #: The top-level keys of a model file that are its own, not an element kind's table: no kind may
 #: take one (its entries would be read as the file's).
 FILE_KEYS = ("schema", "name", "description", "nrfe", "gravity", "dependent", "parameters", "chain", "drives",
-             "constraints", "initial", "actuators", "urdf", "signals", "controller")
+             "constraints", "initial", "actuators", "urdf", "signals", "controller", "presentation")
 
 #: The :class:`~gpmegen.model.Model` fields a kind may fill: the tuples of entries that none of the
 #: file's own keys fills.

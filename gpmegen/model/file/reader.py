@@ -26,6 +26,7 @@ from .constraint_reading import ConstraintReading
 from .element_reading import ElementReading
 from .locator import Locator, field_text, located
 from .model_file import ModelFile
+from .presentation_section import read_presentation
 from .schema import (
     SCHEMA,
     top_keys,
@@ -127,10 +128,11 @@ class Reader(ValueReading, ChainReading, ElementReading, ConstraintReading):
             dependent = None if dependent is None else tuple(dependent) + robot.dependent
         initial, initial_qd, start = self.read_initial(data.get("initial", {}))
         actuators = self.read_actuators(data.get("actuators", []), len(constraints))
+        presentation = read_presentation(self, data["presentation"], constraints) if "presentation" in data else None
         model = Model(
             name=name, parameters=parameters, chain=chain, gravity=gravity, drives=drives,
             constraints=constraints, dependent=dependent, description=description, signals=signals,
-            start_constants=start, **fields,
+            start_constants=start, presentation=presentation, **fields,
         )
         for kind in element_kinds():
             model = kind.finish(self, model)
