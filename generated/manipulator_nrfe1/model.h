@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: b645199af648e1b2
+Input hash: b862c927dfe22e90
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

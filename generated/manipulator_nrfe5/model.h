@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5c2c2125113d43b7
+Input hash: 76a08b63c481a521
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
