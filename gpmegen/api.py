@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+import numbers
 import warnings
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
@@ -309,21 +310,16 @@ def invert(model: ModelSource = None, *, t1: float, t0: float = 0.0, pre: float 
     (default 200). An option that is none of these is refused in one line."""
     chosen = keyword_options(options, {**_FOUND, "start": None, "progress": None, "actuated": None, "nodes": 200},
                              "invert")
-    window = {"t0": t0, "t1": t1, "pre": pre, "post": post}
-    for name, value in window.items():
-        if not isinstance(value, (int, float)) or value != value or abs(value) == float("inf"):
-            raise ModelError(f"invert(): {name} = {value!r} is not a finite number of seconds; give one")
-    if not t1 > t0:
-        raise ModelError(f"invert(): t1 ({t1:g} s) must come after t0 ({t0:g} s)")
-    if not (pre > 0 and post > 0):
-        raise ModelError(f"invert(): pre ({pre:g} s) and post ({post:g} s) must be positive windows")
+    window = inversions.Window(t1=t1, t0=t0, pre=pre, post=post)
     nodes = chosen["nodes"]
-    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 2:
+    if isinstance(nodes, bool) or not isinstance(nodes, numbers.Integral) or nodes < 2:
         raise ModelError(f"invert(): nodes = {nodes!r}; give a whole number of mesh nodes, 2 or more")
     case, start = _started(model, chosen["nrfe"], chosen["start"], chosen["directory"])
     actuated = chosen["actuated"]
-    res, _ = inversions.invert(case, start, t0, t1, pre, post, nodes, dict(params or {}),
-                               None if actuated is None else list(actuated), _messages(chosen["progress"]))
+    if actuated is not None:   # one coordinate's name, or several
+        actuated = [actuated] if isinstance(actuated, str) else list(actuated)
+    res, _ = inversions.invert(case, start, window, int(nodes), dict(params or {}), actuated,
+                               _messages(chosen["progress"]))
     return runs.Results(res)
 
 

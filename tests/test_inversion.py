@@ -191,7 +191,8 @@ def test_python_invert_is_the_commands(env, tmp_path, capsys):
     assert cli.main(["invert", str(LINK), "--nrfe", "2", "--t1", "0.2", "--nodes", "80", "--out", str(out)]
                     + [f"--param={k}={v}" for k, v in MOVE.items()]) == 0
     written = results_io.load(out)
-    run = gpmegen.invert(LINK, nrfe=2, t1=0.2, nodes=80, params=MOVE)
+    # NumPy's numbers and one coordinate's name are taken as the command's numbers and list
+    run = gpmegen.invert(LINK, nrfe=2, t1=np.float64(0.2), nodes=np.int64(80), actuated="theta1", params=MOVE)
     assert [str(a) for a in run["actuators"]] == ["theta1"]
     for name in ("t", "q", "qd", "u", "drive_forces"):
         assert np.array_equal(run[name], written[name]), name
@@ -199,7 +200,8 @@ def test_python_invert_is_the_commands(env, tmp_path, capsys):
     for kwargs, message in [({"t1": 0.2, "t0": 0.3}, "t1 (0.2 s) must come after t0 (0.3 s)"),
                             ({"t1": float("nan")}, "t1 = nan is not a finite number of seconds"),
                             ({"t1": 0.2, "pre": 0.0}, "must be positive windows"),
-                            ({"t1": 0.2, "nodes": 1.5}, "give a whole number of mesh nodes")]:
+                            ({"t1": 0.2, "nodes": 1.5}, "give a whole number of mesh nodes"),
+                            ({"t1": True}, "t1 = True is not a finite number of seconds")]:
         with pytest.raises(ModelError) as caught:
             gpmegen.invert(LINK, nrfe=2, **kwargs)
         assert message in str(caught.value) and "\n" not in str(caught.value), str(caught.value)

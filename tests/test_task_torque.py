@@ -177,12 +177,45 @@ def test_run_saves_the_task_reference_and_error():
     assert np.abs(run["tracking_error"][0]).min() > 0.01   # started off the path: the error is seen
 
 
+def test_the_saved_task_error_is_the_controller_models_point():
+    """With the plant's first link 0.6 m and the controller model's 0.5 m (its default), the
+    saved error is x_r less the controller's E at the plant's joints, not the plant's E."""
+    run = gpmegen.simulate(ARM, t_end=0.2, dt=1e-3, backend="numpy", params={"L1": 0.6})
+    q1, q2 = run.coordinate("theta1"), run.coordinate("theta2")
+    x_r = np.stack([0.6 - A * (1 - np.cos(W * run.t)), L2 - A * np.sin(W * run.t) ** 2], axis=-1)
+    believed = tip(q1, q2)   # L1 = 0.5
+    plant = believed + 0.1 * np.stack([np.cos(q1), np.sin(q1)], axis=-1)
+    assert np.abs(run["q_reference"] - x_r).max() < 1e-12
+    assert np.abs(run["tracking_error"] - (x_r - believed)).max() < 1e-12
+    assert np.abs(run["tracking_error"] - (x_r - plant)).max() > 0.05
+
+
 def test_a_task_reference_that_jumps_is_warned_about(tmp_path):
     """A component's reference with a kink (ẋ_r jumps) is warned about in one line naming the
     field, as a joint law's; the smooth path is not."""
     assert derive(gpmegen.load_model_file(ARM)).warnings == ()
     text = ARM.read_text().replace('expression = "L1 - A*(1 - cos(w*t))"', 'expression = "L1 - A*Min(t, 0.5)"')
+    text = text.replace('expression = "L2 - A*sin(w*t)^2"', 'expression = "L2 - A*Heaviside(t - 0.25)"')
     (tmp_path / "ct_task_arm.toml").write_text(text)
     warnings = derive(gpmegen.load_model_file(tmp_path / "ct_task_arm.toml")).warnings
-    assert len(warnings) == 1 and "\n" not in warnings[0], warnings
+    assert len(warnings) == 2 and not any("\n" in w for w in warnings), warnings
     assert warnings[0].startswith("controller.task_space.reference[0] (x): ẋ_r jumps at t = 0.5"), warnings
+    assert warnings[1].startswith("controller.task_space.reference[1] (y): y_r jumps at t = 0.25"), warnings
+
+
+def test_a_point_no_joint_motion_moves_along_every_component_is_refused_in_one_line(tmp_path, capsys):
+    """A point on the first link (before theta2) moves with theta1 alone: J_c is singular at every
+    pose, and 1/det(J_c) was printed as ComplexInfinity (an internal error). Refused at the law's
+    line instead."""
+    from gpmegen import cli
+
+    theta2 = '[[chain]]\njoint = "theta2"'
+    text = ARM.read_text().replace(theta2, '[[chain]]\npoint = "B"\n\n' + theta2)
+    text = text.replace('[[controller.task_space]]\npoint = "E"', '[[controller.task_space]]\npoint = "B"')
+    assert text.count('point = "B"') == 2
+    (tmp_path / "ct_task_arm.toml").write_text(text)
+    assert cli.main(["simulate", str(tmp_path / "ct_task_arm.toml"), "--backend", "numpy", "--t-end", "0.01",
+                     "--out", str(tmp_path / "run.npz")]) != 0
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error" in line]
+    assert len(errors) == 1 and "is singular at every pose (its determinant is 0)" in errors[0], errors
+    assert "ct_task_arm.toml:" in errors[0] and "internal error" not in errors[0]

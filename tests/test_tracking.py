@@ -148,6 +148,7 @@ def test_command_prints_and_writes(files, tmp_path, capsys):
     ("missing", "no such file"),
     ("no_drives", "drive_forces"),
     ("other", "no coordinate x"),
+    ("other_folder", "no coordinate x"),
     ("no_reference", "--reference"),
 ])
 def test_command_refuses_in_one_line(files, tmp_path, capsys, case, problem):
@@ -162,6 +163,10 @@ def test_command_refuses_in_one_line(files, tmp_path, capsys, case, problem):
         gpmegen.Results(data).save(run)
     elif case == "other":
         run = files / "other.npz"
+    elif case == "other_folder":   # the reference as a built folder: its manifest names its coordinates
+        run, reference = files / "other.npz", tmp_path / "built"
+        assert main(["build", str(files / "cart.toml"), "--out", str(reference)]) == 0
+        capsys.readouterr()
     else:
         reference = tmp_path / "absent.toml"
     code = main(["metrics", str(run), "--reference", str(reference), "--backend", "numpy"])
@@ -169,7 +174,7 @@ def test_command_refuses_in_one_line(files, tmp_path, capsys, case, problem):
     assert code == 2
     assert len(err) == 1 or all(line.startswith("gpmegen: ") for line in err[:-1])
     assert err[-1].startswith("gpmegen metrics: error:") and problem in err[-1]
-    if case == "other":   # refused before the reference model is built and run
+    if case.startswith("other"):   # refused before the reference model is built and run
         assert len(err) == 1, err
 
 

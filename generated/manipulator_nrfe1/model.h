@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 5f6576e0ae47b4c0
+Input hash: 85da4a3be6aa2e79
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

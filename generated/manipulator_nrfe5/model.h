@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 6ca70861258160ba
+Input hash: 5219b63a476dc97a
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -133,8 +133,9 @@ def cmd_invert(args) -> int:
     check_results_path(out, args.overwrite, [args.model_file])
     if not args.t1 > args.t0:
         raise UsageError(f"--t1 ({args.t1:g} s) must come after --t0 ({args.t0:g} s)")
-    res, inv = inversions.invert(case, start_of(case, args.statics), args.t0, args.t1, args.pre, args.post,
-                                 args.nodes, dict(args.param or []), args.actuated, progress)
+    window = inversions.Window(args.t1, args.t0, args.pre, args.post)
+    res, inv = inversions.invert(case, start_of(case, args.statics), window, args.nodes, dict(args.param or []),
+                                 args.actuated, progress)
     written = results_io.save(res, out)
     units = results_io.metadata(res).get("force_units", {})
     peak = ", ".join(f"{name} {np.max(np.abs(res['u'][:, j])):.4g} {units.get(str(name), '')}".rstrip()

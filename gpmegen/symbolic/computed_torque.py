@@ -63,15 +63,16 @@ def reference_rates(law: ComputedTorque) -> list[tuple]:
     return out
 
 
-def warnings(law: ComputedTorque, defaults, fields=None, symbol="q") -> list[str]:
+def warnings(law: ComputedTorque, defaults, fields=None, symbols=None) -> list[str]:
     """One line per switch where a reference's value or velocity jumps (and one for the switches
-    that cannot be decided), naming the field (``fields``: one name per reference, default the
-    joint law's) and the reference as ``<symbol>_r``; ``defaults``: the plant's parameter symbols
-    -> numbers."""
+    that cannot be decided), naming the field and the reference as ``<symbol>_r`` (``fields``
+    and ``symbols``: one per reference, default the joint law's fields and ``q``); ``defaults``:
+    the plant's parameter symbols -> numbers."""
     out = []
     for k, reference in enumerate(law.references):
         r = as_piecewise(exact(reference))
         field = _field(law, k) if fields is None else fields[k]
+        symbol = "q" if symbols is None else symbols[k]
         # the dot composed with its letter where Unicode has the pair (ẋ), else combining (q̇)
         checked = ((f"{symbol}_r", r), (unicodedata.normalize("NFC", f"{symbol}\u0307_r"), sp.diff(r, TIME)))
         out += jump_warnings(field, checked, defaults, CONSEQUENCE)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from ..errors import DerivationError
 from ..model.computed_torque import joint_coordinates
 from ..model.task_torque import TaskTorque
 from .computed_torque import controller_outputs, on_plant, reference_rates
@@ -40,13 +41,20 @@ def derive(kin: Kinematics, law: TaskTorque) -> sp.Matrix:
     wanted = sp.Matrix(law.commanded([position[r] for r in rows], [velocity[r] for r in rows],
                                      reference_rates(law.joint_law())))
     rhs = (wanted - sp.Matrix([bias[r] for r in rows])).applyfunc(define)
-    inverse_det = define(1 / define(jacobian.det(method="berkowitz")))
+    det = define(jacobian.det(method="berkowitz"))
+    if det == 0:   # the point cannot move along the components by these joints, at any pose
+        raise DerivationError(f"controller.task_space: J_c of point {law.point} on {', '.join(law.components)} by "
+                              f"{', '.join(joints)} is singular at every pose (its determinant is 0), so no joint "
+                              f"motion moves it along every component; track a point the controller's joints move, "
+                              f"on components they reach", ("controller", "task_space", 0, "point"))
+    inverse_det = define(1 / det)
     solved = dict(zip(joints, (jacobian.adjugate(method="berkowitz") * rhs * inverse_det).applyfunc(define)))
     return on_plant(kin, mass, forces, coordinates, solved)
 
 
 def warnings(law: TaskTorque, defaults) -> list[str]:
-    """One line per switch where a component's reference ``x_r`` or its velocity jumps, naming
-    the field, as the joint law's (``defaults``: the plant's parameter symbols -> numbers)."""
+    """One line per switch where a component's reference (``x_r``, ``y_r`` or ``z_r``) or its
+    velocity jumps, naming the field, as the joint law's (``defaults``: the plant's parameter
+    symbols -> numbers)."""
     fields = [f"controller.task_space.reference[{k}] ({axis})" for k, axis in enumerate(law.components)]
-    return joint_warnings(law.joint_law(), defaults, fields, symbol="x")
+    return joint_warnings(law.joint_law(), defaults, fields, symbols=law.components)

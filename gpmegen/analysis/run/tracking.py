@@ -239,9 +239,13 @@ def model_reference(case, runs, backend, progress) -> Reference:
     saved = float(np.median(np.diff(t0))) if len(t0) > 1 else t_end
     dt = float(first.get("dt") or min(RunSpec().dt, saved))
     spec = RunSpec.of(t_end=t_end, dt=dt, save_every=max(1, int(round(saved / dt))), actuated=())
-    if case.source is not None:   # a reference the runs cannot be measured against is refused before its run
-        for run in runs:
-            check_coordinates(run, expand(case.source).coordinates, case.source.name)
+    # a reference the runs cannot be measured against is refused before it is built and run
+    if case.source is not None:
+        coordinates, name = expand(case.source).coordinates, case.source.name
+    else:   # a built folder: its manifest names them
+        coordinates, name = case.manifest["coordinates"], case.manifest["model"]
+    for run in runs:
+        check_coordinates(run, coordinates, name)
     known = {p.name for p in case.model.parameters} if case.source is not None else set()
     shared = {k: v for k, v in results_io.metadata(runs[0]).get("params", {}).items() if k in known}
     done = runs_io.run(case, spec, backend, shared, None, progress)
