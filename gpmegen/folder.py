@@ -91,6 +91,9 @@ def read_start_set(folder: Path) -> dict | None:
     for name, value in pairs["at"] + pairs["values"]:
         if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float, str)):
             raise _damaged(folder)
+    for key in ("at", "values"):   # a name given twice: write_start writes each once
+        if len({name for name, _ in pairs[key]}) != len(pairs[key]):
+            raise _damaged(folder)
     return pairs
 
 

@@ -209,3 +209,27 @@ def test_the_built_reference_folder_opens_as_the_reference_case(generated_elsewh
     manifest = _manifest(read_model_file(MANIPULATOR.parent / "manipulator.toml", nrfe=3).model)
     (folder / "manifest.json").write_text(json.dumps({**manifest, "input_hash": "0" * 16}))
     assert isinstance(case_of_path(folder), FolderCase)
+
+
+def test_a_folder_built_from_the_reference_arms_file_runs_the_files_start(generated_elsewhere, tmp_path, capsys):
+    """The file's model has the reference arm's hash (the hash leaves [initial] out), but its
+    folder records the file's start, which a run from it keeps: ψ2 = π/3 and x3 = 0.1 here, where
+    the paper's scenario would start from its locked statics at ψ2 = π/4. Building the reference
+    arm into the same folder makes it the reference case again."""
+    from gpmegen import cli
+
+    text = MANIPULATOR.read_text(encoding="utf-8")
+    start = 'q = { theta1 = 0, psi2 = "pi/4", x3 = 0 }'
+    assert text.count(start) == 1
+    path = tmp_path / "moved.toml"
+    path.write_text(text.replace(start, 'q = { theta1 = 0, psi2 = "pi/3", x3 = 0.1 }'), encoding="utf-8")
+    out = tmp_path / "built"
+    assert cli.main(["build", str(path), "--nrfe", "1", "--out", str(out)]) == 0
+    case = case_of_path(out / "manipulator_nrfe1")
+    assert isinstance(case, FolderCase)
+    begun = case.started("numpy", case.starts[0], {}, lambda line: None)
+    q = dict(zip(begun.model.coordinates, begun.q))
+    assert q["psi2"] == pytest.approx(np.pi / 3, abs=1e-12) and q["x3"] == pytest.approx(0.1, abs=1e-12)
+    assert cli.main(["build", "--nrfe", "1", "--out", str(out)]) == 0
+    assert isinstance(case_of_path(out / "manipulator_nrfe1"), ReferenceCase)
+    capsys.readouterr()

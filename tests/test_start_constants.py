@@ -181,3 +181,35 @@ def test_a_folders_recorded_set_is_read_by_the_safe_reader(reach_folder, tmp_pat
     message = str(caught.value)
     assert message.startswith(f"{folder / 'start.json'}: initial.set.h: ") and words in message
     assert "gpmegen build" in message and "\n" not in message
+
+
+@pytest.mark.parametrize("edit, field, words", [
+    (lambda r: r["set"]["at"].append(["nosuch", "pi/6"]), "initial.q.nosuch",
+     "'nosuch' is no coordinate of the model"),
+    (lambda r: r["set"]["values"].append(["nosuch", "1"]), "initial.set.nosuch",
+     "'nosuch' is no parameter of the model"),
+    (lambda r: r["set"]["values"].__setitem__(0, ["h", 10**400]), "initial.set.h", "(401 characters) is not a finite"),
+])
+def test_a_folders_recorded_names_are_the_models(reach_folder, tmp_path, edit, field, words):
+    """A recorded start that names a coordinate or parameter the model lacks was an internal error
+    (tuple.index) or a line without the record; now one line naming the record and the field."""
+    folder = tmp_path / "sprung_reach"
+    shutil.copytree(reach_folder, folder)
+    record = json.loads((folder / "start.json").read_text())
+    edit(record)
+    (folder / "start.json").write_text(json.dumps(record))
+    with pytest.raises(ModelError) as caught:
+        gpmegen.statics(folder, backend="numpy")
+    message = str(caught.value)
+    assert message.startswith(f"{folder / 'start.json'}: {field}: ") and words in message, message
+    assert "gpmegen build" in message and "\n" not in message and len(message) < 400
+
+
+def test_a_folders_recorded_name_given_twice_is_damage(reach_folder, tmp_path):
+    folder = tmp_path / "sprung_reach"
+    shutil.copytree(reach_folder, folder)
+    record = json.loads((folder / "start.json").read_text())
+    record["set"]["values"].append(["h", "1"])
+    (folder / "start.json").write_text(json.dumps(record))
+    with pytest.raises(gpmegen.BuildError, match="start.json"):
+        gpmegen.statics(folder, backend="numpy")

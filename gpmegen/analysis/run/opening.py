@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ...errors import ModelError
-from ...folder import MANIFEST, read_manifest
+from ...folder import MANIFEST, START, read_manifest
 from ...model.rfem import check_nrfe
 from .cases import Case, FileCase, FolderCase
 from .reference_case import ReferenceCase
@@ -17,8 +17,9 @@ from .reference_case import ReferenceCase
 
 def case_of_path(path, nrfe=None) -> Case:
     """The case of ``path``: a model file, or a folder made by ``gpmegen build --out`` (a model's
-    folder, or the output folder holding exactly one). A folder of the reference manipulator runs
-    as the reference case (its scenario), loaded from that folder."""
+    folder, or the output folder holding exactly one). A folder of the reference manipulator built
+    as such (``gpmegen build --nrfe N``) runs as the reference case (its scenario), loaded from
+    that folder; one built from a model file, the same model or not, as that file's start."""
     path = Path(path)
     if not path.is_dir():
         return FileCase(str(path), nrfe)
@@ -34,7 +35,9 @@ def case_of_path(path, nrfe=None) -> Case:
     if nrfe is not None:
         raise ModelError(f"--nrfe {nrfe} does not apply to {folders[0]}, built with its own; build the model with "
                          f"--nrfe {nrfe} into a folder and name that one")
-    reference = ReferenceCase.of_manifest(manifest)
+    # a folder built from a model file records the file's start (start.json): it runs from that,
+    # not from the paper's scenario, even where its model's hash is the reference arm's
+    reference = None if (folders[0] / START).exists() else ReferenceCase.of_manifest(manifest)
     if reference is not None:
         reference.directory = folders[0].parent
         return reference

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 import sympy as sp
 
@@ -33,6 +34,13 @@ def declared(folder, manifest: dict) -> StartConstants | None:
     points = {s.name: s for point in manifest.get("points", ()) for s in point_symbols(point)}
     values = {name: value for name, value in params.items() if name not in set_names} | points
     where = Path(folder) / START
+    # the names it is taken at and sets must be the model's: the record may have been edited
+    for key, names, known in (("q", [n for n, _ in pairs["at"]], manifest.get("coordinates", ())),
+                              ("set", sorted(set_names), params)):
+        for name in names:
+            if name not in known:
+                what = "coordinate" if key == "q" else "parameter"
+                _refuse(where, (key, name), f"{name!r} is no {what} of the model")
     return StartConstants(at=tuple((name, _quantity(value, params, where, ("q", name))) for name, value in pairs["at"]),
                           values=tuple((name, _quantity(value, values, where, ("set", name)))
                                        for name, value in pairs["values"]))
@@ -45,8 +53,14 @@ def _quantity(value, scope: dict, where: Path, field: tuple) -> sp.Expr:
         if isinstance(value, str):
             return parse(value, scope, lambda name, _: f"{name!r} is not a name this value may read here")
         if abs(value) > sys.float_info.max or not math.isfinite(value):   # in this order: a long int
-            raise ModelError(f"{value} is not a finite number within a double's range")
+            text = str(value) if len(str(value)) <= 24 else f"{str(value)[:12]}... ({len(str(value))} characters)"
+            raise ModelError(f"{text} is not a finite number within a double's range")
         return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
     except ModelError as exc:
-        raise ModelError(f"{where}: initial.{'.'.join(field)}: {exc}; build the model into this folder again "
-                         f"with 'gpmegen build <its model file> --out {Path(where).parent.parent}'") from None
+        _refuse(where, field, str(exc))
+
+
+def _refuse(where: Path, field: tuple, problem: str) -> NoReturn:
+    """ModelError: the record at ``where`` has ``problem`` in its ``field``; rebuild the folder."""
+    raise ModelError(f"{where}: initial.{'.'.join(field)}: {problem}; build the model into this folder again "
+                     f"with 'gpmegen build <its model file> --out {Path(where).parent.parent}'") from None

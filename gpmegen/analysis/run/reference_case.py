@@ -12,10 +12,12 @@ paper's figures), as any case's are (:meth:`Case.metadata`).
 from __future__ import annotations
 
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 
 from ...codegen.render import input_hash
+from ...folder import START
 from ...model import reference_model
 from ...model.reference import start_constants
 from ...model.size import coordinate_count
@@ -79,6 +81,11 @@ class ReferenceCase(Case):
     @cached_property
     def model(self):
         return reference_model(self.nrfe)
+
+    def record_start(self, folder) -> None:
+        """None: the folder runs the paper's scenario (:func:`~gpmegen.analysis.run.opening.case_of_path`
+        opens it as the reference case), so a start a model file's build left there is removed."""
+        (Path(folder) / START).unlink(missing_ok=True)
 
     @property
     def command(self) -> str:
