@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 85da4a3be6aa2e79
+Input hash: 1a0ffe46749714db
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -266,8 +266,9 @@ int manipulator_nrfe1_radau(double t_a, const double *y_a, long n_save, const do
 long manipulator_nrfe1_radau_memory_bytes(void);
 
 /* Generalized-alpha (order 2, numerical damping rho_inf in [0, 1]) over steps k_from + 1 .. k_to of the grid of
-   manipulator_nrfe1_rk4, from y_io = [q, qd, w] (8,) and the method's acceleration a_io (3,; NaN at a run's
-   start), both replaced by their values at step k_to. Modified Newton on qdd with the matrix S (3, 3) and
+   manipulator_nrfe1_rk4, from y_io = [q, qd, w] (8,) and a_io (6,): the method's acceleration, then qdd at
+   the start of the step before (Newton's first guess extrapolates from it; NaN at a run's start, both halves), both replaced
+   by their values at step k_to. Modified Newton on qdd with the matrix S (3, 3) and
    pivot (3,) kept by the caller across calls (*have_matrix: they hold one). Saves y at the n_save increasing
    instants t_save within the steps into y_out (n_save, 8) (cubic Hermite between step ends). With project
    non-zero, each step's end is put back onto the constraints of orders 0 and 1 (Newton on the positions, then the

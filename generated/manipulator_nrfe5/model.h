@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: 5219b63a476dc97a
+Input hash: 2e82254fe7984cc8
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2
@@ -278,8 +278,9 @@ int manipulator_nrfe5_radau(double t_a, const double *y_a, long n_save, const do
 long manipulator_nrfe5_radau_memory_bytes(void);
 
 /* Generalized-alpha (order 2, numerical damping rho_inf in [0, 1]) over steps k_from + 1 .. k_to of the grid of
-   manipulator_nrfe5_rk4, from y_io = [q, qd, w] (32,) and the method's acceleration a_io (15,; NaN at a run's
-   start), both replaced by their values at step k_to. Modified Newton on qdd with the matrix S (15, 15) and
+   manipulator_nrfe5_rk4, from y_io = [q, qd, w] (32,) and a_io (30,): the method's acceleration, then qdd at
+   the start of the step before (Newton's first guess extrapolates from it; NaN at a run's start, both halves), both replaced
+   by their values at step k_to. Modified Newton on qdd with the matrix S (15, 15) and
    pivot (15,) kept by the caller across calls (*have_matrix: they hold one). Saves y at the n_save increasing
    instants t_save within the steps into y_out (n_save, 32) (cubic Hermite between step ends). With project
    non-zero, each step's end is put back onto the constraints of orders 0 and 1 (Newton on the positions, then the

@@ -126,7 +126,7 @@ static double rk4_error(const struct gpmegen_model *model, long n_steps, double 
 
 static double genalpha_error(const struct gpmegen_model *model, long n_steps, double t_end, const double *q0)
 {
-    double y[6] = {q0[0], q0[1], 0.0, 0.0, 0.0, 0.0}, a[2] = {NAN, NAN}, S[4], y_out[6];
+    double y[6] = {q0[0], q0[1], 0.0, 0.0, 0.0, 0.0}, a[4] = {NAN, NAN, NAN, NAN}, S[4], y_out[6];   /* a: 2 N_DOF */
     const double p[1] = {0.0};
     int pivot[2], have_matrix = 0;
     long saved, counts[6] = {0};
