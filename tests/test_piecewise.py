@@ -26,6 +26,7 @@ from gpmegen.model.chain import TIME, CircularSection, symbol
 from gpmegen.model.shapes import solid_cylinder
 from gpmegen.runtime import integrators
 from gpmegen.symbolic import derive
+from gpmegen.symbolic.piecewise import as_piecewise
 
 PARAMETERS = (
     Parameter("g", 9.81, "m/s^2"), Parameter("W", 3.0, "rad/s", "hub speed after the switch"),
@@ -299,3 +300,23 @@ def test_piecewise_generation_is_deterministic_whatever_the_hash_seed(tmp_path):
     digests = {subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True,
                               env=dict(os.environ, PYTHONHASHSEED=seed)).stdout for seed in ("0", "1")}
     assert len(digests) == 1
+
+
+def test_a_switch_is_written_one_way_whatever_sympys_dummy_count():
+    """Min and Max order their arguments by name; the stand-ins of the arguments were bare
+    Dummies, named by a count that runs through the whole process, so that Min(t/T, 1) became
+    Piecewise((1, t/T >= 1), ...) or Piecewise((t/T, t/T <= 1), ...) depending on how many Dummies
+    the process had made (the form flips where the count gains a digit). Two occurrences of one
+    switch could then take different branches at the switch itself: the Delta driven by its
+    motors left its path at t = T in a test run after other tests. One form now, across such a
+    boundary, and the rate of a cycloidal move is 0 at its end."""
+    t, T = sp.symbols("t T", positive=True)
+    u = sp.Min(t / T, 1)
+    forms = {str(as_piecewise(u))}
+    target = 10 ** len(str(sp.Dummy._count + 20))   # the next count that gains a digit
+    while sp.Dummy._count < target - 1:
+        sp.Dummy()
+    forms.add(str(as_piecewise(u)))   # its two stand-ins counted target - 1 and target
+    assert len(forms) == 1, forms
+    law = as_piecewise(u - sp.sin(2 * sp.pi * u) / (2 * sp.pi))
+    assert sp.diff(law, t).subs({t: 1, T: 1}) == 0

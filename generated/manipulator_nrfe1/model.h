@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 1a0ffe46749714db
+Input hash: 787ab69c77066ea9
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -47,7 +47,11 @@ def _piecewise(function, arguments, rewritten) -> sp.Piecewise:
     """``function(*arguments)`` as a Piecewise whose values hold the ``rewritten`` arguments
     and whose conditions the ``arguments`` as they are: conditions are never differentiated,
     and a Piecewise in a condition costs time exponential in the nesting."""
-    symbols = [sp.Dummy(real=True) for _ in arguments]
+    # named by position: Min and Max order their arguments by name, and a bare Dummy's name is a
+    # process-wide count, whose string order flips where it gains a digit (_Dummy_99, _Dummy_100),
+    # so one switch was written with >= in one place and <= in another, and at the switch itself
+    # its derivatives there took different branches
+    symbols = [sp.Dummy(f"argument{k:04d}", real=True) for k in range(len(arguments))]
     form = function(*symbols).rewrite(sp.Piecewise)
     values, conditions = dict(zip(symbols, rewritten)), dict(zip(symbols, arguments))
     return sp.Piecewise(*[(e.xreplace(values), c.xreplace(conditions)) for e, c in form.args])
