@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 1
-Input hash: 787ab69c77066ea9
+Input hash: d669479b8d8acf75
 n_dof = 3; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

@@ -2,7 +2,7 @@
 Do not edit.
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: b5111edd05aa213c
+Input hash: 172304ece54265b1
 n_dof = 15; COORDINATES (order of q and qd):
     0: theta1
     1: psi2

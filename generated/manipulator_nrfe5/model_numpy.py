@@ -3,7 +3,7 @@
 three-link spatial manipulator: rotary column, flexible rotary arm, slider
 
 Regenerate with: gpmegen build --nrfe 5
-Input hash: b5111edd05aa213c
+Input hash: 172304ece54265b1
 n_dof = 15; coordinates (order of q and qd):
     0: theta1
     1: psi2
@@ -55,7 +55,7 @@ import numpy as np
 
 MODEL = 'manipulator_nrfe5'
 GPMEGEN_VERSION = '0.1.0'
-INPUT_HASH = 'b5111edd05aa213c'
+INPUT_HASH = '172304ece54265b1'
 N_DOF = 15
 COORDINATES = ('theta1', 'psi2', 'psi2_1', 'theta2_1', 'phi2_1', 'psi2_2', 'theta2_2', 'phi2_2', 'psi2_3', 'theta2_3', 'phi2_3', 'psi2_4', 'theta2_4', 'phi2_4', 'x3')
 PARAMETERS = ('g', 'm1', 'h1', 'R1', 'L2', 'b2', 't2', 'rho2', 'E2', 'G2', 'J2', 'd2', 'm3', 'L3', 'R3', 'tdr0', 't0', 'A', 'T', 'r_Ea', 'y_c', 'alpha_circle', 'beta_circle', 'alpha_height', 'beta_height')

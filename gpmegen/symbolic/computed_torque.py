@@ -87,16 +87,17 @@ def controller_terms(law: ComputedTorque, program: Program) -> tuple[sp.Matrix, 
     return mass, forces, coordinates
 
 
-def controller_outputs(controller, program: Program, outputs, params=()) -> tuple[list, tuple]:
+def controller_outputs(controller, program: Program, outputs, params=(), dynamics=True) -> tuple[list, tuple]:
     """``(matrices, coordinates)``: the matrices ``outputs(kin, dyn)`` gives of the controller
     model's kinematics and dynamics (its forces without drives), as expressions of ``program``'s
     intermediates (copied in) and the plant's state symbols; ``coordinates`` the controller's.
     ``params``: ``(name, expression of the plant's parameters)`` for the controller's parameters
-    set so; the others are their default values."""
+    set so; the others are their default values. ``dynamics`` False: outputs of the kinematics
+    alone, the dynamics not derived (``dyn`` None)."""
     chain = expand(controller)
     own = Program()
     kin = forward(chain, own)
-    dyn = _dynamics.derive(kin, controller.gravity, (), controller.forces)
+    dyn = _dynamics.derive(kin, controller.gravity, (), controller.forces) if dynamics else None
     joints = set(joint_coordinates(controller))
     given = dict(params)   # the controller's parameters set from the plant's: read at run time
     mapping = {p.symbol: sp.sympify(given[p.name]) if p.name in given else sp.Float(float(p.default))

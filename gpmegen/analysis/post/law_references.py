@@ -39,7 +39,7 @@ def _controller_point(law, loaded, q) -> np.ndarray:
     plant's joint coordinates ``q`` (k, n) (its elastic coordinates at rest): (k, c) m."""
     program = Program()
     (position,), coordinates = controller_outputs(law.controller, program,
-                                                  lambda kin, dyn: [kin.points[law.point].position])
+                                                  lambda kin, dyn: [kin.points[law.point].position], dynamics=False)
     exprs = [position[r] for r in law.rows()]
     for symbol, expr in reversed(program.closure(exprs)):   # each definition reads earlier ones only
         exprs = [e.xreplace({symbol: expr}) for e in exprs]
